@@ -1,0 +1,3 @@
+from simcalib.cli import main
+
+raise SystemExit(main())
