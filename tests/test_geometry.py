@@ -1,0 +1,92 @@
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from simcalib import geometry as g
+
+
+def _random_T(rng, n):
+    return g.transform_from_rotation_translation(g.random_rotation_matrices(rng, n),
+                                                 rng.standard_normal((n, 3)))
+
+
+def test_quat_matches_scipy_up_to_sign(rng):
+    R = g.random_rotation_matrices(rng, 500)
+    q = g.quat_from_matrix(R)
+    q_scipy = Rotation.from_matrix(R).as_quat()  # (x, y, z, w)
+    dots = np.abs(np.sum(q * q_scipy, axis=-1))
+    np.testing.assert_allclose(dots, 1.0, atol=1e-12)
+    np.testing.assert_allclose(g.matrix_from_quat(q), R, atol=1e-12)
+
+
+def test_left_right_matrices_match_hamilton_product(rng):
+    q = rng.standard_normal((100, 4))
+    p = rng.standard_normal((100, 4))
+    lhs = np.einsum("nij,nj->ni", g.quat_left_matrix(q), p)
+    rhs = np.einsum("nij,nj->ni", g.quat_right_matrix(p), q)
+    np.testing.assert_allclose(lhs, rhs, atol=1e-12)
+    qn = q / np.linalg.norm(q, axis=1, keepdims=True)
+    pn = p / np.linalg.norm(p, axis=1, keepdims=True)
+    expected = (Rotation.from_quat(qn) * Rotation.from_quat(pn)).as_matrix()
+    np.testing.assert_allclose(g.matrix_from_quat(g.quat_multiply(qn, pn)), expected, atol=1e-12)
+
+
+def test_dual_quaternion_round_trip_and_composition(rng):
+    T1, T2 = _random_T(rng, 50), _random_T(rng, 50)
+    q, qd = g.dual_quat_from_transform(T1)
+    np.testing.assert_allclose(np.sum(q * qd, axis=-1), 0.0, atol=1e-12)
+    np.testing.assert_allclose(g.transform_from_dual_quat(q, qd), T1, atol=1e-12)
+    # (q1 + eps q1')(q2 + eps q2') = q1 q2 + eps (q1 q2' + q1' q2)
+    q2, qd2 = g.dual_quat_from_transform(T2)
+    qp = g.quat_multiply(q, q2)
+    qdp = g.quat_multiply(q, qd2) + g.quat_multiply(qd, q2)
+    np.testing.assert_allclose(g.transform_from_dual_quat(qp, qdp), T1 @ T2, atol=1e-12)
+
+
+def test_relative_motions_satisfy_hand_eye_equation(rng):
+    T_w_a = _random_T(rng, 20)
+    X = _random_T(rng, 1)[0]                       # T_a_b
+    T_v_w = _random_T(rng, 1)[0]                   # b lives in another world frame
+    T_v_b = T_v_w @ T_w_a @ X
+    i, j = np.arange(19), np.arange(1, 20)
+    C, H = g.relative_motions(T_w_a, T_v_b, i, j)
+    np.testing.assert_allclose(C @ X, X @ H, atol=1e-12)
+
+
+def test_errors_and_rotvec(rng):
+    rv = rng.standard_normal((200, 3))
+    R = g.matrix_from_rotvec(rv)
+    np.testing.assert_allclose(R, Rotation.from_rotvec(rv).as_matrix(), atol=1e-12)
+    np.testing.assert_allclose(g.rotvec_from_matrix(R), Rotation.from_rotvec(rv).as_rotvec(),
+                               atol=1e-10)
+    T = _random_T(rng, 200)
+    Tp = T @ g.transform_from_rotation_translation(g.matrix_from_rotvec(np.array([0, 0, 1e-9])),
+                                                   np.zeros(3))
+    np.testing.assert_allclose(g.rotation_error_rad(Tp, T), 1e-9, rtol=1e-6)
+    np.testing.assert_allclose(g.translation_error_m(T, T), 0.0)
+
+
+def test_perturbation_statistics(rng):
+    T = np.broadcast_to(np.eye(4), (20000, 4, 4))
+    P = g.perturb_transforms(T, np.deg2rad(1.0), 0.01, rng)
+    ang = g.rotation_angle_rad(P)
+    # |N(0, s^2)| has mean s*sqrt(2/pi)
+    assert abs(ang.mean() / (np.deg2rad(1.0) * np.sqrt(2 / np.pi)) - 1) < 0.03
+    assert abs(P[:, :3, 3].std() / 0.01 - 1) < 0.03
+
+
+@pytest.mark.parametrize("bad, match", [
+    (np.zeros((3, 4, 3)), r"shape \(\.\.\., 4, 4\); received shape \(3, 4, 3\)"),
+    (np.full((2, 4, 4), np.nan), "NaN or inf"),
+    (np.tile(np.diag([2.0, 1, 1, 1]), (2, 1, 1)), "not a rotation"),
+    (np.tile(np.array([[1.0, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 1, 1]]), (2, 1, 1)),
+     "bottom row"),
+])
+def test_check_transforms_rejects_bad_input(bad, match):
+    with pytest.raises(ValueError, match=match):
+        g.check_transforms(bad, "C")
+
+
+def test_check_transforms_min_count():
+    with pytest.raises(ValueError, match="at least 2"):
+        g.check_transforms(np.eye(4)[None], "C", min_count=2)
