@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["DICTIONARY", "MarkerField", "marker_corners_local", "marker_image"]
+__all__ = ["DICTIONARY", "MarkerField", "marker_corners_local", "marker_image", "marker_png"]
 
 #: Default ArUco dictionary (250 ids, 4x4 bits: large cells, robust at low resolution).
 DICTIONARY = "DICT_4X4_250"
@@ -37,6 +37,22 @@ def marker_image(marker_id: int, pixels: int = 256, dictionary: str = DICTIONARY
     cv2 = _cv2()
     d = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, dictionary))
     return cv2.aruco.generateImageMarker(d, int(marker_id), int(pixels), borderBits=border_bits)
+
+
+def marker_png(marker_id: int, pixels: int = 256, dictionary: str = DICTIONARY,
+               quiet_zone_px: int = 0) -> bytes:
+    """PNG bytes (RGB) of :func:`marker_image`, optionally with a white quiet zone, for
+    use as a MuJoCo texture. With ``quiet_zone_px > 0`` the black square covers the central
+    ``pixels`` of an image of ``pixels + 2 * quiet_zone_px`` (size the geom accordingly)."""
+    cv2 = _cv2()
+    img = marker_image(marker_id, pixels, dictionary)
+    if quiet_zone_px > 0:
+        img = cv2.copyMakeBorder(img, quiet_zone_px, quiet_zone_px, quiet_zone_px,
+                                 quiet_zone_px, cv2.BORDER_CONSTANT, value=255)
+    ok, buf = cv2.imencode(".png", cv2.cvtColor(img, cv2.COLOR_GRAY2RGB))
+    if not ok:
+        raise RuntimeError("OpenCV failed to encode the marker PNG")
+    return buf.tobytes()
 
 
 @dataclass(frozen=True)

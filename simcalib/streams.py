@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["CameraIntrinsics", "PoseStream", "Trajectory"]
+__all__ = ["CameraFrames", "CameraIntrinsics", "PoseStream", "Trajectory"]
 
 
 @dataclass(frozen=True)
@@ -41,22 +41,37 @@ class CameraIntrinsics:
 
 
 @dataclass(frozen=True)
-class Trajectory:
-    """Ground truth of a simulated run: the two cameras' poses at every simulated frame.
+class CameraFrames:
+    """Ground truth of one camera at its own capture times (a simulated run).
 
-    ``T_world_cam_a`` / ``T_world_cam_b``: ``(F, 4, 4)``; ``time_s``: ``(F,)`` simulation
-    time; ``T_a_b``: the true extrinsic ``X`` (pose of camera b in camera a), ``(4, 4)``.
+    ``time_s``: ``(F,)`` true capture times; ``T_world_cam``: ``(F, 4, 4)`` true poses of the
+    camera's OpenCV frame in the MuJoCo world. ``qpos`` ``(F, nq)``, ``mocap_pos``
+    ``(F, nmocap, 3)`` and ``mocap_quat_wxyz`` ``(F, nmocap, 4)`` are the raw MuJoCo state at
+    those times (MuJoCo's own quaternion order — for rendering only, never for geometry).
     """
+    camera: str
     time_s: np.ndarray
-    T_world_cam_a: np.ndarray
-    T_world_cam_b: np.ndarray
-    T_a_b: np.ndarray
-    T_world_platform: np.ndarray | None = None
-    meta: dict = field(default_factory=dict)
+    T_world_cam: np.ndarray
+    qpos: np.ndarray
+    mocap_pos: np.ndarray
+    mocap_quat_wxyz: np.ndarray
 
     @property
     def n_frames(self) -> int:
         return int(self.time_s.shape[0])
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """Ground truth of a simulated run: both cameras' frames and the true extrinsic.
+
+    ``T_a_b`` is the true ``X`` (pose of camera b in camera a), ``(4, 4)``. The cameras may
+    capture at different times (time offset / jitter), so each has its own ``CameraFrames``.
+    """
+    cam_a: CameraFrames
+    cam_b: CameraFrames
+    T_a_b: np.ndarray
+    meta: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
