@@ -269,40 +269,98 @@ def _fast_problem(C, H) -> MotionProblem:
 def solve_batch(C, H, method: str = "dqopt", alpha=1.0, prior: Prior | None = None,
                 rng: np.random.Generator | None = None) -> BatchSolution:
     """Solve ``B`` problems at once: ``C``, ``H`` of shape ``(B, N, 4, 4)``; ``alpha`` a
-    scalar or ``(B,)``. Methods with a registered batch function run vectorised; others
-    loop over :func:`solve`'s solver function."""
+    scalar or ``(B,)``; one optional ``prior`` for all. Methods with a registered batch
+    function run vectorised (DQ methods: compiled, parallel over problems); others loop over
+    the method's solver function. ``X[b]`` equals ``solve(C[b], H[b], ...).X`` (to ~1e-12).
+    """
     info = registry.get(method)
     prior = _check_prior(prior)
     if prior is not None and not info.supports_prior:
-        raise ValueError(f"method {method!r} does not support a prior")
+        with_prior = [i.name for i in registry.infos() if i.supports_prior]
+        raise ValueError(f"method {method!r} does not support a prior; methods with a "
+                         f"prior: {', '.join(with_prior)}")
     rng = _check_rng(rng)
-    C = check_transforms(C, "C")
-    H = check_transforms(H, "H")
-    if C.ndim != 4:
-        raise ValueError(f"C must have shape (B, N, 4, 4); received shape {C.shape}")
+    C = _as_float_array(C, "C")
+    H = _as_float_array(H, "H")
+    for arr, name in ((C, "C"), (H, "H")):
+        if arr.ndim != 4 or arr.shape[-2:] != (4, 4):
+            raise ValueError(f"{name} must have shape (B, N, 4, 4); received shape {arr.shape}")
     if H.shape != C.shape:
         raise ValueError(f"C and H must have the same shape (B, N, 4, 4); received "
                          f"{C.shape} and {H.shape}")
     B, N = C.shape[:2]
+    if B < 1:
+        raise ValueError(f"C must hold at least one problem; received shape {C.shape}")
     if N < 2:
         raise ValueError(f"each problem needs at least 2 motions; received N = {N}")
     alphas = _check_alphas(alpha, B)
+    diagnostics = {}
     t0 = time.perf_counter()
-    X = np.empty((B, 4, 4))
-    success = np.ones(B, dtype=bool)
-    for b in range(B):
-        problem = build_problem(C[b], H[b])
-        Xb, ok, _, _ = _finish_output(info.fn(problem, float(alphas[b]), prior, rng), method)
-        X[b], success[b] = Xb, ok
+    if info.batch_fn is not None and info.extra.get("batch_validates", False):
+        out = info.batch_fn(C, H, alphas, prior)
+        bad = out["bad"]
+        if (bad >= 0).any():
+            b = int(np.argmax(bad >= 0))
+            check_transforms(C[b], f"C[{b}]")
+            check_transforms(H[b], f"H[{b}]")
+            raise ValueError(f"problem {b}, motion {int(bad[b])}: C or H is not a rigid "
+                             "transform")
+    else:
+        check_transforms(C, "C")
+        check_transforms(H, "H")
+        if info.batch_fn is not None:
+            out = info.batch_fn(C, H, alphas, prior)
+            if isinstance(out, np.ndarray):
+                out = {"X": out}
+        else:
+            X = np.empty((B, 4, 4))
+            ok = np.ones(B, dtype=bool)
+            for b in range(B):
+                problem = build_problem(C[b], H[b])
+                X[b], ok[b], _, _ = _finish_output(info.fn(problem, float(alphas[b]), prior,
+                                                           rng), method)
+            out = {"X": X, "success": ok}
     runtime = time.perf_counter() - t0
-    cost = np.array([dq_cost(X[b], (C[b], H[b]), alphas[b]) if success[b] else np.inf
-                     for b in range(B)])
-    return BatchSolution(X=X, cost=cost, objective=cost.copy(), success=success, alpha=alphas,
-                         method=method, runtime_s=runtime, prior=prior)
+    X = np.asarray(out["X"], dtype=np.float64)
+    success = np.asarray(out.get("success", np.isfinite(X).all(axis=(-2, -1))), dtype=bool)
+    cost = out.get("cost")
+    if cost is None:
+        from simcalib.solvers.dq import batch_data_cost
+        cost = batch_data_cost(C, H, X, alphas)
+    cost = np.where(success, cost, np.inf)
+    objective = cost.copy()
+    if prior is not None:
+        objective = objective + _prior_penalty_batch(X, prior)
+    for k, v in out.items():
+        if k not in ("X", "cost", "success", "bad"):
+            diagnostics[k] = v
+    return BatchSolution(X=X, cost=cost, objective=objective, success=success, alpha=alphas,
+                         method=method, runtime_s=runtime, prior=prior,
+                         diagnostics=diagnostics)
+
+
+def _as_float_array(a, name):
+    try:
+        return np.ascontiguousarray(a, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"{name} must be an array of 4x4 rigid transforms; could not convert "
+                        f"{type(a).__name__} to float64 ({exc})") from None
+
+
+def _prior_penalty_batch(X, prior: Prior) -> np.ndarray:
+    from simcalib.geometry import quat_conjugate, quat_multiply
+    q, qd = dual_quat_from_transform(X)
+    q_hat, q_hat_dual = dual_quat_from_transform(prior.X)
+    dq = quat_multiply(quat_conjugate(q_hat), q)
+    dqd = quat_multiply(quat_conjugate(q_hat_dual), q) + quat_multiply(quat_conjugate(q_hat), qd)
+    return prior.a * np.sum(dq[..., :3] ** 2, axis=-1) + prior.b * np.sum(dqd**2, axis=-1)
 
 
 def _check_alphas(alpha, B: int) -> np.ndarray:
-    arr = np.asarray(alpha, dtype=np.float64) if not isinstance(alpha, bool) else None
+    try:
+        arr = np.asarray(alpha, dtype=np.float64) if not isinstance(alpha, bool) else None
+    except (TypeError, ValueError):
+        arr = None
     if arr is None or arr.ndim > 1 or (arr.ndim == 1 and arr.shape[0] != B):
         raise ValueError(f"alpha must be a scalar or an array of shape ({B},); received "
                          f"{alpha!r}")

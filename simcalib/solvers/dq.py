@@ -225,10 +225,12 @@ def _quat_dq(T, q, qd):
 
 @njit(cache=True)
 def _rigid_ok(T, tol):
+    tot = 0.0
     for i in range(4):
         for j in range(4):
-            if not np.isfinite(T[i, j]):
-                return False
+            tot += T[i, j]
+    if not np.isfinite(tot):
+        return False
     if abs(T[3, 0]) > tol or abs(T[3, 1]) > tol or abs(T[3, 2]) > tol or abs(T[3, 3] - 1.0) > tol:
         return False
     for i in range(3):
@@ -284,33 +286,116 @@ def _lr_minus(p, h, out):
     out[3, 3] = w - d
 
 
+def _lr_tensors():
+    """T[x][i, j] = X(e_i)^T Y(e_j) for (X, Y) in LR, LL, RL, RR, so that
+    sum_i X(a_i)^T Y(b_i) = sum_jk P_jk T[j, k] with P = sum_i a_i b_i^T."""
+    from simcalib.geometry import quat_left_matrix as _L, quat_right_matrix as _R
+    E = np.eye(4)
+    pairs = ((_L, _R), (_L, _L), (_R, _L), (_R, _R))
+    return np.ascontiguousarray(np.array(
+        [[[f(E[i]).T @ g(E[j]) for j in range(4)] for i in range(4)] for f, g in pairs]))
+
+
+_T = _lr_tensors()   # (4 [LR, LL, RL, RR], 4, 4, 4, 4)
+
+
+@njit(cache=True, fastmath={"reassoc", "contract"})
+def _dot_rows(Q, a, b, n):
+    s = 0.0
+    for m in range(n):
+        s += Q[a, m] * Q[b, m]
+    return s
+
+
 @njit(cache=True)
-def _accumulate(c, cd, h, hd, A, B, AtA, BtB, BtA):
-    _lr_minus(c, h, A)
-    _lr_minus(cd, hd, B)
+def _outer_from_soa(Q, n, P, nrm):
+    """Q (16, N) rows: c (0-3), h (4-7), c' (8-11), h' (12-15). Fills the summed outer
+    products P[0] = sum c h^T, P[1] = c' h'^T, P[2] = c' c^T, P[3] = c' h^T, P[4] = h' c^T,
+    P[5] = h' h^T and nrm = (sum |c|^2+|h|^2, sum |c'|^2+|h'|^2)."""
     for i in range(4):
         for j in range(4):
-            sa = 0.0
-            sb = 0.0
-            sba = 0.0
-            for k in range(4):
-                sa += A[k, i] * A[k, j]
-                sb += B[k, i] * B[k, j]
-                sba += B[k, i] * A[k, j]
-            AtA[i, j] += sa
-            BtB[i, j] += sb
-            BtA[i, j] += sba
+            P[0, i, j] = _dot_rows(Q, i, 4 + j, n)
+            P[1, i, j] = _dot_rows(Q, 8 + i, 12 + j, n)
+            P[2, i, j] = _dot_rows(Q, 8 + i, j, n)
+            P[3, i, j] = _dot_rows(Q, 8 + i, 4 + j, n)
+            P[4, i, j] = _dot_rows(Q, 12 + i, j, n)
+            P[5, i, j] = _dot_rows(Q, 12 + i, 4 + j, n)
+    s0 = 0.0
+    s1 = 0.0
+    for i in range(8):
+        s0 += _dot_rows(Q, i, i, n)
+        s1 += _dot_rows(Q, 8 + i, 8 + i, n)
+    nrm[0] = s0
+    nrm[1] = s1
 
 
 @njit(cache=True)
-def _grams_kernel(qC, qCd, qH, qHd, AtA, BtB, BtA):
-    A = np.empty((4, 4))
-    B = np.empty((4, 4))
-    AtA[:] = 0.0
-    BtB[:] = 0.0
-    BtA[:] = 0.0
-    for i in range(qC.shape[0]):
-        _accumulate(qC[i], qCd[i], qH[i], qHd[i], A, B, AtA, BtB, BtA)
+def _quats_soa(C, H, tol, Q):
+    """Validate + convert motions into Q (16, N) (sign-aligned); returns first bad index
+    or -1."""
+    c = np.empty(4)
+    cd = np.empty(4)
+    h = np.empty(4)
+    hd = np.empty(4)
+    for i in range(C.shape[0]):
+        if not _rigid_ok(C[i], tol) or not _rigid_ok(H[i], tol):
+            return i
+        _quat_dq(C[i], c, cd)
+        _quat_dq(H[i], h, hd)
+        sg = -1.0 if c[3] * h[3] < 0.0 else 1.0
+        for k in range(4):
+            Q[k, i] = c[k]
+            Q[4 + k, i] = sg * h[k]
+            Q[8 + k, i] = cd[k]
+            Q[12 + k, i] = sg * hd[k]
+    return -1
+
+
+@njit(cache=True)
+def _contract(T, k, P, sign, out):
+    for j in range(4):
+        for l in range(4):
+            p = sign * P[j, l]
+            if p != 0.0:
+                for a in range(4):
+                    for b in range(4):
+                        out[a, b] += p * T[k, j, l, a, b]
+
+
+@njit(cache=True)
+def _grams_from_outer(T, P, nrm, AtA, BtB, BtA):
+    """A^T A, B^T B, B^T A from the accumulated outer products (A = L(c) - R(h), ...)."""
+    X1 = np.zeros((4, 4))
+    X2 = np.zeros((4, 4))
+    _contract(T, 0, P[0], 1.0, X1)      # sum L(c)^T R(h)
+    _contract(T, 0, P[1], 1.0, X2)      # sum L(c')^T R(h')
+    for a in range(4):
+        for b in range(4):
+            AtA[a, b] = -(X1[a, b] + X1[b, a])
+            BtB[a, b] = -(X2[a, b] + X2[b, a])
+            BtA[a, b] = 0.0
+        AtA[a, a] += nrm[0]
+        BtB[a, a] += nrm[1]
+    _contract(T, 1, P[2], 1.0, BtA)     # L(c')^T L(c)
+    _contract(T, 0, P[3], -1.0, BtA)    # - L(c')^T R(h)
+    _contract(T, 2, P[4], -1.0, BtA)    # - R(h')^T L(c)
+    _contract(T, 3, P[5], 1.0, BtA)     # + R(h')^T R(h)
+
+
+@njit(cache=True)
+def _grams_kernel(T, qC, qCd, qH, qHd, AtA, BtB, BtA):
+    n = qC.shape[0]
+    Q = np.empty((16, n))
+    for i in range(n):
+        for k in range(4):
+            Q[k, i] = qC[i, k]
+            Q[4 + k, i] = qH[i, k]
+            Q[8 + k, i] = qCd[i, k]
+            Q[12 + k, i] = qHd[i, k]
+    P = np.empty((6, 4, 4))
+    nrm = np.empty(2)
+    _outer_from_soa(Q, n, P, nrm)
+    _grams_from_outer(T, P, nrm, AtA, BtB, BtA)
 
 
 @njit(cache=True)
@@ -719,34 +804,22 @@ def _transform_from_dq(q, qd, X):
 
 
 @njit(cache=True, parallel=True)
-def _batch_kernel(method, C, H, alphas, tol, S_add, W_add, M_add, X, cost, info, bad):
+def _batch_kernel(method, T, C, H, alphas, tol, S_add, W_add, M_add, X, cost, info, bad):
     """Fused batch: validate + convert + accumulate + solve + X + data cost, per problem."""
     nb = C.shape[0]
     n = C.shape[1]
     for b in prange(nb):
-        c = np.empty(4)
-        cd = np.empty(4)
-        h = np.empty(4)
-        hd = np.empty(4)
-        A = np.empty((4, 4))
-        Bm = np.empty((4, 4))
-        AtA = np.zeros((4, 4))
-        BtB = np.zeros((4, 4))
-        BtA = np.zeros((4, 4))
-        bad[b] = -1
-        for i in range(n):
-            if not _rigid_ok(C[b, i], tol) or not _rigid_ok(H[b, i], tol):
-                bad[b] = i
-                break
-            _quat_dq(C[b, i], c, cd)
-            _quat_dq(H[b, i], h, hd)
-            if c[3] * h[3] < 0.0:
-                for k in range(4):
-                    h[k] = -h[k]
-                    hd[k] = -hd[k]
-            _accumulate(c, cd, h, hd, A, Bm, AtA, BtB, BtA)
+        Q = np.empty((16, n))
+        P = np.empty((6, 4, 4))
+        nrm = np.empty(2)
+        AtA = np.empty((4, 4))
+        BtB = np.empty((4, 4))
+        BtA = np.empty((4, 4))
+        bad[b] = _quats_soa(C[b], H[b], tol, Q)
         if bad[b] >= 0:
             continue
+        _outer_from_soa(Q, n, P, nrm)
+        _grams_from_outer(T, P, nrm, AtA, BtB, BtA)
         a2 = alphas[b] * alphas[b]
         S = np.empty((4, 4))
         W = np.empty((4, 4))
@@ -768,6 +841,63 @@ def _batch_kernel(method, C, H, alphas, tol, S_add, W_add, M_add, X, cost, info,
                                                        + 2.0 * q[i] * BtA[i, j] * qd[j]
                                                        + qd[i] * AtA[i, j] * qd[j])
         cost[b] = cst
+
+
+@njit(cache=True)
+def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):
+    """Hamilton product (x, y, z, w) of a and b."""
+    return (a3 * b0 + b3 * a0 + a1 * b2 - a2 * b1,
+            a3 * b1 + b3 * a1 + a2 * b0 - a0 * b2,
+            a3 * b2 + b3 * a2 + a0 * b1 - a1 * b0,
+            a3 * b3 - a0 * b0 - a1 * b1 - a2 * b2)
+
+
+@njit(cache=True)
+def _cost_kernel(qC, qCd, qH, qHd, q, qd, alpha):
+    """Cost (8) summed motion by motion: |c q - q h|^2 + alpha^2 |c' q - q h' + c q' - q' h|^2."""
+    a2 = alpha * alpha
+    tot = 0.0
+    x, y, z, w = q[0], q[1], q[2], q[3]
+    dx, dy, dz, dw = qd[0], qd[1], qd[2], qd[3]
+    for i in range(qC.shape[0]):
+        c = qC[i]
+        cd = qCd[i]
+        h = qH[i]
+        hd = qHd[i]
+        p = _qmul(c[0], c[1], c[2], c[3], x, y, z, w)
+        r = _qmul(x, y, z, w, h[0], h[1], h[2], h[3])
+        s1 = 0.0
+        for k in range(4):
+            s1 += (p[k] - r[k]) ** 2
+        p1 = _qmul(cd[0], cd[1], cd[2], cd[3], x, y, z, w)
+        p2 = _qmul(x, y, z, w, hd[0], hd[1], hd[2], hd[3])
+        p3 = _qmul(c[0], c[1], c[2], c[3], dx, dy, dz, dw)
+        p4 = _qmul(dx, dy, dz, dw, h[0], h[1], h[2], h[3])
+        s2 = 0.0
+        for k in range(4):
+            s2 += (p1[k] - p2[k] + p3[k] - p4[k]) ** 2
+        tot += s1 + a2 * s2
+    return tot
+
+
+@njit(cache=True)
+def _solve_from_quats(method, T, qC, qCd, qH, qHd, alpha, S_add, W_add, M_add, q, qd, X,
+                      info):
+    AtA = np.empty((4, 4))
+    BtB = np.empty((4, 4))
+    BtA = np.empty((4, 4))
+    _grams_kernel(T, qC, qCd, qH, qHd, AtA, BtB, BtA)
+    a2 = alpha * alpha
+    S = np.empty((4, 4))
+    W = np.empty((4, 4))
+    M = np.empty((4, 4))
+    for i in range(4):
+        for j in range(4):
+            S[i, j] = 0.5 * (AtA[i, j] + AtA[j, i]) + a2 * 0.5 * (BtB[i, j] + BtB[j, i]) + S_add[i, j]
+            W[i, j] = a2 * BtA[i, j] + W_add[i, j]
+            M[i, j] = a2 * 0.5 * (AtA[i, j] + AtA[j, i]) + M_add[i, j]
+    _solve_core(method, S, W, M, q, qd, info)
+    _transform_from_dq(q, qd, X)
 
 
 # ----------------------------------------------------------------------- python glue
@@ -800,7 +930,7 @@ def _matrices_fast(problem: MotionProblem, alpha: float, prior):
     AtA = np.empty((4, 4))
     BtB = np.empty((4, 4))
     BtA = np.empty((4, 4))
-    _grams_kernel(problem.q_C, problem.q_C_dual, problem.q_H, problem.q_H_dual, AtA, BtB, BtA)
+    _grams_kernel(_T, problem.q_C, problem.q_C_dual, problem.q_H, problem.q_H_dual, AtA, BtB, BtA)
     AtA = 0.5 * (AtA + AtA.T)
     BtB = 0.5 * (BtB + BtB.T)
     a2 = alpha * alpha
@@ -828,17 +958,36 @@ _STATUS_TEXT = {ST_OK: "", ST_MAXITER: "iteration limit reached",
                 ST_FALLBACK: "expansion undefined (noise-free data): relaxed solution used"}
 
 
+_ZERO4 = np.zeros((4, 4))
+
+
+def _prior_adds(prior):
+    if prior is None:
+        return _ZERO4, _ZERO4, _ZERO4
+    S_add, W_add, M_add, _ = prior_terms(prior)
+    return (np.ascontiguousarray(S_add), np.ascontiguousarray(W_add),
+            np.ascontiguousarray(M_add))
+
+
+def data_cost(problem: MotionProblem, q, qd, alpha: float) -> float:
+    """Cost (8) at the dual quaternion (q, q') (compiled, motion by motion)."""
+    return float(_cost_kernel(np.ascontiguousarray(problem.q_C), np.ascontiguousarray(problem.q_C_dual),
+                              np.ascontiguousarray(problem.q_H), np.ascontiguousarray(problem.q_H_dual),
+                              np.asarray(q, dtype=np.float64), np.asarray(qd, dtype=np.float64),
+                              float(alpha)))
+
+
 def _make_solver(method: str):
     code = METHOD_CODES[method]
 
     def fn(problem, alpha, prior, rng):
-        S, W, M = _matrices_fast(problem, alpha, prior)
+        S_add, W_add, M_add = _prior_adds(prior)
         q = np.empty(4)
         qd = np.empty(4)
         info = np.empty(N_INFO)
-        _solve_core(code, S, W, M, q, qd, info)
         X = np.empty((4, 4))
-        _transform_from_dq(q, qd, X)
+        _solve_from_quats(code, _T, problem.q_C, problem.q_C_dual, problem.q_H,
+                          problem.q_H_dual, float(alpha), S_add, W_add, M_add, q, qd, X, info)
         status = int(info[I_STATUS])
         diag = {"mu": float(info[I_MU]), "lambda0": float(info[I_LAM0]),
                 "lambda1": float(info[I_LAM1]), "iterations": int(info[I_ITERS]),
@@ -861,16 +1010,19 @@ def _make_batch(method: str):
         """C, H validated (B, N, 4, 4) float64 C-contiguous; alphas (B,). Returns
         (X, cost, objective_quadratic, info, bad)."""
         nb = C.shape[0]
-        if prior is not None:
-            S_add, W_add, M_add, _ = prior_terms(prior)
-        else:
-            S_add = W_add = M_add = np.zeros((4, 4))
+        S_add, W_add, M_add = _prior_adds(prior)
         X = np.empty((nb, 4, 4))
         cost = np.empty(nb)
         info = np.empty((nb, N_INFO))
         bad = np.empty(nb, dtype=np.int64)
-        _batch_kernel(code, C, H, alphas, _TOL, S_add, W_add, M_add, X, cost, info, bad)
-        return X, cost, info, bad
+        _batch_kernel(code, _T, C, H, alphas, _TOL, S_add, W_add, M_add, X, cost, info, bad)
+        out = {"X": X, "cost": cost, "bad": bad, "mu": info[:, I_MU],
+               "iterations": info[:, I_ITERS].astype(np.int64),
+               "n_clipped": info[:, I_NCLIP].astype(np.int64),
+               "lambda0": info[:, I_LAM0]}
+        out["success"] = (info[:, I_STATUS] != ST_MAXITER) if method == "dqopt" else \
+            np.ones(nb, dtype=bool)
+        return out
     batch.__name__ = f"_{method}_batch"
     return batch
 
@@ -887,4 +1039,33 @@ _DESCRIPTIONS = {
 
 for _name in METHOD_CODES:
     register(_name, family="dq", description=_DESCRIPTIONS[_name], supports_prior=True,
-             certified=(_name == "dqopt"), batch=_make_batch(_name))(_make_solver(_name))
+             certified=(_name == "dqopt"), batch=_make_batch(_name),
+             batch_validates=True)(_make_solver(_name))
+
+
+@njit(cache=True, parallel=True)
+def _batch_cost_kernel(C, H, X, alphas, cost):
+    nb = C.shape[0]
+    n = C.shape[1]
+    for b in prange(nb):
+        qC = np.empty((n, 4))
+        qCd = np.empty((n, 4))
+        qH = np.empty((n, 4))
+        qHd = np.empty((n, 4))
+        _quats_kernel(C[b], H[b], 1e300, qC, qCd, qH, qHd)
+        q = np.empty(4)
+        qd = np.empty(4)
+        _quat_dq(X[b], q, qd)
+        cost[b] = _cost_kernel(qC, qCd, qH, qHd, q, qd, alphas[b])
+
+
+def batch_data_cost(C, H, X, alphas) -> np.ndarray:
+    """Cost (8) of each ``X[b]`` on problem ``b`` (compiled, parallel); non-finite X -> inf."""
+    X = np.ascontiguousarray(X, dtype=np.float64)
+    finite = np.isfinite(X).all(axis=(-2, -1))
+    Xs = np.where(finite[:, None, None], X, np.eye(4))
+    cost = np.empty(X.shape[0])
+    _batch_cost_kernel(np.ascontiguousarray(C, dtype=np.float64),
+                       np.ascontiguousarray(H, dtype=np.float64), Xs,
+                       np.ascontiguousarray(alphas, dtype=np.float64), cost)
+    return np.where(finite, cost, np.inf)
