@@ -107,6 +107,38 @@ def _eigh(A, w, V):
     for i in range(n):
         for j in range(n):
             V[i, j] = 1.0 if i == j else 0.0
+    _jacobi(a, w, V)
+
+
+@njit(cache=True)
+def _eigh_warm(A, V0, w, V):
+    """As :func:`_eigh`, starting from the approximate eigenvectors V0 (columns)."""
+    n = A.shape[0]
+    a = np.empty((n, n))
+    tmp = np.empty((n, n))
+    for i in range(n):
+        for j in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += A[i, k] * V0[k, j]
+            tmp[i, j] = acc
+    for i in range(n):
+        for j in range(i, n):
+            acc = 0.0
+            for k in range(n):
+                acc += V0[k, i] * tmp[k, j]
+            a[i, j] = acc
+            a[j, i] = acc
+    for i in range(n):
+        for j in range(n):
+            V[i, j] = V0[i, j]
+    _jacobi(a, w, V)
+
+
+@njit(cache=True)
+def _jacobi(a, w, V):
+    """Cyclic Jacobi on the symmetric matrix a (overwritten); V accumulates rotations."""
+    n = a.shape[0]
     for sweep in range(40):
         off = 0.0
         dg = 0.0
@@ -165,13 +197,14 @@ def _eigh(A, w, V):
             j -= 1
 
 
-@njit(cache=True)
-def _quat_dq(T, q, qd):
-    """(q, q') of one 4x4 rigid transform, same algorithm as geometry.quat_from_matrix
-    (largest-diagonal branch, normalised, w >= 0) and q' = 1/2 (t, 0) (x) q."""
-    m00 = T[0, 0]
-    m11 = T[1, 1]
-    m22 = T[2, 2]
+@njit(cache=True, inline="always")
+def _quat_dq_at(T, i):
+    """(q, q') of the rigid transform T[i] as 8 scalars: same algorithm as
+    geometry.quat_from_matrix (largest-diagonal branch, normalised, w >= 0) and
+    q' = 1/2 (t, 0) (x) q."""
+    m00 = T[i, 0, 0]
+    m11 = T[i, 1, 1]
+    m22 = T[i, 2, 2]
     d0 = 1.0 + m00 - m11 - m22
     d1 = 1.0 - m00 + m11 - m22
     d2 = 1.0 - m00 - m11 + m22
@@ -188,61 +221,67 @@ def _quat_dq(T, q, qd):
         k = 3
         dk = d3
     s = 2.0 * np.sqrt(max(dk, 1e-300))
-    d21 = T[2, 1] - T[1, 2]
-    d02 = T[0, 2] - T[2, 0]
-    d10 = T[1, 0] - T[0, 1]
-    s01 = T[0, 1] + T[1, 0]
-    s02 = T[0, 2] + T[2, 0]
-    s12 = T[1, 2] + T[2, 1]
+    inv = 1.0 / s
+    d21 = (T[i, 2, 1] - T[i, 1, 2]) * inv
+    d02 = (T[i, 0, 2] - T[i, 2, 0]) * inv
+    d10 = (T[i, 1, 0] - T[i, 0, 1]) * inv
+    s01 = (T[i, 0, 1] + T[i, 1, 0]) * inv
+    s02 = (T[i, 0, 2] + T[i, 2, 0]) * inv
+    s12 = (T[i, 1, 2] + T[i, 2, 1]) * inv
     if k == 0:
-        x, y, z, w = 0.25 * s, s01 / s, s02 / s, d21 / s
+        x, y, z, w = 0.25 * s, s01, s02, d21
     elif k == 1:
-        x, y, z, w = s01 / s, 0.25 * s, s12 / s, d02 / s
+        x, y, z, w = s01, 0.25 * s, s12, d02
     elif k == 2:
-        x, y, z, w = s02 / s, s12 / s, 0.25 * s, d10 / s
+        x, y, z, w = s02, s12, 0.25 * s, d10
     else:
-        x, y, z, w = d21 / s, d02 / s, d10 / s, 0.25 * s
-    nrm = np.sqrt(x * x + y * y + z * z + w * w)
+        x, y, z, w = d21, d02, d10, 0.25 * s
+    nrm = 1.0 / np.sqrt(x * x + y * y + z * z + w * w)
     if w < 0.0:
         nrm = -nrm
-    x /= nrm
-    y /= nrm
-    z /= nrm
-    w /= nrm
-    q[0] = x
-    q[1] = y
-    q[2] = z
-    q[3] = w
-    tx = 0.5 * T[0, 3]
-    ty = 0.5 * T[1, 3]
-    tz = 0.5 * T[2, 3]
+    x *= nrm
+    y *= nrm
+    z *= nrm
+    w *= nrm
+    tx = 0.5 * T[i, 0, 3]
+    ty = 0.5 * T[i, 1, 3]
+    tz = 0.5 * T[i, 2, 3]
     # (t,0) (x) q with L(p) rows [w,-z,y,x],[z,w,-x,y],[-y,x,w,z],[-x,-y,-z,w], p_w = 0
-    qd[0] = -tz * y + ty * z + tx * w
-    qd[1] = tz * x - tx * z + ty * w
-    qd[2] = -ty * x + tx * y + tz * w
-    qd[3] = -tx * x - ty * y - tz * z
+    return (x, y, z, w, -tz * y + ty * z + tx * w, tz * x - tx * z + ty * w,
+            -ty * x + tx * y + tz * w, -tx * x - ty * y - tz * z)
 
 
 @njit(cache=True)
-def _rigid_ok(T, tol):
+def _quat_dq(T, q, qd):
+    """(q, q') of one 4x4 transform into q, qd."""
+    T3 = T.reshape((1, 4, 4))
+    r = _quat_dq_at(T3, 0)
+    for k in range(4):
+        q[k] = r[k]
+        qd[k] = r[4 + k]
+
+
+@njit(cache=True, inline="always")
+def _rigid_ok_at(T, i, tol):
     tot = 0.0
-    for i in range(4):
-        for j in range(4):
-            tot += T[i, j]
+    for r in range(4):
+        for c in range(4):
+            tot += T[i, r, c]
     if not np.isfinite(tot):
         return False
-    if abs(T[3, 0]) > tol or abs(T[3, 1]) > tol or abs(T[3, 2]) > tol or abs(T[3, 3] - 1.0) > tol:
+    if (abs(T[i, 3, 0]) > tol or abs(T[i, 3, 1]) > tol or abs(T[i, 3, 2]) > tol
+            or abs(T[i, 3, 3] - 1.0) > tol):
         return False
-    for i in range(3):
-        for j in range(3):
-            g = T[0, i] * T[0, j] + T[1, i] * T[1, j] + T[2, i] * T[2, j]
-            if i == j:
+    for a in range(3):
+        for b in range(a, 3):
+            g = T[i, 0, a] * T[i, 0, b] + T[i, 1, a] * T[i, 1, b] + T[i, 2, a] * T[i, 2, b]
+            if a == b:
                 g -= 1.0
             if abs(g) > tol:
                 return False
-    det = (T[0, 0] * (T[1, 1] * T[2, 2] - T[1, 2] * T[2, 1])
-           - T[0, 1] * (T[1, 0] * T[2, 2] - T[1, 2] * T[2, 0])
-           + T[0, 2] * (T[1, 0] * T[2, 1] - T[1, 1] * T[2, 0]))
+    det = (T[i, 0, 0] * (T[i, 1, 1] * T[i, 2, 2] - T[i, 1, 2] * T[i, 2, 1])
+           - T[i, 0, 1] * (T[i, 1, 0] * T[i, 2, 2] - T[i, 1, 2] * T[i, 2, 0])
+           + T[i, 0, 2] * (T[i, 1, 0] * T[i, 2, 1] - T[i, 1, 1] * T[i, 2, 0]))
     return abs(det - 1.0) <= tol
 
 
@@ -252,14 +291,16 @@ def _quats_kernel(C, H, tol, qC, qCd, qH, qHd):
     index of the first invalid motion (or -1)."""
     n = C.shape[0]
     for i in range(n):
-        if not _rigid_ok(C[i], tol) or not _rigid_ok(H[i], tol):
+        if not _rigid_ok_at(C, i, tol) or not _rigid_ok_at(H, i, tol):
             return i
-        _quat_dq(C[i], qC[i], qCd[i])
-        _quat_dq(H[i], qH[i], qHd[i])
-        if qC[i, 3] * qH[i, 3] < 0.0:
-            for k in range(4):
-                qH[i, k] = -qH[i, k]
-                qHd[i, k] = -qHd[i, k]
+        rc = _quat_dq_at(C, i)
+        rh = _quat_dq_at(H, i)
+        sg = -1.0 if rc[3] * rh[3] < 0.0 else 1.0
+        for k in range(4):
+            qC[i, k] = rc[k]
+            qCd[i, k] = rc[4 + k]
+            qH[i, k] = sg * rh[k]
+            qHd[i, k] = sg * rh[4 + k]
     return -1
 
 
@@ -333,21 +374,17 @@ def _outer_from_soa(Q, n, P, nrm):
 def _quats_soa(C, H, tol, Q):
     """Validate + convert motions into Q (16, N) (sign-aligned); returns first bad index
     or -1."""
-    c = np.empty(4)
-    cd = np.empty(4)
-    h = np.empty(4)
-    hd = np.empty(4)
     for i in range(C.shape[0]):
-        if not _rigid_ok(C[i], tol) or not _rigid_ok(H[i], tol):
+        if not _rigid_ok_at(C, i, tol) or not _rigid_ok_at(H, i, tol):
             return i
-        _quat_dq(C[i], c, cd)
-        _quat_dq(H[i], h, hd)
-        sg = -1.0 if c[3] * h[3] < 0.0 else 1.0
+        rc = _quat_dq_at(C, i)
+        rh = _quat_dq_at(H, i)
+        sg = -1.0 if rc[3] * rh[3] < 0.0 else 1.0
         for k in range(4):
-            Q[k, i] = c[k]
-            Q[4 + k, i] = sg * h[k]
-            Q[8 + k, i] = cd[k]
-            Q[12 + k, i] = sg * hd[k]
+            Q[k, i] = rc[k]
+            Q[4 + k, i] = sg * rh[k]
+            Q[8 + k, i] = rc[4 + k]
+            Q[12 + k, i] = sg * rh[4 + k]
     return -1
 
 
@@ -667,8 +704,10 @@ def _solve_core(method, S, W, M, q, qd, info):
             q[i] = V[i, 0]
         mu = _mu_tilde(q, WV, V, xi)
     elif method == DQOPT:
-        # bracket (appendix C): extreme eigenvalues of K = sym(M^1/2 W M^-1/2) in V basis
-        K = np.empty((4, 4))
+        # bracket (appendix C): mu* lies in [k_min, k_max], the extreme eigenvalues of
+        # K = sym(M^1/2 W M^-1/2); here the cheaper valid bound |mu*| <= ||K||_F (the exact
+        # eigenvalue bracket is reported by the certificate).
+        kf = 0.0
         for a in range(4):
             for b in range(4):
                 wab = 0.0
@@ -676,27 +715,33 @@ def _solve_core(method, S, W, M, q, qd, info):
                 for i in range(4):
                     wab += V[i, a] * WV[i, b]
                     wba += V[i, b] * WV[i, a]
-                K[a, b] = 0.5 * (np.sqrt(xi[a] / xi[b]) * wab + np.sqrt(xi[b] / xi[a]) * wba)
-        kw = np.empty(4)
-        KV = np.empty((4, 4))
-        _eigh(K, kw, KV)
-        span = kw[3] - kw[0]
-        lo = kw[0] - 1e-12 * span - 1e-300
-        hi = kw[3] + 1e-12 * span + 1e-300
+                kab = 0.5 * (np.sqrt(xi[a] / xi[b]) * wab + np.sqrt(xi[b] / xi[a]) * wba)
+                kf += kab * kab
+        kf = np.sqrt(kf)
+        lo = -kf * (1.0 + 1e-12) - 1e-300
+        hi = kf * (1.0 + 1e-12) + 1e-300
         mu = 0.0
-        if mu < lo or mu > hi:
-            mu = 0.5 * (lo + hi)
         blo = lo
         bhi = hi
+        E0 = np.empty((4, 4))
         for it in range(200):
             _zmat(S, WV, V, xi, mu, Z)
-            _eigh(Z, lam, E)
+            if it == 0:
+                _eigh(Z, lam, E)
+            else:
+                for i in range(4):
+                    for j in range(4):
+                        E0[i, j] = E[i, j]
+                _eigh_warm(Z, E0, lam, E)
             f, df = _f_df(E, lam, WV, V, xi, mu, pv, pu, pva, pua)
             iters += 1
             qdn = 0.0
             for k in range(4):
                 qdn += (pu[k] / xi[k]) ** 2
-            if abs(f) <= 4.0 * _EPS * (1.0 + np.sqrt(qdn)):
+            ftol = 4.0 * _EPS * (1.0 + np.sqrt(qdn))
+            if abs(f) <= ftol:
+                for i in range(4):
+                    q[i] = E[i, 0]
                 break
             if f > 0.0:
                 bhi = mu
@@ -704,20 +749,46 @@ def _solve_core(method, S, W, M, q, qd, info):
                 blo = mu
             step = f / df if df > 0.0 else 0.0
             mu_new = mu - step
+            if abs(f) <= 1e6 * ftol and mu_new > blo and mu_new < bhi:
+                # Newton is in its quadratic regime: the remaining error after this step is
+                # O(f^2); move q to mu_new by first-order perturbation and stop.
+                for i in range(4):
+                    q[i] = E[i, 0]
+                dmu = mu_new - mu
+                for a in range(1, 4):
+                    _proj(E, a, WV, V, mu, pva, pua)
+                    za = 0.0
+                    for k in range(4):
+                        za += (pua[k] * pv[k] + pva[k] * pu[k]) / xi[k]
+                    gap = lam[0] - lam[a]
+                    if gap < 0.0:
+                        for i in range(4):
+                            q[i] += dmu * za / gap * E[i, a]
+                mu = mu_new
+                break
             if not (mu_new > blo and mu_new < bhi):
                 mu_new = 0.5 * (blo + bhi)
             if abs(mu_new - mu) <= 2.0 * _EPS * abs(mu) or bhi - blo <= 4.0 * _EPS * max(abs(blo), abs(bhi)):
+                for i in range(4):
+                    q[i] = E[i, 0]
                 break
             mu = mu_new
         else:
             status = ST_MAXITER
-        for i in range(4):
-            q[i] = E[i, 0]
+            for i in range(4):
+                q[i] = E[i, 0]
     elif method == DQITR:
         converged = False
+        E0 = np.empty((4, 4))
         for it in range(500):
             _zmat(S, WV, V, xi, mu, Z)
-            _eigh(Z, lam, E)
+            if it == 0:
+                _eigh(Z, lam, E)
+            else:
+                for i in range(4):
+                    for j in range(4):
+                        E0[i, j] = E[i, j]
+                _eigh_warm(Z, E0, lam, E)
             iters += 1
             for i in range(4):
                 q[i] = E[i, 0]
