@@ -147,11 +147,18 @@ class Solution:
     """Result of :func:`solve`.
 
     ``X``: estimate of ``T_a_b`` (4x4). ``cost``: paper cost (8) at ``X`` for ``alpha``
-    (data term only); ``objective``: cost plus the prior terms (equal to ``cost`` without a
-    prior). ``runtime_s``: time from the ``(N, 4, 4)`` arrays to ``X`` (validation + solver).
-    ``certificate``: global-optimality certificate for DQ methods (None otherwise).
-    ``observability``: what the motions determine (see
-    :mod:`simcalib.solvers.observability`); ``degenerate`` / ``undetermined`` summarise it.
+    (data term only, motions sign-aligned per NOTES.md); ``objective``: cost plus the prior
+    terms (equal to ``cost`` without a prior). ``runtime_s``: time from the ``(N, 4, 4)``
+    arrays to ``X`` (validation + conversion + solver). ``success``/``message``.
+
+    Diagnostics, computed on first access:
+    ``observability`` (:class:`simcalib.solvers.observability.Observability`: singular
+    values, ``degenerate``, ``undetermined`` directions in words, camera-a frame);
+    ``certificate`` (:class:`simcalib.solvers.observability.Certificate`, DQ methods only,
+    else None). ``degenerate`` and ``undetermined`` are shortcuts; ``message`` combines
+    everything. When ``degenerate`` is True, the components of ``X`` along the
+    ``undetermined`` directions are not measurements (they come from the prior if one is
+    given, else they are arbitrary).
     """
     X: np.ndarray
     cost: float
@@ -162,9 +169,9 @@ class Solution:
     success: bool
     solver_message: str
     n_motions: int
+    family: str = ""
     prior: Prior | None = None
-    certificate: object | None = None
-    diagnostics: dict = field(default_factory=dict)
+    diagnostics: dict = field(default_factory=dict, repr=False)
     problem: MotionProblem | None = field(default=None, repr=False, compare=False)
 
     @cached_property
@@ -172,21 +179,42 @@ class Solution:
         from simcalib.solvers.observability import analyse
         return analyse(self.problem, self.X, self.alpha, self.prior, self.cost)
 
+    @cached_property
+    def certificate(self):
+        if self.family != "dq" or not self.success:
+            return None
+        from simcalib.solvers.observability import certify
+        q, qd = dual_quat_from_transform(self.X)
+        return certify(self.problem, self.alpha, self.prior, q, qd)
+
     @property
     def degenerate(self) -> bool:
         return self.observability.degenerate
 
     @property
-    def undetermined(self):
+    def undetermined(self) -> tuple:
         return self.observability.undetermined
 
     @property
+    def certified(self) -> bool:
+        return self.certificate is not None and self.certificate.certified
+
+    @property
     def message(self) -> str:
-        parts = [self.solver_message] if self.solver_message else []
+        parts = [f"{self.method}: " + ("ok" if self.success else "FAILED")
+                 + (f" ({self.solver_message})" if self.solver_message else "")]
         if self.certificate is not None:
             parts.append(self.certificate.summary())
         parts.append(self.observability.summary())
-        return "; ".join(p for p in parts if p)
+        return "; ".join(parts)
+
+    def __str__(self) -> str:
+        from simcalib.geometry import rotvec_from_matrix
+        rv = np.degrees(rotvec_from_matrix(self.X[:3, :3]))
+        return (f"Solution({self.method}, alpha={self.alpha:g}, N={self.n_motions}): "
+                f"t = {np.round(self.X[:3, 3], 6).tolist()} m, rotvec = "
+                f"{np.round(rv, 4).tolist()} deg, cost = {self.cost:.6g}, "
+                f"{self.runtime_s * 1e6:.0f} us\n{self.message}")
 
 
 @dataclass(frozen=True)
@@ -244,16 +272,16 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
     out = info.fn(problem, alpha, prior, rng)
     runtime = time.perf_counter() - t0
     X, success, message, diag = _finish_output(out, method)
-    if success or np.isfinite(X).all():
-        cost = dq_cost(X, problem, alpha)
-        objective = cost + (_prior_penalty(*dual_quat_from_transform(X), prior)
-                            if prior is not None else 0.0)
+    if np.isfinite(X).all():
+        from simcalib.solvers.dq import data_cost
+        q, qd = dual_quat_from_transform(X)
+        cost = data_cost(problem, q, qd, alpha)
+        objective = cost + (_prior_penalty(q, qd, prior) if prior is not None else 0.0)
     else:
         cost = objective = math.inf
-    certificate = diag.pop("certificate", None)
     return Solution(X=X, cost=cost, objective=objective, method=method, alpha=alpha,
                     runtime_s=runtime, success=success, solver_message=message,
-                    n_motions=problem.n, prior=prior, certificate=certificate,
+                    n_motions=problem.n, family=info.family, prior=prior,
                     diagnostics=diag, problem=problem)
 
 

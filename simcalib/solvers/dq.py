@@ -1140,3 +1140,58 @@ def batch_data_cost(C, H, X, alphas) -> np.ndarray:
                        np.ascontiguousarray(H, dtype=np.float64), Xs,
                        np.ascontiguousarray(alphas, dtype=np.float64), cost)
     return np.where(finite, cost, np.inf)
+
+
+@njit(cache=True)
+def _eval_mu_kernel(S, W, M, mu, lam, E, out):
+    """Z(mu) eigen-decomposition (M clipped as in the solvers) and f, f' at mu."""
+    xi = np.empty(4)
+    V = np.empty((4, 4))
+    nclip = _m_eig(S, M, xi, V)
+    WV = np.zeros((4, 4))
+    for i in range(4):
+        for j in range(4):
+            acc = 0.0
+            for k in range(4):
+                acc += W[i, k] * V[k, j]
+            WV[i, j] = acc
+    Z = np.empty((4, 4))
+    _zmat(S, WV, V, xi, mu, Z)
+    _eigh(Z, lam, E)
+    pv = np.empty(4)
+    pu = np.empty(4)
+    pva = np.empty(4)
+    pua = np.empty(4)
+    f, df = _f_df(E, lam, WV, V, xi, mu, pv, pu, pva, pua)
+    out[0] = f
+    out[1] = df
+    out[2] = nclip
+    # exact appendix-C bracket: eigenvalues of K = sym(M^1/2 W M^-1/2)
+    K = np.empty((4, 4))
+    for a in range(4):
+        for b in range(4):
+            wab = 0.0
+            wba = 0.0
+            for i in range(4):
+                wab += V[i, a] * WV[i, b]
+                wba += V[i, b] * WV[i, a]
+            K[a, b] = 0.5 * (np.sqrt(xi[a] / xi[b]) * wab + np.sqrt(xi[b] / xi[a]) * wba)
+    kw = np.empty(4)
+    KV = np.empty((4, 4))
+    _eigh(K, kw, KV)
+    out[3] = kw[0]
+    out[4] = kw[3]
+
+
+def eval_at_mu(S, W, M, mu: float):
+    """``(lam (4,), q0 (4,), f, df, n_clipped, (k_min, k_max))`` for ``Z(mu)`` of (S, W, M):
+    eigenvalues, smallest eigenvector, f(mu) = q0.q0' (eq. 18), f'(mu), and the appendix-C
+    bracket of mu*."""
+    lam = np.empty(4)
+    E = np.empty((4, 4))
+    out = np.empty(5)
+    _eval_mu_kernel(np.ascontiguousarray(S, dtype=np.float64),
+                    np.ascontiguousarray(W, dtype=np.float64),
+                    np.ascontiguousarray(M, dtype=np.float64), float(mu), lam, E, out)
+    return lam, E[:, 0].copy(), float(out[0]), float(out[1]), int(out[2]), (float(out[3]),
+                                                                             float(out[4]))
