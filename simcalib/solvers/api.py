@@ -88,11 +88,11 @@ def _check_rng(rng) -> np.random.Generator:
 
 
 # ------------------------------------------------------------------------------- cost
-def _as_problem(problem) -> MotionProblem:
+def _as_problem(problem, alpha: float = 1.0) -> MotionProblem:
     if isinstance(problem, MotionProblem):
         return problem
     if isinstance(problem, tuple) and len(problem) == 2:
-        return build_problem(*problem)
+        return _fast_problem(*problem, alpha)
     raise TypeError(f"problem must be a MotionProblem or a (C, H) tuple; received "
                     f"{type(problem).__name__}")
 
@@ -119,8 +119,8 @@ def dq_cost(X, problem, alpha: float, prior: Prior | None = None) -> float:
     With ``prior`` the prior terms ``a |vec(dq)|^2 + b |dq'|^2`` are added (eq. 26).
     """
     from simcalib.geometry import quat_left_matrix, quat_right_matrix
-    problem = _as_problem(problem)
     alpha = check_alpha(alpha)
+    problem = _as_problem(problem, alpha)
     q, qd = _as_dual_quat(X)
     A = quat_left_matrix(problem.q_C) - quat_right_matrix(problem.q_H)
     B = quat_left_matrix(problem.q_C_dual) - quat_right_matrix(problem.q_H_dual)
@@ -268,7 +268,7 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
                          f"prior: {', '.join(with_prior)}")
     rng = _check_rng(rng)
     t0 = time.perf_counter()
-    problem = _fast_problem(C, H)
+    problem = _fast_problem(C, H, alpha)
     out = info.fn(problem, alpha, prior, rng)
     runtime = time.perf_counter() - t0
     X, success, message, diag = _finish_output(out, method)
@@ -285,13 +285,11 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
                     diagnostics=diag, problem=problem)
 
 
-def _fast_problem(C, H) -> MotionProblem:
-    """build_problem, possibly through a compiled fast path with identical semantics."""
-    try:
-        from simcalib.solvers.dq import fast_build_problem
-    except ImportError:
-        return build_problem(C, H)
-    return fast_build_problem(C, H)
+def _fast_problem(C, H, alpha: float = 1.0) -> MotionProblem:
+    """build_problem (compiled path) + sign re-alignment of near-180-degree motion pairs
+    (see simcalib.solvers.dq.fast_build_problem)."""
+    from simcalib.solvers.dq import fast_build_problem
+    return fast_build_problem(C, H, alpha)
 
 
 def solve_batch(C, H, method: str = "dqopt", alpha=1.0, prior: Prior | None = None,
