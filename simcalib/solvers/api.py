@@ -38,10 +38,14 @@ class Prior:
     b: float = 1.0
 
     def __post_init__(self):
-        X = check_transforms(self.X, "Prior.X")
+        try:
+            X = np.array(self.X, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise TypeError(f"Prior.X must be a 4x4 rigid transform; could not convert "
+                            f"{type(self.X).__name__} to float64 ({exc})") from None
         if X.shape != (4, 4):
             raise ValueError(f"Prior.X must be one 4x4 rigid transform; received shape {X.shape}")
-        X = X.copy()
+        check_transforms(X[None], "Prior.X")
         X.setflags(write=False)
         object.__setattr__(self, "X", X)
         for name in ("a", "b"):

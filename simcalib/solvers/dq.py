@@ -875,6 +875,24 @@ def _transform_from_dq(q, qd, X):
 
 
 @njit(cache=True)
+def _cost_soa(Q, n, q, qd, a2):
+    """Cost (8) motion by motion from the SoA quaternions Q (16, N)."""
+    x, y, z, w = q[0], q[1], q[2], q[3]
+    dx, dy, dz, dw = qd[0], qd[1], qd[2], qd[3]
+    tot = 0.0
+    for i in range(n):
+        p = _qmul(Q[0, i], Q[1, i], Q[2, i], Q[3, i], x, y, z, w)
+        r = _qmul(x, y, z, w, Q[4, i], Q[5, i], Q[6, i], Q[7, i])
+        p1 = _qmul(Q[8, i], Q[9, i], Q[10, i], Q[11, i], x, y, z, w)
+        p2 = _qmul(x, y, z, w, Q[12, i], Q[13, i], Q[14, i], Q[15, i])
+        p3 = _qmul(Q[0, i], Q[1, i], Q[2, i], Q[3, i], dx, dy, dz, dw)
+        p4 = _qmul(dx, dy, dz, dw, Q[4, i], Q[5, i], Q[6, i], Q[7, i])
+        for k in range(4):
+            tot += (p[k] - r[k]) ** 2 + a2 * (p1[k] - p2[k] + p3[k] - p4[k]) ** 2
+    return tot
+
+
+@njit(cache=True)
 def _align_soa(T, Q, n, alpha, q, qd, info):
     """Sign alignment of the motion pairs beyond the scalar-part rule of NOTES.md.
 
@@ -976,13 +994,18 @@ def _batch_kernel(method, T, C, H, alphas, tol, has_prior, S_add, W_add, M_add, 
         if method != DQOPT or has_prior:
             _solve_core(method, S, W, M, q, qd, info[b])
         _transform_from_dq(q, qd, X[b])
-        # data cost (8): q AtA q + a2 (q BtB q + 2 q BtA q' + q' AtA q')
+        # data cost (8): Gram form; recomputed motion by motion when small relative to the
+        # scale (the Gram form loses digits there: noise-free or low-noise data)
         cst = 0.0
+        scale = 0.0
         for i in range(4):
+            scale += AtA[i, i] + a2 * BtB[i, i]
             for j in range(4):
                 cst += q[i] * AtA[i, j] * q[j] + a2 * (q[i] * BtB[i, j] * q[j]
                                                        + 2.0 * q[i] * BtA[i, j] * qd[j]
                                                        + qd[i] * AtA[i, j] * qd[j])
+        if cst < 1e-5 * scale:
+            cst = _cost_soa(Q, n, q, qd, a2)
         cost[b] = cst
 
 
