@@ -273,7 +273,12 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
     rng = _check_rng(rng)
     t0 = time.perf_counter()
     problem = _fast_problem(C, H, alpha)
-    out = info.fn(problem, alpha, prior, rng)
+    try:
+        out = info.fn(problem, alpha, prior, rng)
+    except (ValueError, TypeError, ArithmeticError, np.linalg.LinAlgError, RuntimeError,
+            Exception) as exc:  # a solver failing on valid input is reported, not raised
+        out = SolverOutput(X=np.full((4, 4), np.nan), success=False,
+                           message=f"solver raised {type(exc).__name__}: {exc}")
     runtime = time.perf_counter() - t0
     X, success, message, diag = _finish_output(out, method)
     if np.isfinite(X).all():
