@@ -1150,6 +1150,15 @@ def _prior_adds(prior):
             np.ascontiguousarray(M_add))
 
 
+def dual_quat_fast(X):
+    """(q, q') of one 4x4 transform (compiled; same convention as
+    geometry.dual_quat_from_transform)."""
+    q = np.empty(4)
+    qd = np.empty(4)
+    _quat_dq(np.ascontiguousarray(X, dtype=np.float64), q, qd)
+    return q, qd
+
+
 def data_cost(problem: MotionProblem, q, qd, alpha: float) -> float:
     """Cost (8) at the dual quaternion (q, q') (compiled, motion by motion)."""
     return float(_cost_kernel(np.ascontiguousarray(problem.q_C), np.ascontiguousarray(problem.q_C_dual),
