@@ -1201,9 +1201,9 @@ def _make_batch(method: str):
         (X, cost, objective_quadratic, info, bad)."""
         nb = C.shape[0]
         S_add, W_add, M_add = _prior_adds(prior)
-        X = np.empty((nb, 4, 4))
-        cost = np.empty(nb)
-        info = np.empty((nb, N_INFO))
+        X = np.full((nb, 4, 4), np.nan)
+        cost = np.full(nb, np.inf)
+        info = np.zeros((nb, N_INFO))
         bad = np.empty(nb, dtype=np.int64)
         nflip = np.zeros(nb, dtype=np.int64)
         _batch_kernel(code, _T, C, H, alphas, _TOL, prior is not None, S_add, W_add, M_add, X,
