@@ -146,7 +146,7 @@ def _prior_penalty(q, qd, prior: Prior) -> float:
 
 
 # --------------------------------------------------------------------------- solution
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Solution:
     """Result of :func:`solve`.
 
@@ -221,7 +221,7 @@ class Solution:
                 f"{self.runtime_s * 1e6:.0f} us\n{self.message}")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class BatchSolution:
     """Result of :func:`solve_batch`: ``X`` (B, 4, 4), ``cost`` (B,), ``objective`` (B,),
     ``success`` (B,), ``alpha`` (B,), ``method``, ``runtime_s`` (whole batch),
