@@ -227,18 +227,21 @@ def dqoptpoly(problem: MotionProblem, alpha: float = 1.0, prior=None) -> SolverO
             hi = mid
         it += 1
     lam_star = 0.5 * (lo + hi)
-    # mu*: root of dP/dmu at lam*, nearest to the merging root pair of P(lo, .)
-    p_lo = _mu_poly(a_nu, lo)
-    roots = np.roots(p_lo[::-1])
-    real = roots[np.abs(roots.imag) <= 1e-6 * np.maximum(np.abs(roots), 1e-12)].real
-    cand_src = np.sort(real) if real.size >= 2 else np.sort(roots.real)
-    gaps = np.diff(cand_src)
-    k = int(np.argmin(gaps / np.maximum(np.abs(cand_src[:-1]) + np.abs(cand_src[1:]), 1e-300)))
-    nu_pair = 0.5 * (cand_src[k] + cand_src[k + 1])
+    # mu*: (lam*, mu*) is a double root, P = dP/dmu = 0. Among the roots of dP/dmu(lam*, .)
+    # (the extrema of the curves lambda_i(mu) at ...) take the one on the curve through
+    # lam*: smallest lam-distance |P / dP/dlam| (a Newton step in lam, evaluated at lam*
+    # where the extracted coefficients are accurate).
     dp = npoly.polyder(_mu_poly(a_nu, lam_star))
-    droots = np.roots(dp[::-1])
-    droots = droots[np.abs(droots.imag) <= 1e-6 * np.maximum(np.abs(droots), 1e-12)].real
-    nu_star = droots[np.argmin(np.abs(droots - nu_pair))] if droots.size else nu_pair
+    droots = np.roots(dp[::-1]).real
+    a_dlam = a_nu[1:] * np.arange(1, 5)[:, None]
+    pows = lam_star ** np.arange(5)
+    dist = []
+    for nu in droots:
+        nup = nu ** np.arange(9)
+        P = pows @ a_nu @ nup
+        dP = pows[:4] @ a_dlam @ nup
+        dist.append(abs(P / dP) if dP != 0 else np.inf)
+    nu_star = float(droots[int(np.argmin(dist))])
     # Newton polish of dP/dmu = 0 (simple root)
     ddp = npoly.polyder(dp)
     for _ in range(3):
