@@ -335,3 +335,18 @@ def test_opencv_missing_function_is_a_clear_error(monkeypatch):
     monkeypatch.undo()
     with pytest.raises(ValueError, match="available"):
         opencv_hand_eye(C, H, "opencv_nope")
+
+
+def test_pure_translation_is_reported_not_estimated():
+    rng = np.random.default_rng(12)
+    X = random_X(rng)
+    H = transform_from_rotation_translation(np.broadcast_to(np.eye(3), (15, 3, 3)),
+                                            rng.normal(size=(15, 3)))
+    C = X @ H @ invert_transform(X)
+    for m in ("daniilidis", "dqoptpoly"):
+        s = solve(C, H, m)
+        assert not s.success
+        assert "rotation of X is undetermined" in s.solver_message
+    # OpenCV's answers on this input are flagged as failures, not presented as estimates
+    for m in ("opencv_tsai", "opencv_park", "opencv_horaud", "opencv_daniilidis"):
+        assert not solve(C, H, m).success, m

@@ -102,12 +102,32 @@ def unit_dual_quat_from_span(v1: np.ndarray, v2: np.ndarray) -> tuple[np.ndarray
             t = theta + (0.5 * np.pi if m > 0 else 0.0)
             cands = [np.array([np.cos(t), np.sin(t)])]
     best = max(cands, key=lambda l: l @ Qu @ l)
-    l = best / np.sqrt(best @ Qu @ best)
+    qq = float(best @ Qu @ best)
+    if not np.isfinite(qq) or qq <= 1e-24 * max(float(np.trace(Qu)), 1e-300) or qq <= 0.0:
+        raise ValueError("no combination of the two vectors has a rotation part "
+                         "(the rotation is undetermined)")
+    l = best / np.sqrt(qq)
     x = l[0] * v1 + l[1] * v2
     q, qd = x[:4], x[4:]
     if q[3] < 0:
         q, qd = -q, -qd
     return q, qd
+
+
+def unit_dual_quat_from_null_space(V: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Like :func:`unit_dual_quat_from_span` for a null space of any dimension ``k >= 2``
+    (rows of ``V``, ``(k, 8)``, orthonormal): the two combinations with the largest rotation
+    part span the search (for k = 2 this is the plain span). Raises ValueError when no
+    combination has a rotation part (nothing determines q)."""
+    V = np.atleast_2d(V)
+    if V.shape[0] == 2:
+        v1, v2 = V[0], V[1]
+    else:
+        _, _, Wt = np.linalg.svd(V[:, :4].T)     # combinations by size of the q-part
+        v1, v2 = Wt[0] @ V, Wt[1] @ V
+    if max(np.linalg.norm(v1[:4]), np.linalg.norm(v2[:4])) < 1e-8:
+        raise ValueError("the null space has no rotation part: the rotation is undetermined")
+    return unit_dual_quat_from_span(v1, v2)
 
 
 def describe_motion_degeneracy(problem: MotionProblem, tol_rad: float = 1e-6) -> str:
@@ -135,10 +155,15 @@ def daniilidis(problem: MotionProblem, alpha: float = 1.0) -> SolverOutput:
     # so this is as accurate as the SVD of T and ~4x faster)
     R = np.linalg.qr(T, mode="r") if T.shape[0] >= 8 else T
     _, sv, Vt = np.linalg.svd(R)
-    q, qd_scaled = unit_dual_quat_from_span(Vt[-2], Vt[-1])
-    X = transform_from_dual_quat(q, qd_scaled / alpha)
     n_null = int(np.sum(sv <= NULL_TOL * sv[0])) if sv[0] > 0 else 8
     diag = {"singular_values": sv, "n_null": n_null}
+    try:
+        q, qd_scaled = unit_dual_quat_from_null_space(Vt[-max(n_null, 2):])
+    except ValueError:
+        return SolverOutput(np.full((4, 4), np.nan), diag, success=False, message=(
+            f"degenerate motions for Daniilidis: {describe_motion_degeneracy(problem)}; "
+            "no estimate"))
+    X = transform_from_dual_quat(q, qd_scaled / alpha)
     if n_null > 2:
         return SolverOutput(X, diag, success=False, message=(
             f"degenerate motions for Daniilidis: the {T.shape[0]}x8 matrix has {n_null} "

@@ -152,7 +152,10 @@ class DQPolyResult:
 def _feasible_from_gram(G: np.ndarray):
     """Unit dual quaternion in the span of the two smallest eigenvectors of G, its value."""
     e, V = np.linalg.eigh(G)
-    q, qd = unit_dual_quat_from_span(V[:, 0], V[:, 1])
+    try:
+        q, qd = unit_dual_quat_from_span(V[:, 0], V[:, 1])
+    except ValueError:
+        return None, np.inf, e
     z = np.concatenate([q, qd - (q @ qd) * q])
     return z, float(z @ G @ z), e
 
@@ -182,6 +185,10 @@ def _upper_bound(S, W, M, G):
         z = _dual_given_q(S, W, M, q / np.linalg.norm(q))
         if np.isfinite(z).all():
             cands.append((float(z @ G @ z), z, name))
+    cands = [c for c in cands if np.isfinite(c[0])]
+    if not cands:
+        raise ValueError("dqoptpoly: no feasible starting point (the cost matrices do not "
+                         "involve the rotation)")
     v, z, name = min(cands, key=lambda c: c[0])
     return z, v, eG, name
 
@@ -203,6 +210,15 @@ def dqoptpoly(problem: MotionProblem, alpha: float = 1.0, prior=None) -> SolverO
     # noise-free / exact case: the feasible point from the null space has zero cost
     if hi - lo <= 1e-13 * scale:
         n_null = int(np.sum(eG <= 1e-10 * scale))
+        if n_null > 2:
+            from simcalib.solvers.classic import unit_dual_quat_from_null_space
+            try:
+                q, qd = unit_dual_quat_from_null_space(np.linalg.eigh(G)[1][:, :n_null].T)
+                z_feas = np.concatenate([q, qd - (q @ qd) * q])
+            except ValueError:
+                from simcalib.solvers.classic import describe_motion_degeneracy
+                return SolverOutput(np.full((4, 4), np.nan), info, success=False, message=(
+                    f"degenerate: {describe_motion_degeneracy(problem)}; no estimate"))
         X = transform_from_dual_quat(z_feas[:4], z_feas[4:])
         info.update(lam_star=hi, mu_star=0.0, iterations=0, route="null space (exact data)")
         msg = "exact data: optimum from the null space of [[S, W], [W^T, M]] (cost 0)"
