@@ -1195,7 +1195,7 @@ def _make_solver(method: str):
         if method == "dqopt":
             diag.update(bracket=(float(info[I_LO]), float(info[I_HI])), f=float(info[I_F]),
                         df=float(info[I_DF]))
-        success = status != ST_MAXITER or method != "dqopt"
+        success = status != ST_MAXITER
         return SolverOutput(X=X, diagnostics=diag, success=success,
                             message=_STATUS_TEXT.get(status, ""))
     fn.__name__ = f"_{method}"
@@ -1221,8 +1221,7 @@ def _make_batch(method: str):
                "iterations": info[:, I_ITERS].astype(np.int64),
                "n_clipped": info[:, I_NCLIP].astype(np.int64),
                "lambda0": info[:, I_LAM0], "sign_flips": nflip}
-        out["success"] = (info[:, I_STATUS] != ST_MAXITER) if method == "dqopt" else \
-            np.ones(nb, dtype=bool)
+        out["success"] = info[:, I_STATUS] != ST_MAXITER
         return out
     batch.__name__ = f"_{method}_batch"
     return batch
