@@ -14,8 +14,7 @@ from functools import cached_property
 
 import numpy as np
 
-from simcalib.geometry import check_transforms, dual_quat_from_transform, \
-    transform_from_dual_quat
+from simcalib.geometry import check_transforms, dual_quat_from_transform
 from simcalib.solvers import registry
 from simcalib.solvers.problem import MotionProblem, SolverOutput, build_problem
 

@@ -8,6 +8,10 @@ The cost (paper eq. 8) for unit dual quaternion ``q + eps q'`` of ``X``::
 is the quadratic form ``q^T S q + q'^T M q' + 2 q^T W q'`` (eq. 9) with
 ``S = A^T A + alpha^2 B^T B``, ``M = alpha^2 A^T A``, ``W = alpha^2 B^T A``.
 :func:`problem_matrices` returns them (with the prior substitution of eqs. 26-29).
+
+The methods run as numba kernels (``_solve_core`` for one problem, ``_batch_kernel`` for a
+batch, parallel over problems); see docs/solvers.md for the algorithms, the handling of
+noise-free data (eigenvalues of M clipped at ``CLIP_REL``) and the sign re-alignment.
 """
 
 from __future__ import annotations
@@ -19,7 +23,9 @@ from simcalib.geometry import dual_quat_from_transform, quat_conjugate, quat_lef
 from simcalib.solvers.problem import MotionProblem, SolverOutput
 from simcalib.solvers.registry import register
 
-__all__ = ["problem_matrices", "gram_blocks", "prior_terms"]
+__all__ = ["problem_matrices", "gram_blocks", "prior_terms", "solve_matrices", "eval_at_mu",
+           "fast_build_problem", "align_problem", "data_cost", "batch_data_cost",
+           "dual_quat_fast", "METHOD_CODES", "CLIP_REL"]
 
 _G = np.diag([1.0, 1.0, 1.0, 0.0])
 
@@ -80,7 +86,6 @@ def problem_matrices(problem: MotionProblem, alpha: float, prior=None):
 # Compiled kernels (numba). All per-problem work is scalar code on 4x4 matrices; batches
 # run in parallel over problems.
 # =====================================================================================
-import numba  # noqa: E402
 from numba import njit, prange  # noqa: E402
 
 _EPS = 2.220446049250313e-16
@@ -302,29 +307,6 @@ def _quats_kernel(C, H, tol, qC, qCd, qH, qHd):
             qH[i, k] = sg * rh[k]
             qHd[i, k] = sg * rh[4 + k]
     return -1
-
-
-@njit(cache=True)
-def _lr_minus(p, h, out):
-    """out = L(p) - R(h) (4x4)."""
-    x, y, z, w = p[0], p[1], p[2], p[3]
-    a, b, c, d = h[0], h[1], h[2], h[3]
-    out[0, 0] = w - d
-    out[0, 1] = -z - c
-    out[0, 2] = y + b
-    out[0, 3] = x - a
-    out[1, 0] = z + c
-    out[1, 1] = w - d
-    out[1, 2] = -x - a
-    out[1, 3] = y - b
-    out[2, 0] = -y - b
-    out[2, 1] = x + a
-    out[2, 2] = w - d
-    out[2, 3] = z - c
-    out[3, 0] = -x + a
-    out[3, 1] = -y + b
-    out[3, 2] = -z + c
-    out[3, 3] = w - d
 
 
 def _lr_tensors():
