@@ -272,7 +272,7 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
     if rng is not None or info.stochastic:
         rng = _check_rng(rng)   # stochastic methods get default_rng(0) when none is given
     t0 = time.perf_counter()
-    problem = _fast_problem(C, H, alpha)
+    problem, flips = _fast_problem(C, H, alpha, return_flips=True)
     try:
         out = info.fn(problem, alpha, prior, rng)
     except (ValueError, TypeError, ArithmeticError, np.linalg.LinAlgError, RuntimeError,
@@ -281,6 +281,7 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
                            message=f"solver raised {type(exc).__name__}: {exc}")
     runtime = time.perf_counter() - t0
     X, success, message, diag = _finish_output(out, method)
+    diag["sign_flips"] = flips
     if np.isfinite(X).all():
         from simcalib.solvers.dq import data_cost, dual_quat_fast
         q, qd = dual_quat_fast(X)
@@ -294,11 +295,11 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
                     diagnostics=diag, problem=problem)
 
 
-def _fast_problem(C, H, alpha: float = 1.0) -> MotionProblem:
+def _fast_problem(C, H, alpha: float = 1.0, return_flips: bool = False):
     """build_problem (compiled path) + sign re-alignment of near-180-degree motion pairs
     (see simcalib.solvers.dq.fast_build_problem)."""
     from simcalib.solvers.dq import fast_build_problem
-    return fast_build_problem(C, H, alpha)
+    return fast_build_problem(C, H, alpha, return_flips)
 
 
 def solve_batch(C, H, method: str = "dqopt", alpha=1.0, prior: Prior | None = None,

@@ -1061,7 +1061,7 @@ def _solve_from_quats(method, T, qC, qCd, qH, qHd, alpha, S_add, W_add, M_add, q
 _TOL = 1e-6  # geometry.ORTHONORMAL_TOL
 
 
-def fast_build_problem(C, H, alpha: float = 1.0) -> MotionProblem:
+def fast_build_problem(C, H, alpha: float = 1.0, return_flips: bool = False):
     """:func:`simcalib.solvers.problem.build_problem` through a compiled path (invalid input
     is handed to build_problem, which raises its error), followed by the sign re-alignment
     of near-180-degree motion pairs with the optimal rotation at ``alpha`` (see
@@ -1071,19 +1071,26 @@ def fast_build_problem(C, H, alpha: float = 1.0) -> MotionProblem:
         Ca = np.ascontiguousarray(C, dtype=np.float64)
         Ha = np.ascontiguousarray(H, dtype=np.float64)
     except (TypeError, ValueError):
-        return build_problem(C, H)
+        build_problem(C, H)   # raises the conversion error
+        raise
     if (Ca.ndim != 3 or Ha.ndim != 3 or Ca.shape[1:] != (4, 4) or Ha.shape[1:] != (4, 4)
             or Ca.shape[0] != Ha.shape[0] or Ca.shape[0] < 2):
-        return build_problem(C, H)
+        build_problem(C, H)   # raises the shape error
+        raise ValueError(f"C and H must have shape (N, 4, 4) with N >= 2; received "
+                         f"{Ca.shape} and {Ha.shape}")
     n = Ca.shape[0]
     qC = np.empty((n, 4))
     qCd = np.empty((n, 4))
     qH = np.empty((n, 4))
     qHd = np.empty((n, 4))
     if _quats_kernel(Ca, Ha, _TOL, qC, qCd, qH, qHd) >= 0:
-        return align_problem(build_problem(C, H), alpha)
-    _align_arrays(_T, qC, qCd, qH, qHd, float(alpha))
-    return MotionProblem(Ca, Ha, qC, qCd, qH, qHd)
+        problem = build_problem(C, H)   # raises the validation error (if any)
+        aligned = align_problem(problem, alpha)
+        nf = int(np.sum(np.any(aligned.q_H != problem.q_H, axis=1)))
+        return (aligned, nf) if return_flips else aligned
+    nf = _align_arrays(_T, qC, qCd, qH, qHd, float(alpha))
+    problem = MotionProblem(Ca, Ha, qC, qCd, qH, qHd)
+    return (problem, int(nf)) if return_flips else problem
 
 
 def align_problem(problem: MotionProblem, alpha: float = 1.0) -> MotionProblem:
