@@ -133,6 +133,7 @@ def test_solution_fields(case):
 
 # ---------------------------------------------------------------------------- batch
 def _batch_case(B=6, n=20, seed=4):
+    """General (noise-free and noisy), near-180-degree (sign re-alignment) and planar."""
     rng = np.random.default_rng(seed)
     Cs, Hs = [], []
     for b in range(B):
@@ -140,6 +141,13 @@ def _batch_case(B=6, n=20, seed=4):
             C, H, X, _ = planar_case(rng, n=n, sigma_r=0.01, sigma_t=0.01)
         else:
             C, H, X = general_case(rng, n=n, sigma_r=0.01 * (b % 3), sigma_t=0.01 * (b % 3))
+            if b == 1:   # motions rotating by pi - 1e-4 with noise: pairs to re-align
+                for k in range(8):
+                    ax = rng.normal(size=3)
+                    C[k] = g.transform_from_rotation_translation(
+                        g.matrix_from_rotvec((np.pi - 1e-4) * ax / np.linalg.norm(ax)),
+                        rng.normal(size=3))
+                    H[k] = g.perturb_transforms(g.invert_transform(X) @ C[k] @ X, 0.01, 0.01, rng)
         Cs.append(C)
         Hs.append(H)
     return np.stack(Cs), np.stack(Hs)
@@ -151,6 +159,7 @@ def test_batch_equals_single(method):
     alphas = np.array([0.5, 1.0, 2.0, 1.0, 3.0, 1.0])
     bs = simcalib.solve_batch(C, H, method=method, alpha=alphas)
     assert bs.X.shape == (6, 4, 4) and bs.cost.shape == (6,) and bs.success.all()
+    assert bs.diagnostics["sign_flips"][1] > 0 and bs.diagnostics["sign_flips"][0] == 0
     assert len(bs) == 6 and np.array_equal(bs.alpha, alphas)
     for b in range(6):
         s = simcalib.solve(C[b], H[b], method=method, alpha=alphas[b])
@@ -172,6 +181,7 @@ def test_batch_loop_fallback():
     C, H = _batch_case(B=3, n=12)
     method = loop[0]
     bs = simcalib.solve_batch(C, H, method=method, alpha=[1.0, 2.0, 0.5])
+    assert bs.diagnostics["sign_flips"][1] > 0
     for b, a in enumerate([1.0, 2.0, 0.5]):
         s = simcalib.solve(C[b], H[b], method=method, alpha=a)
         assert np.abs(s.X - bs.X[b]).max() < 1e-10

@@ -16,7 +16,7 @@ import numpy as np
 
 from simcalib.geometry import check_transforms, dual_quat_from_transform
 from simcalib.solvers import registry
-from simcalib.solvers.problem import MotionProblem, SolverOutput, build_problem
+from simcalib.solvers.problem import MotionProblem, SolverOutput
 
 __all__ = ["Prior", "Solution", "BatchSolution", "solve", "solve_batch", "dq_cost",
            "check_alpha"]
@@ -349,13 +349,21 @@ def solve_batch(C, H, method: str = "dqopt", alpha=1.0, prior: Prior | None = No
             if isinstance(out, np.ndarray):
                 out = {"X": out}
         else:
-            X = np.empty((B, 4, 4))
-            ok = np.ones(B, dtype=bool)
+            from simcalib.solvers.dq import data_cost, dual_quat_fast
+            X = np.full((B, 4, 4), np.nan)
+            ok = np.zeros(B, dtype=bool)
+            cost = np.full(B, np.inf)
+            flips = np.zeros(B, dtype=np.int64)
             for b in range(B):
-                problem = build_problem(C[b], H[b])
-                X[b], ok[b], _, _ = _finish_output(info.fn(problem, float(alphas[b]), prior,
-                                                           rng), method)
-            out = {"X": X, "success": ok}
+                problem, flips[b] = _fast_problem(C[b], H[b], float(alphas[b]), True)
+                try:
+                    res = info.fn(problem, float(alphas[b]), prior, rng)
+                except Exception:  # noqa: BLE001 - reported as a failed problem
+                    continue
+                X[b], ok[b], _, _ = _finish_output(res, method)
+                if np.isfinite(X[b]).all():
+                    cost[b] = data_cost(problem, *dual_quat_fast(X[b]), float(alphas[b]))
+            out = {"X": X, "success": ok, "cost": cost, "sign_flips": flips}
     runtime = time.perf_counter() - t0
     X = np.asarray(out["X"], dtype=np.float64)
     success = np.asarray(out.get("success", np.isfinite(X).all(axis=(-2, -1))), dtype=bool)

@@ -1233,7 +1233,7 @@ for _name in METHOD_CODES:
 
 
 @njit(cache=True, parallel=True)
-def _batch_cost_kernel(C, H, X, alphas, cost):
+def _batch_cost_kernel(T, C, H, X, alphas, cost):
     nb = C.shape[0]
     n = C.shape[1]
     for b in prange(nb):
@@ -1242,6 +1242,7 @@ def _batch_cost_kernel(C, H, X, alphas, cost):
         qH = np.empty((n, 4))
         qHd = np.empty((n, 4))
         _quats_kernel(C[b], H[b], 1e300, qC, qCd, qH, qHd)
+        _align_arrays(T, qC, qCd, qH, qHd, alphas[b])
         q = np.empty(4)
         qd = np.empty(4)
         _quat_dq(X[b], q, qd)
@@ -1249,12 +1250,13 @@ def _batch_cost_kernel(C, H, X, alphas, cost):
 
 
 def batch_data_cost(C, H, X, alphas) -> np.ndarray:
-    """Cost (8) of each ``X[b]`` on problem ``b`` (compiled, parallel); non-finite X -> inf."""
+    """Cost (8) of each ``X[b]`` on problem ``b`` (compiled, parallel; motions aligned as in
+    :func:`fast_build_problem`); non-finite X -> inf."""
     X = np.ascontiguousarray(X, dtype=np.float64)
     finite = np.isfinite(X).all(axis=(-2, -1))
     Xs = np.where(finite[:, None, None], X, np.eye(4))
     cost = np.empty(X.shape[0])
-    _batch_cost_kernel(np.ascontiguousarray(C, dtype=np.float64),
+    _batch_cost_kernel(_T, np.ascontiguousarray(C, dtype=np.float64),
                        np.ascontiguousarray(H, dtype=np.float64), Xs,
                        np.ascontiguousarray(alphas, dtype=np.float64), cost)
     return np.where(finite, cost, np.inf)
