@@ -108,6 +108,16 @@ def test_certificate_readable_and_discriminating():
     assert simcalib.solve(C, H, method="daniilidis").certificate is None if "daniilidis" in ALL else True
 
 
+def test_certified_across_alpha_range():
+    rng = np.random.default_rng(20)
+    C, H, X = general_case(rng, n=40, sigma_r=0.01, sigma_t=0.01)
+    for alpha in (1e-3, 1e-2, 1.0, 50.0, 1e3):
+        sol = simcalib.solve(C, H, alpha=alpha)
+        assert sol.certified, (alpha, sol.certificate)
+        nl = simcalib.solve(C, H, method="dq2ndord", alpha=alpha)
+        assert nl.cost >= sol.cost * (1 - 1e-12)
+
+
 def test_noise_free_certificate_is_exact_fit():
     rng = np.random.default_rng(15)
     C, H, X = general_case(rng, n=20)

@@ -419,12 +419,13 @@ def _grams_kernel(T, qC, qCd, qH, qHd, AtA, BtB, BtA):
 
 @njit(cache=True)
 def _m_eig(S, M, xi, V):
-    """Eigen-decomposition of M with eigenvalues clipped to >= CLIP_REL * scale.
+    """Eigen-decomposition of M with eigenvalues clipped to >= CLIP_REL * scale (scale = the
+    largest eigenvalue of M, or trace(S)/4 when M is ~0).
     Returns how many were clipped (noise-free or degenerate data: M is singular)."""
     _eigh(M, xi, V)
     scale = xi[3]
     tr = (S[0, 0] + S[1, 1] + S[2, 2] + S[3, 3]) * 0.25
-    if tr > scale:
+    if scale < 1e-14 * tr:   # M ~ 0 (pure translation): relative to S instead
         scale = tr
     floor = CLIP_REL * scale
     if floor < 1e-280:
