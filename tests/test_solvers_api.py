@@ -129,6 +129,10 @@ def test_solution_fields(case):
     assert sol.method == "dqopt" and sol.alpha == 2.0 and sol.n_motions == 10
     assert sol.success and sol.runtime_s > 0 and sol.cost == sol.objective
     assert "dqopt: ok" in sol.message and "Solution(dqopt" in str(sol)
+    import json
+    d = json.loads(json.dumps(sol.to_dict()))
+    assert d["certificate"]["certified"] and d["degenerate"] is False
+    assert np.allclose(d["X"], sol.X) and len(d["singular_values"]) == 6
 
 
 # ---------------------------------------------------------------------------- batch

@@ -211,6 +211,33 @@ class Solution:
         parts.append(self.observability.summary())
         return "; ".join(parts)
 
+    def to_dict(self) -> dict:
+        """JSON-ready summary (plain floats/lists/strings) for results files."""
+        obs = self.observability
+        cert = self.certificate
+        return {
+            "method": self.method, "alpha": self.alpha, "success": self.success,
+            "X": np.asarray(self.X).tolist(), "cost": _num(self.cost),
+            "objective": _num(self.objective), "runtime_s": self.runtime_s,
+            "n_motions": self.n_motions, "message": self.message,
+            "prior": None if self.prior is None else {
+                "X": self.prior.X.tolist(), "a": self.prior.a, "b": self.prior.b},
+            "degenerate": obs.degenerate,
+            "undetermined": [{"kind": d.kind, "reason": d.reason, "dims": d.dims,
+                              "description": d.description,
+                              "rotation_axis_a": d.rotation_axis_a.tolist(),
+                              "translation_dir_a": d.translation_dir_a.tolist(),
+                              "std": _num(d.std), "determined_by_prior": d.determined_by_prior}
+                             for d in obs.undetermined],
+            "singular_values": obs.singular_values.tolist(),
+            "residual_rms": _num(obs.residual_rms),
+            "certificate": None if cert is None else {
+                "certified": cert.certified, "route": cert.route, "mu": cert.mu,
+                "relative_gap": _num(cert.relative_gap), "kkt_residual": _num(cert.kkt_residual),
+                "summary": cert.summary()},
+            "sign_flips": int(self.diagnostics.get("sign_flips", 0)),
+        }
+
     def __str__(self) -> str:
         from simcalib.geometry import rotvec_from_matrix
         rv = np.degrees(rotvec_from_matrix(self.X[:3, :3]))
@@ -237,6 +264,12 @@ class BatchSolution:
 
     def __len__(self):
         return self.X.shape[0]
+
+
+def _num(x):
+    """float, with non-finite values as None (JSON has no inf/nan)."""
+    x = float(x)
+    return x if math.isfinite(x) else None
 
 
 # ------------------------------------------------------------------------------ solve
