@@ -146,7 +146,7 @@ def _prior_penalty(q, qd, prior: Prior) -> float:
 
 
 # --------------------------------------------------------------------------- solution
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Solution:
     """Result of :func:`solve`.
 
@@ -221,7 +221,7 @@ class Solution:
                 f"{self.runtime_s * 1e6:.0f} us\n{self.message}")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class BatchSolution:
     """Result of :func:`solve_batch`: ``X`` (B, 4, 4), ``cost`` (B,), ``objective`` (B,),
     ``success`` (B,), ``alpha`` (B,), ``method``, ``runtime_s`` (whole batch),
@@ -270,7 +270,8 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
         with_prior = [i.name for i in registry.infos() if i.supports_prior]
         raise ValueError(f"method {method!r} does not support a prior; methods with a "
                          f"prior: {', '.join(with_prior)}")
-    rng = _check_rng(rng)
+    if rng is not None or info.stochastic:
+        rng = _check_rng(rng)   # stochastic methods get default_rng(0) when none is given
     t0 = time.perf_counter()
     problem = _fast_problem(C, H, alpha)
     try:
@@ -282,8 +283,8 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
     runtime = time.perf_counter() - t0
     X, success, message, diag = _finish_output(out, method)
     if np.isfinite(X).all():
-        from simcalib.solvers.dq import data_cost
-        q, qd = dual_quat_from_transform(X)
+        from simcalib.solvers.dq import data_cost, dual_quat_fast
+        q, qd = dual_quat_fast(X)
         cost = data_cost(problem, q, qd, alpha)
         objective = cost + (_prior_penalty(q, qd, prior) if prior is not None else 0.0)
     else:
