@@ -283,6 +283,10 @@ def _finish_output(out, method: str):
     if X.shape != (4, 4) or not np.isfinite(X).all():
         return (np.full((4, 4), np.nan), False,
                 f"solver {method!r} returned no valid transform ({message or 'non-finite'})", diag)
+    try:
+        check_transforms(X, "X")
+    except ValueError as exc:
+        return X, False, f"solver {method!r} returned a non-rigid X ({exc})", diag
     return X, success, message, diag
 
 
@@ -308,8 +312,7 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
     problem, flips = _fast_problem(C, H, alpha, return_flips=True)
     try:
         out = info.fn(problem, alpha, prior, rng)
-    except (ValueError, TypeError, ArithmeticError, np.linalg.LinAlgError, RuntimeError,
-            Exception) as exc:  # a solver failing on valid input is reported, not raised
+    except Exception as exc:  # noqa: BLE001 - a solver failing on valid input is reported
         out = SolverOutput(X=np.full((4, 4), np.nan), success=False,
                            message=f"solver raised {type(exc).__name__}: {exc}")
     runtime = time.perf_counter() - t0
