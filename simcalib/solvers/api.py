@@ -283,10 +283,14 @@ def _finish_output(out, method: str):
     if X.shape != (4, 4) or not np.isfinite(X).all():
         return (np.full((4, 4), np.nan), False,
                 f"solver {method!r} returned no valid transform ({message or 'non-finite'})", diag)
-    try:
-        check_transforms(X, "X")
-    except ValueError as exc:
-        return X, False, f"solver {method!r} returned a non-rigid X ({exc})", diag
+    from simcalib.solvers.dq import is_rigid
+    if not is_rigid(X):
+        try:
+            check_transforms(X, "X")
+            why = "not rigid"
+        except ValueError as exc:
+            why = str(exc)
+        return X, False, f"solver {method!r} returned a non-rigid X ({why})", diag
     return X, success, message, diag
 
 

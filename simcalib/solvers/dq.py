@@ -1149,6 +1149,16 @@ def _prior_adds(prior):
             np.ascontiguousarray(M_add))
 
 
+@njit(cache=True)
+def _rigid_one(T, tol):
+    return _rigid_ok_at(T.reshape((1, 4, 4)), 0, tol)
+
+
+def is_rigid(X, tol: float = _TOL) -> bool:
+    """One 4x4 float64 array is a rigid transform (same test as geometry.check_transforms)."""
+    return bool(_rigid_one(np.ascontiguousarray(X, dtype=np.float64), tol))
+
+
 def dual_quat_fast(X):
     """(q, q') of one 4x4 transform (compiled; same convention as
     geometry.dual_quat_from_transform)."""
