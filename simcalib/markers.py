@@ -253,9 +253,11 @@ def refine_corners_edges(gray: np.ndarray, corners_px: np.ndarray, *, half_width
         h = np.minimum(half_width_px, 0.45 * length / 6.0)  # <= 0.45 cell (4x4 + border)
         base = P0[..., None, :] + (P1 - P0)[..., None, :] * t[:, None]        # N,4,S,2
         pts = base[..., None, :] + nrm[..., None, None, :] * (s[:, None] * h[..., None, None, None])
-        flat = pts.reshape(-1, 2).astype(np.float32)
-        vals = cv2.remap(g, flat[:, :1], flat[:, 1:], cv2.INTER_LINEAR,
-                         borderMode=cv2.BORDER_REPLICATE).reshape(pts.shape[:-1])
+        # maps shaped (edges, samples): OpenCV limits each map side to < 32767
+        flat = pts.reshape(-1, t.size * s.size, 2).astype(np.float32)
+        vals = cv2.remap(g, np.ascontiguousarray(flat[..., 0]), np.ascontiguousarray(flat[..., 1]),
+                         cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE
+                         ).reshape(pts.shape[:-1])
         lo = vals[..., :3].mean(-1)
         hi = vals[..., -3:].mean(-1)
         mid = 0.5 * (lo + hi)

@@ -342,7 +342,8 @@ def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Genera
         jobs = []
         for cam in cams:
             fr = frames[cam]
-            for k in range(fr.n_frames):
+            for k in np.flatnonzero(_delivered(fr)):
+                k = int(k)
                 jobs.append(FrameJob(cam, k, _row(fr.qpos, k), _row(fr.mocap_pos, k),
                                      _row(fr.mocap_quat_wxyz, k)))
         results, rtimes = render_map(world.model, settings, jobs, proc, workers=workers)
@@ -354,8 +355,11 @@ def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Genera
     streams, log_frames, log_images = {}, {}, {}
     for cam in cameras:
         fr = frames[cam]
-        res = outs.get(cam, [])
-        stamps = np.asarray(getattr(fr, "timestamp_s", fr.time_s), dtype=np.float64)
+        delivered = _delivered(fr)
+        res: list = [_NOT_DELIVERED] * fr.n_frames
+        for job_k, r in zip(np.flatnonzero(delivered), outs.get(cam, [])):
+            res[int(job_k)] = r
+        stamps = _stamps(fr)
         ok = np.array([r.status == "ok" for r in res], dtype=bool)
         idx = np.flatnonzero(ok)
         reasons: dict[str, int] = {}
@@ -389,6 +393,28 @@ def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Genera
     }
     log = VisualLog(cfg, intr, log_frames, log_images, timing)
     return streams, log
+
+
+_NOT_DELIVERED = _FrameOut("frame_dropped", None, np.zeros(0, dtype=np.int64), np.zeros((0, 4, 2)),
+                           np.zeros(0, dtype=np.int64), float("inf"), float("inf"), None, 0.0, 0.0)
+
+
+def _delivered(frames) -> np.ndarray:
+    """Frames the camera delivered (world's ``delivered`` record; all when absent)."""
+    mask = getattr(frames, "delivered", None)
+    if mask is None:
+        return np.ones(frames.n_frames, dtype=bool)
+    mask = np.asarray(mask, dtype=bool)
+    if mask.shape != (frames.n_frames,):
+        raise ValueError(f"frames.delivered must have shape ({frames.n_frames},); received "
+                         f"{mask.shape}")
+    return mask
+
+
+def _stamps(frames) -> np.ndarray:
+    """The camera's reported timestamps (``stamp_s`` when the world provides them)."""
+    s = getattr(frames, "stamp_s", None)
+    return np.asarray(frames.time_s if s is None else s, dtype=np.float64)
 
 
 def _row(arr, k):
