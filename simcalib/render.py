@@ -37,6 +37,7 @@ __all__ = [
     "CameraRenderer",
     "available_backend",
     "backend_error_message",
+    "loaded_backend",
     "model_to_bytes",
     "model_from_bytes",
     "render_map",
@@ -75,6 +76,17 @@ def _import_mujoco():
     _ensure_env_default()
     import mujoco  # noqa: PLC0415  (heavy import kept local)
     return mujoco
+
+
+def loaded_backend() -> str:
+    """The OpenGL backend the imported mujoco actually uses (``egl``, ``osmesa``, ``glfw``,
+    or ``none``); mujoco picks it once, at import, from ``MUJOCO_GL``."""
+    mujoco = _import_mujoco()
+    cls = getattr(mujoco, "GLContext", None)
+    if cls is None:
+        return "none"
+    name = getattr(cls, "__module__", "").rsplit(".", 1)[-1]
+    return name or "unknown"
 
 
 _PROBE_CODE = (
@@ -141,6 +153,12 @@ def available_backend(probe_inprocess: Callable[[], str | None] | None = None,
     current = os.environ.get("MUJOCO_GL", "egl")
     failures: dict[str, str] = {}
     why = probe_inprocess()
+    if why is not None and "mujoco" in sys.modules and probe_inprocess is _probe_inprocess:
+        actual = loaded_backend()
+        if actual != current:
+            current = actual
+            why += (f" (mujoco was imported with the {actual} backend before MUJOCO_GL was "
+                    "set; set MUJOCO_GL=egl before importing mujoco)")
     if why is None:
         result = (current, True)
     else:
@@ -236,7 +254,7 @@ class CameraRenderer:
             self._renderer = mujoco.Renderer(m, settings.height, settings.width)
         except Exception as exc:  # noqa: BLE001  (GL failures surface as many types)
             raise RenderBackendError(backend_error_message(
-                {os.environ.get("MUJOCO_GL", "egl"): f"{type(exc).__name__}: {exc}"})) from exc
+                {loaded_backend(): f"{type(exc).__name__}: {exc}"})) from exc
         self._renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = bool(settings.shadows)
         self._cam_ids: dict[str, int] = {}
 
