@@ -118,10 +118,20 @@ def _probe_subprocess(backend: str, timeout_s: float = 120.0) -> str | None:
     return lines[-1].strip() if lines else f"exit code {proc.returncode}"
 
 
+_INPROCESS_FAILURE: dict[str, str] = {}
+
+
 def _probe_inprocess() -> str | None:
-    """Try the backend this process's mujoco was (or will be) imported with."""
+    """Try the backend this process's mujoco was (or will be) imported with. A renderer
+    that already failed in this process marks it unusable (a second MuJoCo context after a
+    failed one can abort the interpreter)."""
+    if "reason" in _INPROCESS_FAILURE:
+        return _INPROCESS_FAILURE["reason"]
     try:
         mujoco = _import_mujoco()
+        if loaded_backend() == "glfw" and not (os.environ.get("DISPLAY")
+                                               or os.environ.get("WAYLAND_DISPLAY")):
+            return "glfw needs a display (DISPLAY is not set)"
         ctx = mujoco.GLContext(16, 16)
         ctx.make_current()
         ctx.free()
@@ -253,8 +263,10 @@ class CameraRenderer:
         try:
             self._renderer = mujoco.Renderer(m, settings.height, settings.width)
         except Exception as exc:  # noqa: BLE001  (GL failures surface as many types)
-            raise RenderBackendError(backend_error_message(
-                {loaded_backend(): f"{type(exc).__name__}: {exc}"})) from exc
+            reason = f"{type(exc).__name__}: {exc}"
+            _INPROCESS_FAILURE.setdefault("reason", reason)
+            _BACKEND_CACHE.pop("result", None)
+            raise RenderBackendError(backend_error_message({loaded_backend(): reason})) from exc
         self._renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = bool(settings.shadows)
         self._cam_ids: dict[str, int] = {}
 
@@ -374,7 +386,7 @@ def _run_jobs(renderer: CameraRenderer, fn: Callable, jobs: Sequence[FrameJob]) 
         t0 = time.perf_counter()
         img = renderer.render(job.camera, job.qpos, job.mocap_pos, job.mocap_quat_wxyz)
         t1 = time.perf_counter()
-        out.append((fn(img, job), t1 - t0))
+        out.append((img if fn is None else fn(img, job), t1 - t0))
     return out
 
 
@@ -394,13 +406,14 @@ def default_workers() -> int:
 
 
 def render_map(model, settings: RenderSettings, jobs: Sequence[FrameJob],
-               fn: Callable[[np.ndarray, FrameJob], Any], workers: int | None = None,
+               fn: Callable[[np.ndarray, FrameJob], Any] | None = None,
+               workers: int | None = None,
                chunk_size: int = 8) -> tuple[list, list[float]]:
     """Render every job's frame and return ``([fn(image, job) ...], [render seconds ...])``
     in job order.
 
     ``fn`` must be picklable (a module-level function or an instance of a module-level
-    class) and deterministic given ``(image, job)``. ``workers``: ``None`` = all usable
+    class) and deterministic given ``(image, job)``; ``None`` returns the images. ``workers``: ``None`` = all usable
     cores; ``1`` renders in this process (or in one worker process when only a fallback
     backend works); ``>1`` uses that many spawned worker processes. The results do not
     depend on ``workers`` or ``chunk_size``.
