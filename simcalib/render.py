@@ -407,16 +407,18 @@ def default_workers() -> int:
 
 def render_map(model, settings: RenderSettings, jobs: Sequence[FrameJob],
                fn: Callable[[np.ndarray, FrameJob], Any] | None = None,
-               workers: int | None = None,
-               chunk_size: int = 8) -> tuple[list, list[float]]:
+               workers: int | None = None, chunk_size: int = 8,
+               use_this_process: bool = True) -> tuple[list, list[float]]:
     """Render every job's frame and return ``([fn(image, job) ...], [render seconds ...])``
     in job order.
 
     ``fn`` must be picklable (a module-level function or an instance of a module-level
-    class) and deterministic given ``(image, job)``; ``None`` returns the images. ``workers``: ``None`` = all usable
-    cores; ``1`` renders in this process (or in one worker process when only a fallback
-    backend works); ``>1`` uses that many spawned worker processes. The results do not
-    depend on ``workers`` or ``chunk_size``.
+    class) and deterministic given ``(image, job)``; ``None`` returns the images.
+    ``workers``: ``None`` = all usable cores; ``1`` renders in this process (or in one
+    worker process when only a fallback backend works); ``n > 1`` renders in this process
+    plus ``n - 1`` spawned worker processes (``n`` spawned ones when this process cannot
+    render, or with ``use_this_process=False``). The results do not depend on ``workers``,
+    ``chunk_size`` or ``use_this_process``.
     """
     if workers is None:
         workers = default_workers()
@@ -428,20 +430,39 @@ def render_map(model, settings: RenderSettings, jobs: Sequence[FrameJob],
     if not jobs:
         return [], []
     backend, inprocess = available_backend()
+    inprocess = inprocess and bool(use_this_process)
     workers = int(min(workers, len(jobs)))
     if workers == 1 and inprocess:
         with CameraRenderer(model, settings) as r:
             pairs = _run_jobs(r, fn, jobs)
-    else:
-        import multiprocessing as mp  # noqa: PLC0415
-        from concurrent.futures import ProcessPoolExecutor  # noqa: PLC0415
-        blob = model_to_bytes(model)
-        # Contiguous chunks, several per worker for load balance; order is restored by map.
-        size = int(max(1, min(chunk_size, -(-len(jobs) // workers))))
-        chunks = [jobs[i:i + size] for i in range(0, len(jobs), size)]
-        ctx = mp.get_context("spawn")  # never fork a process that may hold a GL context
-        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
-                                 initializer=_worker_init,
-                                 initargs=(blob, settings, backend, fn)) as pool:
-            pairs = [p for chunk in pool.map(_worker_chunk, chunks) for p in chunk]
+        return [p[0] for p in pairs], [p[1] for p in pairs]
+    import multiprocessing as mp  # noqa: PLC0415
+    from concurrent.futures import ProcessPoolExecutor  # noqa: PLC0415
+    blob = model_to_bytes(model)
+    # Contiguous chunks, several per worker for load balance.
+    size = int(max(1, min(chunk_size, -(-len(jobs) // (2 * workers)))))
+    chunks = [jobs[i:i + size] for i in range(0, len(jobs), size)]
+    # When this process can render, it is one of the workers: it starts at once (no
+    # interpreter start-up) and takes chunks from the end while the spawned processes
+    # take them from the front. Chunk results do not depend on who renders them.
+    n_proc = workers - 1 if inprocess else workers
+    ctx = mp.get_context("spawn")  # never fork a process that may hold a GL context
+    results: list = [None] * len(chunks)
+    pool = ProcessPoolExecutor(max_workers=n_proc, mp_context=ctx, initializer=_worker_init,
+                               initargs=(blob, settings, backend, fn))
+    try:
+        futures = [pool.submit(_worker_chunk, c) for c in chunks]
+        if inprocess:
+            with CameraRenderer(model, settings) as r:
+                for i in range(len(chunks) - 1, -1, -1):
+                    if futures[i].cancel():
+                        results[i] = _run_jobs(r, fn, chunks[i])
+        for i, f in enumerate(futures):
+            if results[i] is None:
+                results[i] = f.result()
+    finally:
+        # Do not wait for workers that are still starting up once every result is in:
+        # they receive the shutdown request and exit on their own.
+        pool.shutdown(wait=False, cancel_futures=True)
+    pairs = [p for chunk in results for p in chunk]
     return [p[0] for p in pairs], [p[1] for p in pairs]

@@ -165,6 +165,19 @@ def test_worker_count_does_not_change_results(world, run_1):
         assert log.images_jpeg[cam] == run_1[1].images_jpeg[cam]
 
 
+def test_worker_processes_render_identical_images(world):
+    """Spawned worker processes (this process not rendering) give the same pixels."""
+    from simcalib.render import FrameJob, RenderSettings, render_map
+    fr = world.trajectory.cam_b
+    jobs = [FrameJob("cam_b", k, None, fr.mocap_pos[k], fr.mocap_quat_wxyz[k])
+            for k in range(6)]
+    here, _ = render_map(world.model, RenderSettings(), jobs, None, workers=1)
+    there, _ = render_map(world.model, RenderSettings(), jobs, None, workers=2, chunk_size=2,
+                          use_this_process=False)
+    assert len(there) == 6 and all(np.array_equal(a, b) for a, b in zip(here, there))
+    assert here[0].shape == (H, W, 3) and here[0].dtype == np.uint8
+
+
 def test_undelivered_frames_are_not_rendered_and_counted(gl):
     delivered = np.ones(6, bool)
     delivered[[1, 4]] = False
