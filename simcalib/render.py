@@ -32,6 +32,7 @@ import numpy as np
 __all__ = [
     "DEBIAN_PACKAGES",
     "FrameJob",
+    "FrameTiming",
     "RenderBackendError",
     "RenderSettings",
     "CameraRenderer",
@@ -357,6 +358,16 @@ class FrameJob:
     key: Any = None
 
 
+@dataclass(frozen=True)
+class FrameTiming:
+    """Seconds spent on one frame: ``render_s`` (wall, rendering only), ``total_s`` (wall,
+    rendering + the per-frame function), ``cpu_s`` (CPU time of the rendering process
+    over both, all its threads — independent of other load on the machine)."""
+    render_s: float
+    total_s: float
+    cpu_s: float
+
+
 _WORKER: dict[str, Any] = {}
 
 
@@ -383,10 +394,13 @@ def _worker_init(model_blob: bytes, settings: RenderSettings, backend: str,
 def _run_jobs(renderer: CameraRenderer, fn: Callable, jobs: Sequence[FrameJob]) -> list:
     out = []
     for job in jobs:
+        c0 = time.process_time()
         t0 = time.perf_counter()
         img = renderer.render(job.camera, job.qpos, job.mocap_pos, job.mocap_quat_wxyz)
         t1 = time.perf_counter()
-        out.append((img if fn is None else fn(img, job), t1 - t0))
+        res = img if fn is None else fn(img, job)
+        out.append((res, FrameTiming(t1 - t0, time.perf_counter() - t0,
+                                     time.process_time() - c0)))
     return out
 
 
@@ -408,8 +422,8 @@ def default_workers() -> int:
 def render_map(model, settings: RenderSettings, jobs: Sequence[FrameJob],
                fn: Callable[[np.ndarray, FrameJob], Any] | None = None,
                workers: int | None = None, chunk_size: int = 8,
-               use_this_process: bool = True) -> tuple[list, list[float]]:
-    """Render every job's frame and return ``([fn(image, job) ...], [render seconds ...])``
+               use_this_process: bool = True) -> tuple[list, list[FrameTiming]]:
+    """Render every job's frame and return ``([fn(image, job) ...], [FrameTiming ...])``
     in job order.
 
     ``fn`` must be picklable (a module-level function or an instance of a module-level

@@ -333,7 +333,7 @@ def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Genera
     for cam in cameras:
         sizes.setdefault((intr[cam].width, intr[cam].height), []).append(cam)
     outs: dict[str, list] = {}
-    render_s: list[float] = []
+    timings: list = []
     t_start = time.perf_counter()
     for (w, h), cams in sizes.items():
         settings = RenderSettings(
@@ -347,7 +347,7 @@ def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Genera
                 jobs.append(FrameJob(cam, k, _row(fr.qpos, k), _row(fr.mocap_pos, k),
                                      _row(fr.mocap_quat_wxyz, k)))
         results, rtimes = render_map(world.model, settings, jobs, proc, workers=workers)
-        render_s += rtimes
+        timings += rtimes
         for job, res in zip(jobs, results):
             outs.setdefault(job.camera, []).append(res)
     wall_s = time.perf_counter() - t_start
@@ -386,8 +386,10 @@ def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Genera
         "wall_s": wall_s,
         "camera_frames": n_total,
         "frames_per_s": n_total / wall_s if wall_s > 0 else float("inf"),
-        "workers": workers,
-        "render_ms_mean": 1e3 * float(np.mean(render_s)) if render_s else 0.0,
+        "workers": workers if workers is not None else _default_workers(),
+        "render_ms_mean": 1e3 * float(np.mean([t.render_s for t in timings])) if timings else 0.0,
+        "frame_ms_mean": 1e3 * float(np.mean([t.total_s for t in timings])) if timings else 0.0,
+        "cpu_ms_per_frame": 1e3 * float(np.mean([t.cpu_s for t in timings])) if timings else 0.0,
         "detect_ms_mean": 1e3 * float(np.mean([r.detect_s for r in all_res])) if all_res else 0.0,
         "pnp_ms_mean": 1e3 * float(np.mean([r.pnp_s for r in all_res])) if all_res else 0.0,
     }
@@ -415,6 +417,11 @@ def _stamps(frames) -> np.ndarray:
     """The camera's reported timestamps (``stamp_s`` when the world provides them)."""
     s = getattr(frames, "stamp_s", None)
     return np.asarray(frames.time_s if s is None else s, dtype=np.float64)
+
+
+def _default_workers() -> int:
+    from .render import default_workers  # noqa: PLC0415
+    return default_workers()
 
 
 def _row(arr, k):

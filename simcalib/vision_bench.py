@@ -39,8 +39,13 @@ def bench_path(path: str, *, platform: str | None = None, duration_s: float | No
     t_world = time.perf_counter() - t0
     streams, log = visual_streams(world, vision_cfg or VisionConfig(),
                                   np.random.default_rng(seeds[1]), workers=workers)
+    from .render import default_workers  # noqa: PLC0415
+    cores = min(default_workers(), log.timing["workers"])
+    cpu = log.timing["cpu_ms_per_frame"]
     out = {"path": path, "platform": world.config.platform, "world_build_s": t_world,
-           "timing": log.timing, "cameras": {}}
+           "timing": log.timing, "cores": cores,
+           "cpu_bound_frames_per_s": 1e3 * cores / cpu if cpu > 0 else float("inf"),
+           "load_avg_1min": _loadavg(), "cameras": {}}
     for cam, st in streams.items():
         fr = world.frames(cam)
         T_true = fr.T_world_cam[st.frame_index]
@@ -54,22 +59,16 @@ def bench_path(path: str, *, platform: str | None = None, duration_s: float | No
             "median_markers_used": _q(st.info["n_markers"], 50),
             "median_reproj_rmse_px": _q(st.info["reproj_rmse_px"], 50),
             "median_markers_in_view": _q(np.asarray(vis), 50) if vis is not None else None,
-            "median_depth_m": _q(_median_depth(world, fr, st), 50),
         }
     return out
 
 
-def _median_depth(world, fr, st) -> np.ndarray:
-    """Per used frame: median depth (m) of the markers the pose used (a scale for the error)."""
-    field = world.marker_field
-    centres = field.T_world_marker[:, :3, 3]
-    T = fr.T_world_cam[st.frame_index]
-    Rt = np.swapaxes(T[:, :3, :3], -1, -2)
-    z = np.einsum("fij,fmj->fmi", Rt, centres[None] - T[:, None, :3, 3])[..., 2]
-    z = np.where(z > 0, z, np.nan)
-    with np.errstate(all="ignore"):
-        d = np.nanmedian(np.where(np.isfinite(z), z, np.nan), axis=1) if z.size else z
-    return d[np.isfinite(d)] if np.size(d) else np.zeros(0)
+def _loadavg() -> float:
+    try:
+        import os  # noqa: PLC0415
+        return float(os.getloadavg()[0])
+    except (OSError, AttributeError):
+        return float("nan")
 
 
 def _q(x, pct) -> float | None:
@@ -95,10 +94,13 @@ def _table(results: list[dict]) -> str:
                 f"{_fmt(c['median_markers_used'], '.0f'):>4} "
                 f"{_fmt(c['median_reproj_rmse_px'], '.3f'):>7} {drops:<28}")
         t = r["timing"]
-        lines.append(f"{'':<9} throughput {t['frames_per_s']:.1f} camera frames/s "
-                     f"({t['camera_frames']} frames, {t['wall_s']:.1f} s wall, workers="
-                     f"{t['workers']}; per frame render {t['render_ms_mean']:.1f} ms, detect "
-                     f"{t['detect_ms_mean']:.1f} ms, PnP {t['pnp_ms_mean']:.1f} ms)")
+        lines.append(f"{'':<9} throughput {t['frames_per_s']:.1f} camera frames/s wall "
+                     f"({t['camera_frames']} frames in {t['wall_s']:.1f} s, workers="
+                     f"{t['workers']}); CPU {t['cpu_ms_per_frame']:.1f} ms/frame -> "
+                     f"{r['cpu_bound_frames_per_s']:.0f} frames/s on {r['cores']} idle cores; "
+                     f"per frame render {t['render_ms_mean']:.1f} ms, detect "
+                     f"{t['detect_ms_mean']:.1f} ms, PnP {t['pnp_ms_mean']:.1f} ms "
+                     f"(load avg {r['load_avg_1min']:.1f})")
     return "\n".join(lines)
 
 
@@ -155,8 +157,12 @@ def main(argv=None) -> int:
         print(_table([r]), flush=True)
     total_frames = sum(r["timing"]["camera_frames"] for r in results)
     total_wall = sum(r["timing"]["wall_s"] for r in results)
-    print(f"\noverall throughput: {total_frames / total_wall:.1f} camera frames/s "
-          f"({total_frames} frames in {total_wall:.1f} s)")
+    cpu_ms = sum(r["timing"]["cpu_ms_per_frame"] * r["timing"]["camera_frames"]
+                 for r in results) / max(total_frames, 1)
+    cores = results[0]["cores"] if results else 1
+    print(f"\noverall throughput: {total_frames / total_wall:.1f} camera frames/s wall clock "
+          f"({total_frames} frames in {total_wall:.1f} s); CPU {cpu_ms:.1f} ms per frame -> "
+          f"{1e3 * cores / cpu_ms:.0f} frames/s on {cores} idle cores")
     if args.json:
         with open(args.json, "w") as fh:
             json.dump({"config": {k: getattr(cfg, k) for k in cfg.__dataclass_fields__},
