@@ -257,7 +257,11 @@ class CameraRenderer:
         m.vis.global_.offheight = max(int(m.vis.global_.offheight), settings.height)
         m.vis.quality.offsamples = int(settings.msaa_samples)
         for cam, fovy in settings.fovy_deg.items():
-            m.cam_fovy[self._camera_id(m, cam)] = float(fovy)
+            cid = self._camera_id(m, cam)
+            if np.any(np.asarray(m.cam_sensorsize[cid]) > 0):
+                raise ValueError(f"camera {cam!r} is defined by sensorsize/focal length, which "
+                                 "makes MuJoCo ignore fovy; a fovy override is not allowed")
+            m.cam_fovy[cid] = float(fovy)
         self.model = m
         self.data = mujoco.MjData(m)
         self._mujoco = mujoco

@@ -281,6 +281,26 @@ def _camera_intrinsics(world, camera: str, cfg: VisionConfig) -> tuple[CameraInt
     return CameraIntrinsics.from_fovy(width, height, fovy), fovy
 
 
+def _check_model_fovy(model, camera: str, fovy_deg: float, base: CameraIntrinsics) -> None:
+    """The world's intrinsics must be the pinhole MuJoCo renders (else poses are biased)."""
+    import mujoco  # noqa: PLC0415  (world.model exists, so mujoco is imported already)
+    cid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, camera)
+    if cid < 0:
+        names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_CAMERA, i) for i in range(model.ncam)]
+        raise ValueError(f"camera {camera!r} is not in world.model; cameras: {names}")
+    if np.any(np.asarray(model.cam_sensorsize[cid]) > 0):
+        raise ValueError(f"camera {camera!r} uses sensorsize/focal length; simcalib derives "
+                         "intrinsics from fovy only (PLATFORM.md)")
+    model_fovy = float(model.cam_fovy[cid])
+    expect = CameraIntrinsics.from_fovy(base.width, base.height, model_fovy)
+    if abs(model_fovy - fovy_deg) > 1e-6 or abs(base.cx - expect.cx) > 1e-9 \
+            or abs(base.cy - expect.cy) > 1e-9 or abs(base.fx - base.fy) > 1e-9 * base.fy:
+        raise ValueError(
+            f"world.intrinsics[{camera!r}] (fx={base.fx:.6g}, fy={base.fy:.6g}, cx={base.cx}, "
+            f"cy={base.cy}, {base.width}x{base.height}) is not the pinhole MuJoCo renders for "
+            f"fovy {model_fovy} deg (fx=fy={expect.fy:.6g}, cx={expect.cx}, cy={expect.cy})")
+
+
 def _check_world(world) -> None:
     for name in ("model", "camera_names", "intrinsics", "marker_field", "trajectory"):
         if not hasattr(world, name):
@@ -324,6 +344,8 @@ def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Genera
     intr, fovy = {}, {}
     for cam in cameras:
         intr[cam], fovy[cam] = _camera_intrinsics(world, cam, cfg)
+        if cfg.fovy_deg is None:
+            _check_model_fovy(world.model, cam, fovy[cam], world.intrinsics[cam])
     frames = {cam: _camera_frames(world, cam) for cam in cameras}
     proc = FrameProcessor(world.marker_field, {c: intr[c].K for c in cameras},
                           {c: i for i, c in enumerate(cameras)}, cfg, entropy)

@@ -250,6 +250,13 @@ def test_visual_streams_input_errors(world):
         visual_streams(world, VisionConfig(), np.random.default_rng(0), workers=0)
 
 
+def test_inconsistent_world_intrinsics_are_rejected(world):
+    bad = SimpleNamespace(**vars(world))
+    bad.intrinsics = dict(world.intrinsics, cam_b=CameraIntrinsics.from_fovy(W, H, 50.0))
+    with pytest.raises(ValueError, match="not the pinhole MuJoCo renders"):
+        visual_streams(bad, VisionConfig(), np.random.default_rng(0), workers=1)
+
+
 # ------------------------------------------------------------------------- rendering
 def test_backend_selection_and_error_message():
     from simcalib.render import RenderBackendError, available_backend
