@@ -229,6 +229,23 @@ def test_outlier_marker_is_discarded(rng):
     assert g.translation_error_m(est.T_world_cam, T_wc) < 2e-3
 
 
+def test_false_marker_behind_the_camera_does_not_veto_the_pose(rng):
+    """A detection whose id belongs to a marker behind the camera (a misread id) is
+    discarded as an outlier instead of failing the frame."""
+    field = _board()
+    behind = np.eye(4)
+    behind[:3, 3] = [0.0, 0.0, 3.0]                     # camera at z ~ 1.2 looks down -z
+    T_all = np.concatenate([field.T_world_marker, behind[None]])
+    field2 = MarkerField(field.dictionary, np.append(field.ids, 99), field.side_m, T_all)
+    T_wc = T_looking_at([0, 0, 0], [0.2, 0.1, 1.2], up=(0, 1, 0))
+    det = _synthetic_detections(field, T_wc, rng, 0.05)
+    fake = det.corners_px[:1] + np.array([40.0, 25.0])  # some square in the image
+    det2 = Detections(np.append(det.ids, 99), np.concatenate([det.corners_px, fake]))
+    est = estimate_camera_pose(det2, field2, K)
+    assert est.ok and 99 not in est.ids_used.tolist() and est.ids_used.size == 9
+    assert g.translation_error_m(est.T_world_cam, T_wc) < 2e-3
+
+
 def test_drop_reasons(rng):
     field = _board()
     T_wc = T_looking_at([0, 0, 0], [0.1, 0.1, 1.0], up=(0, 1, 0))
