@@ -323,3 +323,29 @@ def test_renderer_does_not_modify_callers_model(world):
         with pytest.raises(ValueError, match="mocap_pos"):
             r.render("cam_a", mocap_pos=np.zeros((2, 3)))
     assert (world.model.vis.quality.offsamples, float(world.model.cam_fovy[0])) == before
+
+
+# ------------------------------------------------------------------------- benchmark
+def test_vision_bench_cli(gl, tmp_path, capsys):
+    import json
+
+    from simcalib.vision_bench import main
+    out = tmp_path / "bench.json"
+    assert main(["--paths", "circular", "--duration", "0.3", "--fps", "10", "--workers", "1",
+                 "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "circular" in text and "camera frames/s" in text
+    res = json.loads(out.read_text())["results"][0]
+    assert res["path"] == "circular" and res["platform"] == "cart"
+    for cam in ("cam_a", "cam_b"):
+        c = res["cameras"][cam]
+        assert c["n_frames"] == 4 and c["n_used"] == 4
+        assert c["median_mm"] < 5.0 and c["median_deg"] < 0.5
+    assert res["timing"]["camera_frames"] == 8 and res["timing"]["cpu_ms_per_frame"] > 0
+    assert main(["--paths", "nope"]) == 2
+    assert "unknown path" in capsys.readouterr().err
+    assert main(["--paths", "circular", "--noise", "-1"]) == 2
+    assert "noise_std" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as ex:
+        main(["--help"])
+    assert ex.value.code == 0
