@@ -366,13 +366,18 @@ class FrameJob:
 class FrameTiming:
     """Seconds spent on one frame: ``render_s`` (wall, rendering only), ``total_s`` (wall,
     rendering + the per-frame function), ``cpu_s`` (CPU time of the rendering process
-    over both, all its threads — independent of other load on the machine)."""
+    over both, all its threads — independent of other load on the machine), ``pid`` (the
+    process that rendered it)."""
     render_s: float
     total_s: float
     cpu_s: float
+    pid: int
 
 
 _WORKER: dict[str, Any] = {}
+
+#: Fewest frames per rendering process before another worker process is started.
+MIN_JOBS_PER_WORKER = 12
 
 
 def _worker_init(model_blob: bytes, settings: RenderSettings, backend: str,
@@ -404,7 +409,7 @@ def _run_jobs(renderer: CameraRenderer, fn: Callable, jobs: Sequence[FrameJob]) 
         t1 = time.perf_counter()
         res = img if fn is None else fn(img, job)
         out.append((res, FrameTiming(t1 - t0, time.perf_counter() - t0,
-                                     time.process_time() - c0)))
+                                     time.process_time() - c0, os.getpid())))
     return out
 
 
@@ -449,7 +454,9 @@ def render_map(model, settings: RenderSettings, jobs: Sequence[FrameJob],
         return [], []
     backend, inprocess = available_backend()
     inprocess = inprocess and bool(use_this_process)
-    workers = int(min(workers, len(jobs)))
+    # Starting a worker costs ~1 s (a fresh interpreter importing mujoco and cv2): not
+    # worth it below ~MIN_JOBS_PER_WORKER frames per process.
+    workers = int(min(workers, -(-len(jobs) // MIN_JOBS_PER_WORKER)))
     if workers == 1 and inprocess:
         with CameraRenderer(model, settings) as r:
             pairs = _run_jobs(r, fn, jobs)

@@ -409,6 +409,7 @@ def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Genera
         "camera_frames": n_total,
         "frames_per_s": n_total / wall_s if wall_s > 0 else float("inf"),
         "workers": workers if workers is not None else _default_workers(),
+        "processes": len({t.pid for t in timings}),
         "render_ms_mean": 1e3 * float(np.mean([t.render_s for t in timings])) if timings else 0.0,
         "frame_ms_mean": 1e3 * float(np.mean([t.total_s for t in timings])) if timings else 0.0,
         "cpu_ms_per_frame": 1e3 * float(np.mean([t.cpu_s for t in timings])) if timings else 0.0,
