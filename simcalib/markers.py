@@ -241,7 +241,7 @@ def detect_markers(image, detector=None, settings: DetectorSettings | None = Non
 
 
 def refine_corners_edges(gray: np.ndarray, corners_px: np.ndarray, *, half_width_px: float = 3.0,
-                         n_profiles: int = 24, iterations: int = 2,
+                         n_profiles: int = 24, n_samples: int = 13, iterations: int = 2,
                          min_contrast: float = 20.0) -> np.ndarray:
     """Refine marker corners ``(N, 4, 2)`` by fitting the four outer edges of each marker.
 
@@ -259,7 +259,7 @@ def refine_corners_edges(gray: np.ndarray, corners_px: np.ndarray, *, half_width
     C = np.asarray(corners_px, dtype=np.float64).copy()
     if C.size == 0:
         return C.reshape(0, 4, 2)
-    s = np.linspace(-1.0, 1.0, 13)
+    s = np.linspace(-1.0, 1.0, int(n_samples))
     t = np.linspace(0.15, 0.85, int(n_profiles))
     for _ in range(int(iterations)):
         P0 = C
