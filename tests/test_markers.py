@@ -175,14 +175,12 @@ def test_edge_refinement_removes_corner_shrink_bias(gl):
         T_wc = T_looking_at([0, 0, 0], eye, up=(0, 1, 0))
         img = render_cv(model, T_wc)
         truth = project(T_wc, marker_corners_local(side))
-        out = dict(radial=None)
         d_sub = detect_markers(img, det_cv, subpix)
         d_edge = detect_markers(img)
         outward = truth - truth.mean(0)
         outward /= np.linalg.norm(outward, axis=1, keepdims=True)
         for name, d in (("subpix", d_sub), ("edges", d_edge)):
             radial[name].append(((d.corners_px[0] - truth) * outward).sum(1).mean())
-        del out
     assert np.mean(radial["subpix"]) < -0.1            # the known inward bias
     assert abs(np.mean(radial["edges"])) < 0.05         # gone
 
