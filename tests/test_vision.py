@@ -178,6 +178,19 @@ def test_worker_processes_render_identical_images(world):
     assert here[0].shape == (H, W, 3) and here[0].dtype == np.uint8
 
 
+def test_coarse_meshes_do_not_move_marker_corners(world):
+    from simcalib.markers import detect_markers
+    from simcalib.render import CameraRenderer, RenderSettings
+    fr = world.trajectory.cam_a
+    corners = []
+    for coarse in (True, False):
+        with CameraRenderer(world.model, RenderSettings(coarse_meshes=coarse)) as r:
+            det = detect_markers(r.render("cam_a", None, fr.mocap_pos[5], fr.mocap_quat_wxyz[5]))
+        corners.append(det.corners_px[np.argsort(det.ids)])
+    assert corners[0].shape[0] >= 6
+    np.testing.assert_allclose(corners[0], corners[1], atol=0.02)
+
+
 def test_undelivered_frames_are_not_rendered_and_counted(gl):
     delivered = np.ones(6, bool)
     delivered[[1, 4]] = False
