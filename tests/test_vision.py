@@ -362,3 +362,15 @@ def test_vision_bench_cli(gl, tmp_path, capsys):
     with pytest.raises(SystemExit) as ex:
         main(["--help"])
     assert ex.value.code == 0
+
+
+def test_vision_modules_import_light():
+    """Importing the vision modules loads neither mujoco nor cv2 (lazy heavy imports)."""
+    code = ("import sys, simcalib.vision, simcalib.render, simcalib.markers, "
+            "simcalib.vision_bench; print(sorted(m for m in ('cv2', 'mujoco') if m in sys.modules))")
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    env = dict(os.environ, PYTHONPATH=root + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                         timeout=120, cwd=root)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "[]"
