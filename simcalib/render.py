@@ -378,11 +378,13 @@ class FrameTiming:
     """Seconds spent on one frame: ``render_s`` (wall, rendering only), ``total_s`` (wall,
     rendering + the per-frame function), ``cpu_s`` (CPU time of the rendering process
     over both, all its threads — independent of other load on the machine), ``pid`` (the
-    process that rendered it)."""
+    process that rendered it), ``T_world_cam`` (the OpenCV-frame pose of the camera in the
+    rendered state — lets callers check the state against their ground truth)."""
     render_s: float
     total_s: float
     cpu_s: float
     pid: int
+    T_world_cam: np.ndarray
 
 
 _WORKER: dict[str, Any] = {}
@@ -420,7 +422,8 @@ def _run_jobs(renderer: CameraRenderer, fn: Callable, jobs: Sequence[FrameJob]) 
         t1 = time.perf_counter()
         res = img if fn is None else fn(img, job)
         out.append((res, FrameTiming(t1 - t0, time.perf_counter() - t0,
-                                     time.process_time() - c0, os.getpid())))
+                                     time.process_time() - c0, os.getpid(),
+                                     renderer.T_world_cam(job.camera))))
     return out
 
 

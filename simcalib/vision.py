@@ -302,6 +302,31 @@ def _check_model_fovy(model, camera: str, fovy_deg: float, base: CameraIntrinsic
             f"fovy {model_fovy} deg (fx=fy={expect.fy:.6g}, cx={expect.cx}, cy={expect.cy})")
 
 
+#: Largest allowed difference between the rendered camera pose and the world's ground truth.
+RENDER_POSE_TOL_M = 1e-6
+RENDER_POSE_TOL_RAD = 1e-6
+
+
+def _check_rendered_poses(jobs, timings, frames) -> None:
+    """The state a frame is rendered from must put the camera at its ground-truth pose
+    (else the visual stream would be compared against the wrong truth)."""
+    from .geometry import rotation_error_rad, translation_error_m  # noqa: PLC0415
+    if not jobs:
+        return
+    T_r = np.stack([t.T_world_cam for t in timings])
+    T_gt = np.stack([frames[j.camera].T_world_cam[j.frame_index] for j in jobs])
+    e_t = translation_error_m(T_r, T_gt)
+    e_r = rotation_error_rad(T_r, T_gt)
+    bad = np.flatnonzero((e_t > RENDER_POSE_TOL_M) | (e_r > RENDER_POSE_TOL_RAD))
+    if bad.size:
+        i = int(bad[0])
+        raise ValueError(
+            f"the MuJoCo state of {jobs[i].camera} frame {jobs[i].frame_index} puts the camera "
+            f"{e_t[i]:.3g} m / {e_r[i]:.3g} rad away from the trajectory's T_world_cam "
+            f"({bad.size} of {len(jobs)} frames differ; allowed {RENDER_POSE_TOL_M} m / "
+            f"{RENDER_POSE_TOL_RAD} rad): qpos/mocap state and ground truth disagree")
+
+
 def _check_world(world) -> None:
     for name in ("model", "camera_names", "intrinsics", "marker_field", "trajectory"):
         if not hasattr(world, name):
@@ -371,6 +396,7 @@ def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Genera
                                      _row(fr.mocap_quat_wxyz, k)))
         results, rtimes = render_map(world.model, settings, jobs, proc, workers=workers)
         timings += rtimes
+        _check_rendered_poses(jobs, rtimes, frames)
         for job, res in zip(jobs, results):
             outs.setdefault(job.camera, []).append(res)
     wall_s = time.perf_counter() - t_start

@@ -263,6 +263,19 @@ def test_visual_streams_input_errors(world):
         visual_streams(world, VisionConfig(), np.random.default_rng(0), workers=0)
 
 
+def test_state_that_misses_ground_truth_is_rejected(world):
+    """Rendering a state that does not reproduce the trajectory's pose is an error."""
+    import dataclasses
+    fr = world.trajectory.cam_b
+    T = fr.T_world_cam.copy()
+    T[2, 0, 3] += 0.01
+    bad = SimpleNamespace(**vars(world))
+    bad.trajectory = dataclasses.replace(world.trajectory,
+                                         cam_b=dataclasses.replace(fr, T_world_cam=T))
+    with pytest.raises(ValueError, match="cam_b frame 2 puts the camera 0.01 m"):
+        visual_streams(bad, VisionConfig(log_every=0), np.random.default_rng(0), workers=1)
+
+
 def test_inconsistent_world_intrinsics_are_rejected(world):
     bad = SimpleNamespace(**vars(world))
     bad.intrinsics = dict(world.intrinsics, cam_b=CameraIntrinsics.from_fovy(W, H, 50.0))
