@@ -296,17 +296,28 @@ def sweep_errors(C: np.ndarray, H: np.ndarray, X_true: np.ndarray, method: str,
                        failed, errors)
 
 
+# What a solver may raise on a hard problem (besides reporting success=False): the API's
+# rejection of an invalid estimate (ValueError), a numerical give-up (RuntimeError),
+# LinAlgError / FloatingPointError.
+SOLVER_ERRORS = (ValueError, RuntimeError, ArithmeticError, np.linalg.LinAlgError)
+
+
+def solve_guarded(C, H, method, alpha, rng, errors: dict):
+    """``solve_batch`` -> (X (B,4,4), cost (B,), ok (B,)). If the batch raises (a solver
+    returned something the API rejects, e.g. a reflection, or gave up with an exception),
+    the problems are re-solved one by one and those that raise are marked failed; ``errors``
+    counts the messages, which the experiments report (never hidden)."""
+    from simcalib.solvers.api import solve_batch
+    return _solve_guarded(solve_batch, C, H, method, alpha, rng, errors)
+
+
 def _solve_guarded(solve_batch, C, H, method, alpha, rng, errors: dict):
-    """``solve_batch`` -> (X, cost, ok). If the batch raises (a solver returned something
-    the API rejects, e.g. a reflection), the problems are re-solved one by one and those
-    that raise are marked failed; ``errors`` counts the messages (reported by the
-    experiments, never hidden)."""
     try:
         sol = solve_batch(C, H, method=method, alpha=alpha, rng=rng)
         ok = np.asarray(sol.success, dtype=bool).copy()
         X = np.where(ok[:, None, None], sol.X, np.eye(4))
-        return X, np.asarray(sol.cost, dtype=np.float64), ok
-    except ValueError:
+        return X, np.where(ok, np.asarray(sol.cost, dtype=np.float64), np.inf), ok
+    except SOLVER_ERRORS:
         pass
     B = C.shape[0]
     X = np.broadcast_to(np.eye(4), (B, 4, 4)).copy()
@@ -317,8 +328,8 @@ def _solve_guarded(solve_batch, C, H, method, alpha, rng, errors: dict):
         try:
             sol = solve_batch(C[b:b + 1], H[b:b + 1], method=method, alpha=float(alpha[b]),
                               rng=rng)
-        except ValueError as exc:
-            msg = str(exc).split(";")[0].split(":")[0][:160]
+        except SOLVER_ERRORS as exc:
+            msg = f"{type(exc).__name__}: " + str(exc).split(";")[0].split(":")[0][:160]
             errors[msg] = errors.get(msg, 0) + 1
             continue
         ok[b] = bool(sol.success[0])

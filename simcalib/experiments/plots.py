@@ -86,7 +86,7 @@ def table1_figure(rel: dict, timing_rows: list, path: Path) -> Path:
     names = list(rel)
     data = [np.nan_to_num(np.concatenate(rel[m]), nan=0.0, posinf=1.0, neginf=-1.0)
             for m in names]
-    a1.boxplot(data, vert=False, showfliers=True, whis=(0, 100))
+    a1.boxplot(data, orientation="horizontal", showfliers=True, whis=(0, 100))
     a1.set_yticks(range(1, len(names) + 1), names)
     a1.set_xscale("symlog", linthresh=1e-15)
     a1.axvline(0, color="k", lw=0.8)
