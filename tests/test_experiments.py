@@ -218,6 +218,7 @@ def test_figure3_dqopt_wins_on_degenerate_motion(tmp_path):
     st = (0.002, 0.01)
     res = run_experiment("figure3", samples=10, num_alphas=6, num_motions=300,
                          scenarios=("line", "circle", "random"), sigma_r_rad=sr, sigma_t_m=st,
+                         workers=1,
                          progress=False, output=str(tmp_path))
     cols, rows = _read_csv(res.files["csv"])
     assert cols == ["scenario", "alpha_mode", "error", "sigma_r_deg", "sigma_t_cm",
@@ -242,7 +243,8 @@ def test_figure3_dqopt_wins_on_degenerate_motion(tmp_path):
 def test_figure6_errors_grow_with_noise(tmp_path):
     res = run_experiment("figure6", samples=12, num_alphas=8, num_motions=300,
                          sigma_r_rad=(math.radians(0.1), math.radians(1.0)),
-                         sigma_t_m=(0.002, 0.05), progress=False, output=str(tmp_path))
+                         sigma_t_m=(0.002, 0.05), workers=1, progress=False,
+                         output=str(tmp_path))
     cols, rows = _read_csv(res.files["csv"])
     assert cols == ["varied", "sigma_r_deg", "sigma_t_cm", "algorithm", "alpha", "rot_mean_deg",
                     "rot_median_deg", "trans_mean_cm", "trans_median_cm"]

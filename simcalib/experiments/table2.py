@@ -19,6 +19,7 @@ import numpy as np
 
 from simcalib.experiments import common
 from simcalib.experiments.common import ExperimentResult, fmt
+from simcalib.synthetic import PAPER_X_ROTVEC_RAD, PAPER_X_TRANSLATION_M
 
 __all__ = ["Table2Config", "run", "CSV_COLUMNS", "DEFAULT_ALGORITHMS"]
 
@@ -54,10 +55,24 @@ class Table2Config:
     num_motions: int = 1000
     sigma_r_rad: float = math.radians(0.57)
     sigma_t_m: float = 0.01
+    jitter_sigma_r_rad: float = math.radians(0.57)
+    jitter_sigma_t_m: float = 0.01
+    X_translation_m: tuple[float, ...] = PAPER_X_TRANSLATION_M
+    X_rotvec_rad: tuple[float, ...] = PAPER_X_ROTVEC_RAD
     seed: int = 0
     chunk: int = 4096
     progress: bool = True
     output: str = "results/table2"
+
+    def synthetic(self, scenario: str):
+        """The :class:`SyntheticConfig` of one scenario."""
+        from simcalib.synthetic import SyntheticConfig
+        return SyntheticConfig(motion=scenario, num_motions=self.num_motions,
+                               sigma_r_rad=self.sigma_r_rad, sigma_t_m=self.sigma_t_m,
+                               jitter_sigma_r_rad=self.jitter_sigma_r_rad,
+                               jitter_sigma_t_m=self.jitter_sigma_t_m,
+                               X_translation_m=self.X_translation_m,
+                               X_rotvec_rad=self.X_rotvec_rad)
 
     def __post_init__(self):
         for name in ("samples", "num_alphas", "slow_samples", "slow_alphas", "opencv_samples",
@@ -74,6 +89,7 @@ class Table2Config:
         common.check_methods("algorithms", self.algorithms)
         if self.n > self.num_motions:
             raise ValueError(f"n={self.n} must be <= num_motions={self.num_motions}")
+        self.synthetic(self.scenarios[0])   # validates noise, jitter and X
 
 
 def _subgrid(num: int, k: int) -> np.ndarray:
@@ -122,16 +138,13 @@ _DATA_CACHE: dict = {}
 def scenario_problems(cfg: Table2Config, si: int):
     """The data set and bootstrap problems of scenario ``si`` (deterministic in the seed;
     cached per process)."""
-    from simcalib.synthetic import SyntheticConfig, generate_dataset, sample_problems
-    key = (cfg.seed, cfg.num_motions, cfg.sigma_r_rad, cfg.sigma_t_m, cfg.samples, cfg.n,
-           cfg.scenarios[si], si)
+    from simcalib.synthetic import generate_dataset, sample_problems
+    key = (cfg.synthetic(cfg.scenarios[si]), cfg.seed, cfg.samples, cfg.n, si)
     if key not in _DATA_CACHE:
         _DATA_CACHE.clear()
         ss = np.random.SeedSequence(cfg.seed).spawn(len(cfg.scenarios))[si]
         data_ss, sample_ss, _ = ss.spawn(3)
-        scfg = SyntheticConfig(motion=cfg.scenarios[si], num_motions=cfg.num_motions,
-                               sigma_r_rad=cfg.sigma_r_rad, sigma_t_m=cfg.sigma_t_m)
-        ds = generate_dataset(scfg, np.random.default_rng(data_ss))
+        ds = generate_dataset(cfg.synthetic(cfg.scenarios[si]), np.random.default_rng(data_ss))
         C, H, _ = sample_problems(ds, cfg.samples, cfg.n, np.random.default_rng(sample_ss))
         _DATA_CACHE[key] = (ds, C, H)
     return _DATA_CACHE[key]
