@@ -216,7 +216,7 @@ def test_table1_optimality_and_timing(tmp_path):
 def test_figure3_dqopt_wins_on_degenerate_motion(tmp_path):
     sr = (math.radians(0.1), math.radians(0.57))
     st = (0.002, 0.01)
-    res = run_experiment("figure3", samples=10, num_alphas=6, num_motions=300,
+    res = run_experiment("figure3", samples=10, num_alphas=6, num_motions=1000,
                          scenarios=("line", "circle", "random"), sigma_r_rad=sr, sigma_t_m=st,
                          workers=1,
                          progress=False, output=str(tmp_path))

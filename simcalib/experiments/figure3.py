@@ -1,7 +1,8 @@
 """Figure 3: Daniilidis vs DQOpt over a grid of rotation x translation noise.
 
 For each scenario and each (σ_r, σ_t) cell a D.2 data set is generated with that
-measurement noise (the line/circle jitter stays at the paper's 0.57° / 1 cm, it is part of
+measurement noise (common random numbers: the same motions, standardised noise draws and
+samples in every cell of a scenario, so cells differ by the noise level only) (the line/circle jitter stays at the paper's 0.57° / 1 cm, it is part of
 the motion), ``samples`` problems of ``n`` motions are bootstrapped (paper: 60), and both
 solvers run over the α grid. Plotted: ``log(mean_i(err_dan_i / err_dqopt_i))`` with each
 solver at its own best α (lowest mean error of the plotted quantity), for rotation (top
@@ -70,7 +71,7 @@ def _ratio(num: np.ndarray, den: np.ndarray) -> float:
     return float(np.log(np.mean(np.maximum(num, 1e-12) / np.maximum(den, 1e-12))))
 
 
-def _cell(cfg: Figure3Config, k: int, s: str, sr: float, st: float) -> dict:
+def _cell(cfg: Figure3Config, s: str, sr: float, st: float) -> dict:
     """One (scenario, σ_r, σ_t) cell: both solvers over the α grid (+ α = 1); returns
     ``{(mode, error): (value, dqopt α, dan α, dqopt mean, dan mean)}``."""
     from simcalib.synthetic import SyntheticConfig, generate_dataset, sample_problems
@@ -78,7 +79,10 @@ def _cell(cfg: Figure3Config, k: int, s: str, sr: float, st: float) -> dict:
     alphas_run = np.unique(np.concatenate([alphas, [1.0]]))
     i_one = int(np.argmin(np.abs(alphas_run - 1.0)))
     grid = np.isin(alphas_run, alphas)
-    ss = np.random.SeedSequence(cfg.seed).spawn(k + 1)[k]
+    # common random numbers: within a scenario every cell uses the same motions, the same
+    # standardised noise draws (scaled by the cell's sigmas) and the same samples, so the
+    # map varies with the noise level only
+    ss = np.random.SeedSequence(cfg.seed).spawn(len(cfg.scenarios))[cfg.scenarios.index(s)]
     data_rng, sample_rng, solver_rng = (np.random.default_rng(x) for x in ss.spawn(3))
     ds = generate_dataset(SyntheticConfig(motion=s, num_motions=cfg.num_motions,
                                           sigma_r_rad=sr, sigma_t_m=st), data_rng)
@@ -107,13 +111,13 @@ def run(cfg: Figure3Config) -> ExperimentResult:
     for s in cfg.scenarios:
         for sr in cfg.sigma_r_rad:
             for st in cfg.sigma_t_m:
-                tasks.append((cfg, len(tasks), s, sr, st))
+                tasks.append((cfg, s, sr, st))
     per_task = cfg.samples * (cfg.num_alphas + 1) * 2
     with common.progress(per_task * len(tasks), "figure3", cfg.progress) as bar:
         results = common.run_tasks(_cell, tasks, workers, bar, [per_task] * len(tasks))
     maps = {}   # (scenario, mode, error) -> (R, T) array
     rows = []
-    for (_, k, s, sr, st), res in zip(tasks, results):
+    for (_, s, sr, st), res in zip(tasks, results):
         ir, it = cfg.sigma_r_rad.index(sr), cfg.sigma_t_m.index(st)
         for (mode, err), (val, a_opt, a_dan, m_opt, m_dan) in res.items():
             maps.setdefault((s, mode, err), np.full((R, T), np.nan))[ir, it] = val
