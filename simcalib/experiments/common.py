@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import csv
+import re
 import dataclasses
 import difflib
 import math
@@ -329,7 +330,9 @@ def _solve_guarded(solve_batch, C, H, method, alpha, rng, errors: dict):
             sol = solve_batch(C[b:b + 1], H[b:b + 1], method=method, alpha=float(alpha[b]),
                               rng=rng)
         except SOLVER_ERRORS as exc:
-            msg = f"{type(exc).__name__}: " + str(exc).split(";")[0].split(":")[0][:160]
+            # numbers replaced so that one kind of error is counted once
+            text = re.sub(r"[-+]?\d[\d.eE+-]*", "#", str(exc).split(";")[0])
+            msg = f"{type(exc).__name__}: {text[:200]}"
             errors[msg] = errors.get(msg, 0) + 1
             continue
         ok[b] = bool(sol.success[0])

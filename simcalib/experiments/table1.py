@@ -25,7 +25,7 @@ from simcalib.experiments.common import ExperimentResult, fmt
 __all__ = ["Table1Config", "run", "COST_COLUMNS", "TIMING_COLUMNS"]
 
 COST_COLUMNS = ["scenario", "algorithm", "problems", "failed", "mean", "std", "min", "max",
-                "negative_below_minus_1e-12"]
+                "negative_below_minus_1e-12", "above_1e-6"]
 TIMING_COLUMNS = ["algorithm", "runs", "mean_us", "std_us", "min_us", "max_us", "median_us",
                   "batch_us_per_problem"]
 DEFAULT_COST_METHODS = ("dqnlopt", "dqnloptrnd", "dq2ndord", "dq2ndord_lambda", "dqconvrlx",
@@ -130,13 +130,15 @@ def run(cfg: Table1Config) -> ExperimentResult:
                 fails[m] += int(np.sum(~ok))
                 rows.append({"scenario": scenario, "algorithm": m, "problems": k,
                              "failed": int(np.sum(~ok)), **_stats(d),
-                             "negative_below_minus_1e-12": int(np.sum(d < -1e-12))})
+                             "negative_below_minus_1e-12": int(np.sum(d < -1e-12)),
+                             "above_1e-6": int(np.sum(d > 1e-6))})
     for m in cfg.methods:
         d = np.concatenate(rel[m])
         rows.append({"scenario": "all", "algorithm": m,
                      "problems": sum(r["problems"] for r in rows if r["algorithm"] == m),
                      "failed": fails[m], **_stats(d),
-                     "negative_below_minus_1e-12": int(np.sum(d < -1e-12))})
+                     "negative_below_minus_1e-12": int(np.sum(d < -1e-12)),
+                     "above_1e-6": int(np.sum(d > 1e-6))})
 
     # ---- timing: single solves (Solution.runtime_s) and batch throughput
     timing_rows = []
@@ -229,12 +231,12 @@ def markdown(rows, timing_rows, notes) -> str:
         if r["scenario"] != "all":
             continue
         p = TABLE1_COST.get(r["algorithm"])
-        body.append([r["algorithm"], r["problems"], r["failed"], fmt(r["mean"], 2),
-                     fmt(r["std"], 2),
+        body.append([r["algorithm"], r["problems"], r["failed"], r["above_1e-6"],
+                     fmt(r["mean"], 2), fmt(r["std"], 2),
                      fmt(r["min"], 2), fmt(r["max"], 2),
                      "-" if p is None else " / ".join(fmt(v, 2) for v in p)])
     lines.append(common.markdown_table(
-        ["alg", "problems", "failed", "mean", "std", "min", "max",
+        ["alg", "problems", "failed", "> 1e-6", "mean", "std", "min", "max",
          "paper mean / std / min / max"], body))
     lines.append("\n## Per scenario (mean / max)\n\n")
     scen = sorted({r["scenario"] for r in rows if r["scenario"] != "all"})
