@@ -49,7 +49,7 @@ def table2_sweep_figure(curves: dict, scenarios, algorithms, path: Path) -> Path
     """Median rotation (top) and translation (bottom) error vs α, one column per scenario."""
     plt = _plt()
     fig, axes = plt.subplots(2, len(scenarios), figsize=(5 * len(scenarios), 7.5),
-                             squeeze=False)
+                             squeeze=False, layout="constrained")
     cmap = plt.get_cmap("tab20")
     for j, s in enumerate(scenarios):
         for k, alg in enumerate(algorithms):
@@ -82,7 +82,7 @@ def table2_sweep_figure(curves: dict, scenarios, algorithms, path: Path) -> Path
 def table1_figure(rel: dict, timing_rows: list, path: Path) -> Path:
     """Left: distribution of the relative cost differences (symlog); right: timing bars."""
     plt = _plt()
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(13, 4.5))
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(13, 4.5), layout="constrained")
     names = list(rel)
     data = [np.nan_to_num(np.concatenate(rel[m]), nan=0.0, posinf=1.0, neginf=-1.0)
             for m in names]
@@ -141,7 +141,8 @@ def figure6(curves: dict, alphas, cfg, path: Path) -> Path:
     translation error vs α (σ_t varied, σ_r varied)."""
     plt = _plt()
     algs = list(cfg.algorithms)
-    fig, axes = plt.subplots(len(algs), 4, figsize=(17, 3.4 * len(algs)), squeeze=False)
+    fig, axes = plt.subplots(len(algs), 4, figsize=(18, 3.6 * len(algs)), squeeze=False,
+                             layout="constrained")
     panels = [("rot", "sigma_t", "Purples"), ("rot", "sigma_r", "Purples"),
               ("trans", "sigma_t", "Greens"), ("trans", "sigma_r", "Greens")]
     for i, alg in enumerate(algs):
