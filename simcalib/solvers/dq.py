@@ -8,6 +8,10 @@ The cost (paper eq. 8) for unit dual quaternion ``q + eps q'`` of ``X``::
 is the quadratic form ``q^T S q + q'^T M q' + 2 q^T W q'`` (eq. 9) with
 ``S = A^T A + alpha^2 B^T B``, ``M = alpha^2 A^T A``, ``W = alpha^2 B^T A``.
 :func:`problem_matrices` returns them (with the prior substitution of eqs. 26-29).
+
+The methods run as numba kernels (``_solve_core`` for one problem, ``_batch_kernel`` for a
+batch, parallel over problems); see docs/solvers.md for the algorithms, the handling of
+noise-free data (eigenvalues of M clipped at ``CLIP_REL``) and the sign re-alignment.
 """
 
 from __future__ import annotations
@@ -19,7 +23,9 @@ from simcalib.geometry import dual_quat_from_transform, quat_conjugate, quat_lef
 from simcalib.solvers.problem import MotionProblem, SolverOutput
 from simcalib.solvers.registry import register
 
-__all__ = ["problem_matrices", "gram_blocks", "prior_terms"]
+__all__ = ["problem_matrices", "gram_blocks", "prior_terms", "solve_matrices", "eval_at_mu",
+           "fast_build_problem", "align_problem", "data_cost", "batch_data_cost",
+           "dual_quat_fast", "METHOD_CODES", "CLIP_REL"]
 
 _G = np.diag([1.0, 1.0, 1.0, 0.0])
 
@@ -80,7 +86,6 @@ def problem_matrices(problem: MotionProblem, alpha: float, prior=None):
 # Compiled kernels (numba). All per-problem work is scalar code on 4x4 matrices; batches
 # run in parallel over problems.
 # =====================================================================================
-import numba  # noqa: E402
 from numba import njit, prange  # noqa: E402
 
 _EPS = 2.220446049250313e-16
@@ -302,29 +307,6 @@ def _quats_kernel(C, H, tol, qC, qCd, qH, qHd):
             qH[i, k] = sg * rh[k]
             qHd[i, k] = sg * rh[4 + k]
     return -1
-
-
-@njit(cache=True)
-def _lr_minus(p, h, out):
-    """out = L(p) - R(h) (4x4)."""
-    x, y, z, w = p[0], p[1], p[2], p[3]
-    a, b, c, d = h[0], h[1], h[2], h[3]
-    out[0, 0] = w - d
-    out[0, 1] = -z - c
-    out[0, 2] = y + b
-    out[0, 3] = x - a
-    out[1, 0] = z + c
-    out[1, 1] = w - d
-    out[1, 2] = -x - a
-    out[1, 3] = y - b
-    out[2, 0] = -y - b
-    out[2, 1] = x + a
-    out[2, 2] = w - d
-    out[2, 3] = z - c
-    out[3, 0] = -x + a
-    out[3, 1] = -y + b
-    out[3, 2] = -z + c
-    out[3, 3] = w - d
 
 
 def _lr_tensors():
@@ -828,9 +810,9 @@ def _solve_core(method, S, W, M, q, qd, info):
         mu = _mu_tilde(q, WV, V, xi)
     _normalize(q)
     _qdual(q, mu, WV, V, xi, qd)
-    if method != DQOPT and method != DQITR:
-        _zmat(S, WV, V, xi, mu, Z)
-        _eigh(Z, lam, E)
+    if method == DQ2STEPS:
+        lam[0] = np.nan  # no eigen-decomposition of Z was needed
+        lam[1] = np.nan
     # objective (quadratic form of eq. 9 with these S, W, M)
     cost = 0.0
     for i in range(4):
@@ -875,7 +857,25 @@ def _transform_from_dq(q, qd, X):
 
 
 @njit(cache=True)
-def _align_soa(T, Q, n, alpha, q, qd, info):
+def _cost_soa(Q, n, q, qd, a2):
+    """Cost (8) motion by motion from the SoA quaternions Q (16, N)."""
+    x, y, z, w = q[0], q[1], q[2], q[3]
+    dx, dy, dz, dw = qd[0], qd[1], qd[2], qd[3]
+    tot = 0.0
+    for i in range(n):
+        p = _qmul(Q[0, i], Q[1, i], Q[2, i], Q[3, i], x, y, z, w)
+        r = _qmul(x, y, z, w, Q[4, i], Q[5, i], Q[6, i], Q[7, i])
+        p1 = _qmul(Q[8, i], Q[9, i], Q[10, i], Q[11, i], x, y, z, w)
+        p2 = _qmul(x, y, z, w, Q[12, i], Q[13, i], Q[14, i], Q[15, i])
+        p3 = _qmul(Q[0, i], Q[1, i], Q[2, i], Q[3, i], dx, dy, dz, dw)
+        p4 = _qmul(dx, dy, dz, dw, Q[4, i], Q[5, i], Q[6, i], Q[7, i])
+        for k in range(4):
+            tot += (p[k] - r[k]) ** 2 + a2 * (p1[k] - p2[k] + p3[k] - p4[k]) ** 2
+    return tot
+
+
+@njit(cache=True)
+def _align_soa(T, Q, n, alpha, q, qd, info, AtA, BtB, BtA):
     """Sign alignment of the motion pairs beyond the scalar-part rule of NOTES.md.
 
     Near 180 deg rotations the scalar parts of q_C and q_H are ~0 and noise can give them
@@ -883,18 +883,17 @@ def _align_soa(T, Q, n, alpha, q, qd, info):
     (|A_i q|^2 ~ 4). With the optimal (dqopt) rotation q of the problem, flip (q_H, q_H')
     of every motion with (q_C (x) q) . (q (x) q_H) < 0 (then |q_C q + q q_H| < |q_C q - q q_H|),
     re-solve, repeat until stable. Exact pairs and pairs away from 180 deg are unchanged.
-    Returns the number of flips; q, qd, info hold the dqopt solution of the final Q.
+    Returns the number of flips; q, qd, info hold the dqopt solution (no prior) and AtA,
+    BtB, BtA the Gram blocks of the final Q.
     """
     P = np.empty((6, 4, 4))
     nrm = np.empty(2)
-    AtA = np.empty((4, 4))
-    BtB = np.empty((4, 4))
-    BtA = np.empty((4, 4))
     S = np.empty((4, 4))
     W = np.empty((4, 4))
     M = np.empty((4, 4))
     a2 = alpha * alpha
     total = 0
+    nflip = 0
     for rnd in range(4):
         _outer_from_soa(Q, n, P, nrm)
         _grams_from_outer(T, P, nrm, AtA, BtB, BtA)
@@ -918,6 +917,15 @@ def _align_soa(T, Q, n, alpha, q, qd, info):
         total += nflip
         if nflip == 0:
             break
+    if nflip > 0:  # stopped after flipping: Gram blocks and solution of the final Q
+        _outer_from_soa(Q, n, P, nrm)
+        _grams_from_outer(T, P, nrm, AtA, BtB, BtA)
+        for i in range(4):
+            for j in range(4):
+                S[i, j] = 0.5 * (AtA[i, j] + AtA[j, i]) + a2 * 0.5 * (BtB[i, j] + BtB[j, i])
+                W[i, j] = a2 * BtA[i, j]
+                M[i, j] = a2 * 0.5 * (AtA[i, j] + AtA[j, i])
+        _solve_core(DQOPT, S, W, M, q, qd, info)
     return total
 
 
@@ -934,7 +942,10 @@ def _align_arrays(T, qC, qCd, qH, qHd, alpha):
     q = np.empty(4)
     qd = np.empty(4)
     info = np.empty(N_INFO)
-    nf = _align_soa(T, Q, n, alpha, q, qd, info)
+    AtA = np.empty((4, 4))
+    BtB = np.empty((4, 4))
+    BtA = np.empty((4, 4))
+    nf = _align_soa(T, Q, n, alpha, q, qd, info, AtA, BtB, BtA)
     if nf > 0:
         for i in range(n):
             for k in range(4):
@@ -961,9 +972,7 @@ def _batch_kernel(method, T, C, H, alphas, tol, has_prior, S_add, W_add, M_add, 
             continue
         q = np.empty(4)
         qd = np.empty(4)
-        nflip[b] = _align_soa(T, Q, n, alphas[b], q, qd, info[b])
-        _outer_from_soa(Q, n, P, nrm)
-        _grams_from_outer(T, P, nrm, AtA, BtB, BtA)
+        nflip[b] = _align_soa(T, Q, n, alphas[b], q, qd, info[b], AtA, BtB, BtA)
         a2 = alphas[b] * alphas[b]
         S = np.empty((4, 4))
         W = np.empty((4, 4))
@@ -976,13 +985,18 @@ def _batch_kernel(method, T, C, H, alphas, tol, has_prior, S_add, W_add, M_add, 
         if method != DQOPT or has_prior:
             _solve_core(method, S, W, M, q, qd, info[b])
         _transform_from_dq(q, qd, X[b])
-        # data cost (8): q AtA q + a2 (q BtB q + 2 q BtA q' + q' AtA q')
+        # data cost (8): Gram form; recomputed motion by motion when small relative to the
+        # scale (the Gram form loses digits there: noise-free or low-noise data)
         cst = 0.0
+        scale = 0.0
         for i in range(4):
+            scale += AtA[i, i] + a2 * BtB[i, i]
             for j in range(4):
                 cst += q[i] * AtA[i, j] * q[j] + a2 * (q[i] * BtB[i, j] * q[j]
                                                        + 2.0 * q[i] * BtA[i, j] * qd[j]
                                                        + qd[i] * AtA[i, j] * qd[j])
+        if cst < 1e-5 * scale:
+            cst = _cost_soa(Q, n, q, qd, a2)
         cost[b] = cst
 
 
@@ -1047,7 +1061,7 @@ def _solve_from_quats(method, T, qC, qCd, qH, qHd, alpha, S_add, W_add, M_add, q
 _TOL = 1e-6  # geometry.ORTHONORMAL_TOL
 
 
-def fast_build_problem(C, H, alpha: float = 1.0) -> MotionProblem:
+def fast_build_problem(C, H, alpha: float = 1.0, return_flips: bool = False):
     """:func:`simcalib.solvers.problem.build_problem` through a compiled path (invalid input
     is handed to build_problem, which raises its error), followed by the sign re-alignment
     of near-180-degree motion pairs with the optimal rotation at ``alpha`` (see
@@ -1057,19 +1071,26 @@ def fast_build_problem(C, H, alpha: float = 1.0) -> MotionProblem:
         Ca = np.ascontiguousarray(C, dtype=np.float64)
         Ha = np.ascontiguousarray(H, dtype=np.float64)
     except (TypeError, ValueError):
-        return build_problem(C, H)
+        build_problem(C, H)   # raises the conversion error
+        raise
     if (Ca.ndim != 3 or Ha.ndim != 3 or Ca.shape[1:] != (4, 4) or Ha.shape[1:] != (4, 4)
             or Ca.shape[0] != Ha.shape[0] or Ca.shape[0] < 2):
-        return build_problem(C, H)
+        build_problem(C, H)   # raises the shape error
+        raise ValueError(f"C and H must have shape (N, 4, 4) with N >= 2; received "
+                         f"{Ca.shape} and {Ha.shape}")
     n = Ca.shape[0]
     qC = np.empty((n, 4))
     qCd = np.empty((n, 4))
     qH = np.empty((n, 4))
     qHd = np.empty((n, 4))
     if _quats_kernel(Ca, Ha, _TOL, qC, qCd, qH, qHd) >= 0:
-        return align_problem(build_problem(C, H), alpha)
-    _align_arrays(_T, qC, qCd, qH, qHd, float(alpha))
-    return MotionProblem(Ca, Ha, qC, qCd, qH, qHd)
+        problem = build_problem(C, H)   # raises the validation error (if any)
+        aligned = align_problem(problem, alpha)
+        nf = int(np.sum(np.any(aligned.q_H != problem.q_H, axis=1)))
+        return (aligned, nf) if return_flips else aligned
+    nf = _align_arrays(_T, qC, qCd, qH, qHd, float(alpha))
+    problem = MotionProblem(Ca, Ha, qC, qCd, qH, qHd)
+    return (problem, int(nf)) if return_flips else problem
 
 
 def align_problem(problem: MotionProblem, alpha: float = 1.0) -> MotionProblem:
@@ -1127,6 +1148,15 @@ def _prior_adds(prior):
             np.ascontiguousarray(M_add))
 
 
+def dual_quat_fast(X):
+    """(q, q') of one 4x4 transform (compiled; same convention as
+    geometry.dual_quat_from_transform)."""
+    q = np.empty(4)
+    qd = np.empty(4)
+    _quat_dq(np.ascontiguousarray(X, dtype=np.float64), q, qd)
+    return q, qd
+
+
 def data_cost(problem: MotionProblem, q, qd, alpha: float) -> float:
     """Cost (8) at the dual quaternion (q, q') (compiled, motion by motion)."""
     return float(_cost_kernel(np.ascontiguousarray(problem.q_C), np.ascontiguousarray(problem.q_C_dual),
@@ -1154,7 +1184,7 @@ def _make_solver(method: str):
         if method == "dqopt":
             diag.update(bracket=(float(info[I_LO]), float(info[I_HI])), f=float(info[I_F]),
                         df=float(info[I_DF]))
-        success = status != ST_MAXITER or method != "dqopt"
+        success = status != ST_MAXITER
         return SolverOutput(X=X, diagnostics=diag, success=success,
                             message=_STATUS_TEXT.get(status, ""))
     fn.__name__ = f"_{method}"
@@ -1169,9 +1199,9 @@ def _make_batch(method: str):
         (X, cost, objective_quadratic, info, bad)."""
         nb = C.shape[0]
         S_add, W_add, M_add = _prior_adds(prior)
-        X = np.empty((nb, 4, 4))
-        cost = np.empty(nb)
-        info = np.empty((nb, N_INFO))
+        X = np.full((nb, 4, 4), np.nan)
+        cost = np.full(nb, np.inf)
+        info = np.zeros((nb, N_INFO))
         bad = np.empty(nb, dtype=np.int64)
         nflip = np.zeros(nb, dtype=np.int64)
         _batch_kernel(code, _T, C, H, alphas, _TOL, prior is not None, S_add, W_add, M_add, X,
@@ -1180,8 +1210,7 @@ def _make_batch(method: str):
                "iterations": info[:, I_ITERS].astype(np.int64),
                "n_clipped": info[:, I_NCLIP].astype(np.int64),
                "lambda0": info[:, I_LAM0], "sign_flips": nflip}
-        out["success"] = (info[:, I_STATUS] != ST_MAXITER) if method == "dqopt" else \
-            np.ones(nb, dtype=bool)
+        out["success"] = info[:, I_STATUS] != ST_MAXITER
         return out
     batch.__name__ = f"_{method}_batch"
     return batch

@@ -26,7 +26,7 @@ Certificates (DQ methods): see :class:`Certificate`.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
