@@ -1,0 +1,312 @@
+"""Public solver API: :func:`solve`, :func:`solve_batch`, :class:`Solution`,
+:class:`BatchSolution`, :class:`Prior`, :func:`dq_cost`.
+
+Convention (NOTES.md): ``C_i X = X H_i`` with ``X = T_a_b`` (pose of sensor b in sensor a),
+``C_i`` the relative motions of a and ``H_i`` those of b.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+
+from simcalib.geometry import check_transforms, dual_quat_from_transform, \
+    transform_from_dual_quat
+from simcalib.solvers import registry
+from simcalib.solvers.problem import MotionProblem, SolverOutput, build_problem
+
+__all__ = ["Prior", "Solution", "BatchSolution", "solve", "solve_batch", "dq_cost",
+           "check_alpha"]
+
+
+# ------------------------------------------------------------------------------ prior
+@dataclass(frozen=True)
+class Prior:
+    """Prior on ``X`` (paper eqs. 26-29): penalty ``a |vec(dq)|^2 + b |dq'|^2`` where
+    ``dq + eps dq' = Q_prior^* Q_X`` is the deviation from the prior.
+
+    ``X``: 4x4 rigid transform (the prior guess of ``T_a_b``); ``a`` (dimensionless) weights
+    the rotation deviation, ``b`` (1/m^2 scale of ``dq'``, i.e. half the translation) the
+    translation deviation. Both finite and >= 0, not both 0.
+    """
+    X: np.ndarray
+    a: float = 1.0
+    b: float = 1.0
+
+    def __post_init__(self):
+        X = check_transforms(self.X, "Prior.X")
+        if X.shape != (4, 4):
+            raise ValueError(f"Prior.X must be one 4x4 rigid transform; received shape {X.shape}")
+        X = X.copy()
+        X.setflags(write=False)
+        object.__setattr__(self, "X", X)
+        for name in ("a", "b"):
+            val = getattr(self, name)
+            if isinstance(val, bool) or not isinstance(val, (int, float, np.integer, np.floating)):
+                raise TypeError(f"Prior.{name} must be a real number; received "
+                                f"{type(val).__name__} {val!r}")
+            val = float(val)
+            if not math.isfinite(val) or val < 0:
+                raise ValueError(f"Prior.{name} must be finite and >= 0; received {val}")
+            object.__setattr__(self, name, val)
+        if self.a == 0 and self.b == 0:
+            raise ValueError("Prior weights a and b are both 0; at least one must be > 0 "
+                             "(omit the prior instead)")
+
+
+def _check_prior(prior) -> Prior | None:
+    if prior is None or isinstance(prior, Prior):
+        return prior
+    raise TypeError(f"prior must be a simcalib.Prior or None; received {type(prior).__name__}")
+
+
+def check_alpha(alpha) -> float:
+    """Validate the weighting factor alpha (1/m): a finite real number > 0."""
+    if isinstance(alpha, bool) or not isinstance(alpha, (int, float, np.integer, np.floating)):
+        if isinstance(alpha, np.ndarray) and alpha.ndim == 0:
+            alpha = alpha.item()
+        else:
+            raise TypeError(f"alpha must be a real number; received {type(alpha).__name__} "
+                            f"{alpha!r}")
+    alpha = float(alpha)
+    if not math.isfinite(alpha) or alpha <= 0:
+        raise ValueError(f"alpha must be finite and > 0; received {alpha}")
+    return alpha
+
+
+def _check_rng(rng) -> np.random.Generator:
+    if rng is None:
+        return np.random.default_rng(0)
+    if isinstance(rng, np.random.Generator):
+        return rng
+    raise TypeError(f"rng must be a numpy.random.Generator or None; received "
+                    f"{type(rng).__name__}")
+
+
+# ------------------------------------------------------------------------------- cost
+def _as_problem(problem) -> MotionProblem:
+    if isinstance(problem, MotionProblem):
+        return problem
+    if isinstance(problem, tuple) and len(problem) == 2:
+        return build_problem(*problem)
+    raise TypeError(f"problem must be a MotionProblem or a (C, H) tuple; received "
+                    f"{type(problem).__name__}")
+
+
+def _as_dual_quat(X):
+    if isinstance(X, tuple) and len(X) == 2:
+        q = np.asarray(X[0], dtype=np.float64)
+        qd = np.asarray(X[1], dtype=np.float64)
+        if q.shape != (4,) or qd.shape != (4,):
+            raise ValueError(f"(q, q') must be two 4-vectors; received shapes {q.shape}, {qd.shape}")
+        return q, qd
+    X = check_transforms(X, "X")
+    if X.shape != (4, 4):
+        raise ValueError(f"X must be one 4x4 transform; received shape {X.shape}")
+    return dual_quat_from_transform(X)
+
+
+def dq_cost(X, problem, alpha: float, prior: Prior | None = None) -> float:
+    """Paper cost (8) ``sum_i |A_i q|^2 + alpha^2 |B_i q + A_i q'|^2`` at ``X``.
+
+    ``X``: a 4x4 transform or a dual quaternion ``(q, q')`` (used as given, not
+    normalised). ``problem``: a :class:`MotionProblem` or ``(C, H)``; the motions are
+    sign-aligned per NOTES.md (scalar parts of q_C and q_H of equal sign).
+    With ``prior`` the prior terms ``a |vec(dq)|^2 + b |dq'|^2`` are added (eq. 26).
+    """
+    from simcalib.geometry import quat_left_matrix, quat_right_matrix
+    problem = _as_problem(problem)
+    alpha = check_alpha(alpha)
+    q, qd = _as_dual_quat(X)
+    A = quat_left_matrix(problem.q_C) - quat_right_matrix(problem.q_H)
+    B = quat_left_matrix(problem.q_C_dual) - quat_right_matrix(problem.q_H_dual)
+    r1 = A @ q
+    r2 = B @ q + A @ qd
+    cost = float(np.sum(r1 * r1) + alpha**2 * np.sum(r2 * r2))
+    prior = _check_prior(prior)
+    if prior is not None:
+        cost += _prior_penalty(q, qd, prior)
+    return cost
+
+
+def _prior_penalty(q, qd, prior: Prior) -> float:
+    from simcalib.geometry import quat_conjugate, quat_multiply
+    q_hat, q_hat_dual = dual_quat_from_transform(prior.X)
+    dq = quat_multiply(quat_conjugate(q_hat), q)
+    dqd = quat_multiply(quat_conjugate(q_hat_dual), q) + quat_multiply(quat_conjugate(q_hat), qd)
+    return float(prior.a * np.sum(dq[:3] ** 2) + prior.b * np.sum(dqd**2))
+
+
+# --------------------------------------------------------------------------- solution
+@dataclass(frozen=True)
+class Solution:
+    """Result of :func:`solve`.
+
+    ``X``: estimate of ``T_a_b`` (4x4). ``cost``: paper cost (8) at ``X`` for ``alpha``
+    (data term only); ``objective``: cost plus the prior terms (equal to ``cost`` without a
+    prior). ``runtime_s``: time from the ``(N, 4, 4)`` arrays to ``X`` (validation + solver).
+    ``certificate``: global-optimality certificate for DQ methods (None otherwise).
+    ``observability``: what the motions determine (see
+    :mod:`simcalib.solvers.observability`); ``degenerate`` / ``undetermined`` summarise it.
+    """
+    X: np.ndarray
+    cost: float
+    objective: float
+    method: str
+    alpha: float
+    runtime_s: float
+    success: bool
+    solver_message: str
+    n_motions: int
+    prior: Prior | None = None
+    certificate: object | None = None
+    diagnostics: dict = field(default_factory=dict)
+    problem: MotionProblem | None = field(default=None, repr=False, compare=False)
+
+    @cached_property
+    def observability(self):
+        from simcalib.solvers.observability import analyse
+        return analyse(self.problem, self.X, self.alpha, self.prior, self.cost)
+
+    @property
+    def degenerate(self) -> bool:
+        return self.observability.degenerate
+
+    @property
+    def undetermined(self):
+        return self.observability.undetermined
+
+    @property
+    def message(self) -> str:
+        parts = [self.solver_message] if self.solver_message else []
+        if self.certificate is not None:
+            parts.append(self.certificate.summary())
+        parts.append(self.observability.summary())
+        return "; ".join(p for p in parts if p)
+
+
+@dataclass(frozen=True)
+class BatchSolution:
+    """Result of :func:`solve_batch`: ``X`` (B, 4, 4), ``cost`` (B,), ``objective`` (B,),
+    ``success`` (B,), ``alpha`` (B,), ``method``, ``runtime_s`` (whole batch),
+    ``diagnostics`` (dict of (B,) arrays, method-specific)."""
+    X: np.ndarray
+    cost: np.ndarray
+    objective: np.ndarray
+    success: np.ndarray
+    alpha: np.ndarray
+    method: str
+    runtime_s: float
+    prior: Prior | None = None
+    diagnostics: dict = field(default_factory=dict)
+
+    def __len__(self):
+        return self.X.shape[0]
+
+
+# ------------------------------------------------------------------------------ solve
+def _finish_output(out, method: str):
+    """Normalise a solver function's return value to (X, success, message, diagnostics)."""
+    if isinstance(out, SolverOutput):
+        X, success, message, diag = out.X, bool(out.success), out.message, dict(out.diagnostics)
+    else:
+        X, success, message, diag = out, True, "", {}
+    X = np.asarray(X, dtype=np.float64)
+    if X.shape != (4, 4) or not np.isfinite(X).all():
+        return (np.full((4, 4), np.nan), False,
+                f"solver {method!r} returned no valid transform ({message or 'non-finite'})", diag)
+    return X, success, message, diag
+
+
+def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None = None,
+          rng: np.random.Generator | None = None) -> Solution:
+    """Estimate ``X = T_a_b`` from relative motions with ``C_i X = X H_i``.
+
+    ``C``, ``H``: array-like ``(N, 4, 4)``, N >= 2. ``method``: a name from
+    ``simcalib.solvers.available()``. ``alpha`` (1/m, > 0): weight of the translation
+    equations. ``prior``: optional :class:`Prior` (DQ methods). ``rng``: Generator for
+    stochastic methods (default ``default_rng(0)``).
+    """
+    info = registry.get(method)
+    alpha = check_alpha(alpha)
+    prior = _check_prior(prior)
+    if prior is not None and not info.supports_prior:
+        with_prior = [i.name for i in registry.infos() if i.supports_prior]
+        raise ValueError(f"method {method!r} does not support a prior; methods with a "
+                         f"prior: {', '.join(with_prior)}")
+    rng = _check_rng(rng)
+    t0 = time.perf_counter()
+    problem = _fast_problem(C, H)
+    out = info.fn(problem, alpha, prior, rng)
+    runtime = time.perf_counter() - t0
+    X, success, message, diag = _finish_output(out, method)
+    if success or np.isfinite(X).all():
+        cost = dq_cost(X, problem, alpha)
+        objective = cost + (_prior_penalty(*dual_quat_from_transform(X), prior)
+                            if prior is not None else 0.0)
+    else:
+        cost = objective = math.inf
+    certificate = diag.pop("certificate", None)
+    return Solution(X=X, cost=cost, objective=objective, method=method, alpha=alpha,
+                    runtime_s=runtime, success=success, solver_message=message,
+                    n_motions=problem.n, prior=prior, certificate=certificate,
+                    diagnostics=diag, problem=problem)
+
+
+def _fast_problem(C, H) -> MotionProblem:
+    """build_problem, possibly through a compiled fast path with identical semantics."""
+    try:
+        from simcalib.solvers.dq import fast_build_problem
+    except ImportError:
+        return build_problem(C, H)
+    return fast_build_problem(C, H)
+
+
+def solve_batch(C, H, method: str = "dqopt", alpha=1.0, prior: Prior | None = None,
+                rng: np.random.Generator | None = None) -> BatchSolution:
+    """Solve ``B`` problems at once: ``C``, ``H`` of shape ``(B, N, 4, 4)``; ``alpha`` a
+    scalar or ``(B,)``. Methods with a registered batch function run vectorised; others
+    loop over :func:`solve`'s solver function."""
+    info = registry.get(method)
+    prior = _check_prior(prior)
+    if prior is not None and not info.supports_prior:
+        raise ValueError(f"method {method!r} does not support a prior")
+    rng = _check_rng(rng)
+    C = check_transforms(C, "C")
+    H = check_transforms(H, "H")
+    if C.ndim != 4:
+        raise ValueError(f"C must have shape (B, N, 4, 4); received shape {C.shape}")
+    if H.shape != C.shape:
+        raise ValueError(f"C and H must have the same shape (B, N, 4, 4); received "
+                         f"{C.shape} and {H.shape}")
+    B, N = C.shape[:2]
+    if N < 2:
+        raise ValueError(f"each problem needs at least 2 motions; received N = {N}")
+    alphas = _check_alphas(alpha, B)
+    t0 = time.perf_counter()
+    X = np.empty((B, 4, 4))
+    success = np.ones(B, dtype=bool)
+    for b in range(B):
+        problem = build_problem(C[b], H[b])
+        Xb, ok, _, _ = _finish_output(info.fn(problem, float(alphas[b]), prior, rng), method)
+        X[b], success[b] = Xb, ok
+    runtime = time.perf_counter() - t0
+    cost = np.array([dq_cost(X[b], (C[b], H[b]), alphas[b]) if success[b] else np.inf
+                     for b in range(B)])
+    return BatchSolution(X=X, cost=cost, objective=cost.copy(), success=success, alpha=alphas,
+                         method=method, runtime_s=runtime, prior=prior)
+
+
+def _check_alphas(alpha, B: int) -> np.ndarray:
+    arr = np.asarray(alpha, dtype=np.float64) if not isinstance(alpha, bool) else None
+    if arr is None or arr.ndim > 1 or (arr.ndim == 1 and arr.shape[0] != B):
+        raise ValueError(f"alpha must be a scalar or an array of shape ({B},); received "
+                         f"{alpha!r}")
+    bad = ~np.isfinite(arr) | (arr <= 0)
+    if bad.any():
+        raise ValueError(f"alpha must be finite and > 0; received {arr[bad].ravel()[0]}")
+    return np.broadcast_to(arr, (B,)).astype(np.float64)
