@@ -238,6 +238,15 @@ class ScenarioConfig:
         _check_solver_names(self.solvers, "solvers")
         if self.prior.enabled:
             _check_solver_names(self.prior.methods, "prior.methods")
+            from simcalib.solvers import registry
+            no_prior = [m for m in self.prior.methods if not registry.get(m).supports_prior]
+            if no_prior:
+                ok = [i.name for i in registry.infos() if i.supports_prior]
+                raise ConfigError(f"prior.methods: {', '.join(no_prior)} cannot use a prior; "
+                                  f"methods with a prior: {', '.join(ok)}")
+        if self.kind == "synthetic" and not getattr(type(self.synthetic), "_simcalib_missing",
+                                                    None):
+            self._sync_synthetic_noise()
         missing = getattr(type(self.world if self.kind == "sim" else self.synthetic),
                           "_simcalib_missing", None)
         if missing:
@@ -247,6 +256,26 @@ class ScenarioConfig:
                 type(self.vision), "_simcalib_missing", None):
             raise ConfigError("source=aruco needs simcalib.vision, which is not available "
                               "in this installation")
+
+    def _sync_synthetic_noise(self):
+        """``noise.*`` is the one place measurement noise is set: the synthetic generator's
+        ``sigma_r_rad``/``sigma_t_m`` follow it (zero for ``source=ground_truth``); setting
+        them to something else is a conflict."""
+        syn = self.synthetic
+        base = type(syn)()
+        if self.source == "ground_truth":
+            want_r, want_t = 0.0, 0.0
+        else:
+            want_r, want_t = math.radians(self.noise.sigma_r_deg), self.noise.sigma_t_m
+        for name, want in (("sigma_r_rad", want_r), ("sigma_t_m", want_t)):
+            have = getattr(syn, name)
+            if have != getattr(base, name) and not math.isclose(have, want, rel_tol=1e-12,
+                                                                 abs_tol=1e-15):
+                raise ConfigError(f"synthetic.{name}={have} conflicts with noise.* "
+                                  f"(the measurement noise of every source): set "
+                                  f"noise.sigma_r_deg / noise.sigma_t_m instead")
+        object.__setattr__(self, "synthetic", dataclasses.replace(
+            syn, sigma_r_rad=want_r, sigma_t_m=want_t))
 
     @property
     def alphas(self) -> tuple[float, ...]:

@@ -210,7 +210,7 @@ def _stage_world(st: _State) -> None:
     cfg = st.cfg
     if cfg.kind == "synthetic":
         from simcalib.synthetic import synthetic_problem
-        syn = _synthetic_config(cfg)
+        syn = cfg.synthetic  # measurement noise already synced with noise.* by the config
         if cfg.pairing.n_pairs > syn.num_motions:
             raise ValueError(f"pairing.n_pairs={cfg.pairing.n_pairs} exceeds "
                              f"synthetic.num_motions={syn.num_motions}")
@@ -227,16 +227,6 @@ def _stage_world(st: _State) -> None:
     st.X_true = np.asarray(st.world.trajectory.T_a_b, dtype=np.float64)
     if st.recorder is not None:
         st.recorder.log_world(getattr(st.world, "marker_field", None))
-
-
-def _synthetic_config(cfg: ScenarioConfig):
-    """The generator's config with the measurement noise taken from ``noise.*`` (the one
-    place noise is set) — zero for ``source=ground_truth``."""
-    syn = cfg.synthetic
-    if cfg.source == "ground_truth":
-        return dataclasses.replace(syn, sigma_r_rad=0.0, sigma_t_m=0.0)
-    return dataclasses.replace(syn, sigma_r_rad=float(np.deg2rad(cfg.noise.sigma_r_deg)),
-                               sigma_t_m=float(cfg.noise.sigma_t_m))
 
 
 def _stage_streams(st: _State) -> None:

@@ -21,6 +21,7 @@ Entity layout (timeline ``frame`` = simulated frame index, plus ``sim_time``):
 
 from __future__ import annotations
 
+import re
 import uuid
 from pathlib import Path
 
@@ -28,7 +29,12 @@ import numpy as np
 
 from simcalib.geometry import quat_from_matrix
 
-__all__ = ["RunRecorder", "default_blueprint"]
+__all__ = ["RunRecorder", "default_blueprint", "entity_name"]
+
+
+def entity_name(label: str) -> str:
+    """Entity-path-safe name of a solver label (``dqopt+prior`` -> ``dqopt_prior``)."""
+    return re.sub(r"[^A-Za-z0-9_]", "_", label)
 
 _COLORS = {"cam_a": (230, 120, 30), "cam_b": (40, 140, 230)}
 _SOLVER_COLORS = [(220, 50, 50), (50, 170, 80), (150, 80, 200), (240, 180, 0),
@@ -167,7 +173,7 @@ class RunRecorder:
         import rerun as rr
         ok = [s for s in solvers if s.X is not None]
         for k, s in enumerate(ok):
-            ent = f"world/cam_a/estimates/{s.label}"
+            ent = f"world/cam_a/estimates/{entity_name(s.label)}"
             self._log_pose(ent, np.asarray(s.X), static=True)
             self.rec.log(ent, rr.TransformAxes3D(0.06), static=True)
             self.rec.log(f"{ent}/origin", rr.Points3D(
@@ -185,8 +191,10 @@ class RunRecorder:
         self.rec.log("errors/legend", rr.TextDocument(legend, media_type="text/markdown"),
                      static=True)
         for s, r, t in zip(ok, rot, trans):
-            self.rec.log(f"errors/{s.label}/rotation_deg", rr.Scalars([r]), static=True)
-            self.rec.log(f"errors/{s.label}/translation_cm", rr.Scalars([t]), static=True)
+            self.rec.log(f"errors/{entity_name(s.label)}/rotation_deg", rr.Scalars([r]),
+                         static=True)
+            self.rec.log(f"errors/{entity_name(s.label)}/translation_cm", rr.Scalars([t]),
+                         static=True)
 
     # ------------------------------------------------------------ pose error
     def log_pose_errors(self, pose_errors: dict) -> None:
