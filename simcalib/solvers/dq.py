@@ -16,7 +16,8 @@ import numpy as np
 
 from simcalib.geometry import dual_quat_from_transform, quat_conjugate, quat_left_matrix, \
     quat_right_matrix
-from simcalib.solvers.problem import MotionProblem
+from simcalib.solvers.problem import MotionProblem, SolverOutput
+from simcalib.solvers.registry import register
 
 __all__ = ["problem_matrices", "gram_blocks", "prior_terms"]
 
@@ -74,44 +75,816 @@ def problem_matrices(problem: MotionProblem, alpha: float, prior=None):
     return S, W, M
 
 
-# ------------------------------------------------------------------ reference (numpy)
-def _dqopt_reference(S, W, M):
-    """Plain numpy DQOpt (Algorithm 1) for full-rank M: bracket + bisection/Newton."""
-    Minv = np.linalg.inv(M)
-    Z0 = S - W @ Minv @ W.T
-    Z1 = W @ Minv + Minv @ W.T
-    Z2 = Minv
 
-    def f(mu):
-        lam, V = np.linalg.eigh(Z0 + mu * Z1 - mu * mu * Z2)
-        q = V[:, 0]
-        return q @ (mu * Z2 - 0.5 * Z1) @ q, q
+# =====================================================================================
+# Compiled kernels (numba). All per-problem work is scalar code on 4x4 matrices; batches
+# run in parallel over problems.
+# =====================================================================================
+import numba  # noqa: E402
+from numba import njit, prange  # noqa: E402
 
-    w, V = np.linalg.eigh(M)
-    Mh = V @ np.diag(np.sqrt(w)) @ V.T
-    Mmh = V @ np.diag(1 / np.sqrt(w)) @ V.T
-    K = 0.5 * (Mh @ W @ Mmh + Mmh @ W.T @ Mh)
-    k = np.linalg.eigvalsh(0.5 * (K + K.T))
-    lo, hi = k[0], k[-1]
-    for _ in range(200):
-        mid = 0.5 * (lo + hi)
-        if f(mid)[0] < 0:
-            lo = mid
+_EPS = 2.220446049250313e-16
+#: eigenvalues of M below CLIP_REL * scale are raised to it (noise-free / degenerate data)
+CLIP_REL = 1e-10
+
+DQOPT, DQ2STEPS, DQCONVRLX, DQ2NDORD, DQ2NDORD_LAMBDA, DQITR = 0, 1, 2, 3, 4, 5
+METHOD_CODES = {"dqopt": DQOPT, "dq2steps": DQ2STEPS, "dqconvrlx": DQCONVRLX,
+                "dq2ndord": DQ2NDORD, "dq2ndord_lambda": DQ2NDORD_LAMBDA, "dqitr": DQITR}
+# layout of the per-problem info vector
+(I_MU, I_LAM0, I_LAM1, I_ITERS, I_NCLIP, I_LO, I_HI, I_F, I_DF, I_STATUS, I_XI0, I_XI3,
+ I_COST) = range(13)
+N_INFO = 13
+# status codes
+ST_OK, ST_MAXITER, ST_FALLBACK = 0, 1, 2
+
+
+@njit(cache=True)
+def _eigh(A, w, V):
+    """Symmetric eigen-decomposition by cyclic Jacobi (accurate, small n); ascending ``w``,
+    eigenvectors in the columns of ``V``."""
+    n = A.shape[0]
+    a = A.copy()
+    for i in range(n):
+        for j in range(n):
+            V[i, j] = 1.0 if i == j else 0.0
+    for sweep in range(40):
+        off = 0.0
+        dg = 0.0
+        for p in range(n):
+            dg += a[p, p] * a[p, p]
+            for q in range(p + 1, n):
+                off += a[p, q] * a[p, q]
+        if off == 0.0 or off <= 1e-38 * dg:
+            break
+        for p in range(n - 1):
+            for q in range(p + 1, n):
+                apq = a[p, q]
+                if apq == 0.0:
+                    continue
+                if abs(apq) < 1e-20 * (abs(a[p, p]) + abs(a[q, q])):
+                    a[p, q] = 0.0
+                    a[q, p] = 0.0
+                    continue
+                theta = (a[q, q] - a[p, p]) / (2.0 * apq)
+                if abs(theta) > 1e150:
+                    t = 0.5 / theta
+                else:
+                    t = 1.0 / (abs(theta) + np.sqrt(theta * theta + 1.0))
+                    if theta < 0.0:
+                        t = -t
+                c = 1.0 / np.sqrt(t * t + 1.0)
+                s = t * c
+                for k in range(n):
+                    akp = a[k, p]
+                    akq = a[k, q]
+                    a[k, p] = c * akp - s * akq
+                    a[k, q] = s * akp + c * akq
+                for k in range(n):
+                    apk = a[p, k]
+                    aqk = a[q, k]
+                    a[p, k] = c * apk - s * aqk
+                    a[q, k] = s * apk + c * aqk
+                for k in range(n):
+                    vkp = V[k, p]
+                    vkq = V[k, q]
+                    V[k, p] = c * vkp - s * vkq
+                    V[k, q] = s * vkp + c * vkq
+    for i in range(n):
+        w[i] = a[i, i]
+    # insertion sort (ascending) with columns
+    for i in range(1, n):
+        j = i
+        while j > 0 and w[j - 1] > w[j]:
+            tmp = w[j - 1]
+            w[j - 1] = w[j]
+            w[j] = tmp
+            for k in range(n):
+                tmp = V[k, j - 1]
+                V[k, j - 1] = V[k, j]
+                V[k, j] = tmp
+            j -= 1
+
+
+@njit(cache=True)
+def _quat_dq(T, q, qd):
+    """(q, q') of one 4x4 rigid transform, same algorithm as geometry.quat_from_matrix
+    (largest-diagonal branch, normalised, w >= 0) and q' = 1/2 (t, 0) (x) q."""
+    m00 = T[0, 0]
+    m11 = T[1, 1]
+    m22 = T[2, 2]
+    d0 = 1.0 + m00 - m11 - m22
+    d1 = 1.0 - m00 + m11 - m22
+    d2 = 1.0 - m00 - m11 + m22
+    d3 = 1.0 + m00 + m11 + m22
+    k = 0
+    dk = d0
+    if d1 > dk:
+        k = 1
+        dk = d1
+    if d2 > dk:
+        k = 2
+        dk = d2
+    if d3 > dk:
+        k = 3
+        dk = d3
+    s = 2.0 * np.sqrt(max(dk, 1e-300))
+    d21 = T[2, 1] - T[1, 2]
+    d02 = T[0, 2] - T[2, 0]
+    d10 = T[1, 0] - T[0, 1]
+    s01 = T[0, 1] + T[1, 0]
+    s02 = T[0, 2] + T[2, 0]
+    s12 = T[1, 2] + T[2, 1]
+    if k == 0:
+        x, y, z, w = 0.25 * s, s01 / s, s02 / s, d21 / s
+    elif k == 1:
+        x, y, z, w = s01 / s, 0.25 * s, s12 / s, d02 / s
+    elif k == 2:
+        x, y, z, w = s02 / s, s12 / s, 0.25 * s, d10 / s
+    else:
+        x, y, z, w = d21 / s, d02 / s, d10 / s, 0.25 * s
+    nrm = np.sqrt(x * x + y * y + z * z + w * w)
+    if w < 0.0:
+        nrm = -nrm
+    x /= nrm
+    y /= nrm
+    z /= nrm
+    w /= nrm
+    q[0] = x
+    q[1] = y
+    q[2] = z
+    q[3] = w
+    tx = 0.5 * T[0, 3]
+    ty = 0.5 * T[1, 3]
+    tz = 0.5 * T[2, 3]
+    # (t,0) (x) q with L(p) rows [w,-z,y,x],[z,w,-x,y],[-y,x,w,z],[-x,-y,-z,w], p_w = 0
+    qd[0] = -tz * y + ty * z + tx * w
+    qd[1] = tz * x - tx * z + ty * w
+    qd[2] = -ty * x + tx * y + tz * w
+    qd[3] = -tx * x - ty * y - tz * z
+
+
+@njit(cache=True)
+def _rigid_ok(T, tol):
+    for i in range(4):
+        for j in range(4):
+            if not np.isfinite(T[i, j]):
+                return False
+    if abs(T[3, 0]) > tol or abs(T[3, 1]) > tol or abs(T[3, 2]) > tol or abs(T[3, 3] - 1.0) > tol:
+        return False
+    for i in range(3):
+        for j in range(3):
+            g = T[0, i] * T[0, j] + T[1, i] * T[1, j] + T[2, i] * T[2, j]
+            if i == j:
+                g -= 1.0
+            if abs(g) > tol:
+                return False
+    det = (T[0, 0] * (T[1, 1] * T[2, 2] - T[1, 2] * T[2, 1])
+           - T[0, 1] * (T[1, 0] * T[2, 2] - T[1, 2] * T[2, 0])
+           + T[0, 2] * (T[1, 0] * T[2, 1] - T[1, 1] * T[2, 0]))
+    return abs(det - 1.0) <= tol
+
+
+@njit(cache=True)
+def _quats_kernel(C, H, tol, qC, qCd, qH, qHd):
+    """Validate and convert (N,4,4) C, H to sign-aligned dual quaternions. Returns the
+    index of the first invalid motion (or -1)."""
+    n = C.shape[0]
+    for i in range(n):
+        if not _rigid_ok(C[i], tol) or not _rigid_ok(H[i], tol):
+            return i
+        _quat_dq(C[i], qC[i], qCd[i])
+        _quat_dq(H[i], qH[i], qHd[i])
+        if qC[i, 3] * qH[i, 3] < 0.0:
+            for k in range(4):
+                qH[i, k] = -qH[i, k]
+                qHd[i, k] = -qHd[i, k]
+    return -1
+
+
+@njit(cache=True)
+def _lr_minus(p, h, out):
+    """out = L(p) - R(h) (4x4)."""
+    x, y, z, w = p[0], p[1], p[2], p[3]
+    a, b, c, d = h[0], h[1], h[2], h[3]
+    out[0, 0] = w - d
+    out[0, 1] = -z - c
+    out[0, 2] = y + b
+    out[0, 3] = x - a
+    out[1, 0] = z + c
+    out[1, 1] = w - d
+    out[1, 2] = -x - a
+    out[1, 3] = y - b
+    out[2, 0] = -y - b
+    out[2, 1] = x + a
+    out[2, 2] = w - d
+    out[2, 3] = z - c
+    out[3, 0] = -x + a
+    out[3, 1] = -y + b
+    out[3, 2] = -z + c
+    out[3, 3] = w - d
+
+
+@njit(cache=True)
+def _accumulate(c, cd, h, hd, A, B, AtA, BtB, BtA):
+    _lr_minus(c, h, A)
+    _lr_minus(cd, hd, B)
+    for i in range(4):
+        for j in range(4):
+            sa = 0.0
+            sb = 0.0
+            sba = 0.0
+            for k in range(4):
+                sa += A[k, i] * A[k, j]
+                sb += B[k, i] * B[k, j]
+                sba += B[k, i] * A[k, j]
+            AtA[i, j] += sa
+            BtB[i, j] += sb
+            BtA[i, j] += sba
+
+
+@njit(cache=True)
+def _grams_kernel(qC, qCd, qH, qHd, AtA, BtB, BtA):
+    A = np.empty((4, 4))
+    B = np.empty((4, 4))
+    AtA[:] = 0.0
+    BtB[:] = 0.0
+    BtA[:] = 0.0
+    for i in range(qC.shape[0]):
+        _accumulate(qC[i], qCd[i], qH[i], qHd[i], A, B, AtA, BtB, BtA)
+
+
+@njit(cache=True)
+def _m_eig(S, M, xi, V):
+    """Eigen-decomposition of M with eigenvalues clipped to >= CLIP_REL * scale.
+    Returns how many were clipped (noise-free or degenerate data: M is singular)."""
+    _eigh(M, xi, V)
+    scale = xi[3]
+    tr = (S[0, 0] + S[1, 1] + S[2, 2] + S[3, 3]) * 0.25
+    if tr > scale:
+        scale = tr
+    floor = CLIP_REL * scale
+    if floor < 1e-280:
+        floor = 1e-280
+    nclip = 0
+    for k in range(4):
+        if xi[k] < floor:
+            xi[k] = floor
+            nclip += 1
+    return nclip
+
+
+@njit(cache=True)
+def _zmat(S, WV, V, xi, mu, Z):
+    """Z(mu) = S - (W - mu) M^-1 (W - mu)^T = Z0 + mu Z1 - mu^2 Z2 (eq. 12)."""
+    for i in range(4):
+        for j in range(i, 4):
+            acc = S[i, j]
+            for k in range(4):
+                acc -= (WV[i, k] - mu * V[i, k]) * (WV[j, k] - mu * V[j, k]) / xi[k]
+            Z[i, j] = acc
+            Z[j, i] = acc
+
+
+@njit(cache=True)
+def _proj(E, col, WV, V, mu, pv, pu):
+    """pv[k] = e . v_k, pu[k] = e . u_k with u_k = (W - mu) v_k, e = E[:, col]."""
+    for k in range(4):
+        sv = 0.0
+        su = 0.0
+        for i in range(4):
+            sv += E[i, col] * V[i, k]
+            su += E[i, col] * (WV[i, k] - mu * V[i, k])
+        pv[k] = sv
+        pu[k] = su
+
+
+@njit(cache=True)
+def _f_df(E, lam, WV, V, xi, mu, pv, pu, pva, pua):
+    """f(mu) = q0 . q0' (eq. 18) and its derivative (first-order perturbation of q0)."""
+    _proj(E, 0, WV, V, mu, pv, pu)
+    f = 0.0
+    qz2q = 0.0
+    for k in range(4):
+        f -= pv[k] * pu[k] / xi[k]
+        qz2q += pv[k] * pv[k] / xi[k]
+    df = qz2q
+    for a in range(1, 4):
+        _proj(E, a, WV, V, mu, pva, pua)
+        za = 0.0
+        for k in range(4):
+            za += (pua[k] * pv[k] + pva[k] * pu[k]) / xi[k]
+        gap = lam[a] - lam[0]
+        if gap > 0.0:
+            df += za * za / gap
+    return f, df
+
+
+@njit(cache=True)
+def _mu_tilde(q, WV, V, xi):
+    """mu~(q) = 1/2 q.Z1.q / q.Z2.q (eq. 14/24)."""
+    num = 0.0
+    den = 0.0
+    for k in range(4):
+        pv = 0.0
+        pw = 0.0
+        for i in range(4):
+            pv += q[i] * V[i, k]
+            pw += q[i] * WV[i, k]
+        num += pv * pw / xi[k]
+        den += pv * pv / xi[k]
+    return num / den
+
+
+@njit(cache=True)
+def _qdual(q, mu, WV, V, xi, qd):
+    """q' = M^-1 (mu - W^T) q (eq. 11), with the component along the smallest eigenvector
+    of M taken from the constraint q . q' = 0 when that eigenvalue is small (stable for
+    nearly singular M)."""
+    c = np.empty(4)
+    pv = np.empty(4)
+    for k in range(4):
+        sv = 0.0
+        sw = 0.0
+        for i in range(4):
+            sv += q[i] * V[i, k]
+            sw += q[i] * WV[i, k]
+        pv[k] = sv
+        c[k] = (mu * sv - sw) / xi[k]
+    if xi[0] < 1e-6 * xi[3] and abs(pv[0]) > 0.5:
+        acc = 0.0
+        for k in range(1, 4):
+            acc += c[k] * pv[k]
+        c[0] = -acc / pv[0]
+    for i in range(4):
+        acc = 0.0
+        for k in range(4):
+            acc += V[i, k] * c[k]
+        qd[i] = acc
+    # exact projection onto q . q' = 0 (q is unit)
+    dot = q[0] * qd[0] + q[1] * qd[1] + q[2] * qd[2] + q[3] * qd[3]
+    for i in range(4):
+        qd[i] -= dot * q[i]
+
+
+@njit(cache=True)
+def _z_basis(E, WV, V, xi, Z1ab, Z2ab):
+    """Z1^{ab} = q_a Z1 q_b, Z2^{ab} = q_a Z2 q_b in the eigenbasis E of Z0."""
+    P = np.empty((4, 4))
+    R = np.empty((4, 4))
+    for a in range(4):
+        for k in range(4):
+            sv = 0.0
+            sw = 0.0
+            for i in range(4):
+                sv += E[i, a] * V[i, k]
+                sw += E[i, a] * WV[i, k]
+            P[a, k] = sv
+            R[a, k] = sw
+    for a in range(4):
+        for b in range(4):
+            z1 = 0.0
+            z2 = 0.0
+            for k in range(4):
+                z1 += (R[a, k] * P[b, k] + P[a, k] * R[b, k]) / xi[k]
+                z2 += P[a, k] * P[b, k] / xi[k]
+            Z1ab[a, b] = z1
+            Z2ab[a, b] = z2
+
+
+@njit(cache=True)
+def _second_order_mu(E, lam, Z1ab, Z2ab, q):
+    """DQ2ndOrd, eq. (23): mu_(2) and q_(2) (unnormalised) from the Z0 eigenbasis."""
+    den = Z2ab[0, 0]
+    for a in range(1, 4):
+        den -= Z1ab[a, 0] ** 2 / (lam[0] - lam[a])
+    mu = 0.5 * Z1ab[0, 0] / den
+    s1 = 0.0
+    for a in range(1, 4):
+        s1 += (Z1ab[a, 0] / (lam[0] - lam[a])) ** 2
+    coef = np.zeros(4)
+    coef[0] = 1.0 - 0.5 * mu * mu * s1
+    for a in range(1, 4):
+        l0a = lam[0] - lam[a]
+        inner = 0.0
+        for b in range(1, 4):
+            inner += Z1ab[b, 0] * Z1ab[a, b] / (lam[0] - lam[b])
+        inner = inner - Z2ab[a, 0] - Z1ab[0, 0] * Z1ab[a, 0] / l0a
+        coef[a] = mu * Z1ab[a, 0] / l0a + mu * mu * inner / l0a
+    for i in range(4):
+        acc = 0.0
+        for a in range(4):
+            acc += coef[a] * E[i, a]
+        q[i] = acc
+    return mu
+
+
+@njit(cache=True)
+def _second_order_lambda(E, lam, Z1ab, Z2ab, q):
+    """DQ2ndOrd in Delta-lambda (appendix A, eqs. 35-36, derived for Z = Z0 + mu Z1 - mu^2 Z2;
+    the printed appendix uses the opposite sign of the Z2 term). Returns False when the
+    expansion is undefined (q0 Z1 q0 = 0, i.e. noise-free: then q = q0)."""
+    z100 = Z1ab[0, 0]
+    for i in range(4):
+        q[i] = E[i, 0]
+    if z100 == 0.0:
+        return False
+    m1 = 1.0 / z100
+    c1a = np.zeros(4)
+    for a in range(1, 4):
+        c1a[a] = m1 * Z1ab[a, 0] / (lam[0] - lam[a])
+    # q0 Z1 q1, q1 Z1 q1, q0 Z2 q1
+    q0z1q1 = 0.0
+    q0z2q1 = 0.0
+    q1z1q1 = 0.0
+    for a in range(1, 4):
+        q0z1q1 += Z1ab[0, a] * c1a[a]
+        q0z2q1 += Z2ab[0, a] * c1a[a]
+        for b in range(1, 4):
+            q1z1q1 += c1a[a] * Z1ab[a, b] * c1a[b]
+    m2 = (m1 * m1 * Z2ab[0, 0] - m1 * q0z1q1) / z100
+    c2a = np.zeros(4)
+    nrm1 = 0.0
+    for a in range(1, 4):
+        nrm1 += c1a[a] * c1a[a]
+        qaz1q1 = 0.0
+        for b in range(1, 4):
+            qaz1q1 += Z1ab[a, b] * c1a[b]
+        c2a[a] = (m1 * qaz1q1 + m2 * Z1ab[a, 0] - m1 * m1 * Z2ab[a, 0] - c1a[a]) / (lam[0] - lam[a])
+    c2a[0] = -0.5 * nrm1
+    q0z1q2 = 0.0
+    for a in range(4):
+        q0z1q2 += Z1ab[0, a] * c2a[a]
+    k0 = -0.5 * z100
+    k1 = m1 * Z2ab[0, 0] - q0z1q1
+    k2 = m2 * Z2ab[0, 0] + 2.0 * m1 * q0z2q1 - q0z1q2 - 0.5 * q1z1q1
+    disc = k1 * k1 - 4.0 * k0 * k2
+    if disc >= 0.0 and k1 != 0.0:
+        sq = np.sqrt(disc)
+        if k1 < 0.0:
+            sq = -sq
+        dl = -2.0 * k0 / (k1 + sq)
+    elif k1 != 0.0:
+        dl = -k0 / k1
+    else:
+        return False
+    coef = np.zeros(4)
+    coef[0] = 1.0 + dl * dl * c2a[0]
+    for a in range(1, 4):
+        coef[a] = dl * c1a[a] + dl * dl * c2a[a]
+    for i in range(4):
+        acc = 0.0
+        for a in range(4):
+            acc += coef[a] * E[i, a]
+        if not np.isfinite(acc):
+            for j in range(4):
+                q[j] = E[j, 0]
+            return False
+        q[i] = acc
+    return True
+
+
+@njit(cache=True)
+def _normalize(q):
+    n = np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    for i in range(4):
+        q[i] /= n
+
+
+@njit(cache=True)
+def _solve_core(method, S, W, M, q, qd, info):
+    """One DQ problem given (S, W, M) (eq. 9, prior included). Writes q, q' and info."""
+    xi = np.empty(4)
+    V = np.empty((4, 4))
+    nclip = _m_eig(S, M, xi, V)
+    WV = np.zeros((4, 4))
+    for i in range(4):
+        for j in range(4):
+            acc = 0.0
+            for k in range(4):
+                acc += W[i, k] * V[k, j]
+            WV[i, j] = acc
+    Z = np.empty((4, 4))
+    lam = np.empty(4)
+    E = np.empty((4, 4))
+    pv = np.empty(4)
+    pu = np.empty(4)
+    pva = np.empty(4)
+    pua = np.empty(4)
+    mu = 0.0
+    iters = 0
+    status = ST_OK
+    lo = np.nan
+    hi = np.nan
+    f = np.nan
+    df = np.nan
+    if method == DQ2STEPS:
+        for i in range(4):
+            q[i] = V[i, 0]
+        mu = _mu_tilde(q, WV, V, xi)
+    elif method == DQOPT:
+        # bracket (appendix C): extreme eigenvalues of K = sym(M^1/2 W M^-1/2) in V basis
+        K = np.empty((4, 4))
+        for a in range(4):
+            for b in range(4):
+                wab = 0.0
+                wba = 0.0
+                for i in range(4):
+                    wab += V[i, a] * WV[i, b]
+                    wba += V[i, b] * WV[i, a]
+                K[a, b] = 0.5 * (np.sqrt(xi[a] / xi[b]) * wab + np.sqrt(xi[b] / xi[a]) * wba)
+        kw = np.empty(4)
+        KV = np.empty((4, 4))
+        _eigh(K, kw, KV)
+        span = kw[3] - kw[0]
+        lo = kw[0] - 1e-12 * span - 1e-300
+        hi = kw[3] + 1e-12 * span + 1e-300
+        mu = 0.0
+        if mu < lo or mu > hi:
+            mu = 0.5 * (lo + hi)
+        blo = lo
+        bhi = hi
+        for it in range(200):
+            _zmat(S, WV, V, xi, mu, Z)
+            _eigh(Z, lam, E)
+            f, df = _f_df(E, lam, WV, V, xi, mu, pv, pu, pva, pua)
+            iters += 1
+            qdn = 0.0
+            for k in range(4):
+                qdn += (pu[k] / xi[k]) ** 2
+            if abs(f) <= 4.0 * _EPS * (1.0 + np.sqrt(qdn)):
+                break
+            if f > 0.0:
+                bhi = mu
+            else:
+                blo = mu
+            step = f / df if df > 0.0 else 0.0
+            mu_new = mu - step
+            if not (mu_new > blo and mu_new < bhi):
+                mu_new = 0.5 * (blo + bhi)
+            if abs(mu_new - mu) <= 2.0 * _EPS * abs(mu) or bhi - blo <= 4.0 * _EPS * max(abs(blo), abs(bhi)):
+                break
+            mu = mu_new
         else:
-            hi = mid
-    mu = 0.5 * (lo + hi)
-    q = f(mu)[1]
-    qd = Minv @ (mu * q - W.T @ q)
-    return q, qd, mu
+            status = ST_MAXITER
+        for i in range(4):
+            q[i] = E[i, 0]
+    elif method == DQITR:
+        converged = False
+        for it in range(500):
+            _zmat(S, WV, V, xi, mu, Z)
+            _eigh(Z, lam, E)
+            iters += 1
+            for i in range(4):
+                q[i] = E[i, 0]
+            mu_new = _mu_tilde(q, WV, V, xi)
+            if abs(mu_new - mu) <= 1e-14 * abs(mu_new) or mu_new == mu:
+                mu = mu_new
+                converged = True
+                break
+            mu = mu_new
+        if not converged:
+            status = ST_MAXITER
+    else:
+        # relaxed problem: Z0 = Z(0)
+        _zmat(S, WV, V, xi, 0.0, Z)
+        _eigh(Z, lam, E)
+        if method == DQCONVRLX:
+            for i in range(4):
+                q[i] = E[i, 0]
+        else:
+            Z1ab = np.empty((4, 4))
+            Z2ab = np.empty((4, 4))
+            _z_basis(E, WV, V, xi, Z1ab, Z2ab)
+            if method == DQ2NDORD:
+                _second_order_mu(E, lam, Z1ab, Z2ab, q)
+                ok = True
+                for i in range(4):
+                    if not np.isfinite(q[i]):
+                        ok = False
+                if not ok:
+                    for i in range(4):
+                        q[i] = E[i, 0]
+                    status = ST_FALLBACK
+            else:
+                if not _second_order_lambda(E, lam, Z1ab, Z2ab, q):
+                    status = ST_FALLBACK
+        _normalize(q)
+        mu = _mu_tilde(q, WV, V, xi)
+    _normalize(q)
+    _qdual(q, mu, WV, V, xi, qd)
+    if method != DQOPT and method != DQITR:
+        _zmat(S, WV, V, xi, mu, Z)
+        _eigh(Z, lam, E)
+    # objective (quadratic form of eq. 9 with these S, W, M)
+    cost = 0.0
+    for i in range(4):
+        for j in range(4):
+            cost += q[i] * S[i, j] * q[j] + qd[i] * M[i, j] * qd[j] + 2.0 * q[i] * W[i, j] * qd[j]
+    info[I_MU] = mu
+    info[I_LAM0] = lam[0]
+    info[I_LAM1] = lam[1]
+    info[I_ITERS] = iters
+    info[I_NCLIP] = nclip
+    info[I_LO] = lo
+    info[I_HI] = hi
+    info[I_F] = f
+    info[I_DF] = df
+    info[I_STATUS] = status
+    info[I_XI0] = xi[0]
+    info[I_XI3] = xi[3]
+    info[I_COST] = cost
 
 
-from simcalib.geometry import transform_from_dual_quat  # noqa: E402
-from simcalib.solvers.registry import register  # noqa: E402
+@njit(cache=True)
+def _transform_from_dq(q, qd, X):
+    x, y, z, w = q[0], q[1], q[2], q[3]
+    X[0, 0] = 1 - 2 * (y * y + z * z)
+    X[0, 1] = 2 * (x * y - z * w)
+    X[0, 2] = 2 * (x * z + y * w)
+    X[1, 0] = 2 * (x * y + z * w)
+    X[1, 1] = 1 - 2 * (x * x + z * z)
+    X[1, 2] = 2 * (y * z - x * w)
+    X[2, 0] = 2 * (x * z - y * w)
+    X[2, 1] = 2 * (y * z + x * w)
+    X[2, 2] = 1 - 2 * (x * x + y * y)
+    # t = 2 q' (x) conj(q), vector part
+    a, b, c, d = qd[0], qd[1], qd[2], qd[3]
+    X[0, 3] = 2.0 * (-d * x + a * w - b * z + c * y)
+    X[1, 3] = 2.0 * (-d * y + b * w - c * x + a * z)
+    X[2, 3] = 2.0 * (-d * z + c * w - a * y + b * x)
+    X[3, 0] = 0.0
+    X[3, 1] = 0.0
+    X[3, 2] = 0.0
+    X[3, 3] = 1.0
 
 
-@register("dqopt", family="dq", description="optimal DQ solution: root of the monotone f(mu) "
-          "(paper 3.2.1)", supports_prior=True, certified=True)
-def _dqopt(problem, alpha, prior, rng):
-    S, W, M = problem_matrices(problem, alpha, prior)
-    q, qd, mu = _dqopt_reference(S, W, M)
-    return transform_from_dual_quat(q, qd)
+@njit(cache=True, parallel=True)
+def _batch_kernel(method, C, H, alphas, tol, S_add, W_add, M_add, X, cost, info, bad):
+    """Fused batch: validate + convert + accumulate + solve + X + data cost, per problem."""
+    nb = C.shape[0]
+    n = C.shape[1]
+    for b in prange(nb):
+        c = np.empty(4)
+        cd = np.empty(4)
+        h = np.empty(4)
+        hd = np.empty(4)
+        A = np.empty((4, 4))
+        Bm = np.empty((4, 4))
+        AtA = np.zeros((4, 4))
+        BtB = np.zeros((4, 4))
+        BtA = np.zeros((4, 4))
+        bad[b] = -1
+        for i in range(n):
+            if not _rigid_ok(C[b, i], tol) or not _rigid_ok(H[b, i], tol):
+                bad[b] = i
+                break
+            _quat_dq(C[b, i], c, cd)
+            _quat_dq(H[b, i], h, hd)
+            if c[3] * h[3] < 0.0:
+                for k in range(4):
+                    h[k] = -h[k]
+                    hd[k] = -hd[k]
+            _accumulate(c, cd, h, hd, A, Bm, AtA, BtB, BtA)
+        if bad[b] >= 0:
+            continue
+        a2 = alphas[b] * alphas[b]
+        S = np.empty((4, 4))
+        W = np.empty((4, 4))
+        M = np.empty((4, 4))
+        for i in range(4):
+            for j in range(4):
+                S[i, j] = 0.5 * (AtA[i, j] + AtA[j, i]) + a2 * 0.5 * (BtB[i, j] + BtB[j, i]) + S_add[i, j]
+                W[i, j] = a2 * BtA[i, j] + W_add[i, j]
+                M[i, j] = a2 * 0.5 * (AtA[i, j] + AtA[j, i]) + M_add[i, j]
+        q = np.empty(4)
+        qd = np.empty(4)
+        _solve_core(method, S, W, M, q, qd, info[b])
+        _transform_from_dq(q, qd, X[b])
+        # data cost (8): q AtA q + a2 (q BtB q + 2 q BtA q' + q' AtA q')
+        cst = 0.0
+        for i in range(4):
+            for j in range(4):
+                cst += q[i] * AtA[i, j] * q[j] + a2 * (q[i] * BtB[i, j] * q[j]
+                                                       + 2.0 * q[i] * BtA[i, j] * qd[j]
+                                                       + qd[i] * AtA[i, j] * qd[j])
+        cost[b] = cst
+
+
+# ----------------------------------------------------------------------- python glue
+_TOL = 1e-6  # geometry.ORTHONORMAL_TOL
+
+
+def fast_build_problem(C, H) -> MotionProblem:
+    """:func:`simcalib.solvers.problem.build_problem` through a compiled path (same result;
+    invalid input is handed to build_problem, which raises its error)."""
+    from simcalib.solvers.problem import build_problem
+    try:
+        Ca = np.ascontiguousarray(C, dtype=np.float64)
+        Ha = np.ascontiguousarray(H, dtype=np.float64)
+    except (TypeError, ValueError):
+        return build_problem(C, H)
+    if (Ca.ndim != 3 or Ha.ndim != 3 or Ca.shape[1:] != (4, 4) or Ha.shape[1:] != (4, 4)
+            or Ca.shape[0] != Ha.shape[0] or Ca.shape[0] < 2):
+        return build_problem(C, H)
+    n = Ca.shape[0]
+    qC = np.empty((n, 4))
+    qCd = np.empty((n, 4))
+    qH = np.empty((n, 4))
+    qHd = np.empty((n, 4))
+    if _quats_kernel(Ca, Ha, _TOL, qC, qCd, qH, qHd) >= 0:
+        return build_problem(C, H)
+    return MotionProblem(Ca, Ha, qC, qCd, qH, qHd)
+
+
+def _matrices_fast(problem: MotionProblem, alpha: float, prior):
+    AtA = np.empty((4, 4))
+    BtB = np.empty((4, 4))
+    BtA = np.empty((4, 4))
+    _grams_kernel(problem.q_C, problem.q_C_dual, problem.q_H, problem.q_H_dual, AtA, BtB, BtA)
+    AtA = 0.5 * (AtA + AtA.T)
+    BtB = 0.5 * (BtB + BtB.T)
+    a2 = alpha * alpha
+    S = AtA + a2 * BtB
+    W = a2 * BtA
+    M = a2 * AtA
+    if prior is not None:
+        S_add, W_add, M_add, _ = prior_terms(prior)
+        S, W, M = S + S_add, W + W_add, M + M_add
+    return S, W, M
+
+
+def solve_matrices(method: str, S, W, M):
+    """Run one DQ method on (S, W, M). Returns ``(q, q', info)`` (info: see I_* indices)."""
+    q = np.empty(4)
+    qd = np.empty(4)
+    info = np.empty(N_INFO)
+    _solve_core(METHOD_CODES[method], np.ascontiguousarray(S, dtype=np.float64),
+                np.ascontiguousarray(W, dtype=np.float64),
+                np.ascontiguousarray(M, dtype=np.float64), q, qd, info)
+    return q, qd, info
+
+
+_STATUS_TEXT = {ST_OK: "", ST_MAXITER: "iteration limit reached",
+                ST_FALLBACK: "expansion undefined (noise-free data): relaxed solution used"}
+
+
+def _make_solver(method: str):
+    code = METHOD_CODES[method]
+
+    def fn(problem, alpha, prior, rng):
+        S, W, M = _matrices_fast(problem, alpha, prior)
+        q = np.empty(4)
+        qd = np.empty(4)
+        info = np.empty(N_INFO)
+        _solve_core(code, S, W, M, q, qd, info)
+        X = np.empty((4, 4))
+        _transform_from_dq(q, qd, X)
+        status = int(info[I_STATUS])
+        diag = {"mu": float(info[I_MU]), "lambda0": float(info[I_LAM0]),
+                "lambda1": float(info[I_LAM1]), "iterations": int(info[I_ITERS]),
+                "n_clipped": int(info[I_NCLIP]), "q": q, "q_dual": qd,
+                "status": status}
+        if method == "dqopt":
+            diag.update(bracket=(float(info[I_LO]), float(info[I_HI])), f=float(info[I_F]),
+                        df=float(info[I_DF]))
+        success = status != ST_MAXITER or method != "dqopt"
+        return SolverOutput(X=X, diagnostics=diag, success=success,
+                            message=_STATUS_TEXT.get(status, ""))
+    fn.__name__ = f"_{method}"
+    return fn
+
+
+def _make_batch(method: str):
+    code = METHOD_CODES[method]
+
+    def batch(C, H, alphas, prior):
+        """C, H validated (B, N, 4, 4) float64 C-contiguous; alphas (B,). Returns
+        (X, cost, objective_quadratic, info, bad)."""
+        nb = C.shape[0]
+        if prior is not None:
+            S_add, W_add, M_add, _ = prior_terms(prior)
+        else:
+            S_add = W_add = M_add = np.zeros((4, 4))
+        X = np.empty((nb, 4, 4))
+        cost = np.empty(nb)
+        info = np.empty((nb, N_INFO))
+        bad = np.empty(nb, dtype=np.int64)
+        _batch_kernel(code, C, H, alphas, _TOL, S_add, W_add, M_add, X, cost, info, bad)
+        return X, cost, info, bad
+    batch.__name__ = f"_{method}_batch"
+    return batch
+
+
+_DESCRIPTIONS = {
+    "dqopt": "optimal: root of the monotone f(mu) = q0.q0' (paper 3.2.1), appendix-C bracket, "
+             "safeguarded Newton with the closed-form derivative; certified",
+    "dq2steps": "two steps (3.2.2): rotation from M's smallest eigenvector, then q' by eq. 20",
+    "dqconvrlx": "convex relaxation (3.2.3): smallest eigenvector of Z0, q' by eq. 20",
+    "dq2ndord": "second-order expansion in mu around the relaxed solution (eq. 23)",
+    "dq2ndord_lambda": "second-order expansion in Delta-lambda (appendix A, eqs. 35-36)",
+    "dqitr": "fixed-point iteration mu <- mu~(q(mu)) (3.2.5, Algorithm 5)",
+}
+
+for _name in METHOD_CODES:
+    register(_name, family="dq", description=_DESCRIPTIONS[_name], supports_prior=True,
+             certified=(_name == "dqopt"), batch=_make_batch(_name))(_make_solver(_name))
