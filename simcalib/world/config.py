@@ -1,0 +1,335 @@
+"""Typed, validated configuration of a simulated world (frozen dataclasses).
+
+Every field has a documented default; bad values raise ``ValueError``/``TypeError`` naming
+the field, the received value and what is allowed. Nested dataclasses group the settings::
+
+    WorldConfig(platform="cart", path="planar", duration_s=20.0, fps=10.0,
+                path_params={}, perturbation=PerturbationConfig(),
+                rig=RigConfig(), cam_a=CameraConfig(), cam_b=CameraConfig(),
+                room=RoomConfig(), markers=MarkerFieldConfig(), ik=IKConfig())
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields
+from typing import Any, Mapping
+
+import numpy as np
+
+__all__ = ["CameraConfig", "IKConfig", "MarkerFieldConfig", "PerturbationConfig",
+           "RigConfig", "RoomConfig", "WorldConfig", "PLATFORMS"]
+
+#: Platforms that can carry the rig.
+PLATFORMS = ("cart", "arm")
+
+
+# ----------------------------------------------------------------------------- helpers
+def _number(owner: str, name: str, value, *, lo=None, hi=None, lo_open=False,
+            hi_open=False) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{owner}.{name} must be a number; received {value!r} "
+                        f"({type(value).__name__})")
+    v = float(value)
+    if not math.isfinite(v):
+        raise ValueError(f"{owner}.{name} must be finite; received {value!r}")
+    if lo is not None and (v < lo or (lo_open and v == lo)):
+        rel = ">" if lo_open else ">="
+        raise ValueError(f"{owner}.{name} must be {rel} {lo}; received {value!r}")
+    if hi is not None and (v > hi or (hi_open and v == hi)):
+        rel = "<" if hi_open else "<="
+        raise ValueError(f"{owner}.{name} must be {rel} {hi}; received {value!r}")
+    return v
+
+
+def _integer(owner: str, name: str, value, *, lo=None, hi=None) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"{owner}.{name} must be an integer; received {value!r} "
+                        f"({type(value).__name__})")
+    v = int(value)
+    if (lo is not None and v < lo) or (hi is not None and v > hi):
+        raise ValueError(f"{owner}.{name} must be in [{lo}, {hi}]; received {value!r}")
+    return v
+
+
+def _vector3(owner: str, name: str, value) -> tuple[float, float, float]:
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise TypeError(f"{owner}.{name} must be 3 numbers; received {value!r}") from None
+    if arr.shape != (3,) or not np.isfinite(arr).all():
+        raise ValueError(f"{owner}.{name} must be 3 finite numbers; received {value!r}")
+    return tuple(float(v) for v in arr)
+
+
+def _set(obj, name, value):
+    object.__setattr__(obj, name, value)
+
+
+def _nested(owner: str, name: str, value, cls):
+    """Accept an instance of ``cls`` or a mapping of its fields (unknown keys rejected)."""
+    if isinstance(value, cls):
+        return value
+    if isinstance(value, Mapping):
+        allowed = [f.name for f in fields(cls)]
+        unknown = sorted(set(value) - set(allowed))
+        if unknown:
+            raise ValueError(f"{owner}.{name}: unknown key(s) {unknown}; allowed: {allowed}")
+        return cls(**value)
+    raise TypeError(f"{owner}.{name} must be a {cls.__name__} or a mapping of its fields; "
+                    f"received {type(value).__name__}")
+
+
+# ----------------------------------------------------------------------------- configs
+@dataclass(frozen=True)
+class CameraConfig:
+    """One camera of the rig: image size, field of view and timing/drop knobs.
+
+    * ``width``, ``height`` (px, default 640x480, at most 1920x1080 = the offscreen buffer),
+      ``fovy_deg`` (vertical field of view, default 60°). Intrinsics follow
+      ``CameraIntrinsics.from_fovy``.
+    * ``capture_offset_s``: the camera truly captures frame ``k`` at ``k / fps + offset``
+      (the paper's real cameras were ~0.05 s apart). Default 0.
+    * ``capture_jitter_s``: std of Gaussian jitter on the true capture time per frame
+      (must stay below a quarter of the frame period). Default 0.
+    * ``clock_offset_s``, ``stamp_jitter_s``: the reported timestamp is the true capture time
+      plus this constant offset plus Gaussian jitter of this std (the clock error a
+      synchroniser would see). Defaults 0.
+    * ``drop_prob``: probability that a frame is never delivered (i.i.d., seeded); dropped
+      frames are counted in every ``PoseStream`` of the camera, never filled in. Default 0.
+    """
+    width: int = 640
+    height: int = 480
+    fovy_deg: float = 60.0
+    capture_offset_s: float = 0.0
+    capture_jitter_s: float = 0.0
+    clock_offset_s: float = 0.0
+    stamp_jitter_s: float = 0.0
+    drop_prob: float = 0.0
+
+    def __post_init__(self):
+        o = "CameraConfig"
+        _set(self, "width", _integer(o, "width", self.width, lo=16, hi=1920))
+        _set(self, "height", _integer(o, "height", self.height, lo=16, hi=1080))
+        _set(self, "fovy_deg", _number(o, "fovy_deg", self.fovy_deg, lo=5.0, hi=150.0))
+        _set(self, "capture_offset_s", _number(o, "capture_offset_s", self.capture_offset_s,
+                                               lo=-10.0, hi=10.0))
+        _set(self, "capture_jitter_s", _number(o, "capture_jitter_s", self.capture_jitter_s,
+                                               lo=0.0))
+        _set(self, "clock_offset_s", _number(o, "clock_offset_s", self.clock_offset_s,
+                                             lo=-1e6, hi=1e6))
+        _set(self, "stamp_jitter_s", _number(o, "stamp_jitter_s", self.stamp_jitter_s, lo=0.0))
+        _set(self, "drop_prob", _number(o, "drop_prob", self.drop_prob, lo=0.0, hi=1.0,
+                                        hi_open=True))
+
+
+@dataclass(frozen=True)
+class RigConfig:
+    """The two-camera rig. ``X = T_a_b`` (pose of cam_b's OpenCV frame in cam_a's) from a
+    translation (m) and an axis-angle rotation vector (deg); default the paper's real rig:
+    ``[-0.7, 28.1, -0.1]`` cm and ``[2.35, -0.92, -48.93]`` deg (NOTES.md).
+    ``rig_cam_a_*``: pose of cam_a's OpenCV frame in the rig frame (+z forward = viewing
+    direction, +y down, +x right at the platform's mount). Default: cam_a upright, looking
+    forward, 14 cm above and 5 cm in front of the mount, so that cam_b (28 cm below cam_a
+    along its +y) sits symmetrically below it."""
+    a_b_translation_m: tuple = (-0.007, 0.281, -0.001)
+    a_b_rotvec_deg: tuple = (2.35, -0.92, -48.93)
+    rig_cam_a_translation_m: tuple = (0.0, -0.14, 0.05)
+    rig_cam_a_rotvec_deg: tuple = (0.0, 0.0, 0.0)
+
+    def __post_init__(self):
+        o = "RigConfig"
+        for name in ("a_b_translation_m", "a_b_rotvec_deg", "rig_cam_a_translation_m",
+                     "rig_cam_a_rotvec_deg"):
+            _set(self, name, _vector3(o, name, getattr(self, name)))
+        if np.linalg.norm(self.a_b_translation_m) > 2.0:
+            raise ValueError(f"RigConfig.a_b_translation_m must be within 2 m (a rig, not a "
+                             f"building); received {self.a_b_translation_m}")
+        if np.linalg.norm(self.rig_cam_a_translation_m) > 1.0:
+            raise ValueError("RigConfig.rig_cam_a_translation_m must be within 1 m of the "
+                             f"mount; received {self.rig_cam_a_translation_m}")
+
+    def T_a_b(self) -> np.ndarray:
+        from simcalib.geometry import matrix_from_rotvec, transform_from_rotation_translation
+        R = matrix_from_rotvec(np.deg2rad(np.asarray(self.a_b_rotvec_deg)))
+        return transform_from_rotation_translation(R, np.asarray(self.a_b_translation_m))
+
+    def T_rig_cam_a(self) -> np.ndarray:
+        from simcalib.geometry import matrix_from_rotvec, transform_from_rotation_translation
+        R = matrix_from_rotvec(np.deg2rad(np.asarray(self.rig_cam_a_rotvec_deg)))
+        return transform_from_rotation_translation(R, np.asarray(self.rig_cam_a_translation_m))
+
+
+@dataclass(frozen=True)
+class RoomConfig:
+    """Box-shaped room centred on the world origin, floor at z = 0: inner size
+    ``size_m = (x, y, z)`` in metres (default 4.4 x 4.4 x 2.6)."""
+    size_m: tuple = (4.4, 4.4, 2.6)
+
+    def __post_init__(self):
+        v = _vector3("RoomConfig", "size_m", self.size_m)
+        if not (2.5 <= min(v[:2]) and max(v[:2]) <= 30.0 and 2.0 <= v[2] <= 10.0):
+            raise ValueError("RoomConfig.size_m must be x, y in [2.5, 30] m and z in [2, 10] m "
+                             f"(the platforms need space); received {self.size_m}")
+        _set(self, "size_m", v)
+
+
+@dataclass(frozen=True)
+class MarkerFieldConfig:
+    """ArUco marker field in the room.
+
+    * ``dictionary``: OpenCV predefined dictionary name (default ``DICT_4X4_250``).
+    * ``side_m``: edge of the black marker square (default 0.20 m); each marker geom adds a
+      white quiet zone of one cell on every side.
+    * ``pitch_m``: centre-to-centre spacing of the grid on every surface (default 0.40 m).
+    * ``surfaces``: any of ``walls``, ``floor``, ``ceiling`` (default walls only).
+    * ``margin_m``: free band along every edge of a surface (default 0.25 m).
+    * ``texture_cell_px``: texture pixels per marker cell (default 24).
+    """
+    dictionary: str = "DICT_4X4_250"
+    side_m: float = 0.20
+    pitch_m: float = 0.40
+    surfaces: tuple = ("walls",)
+    margin_m: float = 0.25
+    texture_cell_px: int = 24
+
+    def __post_init__(self):
+        o = "MarkerFieldConfig"
+        if not isinstance(self.dictionary, str) or not self.dictionary.startswith("DICT_"):
+            raise ValueError(f"{o}.dictionary must be an OpenCV predefined ArUco dictionary "
+                             f"name such as 'DICT_4X4_250'; received {self.dictionary!r}")
+        _set(self, "side_m", _number(o, "side_m", self.side_m, lo=0.02, hi=1.0))
+        _set(self, "pitch_m", _number(o, "pitch_m", self.pitch_m, lo=0.02, hi=5.0))
+        _set(self, "margin_m", _number(o, "margin_m", self.margin_m, lo=0.0, hi=2.0))
+        _set(self, "texture_cell_px", _integer(o, "texture_cell_px", self.texture_cell_px,
+                                               lo=2, hi=128))
+        surfaces = (self.surfaces,) if isinstance(self.surfaces, str) else tuple(self.surfaces)
+        allowed = ("walls", "floor", "ceiling")
+        bad = [s for s in surfaces if s not in allowed]
+        if bad or not surfaces or len(set(surfaces)) != len(surfaces):
+            raise ValueError(f"{o}.surfaces must be distinct names from {allowed}; "
+                             f"received {self.surfaces!r}")
+        _set(self, "surfaces", surfaces)
+        if self.pitch_m < self.side_m * 8.0 / 6.0:
+            raise ValueError(f"{o}.pitch_m ({self.pitch_m}) must leave room for the marker "
+                             f"and its quiet zone (>= side_m * 4/3 = {self.side_m * 4 / 3:.3f})")
+
+
+@dataclass(frozen=True)
+class PerturbationConfig:
+    """Optional small smooth 3D perturbations on top of any path (seeded): peak roll and
+    pitch (deg, about the platform's heading axes) and peak height change (m). Each is a
+    sum of three sinusoids of random frequency in [``min_freq_hz``, ``max_freq_hz``] and
+    random phase, bounded by the given peak. Defaults: off (planar paths stay planar)."""
+    roll_deg: float = 0.0
+    pitch_deg: float = 0.0
+    height_m: float = 0.0
+    min_freq_hz: float = 0.1
+    max_freq_hz: float = 0.5
+
+    def __post_init__(self):
+        o = "PerturbationConfig"
+        _set(self, "roll_deg", _number(o, "roll_deg", self.roll_deg, lo=0.0, hi=20.0))
+        _set(self, "pitch_deg", _number(o, "pitch_deg", self.pitch_deg, lo=0.0, hi=20.0))
+        _set(self, "height_m", _number(o, "height_m", self.height_m, lo=0.0, hi=0.3))
+        _set(self, "min_freq_hz", _number(o, "min_freq_hz", self.min_freq_hz, lo=0.0,
+                                          lo_open=True))
+        _set(self, "max_freq_hz", _number(o, "max_freq_hz", self.max_freq_hz, lo=0.0,
+                                          lo_open=True))
+        if self.max_freq_hz < self.min_freq_hz:
+            raise ValueError(f"{o}: max_freq_hz ({self.max_freq_hz}) must be >= min_freq_hz "
+                             f"({self.min_freq_hz})")
+
+    @property
+    def active(self) -> bool:
+        return self.roll_deg > 0 or self.pitch_deg > 0 or self.height_m > 0
+
+
+@dataclass(frozen=True)
+class IKConfig:
+    """Damped-least-squares IK (arm paths): damping ``damping`` (λ), at most ``max_iter``
+    iterations per waypoint, success when the position error <= ``tol_pos_m`` and the
+    rotation error <= ``tol_rot_rad``; a waypoint that misses by more than
+    ``fail_pos_m`` / ``fail_rot_rad`` is an unreachable path (ValueError)."""
+    damping: float = 1e-4
+    max_iter: int = 200
+    tol_pos_m: float = 1e-9
+    tol_rot_rad: float = 1e-9
+    fail_pos_m: float = 1e-4
+    fail_rot_rad: float = 1e-4
+
+    def __post_init__(self):
+        o = "IKConfig"
+        _set(self, "damping", _number(o, "damping", self.damping, lo=0.0, hi=1.0, lo_open=True))
+        _set(self, "max_iter", _integer(o, "max_iter", self.max_iter, lo=1, hi=100000))
+        for name in ("tol_pos_m", "tol_rot_rad", "fail_pos_m", "fail_rot_rad"):
+            _set(self, name, _number(o, name, getattr(self, name), lo=0.0, lo_open=True))
+
+
+@dataclass(frozen=True)
+class WorldConfig:
+    """A simulated run.
+
+    * ``platform``: ``"cart"`` or ``"arm"``; ``None`` (default) picks the path's natural
+      platform (``3d`` -> arm, the others -> cart).
+    * ``path``: a name from :func:`simcalib.world.paths.available_paths` (default ``planar``).
+    * ``duration_s`` (default 20 s), ``fps`` (default 10 Hz): frame ``k`` is nominally at
+      ``k / fps`` for ``k = 0 .. floor(duration_s * fps)``.
+    * ``path_params``: overrides of the path's per-platform defaults (unknown keys rejected).
+    * ``perturbation``, ``rig``, ``cam_a``, ``cam_b``, ``room``, ``markers``, ``ik``: nested
+      configs (instances or mappings of their fields).
+    """
+    platform: str | None = None
+    path: str = "planar"
+    duration_s: float = 20.0
+    fps: float = 10.0
+    path_params: Mapping[str, Any] = field(default_factory=dict)
+    perturbation: PerturbationConfig = field(default_factory=PerturbationConfig)
+    rig: RigConfig = field(default_factory=RigConfig)
+    cam_a: CameraConfig = field(default_factory=CameraConfig)
+    cam_b: CameraConfig = field(default_factory=CameraConfig)
+    room: RoomConfig = field(default_factory=RoomConfig)
+    markers: MarkerFieldConfig = field(default_factory=MarkerFieldConfig)
+    ik: IKConfig = field(default_factory=IKConfig)
+
+    def __post_init__(self):
+        from simcalib.world.paths import get_path, resolve_platform
+        o = "WorldConfig"
+        info = get_path(self.path)            # unknown name -> ValueError listing valid ones
+        if self.platform is not None and self.platform not in PLATFORMS:
+            raise ValueError(f"{o}.platform must be one of {list(PLATFORMS)} or None; "
+                             f"received {self.platform!r}")
+        _set(self, "platform", resolve_platform(info, self.platform))
+        _set(self, "duration_s", _number(o, "duration_s", self.duration_s, lo=0.0, hi=3600.0,
+                                         lo_open=True))
+        _set(self, "fps", _number(o, "fps", self.fps, lo=0.0, hi=1000.0, lo_open=True))
+        if self.n_frames < 3:
+            raise ValueError(f"{o}: duration_s * fps must give at least 3 frames; received "
+                             f"duration_s={self.duration_s}, fps={self.fps}")
+        if self.n_frames > 200000:
+            raise ValueError(f"{o}: duration_s * fps gives {self.n_frames} frames; at most "
+                             "200000 allowed")
+        if not isinstance(self.path_params, Mapping):
+            raise TypeError(f"{o}.path_params must be a mapping; received "
+                            f"{type(self.path_params).__name__}")
+        _set(self, "path_params", dict(self.path_params))
+        info.params_for(self.platform, self.path_params)   # validates the overrides
+        for name, cls in (("perturbation", PerturbationConfig), ("rig", RigConfig),
+                          ("cam_a", CameraConfig), ("cam_b", CameraConfig),
+                          ("room", RoomConfig), ("markers", MarkerFieldConfig),
+                          ("ik", IKConfig)):
+            _set(self, name, _nested(o, name, getattr(self, name), cls))
+        period = 1.0 / self.fps
+        for cam in ("cam_a", "cam_b"):
+            c = getattr(self, cam)
+            if c.capture_jitter_s > 0.25 * period:
+                raise ValueError(f"{o}.{cam}.capture_jitter_s ({c.capture_jitter_s}) must be "
+                                 f"<= a quarter of the frame period ({0.25 * period:.4g} s) so "
+                                 "capture times stay ordered")
+
+    @property
+    def n_frames(self) -> int:
+        return int(math.floor(self.duration_s * self.fps + 1e-9)) + 1
+
+    def nominal_times_s(self) -> np.ndarray:
+        return np.arange(self.n_frames, dtype=np.float64) / self.fps

@@ -1,0 +1,216 @@
+"""Simulation: scene + path + timing knobs -> per-camera ground truth (``Trajectory``).
+
+The platform is driven kinematically: the cart's mocap pose, or the arm's joints from IK,
+is set for every capture time, then MuJoCo's forward kinematics gives each camera's pose
+(``cam_xpos``, ``cam_xmat @ diag(1, -1, -1)`` = OpenCV frame). Each camera has its own
+capture times (``k / fps + capture_offset_s + jitter``), so with a time offset the two
+cameras are sampled at different platform poses, exactly as an unsynchronised real rig.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass, field
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import numpy as np
+
+from simcalib.geometry import (quat_from_matrix, quat_wxyz_from_xyzw,
+                               transform_from_rotation_translation)
+from simcalib.markers import MarkerField
+from simcalib.streams import CameraFrames, CameraIntrinsics, Trajectory
+from simcalib.world.config import WorldConfig
+from simcalib.world.paths import compose_path, get_path, perturbation_sample, sample_path
+from simcalib.world.scene import CAMERA_NAMES, MJ_FROM_CV, Scene, build_scene
+
+__all__ = ["SimCameraFrames", "World", "build_world", "camera_poses_from_state"]
+
+
+@dataclass(frozen=True)
+class SimCameraFrames(CameraFrames):
+    """:class:`CameraFrames` plus the camera's clock and delivery record:
+
+    ``nominal_time_s`` ``(F,)`` (``k / fps``), ``stamp_s`` ``(F,)`` the timestamps the
+    camera reports (true capture time + clock offset + stamp jitter), ``delivered``
+    ``(F,)`` bool (False = frame dropped at the stream level: no pose source may use it),
+    ``visible_markers`` ``(F,)`` number of markers fully in view (projection test, no
+    occlusion)."""
+    nominal_time_s: np.ndarray = None
+    stamp_s: np.ndarray = None
+    delivered: np.ndarray = None
+    visible_markers: np.ndarray = None
+
+
+@dataclass(frozen=True)
+class World:
+    """A built world (``build_world``).
+
+    ``model``: compiled ``mujoco.MjModel`` (pickles; or rebuild it from ``config`` with
+    :func:`simcalib.world.build_model`); ``camera_names`` ``("cam_a", "cam_b")``;
+    ``intrinsics``: camera -> ``CameraIntrinsics``; ``marker_field``: the known map;
+    ``trajectory``: ground truth (``cam_a``/``cam_b`` are :class:`SimCameraFrames`,
+    ``T_a_b`` the true X); ``config``; ``scene``: assembly details (home pose, mount site,
+    MJCF text); ``ik``: arm IK statistics (``None`` for the cart); ``timing_s``: build and
+    simulate wall times."""
+    config: WorldConfig
+    model: object
+    camera_names: tuple
+    intrinsics: dict
+    marker_field: MarkerField
+    trajectory: Trajectory
+    scene: Scene = field(repr=False)
+    ik: dict | None = None
+    timing_s: dict = field(default_factory=dict)
+
+    def frames(self, camera: str) -> SimCameraFrames:
+        if camera not in self.camera_names:
+            raise ValueError(f"unknown camera {camera!r}; valid: {list(self.camera_names)}")
+        return getattr(self.trajectory, camera)
+
+
+def _mujoco():
+    import mujoco
+    return mujoco
+
+
+def camera_poses_from_state(model, qpos: np.ndarray, mocap_pos: np.ndarray,
+                            mocap_quat_wxyz: np.ndarray, data=None) -> np.ndarray:
+    """``(F, ncam, 4, 4)`` OpenCV camera poses in the world for ``F`` MuJoCo states
+    (``qpos`` ``(F, nq)``, ``mocap_pos`` ``(F, nmocap, 3)``, ``mocap_quat_wxyz``
+    ``(F, nmocap, 4)``) — the one place MuJoCo camera frames become OpenCV poses."""
+    mujoco = _mujoco()
+    data = mujoco.MjData(model) if data is None else data
+    n = qpos.shape[0]
+    pos = np.zeros((n, model.ncam, 3))
+    mat = np.zeros((n, model.ncam, 3, 3))
+    for k in range(n):
+        if model.nq:
+            data.qpos[:] = qpos[k]
+        if model.nmocap:
+            data.mocap_pos[:] = mocap_pos[k]
+            data.mocap_quat[:] = mocap_quat_wxyz[k]
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_camlight(model, data)
+        pos[k] = data.cam_xpos
+        mat[k] = data.cam_xmat.reshape(-1, 3, 3)
+    return transform_from_rotation_translation(mat @ MJ_FROM_CV, pos)
+
+
+def _capture_times(cfg: WorldConfig, cam_cfg, rng: np.random.Generator):
+    t_nom = cfg.nominal_times_s()
+    n = t_nom.shape[0]
+    jitter = rng.normal(0.0, cam_cfg.capture_jitter_s, n) if cam_cfg.capture_jitter_s else 0.0
+    t_cap = t_nom + cam_cfg.capture_offset_s + jitter
+    stamp_noise = rng.normal(0.0, cam_cfg.stamp_jitter_s, n) if cam_cfg.stamp_jitter_s else 0.0
+    stamp = t_cap + cam_cfg.clock_offset_s + stamp_noise
+    delivered = rng.random(n) >= cam_cfg.drop_prob if cam_cfg.drop_prob else np.ones(n, bool)
+    return t_nom, t_cap, stamp, delivered
+
+
+def build_world(cfg: WorldConfig, rng: np.random.Generator) -> World:
+    """Build the scene, run the path and return the :class:`World`.
+
+    All randomness (perturbation phases/frequencies, capture jitter, stamp jitter, frame
+    drops) comes from children of ``rng`` (``rng.spawn``): the same config and the same
+    seed give identical worlds. Raises ``ValueError`` if the arm cannot reach the path
+    (naming the first failing time and error) or a camera leaves the room."""
+    if not isinstance(cfg, WorldConfig):
+        raise TypeError(f"cfg must be a WorldConfig; received {type(cfg).__name__}")
+    if not isinstance(rng, np.random.Generator):
+        raise TypeError(f"rng must be a numpy.random.Generator; received {type(rng).__name__}")
+    mujoco = _mujoco()
+    t0 = time.perf_counter()
+    scene = build_scene(cfg)
+    model = scene.model
+    t_build = time.perf_counter() - t0
+
+    rng_pert, rng_a, rng_b = rng.spawn(3)
+    timing = {"cam_a": _capture_times(cfg, cfg.cam_a, rng_a),
+              "cam_b": _capture_times(cfg, cfg.cam_b, rng_b)}
+    t_all = np.concatenate([timing["cam_a"][1], timing["cam_b"][1]])
+    t_unique, inverse = np.unique(t_all, return_inverse=True)
+    n = cfg.n_frames
+
+    samples = [sample_path(cfg.path, cfg.platform, t_unique, cfg.duration_s, cfg.path_params)]
+    if cfg.perturbation.active:
+        samples.append(perturbation_sample(t_unique, cfg.perturbation, rng_pert))
+    T_target = compose_path(scene.T_world_home, *samples)
+
+    ik_stats = None
+    nu = t_unique.shape[0]
+    if cfg.platform == "cart":
+        qpos = np.zeros((nu, model.nq))
+        mocap_pos = T_target[:, None, :3, 3].copy()
+        mocap_quat = quat_wxyz_from_xyzw(quat_from_matrix(T_target[:, :3, :3]))[:, None, :]
+    else:
+        from simcalib.world.ik import solve_ik_path
+        t1 = time.perf_counter()
+        # start from the home solution at the path's first pose (continuous branch)
+        res = solve_ik_path(model, scene.mount_site, T_target, scene.home_qpos, cfg.ik)
+        if not res.converged.all():
+            k = int(np.flatnonzero(~res.converged)[0])
+            raise ValueError(
+                f"path {cfg.path!r} is not reachable by the arm within its joint limits: at "
+                f"t = {t_unique[k]:.3f} s the IK error is {res.pos_error_m[k] * 1e3:.3g} mm / "
+                f"{np.rad2deg(res.rot_error_rad[k]):.3g} deg; reduce the path amplitudes "
+                f"(path_params) — defaults: {get_path(cfg.path).defaults['arm']}")
+        qpos = res.qpos
+        mocap_pos = np.zeros((nu, model.nmocap, 3))
+        mocap_quat = np.zeros((nu, model.nmocap, 4))
+        ik_stats = {"max_pos_error_m": float(res.pos_error_m.max()),
+                    "max_rot_error_rad": float(res.rot_error_rad.max()),
+                    "mean_iterations": float(res.iterations.mean()),
+                    "n_waypoints": int(nu),
+                    "time_s": time.perf_counter() - t1}
+
+    T_cams = camera_poses_from_state(model, qpos, mocap_pos, mocap_quat)   # (nu, ncam, 4, 4)
+    cam_ids = {name: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, name)
+               for name in CAMERA_NAMES}
+    _check_inside_room(cfg, T_cams[:, [cam_ids[c] for c in CAMERA_NAMES]], t_unique)
+
+    from simcalib.world.layout import visible_markers
+    frames = {}
+    for j, name in enumerate(CAMERA_NAMES):
+        t_nom, t_cap, stamp, delivered = timing[name]
+        idx = inverse[j * n:(j + 1) * n]
+        T_wc = T_cams[idx, cam_ids[name]]
+        vis = visible_markers(scene.marker_field, T_wc, scene.intrinsics[name]).sum(axis=1)
+        frames[name] = SimCameraFrames(
+            camera=name, time_s=t_cap, T_world_cam=T_wc, qpos=qpos[idx],
+            mocap_pos=mocap_pos[idx], mocap_quat_wxyz=mocap_quat[idx],
+            nominal_time_s=t_nom, stamp_s=stamp, delivered=delivered,
+            visible_markers=vis.astype(np.int64))
+    info = get_path(cfg.path)
+    meta = {"platform": cfg.platform, "path": cfg.path, "fps": cfg.fps,
+            "duration_s": cfg.duration_s, "n_frames": n,
+            "path_params": info.params_for(cfg.platform, cfg.path_params),
+            "path_description": info.description, "degenerate": info.degenerate,
+            "perturbation": cfg.perturbation.active,
+            "capture_offset_s": {c: getattr(cfg, c).capture_offset_s for c in CAMERA_NAMES},
+            "min_visible_markers": {c: int(frames[c].visible_markers.min())
+                                    for c in CAMERA_NAMES}}
+    traj = Trajectory(cam_a=frames["cam_a"], cam_b=frames["cam_b"], T_a_b=scene.T_a_b,
+                      meta=meta)
+    total = time.perf_counter() - t0
+    return World(config=cfg, model=model, camera_names=CAMERA_NAMES,
+                 intrinsics=dict(scene.intrinsics), marker_field=scene.marker_field,
+                 trajectory=traj, scene=scene, ik=ik_stats,
+                 timing_s={"build_scene": t_build, "simulate": total - t_build,
+                           "total": total})
+
+
+def _check_inside_room(cfg: WorldConfig, T_cams: np.ndarray, t: np.ndarray,
+                       margin_m: float = 0.05) -> None:
+    half = 0.5 * np.asarray(cfg.room.size_m)
+    p = T_cams[..., :3, 3]                                        # (nu, 2, 3)
+    inside = ((np.abs(p[..., 0]) <= half[0] - margin_m)
+              & (np.abs(p[..., 1]) <= half[1] - margin_m)
+              & (p[..., 2] >= margin_m) & (p[..., 2] <= cfg.room.size_m[2] - margin_m))
+    if not inside.all():
+        k, c = (int(v) for v in np.argwhere(~inside)[0])
+        raise ValueError(f"camera {CAMERA_NAMES[c]} leaves the room at t = {t[k]:.3f} s "
+                         f"(position {np.round(p[k, c], 3).tolist()} m, room "
+                         f"{list(cfg.room.size_m)} m); reduce the path amplitudes or enlarge "
+                         "the room")
