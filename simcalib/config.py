@@ -340,8 +340,7 @@ def _coerce(value, tp, path: str, default=dataclasses.MISSING):
             return value
         if not isinstance(value, Mapping):
             raise _fail(path, value, f"a mapping of the keys of section {path!r}")
-        base = default if dataclasses.is_dataclass(default) else None
-        return build(tp, value, path=path, base=base)
+        return build(tp, value, path=path, base=_custom_base(tp, default))
     if origin is Literal:
         if value in args:
             return value
@@ -381,6 +380,10 @@ def _coerce(value, tp, path: str, default=dataclasses.MISSING):
         else:
             out = list(value)
         return tuple(out) if origin is tuple else out
+    if tp in (tuple, list):  # unparametrised sequence: a scalar is a one-element list
+        seq = [value] if isinstance(value, str) or not isinstance(value, (list, tuple)) \
+            else list(value)
+        return tuple(seq) if tp is tuple else seq
     if origin is dict or tp is dict:
         if not isinstance(value, Mapping):
             raise _fail(path, value, "a mapping")
@@ -437,6 +440,18 @@ def _coerce(value, tp, path: str, default=dataclasses.MISSING):
         except Exception:
             raise _fail(path, value, _type_name(tp)) from None
     return value
+
+
+def _custom_base(tp, default):
+    """``default`` when it differs from ``tp()`` (a customised section default whose values
+    must be kept), else ``None``: fields then take their declared defaults — not values a
+    section's ``__post_init__`` resolved (e.g. a platform chosen from the default path)."""
+    if not dataclasses.is_dataclass(default) or isinstance(default, type):
+        return None
+    try:
+        return None if default == tp() else default
+    except Exception:
+        return default
 
 
 def _unknown_key(key: str, path: str, valid: Sequence[str]) -> ConfigError:
@@ -505,23 +520,28 @@ def to_dict(obj) -> Any:
     return obj
 
 
-def leaf_paths(cls, prefix: str = "") -> dict[str, tuple[Any, Any]]:
+def leaf_paths(cls, prefix: str = "", base=None) -> dict[str, tuple[Any, Any]]:
     """``{dotted path: (type, default)}`` of every leaf key of a dataclass tree."""
     out = {}
     hints = _hints(cls)
-    try:
-        instance = cls()
-    except Exception:
-        instance = None
     for f in dataclasses.fields(cls):
         if not f.init:
             continue
         tp = hints.get(f.name, Any)
         path = f"{prefix}.{f.name}" if prefix else f.name
-        default = getattr(instance, f.name, dataclasses.MISSING) if instance is not None \
-            else dataclasses.MISSING
+        if base is not None:
+            default = getattr(base, f.name)
+        elif f.default is not dataclasses.MISSING:
+            default = f.default
+        elif f.default_factory is not dataclasses.MISSING:
+            try:
+                default = f.default_factory()
+            except Exception:
+                default = dataclasses.MISSING
+        else:
+            default = dataclasses.MISSING
         if dataclasses.is_dataclass(tp):
-            out.update(leaf_paths(tp, path))
+            out.update(leaf_paths(tp, path, _custom_base(tp, default)))
         else:
             out[path] = (tp, default)
     return out
@@ -537,6 +557,29 @@ def _section_paths(cls, prefix: str = "") -> list[str]:
             out.append(path)
             out.extend(_section_paths(tp, path))
     return out
+
+
+#: shorthand prefixes that set the same key in several sections at once
+ALIASES = {"camera": ("world.cam_a", "world.cam_b")}
+
+
+def resolve_keys(cls, key: str) -> list[str]:
+    """Full dotted paths set by ``key``: an alias (``camera.width`` sets
+    ``world.cam_a.width`` and ``world.cam_b.width``) or :func:`resolve_key`."""
+    head, _, tail = key.partition(".")
+    if head in ALIASES and tail:
+        leaves = leaf_paths(cls)
+        paths = [f"{p}.{tail}" for p in ALIASES[head]]
+        if all(p in leaves for p in paths):
+            return paths
+        valid = sorted({p[len(ALIASES[head][0]) + 1:] for p in leaves
+                        if p.startswith(ALIASES[head][0] + ".")})
+        if valid:
+            close = difflib.get_close_matches(tail, valid, n=1)
+            hint = f" (did you mean '{head}.{close[0]}'?)" if close else ""
+            raise ConfigError(f"unknown config key {key!r}{hint}; valid keys of "
+                              f"{head}.*: {', '.join(valid)}")
+    return [resolve_key(cls, key)]
 
 
 def resolve_key(cls, key: str) -> str:
@@ -619,11 +662,11 @@ def apply_overrides(data: Mapping, overrides: Sequence[str], cls=None) -> dict:
     leaves = leaf_paths(cls)
     for item in overrides:
         key, raw = parse_override(item)
-        path = resolve_key(cls, key)
-        tp = leaves[path][0]
-        value = _parse_value(raw, tp)
-        _coerce(value, tp, path)  # type-check now so the message names the override
-        _set_path(out, path, value)
+        for path in resolve_keys(cls, key):
+            tp = leaves[path][0]
+            value = _parse_value(raw, tp)
+            _coerce(value, tp, path)  # type-check now so the message names the override
+            _set_path(out, path, value)
     return out
 
 

@@ -174,7 +174,7 @@ def summary_table(result) -> str:
                      _fmt(s.translation_error_m, 100, 2),
                      _fmt(s.translation_error_determined_m, 100, 2),
                      _fmt(s.cost, digits=4), _fmt(s.runtime_s, 1e3, 2),
-                     "YES" if s.degenerate else "no"])
+                     {True: "YES", False: "no"}.get(s.degenerate, "unknown")])
     widths = [max(len(h), *(len(r[i]) for r in rows)) if rows else len(h)
               for i, h in enumerate(head)]
     line = "  ".join(h.ljust(w) if i == 0 else h.rjust(w) for i, (h, w) in
