@@ -1,0 +1,3 @@
+from simcalib.experiments import main
+
+raise SystemExit(main())

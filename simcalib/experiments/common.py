@@ -1,0 +1,327 @@
+"""Shared machinery of the paper experiments: key=value configs, the α grid, batched
+α sweeps through :func:`simcalib.solve_batch`, error statistics and output files."""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import difflib
+import math
+import os
+import sys
+import time
+import typing
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from simcalib.geometry import rotation_error_rad, translation_error_m
+
+__all__ = [
+    "ExperimentResult",
+    "parse_overrides",
+    "build_config",
+    "alpha_grid",
+    "solver_info",
+    "sweep_errors",
+    "SweepResult",
+    "progress",
+    "write_csv",
+    "markdown_table",
+    "fmt",
+    "child_rngs",
+    "SLOW_METHODS",
+]
+
+# Methods solved by iterative nonlinear least squares (scipy), ~ms per problem: the
+# experiments subsample these (``slow_samples`` / ``slow_alphas``) and say so.
+SLOW_METHODS = ("chvecopt", "quatvecopt", "dqnlopt", "dqnloptrnd")
+
+
+@dataclass(frozen=True)
+class ExperimentResult:
+    """What an experiment wrote: its name, output directory, files (name -> path), the
+    main table rows (list of dicts), wall time and free-form notes (e.g. subsampling)."""
+    name: str
+    output_dir: Path
+    files: dict
+    rows: list
+    runtime_s: float
+    notes: tuple = ()
+    extra: dict = field(default_factory=dict)
+
+
+# ------------------------------------------------------------------------ configuration
+def parse_overrides(args: list[str]) -> dict[str, str]:
+    """``["samples=100", "output=out"]`` -> ``{"samples": "100", "output": "out"}``."""
+    out: dict[str, str] = {}
+    for arg in args:
+        if not isinstance(arg, str) or "=" not in arg or arg.startswith("="):
+            raise ValueError(f"expected key=value, received {arg!r}")
+        key, value = arg.split("=", 1)
+        key = key.strip()
+        if key in out:
+            raise ValueError(f"key {key!r} given twice")
+        out[key] = value.strip()
+    return out
+
+
+def _convert(name: str, text, typ):
+    """Convert a CLI string (or a Python value) to the annotated field type."""
+    origin = typing.get_origin(typ)
+    if origin is tuple:
+        inner = typing.get_args(typ)[0]
+        if isinstance(text, str):
+            items = [t for t in (s.strip() for s in text.split(",")) if t]
+        else:
+            try:
+                items = list(text)
+            except TypeError:
+                raise TypeError(f"{name} must be a comma-separated list; received {text!r}") from None
+        if not items:
+            raise ValueError(f"{name} must not be empty")
+        return tuple(_convert(name, t, inner) for t in items)
+    if typ is bool:
+        if isinstance(text, bool):
+            return text
+        low = str(text).lower()
+        if low in ("1", "true", "yes", "on"):
+            return True
+        if low in ("0", "false", "no", "off"):
+            return False
+        raise ValueError(f"{name} must be true/false; received {text!r}")
+    if typ is int:
+        if isinstance(text, bool):
+            raise TypeError(f"{name} must be an integer; received {text!r}")
+        try:
+            val = float(text) if isinstance(text, str) else text
+            if isinstance(val, float) and not val.is_integer():
+                raise ValueError
+            return int(val)
+        except (TypeError, ValueError, OverflowError):
+            raise ValueError(f"{name} must be an integer; received {text!r}") from None
+    if typ is float:
+        try:
+            val = float(text)
+        except (TypeError, ValueError):
+            raise ValueError(f"{name} must be a number; received {text!r}") from None
+        if not math.isfinite(val):
+            raise ValueError(f"{name} must be finite; received {text!r}")
+        return val
+    if typ is str:
+        return str(text)
+    raise TypeError(f"unsupported config type {typ} for {name}")  # pragma: no cover
+
+
+def build_config(cls, values: dict):
+    """Instantiate the frozen config dataclass ``cls`` from strings or values; unknown keys
+    are rejected naming the closest valid key and listing all of them."""
+    hints = typing.get_type_hints(cls)
+    names = [f.name for f in dataclasses.fields(cls)]
+    kwargs = {}
+    for key, value in values.items():
+        if key not in names:
+            close = difflib.get_close_matches(key, names, n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise ValueError(f"unknown key {key!r} for {cls.__name__}{hint}; "
+                             f"allowed: {', '.join(names)}")
+        kwargs[key] = _convert(key, value, hints[key])
+    return cls(**kwargs)
+
+
+def check_positive_int(name: str, value, minimum: int = 1) -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
+        raise ValueError(f"{name} must be an integer >= {minimum}; received {value!r}")
+
+
+def check_positive_float(name: str, value, allow_zero: bool = False) -> None:
+    ok = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool) \
+        and math.isfinite(value) and (value >= 0 if allow_zero else value > 0)
+    if not ok:
+        raise ValueError(f"{name} must be a finite number {'>= 0' if allow_zero else '> 0'}; "
+                         f"received {value!r}")
+
+
+def check_methods(name: str, methods) -> None:
+    from simcalib.solvers import registry
+    for m in methods:
+        registry.get(m)  # ValueError listing the valid names
+    if len(set(methods)) != len(methods):
+        raise ValueError(f"{name} lists a method twice: {methods}")
+
+
+def check_scenarios(name: str, scenarios) -> None:
+    from simcalib.synthetic import MOTIONS
+    for s in scenarios:
+        if s not in MOTIONS:
+            close = difflib.get_close_matches(s, MOTIONS, n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise ValueError(f"unknown scenario {s!r} in {name}{hint}; allowed: "
+                             f"{', '.join(MOTIONS)}")
+
+
+def alpha_grid(num: int = 100, low: float = 1e-2, high: float = 10 ** 1.7) -> np.ndarray:
+    """The paper's α grid: ``num`` log-spaced values in ``[low, high]`` (1/m)."""
+    check_positive_int("num_alphas", num)
+    check_positive_float("alpha_min", low)
+    check_positive_float("alpha_max", high)
+    if high < low:
+        raise ValueError(f"alpha_max must be >= alpha_min; received {low} and {high}")
+    return np.logspace(math.log10(low), math.log10(high), num)
+
+
+def child_rngs(seed: int, k: int) -> list[np.random.Generator]:
+    return [np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(k)]
+
+
+def solver_info(method: str):
+    from simcalib.solvers import registry
+    return registry.get(method)
+
+
+# ----------------------------------------------------------------------------- sweeps
+@dataclass(frozen=True)
+class SweepResult:
+    """Errors of one method over an α grid: ``rot_deg``, ``trans_cm`` and ``cost`` of shape
+    ``(A, B)`` (α x sample), ``alphas`` (A,), ``uses_alpha``, solve wall time and count.
+    A solve that reported failure (``success`` False: no estimate) counts as an infinite
+    error and infinite cost; ``failed`` (A, B) marks them."""
+    method: str
+    alphas: np.ndarray
+    rot_deg: np.ndarray
+    trans_cm: np.ndarray
+    cost: np.ndarray
+    uses_alpha: bool
+    solve_s: float
+    solves: int
+    failed: np.ndarray | None = None
+
+    @property
+    def failures(self) -> int:
+        """Failed solves at the first α (all α for methods without α)."""
+        return 0 if self.failed is None else int(self.failed[0].sum())
+
+
+def sweep_errors(C: np.ndarray, H: np.ndarray, X_true: np.ndarray, method: str,
+                 alphas, rng: np.random.Generator, *, chunk: int = 4096,
+                 bar=None) -> SweepResult:
+    """Solve every problem of ``C, H (B, n, 4, 4)`` at every α through ``solve_batch``.
+
+    Methods that do not use α are solved once and their errors repeated over the grid.
+    ``chunk`` bounds the problems per ``solve_batch`` call (memory): with many problems
+    each call is one α over a slice of the problems (no copy); with few problems (B <
+    chunk / 2) several α are packed into one call with a per-problem α array. ``bar`` is a
+    tqdm bar advanced by the number of (problem, α) pairs done.
+    """
+    from simcalib.solvers.api import solve_batch
+    info = solver_info(method)
+    alphas = np.atleast_1d(np.asarray(alphas, dtype=np.float64))
+    B = C.shape[0]
+    A = alphas.shape[0]
+    run_alphas = alphas if info.uses_alpha else alphas[:1]
+    RA = run_alphas.shape[0]
+    rot = np.empty((RA, B))
+    trans = np.empty_like(rot)
+    cost = np.empty_like(rot)
+    failed = np.zeros(rot.shape, dtype=bool)
+    solve_s = 0.0
+    per_pair = 1 if info.uses_alpha else A
+    if B >= chunk // 2 or RA == 1:
+        for ia, a in enumerate(run_alphas):
+            for s in range(0, B, chunk):
+                e = min(B, s + chunk)
+                t0 = time.perf_counter()
+                sol = solve_batch(C[s:e], H[s:e], method=method, alpha=float(a), rng=rng)
+                solve_s += time.perf_counter() - t0
+                rot[ia, s:e] = np.degrees(rotation_error_rad(sol.X, X_true))
+                trans[ia, s:e] = 100.0 * translation_error_m(sol.X, X_true)
+                cost[ia, s:e] = sol.cost
+                failed[ia, s:e] = ~np.asarray(sol.success, dtype=bool)
+                if bar is not None:
+                    bar.update((e - s) * per_pair)
+    else:
+        per_call = max(1, chunk // B)
+        for s in range(0, RA, per_call):
+            e = min(RA, s + per_call)
+            ia = np.repeat(np.arange(s, e), B)
+            ib = np.tile(np.arange(B), e - s)
+            t0 = time.perf_counter()
+            sol = solve_batch(C[ib], H[ib], method=method, alpha=run_alphas[ia], rng=rng)
+            solve_s += time.perf_counter() - t0
+            rot[s:e] = np.degrees(rotation_error_rad(sol.X, X_true)).reshape(e - s, B)
+            trans[s:e] = (100.0 * translation_error_m(sol.X, X_true)).reshape(e - s, B)
+            cost[s:e] = np.asarray(sol.cost).reshape(e - s, B)
+            failed[s:e] = ~np.asarray(sol.success, dtype=bool).reshape(e - s, B)
+            if bar is not None:
+                bar.update((e - s) * B)
+    rot[failed] = np.inf
+    trans[failed] = np.inf
+    cost[failed] = np.inf
+    if not info.uses_alpha:
+        rot = np.broadcast_to(rot, (A, B))
+        trans = np.broadcast_to(trans, (A, B))
+        cost = np.broadcast_to(cost, (A, B))
+        failed = np.broadcast_to(failed, (A, B))
+    return SweepResult(method, alphas, rot, trans, cost, info.uses_alpha, solve_s, RA * B,
+                       failed)
+
+
+# ---------------------------------------------------------------------------- outputs
+def progress(total: int, desc: str, enabled: bool = True):
+    """A tqdm progress bar on stderr (disabled when ``enabled`` is False)."""
+    from tqdm.auto import tqdm
+    return tqdm(total=total, desc=desc, disable=not enabled, file=sys.stderr,
+                unit="solve", unit_scale=True, dynamic_ncols=True, leave=False)
+
+
+def fmt(x, digits: int = 3) -> str:
+    """Compact number for tables: 3 significant digits, scientific for tiny/huge values."""
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return "-"
+    x = float(x)
+    if math.isinf(x):
+        return "inf" if x > 0 else "-inf"
+    if x == 0:
+        return "0"
+    ax = abs(x)
+    if ax < 1e-3 or ax >= 1e5:
+        return f"{x:.{digits - 1}e}"
+    return f"{x:.{digits}g}" if ax < 1000 else f"{x:.0f}"
+
+
+def write_csv(path: Path, rows: list[dict], columns: list[str]) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=columns, lineterminator="\n")
+        w.writeheader()
+        for r in rows:
+            w.writerow({c: _csv_value(r.get(c)) for c in columns})
+    return path
+
+
+def _csv_value(v):
+    if v is None:
+        return ""
+    if isinstance(v, (float, np.floating)):
+        return "" if math.isnan(v) else repr(float(v))
+    if isinstance(v, np.integer):
+        return int(v)
+    return v
+
+
+def markdown_table(header: list[str], rows: list[list]) -> str:
+    lines = ["| " + " | ".join(header) + " |",
+             "|" + "|".join("---" for _ in header) + "|"]
+    for r in rows:
+        lines.append("| " + " | ".join(str(c) for c in r) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def output_dir(path) -> Path:
+    p = Path(os.fspath(path))
+    if p.exists() and not p.is_dir():
+        raise ValueError(f"output must be a directory; {str(p)!r} is a file")
+    p.mkdir(parents=True, exist_ok=True)
+    return p
