@@ -138,7 +138,8 @@ class RunRecorder:
     def log_cameras(self, intrinsics: dict, gt: dict, visual_log) -> None:
         """Pinholes of both cameras, and (aruco source) the logged images and corners."""
         import rerun as rr
-        for cam, K in (intrinsics or {}).items():
+        intrinsics = dict(getattr(visual_log, "intrinsics", None) or intrinsics or {})
+        for cam, K in intrinsics.items():
             self.rec.log(f"world/{cam}/image",
                          rr.Pinhole(image_from_camera=np.asarray(K.K),
                                     resolution=[K.width, K.height],
@@ -230,25 +231,24 @@ class RunRecorder:
 
 def _iter_visual_log(log, rec_cfg):
     """Yield ``(camera, frame, image, corners (K,4,2) | None, ids | None)`` from the vision
-    stage's log, at most ``rec_cfg.max_images`` images per camera (evenly subsampled;
-    corners of every frame are yielded)."""
-    frames_by_cam = getattr(log, "frames", None)
-    if frames_by_cam is None and isinstance(log, dict):
-        frames_by_cam = log
-    if not frames_by_cam:
-        return
+    stage's :class:`~simcalib.vision.VisualLog` (``frames[camera]``: per-frame records with
+    ``frame_index``, ``ids``, ``corners_px``; ``images_jpeg[camera][frame_index]``: JPEG
+    bytes). At most ``rec_cfg.max_images`` images per camera are yielded (evenly
+    subsampled); the corners of every frame are."""
+    frames_by_cam = getattr(log, "frames", None) or {}
+    images = getattr(log, "images_jpeg", None) or {}
     for cam, entries in dict(frames_by_cam).items():
-        entries = list(entries)
-        with_img = [k for k, e in enumerate(entries) if _get(e, "image", "jpeg") is not None]
-        keep = set(with_img)
-        if rec_cfg.max_images < len(with_img):
-            sel = np.linspace(0, len(with_img) - 1, rec_cfg.max_images).round().astype(int) \
+        cam_images = dict(images.get(cam, {}))
+        logged = sorted(cam_images)
+        keep = set(logged)
+        if rec_cfg.max_images < len(logged):
+            sel = np.linspace(0, len(logged) - 1, rec_cfg.max_images).round().astype(int) \
                 if rec_cfg.max_images else []
-            keep = {with_img[i] for i in sel}
-        for k, e in enumerate(entries):
-            image = _get(e, "image", "jpeg") if k in keep else None
-            yield (cam, _get(e, "frame", "frame_index"), image, _get(e, "corners"),
-                   _get(e, "ids"))
+            keep = {logged[i] for i in sel}
+        for e in entries:
+            frame = int(_get(e, "frame_index", "frame"))
+            image = cam_images.get(frame) if frame in keep else None
+            yield cam, frame, image, _get(e, "corners_px", "corners"), _get(e, "ids")
 
 
 def _get(entry, *names):
