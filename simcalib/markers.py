@@ -10,11 +10,27 @@ detection order (top-left, top-right, bottom-right, bottom-left of the upright i
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["DICTIONARY", "MarkerField", "marker_corners_local", "marker_image", "marker_png"]
+__all__ = [
+    "CORNER_REFINEMENTS",
+    "DICTIONARY",
+    "DROP_REASONS",
+    "CameraPoseEstimate",
+    "DetectorSettings",
+    "Detections",
+    "MarkerField",
+    "PnPSettings",
+    "detect_markers",
+    "estimate_camera_pose",
+    "make_detector",
+    "marker_corners_local",
+    "marker_image",
+    "marker_png",
+    "refine_corners_edges",
+]
 
 #: Default ArUco dictionary (250 ids, 4x4 bits: large cells, robust at low resolution).
 DICTIONARY = "DICT_4X4_250"
@@ -70,3 +86,429 @@ class MarkerField:
         R = self.T_world_marker[:, :3, :3]
         t = self.T_world_marker[:, :3, 3]
         return np.einsum("mij,cj->mci", R, local) + t[:, None, :]
+
+    def __post_init__(self):
+        ids = np.ravel(np.asarray(self.ids))
+        if ids.size and not np.issubdtype(ids.dtype, np.integer):
+            raise TypeError(f"MarkerField.ids must be integers; received dtype {ids.dtype}")
+        vals, counts = np.unique(ids, return_counts=True)
+        if (counts > 1).any():
+            raise ValueError("MarkerField.ids must be unique; received duplicates "
+                             f"{vals[counts > 1].tolist()}")
+        if not (np.isfinite(self.side_m) and self.side_m > 0):
+            raise ValueError(f"MarkerField.side_m must be > 0 metres; received {self.side_m}")
+        T = np.asarray(self.T_world_marker, dtype=np.float64)
+        if T.shape != (ids.size, 4, 4):
+            raise ValueError(f"MarkerField.T_world_marker must have shape ({ids.size}, 4, 4) "
+                             f"(one per id); received {T.shape}")
+
+    def index_of(self, ids: np.ndarray) -> np.ndarray:
+        """Row of each id in this field (``-1`` for ids not in the map)."""
+        ids = np.ravel(np.asarray(ids))
+        own = np.ravel(np.asarray(self.ids))
+        order = np.argsort(own)
+        pos = np.searchsorted(own[order], ids)
+        pos = np.clip(pos, 0, max(own.size - 1, 0))
+        found = own.size > 0
+        out = np.where(found & (own[order][pos] == ids) if found else False, order[pos], -1)
+        return np.asarray(out, dtype=np.int64).reshape(ids.shape)
+
+
+# ============================================================================ detection
+#: Corner refinement names -> OpenCV ``cv2.aruco.CORNER_REFINE_*`` attribute names.
+CORNER_REFINEMENTS = {
+    "none": "CORNER_REFINE_NONE",
+    "subpix": "CORNER_REFINE_SUBPIX",
+    "contour": "CORNER_REFINE_CONTOUR",
+    "apriltag": "CORNER_REFINE_APRILTAG",
+}
+
+
+@dataclass(frozen=True)
+class DetectorSettings:
+    """ArUco detection settings.
+
+    ``corner_refinement``: OpenCV's per-corner refinement (one of :data:`CORNER_REFINEMENTS`;
+    ``subpix`` is best of OpenCV's on renders). ``edge_refinement``: afterwards, re-locate
+    each marker's four outer edges at the 50 % dark/bright crossing along many profiles and
+    intersect the fitted lines (:func:`refine_corners_edges`) — removes the ~0.2–0.4 px
+    inward corner bias of ``subpix`` that makes markers look small (docs/vision.md).
+    ``min_marker_perimeter_rate``: OpenCV's ``minMarkerPerimeterRate`` (perimeter / largest
+    image side) — smaller markers are ignored.
+    """
+    dictionary: str = DICTIONARY
+    corner_refinement: str = "subpix"
+    edge_refinement: bool = True
+    subpix_window_px: int = 5
+    min_marker_perimeter_rate: float = 0.03
+
+    def __post_init__(self):
+        if self.corner_refinement not in CORNER_REFINEMENTS:
+            raise ValueError(f"corner_refinement must be one of {sorted(CORNER_REFINEMENTS)}; "
+                             f"received {self.corner_refinement!r}")
+        if not isinstance(self.dictionary, str) or not self.dictionary.startswith("DICT_"):
+            raise ValueError("dictionary must be an OpenCV ArUco dictionary name such as "
+                             f"'DICT_4X4_250'; received {self.dictionary!r}")
+        if not isinstance(self.subpix_window_px, int) or not 1 <= self.subpix_window_px <= 20:
+            raise ValueError("subpix_window_px must be an integer in [1, 20]; received "
+                             f"{self.subpix_window_px!r}")
+        if not 0.0 < float(self.min_marker_perimeter_rate) < 4.0:
+            raise ValueError("min_marker_perimeter_rate must be in (0, 4); received "
+                             f"{self.min_marker_perimeter_rate!r}")
+
+
+def make_detector(settings: DetectorSettings | None = None):
+    """An OpenCV ``cv2.aruco.ArucoDetector`` configured from ``settings``."""
+    settings = settings or DetectorSettings()
+    cv2 = _cv2()
+    if not hasattr(cv2.aruco, settings.dictionary):
+        names = sorted(n for n in dir(cv2.aruco) if n.startswith("DICT_"))
+        raise ValueError(f"unknown ArUco dictionary {settings.dictionary!r}; valid: {names}")
+    dictionary = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, settings.dictionary))
+    params = cv2.aruco.DetectorParameters()
+    params.cornerRefinementMethod = int(getattr(cv2.aruco,
+                                                CORNER_REFINEMENTS[settings.corner_refinement]))
+    params.cornerRefinementWinSize = int(settings.subpix_window_px)
+    params.cornerRefinementMinAccuracy = 0.01
+    params.cornerRefinementMaxIterations = 50
+    params.minMarkerPerimeterRate = float(settings.min_marker_perimeter_rate)
+    return cv2.aruco.ArucoDetector(dictionary, params)
+
+
+@dataclass(frozen=True)
+class Detections:
+    """Markers found in one image: ``ids`` ``(N,)`` int and ``corners_px`` ``(N, 4, 2)``
+    (pixel coordinates, OpenCV convention: pixel centres at integers, detection order)."""
+    ids: np.ndarray
+    corners_px: np.ndarray
+    n_rejected: int = 0
+
+    @property
+    def n(self) -> int:
+        return int(self.ids.shape[0])
+
+
+def _as_gray(image) -> np.ndarray:
+    img = np.asarray(image)
+    if img.dtype != np.uint8:
+        raise TypeError(f"image must be uint8; received dtype {img.dtype}")
+    if img.ndim == 3 and img.shape[2] == 3:
+        return _cv2().cvtColor(img, _cv2().COLOR_RGB2GRAY)
+    if img.ndim == 2:
+        return img
+    raise ValueError(f"image must be (H, W) gray or (H, W, 3) RGB; received shape {img.shape}")
+
+
+def detect_markers(image, detector=None, settings: DetectorSettings | None = None
+                   ) -> Detections:
+    """Detect ArUco markers in a uint8 gray or RGB image (``np.ravel(ids)`` always).
+
+    ``detector``: a ``cv2.aruco.ArucoDetector`` (made from ``settings`` when omitted; pass
+    one to avoid rebuilding it per frame). Edge refinement follows ``settings``.
+    """
+    settings = settings or DetectorSettings()
+    gray = _as_gray(image)
+    if detector is None:
+        detector = make_detector(settings)
+    corners, ids, rejected = detector.detectMarkers(gray)
+    if ids is None or len(corners) == 0:
+        return Detections(np.zeros(0, dtype=np.int64), np.zeros((0, 4, 2)),
+                          len(rejected) if rejected is not None else 0)
+    ids = np.ravel(ids).astype(np.int64)
+    C = np.asarray(corners, dtype=np.float64).reshape(-1, 4, 2)
+    if settings.edge_refinement:
+        C = refine_corners_edges(gray, C)
+    return Detections(ids, C, len(rejected) if rejected is not None else 0)
+
+
+def refine_corners_edges(gray: np.ndarray, corners_px: np.ndarray, *, half_width_px: float = 3.0,
+                         n_profiles: int = 24, iterations: int = 2,
+                         min_contrast: float = 20.0) -> np.ndarray:
+    """Refine marker corners ``(N, 4, 2)`` by fitting the four outer edges of each marker.
+
+    Along ``n_profiles`` normals of each edge (its middle 70 %, away from corners) the
+    image is sampled bilinearly and the 50 % crossing between the dark border and the
+    bright surround is found; a total-least-squares line through the crossings gives the
+    edge, and adjacent edges intersect in the corner. Straight edges are exact for a
+    pinhole camera without distortion. Unlike a corner-only refinement this uses the
+    whole edge and is unbiased by blur (blur is symmetric about the 50 % level). An edge
+    with fewer than 5 valid profiles (too little contrast, ``< min_contrast`` grey levels)
+    keeps the input corners. Profile half-width is at most 0.45 of a marker cell.
+    """
+    cv2 = _cv2()
+    g = np.asarray(gray, dtype=np.float32)
+    C = np.asarray(corners_px, dtype=np.float64).copy()
+    if C.size == 0:
+        return C.reshape(0, 4, 2)
+    s = np.linspace(-1.0, 1.0, 13)
+    t = np.linspace(0.15, 0.85, int(n_profiles))
+    for _ in range(int(iterations)):
+        P0 = C
+        P1 = np.roll(C, -1, axis=1)  # edge i runs from corner i to corner i+1
+        d = P1 - P0
+        length = np.linalg.norm(d, axis=-1)
+        d = d / np.maximum(length, 1e-9)[..., None]
+        # Detection order is clockwise on screen (y down), so (dy, -dx) points outwards.
+        nrm = np.stack([d[..., 1], -d[..., 0]], axis=-1)
+        h = np.minimum(half_width_px, 0.45 * length / 6.0)  # <= 0.45 cell (4x4 + border)
+        base = P0[..., None, :] + (P1 - P0)[..., None, :] * t[:, None]        # N,4,S,2
+        pts = base[..., None, :] + nrm[..., None, None, :] * (s[:, None] * h[..., None, None, None])
+        flat = pts.reshape(-1, 2).astype(np.float32)
+        vals = cv2.remap(g, flat[:, :1], flat[:, 1:], cv2.INTER_LINEAR,
+                         borderMode=cv2.BORDER_REPLICATE).reshape(pts.shape[:-1])
+        lo = vals[..., :3].mean(-1)
+        hi = vals[..., -3:].mean(-1)
+        mid = 0.5 * (lo + hi)
+        above = vals >= mid[..., None]
+        idx = np.clip(np.argmax(above, axis=-1), 1, s.size - 1)
+        v0 = np.take_along_axis(vals, (idx - 1)[..., None], -1)[..., 0]
+        v1 = np.take_along_axis(vals, idx[..., None], -1)[..., 0]
+        frac = np.clip((mid - v0) / np.maximum(v1 - v0, 1e-6), 0.0, 1.0)
+        off = (s[idx - 1] + frac * (s[1] - s[0])) * h[..., None]
+        w = ((hi - lo) > min_contrast).astype(np.float64)
+        ep = base + nrm[..., None, :] * off[..., None]
+        cnt = w.sum(-1)
+        mu = (ep * w[..., None]).sum(-2) / np.maximum(cnt, 1.0)[..., None]
+        X = (ep - mu[..., None, :]) * np.sqrt(w)[..., None]
+        cov = np.einsum("...si,...sj->...ij", X, X)
+        _, evecs = np.linalg.eigh(cov)
+        direction = evecs[..., :, 1]
+        nl = np.stack([-direction[..., 1], direction[..., 0]], axis=-1)
+        cl = (nl * mu).sum(-1)
+        # corner i is the intersection of edge i-1 and edge i
+        A = np.stack([np.roll(nl, 1, axis=1), nl], axis=-2)
+        b = np.stack([np.roll(cl, 1, axis=1), cl], axis=-1)
+        det = np.linalg.det(A)
+        ok_edge = cnt >= 5
+        good = ok_edge & np.roll(ok_edge, 1, axis=1) & (np.abs(det) > 1e-3)
+        A_safe = np.where(good[..., None, None], A, np.eye(2))
+        b_safe = np.where(good[..., None], b, 0.0)
+        newC = np.linalg.solve(A_safe, b_safe[..., None])[..., 0]
+        # a refinement that moves a corner by more than 2 px is not trusted
+        good &= np.linalg.norm(newC - C, axis=-1) < 2.0
+        C = np.where(good[..., None], newC, C)
+    return C
+
+
+# ================================================================================= PnP
+#: Why a frame yields no camera pose (keys of ``PoseStream.drop_reasons``).
+DROP_REASONS = {
+    "no_markers": "no marker detected in the image",
+    "no_known_markers": "markers detected, but none with an id of the marker map",
+    "too_few_markers": "fewer usable markers than PnPSettings.min_markers",
+    "ambiguous": "two distinct poses explain the corners about equally well",
+    "reprojection_error": "reprojection RMSE above PnPSettings.max_reproj_rmse_px",
+    "pnp_failed": "OpenCV PnP returned no valid solution in front of the camera",
+}
+
+
+@dataclass(frozen=True)
+class PnPSettings:
+    """Camera pose from all visible known markers jointly.
+
+    ``min_markers``: fewest map markers a pose may rest on. ``max_reproj_rmse_px``: gate on
+    the final reprojection RMSE over all used corners. ``max_marker_reproj_px``: a marker
+    whose own RMSE exceeds this after the joint fit is discarded as an outlier (and the fit
+    redone) while at least ``min_markers`` remain. ``ambiguity_ratio``: the pose is
+    dropped as ambiguous when the best *distinct* rival (rotation differing by more than
+    ``ambiguity_min_angle_deg``) reaches an RMSE below ``ratio x`` the best one.
+    ``refine``: joint Levenberg–Marquardt refinement (``solvePnPRefineLM``).
+    """
+    min_markers: int = 1
+    max_reproj_rmse_px: float = 1.0
+    max_marker_reproj_px: float = 2.0
+    ambiguity_ratio: float = 2.0
+    ambiguity_min_angle_deg: float = 3.0
+    refine: bool = True
+
+    def __post_init__(self):
+        if isinstance(self.min_markers, bool) or not isinstance(self.min_markers, int) \
+                or self.min_markers < 1:
+            raise ValueError(f"min_markers must be an integer >= 1; received {self.min_markers!r}")
+        for name in ("max_reproj_rmse_px", "max_marker_reproj_px", "ambiguity_min_angle_deg"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and np.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be a finite number > 0; received {v!r}")
+        if not (isinstance(self.ambiguity_ratio, (int, float)) and self.ambiguity_ratio >= 1.0):
+            raise ValueError("ambiguity_ratio must be >= 1 (1 disables the check); received "
+                             f"{self.ambiguity_ratio!r}")
+
+
+@dataclass(frozen=True)
+class CameraPoseEstimate:
+    """Result of :func:`estimate_camera_pose` for one image.
+
+    ``ok``/``reason`` (``"ok"`` or a key of :data:`DROP_REASONS`); ``T_world_cam`` (4, 4)
+    (identity when not ok — never use it then); ``ids_used`` (markers in the final fit);
+    ``reproj_rmse_px`` over all used corners and ``marker_rmse_px`` per used marker;
+    ``ambiguity`` = rival RMSE / best RMSE (``inf`` when no distinct rival).
+    """
+    ok: bool
+    reason: str
+    T_world_cam: np.ndarray
+    ids_used: np.ndarray
+    n_detected: int
+    n_known: int
+    reproj_rmse_px: float
+    marker_rmse_px: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    ambiguity: float = float("inf")
+
+
+def _fail(reason: str, n_detected: int, n_known: int, rmse: float = float("inf"),
+          ids=None, ambiguity: float = float("inf")) -> CameraPoseEstimate:
+    return CameraPoseEstimate(False, reason, np.eye(4),
+                              np.zeros(0, dtype=np.int64) if ids is None else ids,
+                              n_detected, n_known, rmse, np.zeros(0), ambiguity)
+
+
+def _project(T_cam_world: np.ndarray, Xw: np.ndarray, K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Project ``(P, 3)`` world points with ``(C, 4, 4)`` poses: ``(C, P, 2)`` pixels, depths."""
+    Xc = np.einsum("cij,pj->cpi", T_cam_world[:, :3, :3], Xw) + T_cam_world[:, None, :3, 3]
+    z = Xc[..., 2]
+    zs = np.where(z > 1e-9, z, 1e-9)
+    uv = np.stack([K[0, 0] * Xc[..., 0] / zs + K[0, 2], K[1, 1] * Xc[..., 1] / zs + K[1, 2]], -1)
+    return uv, z
+
+
+def _rvec_t_to_T(rvec, tvec) -> np.ndarray:
+    cv2 = _cv2()
+    R, _ = cv2.Rodrigues(np.asarray(rvec, dtype=np.float64).reshape(3, 1))
+    T = np.eye(4)
+    T[:3, :3] = R
+    T[:3, 3] = np.asarray(tvec, dtype=np.float64).ravel()
+    return T
+
+
+def estimate_camera_pose(detections: Detections, field: MarkerField, K,
+                         settings: PnPSettings | None = None,
+                         dist_coeffs=None) -> CameraPoseEstimate:
+    """Camera pose ``T_world_cam`` from all detected markers of ``field`` jointly.
+
+    1. Keep detections whose id is in the map (an id seen twice in one image is ambiguous
+       and discarded). 2. Candidates: both IPPE_SQUARE solutions of every marker (moved to
+       the world via the map) and one SQPnP over all corners; each is scored by its RMSE
+       over *all* corners (points behind the camera disqualify it). 3. The best candidate
+       is refined with ``solvePnPRefineLM`` on all corners; the best *distinct* rival too,
+       for the ambiguity test. 4. Per-marker outliers are discarded and the fit redone.
+       5. The RMSE gate. Failures return ``ok=False`` with a reason (:data:`DROP_REASONS`).
+    """
+    settings = settings or PnPSettings()
+    if not isinstance(detections, Detections):
+        raise TypeError(f"detections must be a Detections; received {type(detections).__name__}")
+    if not isinstance(field, MarkerField):
+        raise TypeError(f"field must be a MarkerField; received {type(field).__name__}")
+    K = np.asarray(K, dtype=np.float64)
+    if K.shape != (3, 3) or not np.isfinite(K).all():
+        raise ValueError(f"K must be a finite (3, 3) camera matrix; received shape {K.shape}")
+    if dist_coeffs is not None and np.any(np.asarray(dist_coeffs) != 0):
+        raise ValueError("estimate_camera_pose supports undistorted images only "
+                         "(dist_coeffs None or zeros); received non-zero coefficients")
+    cv2 = _cv2()
+    n_det = detections.n
+    if n_det == 0:
+        return _fail("no_markers", 0, 0)
+    ids = np.ravel(detections.ids)
+    rows = field.index_of(ids)
+    uniq, counts = np.unique(ids, return_counts=True)
+    dup = np.isin(ids, uniq[counts > 1])
+    keep = (rows >= 0) & ~dup
+    n_known = int(keep.sum())
+    if n_known == 0:
+        return _fail("no_known_markers", n_det, 0)
+    if n_known < settings.min_markers:
+        return _fail("too_few_markers", n_det, n_known)
+    ids_k = ids[keep]
+    img = detections.corners_px[keep].astype(np.float64)             # M,4,2
+    T_wm = np.asarray(field.T_world_marker, dtype=np.float64)[rows[keep]]
+    local = marker_corners_local(field.side_m)
+    world = np.einsum("mij,cj->mci", T_wm[:, :3, :3], local) + T_wm[:, None, :3, 3]  # M,4,3
+    zero = np.zeros(5)
+
+    # --- candidates
+    cands = []
+    for m in range(ids_k.size):
+        try:
+            n_sol, rvecs, tvecs, _ = cv2.solvePnPGeneric(local, img[m], K, zero,
+                                                         flags=cv2.SOLVEPNP_IPPE_SQUARE)
+        except cv2.error:
+            n_sol = 0
+        for k in range(int(n_sol)):
+            T_cm = _rvec_t_to_T(rvecs[k], tvecs[k])
+            cands.append(T_cm @ _inv(T_wm[m]))
+    Xw = world.reshape(-1, 3)
+    uv = img.reshape(-1, 2)
+    if Xw.shape[0] >= 4:
+        try:
+            ok, rvec, tvec = cv2.solvePnP(Xw, uv, K, zero, flags=cv2.SOLVEPNP_SQPNP)
+            if ok:
+                cands.append(_rvec_t_to_T(rvec, tvec))
+        except cv2.error:
+            pass
+    if not cands:
+        return _fail("pnp_failed", n_det, n_known, ids=ids_k)
+    cands = np.stack(cands)
+
+    def score(Tc, Xw_, uv_):
+        proj, z = _project(Tc, Xw_, K)
+        rmse = np.sqrt(((proj - uv_[None]) ** 2).sum(-1).mean(-1))
+        return np.where((z > 1e-6).all(-1), rmse, np.inf)
+
+    def refine(T, Xw_, uv_):
+        if not settings.refine:
+            return T
+        rvec, _ = cv2.Rodrigues(T[:3, :3])
+        rvec, tvec = cv2.solvePnPRefineLM(Xw_, uv_, K, zero, rvec.copy(), T[:3, 3].copy(),
+                                          criteria=(cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT,
+                                                    50, 1e-12))
+        return _rvec_t_to_T(rvec, tvec)
+
+    sc = score(cands, Xw, uv)
+    order = np.argsort(sc)
+    if not np.isfinite(sc[order[0]]):
+        return _fail("pnp_failed", n_det, n_known, ids=ids_k)
+    best = refine(cands[order[0]], Xw, uv)
+    best_rmse = float(score(best[None], Xw, uv)[0])
+
+    # --- ambiguity: best distinct rival, refined too
+    ambiguity = float("inf")
+    min_ang = np.deg2rad(settings.ambiguity_min_angle_deg)
+    for j in order[1:]:
+        if not np.isfinite(sc[j]):
+            break
+        if _angle(cands[j][:3, :3], best[:3, :3]) > min_ang:
+            rival = refine(cands[j], Xw, uv)
+            if _angle(rival[:3, :3], best[:3, :3]) > min_ang:
+                r_rmse = float(score(rival[None], Xw, uv)[0])
+                ambiguity = r_rmse / max(best_rmse, 1e-3)
+            break
+    if ambiguity < settings.ambiguity_ratio:
+        return _fail("ambiguous", n_det, n_known, best_rmse, ids_k, ambiguity)
+
+    # --- per-marker outliers
+    use = np.ones(ids_k.size, dtype=bool)
+    while True:
+        proj, _ = _project(best[None], world[use].reshape(-1, 3), K)
+        per = np.sqrt(((proj[0] - img[use].reshape(-1, 2)) ** 2).sum(-1).reshape(-1, 4).mean(-1))
+        worst = int(np.argmax(per))
+        if per[worst] <= settings.max_marker_reproj_px or use.sum() <= settings.min_markers:
+            break
+        use[np.flatnonzero(use)[worst]] = False
+        best = refine(best, world[use].reshape(-1, 3), img[use].reshape(-1, 2))
+    rmse = float(np.sqrt((per ** 2).mean()))
+    if rmse > settings.max_reproj_rmse_px:
+        return _fail("reprojection_error", n_det, n_known, rmse, ids_k[use], ambiguity)
+    if use.sum() < settings.min_markers:
+        return _fail("too_few_markers", n_det, n_known, rmse, ids_k[use], ambiguity)
+    T_world_cam = _inv(best)
+    return CameraPoseEstimate(True, "ok", T_world_cam, ids_k[use], n_det, n_known, rmse,
+                              per, ambiguity)
+
+
+def _inv(T: np.ndarray) -> np.ndarray:
+    from .geometry import invert_transform  # noqa: PLC0415
+    return invert_transform(T)
+
+
+def _angle(Ra: np.ndarray, Rb: np.ndarray) -> float:
+    c = (np.trace(Ra.T @ Rb) - 1.0) / 2.0
+    return float(np.arccos(np.clip(c, -1.0, 1.0)))

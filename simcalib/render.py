@@ -1,0 +1,416 @@
+"""ALL MuJoCo offscreen rendering of simcalib: backend selection, camera renderer, workers.
+
+Backend (PLATFORM.md): MuJoCo reads ``MUJOCO_GL`` once, at import. simcalib uses ``egl``
+(Mesa llvmpipe on CPU, no display needed) and falls back to ``osmesa``; if neither can
+create an OpenGL context, :class:`RenderBackendError` names the Debian packages to install.
+Because the choice cannot be undone inside a process, a fallback backend is used in
+worker processes started with that ``MUJOCO_GL``.
+
+Renderer: :class:`CameraRenderer` renders a named model camera from raw MuJoCo state
+(``qpos``, ``mocap_pos``, ``mocap_quat_wxyz``) with shadows off (shadow edges move marker
+corners by pixels) and, by default, no multisampling (``offsamples=0``: ~3x faster, and
+detected corners are as accurate; docs/vision.md). It renders a private copy of the model,
+so the caller's model is never modified.
+
+Parallel: :func:`render_map` renders many frames in worker processes and applies a
+picklable per-frame function there (so only small results travel back). Results are
+returned in job order and do not depend on the worker count: a job carries everything its
+frame needs (state, seed key), and rendering the same state gives the same pixels.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+from typing import Any, Callable, Sequence
+
+import numpy as np
+
+__all__ = [
+    "DEBIAN_PACKAGES",
+    "FrameJob",
+    "RenderBackendError",
+    "RenderSettings",
+    "CameraRenderer",
+    "available_backend",
+    "backend_error_message",
+    "model_to_bytes",
+    "model_from_bytes",
+    "render_map",
+]
+
+#: Debian/Ubuntu packages each backend needs (PLATFORM.md).
+DEBIAN_PACKAGES = {
+    "egl": "libegl1 libgl1 libegl-mesa0 libgl1-mesa-dri",
+    "osmesa": "libosmesa6",
+}
+_BACKENDS = ("egl", "osmesa")
+
+
+class RenderBackendError(RuntimeError):
+    """No usable OpenGL backend for MuJoCo offscreen rendering."""
+
+
+def backend_error_message(failures: dict[str, str]) -> str:
+    """The error text when every backend failed: what was tried, why, what to install."""
+    tried = "; ".join(f"MUJOCO_GL={name}: {why}" for name, why in failures.items()) or "none"
+    return (
+        "MuJoCo offscreen rendering is unavailable: no OpenGL backend could create a context "
+        f"(tried {tried}). Install the Debian/Ubuntu packages for EGL "
+        f"(`apt-get install {DEBIAN_PACKAGES['egl']}`, renders on the CPU through Mesa "
+        f"llvmpipe, no display or GPU needed) or for OSMesa (`apt-get install "
+        f"{DEBIAN_PACKAGES['osmesa']}`), then run again; you may force one with "
+        "MUJOCO_GL=egl or MUJOCO_GL=osmesa set before Python starts.")
+
+
+def _ensure_env_default() -> None:
+    # Library rule: set the default before mujoco can be imported anywhere.
+    os.environ.setdefault("MUJOCO_GL", "egl")
+
+
+def _import_mujoco():
+    _ensure_env_default()
+    import mujoco  # noqa: PLC0415  (heavy import kept local)
+    return mujoco
+
+
+_PROBE_CODE = (
+    "import mujoco\n"
+    "ctx = mujoco.GLContext(16, 16)\n"
+    "ctx.make_current()\n"
+    "m = mujoco.MjModel.from_xml_string('<mujoco><worldbody><camera name=\"c\"/>"
+    "<geom size=\".1\"/></worldbody></mujoco>')\n"
+    "ctx.free()\n"
+    "r = mujoco.Renderer(m, 8, 8)\n"
+    "d = mujoco.MjData(m); mujoco.mj_forward(m, d); r.update_scene(d, 'c'); r.render()\n"
+    "r.close()\n"
+)
+
+
+def _probe_subprocess(backend: str, timeout_s: float = 120.0) -> str | None:
+    """Try ``backend`` in a fresh interpreter; None when it renders, else the reason."""
+    env = dict(os.environ, MUJOCO_GL=backend)
+    if backend == "osmesa":
+        env.setdefault("PYOPENGL_PLATFORM", "osmesa")
+    try:
+        proc = subprocess.run([sys.executable, "-c", _PROBE_CODE], env=env,
+                              capture_output=True, text=True, timeout=timeout_s)
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        return f"{type(exc).__name__}: {exc}"
+    if proc.returncode == 0:
+        return None
+    lines = [ln for ln in proc.stderr.strip().splitlines() if ln.strip()]
+    return lines[-1].strip() if lines else f"exit code {proc.returncode}"
+
+
+def _probe_inprocess() -> str | None:
+    """Try the backend this process's mujoco was (or will be) imported with."""
+    try:
+        mujoco = _import_mujoco()
+        ctx = mujoco.GLContext(16, 16)
+        ctx.make_current()
+        ctx.free()
+    except Exception as exc:  # noqa: BLE001  (any GL failure means: not usable)
+        return f"{type(exc).__name__}: {exc}".strip()
+    return None
+
+
+_BACKEND_CACHE: dict[str, Any] = {}
+
+
+def available_backend(probe_inprocess: Callable[[], str | None] | None = None,
+                      probe_subprocess: Callable[[str], str | None] | None = None
+                      ) -> tuple[str, bool]:
+    """Find a working rendering backend: ``(MUJOCO_GL value, usable in this process)``.
+
+    Tries the backend this process uses (``MUJOCO_GL``, default ``egl``) in-process first
+    (cheap); if that fails, tries the other backends in fresh interpreters (``egl`` then
+    ``osmesa``) — a working one is then used in worker processes. Raises
+    :class:`RenderBackendError` naming the packages to install when none works. The
+    probes are injectable for tests; the default result is cached per process.
+    """
+    use_cache = probe_inprocess is None and probe_subprocess is None
+    if use_cache and "result" in _BACKEND_CACHE:
+        return _BACKEND_CACHE["result"]
+    probe_inprocess = probe_inprocess or _probe_inprocess
+    probe_subprocess = probe_subprocess or _probe_subprocess
+    _ensure_env_default()
+    current = os.environ.get("MUJOCO_GL", "egl")
+    failures: dict[str, str] = {}
+    why = probe_inprocess()
+    if why is None:
+        result = (current, True)
+    else:
+        failures[current] = why
+        result = None
+        for name in _BACKENDS:
+            if name in failures:
+                continue
+            why = probe_subprocess(name)
+            if why is None:
+                result = (name, False)
+                break
+            failures[name] = why
+        if result is None:
+            raise RenderBackendError(backend_error_message(failures))
+    if use_cache:
+        _BACKEND_CACHE["result"] = result
+    return result
+
+
+# ----------------------------------------------------------------------------- model I/O
+def model_to_bytes(model) -> bytes:
+    """Serialise a compiled ``MjModel`` (MuJoCo binary format) for worker processes."""
+    import pickle  # noqa: PLC0415
+    return pickle.dumps(model, protocol=pickle.HIGHEST_PROTOCOL)
+
+
+def model_from_bytes(blob: bytes):
+    import pickle  # noqa: PLC0415
+    _import_mujoco()
+    return pickle.loads(blob)
+
+
+# ------------------------------------------------------------------------------ renderer
+@dataclass(frozen=True)
+class RenderSettings:
+    """How camera images are rendered.
+
+    ``width``/``height``: image size in pixels (the offscreen buffer is enlarged to fit).
+    ``fovy_deg``: per-camera vertical field of view overriding the model's (``{}``: keep).
+    ``msaa_samples``: multisampling (MuJoCo ``offsamples``); 0 is fastest.
+    ``shadows``: MuJoCo shadow mapping (off: shadow edges corrupt marker corners).
+    """
+    width: int = 640
+    height: int = 480
+    fovy_deg: dict = field(default_factory=dict)
+    msaa_samples: int = 0
+    shadows: bool = False
+
+    def __post_init__(self):
+        for name in ("width", "height"):
+            v = getattr(self, name)
+            if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or not 8 <= v <= 8192:
+                raise ValueError(f"RenderSettings.{name} must be an integer in [8, 8192]; "
+                                 f"received {v!r}")
+        if not isinstance(self.msaa_samples, (int, np.integer)) or not 0 <= self.msaa_samples <= 16:
+            raise ValueError("RenderSettings.msaa_samples must be an integer in [0, 16]; "
+                             f"received {self.msaa_samples!r}")
+        if not isinstance(self.fovy_deg, dict):
+            raise TypeError("RenderSettings.fovy_deg must be a dict camera -> degrees; "
+                            f"received {type(self.fovy_deg).__name__}")
+        for cam, v in self.fovy_deg.items():
+            if not (isinstance(v, (int, float)) and 0.0 < float(v) < 180.0):
+                raise ValueError(f"RenderSettings.fovy_deg[{cam!r}] must be in (0, 180); "
+                                 f"received {v!r}")
+
+
+class CameraRenderer:
+    """Offscreen renderer of a model's cameras from raw MuJoCo state (in this process).
+
+    Use as a context manager (or call :meth:`close`). The model is copied and the copy
+    adjusted to ``settings`` (buffer size, MSAA, fovy overrides); shadows are switched off
+    in the scene unless ``settings.shadows``.
+    """
+
+    def __init__(self, model, settings: RenderSettings | None = None):
+        settings = settings or RenderSettings()
+        mujoco = _import_mujoco()
+        if not isinstance(model, mujoco.MjModel):
+            raise TypeError(f"model must be a compiled mujoco.MjModel; received "
+                            f"{type(model).__name__}")
+        self.settings = settings
+        m = model_from_bytes(model_to_bytes(model))  # private copy: never mutate the caller's
+        m.vis.global_.offwidth = max(int(m.vis.global_.offwidth), settings.width)
+        m.vis.global_.offheight = max(int(m.vis.global_.offheight), settings.height)
+        m.vis.quality.offsamples = int(settings.msaa_samples)
+        for cam, fovy in settings.fovy_deg.items():
+            m.cam_fovy[self._camera_id(m, cam)] = float(fovy)
+        self.model = m
+        self.data = mujoco.MjData(m)
+        self._mujoco = mujoco
+        try:
+            self._renderer = mujoco.Renderer(m, settings.height, settings.width)
+        except Exception as exc:  # noqa: BLE001  (GL failures surface as many types)
+            raise RenderBackendError(backend_error_message(
+                {os.environ.get("MUJOCO_GL", "egl"): f"{type(exc).__name__}: {exc}"})) from exc
+        self._renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = bool(settings.shadows)
+        self._cam_ids: dict[str, int] = {}
+
+    @staticmethod
+    def _camera_id(m, camera: str) -> int:
+        import mujoco  # noqa: PLC0415
+        cid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_CAMERA, str(camera))
+        if cid < 0:
+            names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_CAMERA, i) for i in range(m.ncam)]
+            raise ValueError(f"camera {camera!r} is not in the model; cameras: {names}")
+        return cid
+
+    def camera_id(self, camera: str) -> int:
+        if camera not in self._cam_ids:
+            self._cam_ids[camera] = self._camera_id(self.model, camera)
+        return self._cam_ids[camera]
+
+    def set_state(self, qpos=None, mocap_pos=None, mocap_quat_wxyz=None) -> None:
+        """Load raw MuJoCo state and update kinematics (no dynamics step)."""
+        m, d, mujoco = self.model, self.data, self._mujoco
+        if qpos is not None:
+            qpos = np.asarray(qpos, dtype=np.float64)
+            if qpos.shape != (m.nq,):
+                raise ValueError(f"qpos must have shape ({m.nq},); received {qpos.shape}")
+            d.qpos[:] = qpos
+        if mocap_pos is not None and m.nmocap:
+            mocap_pos = np.asarray(mocap_pos, dtype=np.float64)
+            if mocap_pos.shape != (m.nmocap, 3):
+                raise ValueError(f"mocap_pos must have shape ({m.nmocap}, 3); "
+                                 f"received {mocap_pos.shape}")
+            d.mocap_pos[:] = mocap_pos
+        if mocap_quat_wxyz is not None and m.nmocap:
+            q = np.asarray(mocap_quat_wxyz, dtype=np.float64)
+            if q.shape != (m.nmocap, 4):
+                raise ValueError(f"mocap_quat_wxyz must have shape ({m.nmocap}, 4); "
+                                 f"received {q.shape}")
+            d.mocap_quat[:] = q
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_camlight(m, d)
+
+    def T_world_cam(self, camera: str) -> np.ndarray:
+        """Pose of the camera's OpenCV frame (x right, y down, z forward) in the world,
+        from the current state (PLATFORM.md: ``R_cv = cam_xmat @ diag(1, -1, -1)``)."""
+        i = self.camera_id(camera)
+        T = np.eye(4)
+        T[:3, :3] = self.data.cam_xmat[i].reshape(3, 3) @ np.diag([1.0, -1.0, -1.0])
+        T[:3, 3] = self.data.cam_xpos[i]
+        return T
+
+    def render(self, camera: str, qpos=None, mocap_pos=None, mocap_quat_wxyz=None
+               ) -> np.ndarray:
+        """``(H, W, 3)`` uint8 RGB image (top row first) of ``camera`` at the given state."""
+        self.set_state(qpos, mocap_pos, mocap_quat_wxyz)
+        self._renderer.update_scene(self.data, camera=self.camera_id(camera))
+        self._renderer.scene.flags[self._mujoco.mjtRndFlag.mjRND_SHADOW] = bool(
+            self.settings.shadows)
+        return self._renderer.render()
+
+    def close(self) -> None:
+        r = getattr(self, "_renderer", None)
+        if r is not None:
+            r.close()
+            self._renderer = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def __del__(self):  # best effort; explicit close() is preferred
+        try:
+            self.close()
+        except Exception:  # noqa: BLE001
+            pass
+
+
+# ------------------------------------------------------------------------- parallel map
+@dataclass(frozen=True)
+class FrameJob:
+    """One frame to render: camera name, frame index, raw MuJoCo state, and ``key`` (any
+    picklable data the per-frame function needs, e.g. a seed key)."""
+    camera: str
+    frame_index: int
+    qpos: np.ndarray | None
+    mocap_pos: np.ndarray | None
+    mocap_quat_wxyz: np.ndarray | None
+    key: Any = None
+
+
+_WORKER: dict[str, Any] = {}
+
+
+def _worker_init(model_blob: bytes, settings: RenderSettings, backend: str,
+                 fn: Callable) -> None:
+    os.environ["MUJOCO_GL"] = backend
+    if backend == "osmesa":
+        os.environ.setdefault("PYOPENGL_PLATFORM", "osmesa")
+    # One thread per worker: the pool already uses every core.
+    os.environ.setdefault("LP_NUM_THREADS", "1")
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    try:
+        import cv2  # noqa: PLC0415
+        cv2.setNumThreads(1)
+    except ImportError:
+        pass
+    _WORKER["fn"] = fn
+    try:
+        _WORKER["renderer"] = CameraRenderer(model_from_bytes(model_blob), settings)
+    except Exception as exc:  # noqa: BLE001  (re-raised in the parent by the first task)
+        _WORKER["error"] = exc
+
+
+def _run_jobs(renderer: CameraRenderer, fn: Callable, jobs: Sequence[FrameJob]) -> list:
+    out = []
+    for job in jobs:
+        t0 = time.perf_counter()
+        img = renderer.render(job.camera, job.qpos, job.mocap_pos, job.mocap_quat_wxyz)
+        t1 = time.perf_counter()
+        out.append((fn(img, job), t1 - t0))
+    return out
+
+
+def _worker_chunk(jobs: Sequence[FrameJob]) -> list:
+    if "error" in _WORKER:
+        raise _WORKER["error"]
+    return _run_jobs(_WORKER["renderer"], _WORKER["fn"], jobs)
+
+
+def default_workers() -> int:
+    """Worker processes used by default: the usable cores (at least 1)."""
+    try:
+        n = len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - non-Linux
+        n = os.cpu_count() or 1
+    return max(1, n)
+
+
+def render_map(model, settings: RenderSettings, jobs: Sequence[FrameJob],
+               fn: Callable[[np.ndarray, FrameJob], Any], workers: int | None = None,
+               chunk_size: int = 8) -> tuple[list, list[float]]:
+    """Render every job's frame and return ``([fn(image, job) ...], [render seconds ...])``
+    in job order.
+
+    ``fn`` must be picklable (a module-level function or an instance of a module-level
+    class) and deterministic given ``(image, job)``. ``workers``: ``None`` = all usable
+    cores; ``1`` renders in this process (or in one worker process when only a fallback
+    backend works); ``>1`` uses that many spawned worker processes. The results do not
+    depend on ``workers`` or ``chunk_size``.
+    """
+    if workers is None:
+        workers = default_workers()
+    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
+        raise ValueError(f"workers must be a positive integer or None; received {workers!r}")
+    if not isinstance(chunk_size, (int, np.integer)) or chunk_size < 1:
+        raise ValueError(f"chunk_size must be a positive integer; received {chunk_size!r}")
+    jobs = list(jobs)
+    if not jobs:
+        return [], []
+    backend, inprocess = available_backend()
+    workers = int(min(workers, len(jobs)))
+    if workers == 1 and inprocess:
+        with CameraRenderer(model, settings) as r:
+            pairs = _run_jobs(r, fn, jobs)
+    else:
+        import multiprocessing as mp  # noqa: PLC0415
+        from concurrent.futures import ProcessPoolExecutor  # noqa: PLC0415
+        blob = model_to_bytes(model)
+        # Contiguous chunks, several per worker for load balance; order is restored by map.
+        size = int(max(1, min(chunk_size, -(-len(jobs) // workers))))
+        chunks = [jobs[i:i + size] for i in range(0, len(jobs), size)]
+        ctx = mp.get_context("spawn")  # never fork a process that may hold a GL context
+        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
+                                 initializer=_worker_init,
+                                 initargs=(blob, settings, backend, fn)) as pool:
+            pairs = [p for chunk in pool.map(_worker_chunk, chunks) for p in chunk]
+    return [p[0] for p in pairs], [p[1] for p in pairs]
