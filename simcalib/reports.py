@@ -195,6 +195,21 @@ def summary_table(result) -> str:
         out.append("'determined' = translation error with the undetermined directions "
                    "projected out")
     out.extend(notes)
+    fr = result.frames or {}
+    if fr.get("rendered"):
+        cams = []
+        for cam in result.camera_names:
+            c = fr.get(cam) or {}
+            reasons = ", ".join(f"{k} {v}" for k, v in (c.get("drop_reasons") or {}).items())
+            cams.append(f"{cam} used {c.get('used')}, dropped {c.get('dropped')}"
+                        + (f" ({reasons})" if reasons else ""))
+        out.append(f"frames: {fr['rendered']} per camera; " + "; ".join(cams))
+    p = result.pairing or {}
+    if p.get("candidate_pairs") is not None and p.get("matched") is not None:
+        out.append(f"motion pairs: {p.get('used')} used of {p.get('candidate_pairs')} "
+                   f"candidates (pre-filter dropped {p.get('dropped_translation')} for "
+                   f"translation, {p.get('dropped_rotation')} for rotation; "
+                   f"{p.get('dropped_time_diff')} datapoints for timestamp difference)")
     if result.pose_errors:
         parts = []
         for cam, e in result.pose_errors.items():
