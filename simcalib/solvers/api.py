@@ -147,11 +147,18 @@ class Solution:
     """Result of :func:`solve`.
 
     ``X``: estimate of ``T_a_b`` (4x4). ``cost``: paper cost (8) at ``X`` for ``alpha``
-    (data term only); ``objective``: cost plus the prior terms (equal to ``cost`` without a
-    prior). ``runtime_s``: time from the ``(N, 4, 4)`` arrays to ``X`` (validation + solver).
-    ``certificate``: global-optimality certificate for DQ methods (None otherwise).
-    ``observability``: what the motions determine (see
-    :mod:`simcalib.solvers.observability`); ``degenerate`` / ``undetermined`` summarise it.
+    (data term only, motions sign-aligned per NOTES.md); ``objective``: cost plus the prior
+    terms (equal to ``cost`` without a prior). ``runtime_s``: time from the ``(N, 4, 4)``
+    arrays to ``X`` (validation + conversion + solver). ``success``/``message``.
+
+    Diagnostics, computed on first access:
+    ``observability`` (:class:`simcalib.solvers.observability.Observability`: singular
+    values, ``degenerate``, ``undetermined`` directions in words, camera-a frame);
+    ``certificate`` (:class:`simcalib.solvers.observability.Certificate`, DQ methods only,
+    else None). ``degenerate`` and ``undetermined`` are shortcuts; ``message`` combines
+    everything. When ``degenerate`` is True, the components of ``X`` along the
+    ``undetermined`` directions are not measurements (they come from the prior if one is
+    given, else they are arbitrary).
     """
     X: np.ndarray
     cost: float
@@ -162,9 +169,9 @@ class Solution:
     success: bool
     solver_message: str
     n_motions: int
+    family: str = ""
     prior: Prior | None = None
-    certificate: object | None = None
-    diagnostics: dict = field(default_factory=dict)
+    diagnostics: dict = field(default_factory=dict, repr=False)
     problem: MotionProblem | None = field(default=None, repr=False, compare=False)
 
     @cached_property
@@ -172,21 +179,42 @@ class Solution:
         from simcalib.solvers.observability import analyse
         return analyse(self.problem, self.X, self.alpha, self.prior, self.cost)
 
+    @cached_property
+    def certificate(self):
+        if self.family != "dq" or not self.success:
+            return None
+        from simcalib.solvers.observability import certify
+        q, qd = dual_quat_from_transform(self.X)
+        return certify(self.problem, self.alpha, self.prior, q, qd)
+
     @property
     def degenerate(self) -> bool:
         return self.observability.degenerate
 
     @property
-    def undetermined(self):
+    def undetermined(self) -> tuple:
         return self.observability.undetermined
 
     @property
+    def certified(self) -> bool:
+        return self.certificate is not None and self.certificate.certified
+
+    @property
     def message(self) -> str:
-        parts = [self.solver_message] if self.solver_message else []
+        parts = [f"{self.method}: " + ("ok" if self.success else "FAILED")
+                 + (f" ({self.solver_message})" if self.solver_message else "")]
         if self.certificate is not None:
             parts.append(self.certificate.summary())
         parts.append(self.observability.summary())
-        return "; ".join(p for p in parts if p)
+        return "; ".join(parts)
+
+    def __str__(self) -> str:
+        from simcalib.geometry import rotvec_from_matrix
+        rv = np.degrees(rotvec_from_matrix(self.X[:3, :3]))
+        return (f"Solution({self.method}, alpha={self.alpha:g}, N={self.n_motions}): "
+                f"t = {np.round(self.X[:3, 3], 6).tolist()} m, rotvec = "
+                f"{np.round(rv, 4).tolist()} deg, cost = {self.cost:.6g}, "
+                f"{self.runtime_s * 1e6:.0f} us\n{self.message}")
 
 
 @dataclass(frozen=True)
@@ -244,16 +272,16 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
     out = info.fn(problem, alpha, prior, rng)
     runtime = time.perf_counter() - t0
     X, success, message, diag = _finish_output(out, method)
-    if success or np.isfinite(X).all():
-        cost = dq_cost(X, problem, alpha)
-        objective = cost + (_prior_penalty(*dual_quat_from_transform(X), prior)
-                            if prior is not None else 0.0)
+    if np.isfinite(X).all():
+        from simcalib.solvers.dq import data_cost
+        q, qd = dual_quat_from_transform(X)
+        cost = data_cost(problem, q, qd, alpha)
+        objective = cost + (_prior_penalty(q, qd, prior) if prior is not None else 0.0)
     else:
         cost = objective = math.inf
-    certificate = diag.pop("certificate", None)
     return Solution(X=X, cost=cost, objective=objective, method=method, alpha=alpha,
                     runtime_s=runtime, success=success, solver_message=message,
-                    n_motions=problem.n, prior=prior, certificate=certificate,
+                    n_motions=problem.n, family=info.family, prior=prior,
                     diagnostics=diag, problem=problem)
 
 
@@ -269,40 +297,98 @@ def _fast_problem(C, H) -> MotionProblem:
 def solve_batch(C, H, method: str = "dqopt", alpha=1.0, prior: Prior | None = None,
                 rng: np.random.Generator | None = None) -> BatchSolution:
     """Solve ``B`` problems at once: ``C``, ``H`` of shape ``(B, N, 4, 4)``; ``alpha`` a
-    scalar or ``(B,)``. Methods with a registered batch function run vectorised; others
-    loop over :func:`solve`'s solver function."""
+    scalar or ``(B,)``; one optional ``prior`` for all. Methods with a registered batch
+    function run vectorised (DQ methods: compiled, parallel over problems); others loop over
+    the method's solver function. ``X[b]`` equals ``solve(C[b], H[b], ...).X`` (to ~1e-12).
+    """
     info = registry.get(method)
     prior = _check_prior(prior)
     if prior is not None and not info.supports_prior:
-        raise ValueError(f"method {method!r} does not support a prior")
+        with_prior = [i.name for i in registry.infos() if i.supports_prior]
+        raise ValueError(f"method {method!r} does not support a prior; methods with a "
+                         f"prior: {', '.join(with_prior)}")
     rng = _check_rng(rng)
-    C = check_transforms(C, "C")
-    H = check_transforms(H, "H")
-    if C.ndim != 4:
-        raise ValueError(f"C must have shape (B, N, 4, 4); received shape {C.shape}")
+    C = _as_float_array(C, "C")
+    H = _as_float_array(H, "H")
+    for arr, name in ((C, "C"), (H, "H")):
+        if arr.ndim != 4 or arr.shape[-2:] != (4, 4):
+            raise ValueError(f"{name} must have shape (B, N, 4, 4); received shape {arr.shape}")
     if H.shape != C.shape:
         raise ValueError(f"C and H must have the same shape (B, N, 4, 4); received "
                          f"{C.shape} and {H.shape}")
     B, N = C.shape[:2]
+    if B < 1:
+        raise ValueError(f"C must hold at least one problem; received shape {C.shape}")
     if N < 2:
         raise ValueError(f"each problem needs at least 2 motions; received N = {N}")
     alphas = _check_alphas(alpha, B)
+    diagnostics = {}
     t0 = time.perf_counter()
-    X = np.empty((B, 4, 4))
-    success = np.ones(B, dtype=bool)
-    for b in range(B):
-        problem = build_problem(C[b], H[b])
-        Xb, ok, _, _ = _finish_output(info.fn(problem, float(alphas[b]), prior, rng), method)
-        X[b], success[b] = Xb, ok
+    if info.batch_fn is not None and info.extra.get("batch_validates", False):
+        out = info.batch_fn(C, H, alphas, prior)
+        bad = out["bad"]
+        if (bad >= 0).any():
+            b = int(np.argmax(bad >= 0))
+            check_transforms(C[b], f"C[{b}]")
+            check_transforms(H[b], f"H[{b}]")
+            raise ValueError(f"problem {b}, motion {int(bad[b])}: C or H is not a rigid "
+                             "transform")
+    else:
+        check_transforms(C, "C")
+        check_transforms(H, "H")
+        if info.batch_fn is not None:
+            out = info.batch_fn(C, H, alphas, prior)
+            if isinstance(out, np.ndarray):
+                out = {"X": out}
+        else:
+            X = np.empty((B, 4, 4))
+            ok = np.ones(B, dtype=bool)
+            for b in range(B):
+                problem = build_problem(C[b], H[b])
+                X[b], ok[b], _, _ = _finish_output(info.fn(problem, float(alphas[b]), prior,
+                                                           rng), method)
+            out = {"X": X, "success": ok}
     runtime = time.perf_counter() - t0
-    cost = np.array([dq_cost(X[b], (C[b], H[b]), alphas[b]) if success[b] else np.inf
-                     for b in range(B)])
-    return BatchSolution(X=X, cost=cost, objective=cost.copy(), success=success, alpha=alphas,
-                         method=method, runtime_s=runtime, prior=prior)
+    X = np.asarray(out["X"], dtype=np.float64)
+    success = np.asarray(out.get("success", np.isfinite(X).all(axis=(-2, -1))), dtype=bool)
+    cost = out.get("cost")
+    if cost is None:
+        from simcalib.solvers.dq import batch_data_cost
+        cost = batch_data_cost(C, H, X, alphas)
+    cost = np.where(success, cost, np.inf)
+    objective = cost.copy()
+    if prior is not None:
+        objective = objective + _prior_penalty_batch(X, prior)
+    for k, v in out.items():
+        if k not in ("X", "cost", "success", "bad"):
+            diagnostics[k] = v
+    return BatchSolution(X=X, cost=cost, objective=objective, success=success, alpha=alphas,
+                         method=method, runtime_s=runtime, prior=prior,
+                         diagnostics=diagnostics)
+
+
+def _as_float_array(a, name):
+    try:
+        return np.ascontiguousarray(a, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"{name} must be an array of 4x4 rigid transforms; could not convert "
+                        f"{type(a).__name__} to float64 ({exc})") from None
+
+
+def _prior_penalty_batch(X, prior: Prior) -> np.ndarray:
+    from simcalib.geometry import quat_conjugate, quat_multiply
+    q, qd = dual_quat_from_transform(X)
+    q_hat, q_hat_dual = dual_quat_from_transform(prior.X)
+    dq = quat_multiply(quat_conjugate(q_hat), q)
+    dqd = quat_multiply(quat_conjugate(q_hat_dual), q) + quat_multiply(quat_conjugate(q_hat), qd)
+    return prior.a * np.sum(dq[..., :3] ** 2, axis=-1) + prior.b * np.sum(dqd**2, axis=-1)
 
 
 def _check_alphas(alpha, B: int) -> np.ndarray:
-    arr = np.asarray(alpha, dtype=np.float64) if not isinstance(alpha, bool) else None
+    try:
+        arr = np.asarray(alpha, dtype=np.float64) if not isinstance(alpha, bool) else None
+    except (TypeError, ValueError):
+        arr = None
     if arr is None or arr.ndim > 1 or (arr.ndim == 1 and arr.shape[0] != B):
         raise ValueError(f"alpha must be a scalar or an array of shape ({B},); received "
                          f"{alpha!r}")

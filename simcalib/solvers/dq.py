@@ -107,6 +107,38 @@ def _eigh(A, w, V):
     for i in range(n):
         for j in range(n):
             V[i, j] = 1.0 if i == j else 0.0
+    _jacobi(a, w, V)
+
+
+@njit(cache=True)
+def _eigh_warm(A, V0, w, V):
+    """As :func:`_eigh`, starting from the approximate eigenvectors V0 (columns)."""
+    n = A.shape[0]
+    a = np.empty((n, n))
+    tmp = np.empty((n, n))
+    for i in range(n):
+        for j in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += A[i, k] * V0[k, j]
+            tmp[i, j] = acc
+    for i in range(n):
+        for j in range(i, n):
+            acc = 0.0
+            for k in range(n):
+                acc += V0[k, i] * tmp[k, j]
+            a[i, j] = acc
+            a[j, i] = acc
+    for i in range(n):
+        for j in range(n):
+            V[i, j] = V0[i, j]
+    _jacobi(a, w, V)
+
+
+@njit(cache=True)
+def _jacobi(a, w, V):
+    """Cyclic Jacobi on the symmetric matrix a (overwritten); V accumulates rotations."""
+    n = a.shape[0]
     for sweep in range(40):
         off = 0.0
         dg = 0.0
@@ -165,13 +197,14 @@ def _eigh(A, w, V):
             j -= 1
 
 
-@njit(cache=True)
-def _quat_dq(T, q, qd):
-    """(q, q') of one 4x4 rigid transform, same algorithm as geometry.quat_from_matrix
-    (largest-diagonal branch, normalised, w >= 0) and q' = 1/2 (t, 0) (x) q."""
-    m00 = T[0, 0]
-    m11 = T[1, 1]
-    m22 = T[2, 2]
+@njit(cache=True, inline="always")
+def _quat_dq_at(T, i):
+    """(q, q') of the rigid transform T[i] as 8 scalars: same algorithm as
+    geometry.quat_from_matrix (largest-diagonal branch, normalised, w >= 0) and
+    q' = 1/2 (t, 0) (x) q."""
+    m00 = T[i, 0, 0]
+    m11 = T[i, 1, 1]
+    m22 = T[i, 2, 2]
     d0 = 1.0 + m00 - m11 - m22
     d1 = 1.0 - m00 + m11 - m22
     d2 = 1.0 - m00 - m11 + m22
@@ -188,59 +221,67 @@ def _quat_dq(T, q, qd):
         k = 3
         dk = d3
     s = 2.0 * np.sqrt(max(dk, 1e-300))
-    d21 = T[2, 1] - T[1, 2]
-    d02 = T[0, 2] - T[2, 0]
-    d10 = T[1, 0] - T[0, 1]
-    s01 = T[0, 1] + T[1, 0]
-    s02 = T[0, 2] + T[2, 0]
-    s12 = T[1, 2] + T[2, 1]
+    inv = 1.0 / s
+    d21 = (T[i, 2, 1] - T[i, 1, 2]) * inv
+    d02 = (T[i, 0, 2] - T[i, 2, 0]) * inv
+    d10 = (T[i, 1, 0] - T[i, 0, 1]) * inv
+    s01 = (T[i, 0, 1] + T[i, 1, 0]) * inv
+    s02 = (T[i, 0, 2] + T[i, 2, 0]) * inv
+    s12 = (T[i, 1, 2] + T[i, 2, 1]) * inv
     if k == 0:
-        x, y, z, w = 0.25 * s, s01 / s, s02 / s, d21 / s
+        x, y, z, w = 0.25 * s, s01, s02, d21
     elif k == 1:
-        x, y, z, w = s01 / s, 0.25 * s, s12 / s, d02 / s
+        x, y, z, w = s01, 0.25 * s, s12, d02
     elif k == 2:
-        x, y, z, w = s02 / s, s12 / s, 0.25 * s, d10 / s
+        x, y, z, w = s02, s12, 0.25 * s, d10
     else:
-        x, y, z, w = d21 / s, d02 / s, d10 / s, 0.25 * s
-    nrm = np.sqrt(x * x + y * y + z * z + w * w)
+        x, y, z, w = d21, d02, d10, 0.25 * s
+    nrm = 1.0 / np.sqrt(x * x + y * y + z * z + w * w)
     if w < 0.0:
         nrm = -nrm
-    x /= nrm
-    y /= nrm
-    z /= nrm
-    w /= nrm
-    q[0] = x
-    q[1] = y
-    q[2] = z
-    q[3] = w
-    tx = 0.5 * T[0, 3]
-    ty = 0.5 * T[1, 3]
-    tz = 0.5 * T[2, 3]
+    x *= nrm
+    y *= nrm
+    z *= nrm
+    w *= nrm
+    tx = 0.5 * T[i, 0, 3]
+    ty = 0.5 * T[i, 1, 3]
+    tz = 0.5 * T[i, 2, 3]
     # (t,0) (x) q with L(p) rows [w,-z,y,x],[z,w,-x,y],[-y,x,w,z],[-x,-y,-z,w], p_w = 0
-    qd[0] = -tz * y + ty * z + tx * w
-    qd[1] = tz * x - tx * z + ty * w
-    qd[2] = -ty * x + tx * y + tz * w
-    qd[3] = -tx * x - ty * y - tz * z
+    return (x, y, z, w, -tz * y + ty * z + tx * w, tz * x - tx * z + ty * w,
+            -ty * x + tx * y + tz * w, -tx * x - ty * y - tz * z)
 
 
 @njit(cache=True)
-def _rigid_ok(T, tol):
-    for i in range(4):
-        for j in range(4):
-            if not np.isfinite(T[i, j]):
-                return False
-    if abs(T[3, 0]) > tol or abs(T[3, 1]) > tol or abs(T[3, 2]) > tol or abs(T[3, 3] - 1.0) > tol:
+def _quat_dq(T, q, qd):
+    """(q, q') of one 4x4 transform into q, qd."""
+    T3 = T.reshape((1, 4, 4))
+    r = _quat_dq_at(T3, 0)
+    for k in range(4):
+        q[k] = r[k]
+        qd[k] = r[4 + k]
+
+
+@njit(cache=True, inline="always")
+def _rigid_ok_at(T, i, tol):
+    tot = 0.0
+    for r in range(4):
+        for c in range(4):
+            tot += T[i, r, c]
+    if not np.isfinite(tot):
         return False
-    for i in range(3):
-        for j in range(3):
-            g = T[0, i] * T[0, j] + T[1, i] * T[1, j] + T[2, i] * T[2, j]
-            if i == j:
+    if (abs(T[i, 3, 0]) > tol or abs(T[i, 3, 1]) > tol or abs(T[i, 3, 2]) > tol
+            or abs(T[i, 3, 3] - 1.0) > tol):
+        return False
+    for a in range(3):
+        for b in range(a, 3):
+            g = T[i, 0, a] * T[i, 0, b] + T[i, 1, a] * T[i, 1, b] + T[i, 2, a] * T[i, 2, b]
+            if a == b:
                 g -= 1.0
             if abs(g) > tol:
                 return False
-    det = (T[0, 0] * (T[1, 1] * T[2, 2] - T[1, 2] * T[2, 1])
-           - T[0, 1] * (T[1, 0] * T[2, 2] - T[1, 2] * T[2, 0])
-           + T[0, 2] * (T[1, 0] * T[2, 1] - T[1, 1] * T[2, 0]))
+    det = (T[i, 0, 0] * (T[i, 1, 1] * T[i, 2, 2] - T[i, 1, 2] * T[i, 2, 1])
+           - T[i, 0, 1] * (T[i, 1, 0] * T[i, 2, 2] - T[i, 1, 2] * T[i, 2, 0])
+           + T[i, 0, 2] * (T[i, 1, 0] * T[i, 2, 1] - T[i, 1, 1] * T[i, 2, 0]))
     return abs(det - 1.0) <= tol
 
 
@@ -250,14 +291,16 @@ def _quats_kernel(C, H, tol, qC, qCd, qH, qHd):
     index of the first invalid motion (or -1)."""
     n = C.shape[0]
     for i in range(n):
-        if not _rigid_ok(C[i], tol) or not _rigid_ok(H[i], tol):
+        if not _rigid_ok_at(C, i, tol) or not _rigid_ok_at(H, i, tol):
             return i
-        _quat_dq(C[i], qC[i], qCd[i])
-        _quat_dq(H[i], qH[i], qHd[i])
-        if qC[i, 3] * qH[i, 3] < 0.0:
-            for k in range(4):
-                qH[i, k] = -qH[i, k]
-                qHd[i, k] = -qHd[i, k]
+        rc = _quat_dq_at(C, i)
+        rh = _quat_dq_at(H, i)
+        sg = -1.0 if rc[3] * rh[3] < 0.0 else 1.0
+        for k in range(4):
+            qC[i, k] = rc[k]
+            qCd[i, k] = rc[4 + k]
+            qH[i, k] = sg * rh[k]
+            qHd[i, k] = sg * rh[4 + k]
     return -1
 
 
@@ -284,33 +327,112 @@ def _lr_minus(p, h, out):
     out[3, 3] = w - d
 
 
+def _lr_tensors():
+    """T[x][i, j] = X(e_i)^T Y(e_j) for (X, Y) in LR, LL, RL, RR, so that
+    sum_i X(a_i)^T Y(b_i) = sum_jk P_jk T[j, k] with P = sum_i a_i b_i^T."""
+    from simcalib.geometry import quat_left_matrix as _L, quat_right_matrix as _R
+    E = np.eye(4)
+    pairs = ((_L, _R), (_L, _L), (_R, _L), (_R, _R))
+    return np.ascontiguousarray(np.array(
+        [[[f(E[i]).T @ g(E[j]) for j in range(4)] for i in range(4)] for f, g in pairs]))
+
+
+_T = _lr_tensors()   # (4 [LR, LL, RL, RR], 4, 4, 4, 4)
+
+
+@njit(cache=True, fastmath={"reassoc", "contract"})
+def _dot_rows(Q, a, b, n):
+    s = 0.0
+    for m in range(n):
+        s += Q[a, m] * Q[b, m]
+    return s
+
+
 @njit(cache=True)
-def _accumulate(c, cd, h, hd, A, B, AtA, BtB, BtA):
-    _lr_minus(c, h, A)
-    _lr_minus(cd, hd, B)
+def _outer_from_soa(Q, n, P, nrm):
+    """Q (16, N) rows: c (0-3), h (4-7), c' (8-11), h' (12-15). Fills the summed outer
+    products P[0] = sum c h^T, P[1] = c' h'^T, P[2] = c' c^T, P[3] = c' h^T, P[4] = h' c^T,
+    P[5] = h' h^T and nrm = (sum |c|^2+|h|^2, sum |c'|^2+|h'|^2)."""
     for i in range(4):
         for j in range(4):
-            sa = 0.0
-            sb = 0.0
-            sba = 0.0
-            for k in range(4):
-                sa += A[k, i] * A[k, j]
-                sb += B[k, i] * B[k, j]
-                sba += B[k, i] * A[k, j]
-            AtA[i, j] += sa
-            BtB[i, j] += sb
-            BtA[i, j] += sba
+            P[0, i, j] = _dot_rows(Q, i, 4 + j, n)
+            P[1, i, j] = _dot_rows(Q, 8 + i, 12 + j, n)
+            P[2, i, j] = _dot_rows(Q, 8 + i, j, n)
+            P[3, i, j] = _dot_rows(Q, 8 + i, 4 + j, n)
+            P[4, i, j] = _dot_rows(Q, 12 + i, j, n)
+            P[5, i, j] = _dot_rows(Q, 12 + i, 4 + j, n)
+    s0 = 0.0
+    s1 = 0.0
+    for i in range(8):
+        s0 += _dot_rows(Q, i, i, n)
+        s1 += _dot_rows(Q, 8 + i, 8 + i, n)
+    nrm[0] = s0
+    nrm[1] = s1
 
 
 @njit(cache=True)
-def _grams_kernel(qC, qCd, qH, qHd, AtA, BtB, BtA):
-    A = np.empty((4, 4))
-    B = np.empty((4, 4))
-    AtA[:] = 0.0
-    BtB[:] = 0.0
-    BtA[:] = 0.0
-    for i in range(qC.shape[0]):
-        _accumulate(qC[i], qCd[i], qH[i], qHd[i], A, B, AtA, BtB, BtA)
+def _quats_soa(C, H, tol, Q):
+    """Validate + convert motions into Q (16, N) (sign-aligned); returns first bad index
+    or -1."""
+    for i in range(C.shape[0]):
+        if not _rigid_ok_at(C, i, tol) or not _rigid_ok_at(H, i, tol):
+            return i
+        rc = _quat_dq_at(C, i)
+        rh = _quat_dq_at(H, i)
+        sg = -1.0 if rc[3] * rh[3] < 0.0 else 1.0
+        for k in range(4):
+            Q[k, i] = rc[k]
+            Q[4 + k, i] = sg * rh[k]
+            Q[8 + k, i] = rc[4 + k]
+            Q[12 + k, i] = sg * rh[4 + k]
+    return -1
+
+
+@njit(cache=True)
+def _contract(T, k, P, sign, out):
+    for j in range(4):
+        for l in range(4):
+            p = sign * P[j, l]
+            if p != 0.0:
+                for a in range(4):
+                    for b in range(4):
+                        out[a, b] += p * T[k, j, l, a, b]
+
+
+@njit(cache=True)
+def _grams_from_outer(T, P, nrm, AtA, BtB, BtA):
+    """A^T A, B^T B, B^T A from the accumulated outer products (A = L(c) - R(h), ...)."""
+    X1 = np.zeros((4, 4))
+    X2 = np.zeros((4, 4))
+    _contract(T, 0, P[0], 1.0, X1)      # sum L(c)^T R(h)
+    _contract(T, 0, P[1], 1.0, X2)      # sum L(c')^T R(h')
+    for a in range(4):
+        for b in range(4):
+            AtA[a, b] = -(X1[a, b] + X1[b, a])
+            BtB[a, b] = -(X2[a, b] + X2[b, a])
+            BtA[a, b] = 0.0
+        AtA[a, a] += nrm[0]
+        BtB[a, a] += nrm[1]
+    _contract(T, 1, P[2], 1.0, BtA)     # L(c')^T L(c)
+    _contract(T, 0, P[3], -1.0, BtA)    # - L(c')^T R(h)
+    _contract(T, 2, P[4], -1.0, BtA)    # - R(h')^T L(c)
+    _contract(T, 3, P[5], 1.0, BtA)     # + R(h')^T R(h)
+
+
+@njit(cache=True)
+def _grams_kernel(T, qC, qCd, qH, qHd, AtA, BtB, BtA):
+    n = qC.shape[0]
+    Q = np.empty((16, n))
+    for i in range(n):
+        for k in range(4):
+            Q[k, i] = qC[i, k]
+            Q[4 + k, i] = qH[i, k]
+            Q[8 + k, i] = qCd[i, k]
+            Q[12 + k, i] = qHd[i, k]
+    P = np.empty((6, 4, 4))
+    nrm = np.empty(2)
+    _outer_from_soa(Q, n, P, nrm)
+    _grams_from_outer(T, P, nrm, AtA, BtB, BtA)
 
 
 @njit(cache=True)
@@ -582,8 +704,10 @@ def _solve_core(method, S, W, M, q, qd, info):
             q[i] = V[i, 0]
         mu = _mu_tilde(q, WV, V, xi)
     elif method == DQOPT:
-        # bracket (appendix C): extreme eigenvalues of K = sym(M^1/2 W M^-1/2) in V basis
-        K = np.empty((4, 4))
+        # bracket (appendix C): mu* lies in [k_min, k_max], the extreme eigenvalues of
+        # K = sym(M^1/2 W M^-1/2); here the cheaper valid bound |mu*| <= ||K||_F (the exact
+        # eigenvalue bracket is reported by the certificate).
+        kf = 0.0
         for a in range(4):
             for b in range(4):
                 wab = 0.0
@@ -591,27 +715,33 @@ def _solve_core(method, S, W, M, q, qd, info):
                 for i in range(4):
                     wab += V[i, a] * WV[i, b]
                     wba += V[i, b] * WV[i, a]
-                K[a, b] = 0.5 * (np.sqrt(xi[a] / xi[b]) * wab + np.sqrt(xi[b] / xi[a]) * wba)
-        kw = np.empty(4)
-        KV = np.empty((4, 4))
-        _eigh(K, kw, KV)
-        span = kw[3] - kw[0]
-        lo = kw[0] - 1e-12 * span - 1e-300
-        hi = kw[3] + 1e-12 * span + 1e-300
+                kab = 0.5 * (np.sqrt(xi[a] / xi[b]) * wab + np.sqrt(xi[b] / xi[a]) * wba)
+                kf += kab * kab
+        kf = np.sqrt(kf)
+        lo = -kf * (1.0 + 1e-12) - 1e-300
+        hi = kf * (1.0 + 1e-12) + 1e-300
         mu = 0.0
-        if mu < lo or mu > hi:
-            mu = 0.5 * (lo + hi)
         blo = lo
         bhi = hi
+        E0 = np.empty((4, 4))
         for it in range(200):
             _zmat(S, WV, V, xi, mu, Z)
-            _eigh(Z, lam, E)
+            if it == 0:
+                _eigh(Z, lam, E)
+            else:
+                for i in range(4):
+                    for j in range(4):
+                        E0[i, j] = E[i, j]
+                _eigh_warm(Z, E0, lam, E)
             f, df = _f_df(E, lam, WV, V, xi, mu, pv, pu, pva, pua)
             iters += 1
             qdn = 0.0
             for k in range(4):
                 qdn += (pu[k] / xi[k]) ** 2
-            if abs(f) <= 4.0 * _EPS * (1.0 + np.sqrt(qdn)):
+            ftol = 4.0 * _EPS * (1.0 + np.sqrt(qdn))
+            if abs(f) <= ftol:
+                for i in range(4):
+                    q[i] = E[i, 0]
                 break
             if f > 0.0:
                 bhi = mu
@@ -619,20 +749,46 @@ def _solve_core(method, S, W, M, q, qd, info):
                 blo = mu
             step = f / df if df > 0.0 else 0.0
             mu_new = mu - step
+            if abs(f) <= 1e6 * ftol and mu_new > blo and mu_new < bhi:
+                # Newton is in its quadratic regime: the remaining error after this step is
+                # O(f^2); move q to mu_new by first-order perturbation and stop.
+                for i in range(4):
+                    q[i] = E[i, 0]
+                dmu = mu_new - mu
+                for a in range(1, 4):
+                    _proj(E, a, WV, V, mu, pva, pua)
+                    za = 0.0
+                    for k in range(4):
+                        za += (pua[k] * pv[k] + pva[k] * pu[k]) / xi[k]
+                    gap = lam[0] - lam[a]
+                    if gap < 0.0:
+                        for i in range(4):
+                            q[i] += dmu * za / gap * E[i, a]
+                mu = mu_new
+                break
             if not (mu_new > blo and mu_new < bhi):
                 mu_new = 0.5 * (blo + bhi)
             if abs(mu_new - mu) <= 2.0 * _EPS * abs(mu) or bhi - blo <= 4.0 * _EPS * max(abs(blo), abs(bhi)):
+                for i in range(4):
+                    q[i] = E[i, 0]
                 break
             mu = mu_new
         else:
             status = ST_MAXITER
-        for i in range(4):
-            q[i] = E[i, 0]
+            for i in range(4):
+                q[i] = E[i, 0]
     elif method == DQITR:
         converged = False
+        E0 = np.empty((4, 4))
         for it in range(500):
             _zmat(S, WV, V, xi, mu, Z)
-            _eigh(Z, lam, E)
+            if it == 0:
+                _eigh(Z, lam, E)
+            else:
+                for i in range(4):
+                    for j in range(4):
+                        E0[i, j] = E[i, j]
+                _eigh_warm(Z, E0, lam, E)
             iters += 1
             for i in range(4):
                 q[i] = E[i, 0]
@@ -719,34 +875,22 @@ def _transform_from_dq(q, qd, X):
 
 
 @njit(cache=True, parallel=True)
-def _batch_kernel(method, C, H, alphas, tol, S_add, W_add, M_add, X, cost, info, bad):
+def _batch_kernel(method, T, C, H, alphas, tol, S_add, W_add, M_add, X, cost, info, bad):
     """Fused batch: validate + convert + accumulate + solve + X + data cost, per problem."""
     nb = C.shape[0]
     n = C.shape[1]
     for b in prange(nb):
-        c = np.empty(4)
-        cd = np.empty(4)
-        h = np.empty(4)
-        hd = np.empty(4)
-        A = np.empty((4, 4))
-        Bm = np.empty((4, 4))
-        AtA = np.zeros((4, 4))
-        BtB = np.zeros((4, 4))
-        BtA = np.zeros((4, 4))
-        bad[b] = -1
-        for i in range(n):
-            if not _rigid_ok(C[b, i], tol) or not _rigid_ok(H[b, i], tol):
-                bad[b] = i
-                break
-            _quat_dq(C[b, i], c, cd)
-            _quat_dq(H[b, i], h, hd)
-            if c[3] * h[3] < 0.0:
-                for k in range(4):
-                    h[k] = -h[k]
-                    hd[k] = -hd[k]
-            _accumulate(c, cd, h, hd, A, Bm, AtA, BtB, BtA)
+        Q = np.empty((16, n))
+        P = np.empty((6, 4, 4))
+        nrm = np.empty(2)
+        AtA = np.empty((4, 4))
+        BtB = np.empty((4, 4))
+        BtA = np.empty((4, 4))
+        bad[b] = _quats_soa(C[b], H[b], tol, Q)
         if bad[b] >= 0:
             continue
+        _outer_from_soa(Q, n, P, nrm)
+        _grams_from_outer(T, P, nrm, AtA, BtB, BtA)
         a2 = alphas[b] * alphas[b]
         S = np.empty((4, 4))
         W = np.empty((4, 4))
@@ -768,6 +912,63 @@ def _batch_kernel(method, C, H, alphas, tol, S_add, W_add, M_add, X, cost, info,
                                                        + 2.0 * q[i] * BtA[i, j] * qd[j]
                                                        + qd[i] * AtA[i, j] * qd[j])
         cost[b] = cst
+
+
+@njit(cache=True)
+def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):
+    """Hamilton product (x, y, z, w) of a and b."""
+    return (a3 * b0 + b3 * a0 + a1 * b2 - a2 * b1,
+            a3 * b1 + b3 * a1 + a2 * b0 - a0 * b2,
+            a3 * b2 + b3 * a2 + a0 * b1 - a1 * b0,
+            a3 * b3 - a0 * b0 - a1 * b1 - a2 * b2)
+
+
+@njit(cache=True)
+def _cost_kernel(qC, qCd, qH, qHd, q, qd, alpha):
+    """Cost (8) summed motion by motion: |c q - q h|^2 + alpha^2 |c' q - q h' + c q' - q' h|^2."""
+    a2 = alpha * alpha
+    tot = 0.0
+    x, y, z, w = q[0], q[1], q[2], q[3]
+    dx, dy, dz, dw = qd[0], qd[1], qd[2], qd[3]
+    for i in range(qC.shape[0]):
+        c = qC[i]
+        cd = qCd[i]
+        h = qH[i]
+        hd = qHd[i]
+        p = _qmul(c[0], c[1], c[2], c[3], x, y, z, w)
+        r = _qmul(x, y, z, w, h[0], h[1], h[2], h[3])
+        s1 = 0.0
+        for k in range(4):
+            s1 += (p[k] - r[k]) ** 2
+        p1 = _qmul(cd[0], cd[1], cd[2], cd[3], x, y, z, w)
+        p2 = _qmul(x, y, z, w, hd[0], hd[1], hd[2], hd[3])
+        p3 = _qmul(c[0], c[1], c[2], c[3], dx, dy, dz, dw)
+        p4 = _qmul(dx, dy, dz, dw, h[0], h[1], h[2], h[3])
+        s2 = 0.0
+        for k in range(4):
+            s2 += (p1[k] - p2[k] + p3[k] - p4[k]) ** 2
+        tot += s1 + a2 * s2
+    return tot
+
+
+@njit(cache=True)
+def _solve_from_quats(method, T, qC, qCd, qH, qHd, alpha, S_add, W_add, M_add, q, qd, X,
+                      info):
+    AtA = np.empty((4, 4))
+    BtB = np.empty((4, 4))
+    BtA = np.empty((4, 4))
+    _grams_kernel(T, qC, qCd, qH, qHd, AtA, BtB, BtA)
+    a2 = alpha * alpha
+    S = np.empty((4, 4))
+    W = np.empty((4, 4))
+    M = np.empty((4, 4))
+    for i in range(4):
+        for j in range(4):
+            S[i, j] = 0.5 * (AtA[i, j] + AtA[j, i]) + a2 * 0.5 * (BtB[i, j] + BtB[j, i]) + S_add[i, j]
+            W[i, j] = a2 * BtA[i, j] + W_add[i, j]
+            M[i, j] = a2 * 0.5 * (AtA[i, j] + AtA[j, i]) + M_add[i, j]
+    _solve_core(method, S, W, M, q, qd, info)
+    _transform_from_dq(q, qd, X)
 
 
 # ----------------------------------------------------------------------- python glue
@@ -800,7 +1001,7 @@ def _matrices_fast(problem: MotionProblem, alpha: float, prior):
     AtA = np.empty((4, 4))
     BtB = np.empty((4, 4))
     BtA = np.empty((4, 4))
-    _grams_kernel(problem.q_C, problem.q_C_dual, problem.q_H, problem.q_H_dual, AtA, BtB, BtA)
+    _grams_kernel(_T, problem.q_C, problem.q_C_dual, problem.q_H, problem.q_H_dual, AtA, BtB, BtA)
     AtA = 0.5 * (AtA + AtA.T)
     BtB = 0.5 * (BtB + BtB.T)
     a2 = alpha * alpha
@@ -828,17 +1029,36 @@ _STATUS_TEXT = {ST_OK: "", ST_MAXITER: "iteration limit reached",
                 ST_FALLBACK: "expansion undefined (noise-free data): relaxed solution used"}
 
 
+_ZERO4 = np.zeros((4, 4))
+
+
+def _prior_adds(prior):
+    if prior is None:
+        return _ZERO4, _ZERO4, _ZERO4
+    S_add, W_add, M_add, _ = prior_terms(prior)
+    return (np.ascontiguousarray(S_add), np.ascontiguousarray(W_add),
+            np.ascontiguousarray(M_add))
+
+
+def data_cost(problem: MotionProblem, q, qd, alpha: float) -> float:
+    """Cost (8) at the dual quaternion (q, q') (compiled, motion by motion)."""
+    return float(_cost_kernel(np.ascontiguousarray(problem.q_C), np.ascontiguousarray(problem.q_C_dual),
+                              np.ascontiguousarray(problem.q_H), np.ascontiguousarray(problem.q_H_dual),
+                              np.asarray(q, dtype=np.float64), np.asarray(qd, dtype=np.float64),
+                              float(alpha)))
+
+
 def _make_solver(method: str):
     code = METHOD_CODES[method]
 
     def fn(problem, alpha, prior, rng):
-        S, W, M = _matrices_fast(problem, alpha, prior)
+        S_add, W_add, M_add = _prior_adds(prior)
         q = np.empty(4)
         qd = np.empty(4)
         info = np.empty(N_INFO)
-        _solve_core(code, S, W, M, q, qd, info)
         X = np.empty((4, 4))
-        _transform_from_dq(q, qd, X)
+        _solve_from_quats(code, _T, problem.q_C, problem.q_C_dual, problem.q_H,
+                          problem.q_H_dual, float(alpha), S_add, W_add, M_add, q, qd, X, info)
         status = int(info[I_STATUS])
         diag = {"mu": float(info[I_MU]), "lambda0": float(info[I_LAM0]),
                 "lambda1": float(info[I_LAM1]), "iterations": int(info[I_ITERS]),
@@ -861,16 +1081,19 @@ def _make_batch(method: str):
         """C, H validated (B, N, 4, 4) float64 C-contiguous; alphas (B,). Returns
         (X, cost, objective_quadratic, info, bad)."""
         nb = C.shape[0]
-        if prior is not None:
-            S_add, W_add, M_add, _ = prior_terms(prior)
-        else:
-            S_add = W_add = M_add = np.zeros((4, 4))
+        S_add, W_add, M_add = _prior_adds(prior)
         X = np.empty((nb, 4, 4))
         cost = np.empty(nb)
         info = np.empty((nb, N_INFO))
         bad = np.empty(nb, dtype=np.int64)
-        _batch_kernel(code, C, H, alphas, _TOL, S_add, W_add, M_add, X, cost, info, bad)
-        return X, cost, info, bad
+        _batch_kernel(code, _T, C, H, alphas, _TOL, S_add, W_add, M_add, X, cost, info, bad)
+        out = {"X": X, "cost": cost, "bad": bad, "mu": info[:, I_MU],
+               "iterations": info[:, I_ITERS].astype(np.int64),
+               "n_clipped": info[:, I_NCLIP].astype(np.int64),
+               "lambda0": info[:, I_LAM0]}
+        out["success"] = (info[:, I_STATUS] != ST_MAXITER) if method == "dqopt" else \
+            np.ones(nb, dtype=bool)
+        return out
     batch.__name__ = f"_{method}_batch"
     return batch
 
@@ -887,4 +1110,88 @@ _DESCRIPTIONS = {
 
 for _name in METHOD_CODES:
     register(_name, family="dq", description=_DESCRIPTIONS[_name], supports_prior=True,
-             certified=(_name == "dqopt"), batch=_make_batch(_name))(_make_solver(_name))
+             certified=(_name == "dqopt"), batch=_make_batch(_name),
+             batch_validates=True)(_make_solver(_name))
+
+
+@njit(cache=True, parallel=True)
+def _batch_cost_kernel(C, H, X, alphas, cost):
+    nb = C.shape[0]
+    n = C.shape[1]
+    for b in prange(nb):
+        qC = np.empty((n, 4))
+        qCd = np.empty((n, 4))
+        qH = np.empty((n, 4))
+        qHd = np.empty((n, 4))
+        _quats_kernel(C[b], H[b], 1e300, qC, qCd, qH, qHd)
+        q = np.empty(4)
+        qd = np.empty(4)
+        _quat_dq(X[b], q, qd)
+        cost[b] = _cost_kernel(qC, qCd, qH, qHd, q, qd, alphas[b])
+
+
+def batch_data_cost(C, H, X, alphas) -> np.ndarray:
+    """Cost (8) of each ``X[b]`` on problem ``b`` (compiled, parallel); non-finite X -> inf."""
+    X = np.ascontiguousarray(X, dtype=np.float64)
+    finite = np.isfinite(X).all(axis=(-2, -1))
+    Xs = np.where(finite[:, None, None], X, np.eye(4))
+    cost = np.empty(X.shape[0])
+    _batch_cost_kernel(np.ascontiguousarray(C, dtype=np.float64),
+                       np.ascontiguousarray(H, dtype=np.float64), Xs,
+                       np.ascontiguousarray(alphas, dtype=np.float64), cost)
+    return np.where(finite, cost, np.inf)
+
+
+@njit(cache=True)
+def _eval_mu_kernel(S, W, M, mu, lam, E, out):
+    """Z(mu) eigen-decomposition (M clipped as in the solvers) and f, f' at mu."""
+    xi = np.empty(4)
+    V = np.empty((4, 4))
+    nclip = _m_eig(S, M, xi, V)
+    WV = np.zeros((4, 4))
+    for i in range(4):
+        for j in range(4):
+            acc = 0.0
+            for k in range(4):
+                acc += W[i, k] * V[k, j]
+            WV[i, j] = acc
+    Z = np.empty((4, 4))
+    _zmat(S, WV, V, xi, mu, Z)
+    _eigh(Z, lam, E)
+    pv = np.empty(4)
+    pu = np.empty(4)
+    pva = np.empty(4)
+    pua = np.empty(4)
+    f, df = _f_df(E, lam, WV, V, xi, mu, pv, pu, pva, pua)
+    out[0] = f
+    out[1] = df
+    out[2] = nclip
+    # exact appendix-C bracket: eigenvalues of K = sym(M^1/2 W M^-1/2)
+    K = np.empty((4, 4))
+    for a in range(4):
+        for b in range(4):
+            wab = 0.0
+            wba = 0.0
+            for i in range(4):
+                wab += V[i, a] * WV[i, b]
+                wba += V[i, b] * WV[i, a]
+            K[a, b] = 0.5 * (np.sqrt(xi[a] / xi[b]) * wab + np.sqrt(xi[b] / xi[a]) * wba)
+    kw = np.empty(4)
+    KV = np.empty((4, 4))
+    _eigh(K, kw, KV)
+    out[3] = kw[0]
+    out[4] = kw[3]
+
+
+def eval_at_mu(S, W, M, mu: float):
+    """``(lam (4,), q0 (4,), f, df, n_clipped, (k_min, k_max))`` for ``Z(mu)`` of (S, W, M):
+    eigenvalues, smallest eigenvector, f(mu) = q0.q0' (eq. 18), f'(mu), and the appendix-C
+    bracket of mu*."""
+    lam = np.empty(4)
+    E = np.empty((4, 4))
+    out = np.empty(5)
+    _eval_mu_kernel(np.ascontiguousarray(S, dtype=np.float64),
+                    np.ascontiguousarray(W, dtype=np.float64),
+                    np.ascontiguousarray(M, dtype=np.float64), float(mu), lam, E, out)
+    return lam, E[:, 0].copy(), float(out[0]), float(out[1]), int(out[2]), (float(out[3]),
+                                                                             float(out[4]))

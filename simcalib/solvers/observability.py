@@ -1,0 +1,370 @@
+"""What the motions determine, and certificates of global optimality for DQ solutions.
+
+Observability (any method): the motion equations ``C_i X = X H_i`` are linearised in a
+left perturbation ``X -> exp(delta) X`` with ``delta = (omega, v)`` expressed in the frame of
+camera a (``omega``: rotation vector in rad, ``v``: translation in m). Motion ``i`` gives
+the rows ``[[I - R_i, 0], [-alpha [t_i]x, I - R_i]]`` acting on ``(omega, alpha v)`` (the
+rotation equation, and the translation equation weighted by alpha as in the cost). The
+singular values / vectors of the stacked 6N x 6 matrix say which combinations of
+rotation and translation of X the motions fix. A direction is
+
+* **undetermined** when its singular value is (numerically) zero relative to the largest
+  (``< 1e-6``): planar motion leaves the translation along the common rotation axis free,
+  pure translation leaves the whole translation free (and the rotation about the
+  translation direction if all translations are parallel), rotations about a single axis
+  leave the translation along that axis free;
+* **poorly determined** when its predicted 1-sigma uncertainty ``sigma / s_k`` (``sigma``
+  = RMS residual of the motion equations at the solution) exceeds ``weak_std``
+  (default 0.02: ~1.1 deg, or 0.02/alpha m) while ``s_k / s_max < 0.1``: near-planar
+  noisy motion, where the value along that direction is fitted noise.
+
+``degenerate`` is True if either kind exists. With a prior the direction takes its value
+from the prior (rotation directions if ``a > 0``, translation directions if ``b > 0``).
+
+Certificates (DQ methods): see :class:`Certificate`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from simcalib.geometry import rotvec_from_matrix
+
+__all__ = ["Direction", "Observability", "Certificate", "analyse", "certify",
+           "UNDETERMINED_REL", "WEAK_STD", "WEAK_REL"]
+
+UNDETERMINED_REL = 1e-6
+WEAK_STD = 0.02
+WEAK_REL = 0.1
+_PURE = 0.05  # a direction is "pure" rotation/translation if the other part is < 5 %
+
+
+def _fmt_vec(v) -> str:
+    return "[" + ", ".join(f"{x:+.3f}" for x in v) + "]"
+
+
+@dataclass(frozen=True)
+class Direction:
+    """One combination of X's rotation/translation the motions do not (well) determine.
+
+    ``kind``: "translation", "rotation" or "coupled"; ``rotation_axis_a`` and
+    ``translation_dir_a``: unit 3-vectors in camera-a coordinates (zeros if absent);
+    ``dims``: dimension of the subspace described (e.g. 3 for "translation in every
+    direction"); ``singular_value`` (per-motion RMS, dimensionless); ``std``: predicted
+    1-sigma uncertainty (rad, or m times alpha); ``reason``: "undetermined" or "weak";
+    ``determined_by_prior``; ``description``: plain words.
+    """
+    kind: str
+    rotation_axis_a: np.ndarray
+    translation_dir_a: np.ndarray
+    dims: int
+    singular_value: float
+    std: float
+    reason: str
+    determined_by_prior: bool
+    description: str
+
+
+@dataclass(frozen=True)
+class Observability:
+    """Observability diagnostics of a solution (see module doc).
+
+    ``singular_values``: ascending, of the stacked linearised problem divided by sqrt(N)
+    (dimensionless; rotation rows in rad, translation rows times alpha).
+    ``singular_vectors``: columns (omega, alpha v) in camera-a coordinates.
+    ``relative``: singular values / largest. ``residual_rms``: RMS residual of the motion
+    equations at the solution (same units). ``motion``: a plain description of camera a's
+    motions (rotation axes, pure translation ...).
+    """
+    singular_values: np.ndarray
+    singular_vectors: np.ndarray
+    relative: np.ndarray
+    residual_rms: float
+    degenerate: bool
+    undetermined: tuple
+    motion: str
+    prior_used: bool
+
+    def summary(self) -> str:
+        if not self.degenerate:
+            return (f"observability: all 6 degrees of freedom determined (smallest relative "
+                    f"singular value {self.relative[0]:.3g})")
+        parts = []
+        for d in self.undetermined:
+            what = "NOT determined by the motions" if d.reason == "undetermined" else \
+                f"poorly determined (predicted 1-sigma {d.std:.3g})"
+            src = ("its value comes from the prior" if d.determined_by_prior else
+                   "the returned value along it is arbitrary/noise, not a measurement")
+            parts.append(f"{d.description} is {what}; {src}")
+        return "DEGENERATE motion (" + self.motion + "): " + "; ".join(parts)
+
+
+def _linearised(C: np.ndarray, alpha: float) -> np.ndarray:
+    """Stacked Jacobian blocks (N, 6, 6) acting on (omega, alpha v)."""
+    N = C.shape[0]
+    R = C[:, :3, :3]
+    t = C[:, :3, 3] * alpha
+    ImR = np.eye(3) - R
+    tx = np.zeros((N, 3, 3))
+    tx[:, 0, 1], tx[:, 0, 2] = -t[:, 2], t[:, 1]
+    tx[:, 1, 0], tx[:, 1, 2] = t[:, 2], -t[:, 0]
+    tx[:, 2, 0], tx[:, 2, 1] = -t[:, 1], t[:, 0]
+    J = np.zeros((N, 6, 6))
+    J[:, :3, :3] = ImR
+    J[:, 3:, :3] = -tx
+    J[:, 3:, 3:] = ImR
+    return J
+
+
+def _residuals(C, H, X, alpha) -> np.ndarray:
+    """Per-motion residual 6-vectors of C_i = X H_i X^-1 (rotation vector, alpha * dt)."""
+    from simcalib.geometry import invert_transform
+    Ct = X @ H @ invert_transform(X)
+    dR = C[:, :3, :3] @ np.swapaxes(Ct[:, :3, :3], -1, -2)
+    r = np.concatenate([rotvec_from_matrix(dR), alpha * (C[:, :3, 3] - Ct[:, :3, 3])], axis=1)
+    return r
+
+
+def _motion_text(C: np.ndarray) -> str:
+    rv = rotvec_from_matrix(C[:, :3, :3])
+    ang = np.linalg.norm(rv, axis=1)
+    moving = ang > 1e-6
+    if not moving.any():
+        return "camera a only translates (no rotation in any motion)"
+    axes = rv[moving] / ang[moving, None]
+    # principal axis: eigenvector of the axis scatter matrix
+    w, V = np.linalg.eigh(axes.T @ axes)
+    k = V[:, -1]
+    spread = np.degrees(np.arccos(np.clip(np.abs(axes @ k), 0.0, 1.0))).max()
+    txt = (f"{int(moving.sum())} of {len(C)} motions rotate; rotation axes within "
+           f"{spread:.2g} deg of {_fmt_vec(k)} (camera-a frame)")
+    if spread < 1.0:
+        trans = C[:, :3, 3]
+        along = np.abs(trans @ k).max() if len(trans) else 0.0
+        txt += ("; planar motion (translations perpendicular to that axis)"
+                if along < 1e-3 * max(np.linalg.norm(trans, axis=1).max(), 1e-12)
+                else "; single rotation axis")
+    return txt
+
+
+def _subspace_words(U: np.ndarray, s_k: np.ndarray, std_k: np.ndarray, reason: str,
+                    prior) -> list:
+    """Describe span(U) (6 x k, columns (omega, alpha v)) in words, split into pure
+    translation, pure rotation and coupled parts."""
+    out = []
+    k = U.shape[1]
+    if k == 0:
+        return out
+    a_prior = prior is not None and prior.a > 0
+    b_prior = prior is not None and prior.b > 0
+    sv = float(s_k.min())
+    sd = float(std_k.max())
+    # pure-translation subspace: vectors in span(U) with small omega part
+    Wr, Vr = np.linalg.eigh(U[:3].T @ U[:3])          # ascending omega-energy
+    trans_idx = Wr < _PURE**2
+    T = U @ Vr[:, trans_idx]
+    Wt, Vt = np.linalg.eigh(U[3:].T @ U[3:])
+    rot_idx = Wt < _PURE**2
+    Rs = U @ Vt[:, rot_idx]
+    used = int(trans_idx.sum()) + int(rot_idx.sum())
+    if T.shape[1]:
+        d = T.shape[1]
+        dirs = T[3:]
+        if d == 1:
+            v = dirs[:, 0] / np.linalg.norm(dirs[:, 0])
+            desc = f"translation of X along {_fmt_vec(v)} (camera-a frame)"
+        elif d == 2:
+            n = np.cross(dirs[:, 0], dirs[:, 1])
+            v = n / np.linalg.norm(n)
+            desc = f"translation of X within the plane perpendicular to {_fmt_vec(v)} (camera-a frame)"
+        else:
+            v = np.zeros(3)
+            desc = "translation of X in every direction"
+        out.append(Direction("translation", np.zeros(3), v, d, sv, sd, reason, b_prior, desc))
+    if Rs.shape[1]:
+        d = Rs.shape[1]
+        if d == 1:
+            v = Rs[:3, 0] / np.linalg.norm(Rs[:3, 0])
+            desc = f"rotation of X about the axis {_fmt_vec(v)} (camera-a frame)"
+        else:
+            v = np.zeros(3)
+            desc = f"rotation of X about {d} independent axes"
+        out.append(Direction("rotation", v, np.zeros(3), d, sv, sd, reason, a_prior, desc))
+    if used < k:
+        # coupled remainder: directions orthogonal to the pure parts
+        P = np.concatenate([T, Rs], axis=1) if used else np.zeros((6, 0))
+        Q = U - P @ (P.T @ U) if used else U
+        uq, sq, _ = np.linalg.svd(Q, full_matrices=False)
+        for j in range(k - used):
+            u = uq[:, j]
+            w, t = u[:3], u[3:]
+            ax = w / max(np.linalg.norm(w), 1e-300)
+            td = t / max(np.linalg.norm(t), 1e-300)
+            desc = (f"rotation of X about {_fmt_vec(ax)} coupled with a translation along "
+                    f"{_fmt_vec(td)} (camera-a frame)")
+            out.append(Direction("coupled", ax, td, 1, sv, sd, reason, a_prior and b_prior,
+                                 desc))
+    return out
+
+
+def analyse(problem, X, alpha: float, prior=None, cost=None, *, weak_std: float = WEAK_STD
+            ) -> Observability:
+    """Observability diagnostics for solution ``X`` of ``problem`` (see module doc)."""
+    C = problem.C
+    N = C.shape[0]
+    J = _linearised(C, alpha)
+    G = np.einsum("nki,nkj->ij", J, J)
+    w, V = np.linalg.eigh(0.5 * (G + G.T))
+    s = np.sqrt(np.clip(w, 0.0, None))
+    smax = max(s[-1], 1e-300)
+    rel = s / smax
+    Xf = np.asarray(X, dtype=np.float64)
+    if np.isfinite(Xf).all():
+        r = _residuals(C, problem.H, Xf, alpha)
+        rms = float(np.sqrt(np.sum(r * r) / max(6 * N - 6, 1)))
+    else:
+        rms = float("nan")
+    std = np.where(s > 0, (rms if np.isfinite(rms) else 0.0) / np.maximum(s, 1e-300), np.inf)
+    undet = rel < UNDETERMINED_REL
+    weak = ~undet & (rel < WEAK_REL) & (std > weak_std)
+    directions = []
+    directions += _subspace_words(V[:, undet], s[undet] / np.sqrt(N), std[undet],
+                                  "undetermined", prior)
+    directions += _subspace_words(V[:, weak], s[weak] / np.sqrt(N), std[weak], "weak", prior)
+    degenerate = bool(undet.any() or weak.any())
+    return Observability(singular_values=s / np.sqrt(N), singular_vectors=V, relative=rel,
+                         residual_rms=rms, degenerate=degenerate,
+                         undetermined=tuple(directions),
+                         motion=_motion_text(C) if degenerate else "general motion",
+                         prior_used=prior is not None)
+
+
+# ------------------------------------------------------------------------- certificate
+@dataclass(frozen=True)
+class Certificate:
+    """Certificate of global optimality of a DQ solution (paper section 3.1.2).
+
+    Weak duality: for every mu, ``lambda0(mu)`` (smallest eigenvalue of ``Z(mu)``) is a lower
+    bound of the constrained minimum, and ``lambda0`` is concave with its maximum where
+    ``f(mu) = q0 . q0'`` (increasing in mu) changes sign. The solution is certified when
+
+    * the root of f is bracketed: ``f(k_min) <= 0 <= f(k_max)`` on the appendix-C bracket,
+      and unique: ``f' > 0`` (f is monotone);
+    * ``lambda0(mu*)`` is the maximum: ``lambda0(mu* +- h) <= lambda0(mu*)``;
+    * the eigenvalue is simple (``lambda1 - lambda0 > 0``, so q is unique up to sign);
+    * the duality gap ``objective - lambda0(mu*)`` is at rounding level relative to the
+      scale of the problem, and the KKT residuals of eq. (10) are at machine level.
+
+    For noise-free data (M numerically singular, route "exact-fit") the bound used is 0
+    (the cost is a sum of squares): certified when the cost itself is at rounding level.
+    For approximate methods the same numbers are reported; ``certified`` is True only when
+    their objective reaches the bound.
+    """
+    certified: bool
+    route: str
+    mu: float
+    bracket: tuple
+    f_at_bracket: tuple
+    root_bracketed: bool
+    f_monotone: bool
+    df: float
+    lambda0: float
+    lambda1: float
+    lambda0_is_max: bool
+    objective: float
+    lower_bound: float
+    duality_gap: float
+    relative_gap: float
+    kkt_residual: float
+    notes: str = ""
+
+    def summary(self) -> str:
+        if self.route == "exact-fit":
+            return ("certificate: exact fit (cost %.3g at rounding level; lower bound 0), "
+                    "global optimum" % self.objective if self.certified else
+                    f"certificate: NOT certified ({self.notes})")
+        head = "certified global optimum" if self.certified else "NOT certified"
+        return (f"certificate: {head} (relative duality gap {self.relative_gap:.2g}, "
+                f"KKT residual {self.kkt_residual:.2g}, mu* = {self.mu:.6g} in bracket "
+                f"[{self.bracket[0]:.3g}, {self.bracket[1]:.3g}], "
+                f"f' = {self.df:.3g} > 0, lambda1 - lambda0 = "
+                f"{self.lambda1 - self.lambda0:.3g})" + (f"; {self.notes}" if self.notes else ""))
+
+    def __str__(self) -> str:
+        lines = [self.summary(),
+                 f"  root bracketed: {self.root_bracketed}  f(k_min) = {self.f_at_bracket[0]:.3g}, "
+                 f"f(k_max) = {self.f_at_bracket[1]:.3g}",
+                 f"  f monotone (f'(mu*) = {self.df:.3g} > 0): {self.f_monotone}",
+                 f"  lambda0(mu*) = {self.lambda0:.6g} is the maximum of the concave curve: "
+                 f"{self.lambda0_is_max}",
+                 f"  objective {self.objective:.10g} vs lower bound {self.lower_bound:.10g}: "
+                 f"gap {self.duality_gap:.3g} (relative {self.relative_gap:.3g})",
+                 f"  KKT residual (eq. 10, relative): {self.kkt_residual:.3g}"]
+        return "\n".join(lines)
+
+
+GAP_TOL = 1e-10
+KKT_TOL = 1e-9
+
+
+def certify(problem, alpha: float, prior, q, q_dual) -> Certificate:
+    """Certificate for the DQ solution ``(q, q')`` of ``problem`` (see :class:`Certificate`)."""
+    from simcalib.solvers import dq
+    S, W, M = dq.problem_matrices(problem, alpha, prior)
+    q = np.asarray(q, dtype=np.float64)
+    qd = np.asarray(q_dual, dtype=np.float64)
+    obj = float(q @ S @ q + qd @ M @ qd + 2 * q @ W @ qd)
+    scale = float(np.trace(S) / 4 + np.trace(M) / 4 + np.abs(W).max() + 1e-300)
+    # the optimum's multiplier from the optimal solver
+    qs, _, info = dq.solve_matrices("dqopt", S, W, M)
+    mu = float(info[dq.I_MU])
+    lam, q0, f, df, nclip, (kmin, kmax) = dq.eval_at_mu(S, W, M, mu)
+    span = max(kmax - kmin, 1e-300)
+    f_lo = dq.eval_at_mu(S, W, M, kmin)[2]
+    f_hi = dq.eval_at_mu(S, W, M, kmax)[2]
+    h = 1e-4 * span
+    lam_m = dq.eval_at_mu(S, W, M, mu - h)[0][0]
+    lam_p = dq.eval_at_mu(S, W, M, mu + h)[0][0]
+    lam0 = float(lam[0])
+    tol_l = 1e-13 * scale
+    is_max = bool(lam_m <= lam0 + tol_l and lam_p <= lam0 + tol_l)
+    bracketed = bool(f_lo <= 1e-13 * (1 + np.linalg.norm(qd)) and
+                     f_hi >= -1e-13 * (1 + np.linalg.norm(qd)))
+    monotone = bool(df > 0)
+    # KKT residuals of eq. (10) at (q, q'), with lambda = objective, mu*
+    r1 = S @ q + W @ qd - obj * q - mu * qd
+    r2 = M @ qd + W.T @ q - mu * q
+    kkt = float(max(np.abs(r1).max(), np.abs(r2).max(), abs(q @ qd)) /
+                (scale * (1 + np.abs(qd).max())))
+    if nclip > 0 and (prior is None):
+        # M numerically singular: noise-free (or degenerate) data; bound = 0 (sum of
+        # squares), the cost summed motion by motion (accurate near 0)
+        cost = dq.data_cost(problem, q, qd, alpha)
+        ok = bool(cost <= 1e-20 * scale * max(problem.n, 1))
+        notes = ("M numerically singular (noise-free or degenerate data)" if ok else
+                 f"M numerically singular but cost {cost:.3g} is not at rounding level; "
+                 "optimality not proven")
+        return Certificate(certified=ok, route="exact-fit", mu=mu, bracket=(kmin, kmax),
+                           f_at_bracket=(f_lo, f_hi), root_bracketed=bracketed,
+                           f_monotone=monotone, df=df, lambda0=lam0, lambda1=float(lam[1]),
+                           lambda0_is_max=is_max, objective=cost, lower_bound=0.0,
+                           duality_gap=cost, relative_gap=cost / scale, kkt_residual=kkt,
+                           notes=notes)
+    gap = obj - lam0
+    rel = gap / max(abs(obj), abs(lam0), 1e-300 + 1e-16 * scale)
+    ok = bool(bracketed and monotone and is_max and lam[1] > lam[0] and rel <= GAP_TOL
+              and kkt <= KKT_TOL)
+    notes = "" if ok else ", ".join(n for n, bad in [
+        ("root not bracketed", not bracketed), ("f not increasing", not monotone),
+        ("lambda0(mu*) not maximal", not is_max), ("degenerate eigenvalue", lam[1] <= lam[0]),
+        (f"duality gap {rel:.2g} above {GAP_TOL:g}", rel > GAP_TOL),
+        (f"KKT residual {kkt:.2g} above {KKT_TOL:g}", kkt > KKT_TOL)] if bad)
+    if nclip > 0:
+        notes = (notes + "; " if notes else "") + "M regularised (near-singular)"
+    return Certificate(certified=ok, route="secular", mu=mu, bracket=(kmin, kmax),
+                       f_at_bracket=(f_lo, f_hi), root_bracketed=bracketed,
+                       f_monotone=monotone, df=df, lambda0=lam0, lambda1=float(lam[1]),
+                       lambda0_is_max=is_max, objective=obj, lower_bound=lam0,
+                       duality_gap=gap, relative_gap=rel, kkt_residual=kkt, notes=notes)
