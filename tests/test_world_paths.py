@@ -134,3 +134,13 @@ def test_perturbation_bounded_and_seeded():
     assert np.array_equal(a.roll, b.roll) and not np.allclose(a.roll, c.roll)
     assert np.abs(np.rad2deg(a.roll)).max() <= 2.0 and np.abs(np.rad2deg(a.pitch)).max() <= 1.0
     assert np.abs(a.dp[:, 2]).max() <= 0.01 and np.abs(a.dp[:, 2]).max() > 0.002
+
+
+def test_world_package_import_is_light():
+    import subprocess
+    import sys
+    code = ("import sys, simcalib.world as W; W.WorldConfig(path='3d'); "
+            "print(sorted(m for m in ('mujoco', 'cv2', 'rerun') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True)
+    assert out.stdout.strip() == "[]"

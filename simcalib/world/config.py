@@ -278,6 +278,8 @@ class WorldConfig:
     * ``path_params``: overrides of the path's per-platform defaults (unknown keys rejected).
     * ``perturbation``, ``rig``, ``cam_a``, ``cam_b``, ``room``, ``markers``, ``ik``: nested
       configs (instances or mappings of their fields).
+    * ``arm_model``: ``"builtin"`` (default: models/ur5e.xml, UR5e DH kinematics, primitive
+      geoms) or ``"menagerie"`` (the Menagerie UR5e with meshes from ``$MENAGERIE_ROOT``).
     """
     platform: str | None = None
     path: str = "planar"
@@ -291,6 +293,7 @@ class WorldConfig:
     room: RoomConfig = field(default_factory=RoomConfig)
     markers: MarkerFieldConfig = field(default_factory=MarkerFieldConfig)
     ik: IKConfig = field(default_factory=IKConfig)
+    arm_model: str = "builtin"
 
     def __post_init__(self):
         from simcalib.world.paths import get_path, resolve_platform
@@ -300,6 +303,10 @@ class WorldConfig:
             raise ValueError(f"{o}.platform must be one of {list(PLATFORMS)} or None; "
                              f"received {self.platform!r}")
         _set(self, "platform", resolve_platform(info, self.platform))
+        if self.arm_model not in ("builtin", "menagerie"):
+            raise ValueError(f"{o}.arm_model must be 'builtin' (models/ur5e.xml) or "
+                             "'menagerie' (UR5e from $MENAGERIE_ROOT); received "
+                             f"{self.arm_model!r}")
         _set(self, "duration_s", _number(o, "duration_s", self.duration_s, lo=0.0, hi=3600.0,
                                          lo_open=True))
         _set(self, "fps", _number(o, "fps", self.fps, lo=0.0, hi=1000.0, lo_open=True))
