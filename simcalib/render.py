@@ -32,11 +32,13 @@ import numpy as np
 __all__ = [
     "DEBIAN_PACKAGES",
     "FrameJob",
+    "FrameTiming",
     "RenderBackendError",
     "RenderSettings",
     "CameraRenderer",
     "available_backend",
     "backend_error_message",
+    "loaded_backend",
     "model_to_bytes",
     "model_from_bytes",
     "render_map",
@@ -77,6 +79,17 @@ def _import_mujoco():
     return mujoco
 
 
+def loaded_backend() -> str:
+    """The OpenGL backend the imported mujoco actually uses (``egl``, ``osmesa``, ``glfw``,
+    or ``none``); mujoco picks it once, at import, from ``MUJOCO_GL``."""
+    mujoco = _import_mujoco()
+    cls = getattr(mujoco, "GLContext", None)
+    if cls is None:
+        return "none"
+    name = getattr(cls, "__module__", "").rsplit(".", 1)[-1]
+    return name or "unknown"
+
+
 _PROBE_CODE = (
     "import mujoco\n"
     "ctx = mujoco.GLContext(16, 16)\n"
@@ -106,10 +119,20 @@ def _probe_subprocess(backend: str, timeout_s: float = 120.0) -> str | None:
     return lines[-1].strip() if lines else f"exit code {proc.returncode}"
 
 
+_INPROCESS_FAILURE: dict[str, str] = {}
+
+
 def _probe_inprocess() -> str | None:
-    """Try the backend this process's mujoco was (or will be) imported with."""
+    """Try the backend this process's mujoco was (or will be) imported with. A renderer
+    that already failed in this process marks it unusable (a second MuJoCo context after a
+    failed one can abort the interpreter)."""
+    if "reason" in _INPROCESS_FAILURE:
+        return _INPROCESS_FAILURE["reason"]
     try:
         mujoco = _import_mujoco()
+        if loaded_backend() == "glfw" and not (os.environ.get("DISPLAY")
+                                               or os.environ.get("WAYLAND_DISPLAY")):
+            return "glfw needs a display (DISPLAY is not set)"
         ctx = mujoco.GLContext(16, 16)
         ctx.make_current()
         ctx.free()
@@ -141,6 +164,12 @@ def available_backend(probe_inprocess: Callable[[], str | None] | None = None,
     current = os.environ.get("MUJOCO_GL", "egl")
     failures: dict[str, str] = {}
     why = probe_inprocess()
+    if why is not None and "mujoco" in sys.modules and probe_inprocess is _probe_inprocess:
+        actual = loaded_backend()
+        if actual != current:
+            current = actual
+            why += (f" (mujoco was imported with the {actual} backend before MUJOCO_GL was "
+                    "set; set MUJOCO_GL=egl before importing mujoco)")
     if why is None:
         result = (current, True)
     else:
@@ -228,15 +257,21 @@ class CameraRenderer:
         m.vis.global_.offheight = max(int(m.vis.global_.offheight), settings.height)
         m.vis.quality.offsamples = int(settings.msaa_samples)
         for cam, fovy in settings.fovy_deg.items():
-            m.cam_fovy[self._camera_id(m, cam)] = float(fovy)
+            cid = self._camera_id(m, cam)
+            if np.any(np.asarray(m.cam_sensorsize[cid]) > 0):
+                raise ValueError(f"camera {cam!r} is defined by sensorsize/focal length, which "
+                                 "makes MuJoCo ignore fovy; a fovy override is not allowed")
+            m.cam_fovy[cid] = float(fovy)
         self.model = m
         self.data = mujoco.MjData(m)
         self._mujoco = mujoco
         try:
             self._renderer = mujoco.Renderer(m, settings.height, settings.width)
         except Exception as exc:  # noqa: BLE001  (GL failures surface as many types)
-            raise RenderBackendError(backend_error_message(
-                {os.environ.get("MUJOCO_GL", "egl"): f"{type(exc).__name__}: {exc}"})) from exc
+            reason = f"{type(exc).__name__}: {exc}"
+            _INPROCESS_FAILURE.setdefault("reason", reason)
+            _BACKEND_CACHE.pop("result", None)
+            raise RenderBackendError(backend_error_message({loaded_backend(): reason})) from exc
         self._renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = bool(settings.shadows)
         self._cam_ids: dict[str, int] = {}
 
@@ -327,6 +362,16 @@ class FrameJob:
     key: Any = None
 
 
+@dataclass(frozen=True)
+class FrameTiming:
+    """Seconds spent on one frame: ``render_s`` (wall, rendering only), ``total_s`` (wall,
+    rendering + the per-frame function), ``cpu_s`` (CPU time of the rendering process
+    over both, all its threads — independent of other load on the machine)."""
+    render_s: float
+    total_s: float
+    cpu_s: float
+
+
 _WORKER: dict[str, Any] = {}
 
 
@@ -353,10 +398,13 @@ def _worker_init(model_blob: bytes, settings: RenderSettings, backend: str,
 def _run_jobs(renderer: CameraRenderer, fn: Callable, jobs: Sequence[FrameJob]) -> list:
     out = []
     for job in jobs:
+        c0 = time.process_time()
         t0 = time.perf_counter()
         img = renderer.render(job.camera, job.qpos, job.mocap_pos, job.mocap_quat_wxyz)
         t1 = time.perf_counter()
-        out.append((fn(img, job), t1 - t0))
+        res = img if fn is None else fn(img, job)
+        out.append((res, FrameTiming(t1 - t0, time.perf_counter() - t0,
+                                     time.process_time() - c0)))
     return out
 
 
@@ -376,16 +424,19 @@ def default_workers() -> int:
 
 
 def render_map(model, settings: RenderSettings, jobs: Sequence[FrameJob],
-               fn: Callable[[np.ndarray, FrameJob], Any], workers: int | None = None,
-               chunk_size: int = 8) -> tuple[list, list[float]]:
-    """Render every job's frame and return ``([fn(image, job) ...], [render seconds ...])``
+               fn: Callable[[np.ndarray, FrameJob], Any] | None = None,
+               workers: int | None = None, chunk_size: int = 8,
+               use_this_process: bool = True) -> tuple[list, list[FrameTiming]]:
+    """Render every job's frame and return ``([fn(image, job) ...], [FrameTiming ...])``
     in job order.
 
     ``fn`` must be picklable (a module-level function or an instance of a module-level
-    class) and deterministic given ``(image, job)``. ``workers``: ``None`` = all usable
-    cores; ``1`` renders in this process (or in one worker process when only a fallback
-    backend works); ``>1`` uses that many spawned worker processes. The results do not
-    depend on ``workers`` or ``chunk_size``.
+    class) and deterministic given ``(image, job)``; ``None`` returns the images.
+    ``workers``: ``None`` = all usable cores; ``1`` renders in this process (or in one
+    worker process when only a fallback backend works); ``n > 1`` renders in this process
+    plus ``n - 1`` spawned worker processes (``n`` spawned ones when this process cannot
+    render, or with ``use_this_process=False``). The results do not depend on ``workers``,
+    ``chunk_size`` or ``use_this_process``.
     """
     if workers is None:
         workers = default_workers()
@@ -397,20 +448,39 @@ def render_map(model, settings: RenderSettings, jobs: Sequence[FrameJob],
     if not jobs:
         return [], []
     backend, inprocess = available_backend()
+    inprocess = inprocess and bool(use_this_process)
     workers = int(min(workers, len(jobs)))
     if workers == 1 and inprocess:
         with CameraRenderer(model, settings) as r:
             pairs = _run_jobs(r, fn, jobs)
-    else:
-        import multiprocessing as mp  # noqa: PLC0415
-        from concurrent.futures import ProcessPoolExecutor  # noqa: PLC0415
-        blob = model_to_bytes(model)
-        # Contiguous chunks, several per worker for load balance; order is restored by map.
-        size = int(max(1, min(chunk_size, -(-len(jobs) // workers))))
-        chunks = [jobs[i:i + size] for i in range(0, len(jobs), size)]
-        ctx = mp.get_context("spawn")  # never fork a process that may hold a GL context
-        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
-                                 initializer=_worker_init,
-                                 initargs=(blob, settings, backend, fn)) as pool:
-            pairs = [p for chunk in pool.map(_worker_chunk, chunks) for p in chunk]
+        return [p[0] for p in pairs], [p[1] for p in pairs]
+    import multiprocessing as mp  # noqa: PLC0415
+    from concurrent.futures import ProcessPoolExecutor  # noqa: PLC0415
+    blob = model_to_bytes(model)
+    # Contiguous chunks, several per worker for load balance.
+    size = int(max(1, min(chunk_size, -(-len(jobs) // (2 * workers)))))
+    chunks = [jobs[i:i + size] for i in range(0, len(jobs), size)]
+    # When this process can render, it is one of the workers: it starts at once (no
+    # interpreter start-up) and takes chunks from the end while the spawned processes
+    # take them from the front. Chunk results do not depend on who renders them.
+    n_proc = workers - 1 if inprocess else workers
+    ctx = mp.get_context("spawn")  # never fork a process that may hold a GL context
+    results: list = [None] * len(chunks)
+    pool = ProcessPoolExecutor(max_workers=n_proc, mp_context=ctx, initializer=_worker_init,
+                               initargs=(blob, settings, backend, fn))
+    try:
+        futures = [pool.submit(_worker_chunk, c) for c in chunks]
+        if inprocess:
+            with CameraRenderer(model, settings) as r:
+                for i in range(len(chunks) - 1, -1, -1):
+                    if futures[i].cancel():
+                        results[i] = _run_jobs(r, fn, chunks[i])
+        for i, f in enumerate(futures):
+            if results[i] is None:
+                results[i] = f.result()
+    finally:
+        # Do not wait for workers that are still starting up once every result is in:
+        # they receive the shutdown request and exit on their own.
+        pool.shutdown(wait=False, cancel_futures=True)
+    pairs = [p for chunk in results for p in chunk]
     return [p[0] for p in pairs], [p[1] for p in pairs]

@@ -1,0 +1,459 @@
+"""Visual pose streams: render each camera frame, degrade it, detect markers, solve PnP.
+
+``visual_streams(world, cfg, rng, workers=...)`` renders every frame of both cameras of a
+simulated run (:mod:`simcalib.render`), applies the image realism knobs of
+:class:`VisionConfig` (Gaussian defocus blur, Gaussian pixel noise — drawn from a generator
+derived per frame from ``rng`` and the (camera, frame) pair, so the worker count never
+changes a result), detects ArUco markers and estimates each camera pose from all visible
+map markers jointly (:mod:`simcalib.markers`). A frame without a usable pose is dropped
+and counted with its reason (``PoseStream.drop_reasons``) — never filled in.
+
+Returns ``({camera: PoseStream}, VisualLog)``; the log is plain data for reviewers:
+JPEG images of a subsample of frames (what the detector saw), detected ids/corners,
+reprojection errors and status of every frame, and timings.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field, fields
+from typing import Any
+
+import numpy as np
+
+from .markers import (DROP_REASONS, DetectorSettings, MarkerField, PnPSettings,
+                      CORNER_REFINEMENTS)
+from .streams import CameraIntrinsics, PoseStream
+
+__all__ = ["VisionConfig", "VisualFrame", "VisualLog", "visual_streams", "FrameProcessor"]
+
+
+@dataclass(frozen=True)
+class VisionConfig:
+    """Settings of the visual pose stage (defaults: the accuracy/speed of docs/vision.md).
+
+    Camera: ``width``/``height``/``fovy_deg`` override the world's camera (``None`` keeps
+    it; intrinsics follow PLATFORM.md). Image realism: ``blur_sigma_px`` (Gaussian defocus
+    blur, pixels; 0 = sharp), ``noise_std`` (Gaussian pixel noise, grey levels of 255;
+    0 = none). Rendering: ``msaa_samples`` (0 = fastest; markers are textures, MSAA does
+    not change their corners). Detection: ``corner_refinement`` (OpenCV's, one of
+    ``none|subpix|contour|apriltag``), ``edge_refinement`` (edge-line corner refinement).
+    Pose: ``min_markers``, ``max_reproj_rmse_px``, ``max_marker_reproj_px``,
+    ``ambiguity_ratio``, ``refine`` (see :class:`simcalib.markers.PnPSettings`).
+    Log: ``log_every`` (keep the JPEG image of every n-th frame per camera; 0 = none),
+    ``jpeg_quality`` (1–100).
+    """
+    width: int | None = None
+    height: int | None = None
+    fovy_deg: float | None = None
+    blur_sigma_px: float = 0.0
+    noise_std: float = 0.0
+    msaa_samples: int = 0
+    corner_refinement: str = "subpix"
+    edge_refinement: bool = True
+    min_markers: int = 1
+    max_reproj_rmse_px: float = 1.0
+    max_marker_reproj_px: float = 2.0
+    ambiguity_ratio: float = 2.0
+    refine: bool = True
+    log_every: int = 10
+    jpeg_quality: int = 80
+
+    def __post_init__(self):
+        def _int(name, lo, hi, optional=False):
+            v = getattr(self, name)
+            if optional and v is None:
+                return
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not lo <= v <= hi:
+                raise ValueError(f"VisionConfig.{name} must be an integer in [{lo}, {hi}]"
+                                 f"{' or None' if optional else ''}; received {v!r}")
+
+        def _float(name, lo, hi, optional=False, open_lo=False):
+            v = getattr(self, name)
+            if optional and v is None:
+                return
+            ok = isinstance(v, (int, float, np.floating)) and not isinstance(v, bool) \
+                and np.isfinite(v) and (v > lo if open_lo else v >= lo) and v <= hi
+            if not ok:
+                raise ValueError(f"VisionConfig.{name} must be a number in "
+                                 f"{'(' if open_lo else '['}{lo}, {hi}]"
+                                 f"{' or None' if optional else ''}; received {v!r}")
+
+        _int("width", 8, 8192, optional=True)
+        _int("height", 8, 8192, optional=True)
+        _float("fovy_deg", 0.0, 179.0, optional=True, open_lo=True)
+        _float("blur_sigma_px", 0.0, 50.0)
+        _float("noise_std", 0.0, 255.0)
+        _int("msaa_samples", 0, 16)
+        if self.corner_refinement not in CORNER_REFINEMENTS:
+            raise ValueError(f"VisionConfig.corner_refinement must be one of "
+                             f"{sorted(CORNER_REFINEMENTS)}; received {self.corner_refinement!r}")
+        for name in ("edge_refinement", "refine"):
+            if not isinstance(getattr(self, name), bool):
+                raise TypeError(f"VisionConfig.{name} must be a bool; received "
+                                f"{getattr(self, name)!r}")
+        _int("log_every", 0, 10**9)
+        _int("jpeg_quality", 1, 100)
+        self.pnp_settings()  # validates the PnP fields with their own messages
+
+    def detector_settings(self, dictionary: str) -> DetectorSettings:
+        return DetectorSettings(dictionary=dictionary, corner_refinement=self.corner_refinement,
+                                edge_refinement=self.edge_refinement)
+
+    def pnp_settings(self) -> PnPSettings:
+        return PnPSettings(min_markers=self.min_markers,
+                           max_reproj_rmse_px=self.max_reproj_rmse_px,
+                           max_marker_reproj_px=self.max_marker_reproj_px,
+                           ambiguity_ratio=self.ambiguity_ratio, refine=self.refine)
+
+    @classmethod
+    def from_dict(cls, values: dict) -> "VisionConfig":
+        """Build from a mapping; unknown keys are rejected, naming the valid ones."""
+        if not isinstance(values, dict):
+            raise TypeError(f"VisionConfig.from_dict needs a dict; received {type(values).__name__}")
+        valid = [f.name for f in fields(cls)]
+        unknown = sorted(set(values) - set(valid))
+        if unknown:
+            raise ValueError(f"unknown VisionConfig keys {unknown}; valid keys: {valid}")
+        return cls(**values)
+
+
+@dataclass(frozen=True)
+class VisualFrame:
+    """What happened to one camera frame (plain data).
+
+    ``status``: ``"ok"`` or a drop reason (:data:`simcalib.markers.DROP_REASONS`);
+    ``ids`` ``(N,)`` / ``corners_px`` ``(N, 4, 2)``: all detected markers; ``ids_used``: the
+    markers of the final pose; ``reproj_rmse_px`` (``inf`` when no pose was fitted);
+    ``T_world_cam``: the estimated pose (``None`` when dropped).
+    """
+    camera: str
+    frame_index: int
+    time_s: float
+    status: str
+    ids: np.ndarray
+    corners_px: np.ndarray
+    ids_used: np.ndarray
+    reproj_rmse_px: float
+    ambiguity: float
+    T_world_cam: np.ndarray | None
+
+
+@dataclass(frozen=True)
+class VisualLog:
+    """Reviewer's record of the visual stage (plain data, no rerun).
+
+    ``frames[camera]``: one :class:`VisualFrame` per simulated frame, in order;
+    ``images_jpeg[camera][frame_index]``: JPEG bytes of the grey image the detector saw
+    (every ``config.log_every``-th frame); ``intrinsics[camera]``: the camera model used;
+    ``timing``: wall-clock seconds and per-stage means (not deterministic).
+    """
+    config: VisionConfig
+    intrinsics: dict
+    frames: dict
+    images_jpeg: dict
+    timing: dict
+
+    def image(self, camera: str, frame_index: int) -> np.ndarray:
+        """Decode a logged image to a ``(H, W)`` uint8 array."""
+        try:
+            blob = self.images_jpeg[camera][int(frame_index)]
+        except KeyError:
+            have = {c: sorted(v)[:10] for c, v in self.images_jpeg.items()}
+            raise KeyError(f"no logged image for camera {camera!r} frame {frame_index}; "
+                           f"logged (first ten per camera): {have}") from None
+        import cv2  # noqa: PLC0415
+        return cv2.imdecode(np.frombuffer(blob, dtype=np.uint8), cv2.IMREAD_GRAYSCALE)
+
+    def reproj_rmse_px(self, camera: str) -> np.ndarray:
+        """Reprojection RMSE of the frames with a pose (``(n_used,)``)."""
+        return np.array([f.reproj_rmse_px for f in self.frames[camera] if f.status == "ok"])
+
+    def summary(self) -> dict:
+        """Per-camera counts and error statistics as plain Python numbers."""
+        out: dict[str, Any] = {}
+        for cam, frames in self.frames.items():
+            rm = self.reproj_rmse_px(cam)
+            reasons: dict[str, int] = {}
+            for f in frames:
+                if f.status != "ok":
+                    reasons[f.status] = reasons.get(f.status, 0) + 1
+            out[cam] = {
+                "n_frames": len(frames),
+                "n_used": int(rm.size),
+                "drop_reasons": reasons,
+                "median_markers_used": float(np.median([f.ids_used.size for f in frames
+                                                        if f.status == "ok"])) if rm.size else 0.0,
+                "median_reproj_rmse_px": float(np.median(rm)) if rm.size else None,
+                "n_images": len(self.images_jpeg.get(cam, {})),
+            }
+        return out
+
+
+@dataclass(frozen=True)
+class _FrameOut:
+    status: str
+    T_world_cam: np.ndarray | None
+    ids: np.ndarray
+    corners_px: np.ndarray
+    ids_used: np.ndarray
+    reproj_rmse_px: float
+    ambiguity: float
+    jpeg: bytes | None
+    detect_s: float
+    pnp_s: float
+
+
+class FrameProcessor:
+    """Per-frame work after rendering (runs in render workers; picklable).
+
+    Converts to grey, applies blur then noise (generator seeded by ``(entropy, camera
+    index, frame index)``), detects markers, estimates the camera pose, and JPEG-encodes the
+    degraded image when the frame is in the log subsample.
+    """
+
+    def __init__(self, field: MarkerField, K_by_camera: dict, cam_index: dict, cfg: VisionConfig,
+                 entropy: int):
+        self.field = field
+        self.K_by_camera = {c: np.asarray(K, dtype=np.float64) for c, K in K_by_camera.items()}
+        self.cam_index = dict(cam_index)
+        self.cfg = cfg
+        self.entropy = int(entropy)
+        self._detector = None
+
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        state["_detector"] = None  # OpenCV objects do not pickle; rebuilt per process
+        return state
+
+    def frame_rng(self, camera: str, frame_index: int) -> np.random.Generator:
+        return np.random.default_rng(np.random.SeedSequence(
+            self.entropy, spawn_key=(self.cam_index[camera], int(frame_index))))
+
+    def degrade(self, rgb: np.ndarray, camera: str, frame_index: int) -> np.ndarray:
+        import cv2  # noqa: PLC0415
+        gray = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
+        cfg = self.cfg
+        if cfg.blur_sigma_px > 0:
+            gray = cv2.GaussianBlur(gray, (0, 0), sigmaX=float(cfg.blur_sigma_px),
+                                    sigmaY=float(cfg.blur_sigma_px),
+                                    borderType=cv2.BORDER_REPLICATE)
+        if cfg.noise_std > 0:
+            rng = self.frame_rng(camera, frame_index)
+            noise = rng.standard_normal(gray.shape, dtype=np.float32) * np.float32(cfg.noise_std)
+            gray = np.clip(gray.astype(np.float32) + noise, 0, 255).round().astype(np.uint8)
+        return gray
+
+    def __call__(self, rgb: np.ndarray, job) -> _FrameOut:
+        import cv2  # noqa: PLC0415
+        from .markers import detect_markers, estimate_camera_pose, make_detector  # noqa: PLC0415
+        cfg = self.cfg
+        dsettings = cfg.detector_settings(self.field.dictionary)
+        if self._detector is None:
+            self._detector = make_detector(dsettings)
+        gray = self.degrade(rgb, job.camera, job.frame_index)
+        t0 = time.perf_counter()
+        det = detect_markers(gray, self._detector, dsettings)
+        t1 = time.perf_counter()
+        est = estimate_camera_pose(det, self.field, self.K_by_camera[job.camera],
+                                   cfg.pnp_settings())
+        t2 = time.perf_counter()
+        jpeg = None
+        if cfg.log_every and job.frame_index % cfg.log_every == 0:
+            ok, buf = cv2.imencode(".jpg", gray, [cv2.IMWRITE_JPEG_QUALITY, int(cfg.jpeg_quality)])
+            jpeg = buf.tobytes() if ok else None
+        return _FrameOut(est.reason, est.T_world_cam if est.ok else None, det.ids,
+                         det.corners_px, est.ids_used, float(est.reproj_rmse_px),
+                         float(est.ambiguity), jpeg, t1 - t0, t2 - t1)
+
+
+def _camera_intrinsics(world, camera: str, cfg: VisionConfig) -> tuple[CameraIntrinsics, float]:
+    base = world.intrinsics[camera]
+    if not isinstance(base, CameraIntrinsics):
+        raise TypeError(f"world.intrinsics[{camera!r}] must be a CameraIntrinsics; received "
+                        f"{type(base).__name__}")
+    width = cfg.width if cfg.width is not None else base.width
+    height = cfg.height if cfg.height is not None else base.height
+    if cfg.fovy_deg is not None:
+        fovy = float(cfg.fovy_deg)
+    else:
+        fovy = float(np.rad2deg(2.0 * np.arctan(base.height / (2.0 * base.fy))))
+    return CameraIntrinsics.from_fovy(width, height, fovy), fovy
+
+
+def _check_model_fovy(model, camera: str, fovy_deg: float, base: CameraIntrinsics) -> None:
+    """The world's intrinsics must be the pinhole MuJoCo renders (else poses are biased)."""
+    import mujoco  # noqa: PLC0415  (world.model exists, so mujoco is imported already)
+    cid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, camera)
+    if cid < 0:
+        names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_CAMERA, i) for i in range(model.ncam)]
+        raise ValueError(f"camera {camera!r} is not in world.model; cameras: {names}")
+    if np.any(np.asarray(model.cam_sensorsize[cid]) > 0):
+        raise ValueError(f"camera {camera!r} uses sensorsize/focal length; simcalib derives "
+                         "intrinsics from fovy only (PLATFORM.md)")
+    model_fovy = float(model.cam_fovy[cid])
+    expect = CameraIntrinsics.from_fovy(base.width, base.height, model_fovy)
+    if abs(model_fovy - fovy_deg) > 1e-6 or abs(base.cx - expect.cx) > 1e-9 \
+            or abs(base.cy - expect.cy) > 1e-9 or abs(base.fx - base.fy) > 1e-9 * base.fy:
+        raise ValueError(
+            f"world.intrinsics[{camera!r}] (fx={base.fx:.6g}, fy={base.fy:.6g}, cx={base.cx}, "
+            f"cy={base.cy}, {base.width}x{base.height}) is not the pinhole MuJoCo renders for "
+            f"fovy {model_fovy} deg (fx=fy={expect.fy:.6g}, cx={expect.cx}, cy={expect.cy})")
+
+
+def _check_world(world) -> None:
+    for name in ("model", "camera_names", "intrinsics", "marker_field", "trajectory"):
+        if not hasattr(world, name):
+            raise TypeError(f"world must provide .{name} (a simcalib.world.World); received "
+                            f"{type(world).__name__} without it")
+    if not isinstance(world.marker_field, MarkerField):
+        raise TypeError("world.marker_field must be a simcalib.markers.MarkerField; received "
+                        f"{type(world.marker_field).__name__}")
+
+
+def _camera_frames(world, camera: str):
+    traj = world.trajectory
+    for attr in ("cam_a", "cam_b"):
+        fr = getattr(traj, attr, None)
+        if fr is not None and fr.camera == camera:
+            return fr
+    names = [getattr(getattr(traj, a, None), "camera", None) for a in ("cam_a", "cam_b")]
+    raise ValueError(f"camera {camera!r} has no frames in world.trajectory; it has {names}")
+
+
+def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Generator | None = None,
+                   workers: int | None = None) -> tuple[dict, VisualLog]:
+    """Visual ``PoseStream`` of every camera of ``world`` and the :class:`VisualLog`.
+
+    ``rng`` (required ``numpy.random.Generator``) seeds the image noise: one number is
+    drawn from it and every frame derives its own generator from that number and its
+    (camera, frame) pair, so results do not depend on ``workers`` (``None``: all usable
+    cores; ``1``: render in this process). Poses are ``T_world_cam`` in the marker map's
+    frame (the MuJoCo world); ``info`` holds ``n_markers``, ``reproj_rmse_px`` and
+    ``ambiguity`` per pose; ``drop_reasons`` counts dropped frames by reason.
+    """
+    from .render import FrameJob, RenderSettings, render_map  # noqa: PLC0415
+    cfg = VisionConfig() if cfg is None else cfg
+    if not isinstance(cfg, VisionConfig):
+        raise TypeError(f"cfg must be a VisionConfig; received {type(cfg).__name__}")
+    if not isinstance(rng, np.random.Generator):
+        raise TypeError(f"rng must be a numpy.random.Generator; received {type(rng).__name__}")
+    _check_world(world)
+    cameras = tuple(world.camera_names)
+    entropy = int(rng.integers(0, 2**63 - 1))
+    intr, fovy = {}, {}
+    for cam in cameras:
+        intr[cam], fovy[cam] = _camera_intrinsics(world, cam, cfg)
+        if cfg.fovy_deg is None:
+            _check_model_fovy(world.model, cam, fovy[cam], world.intrinsics[cam])
+    frames = {cam: _camera_frames(world, cam) for cam in cameras}
+    proc = FrameProcessor(world.marker_field, {c: intr[c].K for c in cameras},
+                          {c: i for i, c in enumerate(cameras)}, cfg, entropy)
+
+    # One render pass per image size (cameras usually share one).
+    sizes: dict[tuple[int, int], list[str]] = {}
+    for cam in cameras:
+        sizes.setdefault((intr[cam].width, intr[cam].height), []).append(cam)
+    outs: dict[str, list] = {}
+    timings: list = []
+    t_start = time.perf_counter()
+    for (w, h), cams in sizes.items():
+        settings = RenderSettings(
+            width=w, height=h, msaa_samples=cfg.msaa_samples,
+            fovy_deg={c: fovy[c] for c in cams} if cfg.fovy_deg is not None else {})
+        jobs = []
+        for cam in cams:
+            fr = frames[cam]
+            for k in np.flatnonzero(_delivered(fr)):
+                k = int(k)
+                jobs.append(FrameJob(cam, k, _row(fr.qpos, k), _row(fr.mocap_pos, k),
+                                     _row(fr.mocap_quat_wxyz, k)))
+        results, rtimes = render_map(world.model, settings, jobs, proc, workers=workers)
+        timings += rtimes
+        for job, res in zip(jobs, results):
+            outs.setdefault(job.camera, []).append(res)
+    wall_s = time.perf_counter() - t_start
+
+    streams, log_frames, log_images = {}, {}, {}
+    for cam in cameras:
+        fr = frames[cam]
+        delivered = _delivered(fr)
+        res: list = [_NOT_DELIVERED] * fr.n_frames
+        for job_k, r in zip(np.flatnonzero(delivered), outs.get(cam, [])):
+            res[int(job_k)] = r
+        stamps = _stamps(fr)
+        ok = np.array([r.status == "ok" for r in res], dtype=bool)
+        idx = np.flatnonzero(ok)
+        reasons: dict[str, int] = {}
+        for r in res:
+            if r.status != "ok":
+                reasons[r.status] = reasons.get(r.status, 0) + 1
+        T = np.stack([res[i].T_world_cam for i in idx]) if idx.size else np.zeros((0, 4, 4))
+        streams[cam] = PoseStream(
+            camera=cam, source="visual", frame_index=idx.astype(np.int64),
+            timestamp_s=stamps[idx] if stamps.size else np.zeros(0), T_world_cam=T,
+            n_frames=fr.n_frames,
+            info={"n_markers": np.array([res[i].ids_used.size for i in idx], dtype=np.int64),
+                  "reproj_rmse_px": np.array([res[i].reproj_rmse_px for i in idx]),
+                  "ambiguity": np.array([res[i].ambiguity for i in idx])},
+            drop_reasons=reasons)
+        log_frames[cam] = tuple(
+            VisualFrame(cam, k, float(fr.time_s[k]), r.status, r.ids, r.corners_px, r.ids_used,
+                        r.reproj_rmse_px, r.ambiguity, r.T_world_cam)
+            for k, r in enumerate(res))
+        log_images[cam] = {k: r.jpeg for k, r in enumerate(res) if r.jpeg is not None}
+    n_total = sum(len(v) for v in outs.values())
+    all_res = [r for v in outs.values() for r in v]
+    timing = {
+        "wall_s": wall_s,
+        "camera_frames": n_total,
+        "frames_per_s": n_total / wall_s if wall_s > 0 else float("inf"),
+        "workers": workers if workers is not None else _default_workers(),
+        "render_ms_mean": 1e3 * float(np.mean([t.render_s for t in timings])) if timings else 0.0,
+        "frame_ms_mean": 1e3 * float(np.mean([t.total_s for t in timings])) if timings else 0.0,
+        "cpu_ms_per_frame": 1e3 * float(np.mean([t.cpu_s for t in timings])) if timings else 0.0,
+        "detect_ms_mean": 1e3 * float(np.mean([r.detect_s for r in all_res])) if all_res else 0.0,
+        "pnp_ms_mean": 1e3 * float(np.mean([r.pnp_s for r in all_res])) if all_res else 0.0,
+    }
+    log = VisualLog(cfg, intr, log_frames, log_images, timing)
+    return streams, log
+
+
+_NOT_DELIVERED = _FrameOut("frame_dropped", None, np.zeros(0, dtype=np.int64), np.zeros((0, 4, 2)),
+                           np.zeros(0, dtype=np.int64), float("inf"), float("inf"), None, 0.0, 0.0)
+
+
+def _delivered(frames) -> np.ndarray:
+    """Frames the camera delivered (world's ``delivered`` record; all when absent)."""
+    mask = getattr(frames, "delivered", None)
+    if mask is None:
+        return np.ones(frames.n_frames, dtype=bool)
+    mask = np.asarray(mask, dtype=bool)
+    if mask.shape != (frames.n_frames,):
+        raise ValueError(f"frames.delivered must have shape ({frames.n_frames},); received "
+                         f"{mask.shape}")
+    return mask
+
+
+def _stamps(frames) -> np.ndarray:
+    """The camera's reported timestamps (``stamp_s`` when the world provides them)."""
+    s = getattr(frames, "stamp_s", None)
+    return np.asarray(frames.time_s if s is None else s, dtype=np.float64)
+
+
+def _default_workers() -> int:
+    from .render import default_workers  # noqa: PLC0415
+    return default_workers()
+
+
+def _row(arr, k):
+    if arr is None:
+        return None
+    a = np.asarray(arr)
+    if a.size == 0:
+        return None
+    return a[k]
+
+
+# Re-exported for callers that want to explain a drop reason.
+DROP_REASON_TEXT = dict(DROP_REASONS)
