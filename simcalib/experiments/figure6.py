@@ -2,7 +2,8 @@
 
 Two sweeps of the measurement noise: vary σ_t with σ_r fixed (``fixed_sigma_r_rad``), and
 vary σ_r with σ_t fixed (``fixed_sigma_t_m``). At every noise level a D.2 ``random`` data set
-is generated, ``samples`` problems are bootstrapped (paper: 60) and each algorithm runs over
+is generated (common random numbers: the same motions, standardised noise draws and samples at
+every level), ``samples`` problems are bootstrapped (paper: 60) and each algorithm runs over
 the α grid. Plotted: mean rotation error (left two columns) and mean translation error
 (right two columns) against α, one row per algorithm, one line per noise level.
 """
@@ -40,12 +41,14 @@ class Figure6Config:
     num_motions: int = 1000
     seed: int = 0
     chunk: int = 4096
+    workers: int = 0
     progress: bool = True
     output: str = "results/figure6"
 
     def __post_init__(self):
         for name in ("samples", "num_alphas", "chunk"):
             common.check_positive_int(name, getattr(self, name))
+        common.check_workers(self.workers)
         common.check_positive_int("n", self.n, 2)
         common.check_positive_int("num_motions", self.num_motions, 2)
         common.check_positive_int("seed", self.seed, 0)
@@ -60,44 +63,56 @@ class Figure6Config:
             raise ValueError(f"n={self.n} must be <= num_motions={self.num_motions}")
 
 
-def run(cfg: Figure6Config) -> ExperimentResult:
+def _level(cfg: Figure6Config, sr: float, st: float) -> dict:
+    """One noise level: every algorithm over the α grid; ``{alg: (rot_mean, rot_median,
+    trans_mean, trans_median)}`` each ``(A,)``."""
     from simcalib.synthetic import SyntheticConfig, generate_dataset, sample_problems
+    alphas = common.alpha_grid(cfg.num_alphas, cfg.alpha_min, cfg.alpha_max)
+    # common random numbers: every level uses the same motions, standardised noise draws
+    # and samples (scaled by the level's sigmas), so curves differ by the noise level only
+    ss = np.random.SeedSequence(cfg.seed)
+    data_rng, sample_rng, solver_rng = (np.random.default_rng(x) for x in ss.spawn(3))
+    ds = generate_dataset(SyntheticConfig(motion=cfg.scenario, num_motions=cfg.num_motions,
+                                          sigma_r_rad=sr, sigma_t_m=st), data_rng)
+    C, H, _ = sample_problems(ds, cfg.samples, cfg.n, sample_rng)
+    out = {}
+    for alg in cfg.algorithms:
+        sw = common.sweep_errors(C, H, ds.X, alg, alphas, solver_rng, chunk=cfg.chunk)
+        out[alg] = (sw.rot_deg.mean(axis=1), np.array([common.median(r) for r in sw.rot_deg]),
+                    sw.trans_cm.mean(axis=1), np.array([common.median(t) for t in sw.trans_cm]))
+    return out
+
+
+def run(cfg: Figure6Config) -> ExperimentResult:
     t_start = time.perf_counter()
     out = common.output_dir(cfg.output)
+    workers = common.check_workers(cfg.workers)
     alphas = common.alpha_grid(cfg.num_alphas, cfg.alpha_min, cfg.alpha_max)
     levels = ([("sigma_t", cfg.fixed_sigma_r_rad, st) for st in cfg.sigma_t_m]
               + [("sigma_r", sr, cfg.fixed_sigma_t_m) for sr in cfg.sigma_r_rad])
-    rngs = common.child_rngs(cfg.seed, len(levels))
-    curves = {}   # (varied, level index, algorithm) -> (rot_mean (A,), trans_mean (A,))
+    tasks = [(cfg, sr, st) for _, sr, st in levels]
+    per_task = len(cfg.algorithms) * cfg.samples * alphas.size
+    with common.progress(per_task * len(tasks), "figure6", cfg.progress) as bar:
+        results = common.run_tasks(_level, tasks, workers, bar, [per_task] * len(tasks))
+    curves = {}   # (varied, σ_r, σ_t, algorithm) -> (rot_mean (A,), trans_mean (A,))
     rows = []
-    total = len(levels) * len(cfg.algorithms) * cfg.samples * alphas.size
-    with common.progress(total, "figure6", cfg.progress) as bar:
-        for (varied, sr, st), rng in zip(levels, rngs):
-            data_rng, sample_rng, solver_rng = rng.spawn(3)
-            ds = generate_dataset(SyntheticConfig(motion=cfg.scenario, num_motions=cfg.num_motions,
-                                                  sigma_r_rad=sr, sigma_t_m=st), data_rng)
-            C, H, _ = sample_problems(ds, cfg.samples, cfg.n, sample_rng)
-            for alg in cfg.algorithms:
-                sw = common.sweep_errors(C, H, ds.X, alg, alphas, solver_rng, chunk=cfg.chunk,
-                                         bar=bar)
-                rot_mean = sw.rot_deg.mean(axis=1)
-                trans_mean = sw.trans_cm.mean(axis=1)
-                curves[(varied, sr, st, alg)] = (rot_mean, trans_mean)
-                rot_med = np.median(sw.rot_deg, axis=1)
-                trans_med = np.median(sw.trans_cm, axis=1)
-                for ia, a in enumerate(alphas):
-                    rows.append({"varied": varied, "sigma_r_deg": math.degrees(sr),
-                                 "sigma_t_cm": 100 * st, "algorithm": alg, "alpha": float(a),
-                                 "rot_mean_deg": float(rot_mean[ia]),
-                                 "rot_median_deg": float(rot_med[ia]),
-                                 "trans_mean_cm": float(trans_mean[ia]),
-                                 "trans_median_cm": float(trans_med[ia])})
+    for (varied, sr, st), res in zip(levels, results):
+        for alg in cfg.algorithms:
+            rot_mean, rot_med, trans_mean, trans_med = res[alg]
+            curves[(varied, sr, st, alg)] = (rot_mean, trans_mean)
+            for ia, a in enumerate(alphas):
+                rows.append({"varied": varied, "sigma_r_deg": math.degrees(sr),
+                             "sigma_t_cm": 100 * st, "algorithm": alg, "alpha": float(a),
+                             "rot_mean_deg": float(rot_mean[ia]),
+                             "rot_median_deg": float(rot_med[ia]),
+                             "trans_mean_cm": float(trans_mean[ia]),
+                             "trans_median_cm": float(trans_med[ia])})
     runtime = time.perf_counter() - t_start
     notes = [f"scenario {cfg.scenario}; {cfg.samples} samples of n = {cfg.n} per noise level; "
              f"{cfg.num_alphas} alpha values in [{cfg.alpha_min:g}, {cfg.alpha_max:.4g}]; "
              f"fixed sigma_r = {math.degrees(cfg.fixed_sigma_r_rad):.3g} deg, fixed sigma_t = "
              f"{100 * cfg.fixed_sigma_t_m:.3g} cm",
-             f"wall time {runtime:.1f} s, seed={cfg.seed}"]
+             f"wall time {runtime:.1f} s with {workers} worker process(es), seed={cfg.seed}"]
     files = {"csv": common.write_csv(out / "figure6.csv", rows, CSV_COLUMNS)}
     md = markdown(curves, alphas, cfg, notes)
     (out / "figure6.md").write_text(md)

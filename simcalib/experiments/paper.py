@@ -100,3 +100,70 @@ TABLE1_TIMING_US = {
     "dqconvrlx": (77, 36, 43, 896),
     "dq2steps": (63, 23, 42, 1242),
 }
+
+
+def table2_comparison_markdown(rows: list[dict], scenarios=("random", "line", "circle")) -> str:
+    """Markdown: our Table 2 rows (dicts with the table2.csv columns) beside the paper's
+    synthetic Table 2, as ``median [p25, p75]`` for rotation (deg) and translation (cm)."""
+    from simcalib.experiments.common import fmt
+
+    def cell(med, p25, p75):
+        return f"{fmt(med)} [{fmt(p25)}, {fmt(p75)}]"
+
+    def alpha_str(a):
+        if a is None or (isinstance(a, float) and a != a) or a == "":
+            return "-"
+        return fmt(float(a), 2)
+
+    out = []
+    for kind in ("rotation", "translation"):
+        out.append(f"\n#### Best {kind} alpha\n\n")
+        out.append("| scenario | algorithm | ours rot (deg) | paper rot (deg) | ours trans (cm) "
+                   "| paper trans (cm) | ours alpha | paper alpha |\n")
+        out.append("|---|---|---|---|---|---|---|---|\n")
+        for s in scenarios:
+            for r in rows:
+                if r["scenario"] != s or r["alpha_kind"] != kind:
+                    continue
+                p = TABLE2_SYNTHETIC.get(s, {}).get(kind, {}).get(r["algorithm"])
+                ours_r = cell(float(r["rot_median_deg"]), float(r["rot_p25_deg"]),
+                              float(r["rot_p75_deg"]))
+                ours_t = cell(float(r["trans_median_cm"]), float(r["trans_p25_cm"]),
+                              float(r["trans_p75_cm"]))
+                if p is None:
+                    pr = pt = pa = "-"
+                else:
+                    pr = cell(p[0], p[0] - p[1], p[0] + p[2])
+                    pt = cell(p[3], p[3] - p[4], p[3] + p[5])
+                    pa = alpha_str(p[6])
+                alpha = r["alpha"]
+                out.append(f"| {s} | {r['algorithm']} | {ours_r} | {pr} | {ours_t} | {pt} | "
+                           f"{alpha_str(alpha if isinstance(alpha, str) else float(alpha))} | "
+                           f"{pa} |\n")
+    return "".join(out)
+
+
+def table1_comparison_markdown(cost_rows: list[dict], timing_rows: list[dict]) -> str:
+    """Markdown: our Table 1 (pooled rows of table1.csv and table1_timing.csv) beside the
+    paper's."""
+    from simcalib.experiments.common import fmt
+    out = ["| algorithm | ours mean | ours std | ours min | ours max | failed / problems "
+           "| paper mean | paper std | paper min | paper max |\n",
+           "|---|---|---|---|---|---|---|---|---|---|\n"]
+    for r in cost_rows:
+        if r["scenario"] != "all":
+            continue
+        p = TABLE1_COST.get(r["algorithm"])
+        ps = ["-"] * 4 if p is None else [fmt(v, 2) for v in p]
+        out.append(f"| {r['algorithm']} | {fmt(float(r['mean']), 2)} | {fmt(float(r['std']), 2)} "
+                   f"| {fmt(float(r['min']), 2)} | {fmt(float(r['max']), 2)} | "
+                   f"{r['failed']} / {r['problems']} | " + " | ".join(ps) + " |\n")
+    out.append("\n| algorithm | ours mean µs | std | min | max | solve_batch µs/problem "
+               "| paper mean µs | std | min | max |\n|---|---|---|---|---|---|---|---|---|---|\n")
+    for t in timing_rows:
+        p = TABLE1_TIMING_US.get(t["algorithm"])
+        ps = ["-"] * 4 if p is None else [str(v) for v in p]
+        out.append(f"| {t['algorithm']} | {float(t['mean_us']):.0f} | {float(t['std_us']):.0f} | "
+                   f"{float(t['min_us']):.0f} | {float(t['max_us']):.0f} | "
+                   f"{float(t['batch_us_per_problem']):.1f} | " + " | ".join(ps) + " |\n")
+    return "".join(out)

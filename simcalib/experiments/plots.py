@@ -17,6 +17,27 @@ def _plt():
     return plt
 
 
+def _finite(x: np.ndarray) -> np.ndarray:
+    """Non-finite / non-positive values (failed solves) become NaN: gaps on log axes."""
+    x = np.asarray(x, dtype=np.float64).copy()
+    x[~np.isfinite(x) | (x <= 0)] = np.nan
+    return x
+
+
+def _log_axes(ax, x=True, y=True):
+    """Log scales where the axis holds positive data (else linear), never an error."""
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        if x:
+            ax.set_xscale("log")
+        if y:
+            ys = [ln.get_ydata() for ln in ax.get_lines()]
+            ok = any(np.any(np.isfinite(np.asarray(v, float)) & (np.asarray(v, float) > 0))
+                     for v in ys)
+            ax.set_yscale("log" if ok else "linear")
+
+
 def _save(fig, path: Path) -> Path:
     path = Path(path)
     fig.savefig(path, dpi=110, bbox_inches="tight")
@@ -35,19 +56,20 @@ def table2_sweep_figure(curves: dict, scenarios, algorithms, path: Path) -> Path
             sw = curves.get((s, alg))
             if sw is None:
                 continue
-            rot = np.median(sw.rot_deg, axis=1)
-            tr = np.median(sw.trans_cm, axis=1)
+            rot = _finite(np.median(sw.rot_deg, axis=1))
+            tr = _finite(np.median(sw.trans_cm, axis=1))
             style = dict(color=cmap(k % 20), label=alg, lw=1.4)
             if sw.uses_alpha:
                 axes[0, j].plot(sw.alphas, rot, **style)
                 axes[1, j].plot(sw.alphas, tr, **style)
             else:
-                axes[0, j].axhline(rot[0], ls="--", **style)
-                axes[1, j].axhline(tr[0], ls="--", **style)
+                if np.isfinite(rot[0]):
+                    axes[0, j].axhline(rot[0], ls="--", **style)
+                if np.isfinite(tr[0]):
+                    axes[1, j].axhline(tr[0], ls="--", **style)
         for i, lab in enumerate(("median rotation error (deg)", "median translation error (cm)")):
             ax = axes[i, j]
-            ax.set_xscale("log")
-            ax.set_yscale("log")
+            _log_axes(ax)
             ax.set_xlabel("alpha (1/m)")
             ax.set_ylabel(lab)
             ax.grid(True, which="both", alpha=0.3)
@@ -62,8 +84,9 @@ def table1_figure(rel: dict, timing_rows: list, path: Path) -> Path:
     plt = _plt()
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(13, 4.5))
     names = list(rel)
-    data = [np.concatenate(rel[m]) for m in names]
-    a1.boxplot(data, vert=False, showfliers=True, whis=(0, 100))
+    data = [np.nan_to_num(np.concatenate(rel[m]), nan=0.0, posinf=1.0, neginf=-1.0)
+            for m in names]
+    a1.boxplot(data, orientation="horizontal", showfliers=True, whis=(0, 100))
     a1.set_yticks(range(1, len(names) + 1), names)
     a1.set_xscale("symlog", linthresh=1e-15)
     a1.axvline(0, color="k", lw=0.8)
@@ -130,10 +153,9 @@ def figure6(curves: dict, alphas, cfg, path: Path) -> Path:
                 rot, tr = curves[k]
                 lvl = (f"σt={100 * k[2]:.3g} cm" if varied == "sigma_t"
                        else f"σr={math.degrees(k[1]):.3g}°")
-                ax.plot(alphas, rot if err == "rot" else tr,
+                ax.plot(alphas, _finite(rot if err == "rot" else tr),
                         color=cmap(0.35 + 0.65 * n / max(1, len(keys) - 1)), label=lvl)
-            ax.set_xscale("log")
-            ax.set_yscale("log")
+            _log_axes(ax)
             ax.grid(True, which="both", alpha=0.3)
             ax.set_xlabel("alpha (1/m)")
             ax.set_ylabel(f"{alg}: mean {'rotation (deg)' if err == 'rot' else 'translation (cm)'}")

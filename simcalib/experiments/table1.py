@@ -24,7 +24,7 @@ from simcalib.experiments.common import ExperimentResult, fmt
 
 __all__ = ["Table1Config", "run", "COST_COLUMNS", "TIMING_COLUMNS"]
 
-COST_COLUMNS = ["scenario", "algorithm", "problems", "mean", "std", "min", "max",
+COST_COLUMNS = ["scenario", "algorithm", "problems", "failed", "mean", "std", "min", "max",
                 "negative_below_minus_1e-12"]
 TIMING_COLUMNS = ["algorithm", "runs", "mean_us", "std_us", "min_us", "max_us", "median_us",
                   "batch_us_per_problem"]
@@ -86,12 +86,14 @@ def relative_difference(cost_alg: np.ndarray, cost_ref: np.ndarray) -> np.ndarra
 
 
 def _stats(x: np.ndarray) -> dict:
+    if x.size == 0:
+        return {"mean": math.nan, "std": math.nan, "min": math.nan, "max": math.nan}
     return {"mean": float(np.mean(x)), "std": float(np.std(x)), "min": float(np.min(x)),
             "max": float(np.max(x))}
 
 
 def run(cfg: Table1Config) -> ExperimentResult:
-    from simcalib.solvers.api import solve, solve_batch
+    from simcalib.solvers.api import solve
     from simcalib.synthetic import SyntheticConfig, generate_dataset, sample_problems
     t_start = time.perf_counter()
     out = common.output_dir(cfg.output)
@@ -112,21 +114,28 @@ def run(cfg: Table1Config) -> ExperimentResult:
         return min(cfg.samples, cfg.slow_samples) if m in cfg.slow_methods else cfg.samples
     total = len(cfg.scenarios) * (cfg.samples + sum(count(m) for m in cfg.methods))
     rel = {m: [] for m in cfg.methods}
-    rows = []
+    fails = {m: 0 for m in cfg.methods}
+    rows, notes = [], []
     with common.progress(total, "table1 cost", cfg.progress) as bar:
         for scenario, (C, H, alphas, solver_rng) in problems.items():
-            ref = _batched_cost(solve_batch, C, H, "dqopt", alphas, solver_rng, cfg.chunk, bar)
+            ref, ref_ok = _batched_cost(C, H, "dqopt", alphas, solver_rng, cfg.chunk, bar,
+                                        notes, scenario)
             for m in cfg.methods:
                 k = count(m)
-                c = _batched_cost(solve_batch, C[:k], H[:k], m, alphas[:k], solver_rng,
-                                  cfg.chunk, bar)
-                d = relative_difference(c, ref[:k])
+                c, ok = _batched_cost(C[:k], H[:k], m, alphas[:k], solver_rng, cfg.chunk, bar,
+                                      notes, scenario)
+                both = ok & ref_ok[:k]
+                d = relative_difference(c[both], ref[:k][both])
                 rel[m].append(d)
-                rows.append({"scenario": scenario, "algorithm": m, "problems": k, **_stats(d),
+                fails[m] += int(np.sum(~ok))
+                rows.append({"scenario": scenario, "algorithm": m, "problems": k,
+                             "failed": int(np.sum(~ok)), **_stats(d),
                              "negative_below_minus_1e-12": int(np.sum(d < -1e-12))})
     for m in cfg.methods:
         d = np.concatenate(rel[m])
-        rows.append({"scenario": "all", "algorithm": m, "problems": d.size, **_stats(d),
+        rows.append({"scenario": "all", "algorithm": m,
+                     "problems": sum(r["problems"] for r in rows if r["algorithm"] == m),
+                     "failed": fails[m], **_stats(d),
                      "negative_below_minus_1e-12": int(np.sum(d < -1e-12))})
 
     # ---- timing: single solves (Solution.runtime_s) and batch throughput
@@ -144,15 +153,23 @@ def run(cfg: Table1Config) -> ExperimentResult:
             runs = runs_of[m]
             idx = order[:runs]
             # warm-up (imports, compiled kernels)
-            solve(C_all[idx[0]], H_all[idx[0]], method=m, alpha=float(a_all[idx[0]]),
-                  rng=np.random.default_rng(0))
-            us = np.empty(runs)
-            for j, i in enumerate(idx):
-                sol = solve(C_all[i], H_all[i], method=m, alpha=float(a_all[i]), rng=t_rng)
-                us[j] = 1e6 * sol.runtime_s
+            try:
+                solve(C_all[idx[0]], H_all[idx[0]], method=m, alpha=float(a_all[idx[0]]),
+                      rng=np.random.default_rng(0))
+            except common.SOLVER_ERRORS:
+                pass
+            us = []
+            for i in idx:
+                t0 = time.perf_counter()
+                try:
+                    sol = solve(C_all[i], H_all[i], method=m, alpha=float(a_all[i]), rng=t_rng)
+                    us.append(1e6 * sol.runtime_s)
+                except common.SOLVER_ERRORS:
+                    us.append(1e6 * (time.perf_counter() - t0))   # time to give up
                 bar.update(1)
+            us = np.asarray(us)
             t0 = time.perf_counter()
-            solve_batch(C_all[idx], H_all[idx], method=m, alpha=a_all[idx], rng=t_rng)
+            common.solve_guarded(C_all[idx], H_all[idx], m, a_all[idx], t_rng, {})
             batch_us = 1e6 * (time.perf_counter() - t0) / runs
             bar.update(runs)
             timing_rows.append({"algorithm": m, "runs": runs, "mean_us": float(us.mean()),
@@ -162,7 +179,7 @@ def run(cfg: Table1Config) -> ExperimentResult:
     timing_rows.sort(key=lambda r: -r["mean_us"])
 
     runtime = time.perf_counter() - t_start
-    notes = [f"data: synthetic {', '.join(cfg.scenarios)} ({cfg.samples} problems each of "
+    notes = notes + [f"data: synthetic {', '.join(cfg.scenarios)} ({cfg.samples} problems each of "
              f"n = {cfg.n}; slow methods {', '.join(cfg.slow_methods)} on the first "
              f"{min(cfg.samples, cfg.slow_samples)}), alpha log-uniform in "
              f"[{cfg.alpha_min:g}, {cfg.alpha_max:.4g}] per problem",
@@ -183,14 +200,24 @@ def run(cfg: Table1Config) -> ExperimentResult:
                             {"timing": timing_rows})
 
 
-def _batched_cost(solve_batch, C, H, method, alphas, rng, chunk, bar) -> np.ndarray:
+def _batched_cost(C, H, method, alphas, rng, chunk, bar, notes, scenario):
+    """Costs (B,) and success flags (B,) of ``method``; failures are noted."""
     out = np.empty(C.shape[0])
+    ok = np.empty(C.shape[0], dtype=bool)
+    errors: dict = {}
     for s in range(0, C.shape[0], chunk):
         e = min(C.shape[0], s + chunk)
-        sol = solve_batch(C[s:e], H[s:e], method=method, alpha=alphas[s:e], rng=rng)
-        out[s:e] = sol.cost
+        _, out[s:e], ok[s:e] = common.solve_guarded(C[s:e], H[s:e], method, alphas[s:e], rng,
+                                                    errors)
         bar.update(e - s)
-    return out
+    for msg, cnt in errors.items():
+        notes.append(f"{method} on {scenario}: {cnt} of {C.shape[0]} solves raised "
+                     f"(excluded): {msg}")
+    other = int(np.sum(~ok)) - sum(errors.values())
+    if other:
+        notes.append(f"{method} on {scenario}: {other} of {C.shape[0]} solves reported "
+                     "failure (excluded)")
+    return out, ok
 
 
 def markdown(rows, timing_rows, notes) -> str:
@@ -202,11 +229,13 @@ def markdown(rows, timing_rows, notes) -> str:
         if r["scenario"] != "all":
             continue
         p = TABLE1_COST.get(r["algorithm"])
-        body.append([r["algorithm"], r["problems"], fmt(r["mean"], 2), fmt(r["std"], 2),
+        body.append([r["algorithm"], r["problems"], r["failed"], fmt(r["mean"], 2),
+                     fmt(r["std"], 2),
                      fmt(r["min"], 2), fmt(r["max"], 2),
                      "-" if p is None else " / ".join(fmt(v, 2) for v in p)])
     lines.append(common.markdown_table(
-        ["alg", "problems", "mean", "std", "min", "max", "paper mean / std / min / max"], body))
+        ["alg", "problems", "failed", "mean", "std", "min", "max",
+         "paper mean / std / min / max"], body))
     lines.append("\n## Per scenario (mean / max)\n\n")
     scen = sorted({r["scenario"] for r in rows if r["scenario"] != "all"})
     algs = list(dict.fromkeys(r["algorithm"] for r in rows))

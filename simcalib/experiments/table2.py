@@ -19,6 +19,7 @@ import numpy as np
 
 from simcalib.experiments import common
 from simcalib.experiments.common import ExperimentResult, fmt
+from simcalib.synthetic import PAPER_X_ROTVEC_RAD, PAPER_X_TRANSLATION_M
 
 __all__ = ["Table2Config", "run", "CSV_COLUMNS", "DEFAULT_ALGORITHMS"]
 
@@ -36,6 +37,8 @@ class Table2Config:
     """``samples``: bootstrap problems per scenario (paper 1000); ``n``: motions per problem
     (100); ``num_alphas``/``alpha_min``/``alpha_max``: the α grid (100 in [1e-2, 10^1.7],
     1/m); ``slow_samples``/``slow_alphas``: subsampling of :data:`common.SLOW_METHODS`;
+    ``opencv_samples``: samples for the OpenCV methods (each builds all i<j pairs of the
+    chained poses, ~20-85 ms per problem); ``workers``: processes (0 = one per CPU);
     ``num_motions``: size of each D.2 data set; ``sigma_r_rad``/``sigma_t_m``: eq. 38 noise;
     ``seed``: everything random derives from it; ``chunk``: problems per solve_batch call."""
     samples: int = 1000
@@ -47,17 +50,35 @@ class Table2Config:
     algorithms: tuple[str, ...] = DEFAULT_ALGORITHMS
     slow_samples: int = 100
     slow_alphas: int = 25
+    opencv_samples: int = 200
+    workers: int = 0
     num_motions: int = 1000
     sigma_r_rad: float = math.radians(0.57)
     sigma_t_m: float = 0.01
+    jitter_sigma_r_rad: float = math.radians(0.57)
+    jitter_sigma_t_m: float = 0.01
+    X_translation_m: tuple[float, ...] = PAPER_X_TRANSLATION_M
+    X_rotvec_rad: tuple[float, ...] = PAPER_X_ROTVEC_RAD
     seed: int = 0
     chunk: int = 4096
     progress: bool = True
     output: str = "results/table2"
 
+    def synthetic(self, scenario: str):
+        """The :class:`SyntheticConfig` of one scenario."""
+        from simcalib.synthetic import SyntheticConfig
+        return SyntheticConfig(motion=scenario, num_motions=self.num_motions,
+                               sigma_r_rad=self.sigma_r_rad, sigma_t_m=self.sigma_t_m,
+                               jitter_sigma_r_rad=self.jitter_sigma_r_rad,
+                               jitter_sigma_t_m=self.jitter_sigma_t_m,
+                               X_translation_m=self.X_translation_m,
+                               X_rotvec_rad=self.X_rotvec_rad)
+
     def __post_init__(self):
-        for name in ("samples", "num_alphas", "slow_samples", "slow_alphas", "chunk"):
+        for name in ("samples", "num_alphas", "slow_samples", "slow_alphas", "opencv_samples",
+                     "chunk"):
             common.check_positive_int(name, getattr(self, name))
+        common.check_workers(self.workers)
         common.check_positive_int("n", self.n, 2)
         common.check_positive_int("num_motions", self.num_motions, 2)
         common.check_positive_int("seed", self.seed, 0)
@@ -68,6 +89,7 @@ class Table2Config:
         common.check_methods("algorithms", self.algorithms)
         if self.n > self.num_motions:
             raise ValueError(f"n={self.n} must be <= num_motions={self.num_motions}")
+        self.synthetic(self.scenarios[0])   # validates noise, jitter and X
 
 
 def _subgrid(num: int, k: int) -> np.ndarray:
@@ -79,8 +101,8 @@ def _subgrid(num: int, k: int) -> np.ndarray:
 
 def best_alpha_rows(scenario: str, sweep: common.SweepResult) -> list[dict]:
     """The two Table 2 rows (best rotation α, best translation α) of one sweep."""
-    rot_med = np.median(sweep.rot_deg, axis=1)
-    trans_med = np.median(sweep.trans_cm, axis=1)
+    rot_med = np.array([common.median(r) for r in sweep.rot_deg])
+    trans_med = np.array([common.median(t) for t in sweep.trans_cm])
     rows = []
     for kind, med in (("rotation", rot_med), ("translation", trans_med)):
         i = int(np.nanargmin(med))
@@ -89,88 +111,120 @@ def best_alpha_rows(scenario: str, sweep: common.SweepResult) -> list[dict]:
         rows.append({
             "scenario": scenario, "algorithm": sweep.method, "alpha_kind": kind,
             "alpha": float(sweep.alphas[i]) if sweep.uses_alpha else math.nan,
-            "rot_median_deg": float(np.median(r)),
-            "rot_p25_deg": float(np.percentile(r, 25)),
-            "rot_p75_deg": float(np.percentile(r, 75)),
-            "trans_median_cm": float(np.median(t)),
-            "trans_p25_cm": float(np.percentile(t, 25)),
-            "trans_p75_cm": float(np.percentile(t, 75)),
+            "rot_median_deg": common.median(r),
+            "rot_p25_deg": common.percentile(r, 25),
+            "rot_p75_deg": common.percentile(r, 75),
+            "trans_median_cm": common.median(t),
+            "trans_p25_cm": common.percentile(t, 25),
+            "trans_p75_cm": common.percentile(t, 75),
         })
     return rows
 
 
+def _plan(cfg: Table2Config, alg: str) -> tuple[int, np.ndarray, str]:
+    """(number of samples, α indices, reason) for one algorithm."""
+    all_alphas = np.arange(cfg.num_alphas)
+    if alg in common.SLOW_METHODS:
+        return (min(cfg.samples, cfg.slow_samples), _subgrid(cfg.num_alphas, cfg.slow_alphas),
+                "slow nonlinear")
+    if alg.startswith("opencv_"):
+        return min(cfg.samples, cfg.opencv_samples), all_alphas, "OpenCV (all i<j pairs)"
+    return cfg.samples, all_alphas, ""
+
+
+_DATA_CACHE: dict = {}
+
+
+def scenario_problems(cfg: Table2Config, si: int):
+    """The data set and bootstrap problems of scenario ``si`` (deterministic in the seed;
+    cached per process)."""
+    from simcalib.synthetic import generate_dataset, sample_problems
+    key = (cfg.synthetic(cfg.scenarios[si]), cfg.seed, cfg.samples, cfg.n, si)
+    if key not in _DATA_CACHE:
+        _DATA_CACHE.clear()
+        ss = np.random.SeedSequence(cfg.seed).spawn(len(cfg.scenarios))[si]
+        data_ss, sample_ss, _ = ss.spawn(3)
+        ds = generate_dataset(cfg.synthetic(cfg.scenarios[si]), np.random.default_rng(data_ss))
+        C, H, _ = sample_problems(ds, cfg.samples, cfg.n, np.random.default_rng(sample_ss))
+        _DATA_CACHE[key] = (ds, C, H)
+    return _DATA_CACHE[key]
+
+
+def _task(cfg: Table2Config, si: int, alg: str) -> common.SweepResult:
+    """One (scenario, algorithm) sweep; module level so worker processes can run it."""
+    ds, C, H = scenario_problems(cfg, si)
+    m, a_idx, _ = _plan(cfg, alg)
+    ai = cfg.algorithms.index(alg)
+    solver_ss = np.random.SeedSequence(cfg.seed).spawn(len(cfg.scenarios))[si].spawn(3)[2]
+    rng = np.random.default_rng(solver_ss.spawn(len(cfg.algorithms))[ai])
+    alphas = common.alpha_grid(cfg.num_alphas, cfg.alpha_min, cfg.alpha_max)[a_idx]
+    return common.sweep_errors(C[:m], H[:m], ds.X, alg, alphas, rng, chunk=cfg.chunk)
+
+
 def run(cfg: Table2Config) -> ExperimentResult:
-    from simcalib.synthetic import SyntheticConfig, generate_dataset, sample_problems
     t_start = time.perf_counter()
     out = common.output_dir(cfg.output)
-    alphas = common.alpha_grid(cfg.num_alphas, cfg.alpha_min, cfg.alpha_max)
-    slow_idx = _subgrid(cfg.num_alphas, cfg.slow_alphas)
-    rngs = common.child_rngs(cfg.seed, len(cfg.scenarios))
-    rows, sweep_rows, curves = [], [], {}
-    timing = {}
-    total = 0
+    workers = common.check_workers(cfg.workers)
+    tasks, weights, priority = [], [], []
+    for si, _ in enumerate(cfg.scenarios):
+        for alg in cfg.algorithms:
+            m, a_idx, _ = _plan(cfg, alg)
+            n_alpha = a_idx.size if common.uses_alpha(alg) else 1
+            tasks.append((cfg, si, alg))
+            weights.append(m * n_alpha)
+            priority.append(m * n_alpha * common.expected_cost_us(alg))
+    with common.progress(sum(weights), "table2", cfg.progress) as bar:
+        sweeps = common.run_tasks(_task, tasks, workers, bar, weights, priority)
+    rows, sweep_rows, curves, notes = [], [], {}, []
+    timing: dict = {}
+    for (_, si, alg), sweep in zip(tasks, sweeps):
+        scenario = cfg.scenarios[si]
+        t = timing.setdefault(alg, [0.0, 0])
+        t[0] += sweep.solve_s
+        t[1] += sweep.solves
+        rows.extend(best_alpha_rows(scenario, sweep))
+        curves[(scenario, alg)] = sweep
+        for msg, cnt in sweep.errors.items():
+            notes.append(f"{alg} on {scenario}: {cnt} solve(s) raised in solve_batch "
+                         f"(counted as failed): {msg}")
+        if sweep.failed.any():
+            worst = int(sweep.failed.sum(axis=1).max())
+            notes.append(f"{alg} on {scenario}: up to {worst} of {sweep.rot_deg.shape[1]} "
+                         "solves per alpha reported failure (no estimate; counted as "
+                         "infinite error)")
+        for ia, a in enumerate(sweep.alphas):
+            sweep_rows.append({
+                "scenario": scenario, "algorithm": alg,
+                "alpha": float(a) if sweep.uses_alpha else math.nan,
+                "samples": sweep.rot_deg.shape[1],
+                "failed": int(sweep.failed[ia].sum()),
+                "rot_median_deg": common.median(sweep.rot_deg[ia]),
+                "rot_mean_deg": float(np.mean(sweep.rot_deg[ia])),
+                "trans_median_cm": common.median(sweep.trans_cm[ia]),
+                "trans_mean_cm": float(np.mean(sweep.trans_cm[ia])),
+            })
+            if not sweep.uses_alpha:
+                break
     for alg in cfg.algorithms:
-        slow = alg in common.SLOW_METHODS
-        total += (min(cfg.samples, cfg.slow_samples) * len(slow_idx) if slow
-                  else cfg.samples * cfg.num_alphas)
-    total *= len(cfg.scenarios)
-    notes = []
-    with common.progress(total, "table2", cfg.progress) as bar:
-        for scenario, rng in zip(cfg.scenarios, rngs):
-            data_rng, sample_rng, solver_rng = rng.spawn(3)
-            scfg = SyntheticConfig(motion=scenario, num_motions=cfg.num_motions,
-                                   sigma_r_rad=cfg.sigma_r_rad, sigma_t_m=cfg.sigma_t_m)
-            ds = generate_dataset(scfg, data_rng)
-            C, H, _ = sample_problems(ds, cfg.samples, cfg.n, sample_rng)
-            for alg in cfg.algorithms:
-                slow = alg in common.SLOW_METHODS
-                if slow:
-                    m = min(cfg.samples, cfg.slow_samples)
-                    sweep = common.sweep_errors(C[:m], H[:m], ds.X, alg, alphas[slow_idx],
-                                                solver_rng, chunk=cfg.chunk, bar=bar)
-                else:
-                    sweep = common.sweep_errors(C, H, ds.X, alg, alphas, solver_rng,
-                                                chunk=cfg.chunk, bar=bar)
-                t = timing.setdefault(alg, [0.0, 0])
-                t[0] += sweep.solve_s
-                t[1] += sweep.solves
-                rows.extend(best_alpha_rows(scenario, sweep))
-                if sweep.failed.any():
-                    worst = int(sweep.failed.sum(axis=1).max())
-                    notes.append(f"{alg} on {scenario}: up to {worst} of "
-                                 f"{sweep.rot_deg.shape[1]} solves per alpha reported failure "
-                                 "(no estimate; counted as infinite error)")
-                curves[(scenario, alg)] = sweep
-                for ia, a in enumerate(sweep.alphas):
-                    sweep_rows.append({
-                        "scenario": scenario, "algorithm": alg,
-                        "alpha": float(a) if sweep.uses_alpha else math.nan,
-                        "samples": sweep.rot_deg.shape[1],
-                        "failed": int(sweep.failed[ia].sum()),
-                        "rot_median_deg": float(np.median(sweep.rot_deg[ia])),
-                        "rot_mean_deg": float(np.mean(sweep.rot_deg[ia])),
-                        "trans_median_cm": float(np.median(sweep.trans_cm[ia])),
-                        "trans_mean_cm": float(np.mean(sweep.trans_cm[ia])),
-                    })
-                    if not sweep.uses_alpha:
-                        break
-    slow_used = [a for a in cfg.algorithms if a in common.SLOW_METHODS]
-    if slow_used:
-        notes.append(f"subsampled (slow nonlinear): {', '.join(slow_used)} on "
-                     f"{min(cfg.samples, cfg.slow_samples)} of {cfg.samples} samples and "
-                     f"{len(slow_idx)} of {cfg.num_alphas} alpha values")
-    no_alpha = [a for a in cfg.algorithms if not common.solver_info(a).uses_alpha]
+        m, a_idx, why = _plan(cfg, alg)
+        if m < cfg.samples or a_idx.size < cfg.num_alphas:
+            n_alpha = a_idx.size if common.uses_alpha(alg) else 1
+            notes.append(f"subsampled ({why}): {alg} on the first {m} of {cfg.samples} "
+                         f"samples" + (f" and {n_alpha} of {cfg.num_alphas} alpha values"
+                                       if common.uses_alpha(alg) else ""))
+    no_alpha = [a for a in cfg.algorithms if not common.uses_alpha(a)]
     if no_alpha:
         notes.append(f"independent of alpha (solved once per sample): {', '.join(no_alpha)}")
     runtime = time.perf_counter() - t_start
-    notes.append(f"wall time {runtime:.1f} s; samples={cfg.samples}, n={cfg.n}, "
-                 f"alphas={cfg.num_alphas}, num_motions={cfg.num_motions}, seed={cfg.seed}")
+    notes.append(f"wall time {runtime:.1f} s with {workers} worker process(es); "
+                 f"samples={cfg.samples}, n={cfg.n}, alphas={cfg.num_alphas}, "
+                 f"num_motions={cfg.num_motions}, seed={cfg.seed}")
     files = {
         "csv": common.write_csv(out / "table2.csv", rows, CSV_COLUMNS),
         "sweep_csv": common.write_csv(out / "table2_sweep.csv", sweep_rows, SWEEP_COLUMNS),
     }
-    timing_rows = [{"algorithm": a, "solves": n_, "solve_s": s,
-                    "us_per_problem": 1e6 * s / max(n_, 1)} for a, (s, n_) in timing.items()]
+    timing_rows = [{"algorithm": a, "solves": n_, "solve_s": s_,
+                    "us_per_problem": 1e6 * s_ / max(n_, 1)} for a, (s_, n_) in timing.items()]
     files["timing_csv"] = common.write_csv(out / "table2_timing.csv", timing_rows,
                                            ["algorithm", "solves", "solve_s", "us_per_problem"])
     md = markdown(rows, cfg, notes, timing_rows)
@@ -182,7 +236,7 @@ def run(cfg: Table2Config) -> ExperimentResult:
     from simcalib.experiments.recording import log_experiment
     files["rrd"] = log_experiment(out, "table2", {"table2_sweep": files["png"]}, {"table2": md})
     return ExperimentResult("table2", out, files, rows, runtime, tuple(notes),
-                            {"timing": timing_rows})
+                            {"timing": timing_rows, "sweeps": curves})
 
 
 def _cell(row, paper=None) -> tuple[str, str, str]:
