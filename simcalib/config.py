@@ -145,8 +145,11 @@ class PriorConfig:
     enabled: bool = field(default=False, metadata=_doc("run the methods below with the prior"))
     methods: tuple[str, ...] = field(default=("dqopt",), metadata=_doc(
         "methods run a second time with the prior"))
-    a: float = field(default=1.0, metadata=_doc("weight of the rotation prior"))
-    b: float = field(default=1.0, metadata=_doc("weight of the translation prior"))
+    a: float = field(default=1e-4, metadata=_doc(
+        "weight of the rotation prior (relative to the data cost: small, so determined "
+        "directions keep the data value)"))
+    b: float = field(default=1e-2, metadata=_doc(
+        "weight of the translation prior (the undetermined translation takes its value)"))
     rotation_error_deg: float = field(default=2.0, metadata=_doc(
         "error of the simulated nominal extrinsic's rotation, degrees"))
     translation_error_m: float = field(default=0.02, metadata=_doc(

@@ -49,6 +49,7 @@ class SolverResult:
     success: bool
     degenerate: bool | None
     undetermined: tuple[str, ...] = ()
+    undetermined_directions: tuple[dict, ...] = ()
     undetermined_translation_axes: np.ndarray | None = None
     singular_values: np.ndarray | None = None
     message: str = ""
@@ -302,21 +303,40 @@ def _stage_pairs(st: _State) -> None:
 
 
 def _observability(sol) -> tuple:
-    """(degenerate, undetermined directions, translation axes, singular values)."""
+    """(degenerate, words, direction dicts, undetermined translation axes, singular values)
+    from ``sol.observability`` (simcalib.solvers.observability.Observability)."""
     try:
         obs = sol.observability
     except Exception as exc:  # diagnostics unavailable: say so, never pretend
-        return None, (f"observability unavailable: {type(exc).__name__}: {exc}",), None, None
-    und = getattr(obs, "undetermined", ()) or ()
-    und = tuple(str(u) for u in (und if isinstance(und, (list, tuple)) else [und]))
-    axes = None
-    for name in ("undetermined_translation_axes", "translation_axes", "null_translation"):
-        if getattr(obs, name, None) is not None:
-            axes = np.asarray(getattr(obs, name), dtype=np.float64).reshape(-1, 3)
-            break
+        return (None, (f"observability unavailable: {type(exc).__name__}: {exc}",), (), None,
+                None)
+    words, dirs, axes = [], [], []
+    for d in getattr(obs, "undetermined", ()) or ():
+        if isinstance(d, str):
+            words.append(d)
+            continue
+        status = ("not determined by the motions" if d.reason == "undetermined"
+                  else f"poorly determined (1-sigma {d.std:.3g})")
+        src = "value from the prior" if d.determined_by_prior else "value is not a measurement"
+        words.append(f"{d.description}: {status}; {src}")
+        dirs.append({"kind": d.kind, "reason": d.reason, "dims": int(d.dims),
+                     "description": d.description,
+                     "rotation_axis_a": np.asarray(d.rotation_axis_a, dtype=float).tolist(),
+                     "translation_dir_a": np.asarray(d.translation_dir_a, dtype=float).tolist(),
+                     "std": float(d.std), "determined_by_prior": bool(d.determined_by_prior)})
+        if d.kind == "translation" and not d.determined_by_prior:
+            v = np.asarray(d.translation_dir_a, dtype=np.float64)
+            if d.dims == 1:
+                axes.append(v)
+            elif d.dims == 2:  # the plane perpendicular to v
+                _, _, Vt = np.linalg.svd(v[None, :])
+                axes.extend(Vt[1:])
+            else:
+                axes.extend(np.eye(3))
     sv = getattr(obs, "singular_values", None)
-    return bool(getattr(obs, "degenerate", False)), und, axes, (
-        None if sv is None else np.asarray(sv, dtype=np.float64))
+    return (bool(getattr(obs, "degenerate", False)), tuple(words), tuple(dirs),
+            np.array(axes).reshape(-1, 3) if axes else None,
+            None if sv is None else np.asarray(sv, dtype=np.float64))
 
 
 def _prior(st: _State):
@@ -372,20 +392,20 @@ def _solve_one(st, label, method, prior, prior_info, C, H, rng) -> SolverResult:
         for alpha in cfg.alphas:
             sol = simcalib.solve(C, H, method=method, alpha=alpha, prior=prior,
                                  rng=np.random.default_rng(rng.bit_generator.seed_seq))
-            degenerate, und, axes, sv = _observability(sol)
+            degenerate, und, dirs, axes, sv = _observability(sol)
             err = estimate_errors(sol.X, st.X_true, axes if degenerate else None)
             entry = {"alpha": float(alpha), **err, "cost": float(sol.cost),
                      "runtime_s": float(sol.runtime_s), "success": bool(sol.success)}
             sweep.append(entry)
             if best is None or err["rotation_error_deg"] < best[1]["rotation_error_deg"]:
-                best = (sol, err, degenerate, und, axes, sv)
+                best = (sol, err, degenerate, und, dirs, axes, sv)
     except (ValueError, TypeError, np.linalg.LinAlgError, RuntimeError) as exc:
         return SolverResult(label=label, method=method, alpha=None, prior=prior_info,
                             X=None, rotation_error_deg=None, translation_error_m=None,
                             translation_error_determined_m=None, cost=None, runtime_s=None,
                             success=False, degenerate=None,
                             error=f"{type(exc).__name__}: {exc}".splitlines()[0])
-    sol, err, degenerate, und, axes, sv = best
+    sol, err, degenerate, und, dirs, axes, sv = best
     try:
         message = sol.message
     except Exception as exc:  # noqa: BLE001 - a broken diagnostic must not kill the run
@@ -397,6 +417,7 @@ def _solve_one(st, label, method, prior, prior_info, C, H, rng) -> SolverResult:
         translation_error_determined_m=err["translation_error_determined_m"],
         cost=float(sol.cost), runtime_s=float(sol.runtime_s), success=bool(sol.success),
         degenerate=degenerate, undetermined=und if degenerate or degenerate is None else (),
+        undetermined_directions=dirs,
         undetermined_translation_axes=axes if degenerate else None, singular_values=sv,
         message=message, sweep=tuple(sweep) if cfg.is_sweep else ())
 

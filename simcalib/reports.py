@@ -84,6 +84,7 @@ def solver_entry(s) -> dict:
         "success": s.success,
         "degenerate": s.degenerate,
         "undetermined": list(s.undetermined),
+        "undetermined_directions": [dict(d) for d in s.undetermined_directions],
         "undetermined_translation_axes": None if s.undetermined_translation_axes is None
         else np.asarray(s.undetermined_translation_axes).tolist(),
         "singular_values": None if s.singular_values is None
