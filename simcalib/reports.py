@@ -188,13 +188,19 @@ def summary_table(result) -> str:
                              enumerate(zip(r, widths))))
     undet = {}
     for s in result.solvers:
-        if s.degenerate and s.undetermined:
-            undet.setdefault(tuple(s.undetermined), []).append(s.label)
+        if not s.degenerate:
+            continue
+        if s.undetermined_directions:
+            key = tuple(f"{d['description']} ({'not determined' if d['reason'] == 'undetermined' else 'poorly determined'})"
+                        for d in s.undetermined_directions)
+        else:
+            key = tuple(s.undetermined)
+        undet.setdefault(key, []).append(s.label)
     for dirs, labels in undet.items():
-        out.append(f"undetermined by this motion ({', '.join(labels)}): " + "; ".join(dirs))
-    if any(s.degenerate for s in result.solvers):
-        out.append("'determined' = translation error with the undetermined directions "
-                   "projected out")
+        out.append(f"undetermined by this motion [{', '.join(labels)}]: " + "; ".join(dirs))
+    if undet:
+        out.append("  -> those values are not measurements ('<method>+prior': taken from the "
+                   "prior); 'determined' = translation error with them projected out")
     out.extend(notes)
     fr = result.frames or {}
     if fr.get("rendered"):
