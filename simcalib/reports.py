@@ -233,7 +233,9 @@ def summary_table(result) -> str:
 
 
 def progress(iterable: Iterable | None = None, *, enabled: bool = True, **kw):
-    """A tqdm progress bar on stderr (a no-op wrapper when disabled)."""
+    """A tqdm progress bar on stderr; off when disabled or when stderr is not a terminal
+    (so logs and pipes stay clean)."""
     from tqdm.auto import tqdm
-    return tqdm(iterable, disable=not enabled, file=sys.stderr, dynamic_ncols=True,
+    return tqdm(iterable, disable=None if enabled else True, file=sys.stderr,
+                dynamic_ncols=True,
                 leave=False, **kw)
