@@ -132,11 +132,19 @@ def _output_dir(cfg: ScenarioConfig) -> Path:
     return Path("runs") / f"{cfg.scenario}-{stamp}"
 
 
-def run(config: ScenarioConfig, *, echo: bool = True) -> RunResult:
+def run(config, overrides=(), *, echo: bool = True) -> RunResult:
     """Run one scenario end to end and write its outputs; see the module docstring.
 
-    ``echo`` prints the summary table (and stage messages) to stdout.
+    ``config``: a :class:`ScenarioConfig` (``simcalib.load_config(...)``) or a scenario
+    name / YAML path, resolved with ``overrides`` (``["seed=3", ...]``).
+    ``echo`` prints the summary table to stdout.
     """
+    if isinstance(config, (str, Path)):
+        from simcalib.config import load_config
+        config = load_config(str(config), list(overrides))
+    elif overrides:
+        raise TypeError("overrides are only accepted with a scenario name; apply them with "
+                        "simcalib.load_config(name, overrides)")
     if not isinstance(config, ScenarioConfig):
         raise TypeError(f"config must be a ScenarioConfig (simcalib.load_config(...)); "
                         f"received {type(config).__name__}")
