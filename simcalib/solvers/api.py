@@ -38,10 +38,14 @@ class Prior:
     b: float = 1.0
 
     def __post_init__(self):
-        X = check_transforms(self.X, "Prior.X")
+        try:
+            X = np.array(self.X, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise TypeError(f"Prior.X must be a 4x4 rigid transform; could not convert "
+                            f"{type(self.X).__name__} to float64 ({exc})") from None
         if X.shape != (4, 4):
             raise ValueError(f"Prior.X must be one 4x4 rigid transform; received shape {X.shape}")
-        X = X.copy()
+        check_transforms(X[None], "Prior.X")
         X.setflags(write=False)
         object.__setattr__(self, "X", X)
         for name in ("a", "b"):
@@ -88,11 +92,11 @@ def _check_rng(rng) -> np.random.Generator:
 
 
 # ------------------------------------------------------------------------------- cost
-def _as_problem(problem) -> MotionProblem:
+def _as_problem(problem, alpha: float = 1.0) -> MotionProblem:
     if isinstance(problem, MotionProblem):
         return problem
     if isinstance(problem, tuple) and len(problem) == 2:
-        return build_problem(*problem)
+        return _fast_problem(*problem, alpha)
     raise TypeError(f"problem must be a MotionProblem or a (C, H) tuple; received "
                     f"{type(problem).__name__}")
 
@@ -119,8 +123,8 @@ def dq_cost(X, problem, alpha: float, prior: Prior | None = None) -> float:
     With ``prior`` the prior terms ``a |vec(dq)|^2 + b |dq'|^2`` are added (eq. 26).
     """
     from simcalib.geometry import quat_left_matrix, quat_right_matrix
-    problem = _as_problem(problem)
     alpha = check_alpha(alpha)
+    problem = _as_problem(problem, alpha)
     q, qd = _as_dual_quat(X)
     A = quat_left_matrix(problem.q_C) - quat_right_matrix(problem.q_H)
     B = quat_left_matrix(problem.q_C_dual) - quat_right_matrix(problem.q_H_dual)
@@ -142,7 +146,7 @@ def _prior_penalty(q, qd, prior: Prior) -> float:
 
 
 # --------------------------------------------------------------------------- solution
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Solution:
     """Result of :func:`solve`.
 
@@ -217,7 +221,7 @@ class Solution:
                 f"{self.runtime_s * 1e6:.0f} us\n{self.message}")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class BatchSolution:
     """Result of :func:`solve_batch`: ``X`` (B, 4, 4), ``cost`` (B,), ``objective`` (B,),
     ``success`` (B,), ``alpha`` (B,), ``method``, ``runtime_s`` (whole batch),
@@ -266,15 +270,21 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
         with_prior = [i.name for i in registry.infos() if i.supports_prior]
         raise ValueError(f"method {method!r} does not support a prior; methods with a "
                          f"prior: {', '.join(with_prior)}")
-    rng = _check_rng(rng)
+    if rng is not None or info.stochastic:
+        rng = _check_rng(rng)   # stochastic methods get default_rng(0) when none is given
     t0 = time.perf_counter()
-    problem = _fast_problem(C, H)
-    out = info.fn(problem, alpha, prior, rng)
+    problem = _fast_problem(C, H, alpha)
+    try:
+        out = info.fn(problem, alpha, prior, rng)
+    except (ValueError, TypeError, ArithmeticError, np.linalg.LinAlgError, RuntimeError,
+            Exception) as exc:  # a solver failing on valid input is reported, not raised
+        out = SolverOutput(X=np.full((4, 4), np.nan), success=False,
+                           message=f"solver raised {type(exc).__name__}: {exc}")
     runtime = time.perf_counter() - t0
     X, success, message, diag = _finish_output(out, method)
     if np.isfinite(X).all():
-        from simcalib.solvers.dq import data_cost
-        q, qd = dual_quat_from_transform(X)
+        from simcalib.solvers.dq import data_cost, dual_quat_fast
+        q, qd = dual_quat_fast(X)
         cost = data_cost(problem, q, qd, alpha)
         objective = cost + (_prior_penalty(q, qd, prior) if prior is not None else 0.0)
     else:
@@ -285,13 +295,11 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
                     diagnostics=diag, problem=problem)
 
 
-def _fast_problem(C, H) -> MotionProblem:
-    """build_problem, possibly through a compiled fast path with identical semantics."""
-    try:
-        from simcalib.solvers.dq import fast_build_problem
-    except ImportError:
-        return build_problem(C, H)
-    return fast_build_problem(C, H)
+def _fast_problem(C, H, alpha: float = 1.0) -> MotionProblem:
+    """build_problem (compiled path) + sign re-alignment of near-180-degree motion pairs
+    (see simcalib.solvers.dq.fast_build_problem)."""
+    from simcalib.solvers.dq import fast_build_problem
+    return fast_build_problem(C, H, alpha)
 
 
 def solve_batch(C, H, method: str = "dqopt", alpha=1.0, prior: Prior | None = None,

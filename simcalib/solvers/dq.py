@@ -874,8 +874,96 @@ def _transform_from_dq(q, qd, X):
     X[3, 3] = 1.0
 
 
+@njit(cache=True)
+def _cost_soa(Q, n, q, qd, a2):
+    """Cost (8) motion by motion from the SoA quaternions Q (16, N)."""
+    x, y, z, w = q[0], q[1], q[2], q[3]
+    dx, dy, dz, dw = qd[0], qd[1], qd[2], qd[3]
+    tot = 0.0
+    for i in range(n):
+        p = _qmul(Q[0, i], Q[1, i], Q[2, i], Q[3, i], x, y, z, w)
+        r = _qmul(x, y, z, w, Q[4, i], Q[5, i], Q[6, i], Q[7, i])
+        p1 = _qmul(Q[8, i], Q[9, i], Q[10, i], Q[11, i], x, y, z, w)
+        p2 = _qmul(x, y, z, w, Q[12, i], Q[13, i], Q[14, i], Q[15, i])
+        p3 = _qmul(Q[0, i], Q[1, i], Q[2, i], Q[3, i], dx, dy, dz, dw)
+        p4 = _qmul(dx, dy, dz, dw, Q[4, i], Q[5, i], Q[6, i], Q[7, i])
+        for k in range(4):
+            tot += (p[k] - r[k]) ** 2 + a2 * (p1[k] - p2[k] + p3[k] - p4[k]) ** 2
+    return tot
+
+
+@njit(cache=True)
+def _align_soa(T, Q, n, alpha, q, qd, info):
+    """Sign alignment of the motion pairs beyond the scalar-part rule of NOTES.md.
+
+    Near 180 deg rotations the scalar parts of q_C and q_H are ~0 and noise can give them
+    the same sign although the pair is anti-aligned, turning the motion into a gross outlier
+    (|A_i q|^2 ~ 4). With the optimal (dqopt) rotation q of the problem, flip (q_H, q_H')
+    of every motion with (q_C (x) q) . (q (x) q_H) < 0 (then |q_C q + q q_H| < |q_C q - q q_H|),
+    re-solve, repeat until stable. Exact pairs and pairs away from 180 deg are unchanged.
+    Returns the number of flips; q, qd, info hold the dqopt solution of the final Q.
+    """
+    P = np.empty((6, 4, 4))
+    nrm = np.empty(2)
+    AtA = np.empty((4, 4))
+    BtB = np.empty((4, 4))
+    BtA = np.empty((4, 4))
+    S = np.empty((4, 4))
+    W = np.empty((4, 4))
+    M = np.empty((4, 4))
+    a2 = alpha * alpha
+    total = 0
+    for rnd in range(4):
+        _outer_from_soa(Q, n, P, nrm)
+        _grams_from_outer(T, P, nrm, AtA, BtB, BtA)
+        for i in range(4):
+            for j in range(4):
+                S[i, j] = 0.5 * (AtA[i, j] + AtA[j, i]) + a2 * 0.5 * (BtB[i, j] + BtB[j, i])
+                W[i, j] = a2 * BtA[i, j]
+                M[i, j] = a2 * 0.5 * (AtA[i, j] + AtA[j, i])
+        _solve_core(DQOPT, S, W, M, q, qd, info)
+        nflip = 0
+        for i in range(n):
+            if abs(Q[3, i]) > 0.25 and abs(Q[7, i]) > 0.25:
+                continue  # scalar-part rule reliable (rotation > 30 deg from 180 deg)
+            a = _qmul(Q[0, i], Q[1, i], Q[2, i], Q[3, i], q[0], q[1], q[2], q[3])
+            b = _qmul(q[0], q[1], q[2], q[3], Q[4, i], Q[5, i], Q[6, i], Q[7, i])
+            if a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] < 0.0:
+                for k in range(4):
+                    Q[4 + k, i] = -Q[4 + k, i]
+                    Q[12 + k, i] = -Q[12 + k, i]
+                nflip += 1
+        total += nflip
+        if nflip == 0:
+            break
+    return total
+
+
+@njit(cache=True)
+def _align_arrays(T, qC, qCd, qH, qHd, alpha):
+    n = qC.shape[0]
+    Q = np.empty((16, n))
+    for i in range(n):
+        for k in range(4):
+            Q[k, i] = qC[i, k]
+            Q[4 + k, i] = qH[i, k]
+            Q[8 + k, i] = qCd[i, k]
+            Q[12 + k, i] = qHd[i, k]
+    q = np.empty(4)
+    qd = np.empty(4)
+    info = np.empty(N_INFO)
+    nf = _align_soa(T, Q, n, alpha, q, qd, info)
+    if nf > 0:
+        for i in range(n):
+            for k in range(4):
+                qH[i, k] = Q[4 + k, i]
+                qHd[i, k] = Q[12 + k, i]
+    return nf
+
+
 @njit(cache=True, parallel=True)
-def _batch_kernel(method, T, C, H, alphas, tol, S_add, W_add, M_add, X, cost, info, bad):
+def _batch_kernel(method, T, C, H, alphas, tol, has_prior, S_add, W_add, M_add, X, cost, info,
+                  bad, nflip):
     """Fused batch: validate + convert + accumulate + solve + X + data cost, per problem."""
     nb = C.shape[0]
     n = C.shape[1]
@@ -889,6 +977,9 @@ def _batch_kernel(method, T, C, H, alphas, tol, S_add, W_add, M_add, X, cost, in
         bad[b] = _quats_soa(C[b], H[b], tol, Q)
         if bad[b] >= 0:
             continue
+        q = np.empty(4)
+        qd = np.empty(4)
+        nflip[b] = _align_soa(T, Q, n, alphas[b], q, qd, info[b])
         _outer_from_soa(Q, n, P, nrm)
         _grams_from_outer(T, P, nrm, AtA, BtB, BtA)
         a2 = alphas[b] * alphas[b]
@@ -900,17 +991,21 @@ def _batch_kernel(method, T, C, H, alphas, tol, S_add, W_add, M_add, X, cost, in
                 S[i, j] = 0.5 * (AtA[i, j] + AtA[j, i]) + a2 * 0.5 * (BtB[i, j] + BtB[j, i]) + S_add[i, j]
                 W[i, j] = a2 * BtA[i, j] + W_add[i, j]
                 M[i, j] = a2 * 0.5 * (AtA[i, j] + AtA[j, i]) + M_add[i, j]
-        q = np.empty(4)
-        qd = np.empty(4)
-        _solve_core(method, S, W, M, q, qd, info[b])
+        if method != DQOPT or has_prior:
+            _solve_core(method, S, W, M, q, qd, info[b])
         _transform_from_dq(q, qd, X[b])
-        # data cost (8): q AtA q + a2 (q BtB q + 2 q BtA q' + q' AtA q')
+        # data cost (8): Gram form; recomputed motion by motion when small relative to the
+        # scale (the Gram form loses digits there: noise-free or low-noise data)
         cst = 0.0
+        scale = 0.0
         for i in range(4):
+            scale += AtA[i, i] + a2 * BtB[i, i]
             for j in range(4):
                 cst += q[i] * AtA[i, j] * q[j] + a2 * (q[i] * BtB[i, j] * q[j]
                                                        + 2.0 * q[i] * BtA[i, j] * qd[j]
                                                        + qd[i] * AtA[i, j] * qd[j])
+        if cst < 1e-5 * scale:
+            cst = _cost_soa(Q, n, q, qd, a2)
         cost[b] = cst
 
 
@@ -975,9 +1070,11 @@ def _solve_from_quats(method, T, qC, qCd, qH, qHd, alpha, S_add, W_add, M_add, q
 _TOL = 1e-6  # geometry.ORTHONORMAL_TOL
 
 
-def fast_build_problem(C, H) -> MotionProblem:
-    """:func:`simcalib.solvers.problem.build_problem` through a compiled path (same result;
-    invalid input is handed to build_problem, which raises its error)."""
+def fast_build_problem(C, H, alpha: float = 1.0) -> MotionProblem:
+    """:func:`simcalib.solvers.problem.build_problem` through a compiled path (invalid input
+    is handed to build_problem, which raises its error), followed by the sign re-alignment
+    of near-180-degree motion pairs with the optimal rotation at ``alpha`` (see
+    ``_align_soa``; NOTES.md's scalar-part rule fails there under noise)."""
     from simcalib.solvers.problem import build_problem
     try:
         Ca = np.ascontiguousarray(C, dtype=np.float64)
@@ -993,8 +1090,21 @@ def fast_build_problem(C, H) -> MotionProblem:
     qH = np.empty((n, 4))
     qHd = np.empty((n, 4))
     if _quats_kernel(Ca, Ha, _TOL, qC, qCd, qH, qHd) >= 0:
-        return build_problem(C, H)
+        return align_problem(build_problem(C, H), alpha)
+    _align_arrays(_T, qC, qCd, qH, qHd, float(alpha))
     return MotionProblem(Ca, Ha, qC, qCd, qH, qHd)
+
+
+def align_problem(problem: MotionProblem, alpha: float = 1.0) -> MotionProblem:
+    """Problem with (q_H, q_H') re-aligned by the optimal rotation (see ``_align_soa``);
+    the same object if nothing flips."""
+    qH = problem.q_H.copy()
+    qHd = problem.q_H_dual.copy()
+    nf = _align_arrays(_T, np.ascontiguousarray(problem.q_C), np.ascontiguousarray(problem.q_C_dual),
+                       qH, qHd, float(alpha))
+    if nf == 0:
+        return problem
+    return MotionProblem(problem.C, problem.H, problem.q_C, problem.q_C_dual, qH, qHd)
 
 
 def _matrices_fast(problem: MotionProblem, alpha: float, prior):
@@ -1040,6 +1150,15 @@ def _prior_adds(prior):
             np.ascontiguousarray(M_add))
 
 
+def dual_quat_fast(X):
+    """(q, q') of one 4x4 transform (compiled; same convention as
+    geometry.dual_quat_from_transform)."""
+    q = np.empty(4)
+    qd = np.empty(4)
+    _quat_dq(np.ascontiguousarray(X, dtype=np.float64), q, qd)
+    return q, qd
+
+
 def data_cost(problem: MotionProblem, q, qd, alpha: float) -> float:
     """Cost (8) at the dual quaternion (q, q') (compiled, motion by motion)."""
     return float(_cost_kernel(np.ascontiguousarray(problem.q_C), np.ascontiguousarray(problem.q_C_dual),
@@ -1082,15 +1201,17 @@ def _make_batch(method: str):
         (X, cost, objective_quadratic, info, bad)."""
         nb = C.shape[0]
         S_add, W_add, M_add = _prior_adds(prior)
-        X = np.empty((nb, 4, 4))
-        cost = np.empty(nb)
-        info = np.empty((nb, N_INFO))
+        X = np.full((nb, 4, 4), np.nan)
+        cost = np.full(nb, np.inf)
+        info = np.zeros((nb, N_INFO))
         bad = np.empty(nb, dtype=np.int64)
-        _batch_kernel(code, _T, C, H, alphas, _TOL, S_add, W_add, M_add, X, cost, info, bad)
+        nflip = np.zeros(nb, dtype=np.int64)
+        _batch_kernel(code, _T, C, H, alphas, _TOL, prior is not None, S_add, W_add, M_add, X,
+                      cost, info, bad, nflip)
         out = {"X": X, "cost": cost, "bad": bad, "mu": info[:, I_MU],
                "iterations": info[:, I_ITERS].astype(np.int64),
                "n_clipped": info[:, I_NCLIP].astype(np.int64),
-               "lambda0": info[:, I_LAM0]}
+               "lambda0": info[:, I_LAM0], "sign_flips": nflip}
         out["success"] = (info[:, I_STATUS] != ST_MAXITER) if method == "dqopt" else \
             np.ones(nb, dtype=bool)
         return out
