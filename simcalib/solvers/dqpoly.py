@@ -152,9 +152,45 @@ class DQPolyResult:
 def _feasible_from_gram(G: np.ndarray):
     """Unit dual quaternion in the span of the two smallest eigenvectors of G, its value."""
     e, V = np.linalg.eigh(G)
-    q, qd = unit_dual_quat_from_span(V[:, 0], V[:, 1])
+    try:
+        q, qd = unit_dual_quat_from_span(V[:, 0], V[:, 1])
+    except ValueError:
+        return None, np.inf, e
     z = np.concatenate([q, qd - (q @ qd) * q])
     return z, float(z @ G @ z), e
+
+
+def _dual_given_q(S, W, M, q):
+    """The best feasible ``q'`` for a fixed unit ``q``: minimise ``q'^T M q' + 2 q^T W q'``
+    subject to ``q . q' = 0`` (KKT system, least squares when M is singular)."""
+    A = np.zeros((5, 5))
+    A[:4, :4] = M
+    A[:4, 4] = q
+    A[4, :4] = q
+    rhs = np.concatenate([-W.T @ q, [0.0]])
+    qd = np.linalg.lstsq(A, rhs, rcond=None)[0][:4]
+    return np.concatenate([q, qd - (q @ qd) * q])
+
+
+def _upper_bound(S, W, M, G):
+    """The lowest cost among cheap feasible unit dual quaternions (each is an upper bound on
+    lam*): the constrained null-space point of G (Daniilidis-like), and the best q' for
+    q from the convex relaxation (smallest eigenvector of S - W M^+ W^T) and from the
+    rotation equations alone (smallest eigenvector of M)."""
+    z0, v0, eG = _feasible_from_gram(G)
+    cands = [(v0, z0, "null space")]
+    Z0 = S - W @ np.linalg.pinv(M, rcond=1e-15, hermitian=True) @ W.T
+    for q, name in ((np.linalg.eigh(0.5 * (Z0 + Z0.T))[1][:, 0], "relaxation"),
+                    (np.linalg.eigh(M)[1][:, 0], "rotation only")):
+        z = _dual_given_q(S, W, M, q / np.linalg.norm(q))
+        if np.isfinite(z).all():
+            cands.append((float(z @ G @ z), z, name))
+    cands = [c for c in cands if np.isfinite(c[0])]
+    if not cands:
+        raise ValueError("dqoptpoly: no feasible starting point (the cost matrices do not "
+                         "involve the rotation)")
+    v, z, name = min(cands, key=lambda c: c[0])
+    return z, v, eG, name
 
 
 def dqoptpoly(problem: MotionProblem, alpha: float = 1.0, prior=None) -> SolverOutput:
@@ -167,12 +203,22 @@ def dqoptpoly(problem: MotionProblem, alpha: float = 1.0, prior=None) -> SolverO
     scale = float(np.abs(np.linalg.eigvalsh(G)).max())
     if scale == 0.0:
         raise ValueError("dqoptpoly: the cost matrices are all zero (no motion information)")
-    z_feas, hi, eG = _feasible_from_gram(G)
+    z_feas, hi, eG, hi_from = _upper_bound(S, W, M, G)
     lo = -const
-    info = {"lam_upper_start": hi, "lam_lower_start": lo, "gram_eigenvalues": eG}
+    info = {"lam_upper_start": hi, "lam_upper_from": hi_from, "lam_lower_start": lo,
+            "gram_eigenvalues": eG}
     # noise-free / exact case: the feasible point from the null space has zero cost
     if hi - lo <= 1e-13 * scale:
         n_null = int(np.sum(eG <= 1e-10 * scale))
+        if n_null > 2:
+            from simcalib.solvers.classic import unit_dual_quat_from_null_space
+            try:
+                q, qd = unit_dual_quat_from_null_space(np.linalg.eigh(G)[1][:, :n_null].T)
+                z_feas = np.concatenate([q, qd - (q @ qd) * q])
+            except ValueError:
+                from simcalib.solvers.classic import describe_motion_degeneracy
+                return SolverOutput(np.full((4, 4), np.nan), info, success=False, message=(
+                    f"degenerate: {describe_motion_degeneracy(problem)}; no estimate"))
         X = transform_from_dual_quat(z_feas[:4], z_feas[4:])
         info.update(lam_star=hi, mu_star=0.0, iterations=0, route="null space (exact data)")
         msg = "exact data: optimum from the null space of [[S, W], [W^T, M]] (cost 0)"
@@ -217,28 +263,51 @@ def dqoptpoly(problem: MotionProblem, alpha: float = 1.0, prior=None) -> SolverO
     it = 0
     if n_hi == 8:          # the feasible point is (to rounding) already optimal
         lo = hi
-    while it < _BISECT_MAX and hi - lo > 4e-16 * max(abs(hi), abs(lo)):
-        mid = 0.5 * (lo + hi)
-        if mid <= lo or mid >= hi:
-            break
-        if count(mid) == 8:
-            lo = mid
-        else:
-            hi = mid
-        it += 1
+    def bisect(lo, hi, it):
+        while it < _BISECT_MAX and hi - lo > 4e-16 * max(abs(hi), abs(lo)):
+            mid = 0.5 * (lo + hi)
+            if mid <= lo or mid >= hi:
+                break
+            if count(mid) == 8:
+                lo = mid
+            else:
+                hi = mid
+            it += 1
+        return lo, hi, it
+
+    lo, hi, it = bisect(lo, hi, it)
+    # the coefficients are accurate for |lam| up to ~radius: if lam* came out much smaller,
+    # re-extract them on a circle of radius ~lam*, find a bracket around the previous answer
+    # with the new coefficients (widening it by factors of 10) and bisect again
+    verified = True
+    if n_hi != 8 and max(abs(lo), abs(hi)) < radius / 16:
+        a_nu = curve_coefficients(S, W, M, max(abs(lo), abs(hi), 1e-300)) \
+            * (scale ** np.arange(9))[None, :]
+        info["re_extracted"] = True
+        verified = False
+        w = 1e-13 * max(abs(lo), abs(hi), 1e-300)
+        for _ in range(14):
+            if count(lo - w) == 8 and count(hi + w) < 8:
+                lo, hi, it = bisect(lo - w, hi + w, it)
+                verified = True
+                break
+            w *= 10.0
     lam_star = 0.5 * (lo + hi)
-    # mu*: root of dP/dmu at lam*, nearest to the merging root pair of P(lo, .)
-    p_lo = _mu_poly(a_nu, lo)
-    roots = np.roots(p_lo[::-1])
-    real = roots[np.abs(roots.imag) <= 1e-6 * np.maximum(np.abs(roots), 1e-12)].real
-    cand_src = np.sort(real) if real.size >= 2 else np.sort(roots.real)
-    gaps = np.diff(cand_src)
-    k = int(np.argmin(gaps / np.maximum(np.abs(cand_src[:-1]) + np.abs(cand_src[1:]), 1e-300)))
-    nu_pair = 0.5 * (cand_src[k] + cand_src[k + 1])
+    # mu*: (lam*, mu*) is a double root, P = dP/dmu = 0. Among the roots of dP/dmu(lam*, .)
+    # (the extrema of the curves lambda_i(mu) at ...) take the one on the curve through
+    # lam*: smallest lam-distance |P / dP/dlam| (a Newton step in lam, evaluated at lam*
+    # where the extracted coefficients are accurate).
     dp = npoly.polyder(_mu_poly(a_nu, lam_star))
-    droots = np.roots(dp[::-1])
-    droots = droots[np.abs(droots.imag) <= 1e-6 * np.maximum(np.abs(droots), 1e-12)].real
-    nu_star = droots[np.argmin(np.abs(droots - nu_pair))] if droots.size else nu_pair
+    droots = np.roots(dp[::-1]).real
+    a_dlam = a_nu[1:] * np.arange(1, 5)[:, None]
+    pows = lam_star ** np.arange(5)
+    dist = []
+    for nu in droots:
+        nup = nu ** np.arange(9)
+        P = pows @ a_nu @ nup
+        dP = pows[:4] @ a_dlam @ nup
+        dist.append(abs(P / dP) if dP != 0 else np.inf)
+    nu_star = float(droots[int(np.argmin(dist))])
     # Newton polish of dP/dmu = 0 (simple root)
     ddp = npoly.polyder(dp)
     for _ in range(3):
@@ -266,6 +335,11 @@ def dqoptpoly(problem: MotionProblem, alpha: float = 1.0, prior=None) -> SolverO
     info.update(lam_star=lam_star, mu_star=mu_star, iterations=it, route="sturm bisection",
                 sturm_counts=n_counts,
                 coefficients=a, objective=min(vals), K_singular_values=sv)
+    if not verified:
+        return SolverOutput(X, info, success=False, message=(
+            f"dqoptpoly: the 8 -> 6 root-count bracket [{lo:.6g}, {hi:.6g}] was not confirmed "
+            "by coefficients re-extracted near lam* (numerically unresolved polynomial); "
+            "use dqopt"))
     return SolverOutput(X, info, success=True,
                         message=f"lam* = {lam_star:.12g} (8 -> 6 real mu roots), mu* = "
                                 f"{mu_star:.6g}, {it} Sturm bisection steps")

@@ -214,17 +214,28 @@ def _dqopt_start(problem, alpha, prior=None, rng=None):
     from simcalib.solvers.registry import get
     out = get("dqopt").fn(problem, alpha, prior, rng)
     X = out.X if isinstance(out, SolverOutput) else out
-    return np.asarray(X, dtype=np.float64)
+    X = np.asarray(X, dtype=np.float64)
+    if X.shape != (4, 4) or not np.isfinite(X).all():
+        raise ValueError("dqopt returned no finite transform")
+    return X
+
+
+def _optimal_start(problem, alpha, prior, rng):
+    """The dqopt solution; if dqopt fails on this input, the dqoptpoly one (same optimum,
+    independent route). Returns (X, name)."""
+    try:
+        return _dqopt_start(problem, alpha, prior, rng), "dqopt"
+    except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:
+        from simcalib.solvers.dqpoly import dqoptpoly
+        return dqoptpoly(problem, alpha, prior).X, f"dqoptpoly (dqopt failed: {exc})"
 
 
 def _vec_solve(problem, alpha, kind, rng):
     cost_fn = chvec_cost if kind == "chvec" else quatvec_cost
     starts = {"two_step": _two_step_start(problem)}
     try:
-        Xd = _dqopt_start(problem, alpha, None, rng)
-        if np.isfinite(Xd).all():
-            starts["dqopt"] = Xd
-    except ValueError:
+        starts["dqopt"] = _dqopt_start(problem, alpha, None, rng)
+    except (ValueError, RuntimeError, np.linalg.LinAlgError):
         pass
     start_costs = {k: cost_fn(v, problem, alpha) for k, v in starts.items()}
     name = min(start_costs, key=start_costs.get)
@@ -291,10 +302,12 @@ def _dq_from_X(X):
     return q, X[:3, 3]
 
 
-def _gram_cost(U, shift, q, T):
-    qd = 0.5 * quat_multiply(np.array([T[0], T[1], T[2], 0.0]), q)
-    r = U @ np.concatenate([q, qd])
-    return float(r @ r) - shift
+def _objective(problem, alpha, prior, q, T):
+    """Cost (8) plus the prior terms, from the full residuals (accurate to rounding; the
+    8-residual Gram form used inside the optimiser is only ~1e-11 relative)."""
+    from simcalib.solvers.api import dq_cost
+    X = transform_from_rotation_translation(matrix_from_quat(q), T)
+    return dq_cost(X, problem, alpha, prior)
 
 
 def dqnlopt(problem: MotionProblem, alpha: float = 1.0, prior=None, rng=None,
@@ -302,15 +315,17 @@ def dqnlopt(problem: MotionProblem, alpha: float = 1.0, prior=None, rng=None,
     """Minimise the paper's cost (8) (+ prior) by Levenberg-Marquardt on SE(3), from ``X0``
     (default: the ``dqopt`` solution)."""
     U, shift = _gram_sqrt(problem, alpha, prior)
+    start = "given X0"
     if X0 is None:
-        X0 = _dqopt_start(problem, alpha, prior, rng)
+        X0, start = _optimal_start(problem, alpha, prior, rng)
     q0, T0 = _dq_from_X(np.asarray(X0, dtype=np.float64))
-    start_cost = _gram_cost(U, shift, q0, T0)
+    start_cost = _objective(problem, alpha, prior, q0, T0)
     q, T, res, info = _optimise(_dq_fun_jac_factory(U), q0, T0)
     X = transform_from_rotation_translation(matrix_from_quat(q), T)
-    diag = dict(info, start_objective=start_cost, objective=_gram_cost(U, shift, q, T))
+    diag = dict(info, start=start, start_objective=start_cost,
+                objective=_objective(problem, alpha, prior, q, T))
     return SolverOutput(X, diag, success=bool(res.status > 0),
-                        message=f"least_squares: {res.message}")
+                        message=f"least_squares from the {start} solution: {res.message}")
 
 
 def dqnlopt_random_starts(problem: MotionProblem, alpha: float = 1.0, prior=None,
@@ -334,7 +349,7 @@ def dqnlopt_random_starts(problem: MotionProblem, alpha: float = 1.0, prior=None
     nfev = 0
     for k in range(int(n_starts)):
         q, T, res, info = _optimise(_dq_fun_jac_factory(U), quat_from_matrix(Rs[k]), Ts[k])
-        objectives[k] = _gram_cost(U, shift, q, T)
+        objectives[k] = _objective(problem, alpha, prior, q, T)
         nfev += info["nfev"]
         if best is None or objectives[k] < best[0]:
             best = (objectives[k], q, T, res)

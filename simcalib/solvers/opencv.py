@@ -111,6 +111,14 @@ def _make(name: str):
                                         "failed and returned the identity (OpenCV: not "
                                         "enough informative motions; use more motions "
                                         "with larger rotations)")
+        t_scale = float(max(np.abs(problem.C[:, :3, 3]).max(), np.abs(problem.H[:, :3, 3]).max()))
+        t_norm = float(np.linalg.norm(X[:3, 3]))
+        if t_norm > 1e3 * (1.0 + t_scale):
+            return SolverOutput(X, {"opencv_method": OPENCV_METHODS[name]}, success=False,
+                                message=f"cv2.calibrateHandEye ({OPENCV_METHODS[name]}) "
+                                        f"returned an implausible translation |t| = "
+                                        f"{t_norm:.3g} m for motions translating at most "
+                                        f"{t_scale:.3g} m (degenerate motions?)")
         return SolverOutput(X, {"opencv_method": OPENCV_METHODS[name],
                                 "opencv_pairs_used": problem.n * (problem.n + 1) // 2})
     fn.__name__ = f"_{name}"
