@@ -135,16 +135,17 @@ class DetectorSettings:
     inward corner bias of ``subpix`` that makes markers look small (docs/vision.md).
     ``min_marker_perimeter_rate``: OpenCV's ``minMarkerPerimeterRate`` (perimeter / largest
     image side) — smaller markers are ignored. ``adaptive_thresh_win_px``: OpenCV's
-    adaptive-threshold window sizes ``(min, max, step)`` (default OpenCV's 3..23 step 10;
-    a single 23 px pass is ~40 % faster at 640x480 but loses small markers and corner
-    quality at low resolution, docs/vision.md).
+    adaptive-threshold window sizes ``(min, max, step)``; default two passes (3 and 23 px)
+    found the same markers with the same corners as OpenCV's three (3, 13, 23) on renders
+    at 640x480 and 320x240; a single 23 px pass loses small markers and corner quality at
+    low resolution (docs/vision.md).
     """
     dictionary: str = DICTIONARY
     corner_refinement: str = "subpix"
     edge_refinement: bool = True
     subpix_window_px: int = 5
     min_marker_perimeter_rate: float = 0.03
-    adaptive_thresh_win_px: tuple = (3, 23, 10)
+    adaptive_thresh_win_px: tuple = (3, 23, 20)
 
     def __post_init__(self):
         win = tuple(self.adaptive_thresh_win_px) if isinstance(
@@ -240,7 +241,7 @@ def detect_markers(image, detector=None, settings: DetectorSettings | None = Non
 
 
 def refine_corners_edges(gray: np.ndarray, corners_px: np.ndarray, *, half_width_px: float = 3.0,
-                         n_profiles: int = 24, iterations: int = 2,
+                         n_profiles: int = 24, n_samples: int = 13, iterations: int = 2,
                          min_contrast: float = 20.0) -> np.ndarray:
     """Refine marker corners ``(N, 4, 2)`` by fitting the four outer edges of each marker.
 
@@ -258,7 +259,7 @@ def refine_corners_edges(gray: np.ndarray, corners_px: np.ndarray, *, half_width
     C = np.asarray(corners_px, dtype=np.float64).copy()
     if C.size == 0:
         return C.reshape(0, 4, 2)
-    s = np.linspace(-1.0, 1.0, 13)
+    s = np.linspace(-1.0, 1.0, int(n_samples))
     t = np.linspace(0.15, 0.85, int(n_profiles))
     for _ in range(int(iterations)):
         P0 = C
@@ -414,11 +415,13 @@ def estimate_camera_pose(detections: Detections, field: MarkerField, K,
     1. Keep detections whose id is in the map (an id seen twice in one image is ambiguous
        and discarded). 2. Candidates: both IPPE_SQUARE solutions of every marker (moved to
        the world via the map; the ``max_seed_markers`` largest) and one SQPnP over all
-       corners; each is scored by its RMSE
-       over *all* corners (points behind the camera disqualify it). 3. The best candidate
-       is refined with ``solvePnPRefineLM`` on all corners; the best *distinct* rival too,
-       for the ambiguity test. 4. Per-marker outliers are discarded and the fit redone.
-       5. The RMSE gate. Failures return ``ok=False`` with a reason (:data:`DROP_REASONS`).
+       corners; each is scored with a truncated quadratic of the per-marker RMS errors (a corner behind the camera
+       counts as a gross error), so one false marker cannot veto the right pose. 3. The
+       best candidate is refined with ``solvePnPRefineLM`` on its inlier markers; markers
+       with an RMS error above ``max_marker_reproj_px`` are discarded worst first and the
+       fit redone. 4. The best *distinct* rival is refined on the same markers for the
+       ambiguity test. 5. The RMSE gate. Failures return ``ok=False`` with a reason
+       (:data:`DROP_REASONS`).
     """
     settings = settings or PnPSettings()
     if not isinstance(detections, Detections):
@@ -479,57 +482,67 @@ def estimate_camera_pose(detections: Detections, field: MarkerField, K,
         return _fail("pnp_failed", n_det, n_known, ids=ids_k)
     cands = np.concatenate(cands)
 
-    def score(Tc, Xw_, uv_):
-        proj, z = _project(Tc, Xw_, K)
-        rmse = np.sqrt(((proj - uv_[None]) ** 2).sum(-1).mean(-1))
-        return np.where((z > 1e-6).all(-1), rmse, np.inf)
+    cap = 4.0 * settings.max_marker_reproj_px  # truncation of the robust candidate score
 
-    def refine(T, Xw_, uv_):
+    def marker_err(Tc, use):
+        """(C, M) per-marker RMS reprojection error (px); 1e6 when a corner is behind."""
+        pts = world[use].reshape(-1, 3)
+        proj, z = _project(Tc, pts, K)
+        e2 = ((proj - img[use].reshape(-1, 2)[None]) ** 2).sum(-1).reshape(len(Tc), -1, 4)
+        e = np.sqrt(e2.mean(-1))
+        behind = (z.reshape(len(Tc), -1, 4) <= 1e-6).any(-1)
+        return np.where(behind, 1e6, e)
+
+    def refine(T, use):
         if not settings.refine:
             return T
         rvec, _ = cv2.Rodrigues(T[:3, :3])
-        rvec, tvec = cv2.solvePnPRefineLM(Xw_, uv_, K, zero, rvec.copy(), T[:3, 3].copy(),
-                                          criteria=(cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT,
-                                                    50, 1e-12))
+        rvec, tvec = cv2.solvePnPRefineLM(
+            world[use].reshape(-1, 3), img[use].reshape(-1, 2), K, zero, rvec.copy(),
+            T[:3, 3].copy(), criteria=(cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, 50, 1e-12))
         return _rvec_t_to_T(rvec, tvec)
 
-    sc = score(cands, Xw, uv)
-    order = np.argsort(sc)
-    if not np.isfinite(sc[order[0]]):
+    def rmse_of(e):
+        return float(np.sqrt((e ** 2).mean()))
+
+    # Robust choice: a truncated quadratic over markers, so that one wrong marker (a false
+    # id, or a marker behind the camera) cannot veto the right pose.
+    every = np.ones(ids_k.size, dtype=bool)
+    E = marker_err(cands, every)
+    sc = (np.minimum(E, cap) ** 2).sum(-1)
+    order = np.argsort(sc, kind="stable")
+    use = E[order[0]] <= cap
+    if not use.any():
         return _fail("pnp_failed", n_det, n_known, ids=ids_k)
-    best = refine(cands[order[0]], Xw, uv)
-    best_rmse = float(score(best[None], Xw, uv)[0])
+    best = refine(cands[order[0]], use)
 
-    # --- ambiguity: best distinct rival, refined too
-    ambiguity = float("inf")
-    min_ang = np.deg2rad(settings.ambiguity_min_angle_deg)
-    for j in order[1:]:
-        if not np.isfinite(sc[j]):
-            break
-        if _angle(cands[j][:3, :3], best[:3, :3]) > min_ang:
-            rival = refine(cands[j], Xw, uv)
-            if _angle(rival[:3, :3], best[:3, :3]) > min_ang:
-                r_rmse = float(score(rival[None], Xw, uv)[0])
-                ambiguity = r_rmse / max(best_rmse, 1e-3)
-            break
-    if ambiguity < settings.ambiguity_ratio:
-        return _fail("ambiguous", n_det, n_known, best_rmse, ids_k, ambiguity)
-
-    # --- per-marker outliers
-    use = np.ones(ids_k.size, dtype=bool)
+    # --- per-marker outliers (worst first, refit each time)
     while True:
-        proj, _ = _project(best[None], world[use].reshape(-1, 3), K)
-        per = np.sqrt(((proj[0] - img[use].reshape(-1, 2)) ** 2).sum(-1).reshape(-1, 4).mean(-1))
+        per = marker_err(best[None], use)[0]
         worst = int(np.argmax(per))
         if per[worst] <= settings.max_marker_reproj_px or use.sum() <= settings.min_markers:
             break
         use[np.flatnonzero(use)[worst]] = False
-        best = refine(best, world[use].reshape(-1, 3), img[use].reshape(-1, 2))
-    rmse = float(np.sqrt((per ** 2).mean()))
-    if rmse > settings.max_reproj_rmse_px:
-        return _fail("reprojection_error", n_det, n_known, rmse, ids_k[use], ambiguity)
+        best = refine(best, use)
+    rmse = rmse_of(per)
+
+    # --- ambiguity: the best distinct rival on the same markers, refined too
+    ambiguity = float("inf")
+    min_ang = np.deg2rad(settings.ambiguity_min_angle_deg)
+    for j in order[1:]:
+        if sc[j] >= cap ** 2 * ids_k.size:
+            break
+        if _angle(cands[j][:3, :3], best[:3, :3]) > min_ang:
+            rival = refine(cands[j], use)
+            if _angle(rival[:3, :3], best[:3, :3]) > min_ang:
+                ambiguity = rmse_of(marker_err(rival[None], use)[0]) / max(rmse, 1e-3)
+            break
+    if ambiguity < settings.ambiguity_ratio:
+        return _fail("ambiguous", n_det, n_known, rmse, ids_k[use], ambiguity)
     if use.sum() < settings.min_markers:
         return _fail("too_few_markers", n_det, n_known, rmse, ids_k[use], ambiguity)
+    if rmse > settings.max_reproj_rmse_px or per.max() >= 1e6:
+        return _fail("reprojection_error", n_det, n_known, rmse, ids_k[use], ambiguity)
     T_world_cam = _inv(best)
     return CameraPoseEstimate(True, "ok", T_world_cam, ids_k[use], n_det, n_known, rmse,
                               per, ambiguity)

@@ -6,7 +6,8 @@ simulated run (:mod:`simcalib.render`), applies the image realism knobs of
 derived per frame from ``rng`` and the (camera, frame) pair, so the worker count never
 changes a result), detects ArUco markers and estimates each camera pose from all visible
 map markers jointly (:mod:`simcalib.markers`). A frame without a usable pose is dropped
-and counted with its reason (``PoseStream.drop_reasons``) — never filled in.
+and counted with its reason (``PoseStream.drop_reasons``; frames the world did not deliver
+are not rendered and count as ``frame_dropped``) — never filled in.
 
 Returns ``({camera: PoseStream}, VisualLog)``; the log is plain data for reviewers:
 JPEG images of a subsample of frames (what the detector saw), detected ids/corners,
@@ -16,7 +17,7 @@ reprojection errors and status of every frame, and timings.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, fields
 from typing import Any
 
 import numpy as np
@@ -409,6 +410,7 @@ def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Genera
         "camera_frames": n_total,
         "frames_per_s": n_total / wall_s if wall_s > 0 else float("inf"),
         "workers": workers if workers is not None else _default_workers(),
+        "processes": len({t.pid for t in timings}),
         "render_ms_mean": 1e3 * float(np.mean([t.render_s for t in timings])) if timings else 0.0,
         "frame_ms_mean": 1e3 * float(np.mean([t.total_s for t in timings])) if timings else 0.0,
         "cpu_ms_per_frame": 1e3 * float(np.mean([t.cpu_s for t in timings])) if timings else 0.0,

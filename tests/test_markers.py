@@ -175,14 +175,12 @@ def test_edge_refinement_removes_corner_shrink_bias(gl):
         T_wc = T_looking_at([0, 0, 0], eye, up=(0, 1, 0))
         img = render_cv(model, T_wc)
         truth = project(T_wc, marker_corners_local(side))
-        out = dict(radial=None)
         d_sub = detect_markers(img, det_cv, subpix)
         d_edge = detect_markers(img)
         outward = truth - truth.mean(0)
         outward /= np.linalg.norm(outward, axis=1, keepdims=True)
         for name, d in (("subpix", d_sub), ("edges", d_edge)):
             radial[name].append(((d.corners_px[0] - truth) * outward).sum(1).mean())
-        del out
     assert np.mean(radial["subpix"]) < -0.1            # the known inward bias
     assert abs(np.mean(radial["edges"])) < 0.05         # gone
 
@@ -226,6 +224,23 @@ def test_outlier_marker_is_discarded(rng):
     corners[4] += np.array([6.0, -4.0])            # one marker misplaced by ~7 px
     est = estimate_camera_pose(Detections(det.ids, corners), field, K)
     assert est.ok and 14 not in est.ids_used.tolist() and est.ids_used.size == 8
+    assert g.translation_error_m(est.T_world_cam, T_wc) < 2e-3
+
+
+def test_false_marker_behind_the_camera_does_not_veto_the_pose(rng):
+    """A detection whose id belongs to a marker behind the camera (a misread id) is
+    discarded as an outlier instead of failing the frame."""
+    field = _board()
+    behind = np.eye(4)
+    behind[:3, 3] = [0.0, 0.0, 3.0]                     # camera at z ~ 1.2 looks down -z
+    T_all = np.concatenate([field.T_world_marker, behind[None]])
+    field2 = MarkerField(field.dictionary, np.append(field.ids, 99), field.side_m, T_all)
+    T_wc = T_looking_at([0, 0, 0], [0.2, 0.1, 1.2], up=(0, 1, 0))
+    det = _synthetic_detections(field, T_wc, rng, 0.05)
+    fake = det.corners_px[:1] + np.array([40.0, 25.0])  # some square in the image
+    det2 = Detections(np.append(det.ids, 99), np.concatenate([det.corners_px, fake]))
+    est = estimate_camera_pose(det2, field2, K)
+    assert est.ok and 99 not in est.ids_used.tolist() and est.ids_used.size == 9
     assert g.translation_error_m(est.T_world_cam, T_wc) < 2e-3
 
 

@@ -156,7 +156,7 @@ def test_same_seed_same_streams_and_seed_matters(world, run_1):
 def test_worker_count_does_not_change_results(world, run_1):
     cfg = VisionConfig(noise_std=3.0, blur_sigma_px=0.6, log_every=4)
     par, log = visual_streams(world, cfg, np.random.default_rng(7), workers=2)
-    assert log.timing["workers"] == 2
+    assert log.timing["workers"] == 2 and log.timing["processes"] == 2  # both rendered
     for cam in world.camera_names:
         np.testing.assert_array_equal(par[cam].T_world_cam, run_1[0][cam].T_world_cam)
         np.testing.assert_array_equal(par[cam].info["reproj_rmse_px"],
@@ -176,6 +176,19 @@ def test_worker_processes_render_identical_images(world):
                           use_this_process=False)
     assert len(there) == 6 and all(np.array_equal(a, b) for a, b in zip(here, there))
     assert here[0].shape == (H, W, 3) and here[0].dtype == np.uint8
+
+
+def test_coarse_meshes_do_not_move_marker_corners(world):
+    from simcalib.markers import detect_markers
+    from simcalib.render import CameraRenderer, RenderSettings
+    fr = world.trajectory.cam_a
+    corners = []
+    for coarse in (True, False):
+        with CameraRenderer(world.model, RenderSettings(coarse_meshes=coarse)) as r:
+            det = detect_markers(r.render("cam_a", None, fr.mocap_pos[5], fr.mocap_quat_wxyz[5]))
+        corners.append(det.corners_px[np.argsort(det.ids)])
+    assert corners[0].shape[0] >= 6
+    np.testing.assert_allclose(corners[0], corners[1], atol=0.02)
 
 
 def test_undelivered_frames_are_not_rendered_and_counted(gl):
@@ -323,3 +336,29 @@ def test_renderer_does_not_modify_callers_model(world):
         with pytest.raises(ValueError, match="mocap_pos"):
             r.render("cam_a", mocap_pos=np.zeros((2, 3)))
     assert (world.model.vis.quality.offsamples, float(world.model.cam_fovy[0])) == before
+
+
+# ------------------------------------------------------------------------- benchmark
+def test_vision_bench_cli(gl, tmp_path, capsys):
+    import json
+
+    from simcalib.vision_bench import main
+    out = tmp_path / "bench.json"
+    assert main(["--paths", "circular", "--duration", "0.3", "--fps", "10", "--workers", "1",
+                 "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "circular" in text and "camera frames/s" in text
+    res = json.loads(out.read_text())["results"][0]
+    assert res["path"] == "circular" and res["platform"] == "cart"
+    for cam in ("cam_a", "cam_b"):
+        c = res["cameras"][cam]
+        assert c["n_frames"] == 4 and c["n_used"] == 4
+        assert c["median_mm"] < 5.0 and c["median_deg"] < 0.5
+    assert res["timing"]["camera_frames"] == 8 and res["timing"]["cpu_ms_per_frame"] > 0
+    assert main(["--paths", "nope"]) == 2
+    assert "unknown path" in capsys.readouterr().err
+    assert main(["--paths", "circular", "--noise", "-1"]) == 2
+    assert "noise_std" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as ex:
+        main(["--help"])
+    assert ex.value.code == 0
