@@ -48,9 +48,9 @@ class Table2Config:
     alpha_max: float = 10 ** 1.7
     scenarios: tuple[str, ...] = ("random", "line", "circle")
     algorithms: tuple[str, ...] = DEFAULT_ALGORITHMS
-    slow_samples: int = 100
-    slow_alphas: int = 25
-    opencv_samples: int = 200
+    slow_samples: int = 50
+    slow_alphas: int = 20
+    opencv_samples: int = 100
     workers: int = 0
     num_motions: int = 1000
     sigma_r_rad: float = math.radians(0.57)
