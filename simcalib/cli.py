@@ -77,6 +77,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0 if argv else 2
     cmd, rest = argv[0], argv[1:]
     try:
+        return _main(cmd, rest)
+    except BrokenPipeError:  # stdout closed early (e.g. piped into `head`): not an error
+        try:
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, sys.stdout.fileno())
+        except (OSError, ValueError):
+            pass
+        return 0
+
+
+def _main(cmd: str, rest: list[str]) -> int:
+    try:
         if cmd == "run":
             return _cmd_run(rest)
         if cmd == "list":
