@@ -1,7 +1,7 @@
 """Relative motions ``(C_i, H_i)`` from two cameras' pose streams.
 
-1. **Matching.** The two streams are matched by timestamp: a pose of camera a and a pose
-   of camera b form a *datapoint* when each is the other's nearest neighbour in time.
+1. **Matching.** The two streams are matched by timestamp, one-to-one, closest pairs
+   first (see :func:`match_by_timestamp`). A matched pair is a *datapoint*.
 2. **Pre-filter, timestamps** (appendix D.1 of the paper): datapoints whose two timestamps
    differ by more than ``max_time_diff_s`` (0.1 s) are dropped.
 3. **Pairs.** Datapoint ``k`` is paired with datapoint ``k + step``:
@@ -52,10 +52,13 @@ class MotionPairs:
 
 
 def match_by_timestamp(t_a: np.ndarray, t_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Indices ``(ia, ib)`` of mutual nearest neighbours between two sorted time arrays.
+    """Indices ``(ia, ib)`` matching two sorted time arrays one-to-one.
 
-    A pose of a and a pose of b are matched when each is the other's nearest in time
-    (ties go to the earlier pose), so no pose is used twice. Vectorised.
+    Candidate pairs are each pose of camera a with the poses of camera b just before and
+    just after it; they are accepted greedily, closest in time first (differences rounded
+    to 1 ns; ties: earlier pose), when neither pose is taken yet. No pose is used twice and
+    the matches increase in both streams. A half-period offset between the cameras (every
+    pose has two equally near neighbours) still matches every frame.
     """
     t_a = np.asarray(t_a, dtype=np.float64)
     t_b = np.asarray(t_b, dtype=np.float64)
@@ -68,11 +71,29 @@ def match_by_timestamp(t_a: np.ndarray, t_b: np.ndarray) -> tuple[np.ndarray, np
             raise ValueError(f"timestamps of {name} contain NaN or inf")
         if np.any(np.diff(t) < 0):
             raise ValueError(f"timestamps of {name} must be non-decreasing")
-    nn_ab = _nearest(t_b, t_a)  # for each a, nearest b
-    nn_ba = _nearest(t_a, t_b)  # for each b, nearest a
+    # candidate edges: each pose of a with its two neighbours in b (before / after)
+    pos = np.searchsorted(t_b, t_a)
     ia = np.arange(t_a.size)
-    mutual = nn_ba[nn_ab] == ia
-    return ia[mutual], nn_ab[mutual]
+    cand_a = np.concatenate([ia, ia])
+    cand_b = np.concatenate([pos - 1, pos])
+    ok = (cand_b >= 0) & (cand_b < t_b.size)
+    cand_a, cand_b = cand_a[ok], cand_b[ok]
+    dist = np.abs(t_a[cand_a] - t_b[cand_b])
+    # greedy, closest first (ties: earlier a, then earlier b); O(number of poses), not a
+    # hot path
+    order = np.lexsort((cand_b, cand_a, np.round(dist, 9)))
+    used_a = np.zeros(t_a.size, dtype=bool)
+    used_b = np.zeros(t_b.size, dtype=bool)
+    match_b = np.full(t_a.size, -1, dtype=np.int64)
+    for k in order:
+        a, b = cand_a[k], cand_b[k]
+        if not used_a[a] and not used_b[b]:
+            used_a[a] = used_b[b] = True
+            match_b[a] = b
+    ia = np.flatnonzero(used_a)
+    ib = match_b[ia]
+    mono = np.concatenate([[True], np.diff(ib) > 0])  # drop (rare) crossing matches
+    return ia[mono], ib[mono]
 
 
 def _nearest(ref: np.ndarray, query: np.ndarray) -> np.ndarray:

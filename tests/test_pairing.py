@@ -38,11 +38,24 @@ def _streams(rng, n=60, offset_b=0.0, fps=10.0):
     return a, b
 
 
-def test_match_by_timestamp_mutual_nearest():
+def test_match_by_timestamp_one_to_one():
     ia, ib = match_by_timestamp([0.0, 0.1, 0.2, 0.3], [0.05, 0.12, 0.31, 0.9])
-    # 0.0 -> 0.05 (but 0.05's nearest is 0.0? |0.05-0.0|=0.05 <= |0.1-0.05|: tie -> earlier)
+    # 0.1 and 0.2 both want 0.12: the closer (0.1) keeps it; 0.9 has no partner
     assert ia.tolist() == [0, 1, 3]
     assert ib.tolist() == [0, 1, 2]
+
+
+def test_half_period_offset_matches_every_frame():
+    t = np.arange(50) / 10.0
+    ia, ib = match_by_timestamp(t, t + 0.05)  # every pose has two equally near neighbours
+    assert ia.size >= 49
+    assert np.all(np.diff(ia) > 0) and np.all(np.diff(ib) > 0)
+    assert np.allclose(np.abs(t[ia] - (t + 0.05)[ib]), 0.05)
+
+
+def test_sparse_stream_keeps_closest():
+    ia, ib = match_by_timestamp(np.arange(10) / 10.0, [0.31, 0.72])
+    assert ia.tolist() == [3, 7] and ib.tolist() == [0, 1]
 
 
 def test_pairs_satisfy_hand_eye_equation(rng):
