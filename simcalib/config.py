@@ -683,11 +683,15 @@ def _deep_copy(data):
 
 # ------------------------------------------------------------------------- scenarios
 def scenario_dir() -> Path:
-    """Directory of the scenario files: ``$SIMCALIB_SCENARIOS`` or ``<repo>/scenarios``."""
+    """Directory of the scenario files: ``$SIMCALIB_SCENARIOS``, else ``scenarios/`` of the
+    source tree (editable install / checkout), else ``./scenarios``."""
     env = os.environ.get("SIMCALIB_SCENARIOS")
     if env:
         return Path(env)
-    return Path(__file__).resolve().parent.parent / "scenarios"
+    repo = Path(__file__).resolve().parent.parent / "scenarios"
+    if repo.is_dir():
+        return repo
+    return Path.cwd() / "scenarios"
 
 
 def list_scenarios() -> dict[str, str]:
