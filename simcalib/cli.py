@@ -231,6 +231,8 @@ def _cmd_run(rest: list[str]) -> int:
     except KeyboardInterrupt:
         _err("interrupted before any output was written")
         return 130
+    except BrokenPipeError:
+        raise  # stdout closed by the reader: handled (quietly) in main
     except Exception as exc:  # one-line reason; --traceback for the details
         if traceback:
             raise
