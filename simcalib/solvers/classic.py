@@ -30,7 +30,7 @@ from simcalib.solvers.problem import MotionProblem, SolverOutput
 from simcalib.solvers.registry import register
 
 __all__ = ["daniilidis_matrix", "daniilidis", "unit_dual_quat_from_span",
-           "describe_motion_degeneracy"]
+           "unit_dual_quat_from_null_space", "describe_motion_degeneracy"]
 
 # A singular value below NULL_TOL * (largest singular value) counts as zero.
 NULL_TOL = 1e-10

@@ -828,9 +828,9 @@ def _solve_core(method, S, W, M, q, qd, info):
         mu = _mu_tilde(q, WV, V, xi)
     _normalize(q)
     _qdual(q, mu, WV, V, xi, qd)
-    if method != DQOPT and method != DQITR:
-        _zmat(S, WV, V, xi, mu, Z)
-        _eigh(Z, lam, E)
+    if method == DQ2STEPS:
+        lam[0] = np.nan  # no eigen-decomposition of Z was needed
+        lam[1] = np.nan
     # objective (quadratic form of eq. 9 with these S, W, M)
     cost = 0.0
     for i in range(4):
@@ -893,7 +893,7 @@ def _cost_soa(Q, n, q, qd, a2):
 
 
 @njit(cache=True)
-def _align_soa(T, Q, n, alpha, q, qd, info):
+def _align_soa(T, Q, n, alpha, q, qd, info, AtA, BtB, BtA):
     """Sign alignment of the motion pairs beyond the scalar-part rule of NOTES.md.
 
     Near 180 deg rotations the scalar parts of q_C and q_H are ~0 and noise can give them
@@ -901,18 +901,17 @@ def _align_soa(T, Q, n, alpha, q, qd, info):
     (|A_i q|^2 ~ 4). With the optimal (dqopt) rotation q of the problem, flip (q_H, q_H')
     of every motion with (q_C (x) q) . (q (x) q_H) < 0 (then |q_C q + q q_H| < |q_C q - q q_H|),
     re-solve, repeat until stable. Exact pairs and pairs away from 180 deg are unchanged.
-    Returns the number of flips; q, qd, info hold the dqopt solution of the final Q.
+    Returns the number of flips; q, qd, info hold the dqopt solution (no prior) and AtA,
+    BtB, BtA the Gram blocks of the final Q.
     """
     P = np.empty((6, 4, 4))
     nrm = np.empty(2)
-    AtA = np.empty((4, 4))
-    BtB = np.empty((4, 4))
-    BtA = np.empty((4, 4))
     S = np.empty((4, 4))
     W = np.empty((4, 4))
     M = np.empty((4, 4))
     a2 = alpha * alpha
     total = 0
+    nflip = 0
     for rnd in range(4):
         _outer_from_soa(Q, n, P, nrm)
         _grams_from_outer(T, P, nrm, AtA, BtB, BtA)
@@ -936,6 +935,15 @@ def _align_soa(T, Q, n, alpha, q, qd, info):
         total += nflip
         if nflip == 0:
             break
+    if nflip > 0:  # stopped after flipping: Gram blocks and solution of the final Q
+        _outer_from_soa(Q, n, P, nrm)
+        _grams_from_outer(T, P, nrm, AtA, BtB, BtA)
+        for i in range(4):
+            for j in range(4):
+                S[i, j] = 0.5 * (AtA[i, j] + AtA[j, i]) + a2 * 0.5 * (BtB[i, j] + BtB[j, i])
+                W[i, j] = a2 * BtA[i, j]
+                M[i, j] = a2 * 0.5 * (AtA[i, j] + AtA[j, i])
+        _solve_core(DQOPT, S, W, M, q, qd, info)
     return total
 
 
@@ -952,7 +960,10 @@ def _align_arrays(T, qC, qCd, qH, qHd, alpha):
     q = np.empty(4)
     qd = np.empty(4)
     info = np.empty(N_INFO)
-    nf = _align_soa(T, Q, n, alpha, q, qd, info)
+    AtA = np.empty((4, 4))
+    BtB = np.empty((4, 4))
+    BtA = np.empty((4, 4))
+    nf = _align_soa(T, Q, n, alpha, q, qd, info, AtA, BtB, BtA)
     if nf > 0:
         for i in range(n):
             for k in range(4):
@@ -979,9 +990,7 @@ def _batch_kernel(method, T, C, H, alphas, tol, has_prior, S_add, W_add, M_add, 
             continue
         q = np.empty(4)
         qd = np.empty(4)
-        nflip[b] = _align_soa(T, Q, n, alphas[b], q, qd, info[b])
-        _outer_from_soa(Q, n, P, nrm)
-        _grams_from_outer(T, P, nrm, AtA, BtB, BtA)
+        nflip[b] = _align_soa(T, Q, n, alphas[b], q, qd, info[b], AtA, BtB, BtA)
         a2 = alphas[b] * alphas[b]
         S = np.empty((4, 4))
         W = np.empty((4, 4))
@@ -1186,7 +1195,7 @@ def _make_solver(method: str):
         if method == "dqopt":
             diag.update(bracket=(float(info[I_LO]), float(info[I_HI])), f=float(info[I_F]),
                         df=float(info[I_DF]))
-        success = status != ST_MAXITER or method != "dqopt"
+        success = status != ST_MAXITER
         return SolverOutput(X=X, diagnostics=diag, success=success,
                             message=_STATUS_TEXT.get(status, ""))
     fn.__name__ = f"_{method}"
@@ -1212,8 +1221,7 @@ def _make_batch(method: str):
                "iterations": info[:, I_ITERS].astype(np.int64),
                "n_clipped": info[:, I_NCLIP].astype(np.int64),
                "lambda0": info[:, I_LAM0], "sign_flips": nflip}
-        out["success"] = (info[:, I_STATUS] != ST_MAXITER) if method == "dqopt" else \
-            np.ones(nb, dtype=bool)
+        out["success"] = info[:, I_STATUS] != ST_MAXITER
         return out
     batch.__name__ = f"_{method}_batch"
     return batch

@@ -42,7 +42,7 @@ If the upper bound is already at rounding level (noise-free data: M singular, la
 feasible null-space point is returned directly; it is then the exact X.
 
 It is an independent and slower route to the optimum of dqopt (no eigen-decomposition of
-Z(mu), no root of f(mu)); ~5-10 ms per problem at N = 100 (see docs/solvers-classic.md).
+Z(mu), no root of f(mu)); ~6-15 ms per problem at N = 100 (docs/solvers-classic.md).
 """
 
 from __future__ import annotations
@@ -137,16 +137,6 @@ def sturm_real_root_count_exact(p: np.ndarray) -> int:
     def changes(v):
         return sum(1 for x, y in zip(v, v[1:]) if x * y < 0)
     return changes(minus) - changes(plus)
-
-
-class DQPolyResult:
-    """Intermediate results of :func:`dqoptpoly` (for diagnostics and tests)."""
-
-    def __init__(self, **kw):
-        self.__dict__.update(kw)
-
-    def as_dict(self):
-        return dict(self.__dict__)
 
 
 def _feasible_from_gram(G: np.ndarray):
