@@ -63,6 +63,7 @@ _J = np.block([[np.zeros((4, 4)), np.eye(4)], [np.eye(4), np.zeros((4, 4))]])
 _E = np.diag([1.0] * 4 + [0.0] * 4)
 _N_LAM = 8           # sample points on the lam circle (degree 4 < 8)
 _BISECT_MAX = 200
+_BISECT_RTOL = 1e-14  # relative bracket width on lam at which bisection stops
 
 
 def curve_coefficients(S, W, M, lam_radius: float) -> np.ndarray:
@@ -253,8 +254,9 @@ def dqoptpoly(problem: MotionProblem, alpha: float = 1.0, prior=None) -> SolverO
     it = 0
     if n_hi == 8:          # the feasible point is (to rounding) already optimal
         lo = hi
+
     def bisect(lo, hi, it):
-        while it < _BISECT_MAX and hi - lo > 4e-16 * max(abs(hi), abs(lo)):
+        while it < _BISECT_MAX and hi - lo > _BISECT_RTOL * max(abs(hi), abs(lo)):
             mid = 0.5 * (lo + hi)
             if mid <= lo or mid >= hi:
                 break
