@@ -1,0 +1,241 @@
+"""Run outputs: results.json, TUM trajectories, extrinsics JSON, console table, progress.
+
+The results.json schema is documented in ``docs/results-schema.md``. Everything written
+here is deterministic for a given config and seed except the fields named in
+:data:`TIMING_FIELDS` (wall-clock durations).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+from typing import Iterable
+
+import numpy as np
+
+from simcalib.geometry import quat_from_matrix, rotvec_from_matrix
+
+__all__ = ["SCHEMA_VERSION", "TIMING_FIELDS", "results_dict", "write_json", "write_tum",
+           "extrinsics_dict", "summary_table", "progress", "strip_timing"]
+
+SCHEMA_VERSION = 1
+#: keys (anywhere in results.json) that hold wall-clock durations; everything else is
+#: a deterministic function of the resolved config and seed.
+TIMING_FIELDS = ("runtime_s", "timing_s")
+
+
+def _jsonable(obj):
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _jsonable(obj.tolist())
+    if isinstance(obj, (np.floating, float)):
+        v = float(obj)
+        return v if math.isfinite(v) else None
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, (np.bool_,)):
+        return bool(obj)
+    if isinstance(obj, Path):
+        return str(obj)
+    return obj
+
+
+def write_json(path: Path, data: dict) -> Path:
+    path = Path(path)
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    tmp.write_text(json.dumps(_jsonable(data), indent=2, allow_nan=False) + "\n")
+    tmp.replace(path)
+    return path
+
+
+def strip_timing(data):
+    """Copy of a results dict without the wall-clock fields (for determinism checks)."""
+    if isinstance(data, dict):
+        return {k: strip_timing(v) for k, v in data.items() if k not in TIMING_FIELDS}
+    if isinstance(data, list):
+        return [strip_timing(v) for v in data]
+    return data
+
+
+def pose_dict(T: np.ndarray) -> dict:
+    T = np.asarray(T, dtype=np.float64)
+    return {"T": T.tolist(), "translation_m": T[:3, 3].tolist(),
+            "quaternion_xyzw": quat_from_matrix(T[:3, :3]).tolist(),
+            "rotvec_deg": np.rad2deg(rotvec_from_matrix(T[:3, :3])).tolist()}
+
+
+def solver_entry(s) -> dict:
+    """results.json entry of one :class:`simcalib.pipeline.SolverResult`."""
+    return {
+        "method": s.method,
+        "prior": s.prior,
+        "alpha": s.alpha,
+        "X": None if s.X is None else np.asarray(s.X).tolist(),
+        "rotation_error_deg": s.rotation_error_deg,
+        "translation_error_m": s.translation_error_m,
+        "translation_error_determined_m": s.translation_error_determined_m,
+        "cost": s.cost,
+        "runtime_s": s.runtime_s,
+        "success": s.success,
+        "degenerate": s.degenerate,
+        "undetermined": list(s.undetermined),
+        "undetermined_directions": [dict(d) for d in s.undetermined_directions],
+        "undetermined_translation_axes": None if s.undetermined_translation_axes is None
+        else np.asarray(s.undetermined_translation_axes).tolist(),
+        "singular_values": None if s.singular_values is None
+        else np.asarray(s.singular_values).tolist(),
+        "message": s.message,
+        "error": s.error,
+        "sweep": [dict(e) for e in s.sweep],
+    }
+
+
+def results_dict(result) -> dict:
+    """The results.json content of a :class:`simcalib.pipeline.RunResult`."""
+    from simcalib import __version__
+    from simcalib.config import to_dict
+    cfg = result.config
+    return {
+        "schema_version": SCHEMA_VERSION,
+        "simcalib_version": __version__,
+        "scenario": cfg.scenario,
+        "description": cfg.description,
+        "kind": cfg.kind,
+        "source": cfg.source,
+        "seed": cfg.seed,
+        "status": "interrupted" if result.interrupted else "complete",
+        "completed_stages": list(result.completed_stages),
+        "config": to_dict(cfg),
+        "X_true": None if result.X_true is None else np.asarray(result.X_true).tolist(),
+        "frames": result.frames,
+        "pairing": result.pairing,
+        "pose_error": {cam: e.summary() | {"source": e.source}
+                       for cam, e in result.pose_errors.items()},
+        "solvers": {s.label: solver_entry(s) for s in result.solvers},
+        "timing_s": dict(result.timing_s),
+    }
+
+
+def extrinsics_dict(result) -> dict:
+    out = {"convention": "X = T_a_b: pose of camera b in camera a (p_a = X p_b); "
+                         "quaternions (x, y, z, w)",
+           "cameras": list(result.camera_names),
+           "X_true": None if result.X_true is None else pose_dict(result.X_true),
+           "estimates": {}}
+    for s in result.solvers:
+        if s.X is not None:
+            out["estimates"][s.label] = pose_dict(s.X) | {
+                "method": s.method, "alpha": s.alpha, "prior": s.prior is not None,
+                "degenerate": s.degenerate, "undetermined": list(s.undetermined)}
+    return out
+
+
+def write_tum(path: Path, timestamp_s: np.ndarray, T_world_cam: np.ndarray) -> Path:
+    """TUM trajectory file: one line ``timestamp tx ty tz qx qy qz qw`` per pose."""
+    t = np.asarray(timestamp_s, dtype=np.float64)
+    T = np.asarray(T_world_cam, dtype=np.float64)
+    if T.shape[0] != t.shape[0]:
+        raise ValueError(f"{t.shape[0]} timestamps for {T.shape[0]} poses")
+    q = quat_from_matrix(T[:, :3, :3])
+    rows = np.column_stack([t, T[:, :3, 3], q])
+    path = Path(path)
+    with path.open("w") as f:
+        f.write("# timestamp tx ty tz qx qy qz qw\n")
+        np.savetxt(f, rows, fmt="%.9f")
+    return path
+
+
+def _fmt(v, scale=1.0, digits=3):
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return "-"
+    v = v * scale
+    if v != 0 and (abs(v) >= 1e5 or abs(v) < 10 ** -digits):
+        return f"{v:.2e}"
+    return f"{v:.{digits}f}"
+
+
+def summary_table(result) -> str:
+    """Console summary: one row per solver (errors, cost, runtime, degenerate flag), the
+    undetermined directions beneath, then pose-source errors and pairing counts."""
+    head = ["method", "alpha", "rot err [deg]", "trans err [cm]", "determined [cm]",
+            "cost", "time [ms]", "degenerate"]
+    rows = []
+    notes = []
+    for s in result.solvers:
+        if s.error:
+            rows.append([s.label, _fmt(s.alpha, digits=3), "failed", "-", "-", "-", "-", "-"])
+            notes.append(f"{s.label}: failed: {s.error}")
+            continue
+        rows.append([s.label, _fmt(s.alpha, digits=3), _fmt(s.rotation_error_deg, digits=3),
+                     _fmt(s.translation_error_m, 100, 2),
+                     _fmt(s.translation_error_determined_m, 100, 2),
+                     _fmt(s.cost, digits=4), _fmt(s.runtime_s, 1e3, 2),
+                     {True: "YES", False: "no"}.get(s.degenerate, "unknown")])
+    widths = [max(len(h), *(len(r[i]) for r in rows)) if rows else len(h)
+              for i, h in enumerate(head)]
+    line = "  ".join(h.ljust(w) if i == 0 else h.rjust(w) for i, (h, w) in
+                     enumerate(zip(head, widths)))
+    out = [f"scenario {result.config.scenario!r} (source={result.config.source}, "
+           f"seed={result.config.seed}, {result.pairing.get('used', '?')} motions)",
+           line, "-" * len(line)]
+    for r in rows:
+        out.append("  ".join(c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in
+                             enumerate(zip(r, widths))))
+    undet = {}
+    for s in result.solvers:
+        if not s.degenerate:
+            continue
+        if s.undetermined_directions:
+            key = tuple(f"{d['description']} ({'not determined' if d['reason'] == 'undetermined' else 'poorly determined'})"
+                        for d in s.undetermined_directions)
+        else:
+            key = tuple(s.undetermined)
+        undet.setdefault(key, []).append(s.label)
+    for dirs, labels in undet.items():
+        out.append(f"undetermined by this motion [{', '.join(labels)}]: " + "; ".join(dirs))
+    if undet:
+        out.append("  -> those values are not measurements ('<method>+prior': taken from the "
+                   "prior); 'determined' = translation error with them projected out")
+    out.extend(notes)
+    fr = result.frames or {}
+    if fr.get("rendered"):
+        cams = []
+        for cam in result.camera_names:
+            c = fr.get(cam) or {}
+            reasons = ", ".join(f"{k} {v}" for k, v in (c.get("drop_reasons") or {}).items())
+            cams.append(f"{cam} used {c.get('used')}, dropped {c.get('dropped')}"
+                        + (f" ({reasons})" if reasons else ""))
+        out.append(f"frames: {fr['rendered']} per camera; " + "; ".join(cams))
+    p = result.pairing or {}
+    if p.get("candidate_pairs") is not None and p.get("matched") is not None:
+        out.append(f"motion pairs: {p.get('used')} used of {p.get('candidate_pairs')} "
+                   f"candidates (pre-filter dropped {p.get('dropped_translation')} for "
+                   f"translation, {p.get('dropped_rotation')} for rotation; "
+                   f"{p.get('dropped_time_diff')} datapoints for timestamp difference)")
+    if result.pose_errors:
+        parts = []
+        for cam, e in result.pose_errors.items():
+            sm = e.summary()
+            if sm["n"]:
+                parts.append(f"{cam}: median {_fmt(sm['rotation_deg']['median'], digits=3)} deg "
+                             f"/ {_fmt(sm['translation_m']['median'], 1000, 2)} mm, p95 "
+                             f"{_fmt(sm['rotation_deg']['p95'], digits=3)} deg / "
+                             f"{_fmt(sm['translation_m']['p95'], 1000, 2)} mm")
+        if parts:
+            src = next(iter(result.pose_errors.values())).source
+            out.append(f"pose error of source '{src}' vs ground truth: " + "; ".join(parts))
+    return "\n".join(out)
+
+
+def progress(iterable: Iterable | None = None, *, enabled: bool = True, **kw):
+    """A tqdm progress bar on stderr; off when disabled or when stderr is not a terminal
+    (so logs and pipes stay clean)."""
+    from tqdm.auto import tqdm
+    return tqdm(iterable, disable=None if enabled else True, file=sys.stderr,
+                dynamic_ncols=True,
+                leave=False, **kw)
