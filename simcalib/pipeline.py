@@ -431,13 +431,10 @@ def _solve_one(st, label, method, prior, prior_info, C, H, rng) -> SolverResult:
 
 
 def _stage_evaluation(st: _State) -> None:
-    if st.cfg.kind == "synthetic":
-        pass  # relative-motion errors were computed with the streams
-    elif st.cfg.source == "ground_truth":
-        st.pose_errors = {cam: pose_source_errors(st.gt[cam], st.gt[cam]) for cam in CAMERAS}
-    else:
-        st.pose_errors = {cam: pose_source_errors(st.source[cam], st.gt[cam])
-                          for cam in CAMERAS}
+    # synthetic scenarios have no pose streams: their errors were computed with the motions
+    if st.cfg.kind != "synthetic":
+        source = st.gt if st.cfg.source == "ground_truth" else st.source
+        st.pose_errors = {cam: pose_source_errors(source[cam], st.gt[cam]) for cam in CAMERAS}
     if st.recorder is not None:
         st.recorder.log_pose_errors(st.pose_errors)
 

@@ -656,18 +656,25 @@ def _normalize(q):
 
 
 @njit(cache=True)
-def _solve_core(method, S, W, M, q, qd, info):
-    """One DQ problem given (S, W, M) (eq. 9, prior included). Writes q, q' and info."""
-    xi = np.empty(4)
-    V = np.empty((4, 4))
+def _m_eig_wv(S, W, M, xi, V, WV):
+    """Eigen-decomposition of M (clipped as in the solvers) and W @ V; returns the clip count."""
     nclip = _m_eig(S, M, xi, V)
-    WV = np.zeros((4, 4))
     for i in range(4):
         for j in range(4):
             acc = 0.0
             for k in range(4):
                 acc += W[i, k] * V[k, j]
             WV[i, j] = acc
+    return nclip
+
+
+@njit(cache=True)
+def _solve_core(method, S, W, M, q, qd, info):
+    """One DQ problem given (S, W, M) (eq. 9, prior included). Writes q, q' and info."""
+    xi = np.empty(4)
+    V = np.empty((4, 4))
+    WV = np.empty((4, 4))
+    nclip = _m_eig_wv(S, W, M, xi, V, WV)
     Z = np.empty((4, 4))
     lam = np.empty(4)
     E = np.empty((4, 4))
@@ -1278,14 +1285,8 @@ def _eval_mu_kernel(S, W, M, mu, lam, E, out):
     """Z(mu) eigen-decomposition (M clipped as in the solvers) and f, f' at mu."""
     xi = np.empty(4)
     V = np.empty((4, 4))
-    nclip = _m_eig(S, M, xi, V)
-    WV = np.zeros((4, 4))
-    for i in range(4):
-        for j in range(4):
-            acc = 0.0
-            for k in range(4):
-                acc += W[i, k] * V[k, j]
-            WV[i, j] = acc
+    WV = np.empty((4, 4))
+    nclip = _m_eig_wv(S, W, M, xi, V, WV)
     Z = np.empty((4, 4))
     _zmat(S, WV, V, xi, mu, Z)
     _eigh(Z, lam, E)
