@@ -7,7 +7,15 @@ order, so a stage's draws do not depend on what other stages drew.
 Outputs (run directory): ``config.yaml`` (resolved), ``results.json``, ``extrinsics.json``,
 ``tum/<camera>_<source>.tum``, ``recording.rrd``; a summary table on stdout.
 A ``KeyboardInterrupt`` closes the recording (readable), writes results.json with
-``status: "interrupted"`` and the finished stages, and raises :class:`RunInterrupted`.
+``status: "interrupted"`` and the finished stages, and raises :class:`RunInterrupted`;
+any other exception writes results.json with ``status: "failed"`` and ``error`` (type,
+message, stage) and propagates.
+
+The run is the plain sequence :data:`STAGES` of functions ``_stage_<name>(RunState)``;
+none of them branches on ``kind`` or ``source`` (the ground truth comes from
+:func:`simcalib.sources.build_truth`, the measurements from the registered
+:mod:`simcalib.sources`), and none of them writes the recording: after each stage,
+:meth:`simcalib.rerun_log.RunRecorder.record_stage` logs what it produced.
 """
 
 from __future__ import annotations
@@ -25,17 +33,21 @@ from simcalib.evaluation import PoseErrors, estimate_errors, pose_source_errors
 from simcalib.geometry import (invert_transform, matrix_from_rotvec, rotation_error_rad,
                                transform_from_rotation_translation)
 
-__all__ = ["RunResult", "SolverResult", "RunInterrupted", "run", "STAGES"]
+__all__ = ["RunResult", "RunState", "SolverResult", "RunInterrupted", "run", "STAGES",
+           "RNG_STREAMS"]
 
 STAGES = ("world", "streams", "pairs", "solvers", "evaluation", "reports")
 CAMERAS = ("cam_a", "cam_b")
 # order of the child generators spawned from the run's seed (never reorder: determinism)
-_RNG_STREAMS = ("world", "noise", "vision", "synthetic", "pairing", "solvers", "prior")
+RNG_STREAMS = ("world", "noise", "vision", "synthetic", "pairing", "solvers", "prior")
 
 
 @dataclass(frozen=True)
 class SolverResult:
-    """One solver's estimate (``label`` is the method, ``<method>+prior`` with a prior)."""
+    """One solver's estimate (``label`` is the method, ``<method>+prior`` with a prior).
+
+    A failed solver (``success`` False, an exception, or a non-finite X) has ``X=None``,
+    no errors, and ``error`` the reason: it is never reported as an estimate."""
     label: str
     method: str
     alpha: float | None
@@ -73,6 +85,13 @@ class RunResult:
     interrupted: bool = False
     results_path: Path | None = None
     recording_path: Path | None = None
+    error: dict | None = None
+
+    @property
+    def status(self) -> str:
+        """``"complete"``, ``"interrupted"`` (Ctrl-C) or ``"failed"`` (``error`` says why)."""
+        return ("interrupted" if self.interrupted else "failed" if self.error is not None
+                else "complete")
 
     def solver(self, label: str) -> SolverResult:
         for s in self.solvers:
@@ -96,33 +115,50 @@ class RunInterrupted(KeyboardInterrupt):
 
 # ------------------------------------------------------------------------------ state
 @dataclass
-class _State:
+class RunState:
+    """The typed state the stages fill in order (each stage reads what earlier ones wrote).
+
+    ``truth`` (world): :class:`~simcalib.sources.GroundTruth`; ``camera_sources``,
+    ``measured``, ``source_logs``, ``motions_from_source``, ``frames`` (streams);
+    ``pairs``, ``pairing`` (pairs); ``solvers`` (solvers); ``pose_errors`` (evaluation);
+    ``summary`` (reports). ``error``: ``{"type", "message", "stage"}`` of a failed run."""
     cfg: ScenarioConfig
     out: Path
     rngs: dict
+    t_start: float = 0.0
     timing: dict = field(default_factory=dict)
     done: list = field(default_factory=list)
-    X_true: np.ndarray | None = None
-    world: object = None
-    synthetic: object = None
-    gt: dict = field(default_factory=dict)        # camera -> PoseStream (ground truth)
-    source: dict = field(default_factory=dict)    # camera -> PoseStream (pose source)
-    visual_log: object = None
+    truth: object = None                               # sources.GroundTruth
+    camera_sources: dict = field(default_factory=dict)  # camera -> source name
+    measured: dict = field(default_factory=dict)       # camera -> PoseStream (its source)
+    source_logs: dict = field(default_factory=dict)    # source name -> its log (or None)
+    source_pose_errors: dict = field(default_factory=dict)
+    motions_from_source: object = None                 # MotionPairs a source measured
+    pairing_mode: str = ""
     frames: dict = field(default_factory=dict)
     pairs: object = None
     pairing: dict = field(default_factory=dict)
     pose_errors: dict = field(default_factory=dict)
     solvers: list = field(default_factory=list)
-    recorder: object = None
+    summary: str = ""
+    error: dict | None = None
 
-    def result(self, interrupted=False, results_path=None) -> RunResult:
-        rec = self.recorder.path if self.recorder is not None and self.recorder.path else None
+    @property
+    def X_true(self):
+        return None if self.truth is None else self.truth.X_true
+
+    @property
+    def gt(self) -> dict:
+        return {} if self.truth is None else dict(self.truth.streams)
+
+    def result(self, interrupted=False, results_path=None, recording_path=None) -> RunResult:
         return RunResult(config=self.cfg, output_dir=self.out, camera_names=CAMERAS,
                          X_true=self.X_true, frames=dict(self.frames),
                          pairing=dict(self.pairing), pose_errors=dict(self.pose_errors),
                          solvers=tuple(self.solvers), timing_s=dict(self.timing),
                          completed_stages=tuple(self.done), interrupted=interrupted,
-                         results_path=results_path, recording_path=rec)
+                         results_path=results_path, recording_path=recording_path,
+                         error=self.error)
 
 
 def _output_dir(cfg: ScenarioConfig) -> Path:
@@ -132,12 +168,24 @@ def _output_dir(cfg: ScenarioConfig) -> Path:
     return Path("runs") / f"{cfg.scenario}-{stamp}"
 
 
+def _stages():
+    """The run: ``(name, function(state))`` in order (looked up at call time)."""
+    return (("world", _stage_world), ("streams", _stage_streams), ("pairs", _stage_pairs),
+            ("solvers", _stage_solvers), ("evaluation", _stage_evaluation),
+            ("reports", _stage_reports))
+
+
 def run(config, overrides=(), *, echo: bool = True) -> RunResult:
     """Run one scenario end to end and write its outputs; see the module docstring.
 
     ``config``: a :class:`ScenarioConfig` (``simcalib.load_config(...)``) or a scenario
     name / YAML path, resolved with ``overrides`` (``["seed=3", ...]``).
     ``echo`` prints the summary table to stdout.
+
+    Stages are plain functions of a :class:`RunState`; after each one the recording (if
+    enabled) is written from what it produced (:meth:`RunRecorder.record_stage`). An
+    exception in a stage writes results.json with ``status: "failed"`` and the error, then
+    propagates; Ctrl-C raises :class:`RunInterrupted` with the partial result.
     """
     if isinstance(config, (str, Path)):
         from simcalib.config import load_config
@@ -155,157 +203,113 @@ def run(config, overrides=(), *, echo: bool = True) -> RunResult:
     out = _output_dir(cfg)
     out.mkdir(parents=True, exist_ok=True)
     (out / "config.yaml").write_text(yaml.safe_dump(to_dict(cfg), sort_keys=False))
-    children = np.random.SeedSequence(cfg.seed).spawn(len(_RNG_STREAMS))
-    rngs = {name: np.random.default_rng(s) for name, s in zip(_RNG_STREAMS, children)}
-    st = _State(cfg=cfg, out=out, rngs=rngs)
+    children = np.random.SeedSequence(cfg.seed).spawn(len(RNG_STREAMS))
+    rngs = {name: np.random.default_rng(s) for name, s in zip(RNG_STREAMS, children)}
     t_start = time.perf_counter()
+    st = RunState(cfg=cfg, out=out, rngs=rngs, t_start=t_start)
+    recorder = None
     if cfg.recording.enabled:
         from simcalib.rerun_log import RunRecorder
-        st.recorder = RunRecorder(out / "recording.rrd", cfg)
-    stage_fns = {"world": _stage_world, "streams": _stage_streams, "pairs": _stage_pairs,
-                 "solvers": _stage_solvers, "evaluation": _stage_evaluation}
+        recorder = RunRecorder(out / "recording.rrd", cfg)
+    rec_path = None if recorder is None else recorder.path
     bar = reports.progress(total=len(STAGES), enabled=cfg.progress, desc="stages",
                            unit="stage", position=0)
+    stage = None
     try:
-        for name, fn in stage_fns.items():
-            bar.set_description(name)
+        for stage, fn in _stages():
+            bar.set_description(stage)
             t0 = time.perf_counter()
             fn(st)
-            st.timing[name] = time.perf_counter() - t0
-            st.done.append(name)
+            st.timing[stage] = time.perf_counter() - t0
+            st.done.append(stage)
+            st.timing["total"] = time.perf_counter() - t_start
+            if recorder is not None:
+                recorder.record_stage(stage, st)
             bar.update(1)
-        t0 = time.perf_counter()
-        st.timing["total"] = time.perf_counter() - t_start
-        result = st.result()
-        table = reports.summary_table(result)
-        if st.recorder is not None:
-            st.recorder.log_summary(table)
-        _write_outputs(st, result)
-        st.timing["reports"] = time.perf_counter() - t0
-        st.done.append("reports")
-        st.timing["total"] = time.perf_counter() - t_start
-        results_path = reports.write_json(out / "results.json",
-                                          reports.results_dict(st.result()))
-        if st.recorder is not None:
-            st.recorder.close()
+        if recorder is not None:
+            recorder.close()
         bar.close()
         if echo:
-            print(table)
+            print(st.summary)
             print(f"wrote {out}/results.json, extrinsics.json, tum/, "
-                  f"{'recording.rrd ' if st.recorder is not None else ''}"
+                  f"{'recording.rrd ' if recorder is not None else ''}"
                   f"in {st.timing['total']:.1f} s")
-        return st.result(results_path=results_path)
+        return st.result(results_path=out / "results.json", recording_path=rec_path)
     except KeyboardInterrupt:
         bar.close()
         st.timing["total"] = time.perf_counter() - t_start
-        partial = st.result(interrupted=True)
+        partial = st.result(interrupted=True, recording_path=rec_path)
         try:
-            if st.recorder is not None:
-                st.recorder.close()
+            if recorder is not None:
+                recorder.close()
             rp = reports.write_json(out / "results.json", reports.results_dict(partial))
             partial = dataclasses.replace(partial, results_path=rp)
         except Exception:  # keep the interrupt as the reported cause
             pass
         raise RunInterrupted(partial) from None
-    except BaseException:
+    except BaseException as exc:
         bar.close()
-        if st.recorder is not None:
-            st.recorder.close()
+        st.timing["total"] = time.perf_counter() - t_start
+        st.error = {"type": type(exc).__name__, "message": str(exc), "stage": stage}
+        try:
+            if recorder is not None:
+                recorder.close()
+            reports.write_json(out / "results.json",
+                               reports.results_dict(st.result(recording_path=rec_path)))
+        except Exception:  # noqa: BLE001 - the stage's exception is the one to report
+            pass
         raise
 
 
 # ----------------------------------------------------------------------------- stages
-def _stage_world(st: _State) -> None:
-    cfg = st.cfg
-    if cfg.kind == "synthetic":
-        from simcalib.synthetic import synthetic_problem
-        syn = cfg.synthetic  # measurement noise already synced with noise.* by the config
-        if cfg.pairing.n_pairs > syn.num_motions:
-            raise ValueError(f"pairing.n_pairs={cfg.pairing.n_pairs} exceeds "
-                             f"synthetic.num_motions={syn.num_motions}")
-        st.synthetic = synthetic_problem(syn, n=cfg.pairing.n_pairs,
-                                         rng=st.rngs["synthetic"])
-        st.X_true = np.asarray(st.synthetic.X, dtype=np.float64)
-        if st.recorder is not None:
-            st.recorder.log_world(None)
-        return
-    import os
-    os.environ.setdefault("MUJOCO_GL", "egl")
-    from simcalib.world import build_world
-    st.world = build_world(cfg.world, st.rngs["world"])
-    st.X_true = np.asarray(st.world.trajectory.T_a_b, dtype=np.float64)
-    if st.recorder is not None:
-        st.recorder.log_world(getattr(st.world, "marker_field", None))
+def _stage_world(st: RunState) -> None:
+    from simcalib.sources import build_truth
+    st.truth = build_truth(st.cfg, st.rngs)
 
 
-def _stage_streams(st: _State) -> None:
-    cfg = st.cfg
-    from simcalib.streams import PoseStream
-    if cfg.kind == "synthetic":
-        ds = st.synthetic.dataset
-        T_w_b = np.asarray(ds.T_world_b)
-        T_w_a = T_w_b @ invert_transform(st.X_true)
-        n = T_w_b.shape[0]
-        t = np.arange(n, dtype=np.float64)
-        for cam, T in (("cam_a", T_w_a), ("cam_b", T_w_b)):
-            st.gt[cam] = PoseStream(camera=cam, source="ground_truth",
-                                    frame_index=np.arange(n), timestamp_s=t,
-                                    T_world_cam=T, n_frames=n)
-        idx = np.asarray(st.synthetic.indices)
-        # the synthetic source measures relative motions: its errors are those of C and H
-        for cam, M, M_true in (("cam_a", st.synthetic.C, ds.C_true[idx]),
-                               ("cam_b", st.synthetic.H, ds.H_true[idx])):
-            st.pose_errors[cam] = PoseErrors(
-                camera=cam, source=f"{cfg.source} (relative motions)", frame_index=idx,
-                rotation_deg=np.rad2deg(rotation_error_rad(M, M_true)),
-                translation_m=np.linalg.norm(M[:, :3, 3] - M_true[:, :3, 3], axis=-1))
-        st.frames = {"rendered": 0, "generated_motions": int(ds.num_motions)}
+def _stage_streams(st: RunState) -> None:
+    """Each camera's pose source measures the truth (sources grouped so a source that
+    serves both cameras runs once)."""
+    from simcalib.sources import camera_sources, get_source
+    kind = st.truth.kind
+    st.camera_sources = camera_sources(st.cfg, kind)
+    by_source: dict[str, list] = {}
+    for cam, name in st.camera_sources.items():
+        by_source.setdefault(name, []).append(cam)
+    frames = {}
+    for name, cams in by_source.items():
+        src = get_source(name, kind)
+        out = src.measure(st.truth, st.cfg, st.rngs[src.info.rng_stream], tuple(cams))
+        st.source_logs[name] = out.log
+        st.measured.update({cam: out.streams[cam] for cam in cams if cam in out.streams})
+        st.source_pose_errors.update(dict(out.pose_errors or {}))
+        if out.motions is not None:
+            if len(by_source) > 1:
+                raise ValueError(f"source {name!r} measures relative motions of both cameras; "
+                                 f"it cannot be combined with other sources "
+                                 f"({st.camera_sources})")
+            st.motions_from_source = out.motions
+            st.pairing_mode = out.pairing_mode
+        frames |= dict(out.frames) if out.frames is not None else {}
+    if not frames:
+        frames = {"rendered": max(int(s.n_frames) for s in st.measured.values())}
         for cam in CAMERAS:
-            st.frames[cam] = {"used": int(idx.size), "dropped": 0, "drop_reasons": {}}
-        if st.recorder is not None:
-            st.recorder.log_trajectories(st.gt, {}, st.X_true)
-        return
-
-    import simcalib.world as W
-    traj = st.world.trajectory
-    frames = {"cam_a": traj.cam_a, "cam_b": traj.cam_b}
-    for cam, fr in frames.items():
-        st.gt[cam] = W.ground_truth_stream(fr)
-    if cfg.source == "ground_truth":
-        st.source = dict(st.gt)
-    elif cfg.source == "noisy":
-        rng_a, rng_b = st.rngs["noise"].spawn(2)
-        for cam, rng in (("cam_a", rng_a), ("cam_b", rng_b)):
-            st.source[cam] = W.noisy_stream(frames[cam], np.deg2rad(cfg.noise.sigma_r_deg),
-                                            cfg.noise.sigma_t_m, rng)
-    else:  # aruco
-        from simcalib.vision import visual_streams
-        streams, log = visual_streams(st.world, cfg.vision, st.rngs["vision"],
-                                      workers=cfg.workers)
-        st.source = {cam: streams[cam] for cam in CAMERAS}
-        st.visual_log = log
-    rendered = max(int(fr.n_frames) for fr in frames.values())
-    st.frames = {"rendered": rendered}
-    for cam in CAMERAS:
-        s = st.source[cam]
-        st.frames[cam] = {"frames": int(s.n_frames), "used": int(s.n_used),
-                          "dropped": int(s.n_dropped),
-                          "drop_reasons": {str(k): int(v) for k, v in
-                                           dict(s.drop_reasons).items()}}
-    if st.recorder is not None:
-        st.recorder.log_trajectories(st.gt, st.source if cfg.source != "ground_truth" else {},
-                                     st.X_true)
-        st.recorder.log_cameras(getattr(st.world, "intrinsics", {}), st.gt, st.visual_log)
+            s = st.measured[cam]
+            frames[cam] = {"frames": int(s.n_frames), "used": int(s.n_used),
+                           "dropped": int(s.n_dropped),
+                           "drop_reasons": {str(k): int(v) for k, v in
+                                            dict(s.drop_reasons).items()}}
+    st.frames = frames
 
 
-def _stage_pairs(st: _State) -> None:
-    from simcalib.pairing import make_pairs, pairs_from_motions
+def _stage_pairs(st: RunState) -> None:
+    from simcalib.pairing import make_pairs
     cfg = st.cfg
-    if cfg.kind == "synthetic":
-        st.pairs = pairs_from_motions(st.synthetic.C, st.synthetic.H)
-        st.pairing = dict(st.pairs.counts) | {"mode": "random (appendix D sampling)"}
+    if st.motions_from_source is not None:
+        st.pairs = st.motions_from_source
+        st.pairing = dict(st.pairs.counts) | {"mode": st.pairing_mode}
         return
-    st.pairs = make_pairs(st.source["cam_a"], st.source["cam_b"], cfg.pairing,
+    st.pairs = make_pairs(st.measured["cam_a"], st.measured["cam_b"], cfg.pairing,
                           st.rngs["pairing"])
     st.pairing = dict(st.pairs.counts) | {"mode": cfg.pairing.mode}
 
@@ -347,7 +351,7 @@ def _observability(sol) -> tuple:
             None if sv is None else np.asarray(sv, dtype=np.float64))
 
 
-def _prior(st: _State):
+def _prior(st: RunState):
     from simcalib.solvers.api import Prior
     pc = st.cfg.prior
     if pc.translation_m is not None:
@@ -372,7 +376,7 @@ def _prior(st: _State):
     return Prior(X=X, a=pc.a, b=pc.b), info
 
 
-def _stage_solvers(st: _State) -> None:
+def _stage_solvers(st: RunState) -> None:
     from simcalib import reports
     cfg = st.cfg
     jobs = [(m, m, False) for m in cfg.solvers]
@@ -387,8 +391,25 @@ def _stage_solvers(st: _State) -> None:
                              position=1), rng_children):
         st.solvers.append(_solve_one(st, label, method, prior if with_prior else None,
                                      prior_info if with_prior else None, C, H, rng))
-    if st.recorder is not None:
-        st.recorder.log_estimates(st.solvers, st.X_true, st.gt)
+
+
+def _failure_reason(sol) -> str | None:
+    """Why ``sol`` is not an estimate (``None`` when it is one)."""
+    X = np.asarray(sol.X, dtype=np.float64)
+    if not sol.success:
+        return sol.solver_message or "the solver reported failure"
+    if X.shape != (4, 4) or not np.isfinite(X).all():
+        return "non-finite X"
+    return None
+
+
+def _failed(label, method, prior_info, reason, sweep=()) -> SolverResult:
+    return SolverResult(label=label, method=method, alpha=None, prior=prior_info, X=None,
+                        rotation_error_deg=None, translation_error_m=None,
+                        translation_error_determined_m=None, cost=None, runtime_s=None,
+                        success=False, degenerate=None, error=reason.splitlines()[0],
+                        message=f"{method}: FAILED ({reason.splitlines()[0]})",
+                        sweep=tuple(sweep))
 
 
 def _solve_one(st, label, method, prior, prior_info, C, H, rng) -> SolverResult:
@@ -396,23 +417,32 @@ def _solve_one(st, label, method, prior, prior_info, C, H, rng) -> SolverResult:
     cfg = st.cfg
     sweep = []
     best = None
+    reasons = []
     try:
         for alpha in cfg.alphas:
             sol = simcalib.solve(C, H, method=method, alpha=alpha, prior=prior,
                                  rng=np.random.default_rng(rng.bit_generator.seed_seq))
+            reason = _failure_reason(sol)
+            if reason is not None:
+                reasons.append(reason)
+                sweep.append({"alpha": float(alpha), "rotation_error_deg": None,
+                              "translation_error_m": None,
+                              "translation_error_determined_m": None, "cost": None,
+                              "runtime_s": float(sol.runtime_s), "success": False,
+                              "error": reason})
+                continue
             degenerate, und, dirs, axes, sv = _observability(sol)
             err = estimate_errors(sol.X, st.X_true, axes if degenerate else None)
             entry = {"alpha": float(alpha), **err, "cost": float(sol.cost),
-                     "runtime_s": float(sol.runtime_s), "success": bool(sol.success)}
+                     "runtime_s": float(sol.runtime_s), "success": True, "error": None}
             sweep.append(entry)
             if best is None or err["rotation_error_deg"] < best[1]["rotation_error_deg"]:
                 best = (sol, err, degenerate, und, dirs, axes, sv)
     except Exception as exc:  # noqa: BLE001 - one failing method must not sink the run
-        return SolverResult(label=label, method=method, alpha=None, prior=prior_info,
-                            X=None, rotation_error_deg=None, translation_error_m=None,
-                            translation_error_determined_m=None, cost=None, runtime_s=None,
-                            success=False, degenerate=None,
-                            error=f"{type(exc).__name__}: {exc}".splitlines()[0])
+        return _failed(label, method, prior_info, f"{type(exc).__name__}: {exc}",
+                       sweep if cfg.is_sweep else ())
+    if best is None:
+        return _failed(label, method, prior_info, reasons[0], sweep if cfg.is_sweep else ())
     sol, err, degenerate, und, dirs, axes, sv = best
     try:
         message = sol.message
@@ -423,31 +453,40 @@ def _solve_one(st, label, method, prior, prior_info, C, H, rng) -> SolverResult:
         X=np.asarray(sol.X, dtype=np.float64), rotation_error_deg=err["rotation_error_deg"],
         translation_error_m=err["translation_error_m"],
         translation_error_determined_m=err["translation_error_determined_m"],
-        cost=float(sol.cost), runtime_s=float(sol.runtime_s), success=bool(sol.success),
+        cost=float(sol.cost), runtime_s=float(sol.runtime_s), success=True,
         degenerate=degenerate, undetermined=und if degenerate or degenerate is None else (),
         undetermined_directions=dirs,
         undetermined_translation_axes=axes if degenerate else None, singular_values=sv,
         message=message, sweep=tuple(sweep) if cfg.is_sweep else ())
 
 
-def _stage_evaluation(st: _State) -> None:
-    # synthetic scenarios have no pose streams: their errors were computed with the motions
-    if st.cfg.kind != "synthetic":
-        source = st.gt if st.cfg.source == "ground_truth" else st.source
-        st.pose_errors = {cam: pose_source_errors(source[cam], st.gt[cam]) for cam in CAMERAS}
-    if st.recorder is not None:
-        st.recorder.log_pose_errors(st.pose_errors)
+def _stage_evaluation(st: RunState) -> None:
+    """Pose-source errors per camera: the source's own (relative motions) or its stream
+    against the ground truth at the same frames."""
+    st.pose_errors = {cam: st.source_pose_errors[cam] if cam in st.source_pose_errors
+                      else pose_source_errors(st.measured[cam], st.truth.streams[cam])
+                      for cam in CAMERAS}
 
 
-def _write_outputs(st: _State, result: RunResult) -> None:
+def _stage_reports(st: RunState) -> None:
+    """Summary table, TUM files, extrinsics.json, results.json."""
     from simcalib import reports
+    from simcalib.sources import get_source
+    t0 = time.perf_counter()
     out = st.out
+    st.summary = reports.summary_table(st.result())
     tum = out / "tum"
     tum.mkdir(exist_ok=True)
     for cam, s in st.gt.items():
         reports.write_tum(tum / f"{cam}_ground_truth.tum", s.timestamp_s, s.T_world_cam)
-    if st.cfg.kind == "sim" and st.cfg.source != "ground_truth":
-        for cam, s in st.source.items():
-            reports.write_tum(tum / f"{cam}_{st.cfg.source}.tum", s.timestamp_s,
-                              s.T_world_cam)
-    reports.write_json(out / "extrinsics.json", reports.extrinsics_dict(result))
+    for cam, s in st.measured.items():
+        name = st.camera_sources[cam]
+        if not get_source(name).info.exact:
+            reports.write_tum(tum / f"{cam}_{name}.tum", s.timestamp_s, s.T_world_cam)
+    reports.write_json(out / "extrinsics.json", reports.extrinsics_dict(st.result()))
+    now = time.perf_counter()
+    done = st.result()
+    done = dataclasses.replace(done, completed_stages=done.completed_stages + ("reports",),
+                               timing_s=done.timing_s | {"reports": now - t0,
+                                                         "total": now - st.t_start})
+    reports.write_json(out / "results.json", reports.results_dict(done))

@@ -108,7 +108,8 @@ def results_dict(result) -> dict:
         "kind": cfg.kind,
         "source": cfg.source,
         "seed": cfg.seed,
-        "status": "interrupted" if result.interrupted else "complete",
+        "status": result.status,
+        "error": result.error,
         "completed_stages": list(result.completed_stages),
         "config": to_dict(cfg),
         "X_true": None if result.X_true is None else np.asarray(result.X_true).tolist(),
@@ -165,25 +166,28 @@ def summary_table(result) -> str:
     head = ["method", "alpha", "rot err [deg]", "trans err [cm]", "determined [cm]",
             "cost", "time [ms]", "degenerate"]
     rows = []
-    notes = []
     for s in result.solvers:
-        if s.error:
-            rows.append([s.label, _fmt(s.alpha, digits=3), "failed", "-", "-", "-", "-", "-"])
-            notes.append(f"{s.label}: failed: {s.error}")
+        if s.X is None:
+            rows.append([s.label, f"FAILED: {s.error or 'no estimate'}"])
             continue
         rows.append([s.label, _fmt(s.alpha, digits=3), _fmt(s.rotation_error_deg, digits=3),
                      _fmt(s.translation_error_m, 100, 2),
                      _fmt(s.translation_error_determined_m, 100, 2),
                      _fmt(s.cost, digits=4), _fmt(s.runtime_s, 1e3, 2),
                      {True: "YES", False: "no"}.get(s.degenerate, "unknown")])
-    widths = [max(len(h), *(len(r[i]) for r in rows)) if rows else len(h)
+    full = [r for r in rows if len(r) == len(head)]
+    widths = [max(len(h), *(len(r[i]) for r in full)) if full else len(h)
               for i, h in enumerate(head)]
+    widths[0] = max([widths[0]] + [len(r[0]) for r in rows])
     line = "  ".join(h.ljust(w) if i == 0 else h.rjust(w) for i, (h, w) in
                      enumerate(zip(head, widths)))
     out = [f"scenario {result.config.scenario!r} (source={result.config.source}, "
            f"seed={result.config.seed}, {result.pairing.get('used', '?')} motions)",
            line, "-" * len(line)]
     for r in rows:
+        if len(r) != len(head):  # a failed solver: its reason instead of numbers
+            out.append(f"{r[0].ljust(widths[0])}  {r[1]}")
+            continue
         out.append("  ".join(c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in
                              enumerate(zip(r, widths))))
     undet = {}
@@ -201,7 +205,6 @@ def summary_table(result) -> str:
     if undet:
         out.append("  -> those values are not measurements ('<method>+prior': taken from the "
                    "prior); 'determined' = translation error with them projected out")
-    out.extend(notes)
     fr = result.frames or {}
     if fr.get("rendered"):
         cams = []

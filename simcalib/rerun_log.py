@@ -1,8 +1,14 @@
 """ALL rerun code of simcalib: the run recording (``recording.rrd``) and its blueprint.
 
 Headless: a :class:`rerun.RecordingStream` saved straight to a file (no viewer), wall-clock
-log time disabled and a recording id derived from the scenario and seed, so the same run
-writes the same entities. Open it with ``rerun recording.rrd``.
+log time disabled; application id ``simcalib``, a fresh recording id per run (two runs
+opened together stay apart). Open it with ``rerun recording.rrd``.
+
+The pipeline's stages never call rerun: after each stage the run loop hands the state to
+:meth:`RunRecorder.record_stage`, the ONE place that decides what a stage's results look
+like in the recording (``world``: markers; ``streams``: trajectories, cameras, images with
+the detections of the same frames; ``solvers``: the successful estimates — a failed
+solver is never drawn; ``evaluation``: pose-source errors; ``reports``: the summary).
 
 Entity layout (timeline ``frame`` = simulated frame index, plus ``sim_time``):
 
@@ -79,13 +85,36 @@ class RunRecorder:
         import rerun as rr
         self.path = Path(path)
         self.cfg = cfg
-        rid = uuid.uuid5(uuid.NAMESPACE_URL, f"simcalib/{cfg.scenario}/{cfg.seed}")
-        self.rec = rr.RecordingStream("simcalib", recording_id=rid, send_properties=False)
+        self.recording_id = str(uuid.uuid4())   # unique per run; the application id is shared
+        self.rec = rr.RecordingStream("simcalib", recording_id=self.recording_id,
+                                      send_properties=False)
         self.rec.set_log_time_enabled(False) if hasattr(self.rec, "set_log_time_enabled") \
             else None
         self.rec.save(str(self.path), default_blueprint=default_blueprint())
         self._closed = False
         self.rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+
+    # ------------------------------------------------------------- dispatch
+    def record_stage(self, stage: str, st) -> None:
+        """Log what ``stage`` produced (``st``: :class:`simcalib.pipeline.RunState`)."""
+        truth = st.truth
+        if stage == "world":
+            self.log_world(truth.marker_field)
+        elif stage == "streams":
+            from simcalib.sources import get_source
+            measured = {cam: s for cam, s in st.measured.items()
+                        if not get_source(st.camera_sources[cam]).info.exact}
+            self.log_trajectories(dict(truth.streams), measured, truth.X_true)
+            if truth.intrinsics:
+                logs = [log for log in st.source_logs.values() if log is not None]
+                self.log_cameras(dict(truth.intrinsics), dict(truth.streams),
+                                 logs[0] if logs else None)
+        elif stage == "solvers":
+            self.log_estimates(st.solvers, truth.X_true, dict(truth.streams))
+        elif stage == "evaluation":
+            self.log_pose_errors(st.pose_errors)
+        elif stage == "reports":
+            self.log_summary(st.summary)
 
     # ------------------------------------------------------------------ world
     def log_world(self, marker_field) -> None:
@@ -165,14 +194,15 @@ class RunRecorder:
                 self.rec.log(f"{ent}/markers", rr.LineStrips2D(
                     np.concatenate([c, c[:, :1]], axis=1), colors=(0, 255, 0),
                     labels=labels))
-            else:
+            else:  # no detections in this frame: no overlay from an older one
                 self.rec.log(f"{ent}/corners", rr.Clear(recursive=False))
+                self.rec.log(f"{ent}/markers", rr.Clear(recursive=False))
         self.rec.reset_time()
 
     # ------------------------------------------------------------- estimates
     def log_estimates(self, solvers, X_true, gt: dict) -> None:
         import rerun as rr
-        ok = [s for s in solvers if s.X is not None]
+        ok = [s for s in solvers if s.X is not None and np.isfinite(s.X).all()]
         for k, s in enumerate(ok):
             ent = f"world/cam_a/estimates/{entity_name(s.label)}"
             self._log_pose(ent, np.asarray(s.X), static=True)
@@ -234,7 +264,8 @@ def _iter_visual_log(log, rec_cfg):
     stage's :class:`~simcalib.vision.VisualLog` (``frames[camera]``: per-frame records with
     ``frame_index``, ``ids``, ``corners_px``; ``images_jpeg[camera][frame_index]``: JPEG
     bytes). At most ``rec_cfg.max_images`` images per camera are yielded (evenly
-    subsampled); the corners of every frame are."""
+    subsampled), each with the corners detected in THAT frame; frames without a logged
+    image are not yielded, so an overlay never sits on another frame's image."""
     frames_by_cam = getattr(log, "frames", None) or {}
     images = getattr(log, "images_jpeg", None) or {}
     for cam, entries in dict(frames_by_cam).items():
@@ -247,8 +278,10 @@ def _iter_visual_log(log, rec_cfg):
             keep = {logged[i] for i in sel}
         for e in entries:
             frame = int(_get(e, "frame_index", "frame"))
-            image = cam_images.get(frame) if frame in keep else None
-            yield cam, frame, image, _get(e, "corners_px", "corners"), _get(e, "ids")
+            if frame not in keep:
+                continue
+            yield cam, frame, cam_images[frame], _get(e, "corners_px", "corners"), \
+                _get(e, "ids")
 
 
 def _get(entry, *names):

@@ -1,0 +1,21 @@
+"""Pose sources: one file per source, a registry, and the ground truth they measure.
+
+    from simcalib.sources import available_sources, get_source
+    out = get_source("noisy", "sim").measure(truth, cfg, rng, ("cam_a", "cam_b"))
+
+Built-in sources: ``ground_truth``, ``noisy``, ``aruco`` (simulated worlds) and
+``synthetic`` (paper appendix D.2 problems). See :mod:`simcalib.sources.base` for the
+protocol and how to add one.
+"""
+
+from simcalib.sources.base import CAMERAS, GroundTruth, PoseSource, SourceInfo, SourceOutput
+from simcalib.sources.registry import (available_sources, camera_sources, get_source,
+                                       register, sources_for_kind)
+# the built-in sources register themselves on import (each file is light: heavy imports
+# happen inside measure())
+from simcalib.sources import aruco, ground_truth, noisy, synthetic  # noqa: E402,F401
+from simcalib.sources.truth import KINDS, build_truth  # noqa: E402
+
+__all__ = ["CAMERAS", "GroundTruth", "PoseSource", "SourceInfo", "SourceOutput", "KINDS",
+           "available_sources", "build_truth", "camera_sources", "get_source", "register",
+           "sources_for_kind"]

@@ -1,0 +1,105 @@
+"""The pose-source protocol: what every source of camera poses takes and returns.
+
+A source turns the run's ground truth (a simulated :class:`~simcalib.world.World` or a
+synthetic problem, wrapped in :class:`GroundTruth`) into what a sensor would report:
+timestamped :class:`~simcalib.streams.PoseStream` per camera, plus its own log. One file per
+source under ``simcalib/sources/``; each registers itself (``registry.register``).
+
+Adding a source (e.g. ``robot_fk``, a file importer): write ``simcalib/sources/<name>.py``
+with a class that has ``info`` (:class:`SourceInfo`) and ``measure(...)`` and call
+``register(<instance>)`` at import; import it in ``simcalib/sources/__init__.py``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Mapping, Protocol, runtime_checkable
+
+import numpy as np
+
+__all__ = ["CAMERAS", "GroundTruth", "SourceInfo", "SourceOutput", "PoseSource"]
+
+#: The cameras (streams) of a run, in the order rng children are assigned to them.
+CAMERAS = ("cam_a", "cam_b")
+
+
+@dataclass(frozen=True)
+class GroundTruth:
+    """The truth a run measures (output of the ``world`` stage).
+
+    ``kind``: ``"sim"`` (MuJoCo world) or ``"synthetic"`` (paper appendix D.2 problem);
+    ``X_true``: ``(4, 4)`` true ``T_a_b``; ``streams``: camera -> exact
+    :class:`~simcalib.streams.PoseStream` (``source="ground_truth"``); ``world``: the
+    :class:`simcalib.world.World` (``kind="sim"``, else ``None``); ``synthetic``: the
+    :class:`simcalib.synthetic.SyntheticProblem` (``kind="synthetic"``, else ``None``);
+    ``intrinsics``: camera -> :class:`~simcalib.streams.CameraIntrinsics` (empty without
+    cameras); ``marker_field``: the known marker map or ``None``.
+    """
+    kind: str
+    X_true: np.ndarray
+    streams: Mapping[str, object]
+    world: object = None
+    synthetic: object = None
+    intrinsics: Mapping[str, object] = field(default_factory=dict)
+    marker_field: object = None
+
+
+@dataclass(frozen=True)
+class SourceInfo:
+    """Metadata of a registered source.
+
+    ``name``: registry name (``source=<name>``); ``description``: one line;
+    ``kinds``: the ``kind`` of ground truth it can measure (``"sim"``, ``"synthetic"``);
+    ``rng_stream``: which child generator of the run's seed it draws from (a name of
+    ``simcalib.pipeline.RNG_STREAMS``; never share one between sources);
+    ``exact``: its poses are the ground truth (no TUM file / no separate trajectory);
+    ``renders``: it renders images (slow; ``workers`` applies).
+    """
+    name: str
+    description: str
+    kinds: tuple[str, ...] = ("sim",)
+    rng_stream: str = "noise"
+    exact: bool = False
+    renders: bool = False
+
+
+@dataclass(frozen=True)
+class SourceOutput:
+    """What a source measured.
+
+    ``streams``: camera -> :class:`~simcalib.streams.PoseStream` (``T_world_cam`` at the
+    camera's timestamps; dropped frames absent and counted) for every requested camera;
+    sources that measure relative motions directly leave it empty and fill ``motions``.
+    ``motions``: a :class:`simcalib.pairing.MotionPairs` already paired (the ``pairs``
+    stage uses it instead of pairing ``streams``), else ``None``.
+    ``pose_errors``: camera -> :class:`simcalib.evaluation.PoseErrors` when the source
+    computed its errors itself (motions), else ``None`` (evaluation compares ``streams``
+    with the ground truth). ``frames``: per-camera frame counts for results.json when the
+    source has no streams (else derived from them). ``log``: the source's own record for
+    the recording (``aruco``: :class:`simcalib.vision.VisualLog`), else ``None``.
+    ``pairing_mode``: with ``motions``, how they were formed (results.json
+    ``pairing.mode``).
+    """
+    streams: Mapping[str, object] = field(default_factory=dict)
+    motions: object = None
+    pose_errors: Mapping[str, object] | None = None
+    frames: Mapping[str, object] | None = None
+    log: object = None
+    pairing_mode: str = ""
+
+
+@runtime_checkable
+class PoseSource(Protocol):
+    """A pose source: ``info`` and ``measure``.
+
+    ``measure(truth, cfg, rng, cameras) -> SourceOutput``: ``truth`` the
+    :class:`GroundTruth`; ``cfg`` the run's :class:`simcalib.config.ScenarioConfig` (a
+    source reads only its own section, e.g. ``cfg.noise`` / ``cfg.vision``); ``rng`` the
+    run's child generator named by ``info.rng_stream`` (the source splits it per camera
+    with ``rng.spawn(len(CAMERAS))`` so a camera's draws do not depend on the others);
+    ``cameras`` the subset of :data:`CAMERAS` it must measure (per-stream selection).
+    """
+    info: SourceInfo
+
+    def measure(self, truth: GroundTruth, cfg, rng: np.random.Generator,
+                cameras: tuple[str, ...]) -> SourceOutput: ...
