@@ -17,7 +17,8 @@ from simcalib.world import (MarkerFieldConfig, RigConfig, RoomConfig, WorldConfi
                             available_paths, build_model, build_scene, build_world,
                             visible_markers)
 from simcalib.world.layout import marker_layout
-from simcalib.world.scene import MJ_FROM_CV, R_WORLD_RIG_FORWARD
+from simcalib.world.platforms.arm import R_WORLD_RIG_FORWARD
+from simcalib.world.scene import MJ_FROM_CV
 
 mujoco = pytest.importorskip("mujoco")
 

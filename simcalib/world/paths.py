@@ -38,7 +38,9 @@ class PathSample:
 @dataclass(frozen=True)
 class PathInfo:
     """A registered path: ``defaults`` maps each platform that can drive it to its default
-    parameters (the allowed override keys); ``fn(t, duration_s, params) -> PathSample``."""
+    parameters (the allowed override keys) — the keys ARE the platforms the path supports
+    (names of :mod:`simcalib.world.platforms`); ``fn(t, duration_s, params) ->
+    PathSample``."""
     name: str
     description: str
     defaults: Mapping[str, Mapping[str, float]]
@@ -100,11 +102,10 @@ def get_path(name: str) -> PathInfo:
 
 def _pairing_error(info: PathInfo, platform: str):
     valid = sorted(n for n, p in _PATHS.items() if platform in p.defaults)
-    why = {"cart": "a cart moves in the plane (x, y, yaw) plus small perturbations",
-           "arm": "the arm cannot drive this path"}.get(platform, "unknown platform")
-    raise ValueError(f"path {info.name!r} is not available on platform {platform!r} ({why}); "
+    combos = "; ".join(f"{n}: {list(p.platforms)}" for n, p in sorted(_PATHS.items()))
+    raise ValueError(f"path {info.name!r} is not available on platform {platform!r}; "
                      f"platforms for {info.name!r}: {list(info.platforms)}; paths for "
-                     f"{platform!r}: {valid}")
+                     f"{platform!r}: {valid}; valid path: [platforms] combinations: {combos}")
 
 
 def resolve_platform(info: PathInfo, platform: str | None) -> str:

@@ -1,4 +1,7 @@
-"""Scene assembly with ``mujoco.MjSpec``: room + platform (cart or arm) + rig + markers.
+"""Scene assembly with ``mujoco.MjSpec``: room + platform + rig + markers.
+
+The platform (``world.platform``) adds itself through its
+:class:`~simcalib.world.platforms.Platform` (``simcalib/world/platforms/<name>.py``).
 
 ``build_scene(cfg) -> Scene`` is deterministic in the config (no randomness), so a worker
 process can rebuild the identical ``MjModel`` from the (picklable) ``WorldConfig`` alone;
@@ -20,92 +23,25 @@ from simcalib.geometry import (invert_transform, quat_from_matrix, quat_wxyz_fro
 from simcalib.markers import MarkerField, marker_png
 from simcalib.streams import CameraIntrinsics
 
-__all__ = ["Scene", "build_scene", "build_model", "MODELS_DIR", "ARM_HOME_OFFSET_M",
-           "arm_base_position", "CAMERA_NAMES", "MJ_FROM_CV"]
+__all__ = ["Scene", "build_scene", "build_model", "MODELS_DIR", "CAMERA_NAMES", "MJ_FROM_CV",
+           "T_world_cv_from_mujoco"]
 
 #: Directory holding the MJCF files (room, cart, ur5e, rig).
 MODELS_DIR = Path(__file__).resolve().parents[2] / "models"
 CAMERA_NAMES = ("cam_a", "cam_b")
 #: OpenCV camera frame <-> MuJoCo camera frame (its own inverse): R_mj = R_cv @ MJ_FROM_CV.
 MJ_FROM_CV = np.diag([1.0, -1.0, -1.0])
-#: Arm home: the flange frame equals the rig frame looking along world +x (flange z = +x,
-#: y = -z, x = -y), ``ARM_HOME_OFFSET_M`` from the pedestal foot (0.55 m in front of the
-#: base axis, 0.30 m above the shoulder). ``home_qpos`` is solved by IK from this seed
-#: (elbow up, wrist away from the cameras' view).
-ARM_HOME_OFFSET_M = np.array([0.55, 0.0, 0.6 + 0.1625 + 0.30])
-ARM_HOME_SEED = np.array([0.3005, -1.8099, -1.9046, 0.5729, 1.2703, 0.0])
-#: The rig frame in world axes when looking along +x: x = -y_w, y = -z_w, z = +x_w.
-R_WORLD_RIG_FORWARD = np.column_stack([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]])
-#: Distance from the arm's base axis to the +x wall (the rig looks at that wall).
-ARM_BASE_TO_WALL_M = 1.75
 
 
-#: Height of the arm's pedestal (the built-in model has it; added for Menagerie arms).
-PEDESTAL_HEIGHT_M = 0.6
-#: Menagerie file of the optional arm model, relative to ``$MENAGERIE_ROOT``.
-MENAGERIE_UR5E = Path("universal_robots_ur5e") / "ur5e.xml"
-
-
-def _arm_spec(arm_model: str):
-    """``(MjSpec, mount site name)`` of the arm: the built-in UR5e (models/ur5e.xml) or
-    the Menagerie UR5e under ``$MENAGERIE_ROOT`` (its tool flange site
-    ``attachment_site``; added on ``wrist_3_link`` if the file predates it)."""
-    mujoco = _mujoco()
-    if arm_model == "builtin":
-        return mujoco.MjSpec.from_file(str(MODELS_DIR / "ur5e.xml")), "rig_mount"
-    if arm_model != "menagerie":
-        raise ValueError(f"arm_model must be 'builtin' or 'menagerie'; received {arm_model!r}")
-    root = os.environ.get("MENAGERIE_ROOT")
-    if not root:
-        raise ValueError("arm_model='menagerie' needs the environment variable MENAGERIE_ROOT "
-                         "pointing at a local copy of mujoco_menagerie (expected file "
-                         f"$MENAGERIE_ROOT/{MENAGERIE_UR5E.as_posix()}); or use "
-                         "arm_model='builtin'")
-    path = Path(root).expanduser() / MENAGERIE_UR5E
-    if not path.is_file():
-        raise ValueError(f"MENAGERIE_ROOT={root!r} has no {MENAGERIE_UR5E.as_posix()} "
-                         f"(looked for {path}); point it at a mujoco_menagerie checkout")
-    spec = mujoco.MjSpec.from_file(str(path))
-    for light in spec.lights:                # no shadows in camera renders
-        light.castshadow = False
-    if spec.site("attachment_site") is None:
-        wrist = spec.body("wrist_3_link")
-        if wrist is None:
-            raise ValueError(f"{path} has neither site 'attachment_site' nor body "
-                             "'wrist_3_link'; not a Menagerie UR5e model")
-        wrist.add_site(name="attachment_site", pos=[0.0, 0.1, 0.0],
-                       quat=[-0.7071067811865476, 0.7071067811865476, 0.0, 0.0])
-    return spec, "attachment_site"
-
-
-def _arm_home_qpos(model, data, site: str, T_world_home: np.ndarray) -> np.ndarray:
-    """IK of the home pose from a few seeds; the first exact elbow-up solution wins."""
-    mujoco = _mujoco()
-    from simcalib.world.ik import solve_ik
-    seeds = [ARM_HOME_SEED] + [np.asarray(s) for s in (
-        (-1.5708, -1.5708, 1.5708, -1.5708, -1.5708, 0.0), (0.0, -1.57, 1.57, -1.57, -1.57, 0.0),
-        (1.5708, -1.5708, 1.5708, 0.0, 1.5708, 0.0), (0.0, -1.0, -1.5, 0.5, 1.57, 0.0))]
-    if model.nkey:
-        seeds.insert(1, model.key_qpos[0].copy())
-    shoulder, elbow = model.jnt_bodyid[1], model.jnt_bodyid[2]
-    found = []
-    for seed in seeds:
-        q, ep, er, _ = solve_ik(model, data, site, T_world_home, seed[:model.nq], max_iter=500)
-        if ep <= 1e-9 and er <= 1e-9:
-            data.qpos[:] = q
-            mujoco.mj_kinematics(model, data)
-            if data.xpos[elbow][2] > data.xpos[shoulder][2] + 0.05:
-                return q
-            found.append(q)
-    if found:
-        return found[0]
-    raise RuntimeError("the arm's home pose is not reachable by IK from any seed; "
-                       "the arm model is not a UR5e-like 6-DoF arm")
-
-
-def arm_base_position(room_size_m) -> np.ndarray:
-    """World position of the arm's pedestal foot for a room of inner size ``room_size_m``."""
-    return np.array([0.5 * room_size_m[0] - ARM_BASE_TO_WALL_M, 0.0, 0.0])
+def T_world_cv_from_mujoco(cam_xpos: np.ndarray, cam_xmat: np.ndarray) -> np.ndarray:
+    """``(..., 4, 4)`` pose of a camera's OpenCV frame (x right, y down, z forward) in the
+    world from MuJoCo's ``cam_xpos`` ``(..., 3)`` and ``cam_xmat`` ``(..., 9)`` or
+    ``(..., 3, 3)`` (MuJoCo cameras look along -z, +y up) — the one place this conversion
+    is written."""
+    R = np.asarray(cam_xmat, dtype=np.float64)
+    R = R.reshape(R.shape[:-1] + (3, 3)) if R.shape[-1] == 9 else R
+    return transform_from_rotation_translation(R @ MJ_FROM_CV,
+                                               np.asarray(cam_xpos, dtype=np.float64))
 
 
 @dataclass(frozen=True)
@@ -208,25 +144,9 @@ def build_scene(cfg) -> Scene:
     _resize_room(spec, cfg.room.size_m)
     field = marker_layout(cfg.room, cfg.markers)
 
-    if cfg.platform == "cart":
-        platform_spec = mujoco.MjSpec.from_file(str(MODELS_DIR / "cart.xml"))
-        frame = spec.worldbody.add_frame()
-        spec.attach(platform_spec, prefix="cart/", frame=frame)
-        mount = "cart/rig_mount"
-    elif cfg.platform == "arm":
-        platform_spec, site_name = _arm_spec(cfg.arm_model)
-        foot = arm_base_position(cfg.room.size_m)
-        if cfg.arm_model == "menagerie":     # the Menagerie arm has no pedestal: add ours
-            spec.worldbody.add_geom(name="arm_pedestal", type=mujoco.mjtGeom.mjGEOM_CYLINDER,
-                                    fromto=[*foot, *(foot + [0, 0, PEDESTAL_HEIGHT_M])],
-                                    size=[0.12, 0, 0], rgba=[0.15, 0.15, 0.15, 1],
-                                    contype=0, conaffinity=0)
-            foot = foot + [0.0, 0.0, PEDESTAL_HEIGHT_M]
-        frame = spec.worldbody.add_frame(pos=[float(v) for v in foot])
-        spec.attach(platform_spec, prefix="arm/", frame=frame)
-        mount = f"arm/{site_name}"
-    else:  # WorldConfig validates this; keep a clear error for direct callers
-        raise ValueError(f"platform must be 'cart' or 'arm'; received {cfg.platform!r}")
+    from simcalib.world.platforms import get_platform
+    platform = get_platform(cfg.platform)
+    mount = platform.attach(spec, cfg)
 
     rig_spec = mujoco.MjSpec.from_file(str(MODELS_DIR / "rig.xml"))
     T_rig_cam = _configure_rig(rig_spec, cfg)
@@ -239,14 +159,7 @@ def build_scene(cfg) -> Scene:
 
     # home pose of the target frame (cart base or flange)
     data = mujoco.MjData(model)
-    if cfg.platform == "cart":
-        T_world_home = np.eye(4)
-        home_qpos = np.zeros(model.nq)
-    else:
-        from simcalib.world.ik import solve_ik
-        T_world_home = transform_from_rotation_translation(
-            R_WORLD_RIG_FORWARD, arm_base_position(cfg.room.size_m) + ARM_HOME_OFFSET_M)
-        home_qpos = _arm_home_qpos(model, data, mount, T_world_home)
+    T_world_home, home_qpos = platform.home(model, data, mount, cfg)
     data.qpos[:] = home_qpos
     mujoco.mj_kinematics(model, data)
     sid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, mount)

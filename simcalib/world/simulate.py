@@ -1,7 +1,8 @@
 """Simulation: scene + path + timing knobs -> per-camera ground truth (``Trajectory``).
 
-The platform is driven kinematically: the cart's mocap pose, or the arm's joints from IK,
-is set for every capture time, then MuJoCo's forward kinematics gives each camera's pose
+The platform (:mod:`simcalib.world.platforms`) turns the path's target poses into MuJoCo
+states for every capture time (cart: mocap pose; arm: joints from IK), then MuJoCo's
+forward kinematics gives each camera's pose
 (``cam_xpos``, ``cam_xmat @ diag(1, -1, -1)`` = OpenCV frame). Each camera has its own
 capture times (``k / fps + capture_offset_s + jitter``), so with a time offset the two
 cameras are sampled at different platform poses, exactly as an unsynchronised real rig.
@@ -17,13 +18,11 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 import numpy as np
 
-from simcalib.geometry import (quat_from_matrix, quat_wxyz_from_xyzw,
-                               transform_from_rotation_translation)
 from simcalib.markers import MarkerField
 from simcalib.streams import CameraFrames, CameraIntrinsics, Trajectory
 from simcalib.world.config import WorldConfig
 from simcalib.world.paths import compose_path, get_path, perturbation_sample, sample_path
-from simcalib.world.scene import CAMERA_NAMES, MJ_FROM_CV, Scene, build_scene
+from simcalib.world.scene import CAMERA_NAMES, Scene, T_world_cv_from_mujoco, build_scene
 
 __all__ = ["SimCameraFrames", "World", "build_world", "camera_poses_from_state"]
 
@@ -84,7 +83,7 @@ def camera_poses_from_state(model, qpos: np.ndarray, mocap_pos: np.ndarray,
     data = mujoco.MjData(model) if data is None else data
     n = qpos.shape[0]
     pos = np.zeros((n, model.ncam, 3))
-    mat = np.zeros((n, model.ncam, 3, 3))
+    mat = np.zeros((n, model.ncam, 9))
     for k in range(n):
         if model.nq:
             data.qpos[:] = qpos[k]
@@ -94,8 +93,8 @@ def camera_poses_from_state(model, qpos: np.ndarray, mocap_pos: np.ndarray,
         mujoco.mj_kinematics(model, data)
         mujoco.mj_camlight(model, data)
         pos[k] = data.cam_xpos
-        mat[k] = data.cam_xmat.reshape(-1, 3, 3)
-    return transform_from_rotation_translation(mat @ MJ_FROM_CV, pos)
+        mat[k] = data.cam_xmat
+    return T_world_cv_from_mujoco(pos, mat)
 
 
 def _capture_times(cfg: WorldConfig, cam_cfg, rng: np.random.Generator):
@@ -138,32 +137,9 @@ def build_world(cfg: WorldConfig, rng: np.random.Generator) -> World:
         samples.append(perturbation_sample(t_unique, cfg.perturbation, rng_pert))
     T_target = compose_path(scene.T_world_home, *samples)
 
-    ik_stats = None
-    nu = t_unique.shape[0]
-    if cfg.platform == "cart":
-        qpos = np.zeros((nu, model.nq))
-        mocap_pos = T_target[:, None, :3, 3].copy()
-        mocap_quat = quat_wxyz_from_xyzw(quat_from_matrix(T_target[:, :3, :3]))[:, None, :]
-    else:
-        from simcalib.world.ik import solve_ik_path
-        t1 = time.perf_counter()
-        # start from the home solution at the path's first pose (continuous branch)
-        res = solve_ik_path(model, scene.mount_site, T_target, scene.home_qpos, cfg.ik)
-        if not res.converged.all():
-            k = int(np.flatnonzero(~res.converged)[0])
-            raise ValueError(
-                f"path {cfg.path!r} is not reachable by the arm within its joint limits: at "
-                f"t = {t_unique[k]:.3f} s the IK error is {res.pos_error_m[k] * 1e3:.3g} mm / "
-                f"{np.rad2deg(res.rot_error_rad[k]):.3g} deg; reduce the path amplitudes "
-                f"(path_params) — defaults: {get_path(cfg.path).defaults['arm']}")
-        qpos = res.qpos
-        mocap_pos = np.zeros((nu, model.nmocap, 3))
-        mocap_quat = np.zeros((nu, model.nmocap, 4))
-        ik_stats = {"max_pos_error_m": float(res.pos_error_m.max()),
-                    "max_rot_error_rad": float(res.rot_error_rad.max()),
-                    "mean_iterations": float(res.iterations.mean()),
-                    "n_waypoints": int(nu),
-                    "time_s": time.perf_counter() - t1}
+    from simcalib.world.platforms import get_platform
+    motion = get_platform(cfg.platform).drive(scene, T_target, t_unique, cfg)
+    qpos, mocap_pos, mocap_quat = motion.qpos, motion.mocap_pos, motion.mocap_quat_wxyz
 
     T_cams = camera_poses_from_state(model, qpos, mocap_pos, mocap_quat)   # (nu, ncam, 4, 4)
     cam_ids = {name: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, name)
@@ -196,7 +172,7 @@ def build_world(cfg: WorldConfig, rng: np.random.Generator) -> World:
     total = time.perf_counter() - t0
     return World(config=cfg, model=model, camera_names=CAMERA_NAMES,
                  intrinsics=dict(scene.intrinsics), marker_field=scene.marker_field,
-                 trajectory=traj, scene=scene, ik=ik_stats,
+                 trajectory=traj, scene=scene, ik=motion.stats,
                  timing_s={"build_scene": t_build, "simulate": total - t_build,
                            "total": total})
 

@@ -1,0 +1,149 @@
+"""Platform ``arm``: a UR5e on a pedestal, posed joint by joint from IK along the path
+(its flange carries the rig and is the target frame).
+
+The built-in model is ``models/ur5e.xml`` (UR5e DH kinematics, primitive geoms);
+``world.arm_model=menagerie`` loads the Menagerie UR5e from ``$MENAGERIE_ROOT``."""
+
+from __future__ import annotations
+
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+from simcalib.world.platforms.base import PlatformInfo, PlatformMotion
+from simcalib.world.platforms.registry import register
+
+__all__ = ["ArmPlatform", "ARM_HOME_OFFSET_M", "ARM_HOME_SEED", "R_WORLD_RIG_FORWARD",
+           "ARM_BASE_TO_WALL_M", "PEDESTAL_HEIGHT_M", "MENAGERIE_UR5E", "arm_base_position"]
+
+#: Arm home: the flange frame equals the rig frame looking along world +x (flange z = +x,
+#: y = -z, x = -y), ``ARM_HOME_OFFSET_M`` from the pedestal foot (0.55 m in front of the
+#: base axis, 0.30 m above the shoulder). ``home_qpos`` is solved by IK from this seed
+#: (elbow up, wrist away from the cameras' view).
+ARM_HOME_OFFSET_M = np.array([0.55, 0.0, 0.6 + 0.1625 + 0.30])
+ARM_HOME_SEED = np.array([0.3005, -1.8099, -1.9046, 0.5729, 1.2703, 0.0])
+#: The rig frame in world axes when looking along +x: x = -y_w, y = -z_w, z = +x_w.
+R_WORLD_RIG_FORWARD = np.column_stack([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]])
+#: Distance from the arm's base axis to the +x wall (the rig looks at that wall).
+ARM_BASE_TO_WALL_M = 1.75
+#: Height of the arm's pedestal (the built-in model has it; added for Menagerie arms).
+PEDESTAL_HEIGHT_M = 0.6
+#: Menagerie file of the optional arm model, relative to ``$MENAGERIE_ROOT``.
+MENAGERIE_UR5E = Path("universal_robots_ur5e") / "ur5e.xml"
+
+
+def arm_base_position(room_size_m) -> np.ndarray:
+    """World position of the arm's pedestal foot for a room of inner size ``room_size_m``."""
+    return np.array([0.5 * room_size_m[0] - ARM_BASE_TO_WALL_M, 0.0, 0.0])
+
+
+def _arm_spec(arm_model: str):
+    """``(MjSpec, mount site name)`` of the arm: the built-in UR5e (models/ur5e.xml) or
+    the Menagerie UR5e under ``$MENAGERIE_ROOT`` (its tool flange site
+    ``attachment_site``; added on ``wrist_3_link`` if the file predates it)."""
+    import mujoco
+    from simcalib.world.scene import MODELS_DIR
+    if arm_model == "builtin":
+        return mujoco.MjSpec.from_file(str(MODELS_DIR / "ur5e.xml")), "rig_mount"
+    if arm_model != "menagerie":
+        raise ValueError(f"arm_model must be 'builtin' or 'menagerie'; received {arm_model!r}")
+    root = os.environ.get("MENAGERIE_ROOT")
+    if not root:
+        raise ValueError("arm_model='menagerie' needs the environment variable MENAGERIE_ROOT "
+                         "pointing at a local copy of mujoco_menagerie (expected file "
+                         f"$MENAGERIE_ROOT/{MENAGERIE_UR5E.as_posix()}); or use "
+                         "arm_model='builtin'")
+    path = Path(root).expanduser() / MENAGERIE_UR5E
+    if not path.is_file():
+        raise ValueError(f"MENAGERIE_ROOT={root!r} has no {MENAGERIE_UR5E.as_posix()} "
+                         f"(looked for {path}); point it at a mujoco_menagerie checkout")
+    spec = mujoco.MjSpec.from_file(str(path))
+    for light in spec.lights:                # no shadows in camera renders
+        light.castshadow = False
+    if spec.site("attachment_site") is None:
+        wrist = spec.body("wrist_3_link")
+        if wrist is None:
+            raise ValueError(f"{path} has neither site 'attachment_site' nor body "
+                             "'wrist_3_link'; not a Menagerie UR5e model")
+        wrist.add_site(name="attachment_site", pos=[0.0, 0.1, 0.0],
+                       quat=[-0.7071067811865476, 0.7071067811865476, 0.0, 0.0])
+    return spec, "attachment_site"
+
+
+def _arm_home_qpos(model, data, site: str, T_world_home: np.ndarray) -> np.ndarray:
+    """IK of the home pose from a few seeds; the first exact elbow-up solution wins."""
+    import mujoco
+    from simcalib.world.ik import solve_ik
+    seeds = [ARM_HOME_SEED] + [np.asarray(s) for s in (
+        (-1.5708, -1.5708, 1.5708, -1.5708, -1.5708, 0.0), (0.0, -1.57, 1.57, -1.57, -1.57, 0.0),
+        (1.5708, -1.5708, 1.5708, 0.0, 1.5708, 0.0), (0.0, -1.0, -1.5, 0.5, 1.57, 0.0))]
+    if model.nkey:
+        seeds.insert(1, model.key_qpos[0].copy())
+    shoulder, elbow = model.jnt_bodyid[1], model.jnt_bodyid[2]
+    found = []
+    for seed in seeds:
+        q, ep, er, _ = solve_ik(model, data, site, T_world_home, seed[:model.nq], max_iter=500)
+        if ep <= 1e-9 and er <= 1e-9:
+            data.qpos[:] = q
+            mujoco.mj_kinematics(model, data)
+            if data.xpos[elbow][2] > data.xpos[shoulder][2] + 0.05:
+                return q
+            found.append(q)
+    if found:
+        return found[0]
+    raise RuntimeError("the arm's home pose is not reachable by IK from any seed; "
+                       "the arm model is not a UR5e-like 6-DoF arm")
+
+
+class ArmPlatform:
+    info = PlatformInfo(name="arm", description="UR5e arm on a pedestal posed by IK (joint "
+                                                "kinematics, no dynamics); its flange is the "
+                                                "target frame")
+
+    def attach(self, spec, cfg) -> str:
+        import mujoco
+        arm, site_name = _arm_spec(cfg.arm_model)
+        foot = arm_base_position(cfg.room.size_m)
+        if cfg.arm_model == "menagerie":     # the Menagerie arm has no pedestal: add ours
+            spec.worldbody.add_geom(name="arm_pedestal", type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+                                    fromto=[*foot, *(foot + [0, 0, PEDESTAL_HEIGHT_M])],
+                                    size=[0.12, 0, 0], rgba=[0.15, 0.15, 0.15, 1],
+                                    contype=0, conaffinity=0)
+            foot = foot + [0.0, 0.0, PEDESTAL_HEIGHT_M]
+        frame = spec.worldbody.add_frame(pos=[float(v) for v in foot])
+        spec.attach(arm, prefix="arm/", frame=frame)
+        return f"arm/{site_name}"
+
+    def home(self, model, data, mount_site, cfg):
+        from simcalib.geometry import transform_from_rotation_translation
+        T_world_home = transform_from_rotation_translation(
+            R_WORLD_RIG_FORWARD, arm_base_position(cfg.room.size_m) + ARM_HOME_OFFSET_M)
+        return T_world_home, _arm_home_qpos(model, data, mount_site, T_world_home)
+
+    def drive(self, scene, T_world_target, t, cfg) -> PlatformMotion:
+        from simcalib.world.ik import solve_ik_path
+        from simcalib.world.paths import get_path
+        model = scene.model
+        t1 = time.perf_counter()
+        # start from the home solution at the path's first pose (continuous branch)
+        res = solve_ik_path(model, scene.mount_site, T_world_target, scene.home_qpos, cfg.ik)
+        if not res.converged.all():
+            k = int(np.flatnonzero(~res.converged)[0])
+            raise ValueError(
+                f"path {cfg.path!r} is not reachable by the arm within its joint limits: at "
+                f"t = {t[k]:.3f} s the IK error is {res.pos_error_m[k] * 1e3:.3g} mm / "
+                f"{np.rad2deg(res.rot_error_rad[k]):.3g} deg; reduce the path amplitudes "
+                f"(path_params) — defaults: {get_path(cfg.path).defaults['arm']}")
+        n = T_world_target.shape[0]
+        return PlatformMotion(
+            qpos=res.qpos, mocap_pos=np.zeros((n, model.nmocap, 3)),
+            mocap_quat_wxyz=np.zeros((n, model.nmocap, 4)),
+            stats={"max_pos_error_m": float(res.pos_error_m.max()),
+                   "max_rot_error_rad": float(res.rot_error_rad.max()),
+                   "mean_iterations": float(res.iterations.mean()),
+                   "n_waypoints": int(n), "time_s": time.perf_counter() - t1})
+
+
+register(ArmPlatform())

@@ -1,0 +1,59 @@
+"""The platform protocol: what carries the camera rig through a path.
+
+A platform adds its bodies to the scene, says where the rig is mounted and where its
+*target frame* (the frame a path moves: cart base, arm flange) sits at home, and turns the
+path's target poses into MuJoCo states (kinematically today; a physics platform would
+simulate here). One file per platform under ``simcalib/world/platforms/``; each registers
+itself (``register``). Paths state the platforms they support
+(:class:`simcalib.world.paths.PathInfo` ``defaults`` keys).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+__all__ = ["PlatformInfo", "PlatformMotion", "Platform"]
+
+
+@dataclass(frozen=True)
+class PlatformInfo:
+    """``name`` (``world.platform=<name>``) and a one-line ``description``."""
+    name: str
+    description: str
+
+
+@dataclass(frozen=True)
+class PlatformMotion:
+    """MuJoCo state of the platform at ``N`` times: ``qpos`` ``(N, nq)``, ``mocap_pos``
+    ``(N, nmocap, 3)``, ``mocap_quat_wxyz`` ``(N, nmocap, 4)`` (MuJoCo order); ``stats``
+    platform diagnostics for ``World.ik``/results (e.g. IK errors), or ``None``."""
+    qpos: np.ndarray
+    mocap_pos: np.ndarray
+    mocap_quat_wxyz: np.ndarray
+    stats: dict | None = None
+
+
+@runtime_checkable
+class Platform(Protocol):
+    """A platform.
+
+    * ``attach(spec, cfg) -> str``: add the platform to the room's ``mujoco.MjSpec``
+      ``spec`` for ``cfg`` (:class:`~simcalib.world.config.WorldConfig`); return the full
+      name of the site the rig is attached to.
+    * ``home(model, data, mount_site, cfg) -> (T_world_home (4, 4), home_qpos (nq,))``:
+      the target frame's home pose and the matching joint state of the compiled model.
+    * ``drive(scene, T_world_target, t, cfg) -> PlatformMotion``: the states that put the
+      target frame at ``T_world_target`` ``(N, 4, 4)`` at times ``t`` ``(N,)`` (seconds,
+      increasing); raise ``ValueError`` naming the time when the path cannot be followed.
+    """
+    info: PlatformInfo
+
+    def attach(self, spec, cfg) -> str: ...
+
+    def home(self, model, data, mount_site: str, cfg) -> tuple[np.ndarray, np.ndarray]: ...
+
+    def drive(self, scene, T_world_target: np.ndarray, t: np.ndarray,
+              cfg) -> PlatformMotion: ...
