@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = [
+    "project_points",
     "check_transforms",
     "check_rotation_matrices",
     "invert_transform",
@@ -344,3 +345,23 @@ def perturb_transforms(T: np.ndarray, sigma_r_rad: float, sigma_t_m: float,
     dR = matrix_from_rotvec(axis * angle[..., None])
     dt = rng.normal(0.0, sigma_t_m, size=batch + (3,))
     return T @ transform_from_rotation_translation(dR, dt)
+
+
+def project_points(T_cam_world: np.ndarray, p_world: np.ndarray, K: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Pinhole projection (OpenCV camera frame: z forward; no distortion), batched — the one
+    projection of simcalib.
+
+    ``T_cam_world`` ``(F, 4, 4)`` (world -> camera), ``p_world`` ``(..., 3)``, ``K``
+    ``(3, 3)`` -> pixels ``(F, ..., 2)`` and depths ``(F, ...)``. Points at or behind the
+    camera get finite but meaningless pixels: callers keep ``depth > 0``."""
+    T = np.asarray(T_cam_world, dtype=np.float64)
+    p = np.asarray(p_world, dtype=np.float64)
+    K = np.asarray(K, dtype=np.float64)
+    pc = np.einsum("fij,nj->fni", T[:, :3, :3], p.reshape(-1, 3)) + T[:, None, :3, 3]
+    z = pc[..., 2]
+    safe = np.where(np.abs(z) < 1e-12, 1e-12, z)
+    uv = np.stack([K[0, 0] * pc[..., 0] / safe + K[0, 1] * pc[..., 1] / safe + K[0, 2],
+                   K[1, 1] * pc[..., 1] / safe + K[1, 2]], axis=-1)
+    lead = (T.shape[0],) + p.shape[:-1]
+    return uv.reshape(lead + (2,)), z.reshape(lead)

@@ -234,3 +234,22 @@ def test_visible_markers_geometry():
             [[0, 0, -1], [0, -1, 0], [-1, 0, 0]]) @ np.eye(3), [1.0, 0, 0.0])
     vis = visible_markers(field, np.stack([facing, behind, far, edge]), intr)
     assert vis[:, 0].tolist() == [True, False, False, False]
+
+
+def test_project_points_is_the_pinhole_model():
+    from simcalib.geometry import project_points
+    from simcalib.streams import CameraIntrinsics
+    from simcalib.world.layout import project_points as project_world
+    intr = CameraIntrinsics(640, 480, 500.0, 510.0, 319.5, 239.5)
+    T_world_cam = np.stack([np.eye(4), np.eye(4)])
+    T_world_cam[1, :3, 3] = [0.1, -0.2, -1.0]
+    p = np.array([[[0.2, 0.1, 2.0], [-0.3, 0.4, 4.0]]])                  # (1, 2, 3)
+    uv, z = project_world(T_world_cam, intr, p)
+    assert uv.shape == (2, 1, 2, 2) and z.shape == (2, 1, 2)
+    pc = p[0] - T_world_cam[1, :3, 3]
+    np.testing.assert_allclose(z[1, 0], pc[:, 2])
+    np.testing.assert_allclose(uv[1, 0], np.column_stack([500 * pc[:, 0] / pc[:, 2] + 319.5,
+                                                          510 * pc[:, 1] / pc[:, 2] + 239.5]))
+    uv2, z2 = project_points(np.linalg.inv(T_world_cam), p, intr.K)
+    np.testing.assert_allclose(uv2, uv)
+    np.testing.assert_allclose(z2, z)

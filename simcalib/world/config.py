@@ -17,6 +17,11 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from simcalib.synthetic import PAPER_X_ROTVEC_RAD, PAPER_X_TRANSLATION_M
+
+#: The paper's X rotation in degrees (rounded back to the published decimals).
+PAPER_X_ROTVEC_DEG = tuple(round(math.degrees(v), 10) for v in PAPER_X_ROTVEC_RAD)
+
 __all__ = ["CameraConfig", "IKConfig", "MarkerFieldConfig", "PerturbationConfig",
            "RigConfig", "RoomConfig", "WorldConfig", "PLATFORMS"]
 
@@ -127,13 +132,14 @@ class CameraConfig:
 class RigConfig:
     """The two-camera rig. ``X = T_a_b`` (pose of cam_b's OpenCV frame in cam_a's) from a
     translation (m) and an axis-angle rotation vector (deg); default the paper's real rig:
-    ``[-0.7, 28.1, -0.1]`` cm and ``[2.35, -0.92, -48.93]`` deg (NOTES.md).
+    ``[-0.7, 28.1, -0.1]`` cm and ``[2.35, -0.92, -48.93]`` deg
+    (:func:`simcalib.synthetic.paper_rig_X`, the one place it is written).
     ``rig_cam_a_*``: pose of cam_a's OpenCV frame in the rig frame (+z forward = viewing
     direction, +y down, +x right at the platform's mount). Default: cam_a upright, looking
     forward, 14 cm above and 5 cm in front of the mount, so that cam_b (28 cm below cam_a
     along its +y) sits symmetrically below it."""
-    a_b_translation_m: tuple = (-0.007, 0.281, -0.001)
-    a_b_rotvec_deg: tuple = (2.35, -0.92, -48.93)
+    a_b_translation_m: tuple = PAPER_X_TRANSLATION_M
+    a_b_rotvec_deg: tuple = PAPER_X_ROTVEC_DEG
     rig_cam_a_translation_m: tuple = (0.0, -0.14, 0.05)
     rig_cam_a_rotvec_deg: tuple = (0.0, 0.0, 0.0)
 

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from simcalib.geometry import invert_transform, project_points as _project
 from simcalib.markers import MarkerField, marker_corners_local
 from simcalib.streams import CameraIntrinsics
 
@@ -108,22 +109,13 @@ def marker_layout(room, markers) -> MarkerField:
 # ------------------------------------------------------------------------ visibility
 def project_points(T_world_cam: np.ndarray, intr: CameraIntrinsics, p_world: np.ndarray
                    ) -> tuple[np.ndarray, np.ndarray]:
-    """Pinhole projection (OpenCV frames, no distortion), batched.
+    """Pinhole projection (OpenCV frames, no distortion), batched
+    (:func:`simcalib.geometry.project_points` with a camera pose and intrinsics).
 
     ``T_world_cam`` ``(F, 4, 4)``, ``p_world`` ``(..., 3)`` -> pixels ``(F, ..., 2)`` and
     depths ``(F, ...)``."""
-    T = np.asarray(T_world_cam, dtype=np.float64)
-    R = T[:, :3, :3]
-    t = T[:, :3, 3]
-    p = np.asarray(p_world, dtype=np.float64)
-    flat = p.reshape(-1, 3)
-    pc = np.einsum("fji,fnj->fni", R, flat[None, :, :] - t[:, None, :])   # R^T (p - t)
-    z = pc[..., 2]
-    safe = np.where(np.abs(z) < 1e-12, 1e-12, z)
-    u = intr.fx * pc[..., 0] / safe + intr.cx
-    v = intr.fy * pc[..., 1] / safe + intr.cy
-    uv = np.stack([u, v], axis=-1).reshape((T.shape[0],) + p.shape[:-1] + (2,))
-    return uv, z.reshape((T.shape[0],) + p.shape[:-1])
+    return _project(invert_transform(np.asarray(T_world_cam, dtype=np.float64)), p_world,
+                    intr.K)
 
 
 def visible_markers(field: MarkerField, T_world_cam: np.ndarray, intr: CameraIntrinsics, *,
