@@ -29,8 +29,8 @@ from pathlib import Path
 import numpy as np
 
 from simcalib.config import ScenarioConfig
-from simcalib.evaluation import PoseErrors, estimate_errors, pose_source_errors
-from simcalib.geometry import (invert_transform, matrix_from_rotvec, rotation_error_rad,
+from simcalib.evaluation import estimate_errors, pose_source_errors
+from simcalib.geometry import (matrix_from_rotvec, rotation_error_rad,
                                transform_from_rotation_translation)
 
 __all__ = ["RunResult", "RunState", "SolverResult", "RunInterrupted", "run", "STAGES",
@@ -214,9 +214,10 @@ def run(config, overrides=(), *, echo: bool = True) -> RunResult:
     rec_path = None if recorder is None else recorder.path
     bar = reports.progress(total=len(STAGES), enabled=cfg.progress, desc="stages",
                            unit="stage", position=0)
-    stage = None
+    where = None   # the stage running (or whose results are being recorded)
     try:
         for stage, fn in _stages():
+            where = stage
             bar.set_description(stage)
             t0 = time.perf_counter()
             fn(st)
@@ -224,6 +225,7 @@ def run(config, overrides=(), *, echo: bool = True) -> RunResult:
             st.done.append(stage)
             st.timing["total"] = time.perf_counter() - t_start
             if recorder is not None:
+                where = f"recording ({stage})"
                 recorder.record_stage(stage, st)
             bar.update(1)
         if recorder is not None:
@@ -250,7 +252,7 @@ def run(config, overrides=(), *, echo: bool = True) -> RunResult:
     except BaseException as exc:
         bar.close()
         st.timing["total"] = time.perf_counter() - t_start
-        st.error = {"type": type(exc).__name__, "message": str(exc), "stage": stage}
+        st.error = {"type": type(exc).__name__, "message": str(exc), "stage": where}
         try:
             if recorder is not None:
                 recorder.close()
