@@ -223,6 +223,8 @@ def run(config, overrides=(), *, echo: bool = True) -> RunResult:
             fn(st)
             st.timing[stage] = time.perf_counter() - t0
             st.done.append(stage)
+            reports.progress_line(f"{stage} done in {st.timing[stage]:.1f} s "
+                                  f"({len(st.done)}/{len(STAGES)})", enabled=cfg.progress)
             st.timing["total"] = time.perf_counter() - t_start
             if recorder is not None:
                 where = f"recording ({stage})"

@@ -18,7 +18,7 @@ import numpy as np
 from simcalib.geometry import quat_from_matrix, rotvec_from_matrix
 
 __all__ = ["SCHEMA_VERSION", "TIMING_FIELDS", "results_dict", "write_json", "write_tum",
-           "extrinsics_dict", "summary_table", "progress", "strip_timing"]
+           "extrinsics_dict", "summary_table", "progress", "progress_line", "strip_timing"]
 
 SCHEMA_VERSION = 1
 #: keys (anywhere in results.json) that hold wall-clock durations; everything else is
@@ -242,3 +242,10 @@ def progress(iterable: Iterable | None = None, *, enabled: bool = True, **kw):
     return tqdm(iterable, disable=None if enabled else True, file=sys.stderr,
                 dynamic_ncols=True,
                 leave=False, **kw)
+
+
+def progress_line(text: str, *, enabled: bool = True) -> None:
+    """One progress line on stderr where :func:`progress` shows no bar (stderr is not a
+    terminal: logs, CI, pipes), so a long run still says where it is."""
+    if enabled and not (hasattr(sys.stderr, "isatty") and sys.stderr.isatty()):
+        print(f"[simcalib] {text}", file=sys.stderr, flush=True)

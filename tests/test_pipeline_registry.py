@@ -169,3 +169,13 @@ def test_overlays_are_logged_only_with_the_image_of_their_own_frame():
         assert image == b"jpeg%d" % frame and np.all(corners == frame) and ids[0] == frame
     got = list(_iter_visual_log(log, SimpleNamespace(max_images=2)))
     assert [g[1] for g in got] == [0, 8]
+
+
+def test_stage_progress_lines_when_stderr_is_not_a_terminal(tmp_path, capsys):
+    assert main(["run", "scenario=random", f"output={tmp_path / 'r'}", "progress=true",
+                 "synthetic.num_motions=40", "pairing.n_pairs=20", "solvers=[dqopt]",
+                 "recording.enabled=false"]) == 0
+    err = capsys.readouterr().err
+    for k, stage in enumerate(("world", "streams", "pairs", "solvers", "evaluation",
+                               "reports"), start=1):
+        assert f"[simcalib] {stage} done in" in err and f"({k}/6)" in err
