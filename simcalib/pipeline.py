@@ -25,6 +25,7 @@ import datetime as _dt
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -32,6 +33,11 @@ from simcalib.config import ScenarioConfig
 from simcalib.evaluation import estimate_errors, pose_source_errors
 from simcalib.geometry import (matrix_from_rotvec, rotation_error_rad,
                                transform_from_rotation_translation)
+
+if TYPE_CHECKING:  # types of the state only; the stages import lazily
+    from simcalib.pairing import MotionPairs
+    from simcalib.sources import GroundTruth
+    from simcalib.streams import PoseStream
 
 __all__ = ["RunResult", "RunState", "SolverResult", "RunInterrupted", "run", "STAGES",
            "RNG_STREAMS"]
@@ -128,18 +134,18 @@ class RunState:
     t_start: float = 0.0
     timing: dict = field(default_factory=dict)
     done: list = field(default_factory=list)
-    truth: object = None                               # sources.GroundTruth
-    camera_sources: dict = field(default_factory=dict)  # camera -> source name
-    measured: dict = field(default_factory=dict)       # camera -> PoseStream (its source)
-    source_logs: dict = field(default_factory=dict)    # source name -> its log (or None)
-    source_pose_errors: dict = field(default_factory=dict)
-    motions_from_source: object = None                 # MotionPairs a source measured
+    truth: GroundTruth | None = None
+    camera_sources: dict[str, str] = field(default_factory=dict)   # camera -> source name
+    measured: dict[str, PoseStream] = field(default_factory=dict)  # camera -> its stream
+    source_logs: dict[str, object] = field(default_factory=dict)   # source -> its log
+    source_pose_errors: dict = field(default_factory=dict)         # camera -> PoseErrors
+    motions_from_source: MotionPairs | None = None
     pairing_mode: str = ""
     frames: dict = field(default_factory=dict)
-    pairs: object = None
+    pairs: MotionPairs | None = None
     pairing: dict = field(default_factory=dict)
-    pose_errors: dict = field(default_factory=dict)
-    solvers: list = field(default_factory=list)
+    pose_errors: dict = field(default_factory=dict)                # camera -> PoseErrors
+    solvers: list[SolverResult] = field(default_factory=list)
     summary: str = ""
     error: dict | None = None
 
