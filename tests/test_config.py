@@ -72,17 +72,17 @@ def test_unknown_key_in_yaml_mapping():
 @pytest.mark.parametrize("override, fragment", [
     ("seed=abc", "seed: expected an integer; received 'abc'"),
     ("seed=1.5", "expected an integer"),
-    ("seed=-1", "seed must be >= 0"),
-    ("alpha=-1", "alpha must be finite and > 0"),
+    ("seed=-1", "seed must be an integer >= 0; received -1"),
+    ("alpha=-1", "alpha must be > 0; received -1.0"),
     ("alpha=[1,x]", "alpha"),
     ("progress=maybe", "expected a boolean"),
     ("source=arcuo", "did you mean 'aruco'"),
     ("pairing.mode=sequential", "allowed: consecutive, random"),
-    ("pairing.step=0", "pairing.step must be >= 1"),
+    ("pairing.step=0", "pairing.step must be an integer >= 1; received 0"),
     ("solvers=[dqopt,danilidis]", "did you mean 'daniilidis'"),
     ("noise.sigma_t_m=nan", "not NaN"),
     ("noise=3", "is a section"),
-    ("recording.jpeg_quality=101", "jpeg_quality must be in [1, 100]"),
+    ("recording.jpeg_quality=101", "recording.jpeg_quality must be an integer in [1, 100]"),
 ])
 def test_bad_values_fail_with_clear_message(override, fragment):
     with pytest.raises(ConfigError) as e:
