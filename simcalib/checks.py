@@ -87,7 +87,10 @@ def check_range(key: str, value: Any, *, lo: float | None = None, hi: float | No
 def check_positive(key: str, value: Any, *, allow_zero: bool = False,
                    optional: bool = False) -> float | None:
     """A finite number ``> 0`` (``>= 0`` with ``allow_zero``)."""
-    return check_range(key, value, lo=0.0, lo_open=not allow_zero, optional=optional)
+    v = check_range(key, value, optional=optional)
+    if v is not None and (v < 0 or (v == 0 and not allow_zero)):
+        raise fail(key, value, "finite and >= 0" if allow_zero else "finite and > 0")
+    return v
 
 
 def check_int(key: str, value: Any, *, lo: int | None = None, hi: int | None = None,

@@ -73,7 +73,7 @@ def test_unknown_key_in_yaml_mapping():
     ("seed=abc", "seed: expected an integer; received 'abc'"),
     ("seed=1.5", "expected an integer"),
     ("seed=-1", "seed must be an integer >= 0; received -1"),
-    ("alpha=-1", "alpha must be > 0; received -1.0"),
+    ("alpha=-1", "alpha must be finite and > 0; received -1.0"),
     ("alpha=[1,x]", "alpha"),
     ("progress=maybe", "expected a boolean"),
     ("source=arcuo", "did you mean 'aruco'"),
