@@ -417,8 +417,8 @@ def _type_name(tp) -> str:
 
 
 def _fail(path: str, value, expected: str, extra: str = "") -> ConfigError:
-    return ConfigError(f"{path}: expected {expected}; received {value!r}{extra}", key=path,
-                       value=value)
+    from simcalib.errors import ConfigTypeError
+    return ConfigTypeError(key=path, value=value, allowed=expected, hint=extra)
 
 
 def _coerce(value, tp, path: str, default=dataclasses.MISSING):
