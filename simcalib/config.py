@@ -330,14 +330,13 @@ def _check_path_feasible(cfg: "ScenarioConfig") -> None:
     survivors = _surviving_pairs(world, pairing, world.duration_s)
     if survivors >= 2:
         return
-    duration = world.duration_s
-    for _ in range(40):
-        duration *= 1.25
-        if _surviving_pairs(world, pairing, duration) >= 2:
+    duration = math.nan
+    for k in range(1, 40):   # the shortest whole number of seconds found to work
+        candidate = float(math.ceil(world.duration_s * 1.25 ** k))
+        if candidate <= 3600.0 and _surviving_pairs(world, pairing, candidate) >= 2:
+            duration = candidate
             break
-    else:  # pragma: no cover - a path that never fits
-        duration = math.nan
-    suggestion = (f"world.duration_s >= {math.ceil(duration):g} at fps={world.fps:g}"
+    suggestion = (f"world.duration_s >= {duration:g} at fps={world.fps:g}"
                   if np.isfinite(duration) else "a slower path")
     raise ConfigError(
         f"world.duration_s={world.duration_s:g} (fps={world.fps:g}) compresses path "

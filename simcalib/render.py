@@ -52,8 +52,9 @@ DEBIAN_PACKAGES = {
 _BACKENDS = ("egl", "osmesa")
 
 
-class RenderBackendError(RuntimeError):
-    """No usable OpenGL backend for MuJoCo offscreen rendering."""
+#: No usable OpenGL backend for MuJoCo offscreen rendering (CLI exit code 4); the
+#: project-wide :class:`simcalib.errors.BackendError`, kept under its old name.
+from simcalib.errors import BackendError as RenderBackendError  # noqa: E402
 
 
 def backend_error_message(failures: dict[str, str]) -> str:

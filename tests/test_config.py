@@ -70,12 +70,12 @@ def test_unknown_key_in_yaml_mapping():
 
 
 @pytest.mark.parametrize("override, fragment", [
-    ("seed=abc", "seed: expected an integer; received 'abc'"),
-    ("seed=1.5", "expected an integer"),
+    ("seed=abc", "seed must be an integer; received 'abc'"),
+    ("seed=1.5", "seed must be an integer; received 1.5"),
     ("seed=-1", "seed must be an integer >= 0; received -1"),
     ("alpha=-1", "alpha must be finite and > 0; received -1.0"),
     ("alpha=[1,x]", "alpha"),
-    ("progress=maybe", "expected a boolean"),
+    ("progress=maybe", "progress must be a boolean (true or false); received 'maybe'"),
     ("source=arcuo", "did you mean 'aruco'"),
     ("pairing.mode=sequential", "allowed: consecutive, random"),
     ("pairing.step=0", "pairing.step must be an integer >= 1; received 0"),
