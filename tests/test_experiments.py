@@ -60,7 +60,7 @@ def test_overrides_and_config_conversion(tmp_path):
         common.build_config(config_class("table2"), {"algorithms": "dqop"})
     with pytest.raises(ValueError, match="samples must be an integer >= 1; received 0"):
         common.build_config(config_class("figure3"), {"samples": 0})
-    with pytest.raises(ValueError, match="n=200 must be <= num_motions=100"):
+    with pytest.raises(ValueError, match=r"n must be <= num_motions \(100\); received 200"):
         common.build_config(config_class("figure6"), {"n": 200, "num_motions": 100})
 
 
