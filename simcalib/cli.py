@@ -117,9 +117,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         except (OSError, ValueError):
             pass
         return EXIT_OK
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:   # also pipeline.RunInterrupted (says what was kept)
         _debug_traceback(debug)
-        _err(f"{cmd} interrupted")
+        _err(f"{cmd}: {exc}" if str(exc).strip() else f"{cmd} interrupted")
         return EXIT_INTERRUPTED
     except SystemExit as exc:  # argparse inside a sub-command
         code = exc.code
