@@ -699,14 +699,30 @@ def resolve_keys(cls, key: str) -> list[str]:
     return [resolve_key(cls, key)]
 
 
+def _is_mapping_type(tp) -> bool:
+    origin = typing.get_origin(tp) or tp
+    return isinstance(origin, type) and issubclass(origin, Mapping)
+
+
 def resolve_key(cls, key: str) -> str:
-    """Full dotted path of ``key``: exact, or the unique path ending in ``.key``."""
+    """Full dotted path of ``key``: exact, or the unique path ending in ``.key``. A key
+    inside a mapping-valued leaf (``world.path_params.amp_m``) resolves to itself (the
+    mapping's owner validates its keys)."""
     leaves = leaf_paths(cls)
     if key in leaves:
         return key
     matches = [p for p in leaves if p.endswith("." + key)]
     if len(matches) == 1:
         return matches[0]
+    if not matches:
+        inside = set()
+        for p, (tp, _) in leaves.items():
+            if _is_mapping_type(tp):
+                for head in {p, p.rsplit(".", 1)[-1]}:
+                    if key.startswith(head + ".") and len(key) > len(head) + 1:
+                        inside.add(f"{p}.{key[len(head) + 1:]}")
+        if len(inside) == 1:
+            return inside.pop()
     if len(matches) > 1:
         raise ConfigError(f"ambiguous config key {key!r}: matches {', '.join(matches)}; "
                           "write the full key", key=key)
@@ -815,7 +831,7 @@ def apply_overrides(data: Mapping, overrides: Sequence[str] | Mapping[str, Any],
                 raise ConfigError(f"{path} is set twice (by {seen[path]!r} and {key!r})",
                                   key=path)
             seen[path] = key
-            tp = leaves[path][0]
+            tp = leaves[path][0] if path in leaves else Any   # a key inside a mapping leaf
             value = _parse_value(raw, tp, path) if is_text else raw
             _coerce(value, tp, path)  # type-check now so the message names the override
             _set_path(out, path, value)

@@ -348,3 +348,13 @@ def test_checks_normalise_and_errors_reroot_under_sections():
     err = checks.fail("width", 4000, "an integer in [16, 1920]").at("world.cam_a")
     assert str(err) == "world.cam_a.width must be an integer in [16, 1920]; received 4000"
     assert err.key == "world.cam_a.width" and err.value == 4000
+
+
+def test_keys_inside_mapping_leaves():
+    for key in ("world.path_params.amp_x_m", "path_params.amp_x_m"):
+        cfg = load_config("planar", [f"{key}=0.5"])
+        assert cfg.world.path_params == {"amp_x_m": 0.5}
+    with pytest.raises(ConfigError, match=r"unknown parameter 'amp_xm' \(did you mean 'amp_x_m'\?\)"):
+        load_config("planar", ["world.path_params.amp_xm=0.5"])
+    with pytest.raises(ConfigError, match="parameter 'amp_x_m' must be a number; received 'big'"):
+        load_config("planar", ["world.path_params.amp_x_m=big"])
