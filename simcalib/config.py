@@ -58,6 +58,8 @@ __all__ = [
     "leaf_paths",
     "list_scenarios",
     "load_config",
+    "load_scenario_data",
+    "parse_overrides",
     "scenario_dir",
     "scenario_path",
     "to_dict",
@@ -65,8 +67,8 @@ __all__ = [
 
 
 from simcalib.checks import (check_int, check_names, check_positive, check_range,
-                             check_that, check_vector, fail, set_fields)
-from simcalib.errors import ConfigError, closest, did_you_mean, unknown_choice
+                             check_that, check_vector, set_fields)
+from simcalib.errors import ConfigError, did_you_mean, unknown_choice
 
 
 # ----------------------------------------------------------------- composed sections
