@@ -264,7 +264,8 @@ class WorldConfig:
     def __post_init__(self):
         from simcalib.world.paths import get_path, resolve_platform
         check_in("platform", self.platform, PLATFORMS, optional=True)
-        check_in("arm_model", self.arm_model, ("builtin", "menagerie"))
+        check_that(self.arm_model in ("builtin", "menagerie"), "arm_model", self.arm_model,
+                   "'builtin' (models/ur5e.xml) or 'menagerie' (UR5e from $MENAGERIE_ROOT)")
         try:
             info = get_path(self.path)        # unknown name -> ValueError listing valid ones
             set_fields(self, platform=resolve_platform(info, self.platform))
