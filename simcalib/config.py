@@ -7,10 +7,10 @@ typed values::
     seed=3 output=runs/x noise.sigma_r_deg=1.0 solvers=[dqopt,daniilidis] source=noisy
     alpha=0.5 camera.width=1280
 
-A key may be abbreviated to any unique suffix of its full dotted path (``camera.width`` for
-``world.camera.width``). An unknown key, an ambiguous abbreviation or a value of the wrong
-type raises :class:`ConfigError` (a ``ValueError``) naming the key, what was received, and the valid keys / values
-(with the closest match) — before any work starts.
+A key may be abbreviated to any unique suffix of its full dotted path (``sigma_r_deg`` for
+``noise.sigma_r_deg``); ``camera.*`` sets both cameras. An unknown key, an ambiguous
+abbreviation or a bad value raises :class:`ConfigError` (a ``ValueError``) naming the key,
+what was received and what is allowed (with the closest match) — before any work starts.
 
 The generic machinery (:func:`build`, :func:`to_dict`, :func:`leaf_paths`,
 :func:`apply_overrides`) works on any frozen dataclass tree, so the stage configs owned by
@@ -22,12 +22,13 @@ over one base, every cell validated before any work) are cheap (the key tables a
 Lists have one syntax everywhere (runs, experiments, sweeps): ``alpha=[0.1,1,10]``,
 ``solvers=[dqopt,daniilidis]``; a single value for a list key is a one-element list.
 
-Why a hand-written coercer and not pydantic v2: the schemas are plain frozen dataclasses
-shared with library code that must stay import-light and constructible from Python without
-a validation framework, and the ~150 lines of coercion here give exactly the messages and
-key suffix/alias rules the CLI needs, where pydantic would add a second model layer over
-every dataclass. Range checks live in each dataclass's ``__post_init__``, written with the
-helpers of :mod:`simcalib.checks`; every error is a :class:`simcalib.errors.ConfigError`.
+Why one hand-written coercer rather than pydantic v2: the schemas are plain frozen
+dataclasses that library code builds directly from Python (stage configs, experiment
+configs, results), so a ~150-line coercer over ``typing`` hints keeps them import-light
+and gives exactly the messages, suffix keys and aliases the CLI needs, where pydantic
+would add a second model layer over every dataclass. Range checks live in each dataclass's
+``__post_init__``, written with the helpers of :mod:`simcalib.checks`; every error is a
+:class:`simcalib.errors.ConfigError` naming the full dotted key.
 """
 
 from __future__ import annotations
