@@ -358,3 +358,16 @@ def test_keys_inside_mapping_leaves():
         load_config("planar", ["world.path_params.amp_xm=0.5"])
     with pytest.raises(ConfigError, match="parameter 'amp_x_m' must be a number; received 'big'"):
         load_config("planar", ["world.path_params.amp_x_m=big"])
+
+
+def test_errors_survive_pickling():
+    # sweep / experiment workers send errors across processes
+    import pickle
+
+    from simcalib import errors
+    from simcalib.checks import fail
+    for exc in (fail("world.fps", 0, "> 0"), errors.ConfigTypeError("t"),
+                errors.BackendError("b"), errors.DegenerateResultError("d")):
+        again = pickle.loads(pickle.dumps(exc))
+        assert type(again) is type(exc) and str(again) == str(exc)
+        assert errors.exit_code(again) == errors.exit_code(exc)
