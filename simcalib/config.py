@@ -7,21 +7,34 @@ typed values::
     seed=3 output=runs/x noise.sigma_r_deg=1.0 solvers=[dqopt,daniilidis] source=noisy
     alpha=0.5 camera.width=1280
 
-A key may be abbreviated to any unique suffix of its full dotted path (``camera.width`` for
-``world.camera.width``). An unknown key, an ambiguous abbreviation or a value of the wrong
-type raises ``ValueError`` naming the key, what was received, and the valid keys / values
-(with the closest match) — before any work starts.
+A key may be abbreviated to any unique suffix of its full dotted path (``sigma_r_deg`` for
+``noise.sigma_r_deg``); ``camera.*`` sets both cameras. An unknown key, an ambiguous
+abbreviation or a bad value raises :class:`ConfigError` (a ``ValueError``) naming the key,
+what was received and what is allowed (with the closest match) — before any work starts.
 
 The generic machinery (:func:`build`, :func:`to_dict`, :func:`leaf_paths`,
 :func:`apply_overrides`) works on any frozen dataclass tree, so the stage configs owned by
 other modules (``WorldConfig``, ``VisionConfig``, ``SyntheticConfig``) are composed, not
-copied.
+copied. The same engine builds the experiments' configs (``Table2Config`` …) and the cells
+of a sweep: :func:`load_config` (one config) and :func:`load_configs` (many override sets
+over one base, every cell validated before any work) are cheap (the key tables are cached).
+
+Lists have one syntax everywhere (runs, experiments, sweeps): ``alpha=[0.1,1,10]``,
+``solvers=[dqopt,daniilidis]``; a single value for a list key is a one-element list.
+
+Why one hand-written coercer rather than pydantic v2: the schemas are plain frozen
+dataclasses that library code builds directly from Python (stage configs, experiment
+configs, results), so a ~150-line coercer over ``typing`` hints keeps them import-light
+and gives exactly the messages, suffix keys and aliases the CLI needs, where pydantic
+would add a second model layer over every dataclass. Range checks live in each dataclass's
+``__post_init__``, written with the helpers of :mod:`simcalib.checks`; every error is a
+:class:`simcalib.errors.ConfigError` naming the full dotted key.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import difflib
+import functools
 import math
 import os
 import types
@@ -32,6 +45,9 @@ from typing import Any, Literal, Mapping, Sequence
 
 __all__ = [
     "ConfigError",
+    "load_configs",
+    "resolve_key",
+    "resolve_keys",
     "NoiseConfig",
     "PairingConfig",
     "PriorConfig",
@@ -43,14 +59,17 @@ __all__ = [
     "leaf_paths",
     "list_scenarios",
     "load_config",
+    "load_scenario_data",
+    "parse_overrides",
     "scenario_dir",
     "scenario_path",
     "to_dict",
 ]
 
 
-class ConfigError(ValueError):
-    """A configuration problem (unknown key, bad value, unknown scenario)."""
+from simcalib.checks import (check_int, check_names, check_positive, check_range,
+                             check_that, check_vector, set_fields)
+from simcalib.errors import ConfigError, did_you_mean, unknown_choice
 
 
 # ----------------------------------------------------------------- composed sections
@@ -89,10 +108,9 @@ class NoiseConfig:
         "translation noise per axis ~ N(0, sigma_t^2), metres"))
 
     def __post_init__(self):
-        for name in ("sigma_r_deg", "sigma_t_m"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v >= 0):
-                raise ConfigError(f"noise.{name} must be finite and >= 0; received {v}")
+        set_fields(self,
+                   sigma_r_deg=check_positive("sigma_r_deg", self.sigma_r_deg, allow_zero=True),
+                   sigma_t_m=check_positive("sigma_t_m", self.sigma_t_m, allow_zero=True))
 
 
 @dataclass(frozen=True)
@@ -121,15 +139,12 @@ class PairingConfig:
         "drop pairs where a camera rotated more than this, degrees"))
 
     def __post_init__(self):
-        if self.step < 1:
-            raise ConfigError(f"pairing.step must be >= 1; received {self.step}")
-        if self.n_pairs < 2:
-            raise ConfigError(f"pairing.n_pairs must be >= 2; received {self.n_pairs}")
-        for name in ("max_time_diff_s", "max_translation_m", "max_rotation_deg"):
-            v = getattr(self, name)
-            if not (v > 0):
-                raise ConfigError(f"pairing.{name} must be > 0 (use inf to disable); "
-                                  f"received {v}")
+        set_fields(self, step=check_int("step", self.step, lo=1),
+                   n_pairs=check_int("n_pairs", self.n_pairs, lo=2),
+                   **{name: check_range(name, getattr(self, name), lo=0.0, lo_open=True,
+                                        finite=False)   # inf disables a threshold
+                      for name in ("max_time_diff_s", "max_translation_m",
+                                   "max_rotation_deg")})
 
 
 @dataclass(frozen=True)
@@ -160,17 +175,18 @@ class PriorConfig:
         "explicit nominal rotation of X (axis-angle, degrees); with translation_m"))
 
     def __post_init__(self):
-        for name in ("a", "b"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v > 0):
-                raise ConfigError(f"prior.{name} must be finite and > 0; received {v}")
-        for name in ("rotation_error_deg", "translation_error_m"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v >= 0):
-                raise ConfigError(f"prior.{name} must be finite and >= 0; received {v}")
-        if (self.translation_m is None) != (self.rotvec_deg is None):
-            raise ConfigError("prior.translation_m and prior.rotvec_deg must be given "
-                              "together (or neither, for a perturbed true X)")
+        set_fields(self, a=check_positive("a", self.a), b=check_positive("b", self.b),
+                   rotation_error_deg=check_positive("rotation_error_deg",
+                                                     self.rotation_error_deg, allow_zero=True),
+                   translation_error_m=check_positive("translation_error_m",
+                                                      self.translation_error_m, allow_zero=True),
+                   methods=check_names("methods", self.methods))
+        for name in ("translation_m", "rotvec_deg"):
+            if getattr(self, name) is not None:
+                set_fields(self, **{name: check_vector(name, getattr(self, name))})
+        check_that((self.translation_m is None) == (self.rotvec_deg is None), "translation_m",
+                   self.translation_m, "given together with rotvec_deg (or neither, for a "
+                   "perturbed true X)")
 
 
 @dataclass(frozen=True)
@@ -182,11 +198,8 @@ class RecordingConfig:
         "at most this many images per camera are logged (evenly subsampled)"))
 
     def __post_init__(self):
-        if not (1 <= self.jpeg_quality <= 100):
-            raise ConfigError(f"recording.jpeg_quality must be in [1, 100]; "
-                              f"received {self.jpeg_quality}")
-        if self.max_images < 0:
-            raise ConfigError(f"recording.max_images must be >= 0; received {self.max_images}")
+        set_fields(self, jpeg_quality=check_int("jpeg_quality", self.jpeg_quality, lo=1, hi=100),
+                   max_images=check_int("max_images", self.max_images, lo=0))
 
 
 SOURCES = ("ground_truth", "noisy", "aruco")
@@ -224,20 +237,20 @@ class ScenarioConfig:
     recording: RecordingConfig = field(default_factory=RecordingConfig)
 
     def __post_init__(self):
-        if self.seed < 0:
-            raise ConfigError(f"seed must be >= 0; received {self.seed}")
-        if self.workers < 1:
-            raise ConfigError(f"workers must be >= 1; received {self.workers}")
+        set_fields(self, seed=check_int("seed", self.seed, lo=0),
+                   workers=check_int("workers", self.workers, lo=1))
         if self.kind == "synthetic" and self.source == "aruco":
             raise ConfigError("source=aruco needs a simulated world (kind=sim); a synthetic "
-                              "scenario allows source=ground_truth or source=noisy")
-        if not self.solvers:
-            raise ConfigError("solvers must name at least one method")
-        if len(set(self.solvers)) != len(self.solvers):
-            raise ConfigError(f"solvers lists a method twice: {list(self.solvers)}")
-        for a in self.alphas:
-            if not (math.isfinite(a) and a > 0):
-                raise ConfigError(f"alpha must be finite and > 0; received {a}")
+                              "scenario allows source=ground_truth or source=noisy",
+                              key="source", value=self.source)
+        set_fields(self, solvers=check_names("solvers", self.solvers))
+        if isinstance(self.alpha, (tuple, list)):
+            check_that(len(self.alpha) > 0, "alpha", list(self.alpha),
+                       "a number > 0 or a non-empty list of them")
+            set_fields(self, alpha=tuple(
+                check_positive(f"alpha[{i}]", a) for i, a in enumerate(self.alpha)))
+        else:
+            set_fields(self, alpha=check_positive("alpha", self.alpha))
         _check_solver_names(self.solvers, "solvers")
         if self.prior.enabled:
             _check_solver_names(self.prior.methods, "prior.methods")
@@ -246,7 +259,8 @@ class ScenarioConfig:
             if no_prior:
                 ok = [i.name for i in registry.infos() if i.supports_prior]
                 raise ConfigError(f"prior.methods: {', '.join(no_prior)} cannot use a prior; "
-                                  f"methods with a prior: {', '.join(ok)}")
+                                  f"methods with a prior: {', '.join(ok)}",
+                                  key="prior.methods", value=list(self.prior.methods))
         if self.kind == "synthetic" and not getattr(type(self.synthetic), "_simcalib_missing",
                                                     None):
             self._sync_synthetic_noise()
@@ -254,11 +268,13 @@ class ScenarioConfig:
                           "_simcalib_missing", None)
         if missing:
             raise ConfigError(f"kind={self.kind} needs {missing}, which is not available "
-                              "in this installation")
+                              "in this installation", key="kind", value=self.kind)
         if self.kind == "sim" and self.source == "aruco" and getattr(
                 type(self.vision), "_simcalib_missing", None):
             raise ConfigError("source=aruco needs simcalib.vision, which is not available "
-                              "in this installation")
+                              "in this installation", key="source", value=self.source)
+        if self.kind == "sim":
+            _check_path_feasible(self)
 
     def _sync_synthetic_noise(self):
         """``noise.*`` is the one place measurement noise is set: the synthetic generator's
@@ -276,7 +292,8 @@ class ScenarioConfig:
                                                                  abs_tol=1e-15):
                 raise ConfigError(f"synthetic.{name}={have} conflicts with noise.* "
                                   f"(the measurement noise of every source): set "
-                                  f"noise.sigma_r_deg / noise.sigma_t_m instead")
+                                  f"noise.sigma_r_deg / noise.sigma_t_m instead",
+                                  key=f"synthetic.{name}", value=have)
         object.__setattr__(self, "synthetic", dataclasses.replace(
             syn, sigma_r_rad=want_r, sigma_t_m=want_t))
 
@@ -294,10 +311,101 @@ def _check_solver_names(names: Sequence[str], key: str) -> None:
     valid = registry.available()
     for name in names:
         if name not in valid:
-            close = difflib.get_close_matches(name, valid, n=1)
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
-            raise ConfigError(f"{key}: unknown method {name!r}{hint}; available: "
-                              f"{', '.join(valid) if valid else '(none registered)'}")
+            raise unknown_choice("method", name, valid, key=key)
+
+
+def _check_path_feasible(cfg: "ScenarioConfig") -> None:
+    """Reject, before any work, a world whose path moves too far between frames for the
+    pairing pre-filter to keep two motions.
+
+    Paths are defined in cycles per run, so a shorter ``world.duration_s`` (or a lower
+    ``fps``) compresses the whole path: the motion between paired frames grows as
+    ``cycles / (duration_s * fps)``. Both cameras' paths are predicted from the scripted
+    path (:func:`_surviving_pairs`) and the pairs within ``pairing.max_rotation_deg`` /
+    ``pairing.max_translation_m`` counted, allowing for the pose source's errors (a
+    measured motion may look smaller than the true one): only a configuration that
+    surely fails is rejected; a marginal one still runs.
+    The message names the shortest duration that passes."""
+    world, pairing = cfg.world, cfg.pairing
+    if getattr(type(world), "_simcalib_missing", None) or not pairing.prefilter:
+        return
+    if math.isinf(pairing.max_translation_m) and math.isinf(pairing.max_rotation_deg):
+        return
+    import numpy as np
+    margins = _pose_margins(cfg)
+    survivors = _surviving_pairs(world, pairing, world.duration_s, margins)
+    if survivors >= 2:
+        return
+    duration = math.nan
+    for k in range(1, 40):   # the shortest whole number of seconds found to work
+        candidate = float(math.ceil(world.duration_s * 1.25 ** k))
+        if candidate <= 3600.0 and _surviving_pairs(world, pairing, candidate, margins) >= 2:
+            duration = candidate
+            break
+    suggestion = (f"world.duration_s >= {duration:g} at fps={world.fps:g}"
+                  if np.isfinite(duration) else "a slower path")
+    raise ConfigError(
+        f"world.duration_s={world.duration_s:g} (fps={world.fps:g}) compresses path "
+        f"{world.path!r} (defined in cycles per run) so much that at most {survivors} frame "
+        f"pair(s) can stay within pairing.max_translation_m={pairing.max_translation_m:g} and "
+        f"pairing.max_rotation_deg={pairing.max_rotation_deg:g}; at least 2 are needed. "
+        f"Use {suggestion}, fewer world.path_params.cycles, or relax pairing.*",
+        key="world.duration_s", value=world.duration_s)
+
+
+#: Rig mount in the platform's target frame (models/cart.xml site ``rig_mount``: 1.10 m
+#: above and 0.16 m ahead of the cart base, rig +z = forward); the arm's target frame IS
+#: its rig mount (simcalib.world.scene). Rig frame in the world at yaw 0: +z = world +x,
+#: +y = world -z, +x = world -y (scene.R_WORLD_RIG_FORWARD).
+_R_FORWARD = ((0.0, 0.0, 1.0), (-1.0, 0.0, 0.0), (0.0, -1.0, 0.0))
+_CART_MOUNT_M = (0.16, 0.0, 1.10)
+
+
+#: How far a measured relative motion may fall below the true one for each pose source
+#: (translation m, rotation deg): ``noisy`` -> 4 sigma of the difference of two noisy
+#: poses; ``aruco`` -> 1 cm / 0.5°, about twice the p95 visual pose error of the default
+#: world (docs/vision.md).
+def _pose_margins(cfg) -> tuple[float, float]:
+    if cfg.source == "noisy":
+        k = 4.0 * math.sqrt(2.0)
+        return k * cfg.noise.sigma_t_m * math.sqrt(3.0), k * cfg.noise.sigma_r_deg
+    if cfg.source == "aruco":
+        return 0.01, 0.5
+    return 0.0, 0.0
+
+
+def _surviving_pairs(world, pairing, duration_s: float, margins=(0.0, 0.0)) -> int:
+    """Pairs of frames ``pairing.step`` apart that the pre-filter may keep, predicted
+    from the scripted path (pure numpy, no scene): both cameras' poses are the target
+    path composed with the rig mount and the rig; perturbations and timing jitter are
+    left out. ``margins`` (m, deg) widen the thresholds by what pose errors can take off
+    a measured motion, so only pairs that are surely dropped are not counted."""
+    import numpy as np
+    from simcalib.world.paths import compose_path, sample_path
+    n = min(int(math.floor(duration_s * world.fps + 1e-9)) + 1, 20001)
+    s = pairing.step
+    if n <= s:
+        return 0
+    t = np.arange(n, dtype=np.float64) / world.fps
+    R_fwd = np.array(_R_FORWARD)
+    T_home, T_target_mount = np.eye(4), np.eye(4)
+    if world.platform == "arm":
+        T_home[:3, :3] = R_fwd
+    else:
+        T_target_mount[:3, :3] = R_fwd
+        T_target_mount[:3, 3] = _CART_MOUNT_M
+    T_target = compose_path(T_home, sample_path(world.path, world.platform, t, duration_s,
+                                                world.path_params))
+    T_cam_a = T_target @ T_target_mount @ world.rig.T_rig_cam_a()
+    keep = np.ones(n - s, dtype=bool)
+    for T in (T_cam_a, T_cam_a @ world.rig.T_a_b()):
+        T0, T1 = T[:-s], T[s:]
+        R_rel = np.einsum("nji,njk->nik", T0[:, :3, :3], T1[:, :3, :3])
+        cos = np.clip((np.trace(R_rel, axis1=1, axis2=2) - 1.0) / 2.0, -1.0, 1.0)
+        keep &= np.degrees(np.arccos(cos)) <= pairing.max_rotation_deg + margins[1]
+        keep &= (np.linalg.norm(T1[:, :3, 3] - T0[:, :3, 3], axis=1)
+                 <= pairing.max_translation_m + margins[0])
+    return int(keep.sum())
 
 
 # --------------------------------------------------------------------- type handling
@@ -329,7 +437,8 @@ def _type_name(tp) -> str:
 
 
 def _fail(path: str, value, expected: str, extra: str = "") -> ConfigError:
-    return ConfigError(f"{path}: expected {expected}; received {value!r}{extra}")
+    from simcalib.errors import ConfigTypeError
+    return ConfigTypeError(key=path, value=value, allowed=expected, hint=extra)
 
 
 def _coerce(value, tp, path: str, default=dataclasses.MISSING):
@@ -348,10 +457,8 @@ def _coerce(value, tp, path: str, default=dataclasses.MISSING):
         if value in args:
             return value
         opts = [str(a) for a in args]
-        close = difflib.get_close_matches(str(value), opts, n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
-        raise ConfigError(f"{path}: invalid value {value!r}{hint}; allowed: "
-                          f"{', '.join(opts)}")
+        raise ConfigError(f"{path}: invalid value {value!r}{did_you_mean(value, opts)}; "
+                          f"allowed: {', '.join(opts)}", key=path, value=value)
     if origin in (typing.Union, types.UnionType):
         if value is None:
             if type(None) in args:
@@ -459,11 +566,10 @@ def _custom_base(tp, default):
 
 def _unknown_key(key: str, path: str, valid: Sequence[str]) -> ConfigError:
     full = f"{path}.{key}" if path else key
-    close = difflib.get_close_matches(key, list(valid), n=1, cutoff=0.5)
-    hint = f" (did you mean {(path + '.' if path else '') + close[0]!r}?)" if close else ""
+    hint = did_you_mean(key, valid, cutoff=0.5, prefix=path + "." if path else "")
     where = f"section {path!r}" if path else "the top level"
     return ConfigError(f"unknown config key {full!r}{hint}; valid keys in {where}: "
-                       f"{', '.join(valid) if valid else '(none)'}")
+                       f"{', '.join(valid) if valid else '(none)'}", key=full)
 
 
 def build(cls, data: Mapping | None = None, *, path: str = "", base=None):
@@ -499,11 +605,11 @@ def build(cls, data: Mapping | None = None, *, path: str = "", base=None):
             kwargs[name] = default
     try:
         return cls(**kwargs)
-    except ConfigError:
-        raise
-    except (ValueError, TypeError) as exc:
+    except ConfigError as exc:
+        raise exc.at(path) from None
+    except (ValueError, TypeError) as exc:  # a section's own check, not yet a ConfigError
         where = f"{path}: " if path else ""
-        raise ConfigError(f"{where}{exc}") from None
+        raise ConfigError(f"{where}{exc}", key=path or None) from None
 
 
 def to_dict(obj) -> Any:
@@ -524,7 +630,19 @@ def to_dict(obj) -> Any:
 
 
 def leaf_paths(cls, prefix: str = "", base=None) -> dict[str, tuple[Any, Any]]:
-    """``{dotted path: (type, default)}`` of every leaf key of a dataclass tree."""
+    """``{dotted path: (type, default)}`` of every leaf key of a dataclass tree (cached
+    for the plain call ``leaf_paths(cls)``; do not mutate the result)."""
+    if not prefix and base is None:
+        return _leaf_paths_cached(cls)
+    return _leaf_paths(cls, prefix, base)
+
+
+@functools.lru_cache(maxsize=64)
+def _leaf_paths_cached(cls) -> dict[str, tuple[Any, Any]]:
+    return _leaf_paths(cls, "", None)
+
+
+def _leaf_paths(cls, prefix: str = "", base=None) -> dict[str, tuple[Any, Any]]:
     out = {}
     hints = _hints(cls)
     for f in dataclasses.fields(cls):
@@ -544,7 +662,7 @@ def leaf_paths(cls, prefix: str = "", base=None) -> dict[str, tuple[Any, Any]]:
         else:
             default = dataclasses.MISSING
         if dataclasses.is_dataclass(tp):
-            out.update(leaf_paths(tp, path, _custom_base(tp, default)))
+            out.update(_leaf_paths(tp, path, _custom_base(tp, default)))
         else:
             out[path] = (tp, default)
     return out
@@ -578,44 +696,56 @@ def resolve_keys(cls, key: str) -> list[str]:
         valid = sorted({p[len(ALIASES[head][0]) + 1:] for p in leaves
                         if p.startswith(ALIASES[head][0] + ".")})
         if valid:
-            close = difflib.get_close_matches(tail, valid, n=1)
-            hint = f" (did you mean '{head}.{close[0]}'?)" if close else ""
+            hint = did_you_mean(tail, valid, prefix=head + ".")
             raise ConfigError(f"unknown config key {key!r}{hint}; valid keys of "
-                              f"{head}.*: {', '.join(valid)}")
+                              f"{head}.*: {', '.join(valid)}", key=key)
     return [resolve_key(cls, key)]
 
 
+def _is_mapping_type(tp) -> bool:
+    origin = typing.get_origin(tp) or tp
+    return isinstance(origin, type) and issubclass(origin, Mapping)
+
+
 def resolve_key(cls, key: str) -> str:
-    """Full dotted path of ``key``: exact, or the unique path ending in ``.key``."""
+    """Full dotted path of ``key``: exact, or the unique path ending in ``.key``. A key
+    inside a mapping-valued leaf (``world.path_params.amp_m``) resolves to itself (the
+    mapping's owner validates its keys)."""
     leaves = leaf_paths(cls)
     if key in leaves:
         return key
     matches = [p for p in leaves if p.endswith("." + key)]
     if len(matches) == 1:
         return matches[0]
+    if not matches:
+        inside = set()
+        for p, (tp, _) in leaves.items():
+            if _is_mapping_type(tp):
+                for head in {p, p.rsplit(".", 1)[-1]}:
+                    if key.startswith(head + ".") and len(key) > len(head) + 1:
+                        inside.add(f"{p}.{key[len(head) + 1:]}")
+        if len(inside) == 1:
+            return inside.pop()
     if len(matches) > 1:
         raise ConfigError(f"ambiguous config key {key!r}: matches {', '.join(matches)}; "
-                          "write the full key")
+                          "write the full key", key=key)
     sections = _section_paths(cls)
     if key in sections:
         raise ConfigError(f"{key!r} is a section, not a value; set one of its keys: "
-                          f"{', '.join(p for p in leaves if p.startswith(key + '.'))}")
-    names = list(leaves)
-    close = difflib.get_close_matches(key, names, n=1, cutoff=0.5)
-    if not close:  # try the last components against the tails of every path
-        tails = {p.split(".", p.count(".") - key.count("."))[-1] if p.count(".") >= key.count(".")
-                 else p: p for p in names}
-        c2 = difflib.get_close_matches(key, list(tails), n=1, cutoff=0.5)
-        close = [tails[c2[0]]] if c2 else []
-    hint = f" (did you mean {close[0]!r}?)" if close else ""
+                          f"{', '.join(p for p in leaves if p.startswith(key + '.'))}",
+                          key=key)
+    hint = did_you_mean(key, list(leaves), cutoff=0.5)
     top = [f.name for f in dataclasses.fields(cls)]
     raise ConfigError(f"unknown config key {key!r}{hint}; valid top-level keys: "
-                      f"{', '.join(top)} (python -m simcalib run --help lists every key)")
+                      f"{', '.join(top)} (python -m simcalib run --help lists every key)",
+                      key=key)
 
 
 def parse_override(item: str) -> tuple[str, str]:
-    if not isinstance(item, str) or "=" not in item:
-        raise ConfigError(f"overrides are key=value; received {item!r}")
+    """``"key=value"`` -> ``("key", "value")`` (the value's text is parsed later, against
+    the key's type)."""
+    if not isinstance(item, str) or "=" not in item or item.startswith("="):
+        raise ConfigError(f"expected key=value, received {item!r}")
     key, raw = item.split("=", 1)
     key = key.strip()
     if not key:
@@ -623,11 +753,34 @@ def parse_override(item: str) -> tuple[str, str]:
     return key, raw
 
 
-def _parse_value(raw: str, tp):
+def parse_overrides(items: Sequence[str]) -> dict[str, str]:
+    """``["a=1", "b=[x,y]"]`` -> ``{"a": "1", "b": "[x,y]"}``; a key given twice is an
+    error."""
+    out: dict[str, str] = {}
+    for item in items:
+        key, raw = parse_override(item)
+        if key in out:
+            raise ConfigError(f"key {key!r} given twice ({key}={out[key]} and {item})",
+                              key=key)
+        out[key] = raw
+    return out
+
+
+def _is_sequence_type(tp) -> bool:
+    if typing.get_origin(tp) in (typing.Union, types.UnionType):
+        return any(_is_sequence_type(a) for a in typing.get_args(tp))
+    return typing.get_origin(tp) in (tuple, list) or tp in (tuple, list)
+
+
+def _parse_value(raw: str, tp, path: str = "value"):
     """Parse an override's text for a leaf of type ``tp`` (YAML syntax for numbers,
-    booleans, null and lists; strings may be written without quotes)."""
+    booleans, null and lists; strings may be written without quotes). Lists are written
+    in brackets, ``[a,b]``: a bare ``a,b`` is rejected with that hint."""
     import yaml
     text = raw.strip()
+    if _is_sequence_type(tp) and "," in text and not text.startswith(("[", "(", "'", '"')):
+        raise ConfigError(f"{path}: write a list in brackets, {path}=[{text}]; received "
+                          f"{text!r}", key=path, value=text)
     non_none = [a for a in typing.get_args(tp) if a is not type(None)] if typing.get_origin(
         tp) in (typing.Union, types.UnionType) else [tp]
     nullable = len(non_none) < len(typing.get_args(tp)) if typing.get_origin(tp) in (
@@ -658,16 +811,31 @@ def _set_path(data: dict, path: str, value) -> None:
     cur[parts[-1]] = value
 
 
-def apply_overrides(data: Mapping, overrides: Sequence[str], cls=None) -> dict:
-    """Apply ``key=value`` overrides to a nested mapping (a scenario file's content)."""
+def apply_overrides(data: Mapping, overrides: Sequence[str] | Mapping[str, Any],
+                    cls=None) -> dict:
+    """Apply overrides to a nested mapping (a scenario file's content).
+
+    ``overrides`` is a list of ``"key=value"`` strings (the value's text is parsed against
+    the key's type: YAML numbers, booleans, ``[a,b]`` lists) or a mapping of dotted key ->
+    value (values taken as they are, e.g. from a YAML sweep file). Keys may be unique
+    suffixes or aliases (``camera.width``); unknown keys, bad values and a key given twice
+    raise :class:`ConfigError`."""
     cls = cls or ScenarioConfig
     out = _deep_copy(data)
     leaves = leaf_paths(cls)
-    for item in overrides:
-        key, raw = parse_override(item)
+    if isinstance(overrides, Mapping):
+        items = [(str(k), v, False) for k, v in overrides.items()]
+    else:
+        items = [(k, raw, True) for k, raw in parse_overrides(list(overrides)).items()]
+    seen: dict[str, str] = {}
+    for key, raw, is_text in items:
         for path in resolve_keys(cls, key):
-            tp = leaves[path][0]
-            value = _parse_value(raw, tp)
+            if path in seen:
+                raise ConfigError(f"{path} is set twice (by {seen[path]!r} and {key!r})",
+                                  key=path)
+            seen[path] = key
+            tp = leaves[path][0] if path in leaves else Any   # a key inside a mapping leaf
+            value = _parse_value(raw, tp, path) if is_text else raw
             _coerce(value, tp, path)  # type-check now so the message names the override
             _set_path(out, path, value)
     return out
@@ -724,36 +892,91 @@ def scenario_path(name: str) -> Path:
     if p.is_file():
         return p
     names = list(list_scenarios())
-    close = difflib.get_close_matches(name, names, n=1)
-    hint = f" (did you mean {close[0]!r}?)" if close else ""
-    raise ConfigError(f"unknown scenario {name!r}{hint}; available: "
-                      f"{', '.join(names) if names else '(none found in ' + str(scenario_dir()) + ')'}")
+    if not names:
+        raise ConfigError(f"unknown scenario {name!r}; no scenario files found in "
+                          f"{scenario_dir()} (set SIMCALIB_SCENARIOS)", key="scenario",
+                          value=name)
+    raise unknown_choice("scenario", name, names)
 
 
-def load_config(scenario: str | Mapping, overrides: Sequence[str] = ()) -> ScenarioConfig:
-    """Resolve a scenario (name, YAML path or mapping) plus overrides into a config.
+def load_scenario_data(scenario: str | Mapping) -> dict:
+    """The raw mapping of a scenario (name, YAML path or mapping), with ``scenario`` set.
 
-    Everything is validated here: unknown keys, types, ranges, solver names.
-    """
+    A YAML syntax error names the file, line and column."""
     import yaml
     if isinstance(scenario, Mapping):
         data = dict(scenario)
-        name = str(data.get("scenario", "custom"))
-    else:
-        path = scenario_path(scenario)
+        data.setdefault("scenario", "custom")
+        return data
+    path = scenario_path(scenario)
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"scenario file {str(path)!r} is not valid YAML: "
+                          f"{_yaml_error_text(exc)}", key="scenario", value=str(path)) from None
+    if data is None:
+        data = {}
+    if not isinstance(data, Mapping):
+        raise ConfigError(f"scenario file {str(path)!r} must hold a mapping of keys; "
+                          f"it holds a {type(data).__name__}", key="scenario",
+                          value=str(path))
+    data = dict(data)
+    data.setdefault("scenario", path.stem)
+    return data
+
+
+def _yaml_error_text(exc) -> str:
+    """``"line 3, column 7: mapping values are not allowed here"`` from a YAML error."""
+    mark = getattr(exc, "problem_mark", None) or getattr(exc, "context_mark", None)
+    problem = getattr(exc, "problem", None) or str(exc).strip().splitlines()[0]
+    if mark is not None:
+        return f"line {mark.line + 1}, column {mark.column + 1}: {problem}"
+    return str(problem)
+
+
+def load_config(scenario: str | Mapping | ScenarioConfig,
+                overrides: Sequence[str] | Mapping[str, Any] = ()) -> ScenarioConfig:
+    """Resolve a scenario (name, YAML path, mapping or a config) plus overrides (``"k=v"``
+    strings or a mapping of dotted key -> value) into a validated :class:`ScenarioConfig`.
+
+    Everything is checked here, before any work: unknown keys (closest match named),
+    types, ranges, solver names, and whether the path fits the pairing thresholds."""
+    if isinstance(scenario, ScenarioConfig):
+        scenario = to_dict(scenario)
+    data = load_scenario_data(scenario)
+    return build(ScenarioConfig, apply_overrides(data, overrides))
+
+
+def load_configs(scenario: str | Mapping | ScenarioConfig,
+                 override_sets: Sequence[Sequence[str] | Mapping[str, Any]], *,
+                 max_errors: int = 5) -> list[ScenarioConfig]:
+    """One validated config per override set over one base scenario (a sweep's cells).
+
+    The base file is read once. Every set is validated before returning; if any fails,
+    one :class:`ConfigError` lists the failing sets (index, overrides and the reason; at
+    most ``max_errors``, then a count), so a sweep is rejected before any work."""
+    if isinstance(scenario, ScenarioConfig):
+        scenario = to_dict(scenario)
+    data = load_scenario_data(scenario)
+    configs, errors = [], []
+    for i, overrides in enumerate(override_sets):
         try:
-            data = yaml.safe_load(path.read_text()) or {}
-        except yaml.YAMLError as exc:
-            raise ConfigError(f"scenario file {str(path)!r} is not valid YAML: "
-                              f"{str(exc).splitlines()[0]}") from None
-        if not isinstance(data, Mapping):
-            raise ConfigError(f"scenario file {str(path)!r} must hold a mapping of keys; "
-                              f"it holds a {type(data).__name__}")
-        name = path.stem
-        data = dict(data)
-        data.setdefault("scenario", name)
-    data = apply_overrides(data, list(overrides))
-    return build(ScenarioConfig, data)
+            configs.append(build(ScenarioConfig, apply_overrides(data, overrides)))
+        except ConfigError as exc:
+            errors.append((i, overrides, exc))
+    if errors:
+        lines = [f"cell {i} ({_show_overrides(o)}): {e}" for i, o, e in errors[:max_errors]]
+        more = len(errors) - max_errors
+        tail = f"; and {more} more" if more > 0 else ""
+        raise ConfigError(f"{len(errors)} of {len(override_sets)} override sets are invalid: "
+                          + "; ".join(lines) + tail)
+    return configs
+
+
+def _show_overrides(overrides) -> str:
+    if isinstance(overrides, Mapping):
+        return " ".join(f"{k}={v}" for k, v in overrides.items())
+    return " ".join(overrides)
 
 
 def describe_keys(cls=None) -> list[str]:

@@ -52,8 +52,9 @@ DEBIAN_PACKAGES = {
 _BACKENDS = ("egl", "osmesa")
 
 
-class RenderBackendError(RuntimeError):
-    """No usable OpenGL backend for MuJoCo offscreen rendering."""
+#: No usable OpenGL backend for MuJoCo offscreen rendering (CLI exit code 4); the
+#: project-wide :class:`simcalib.errors.BackendError`, kept under its old name.
+from simcalib.errors import BackendError as RenderBackendError  # noqa: E402
 
 
 def backend_error_message(failures: dict[str, str]) -> str:
@@ -224,24 +225,19 @@ class RenderSettings:
     coarse_meshes: bool = True
 
     def __post_init__(self):
-        if not isinstance(self.coarse_meshes, bool) or not isinstance(self.shadows, bool):
-            raise TypeError("RenderSettings.coarse_meshes and .shadows must be bools; received "
-                            f"{self.coarse_meshes!r}, {self.shadows!r}")
-        for name in ("width", "height"):
-            v = getattr(self, name)
-            if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or not 8 <= v <= 8192:
-                raise ValueError(f"RenderSettings.{name} must be an integer in [8, 8192]; "
-                                 f"received {v!r}")
-        if not isinstance(self.msaa_samples, (int, np.integer)) or not 0 <= self.msaa_samples <= 16:
-            raise ValueError("RenderSettings.msaa_samples must be an integer in [0, 16]; "
-                             f"received {self.msaa_samples!r}")
+        from simcalib.checks import check_bool, check_int, check_range, fail, set_fields
         if not isinstance(self.fovy_deg, dict):
-            raise TypeError("RenderSettings.fovy_deg must be a dict camera -> degrees; "
-                            f"received {type(self.fovy_deg).__name__}")
-        for cam, v in self.fovy_deg.items():
-            if not (isinstance(v, (int, float)) and 0.0 < float(v) < 180.0):
-                raise ValueError(f"RenderSettings.fovy_deg[{cam!r}] must be in (0, 180); "
-                                 f"received {v!r}")
+            raise fail("fovy_deg", self.fovy_deg, "a dict camera -> degrees", type_error=True)
+        set_fields(
+            self,
+            width=check_int("width", self.width, lo=8, hi=8192),
+            height=check_int("height", self.height, lo=8, hi=8192),
+            msaa_samples=check_int("msaa_samples", self.msaa_samples, lo=0, hi=16),
+            shadows=check_bool("shadows", self.shadows),
+            coarse_meshes=check_bool("coarse_meshes", self.coarse_meshes),
+            fovy_deg={cam: check_range(f"fovy_deg[{cam!r}]", v, lo=0.0, hi=180.0,
+                                       lo_open=True, hi_open=True)
+                      for cam, v in self.fovy_deg.items()})
 
 
 class CameraRenderer:

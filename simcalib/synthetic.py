@@ -41,7 +41,6 @@ Typical use::
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import math
 from dataclasses import dataclass
 
@@ -122,28 +121,18 @@ class SyntheticConfig:
     X_rotvec_rad: tuple[float, float, float] = PAPER_X_ROTVEC_RAD
 
     def __post_init__(self):
-        if not isinstance(self.motion, str) or self.motion not in MOTIONS:
-            close = difflib.get_close_matches(str(self.motion), MOTIONS, n=1)
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
-            raise ValueError(f"unknown synthetic motion {self.motion!r}{hint}; "
-                             f"allowed: {', '.join(MOTIONS)}")
-        if (isinstance(self.num_motions, bool) or not isinstance(self.num_motions, (int, np.integer))
-                or self.num_motions < 2):
-            raise ValueError(f"num_motions must be an integer >= 2; received {self.num_motions!r}")
-        for name in ("sigma_r_rad", "sigma_t_m", "jitter_sigma_r_rad", "jitter_sigma_t_m"):
-            _check_scalar(name, getattr(self, name), allow_zero=True)
-        for name in ("line_length_m", "circle_radius_m", "random_translation_max_m"):
-            _check_scalar(name, getattr(self, name), allow_zero=False)
-        for name in ("X_translation_m", "X_rotvec_rad"):
-            val = getattr(self, name)
-            try:
-                arr = np.asarray(val, dtype=np.float64)
-            except (TypeError, ValueError):
-                raise TypeError(f"{name} must be 3 numbers; received {val!r}") from None
-            if arr.shape != (3,) or not np.isfinite(arr).all():
-                raise ValueError(f"{name} must be 3 finite numbers; received {val!r}")
-            object.__setattr__(self, name, tuple(float(v) for v in arr))
-        object.__setattr__(self, "num_motions", int(self.num_motions))
+        from simcalib.checks import check_in, check_int, check_positive, check_vector, set_fields
+        set_fields(
+            self,
+            motion=check_in("motion", self.motion, MOTIONS),
+            num_motions=check_int("num_motions", self.num_motions, lo=2),
+            **{name: check_positive(name, getattr(self, name), allow_zero=True)
+               for name in ("sigma_r_rad", "sigma_t_m", "jitter_sigma_r_rad",
+                            "jitter_sigma_t_m")},
+            **{name: check_positive(name, getattr(self, name))
+               for name in ("line_length_m", "circle_radius_m", "random_translation_max_m")},
+            **{name: check_vector(name, getattr(self, name))
+               for name in ("X_translation_m", "X_rotvec_rad")})
 
     @property
     def X(self) -> np.ndarray:
@@ -155,15 +144,6 @@ class SyntheticConfig:
         return config_from_dict({**dataclasses.asdict(self), **changes})
 
 
-def _check_scalar(name, value, *, allow_zero: bool) -> None:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise TypeError(f"{name} must be a number; received {type(value).__name__} {value!r}")
-    ok = np.isfinite(value) and (value >= 0 if allow_zero else value > 0)
-    if not ok:
-        allowed = "finite and >= 0" if allow_zero else "finite and > 0"
-        raise ValueError(f"{name} must be {allowed}; received {value!r}")
-
-
 def config_from_dict(values: dict) -> SyntheticConfig:
     """Build a :class:`SyntheticConfig` from a mapping; unknown keys are rejected by name."""
     if not isinstance(values, dict):
@@ -171,10 +151,10 @@ def config_from_dict(values: dict) -> SyntheticConfig:
     fields = [f.name for f in dataclasses.fields(SyntheticConfig)]
     for key in values:
         if key not in fields:
-            close = difflib.get_close_matches(str(key), fields, n=1)
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
-            raise ValueError(f"unknown synthetic config key {key!r}{hint}; "
-                             f"allowed: {', '.join(fields)}")
+            from simcalib.errors import ConfigError, did_you_mean
+            raise ConfigError(f"unknown synthetic config key {key!r}"
+                              f"{did_you_mean(key, fields)}; allowed: {', '.join(fields)}",
+                              key=str(key))
     return SyntheticConfig(**values)
 
 

@@ -61,40 +61,23 @@ class VisionConfig:
     jpeg_quality: int = 80
 
     def __post_init__(self):
-        def _int(name, lo, hi, optional=False):
-            v = getattr(self, name)
-            if optional and v is None:
-                return
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not lo <= v <= hi:
-                raise ValueError(f"VisionConfig.{name} must be an integer in [{lo}, {hi}]"
-                                 f"{' or None' if optional else ''}; received {v!r}")
-
-        def _float(name, lo, hi, optional=False, open_lo=False):
-            v = getattr(self, name)
-            if optional and v is None:
-                return
-            ok = isinstance(v, (int, float, np.floating)) and not isinstance(v, bool) \
-                and np.isfinite(v) and (v > lo if open_lo else v >= lo) and v <= hi
-            if not ok:
-                raise ValueError(f"VisionConfig.{name} must be a number in "
-                                 f"{'(' if open_lo else '['}{lo}, {hi}]"
-                                 f"{' or None' if optional else ''}; received {v!r}")
-
-        _int("width", 8, 8192, optional=True)
-        _int("height", 8, 8192, optional=True)
-        _float("fovy_deg", 0.0, 179.0, optional=True, open_lo=True)
-        _float("blur_sigma_px", 0.0, 50.0)
-        _float("noise_std", 0.0, 255.0)
-        _int("msaa_samples", 0, 16)
-        if self.corner_refinement not in CORNER_REFINEMENTS:
-            raise ValueError(f"VisionConfig.corner_refinement must be one of "
-                             f"{sorted(CORNER_REFINEMENTS)}; received {self.corner_refinement!r}")
-        for name in ("edge_refinement", "refine"):
-            if not isinstance(getattr(self, name), bool):
-                raise TypeError(f"VisionConfig.{name} must be a bool; received "
-                                f"{getattr(self, name)!r}")
-        _int("log_every", 0, 10**9)
-        _int("jpeg_quality", 1, 100)
+        from simcalib.checks import (check_bool, check_in, check_int, check_range,
+                                     set_fields)
+        set_fields(
+            self,
+            width=check_int("width", self.width, lo=8, hi=8192, optional=True),
+            height=check_int("height", self.height, lo=8, hi=8192, optional=True),
+            fovy_deg=check_range("fovy_deg", self.fovy_deg, lo=0.0, hi=179.0, lo_open=True,
+                                 optional=True),
+            blur_sigma_px=check_range("blur_sigma_px", self.blur_sigma_px, lo=0.0, hi=50.0),
+            noise_std=check_range("noise_std", self.noise_std, lo=0.0, hi=255.0),
+            msaa_samples=check_int("msaa_samples", self.msaa_samples, lo=0, hi=16),
+            corner_refinement=check_in("corner_refinement", self.corner_refinement,
+                                       sorted(CORNER_REFINEMENTS)),
+            edge_refinement=check_bool("edge_refinement", self.edge_refinement),
+            refine=check_bool("refine", self.refine),
+            log_every=check_int("log_every", self.log_every, lo=0, hi=10**9),
+            jpeg_quality=check_int("jpeg_quality", self.jpeg_quality, lo=1, hi=100))
         self.pnp_settings()  # validates the PnP fields with their own messages
 
     def detector_settings(self, dictionary: str) -> DetectorSettings:
@@ -112,10 +95,13 @@ class VisionConfig:
         """Build from a mapping; unknown keys are rejected, naming the valid ones."""
         if not isinstance(values, dict):
             raise TypeError(f"VisionConfig.from_dict needs a dict; received {type(values).__name__}")
+        from simcalib.errors import ConfigError, did_you_mean
         valid = [f.name for f in fields(cls)]
         unknown = sorted(set(values) - set(valid))
         if unknown:
-            raise ValueError(f"unknown VisionConfig keys {unknown}; valid keys: {valid}")
+            raise ConfigError(f"unknown VisionConfig keys {unknown}"
+                              f"{did_you_mean(unknown[0], valid)}; valid keys: {valid}",
+                              key=unknown[0])
         return cls(**values)
 
 

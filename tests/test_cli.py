@@ -40,7 +40,7 @@ def test_list_shows_scenarios_with_descriptions_and_solvers(capsys):
     (["run"], "run needs scenario=NAME"),
     (["run", "scenario=plnar"], "did you mean 'planar'"),
     (["run", "scenario=random", "sed=1"], "did you mean 'seed'"),
-    (["run", "scenario=random", "noise.sigma_r_deg=abc"], "expected a number"),
+    (["run", "scenario=random", "noise.sigma_r_deg=abc"], "noise.sigma_r_deg must be a number; received 'abc'"),
     (["run", "scenario=random", "solvers=[dqopt,foo]"], "unknown method 'foo'"),
     (["run", "scenario=random", "--bogus"], "unknown option '--bogus'"),
     (["run", "scenario=random", "stray"], "expected key=value"),
@@ -67,13 +67,117 @@ def test_dry_run_prints_resolved_config(capsys):
 
 
 def test_positional_scenario_and_runtime_failure_exit_1(capsys, tmp_path):
-    # too few frames for any motion pair: fails at run time with exit 1, one line
-    status = main(["run", "planar", "source=noisy", "world.duration_s=0.2", "world.fps=10",
-                   "progress=false", "recording.enabled=false", f"output={tmp_path}"])
+    # cam_b's clock 100 s off: no frames match by timestamp, found only at run time
+    status = main(["run", "planar", "source=noisy", "world.duration_s=6",
+                   "world.cam_b.clock_offset_s=100", "progress=false",
+                   "recording.enabled=false", f"output={tmp_path}"])
     assert status == 1
     err = capsys.readouterr().err.strip()
     assert err.startswith("simcalib: error: run failed:") and len(err.splitlines()) == 1
-    assert "relative motion" in err
+    assert "relative motion" in err and "--debug" in err
+
+
+def test_compressed_path_rejected_before_any_work(capsys, tmp_path):
+    # paths are defined in cycles per run: 3 s of the 3d path moves too far between frames
+    status = main(["run", "3d", "world.duration_s=3", f"output={tmp_path / 'out'}"])
+    assert status == 2
+    err = capsys.readouterr().err
+    assert "world.duration_s=3" in err and "cycles per run" in err
+    assert "world.duration_s >= 4" in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_empty_alpha_list_rejected_before_any_work(capsys, tmp_path):
+    assert main(["run", "random", "alpha=[]", f"output={tmp_path / 'out'}"]) == 2
+    err = capsys.readouterr().err
+    assert "alpha must be a number > 0 or a non-empty list of them; received []" in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_yaml_syntax_error_keeps_line_and_column(capsys, tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("kind: synthetic\nsource: noisy\nseed: [1, 2\n")
+    assert main(["run", f"scenario={bad}"]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1
+    assert "is not valid YAML: line 4, column 1" in err, err
+
+
+def test_debug_flag_shows_traceback(capsys, tmp_path):
+    assert main(["--debug", "run", "random", "sed=1"]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback (most recent call last)" in err
+    assert err.strip().splitlines()[-1].startswith("simcalib: error: unknown config key 'sed'")
+
+
+@pytest.mark.parametrize("exc, code", [
+    ("ConfigError('bad key')", 2),
+    ("UsageError('bad usage')", 2),
+    ("InputError('bad input')", 3),
+    ("DataError('bad pose file')", 3),
+    ("BackendError('no OpenGL')", 4),
+    ("SolverError('no estimate')", 5),
+    ("DegenerateResultError('planar motion')", 6),
+    ("KeyboardInterrupt()", 130),
+    ("RuntimeError('boom')", 1),
+])
+def test_typed_errors_map_to_exit_codes(monkeypatch, capsys, exc, code):
+    import types
+
+    from simcalib import errors
+    from simcalib.cli import COMMANDS, Command
+
+    def boom(args):
+        raise eval(exc, vars(errors))
+
+    mod = types.ModuleType("simcalib_test_boom")
+    mod.main = boom
+    monkeypatch.setitem(__import__("sys").modules, "simcalib_test_boom", mod)
+    monkeypatch.setitem(COMMANDS, "boom", Command("simcalib_test_boom:main", "test"))
+    assert main(["boom"]) == code
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("simcalib: error: ") and len(err.splitlines()) == 1
+    if code == 1:
+        assert "boom failed: RuntimeError: boom" in err
+    elif code == 130:
+        assert "interrupted" in err
+    else:
+        assert eval(exc, vars(errors)).args[0] in err
+
+
+def test_exit_codes_documented():
+    from pathlib import Path
+
+    from simcalib.errors import EXIT_CODES
+    doc = (Path(__file__).resolve().parent.parent / "docs" / "cli.md").read_text()
+    readme = (Path(__file__).resolve().parent.parent / "README.md").read_text()
+    for code in EXIT_CODES:
+        assert f"| {code} |" in doc, code
+        assert f"| {code} |" in readme, code
+
+
+def test_register_command_and_help_lists_it(monkeypatch, capsys):
+    from simcalib.cli import COMMANDS, register_command
+    monkeypatch.setattr("simcalib.cli.COMMANDS", dict(COMMANDS))
+    register_command("hello", "simcalib_test_hello:main", "say hello", "hello [NAME]")
+    assert main(["--help"]) == 0
+    assert "hello [NAME]" in capsys.readouterr().out
+    assert main(["hello"]) == 2
+    assert "not available" in capsys.readouterr().err
+
+
+def test_list_imports_no_heavy_module():
+    import subprocess
+    import sys
+    code = ("import sys; from simcalib.cli import main; rc = main(['list']); "
+            "heavy = [m for m in ('mujoco', 'rerun', 'cv2', 'matplotlib') if m in sys.modules]; "
+            "print('HEAVY', heavy); raise SystemExit(rc)")
+    from pathlib import Path
+    root = Path(__file__).resolve().parent.parent   # this checkout's simcalib
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=120, cwd=root)
+    assert out.returncode == 0, out.stderr
+    assert "HEAVY []" in out.stdout, out.stdout
 
 
 def test_dispatch_passes_argv_and_returns_status(monkeypatch):

@@ -70,19 +70,19 @@ def test_unknown_key_in_yaml_mapping():
 
 
 @pytest.mark.parametrize("override, fragment", [
-    ("seed=abc", "seed: expected an integer; received 'abc'"),
-    ("seed=1.5", "expected an integer"),
-    ("seed=-1", "seed must be >= 0"),
-    ("alpha=-1", "alpha must be finite and > 0"),
+    ("seed=abc", "seed must be an integer; received 'abc'"),
+    ("seed=1.5", "seed must be an integer; received 1.5"),
+    ("seed=-1", "seed must be an integer >= 0; received -1"),
+    ("alpha=-1", "alpha must be finite and > 0; received -1.0"),
     ("alpha=[1,x]", "alpha"),
-    ("progress=maybe", "expected a boolean"),
+    ("progress=maybe", "progress must be a boolean (true or false); received 'maybe'"),
     ("source=arcuo", "did you mean 'aruco'"),
     ("pairing.mode=sequential", "allowed: consecutive, random"),
-    ("pairing.step=0", "pairing.step must be >= 1"),
+    ("pairing.step=0", "pairing.step must be an integer >= 1; received 0"),
     ("solvers=[dqopt,danilidis]", "did you mean 'daniilidis'"),
     ("noise.sigma_t_m=nan", "not NaN"),
     ("noise=3", "is a section"),
-    ("recording.jpeg_quality=101", "jpeg_quality must be in [1, 100]"),
+    ("recording.jpeg_quality=101", "recording.jpeg_quality must be an integer in [1, 100]"),
 ])
 def test_bad_values_fail_with_clear_message(override, fragment):
     with pytest.raises(ConfigError) as e:
@@ -134,3 +134,240 @@ def test_help_lists_every_leaf_key():
     text = "\n".join(lines)
     for key in ("noise.sigma_r_deg", "pairing.max_time_diff_s", "prior.a", "seed"):
         assert key in text
+
+
+# ----------------------------------------------------------------- one engine, many uses
+def test_every_scenario_round_trips_through_yaml():
+    import yaml
+    for name in list_scenarios():
+        cfg = load_config(name, ["seed=5"])
+        text = yaml.safe_dump(to_dict(cfg), sort_keys=False)
+        assert load_config(yaml.safe_load(text)) == cfg, name
+        assert load_config(cfg) == cfg  # a config is a valid base too
+
+
+def test_experiment_configs_round_trip_through_the_same_engine():
+    from simcalib.experiments import EXPERIMENTS, config_class
+    from simcalib.experiments.common import build_config
+    for name in EXPERIMENTS:
+        cls = config_class(name)
+        assert build(cls, to_dict(cls())) == cls(), name
+    cfg = build_config(config_class("table2"), {"scenarios": "[line, circle]",
+                                                 "alpha_min": "1e-3", "progress": "false"})
+    assert cfg.scenarios == ("line", "circle") and cfg.alpha_min == 1e-3
+    assert cfg.progress is False
+
+
+def test_mapping_overrides_equal_text_overrides():
+    text = load_config("planar", ["noise.sigma_r_deg=0.3", "solvers=[dqopt,daniilidis]",
+                                  "camera.width=320", "alpha=[0.5,2]"])
+    typed = load_config("planar", {"noise.sigma_r_deg": 0.3,
+                                   "solvers": ["dqopt", "daniilidis"],
+                                   "camera.width": 320, "alpha": [0.5, 2]})
+    assert text == typed
+    assert typed.world.cam_a.width == typed.world.cam_b.width == 320
+
+
+def test_load_configs_checks_every_cell_before_returning():
+    from simcalib.config import load_configs
+    cells = load_configs("random", [{"noise.sigma_r_deg": s, "seed": k}
+                                    for s in (0.1, 1.0) for k in range(3)])
+    assert [c.seed for c in cells] == [0, 1, 2, 0, 1, 2]
+    assert cells[4].noise.sigma_r_deg == 1.0
+    with pytest.raises(ConfigError) as e:
+        load_configs("random", [["seed=1"], ["sed=2"], {"alpha": []}, ["seed=3"]])
+    msg = str(e.value)
+    assert msg.startswith("2 of 4 override sets are invalid")
+    assert "cell 1 (sed=2): unknown config key 'sed' (did you mean 'seed'?)" in msg
+    assert "cell 2 (alpha=[]): alpha must be a number > 0 or a non-empty list" in msg
+    assert "cell 0" not in msg and "cell 3" not in msg
+
+
+def test_load_configs_is_cheap():
+    import time
+    from simcalib.config import load_configs
+    sets = [{"noise.sigma_r_deg": s, "seed": k} for s in (0.1, 0.3, 1.0) for k in range(40)]
+    load_configs("planar", sets[:2])  # warm the key tables
+    t0 = time.perf_counter()
+    assert len(load_configs("planar", sets)) == 120
+    assert time.perf_counter() - t0 < 10.0  # ~0.4 s at rest on 2 cores
+
+
+# ----------------------------------------------------------------------- override syntax
+@pytest.mark.parametrize("override, fragment", [
+    ("solvers=dqopt,daniilidis", "solvers: write a list in brackets, solvers=[dqopt,daniilidis]"),
+    ("alpha=0.1,1", "alpha: write a list in brackets, alpha=[0.1,1]"),
+    ("alpha=[]", "alpha must be a number > 0 or a non-empty list of them; received []"),
+    ("solvers=[]", "solvers must be a list of at least 1 name; received []"),
+    ("solvers=[dqopt,dqopt]", "solvers must be a list without repeats"),
+    ("alpha=[1,-2]", "alpha[1] must be finite and > 0; received -2.0"),
+    ("world.cam_a.width=4000", "world.cam_a.width must be an integer in [16, 1920]; received 4000"),
+    ("world.cam_b.drop_prob=1", "world.cam_b.drop_prob must be < 1 (allowed: in [0, 1)); "
+                                "received 1.0"),
+    ("vision.corner_refinement=subpx", "vision.corner_refinement must be one of"),
+    ("vision.corner_refinement=subpx", "(did you mean 'subpix'?)"),
+    ("world.path=plannar", "did you mean 'planar'"),
+    ("world.cam_a.widht=3", "did you mean 'world.cam_a.width'"),
+    ("prior.rotvec_deg=[1,2,3]", "prior.translation_m must be given together with rotvec_deg"),
+])
+def test_override_errors_name_key_value_and_allowed(override, fragment):
+    with pytest.raises(ConfigError) as e:
+        load_config("planar", [override])
+    assert fragment in str(e.value), str(e.value)
+
+
+def test_key_given_twice_is_an_error():
+    with pytest.raises(ConfigError, match="key 'seed' given twice"):
+        load_config("random", ["seed=1", "seed=2"])
+    with pytest.raises(ConfigError, match="world.cam_a.width is set twice"):
+        load_config("planar", ["camera.width=320", "world.cam_a.width=640"])
+
+
+def test_nested_yaml_unknown_key_names_full_path():
+    with pytest.raises(ConfigError) as e:
+        load_config({"world": {"path": "planar", "cam_a": {"widht": 320}}})
+    assert "did you mean 'world.cam_a.width'" in str(e.value)
+
+
+def test_yaml_syntax_error_names_line_and_column(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("kind: synthetic\nsource: noisy\nnoise:\n  sigma_r_deg: 1\n sigma_t_m: 2\n")
+    with pytest.raises(ConfigError) as e:
+        load_config(str(bad))
+    msg = str(e.value)
+    assert str(bad) in msg and "line 5, column 2" in msg and "\n" not in msg
+
+
+# -------------------------------------------------------------- path / duration feasibility
+def test_compressed_path_rejected_with_the_duration_that_works():
+    with pytest.raises(ConfigError) as e:
+        load_config("circular", ["world.duration_s=5"])
+    msg = str(e.value)
+    assert "cycles per run" in msg and "at least 2 are needed" in msg
+    import re
+    need = float(re.search(r"world.duration_s >= ([\d.]+)", msg).group(1))
+    assert need > 5
+    assert load_config("circular", [f"world.duration_s={need:g}"]).world.duration_s == need
+    # a slower path (fewer cycles) or no pre-filter is fine at the same duration
+    load_config("circular", ["world.duration_s=5", "pairing.prefilter=false"])
+
+
+def test_shipped_scenarios_are_feasible_and_prediction_counts_pairs():
+    from simcalib.config import _pose_margins, _surviving_pairs
+    cfg = load_config("3d")
+    assert _surviving_pairs(cfg.world, cfg.pairing, cfg.world.duration_s) >= 100
+    # the failing case: 3 s of 3d left 0 motion pairs after rendering
+    assert _surviving_pairs(cfg.world, cfg.pairing, 3.0) == 0
+    assert _surviving_pairs(cfg.world, cfg.pairing, 3.0, _pose_margins(cfg)) < 2
+    # pose noise may let a marginal configuration through: only sure failures are rejected
+    noisy = load_config("circular", ["source=noisy", "pairing.step=1", "world.duration_s=6"])
+    assert _surviving_pairs(noisy.world, noisy.pairing, 6.0) == 0
+    assert _surviving_pairs(noisy.world, noisy.pairing, 6.0, _pose_margins(noisy)) >= 2
+
+
+# ------------------------------------------------------------------- errors and helpers
+def test_error_hierarchy_and_aliases():
+    from simcalib import errors
+    from simcalib.cli import UsageError
+    from simcalib.render import RenderBackendError
+    assert ConfigError is errors.ConfigError and issubclass(ConfigError, ValueError)
+    assert issubclass(errors.ConfigTypeError, TypeError)
+    assert issubclass(errors.ConfigTypeError, ConfigError)
+    assert issubclass(errors.InputError, ValueError)
+    assert issubclass(errors.DataError, errors.InputError)
+    assert RenderBackendError is errors.BackendError and issubclass(RenderBackendError,
+                                                                     RuntimeError)
+    assert issubclass(errors.DegenerateResultError, errors.SolverError)
+    assert UsageError is errors.UsageError
+    codes = {cls: errors.exit_code(cls("x")) for cls in (
+        errors.UsageError, ConfigError, errors.InputError, errors.DataError,
+        errors.BackendError, errors.SolverError, errors.DegenerateResultError, RuntimeError)}
+    assert list(codes.values()) == [2, 2, 3, 3, 4, 5, 6, 1]
+    assert errors.exit_code(KeyboardInterrupt()) == 130
+
+
+def test_one_closest_match_helper():
+    from simcalib.errors import closest, did_you_mean, unknown_choice
+    assert closest("daniildis", ["dqopt", "daniilidis"]) == "daniilidis"
+    assert closest("sigma_r_dg", ["seed", "noise.sigma_r_deg"]) == "noise.sigma_r_deg"
+    assert closest("zzz", ["seed"]) is None and did_you_mean("zzz", ["seed"]) == ""
+    assert did_you_mean("sed", ["seed"]) == " (did you mean 'seed'?)"
+    err = unknown_choice("method", "dqop", ["dqopt", "daniilidis"], key="solvers")
+    assert isinstance(err, ConfigError)
+    assert str(err) == ("solvers: unknown method 'dqop' (did you mean 'dqopt'?); "
+                        "available: dqopt, daniilidis")
+    err = unknown_choice("path", "x", ["a"], error=ValueError)
+    assert type(err) is ValueError and str(err) == "unknown path 'x'; available: a"
+
+
+@pytest.mark.parametrize("call, message, exc", [
+    (lambda c: c.check_range("fovy_deg", 200, lo=5, hi=150),
+     "fovy_deg must be <= 150 (allowed: in [5, 150]); received 200", ValueError),
+    (lambda c: c.check_range("fps", 0, lo=0, lo_open=True), "fps must be > 0; received 0",
+     ValueError),
+    (lambda c: c.check_range("fps", float("inf")), "fps must be finite; received inf",
+     ValueError),
+    (lambda c: c.check_range("fps", "10"), "fps must be a number; received '10'", TypeError),
+    (lambda c: c.check_positive("a", -1.0), "a must be finite and > 0; received -1.0",
+     ValueError),
+    (lambda c: c.check_positive("a", -1.0, allow_zero=True),
+     "a must be finite and >= 0; received -1.0", ValueError),
+    (lambda c: c.check_int("n", 1.5, lo=1), "n must be an integer; received 1.5", TypeError),
+    (lambda c: c.check_int("n", True), "n must be an integer; received True", TypeError),
+    (lambda c: c.check_int("n", 0, lo=1, hi=9), "n must be an integer in [1, 9]; received 0",
+     ValueError),
+    (lambda c: c.check_bool("refine", "yes"),
+     "refine must be a bool (true or false); received 'yes'", TypeError),
+    (lambda c: c.check_in("mode", "rnd", ["random", "consecutive"]),
+     "mode must be one of 'random', 'consecutive' (did you mean 'random'?); received 'rnd'",
+     ValueError),
+    (lambda c: c.check_vector("t", (1, 2)), "t must be 3 finite numbers; received (1, 2)",
+     ValueError),
+    (lambda c: c.check_vector("t", (3, 0, 0), max_norm=2.0),
+     "t must be within 2 of the origin; received (3, 0, 0)", ValueError),
+    (lambda c: c.check_names("solvers", ["a", "a"]),
+     "solvers must be a list without repeats; received ['a', 'a']", ValueError),
+    (lambda c: c.check_that(False, "pitch_m", 0.1, ">= 0.27"),
+     "pitch_m must be >= 0.27; received 0.1", ValueError),
+])
+def test_check_helpers_name_key_value_and_allowed(call, message, exc):
+    from simcalib import checks
+    with pytest.raises(exc) as e:
+        call(checks)
+    assert isinstance(e.value, ConfigError)
+    assert str(e.value) == message
+
+
+def test_checks_normalise_and_errors_reroot_under_sections():
+    import numpy as np
+    from simcalib import checks
+    assert checks.check_int("n", np.int64(3)) == 3 and type(checks.check_int("n", np.int64(3))) is int
+    assert checks.check_range("x", np.float32(0.5)) == 0.5
+    assert checks.check_vector("t", np.array([1, 2, 3])) == (1.0, 2.0, 3.0)
+    assert checks.check_names("s", "dqopt") == ("dqopt",)
+    err = checks.fail("width", 4000, "an integer in [16, 1920]").at("world.cam_a")
+    assert str(err) == "world.cam_a.width must be an integer in [16, 1920]; received 4000"
+    assert err.key == "world.cam_a.width" and err.value == 4000
+
+
+def test_keys_inside_mapping_leaves():
+    for key in ("world.path_params.amp_x_m", "path_params.amp_x_m"):
+        cfg = load_config("planar", [f"{key}=0.5"])
+        assert cfg.world.path_params == {"amp_x_m": 0.5}
+    with pytest.raises(ConfigError, match=r"unknown parameter 'amp_xm' \(did you mean 'amp_x_m'\?\)"):
+        load_config("planar", ["world.path_params.amp_xm=0.5"])
+    with pytest.raises(ConfigError, match="parameter 'amp_x_m' must be a number; received 'big'"):
+        load_config("planar", ["world.path_params.amp_x_m=big"])
+
+
+def test_errors_survive_pickling():
+    # sweep / experiment workers send errors across processes
+    import pickle
+
+    from simcalib import errors
+    from simcalib.checks import fail
+    for exc in (fail("world.fps", 0, "> 0"), errors.ConfigTypeError("t"),
+                errors.BackendError("b"), errors.DegenerateResultError("d")):
+        again = pickle.loads(pickle.dumps(exc))
+        assert type(again) is type(exc) and str(again) == str(exc)
+        assert errors.exit_code(again) == errors.exit_code(exc)

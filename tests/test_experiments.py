@@ -42,8 +42,8 @@ def test_alpha_grid_is_the_papers():
 
 
 def test_overrides_and_config_conversion(tmp_path):
-    ov = common.parse_overrides(["samples=12", "scenarios=line, circle", "output=x"])
-    assert ov == {"samples": "12", "scenarios": "line, circle", "output": "x"}
+    ov = common.parse_overrides(["samples=12", "scenarios=[line, circle]", "output=x"])
+    assert ov == {"samples": "12", "scenarios": "[line, circle]", "output": "x"}
     cfg = common.build_config(config_class("table2"), {**ov, "progress": "false"})
     assert cfg.samples == 12 and cfg.scenarios == ("line", "circle") and cfg.progress is False
     with pytest.raises(ValueError, match="expected key=value"):
@@ -60,7 +60,7 @@ def test_overrides_and_config_conversion(tmp_path):
         common.build_config(config_class("table2"), {"algorithms": "dqop"})
     with pytest.raises(ValueError, match="samples must be an integer >= 1; received 0"):
         common.build_config(config_class("figure3"), {"samples": 0})
-    with pytest.raises(ValueError, match="n=200 must be <= num_motions=100"):
+    with pytest.raises(ValueError, match=r"n must be <= num_motions \(100\); received 200"):
         common.build_config(config_class("figure6"), {"n": 200, "num_motions": 100})
 
 
@@ -279,13 +279,13 @@ def test_cli(tmp_path, capsys):
     assert main(["table2", "samples=x"]) == 2
     assert "samples must be an integer; received 'x'" in capsys.readouterr().err
     assert main(["figure6", "colour=red"]) == 2
-    assert "unknown key 'colour'" in capsys.readouterr().err
+    assert "unknown config key 'colour'" in capsys.readouterr().err
     assert main([]) == 2
     assert main(["--help"]) == 0
     out = capsys.readouterr().out
     assert all(name in out for name in EXPERIMENTS) and "samples=1000" in out
     code = main(["table2", "samples=4", "num_alphas=2", "n=20", "num_motions=50",
-                 "algorithms=dqopt,dq2steps", "scenarios=circle", "progress=0",
+                 "algorithms=[dqopt,dq2steps]", "scenarios=circle", "progress=false",
                  f"output={tmp_path}"])
     assert code == 0
     assert "wrote" in capsys.readouterr().out

@@ -173,7 +173,7 @@ def test_scripted_trajectory_rejects_random():
 
 @pytest.mark.parametrize("kwargs, exc, match", [
     (dict(motion="circel"), ValueError, "did you mean 'circle'"),
-    (dict(motion=3), ValueError, "allowed: random, line, circle"),
+    (dict(motion=3), ValueError, "motion must be one of 'random', 'line', 'circle'"),
     (dict(num_motions=1), ValueError, "num_motions must be an integer >= 2; received 1"),
     (dict(num_motions=10.5), ValueError, "num_motions"),
     (dict(sigma_r_rad=-0.1), ValueError, "sigma_r_rad must be finite and >= 0; received -0.1"),

@@ -58,8 +58,8 @@ def test_path_param_overrides_validated():
     ({"duration_s": "10"}, TypeError, "duration_s must be a number"),
     ({"duration_s": 0.1, "fps": 5}, ValueError, "at least 3 frames"),
     ({"cam_b": {"capture_jitter_s": 0.05}}, ValueError, "quarter of the frame period"),
-    ({"cam_b": {"fovy": 60}}, ValueError, r"unknown key\(s\) \['fovy'\]"),
-    ({"cam_a": {"width": 4000}}, ValueError, r"width must be in \[16, 1920\]; received 4000"),
+    ({"cam_b": {"fovy": 60}}, ValueError, r"cam_b: unknown key 'fovy' \(did you mean 'cam_b.fovy_deg'\?\)"),
+    ({"cam_a": {"width": 4000}}, ValueError, r"cam_a.width must be an integer in \[16, 1920\]; received 4000"),
     ({"rig": 3}, TypeError, "must be a RigConfig"),
 ])
 def test_world_config_rejects_bad_input(kwargs, exc, pattern):

@@ -14,15 +14,17 @@ Library::
 
 Each experiment writes CSV + markdown + PNG files and a rerun recording ``NAME.rrd`` into
 its output directory. Keys are the fields of its config dataclass (``Table1Config``,
-``Table2Config``, ``Figure3Config``, ``Figure6Config``); lists are comma separated
-(``scenarios=line,circle``); unknown keys are rejected naming the valid ones.
+``Table2Config``, ``Figure3Config``, ``Figure6Config``), parsed by the same config engine
+as ``run``: lists in brackets (``scenarios=[line,circle]``), YAML numbers and booleans;
+unknown keys are rejected naming the closest and the valid ones.
 """
 
 from __future__ import annotations
 
-import difflib
 import importlib
 import sys
+
+from simcalib.errors import ConfigTypeError, unknown_choice
 
 __all__ = ["EXPERIMENTS", "run_experiment", "config_class", "main"]
 
@@ -37,12 +39,10 @@ EXPERIMENTS = {
 
 def _lookup(name: str):
     if not isinstance(name, str):
-        raise TypeError(f"experiment name must be a string; received {type(name).__name__}")
+        raise ConfigTypeError(f"experiment name must be a string; received "
+                              f"{type(name).__name__}")
     if name not in EXPERIMENTS:
-        close = difflib.get_close_matches(name, list(EXPERIMENTS), n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
-        raise ValueError(f"unknown experiment {name!r}{hint}; available: "
-                         f"{', '.join(EXPERIMENTS)}")
+        raise unknown_choice("experiment", name, EXPERIMENTS)
     mod_name, cls_name = EXPERIMENTS[name]
     mod = importlib.import_module(mod_name)
     return mod, getattr(mod, cls_name)
@@ -54,32 +54,34 @@ def config_class(name: str):
 
 
 def run_experiment(name: str, config=None, **overrides):
-    """Run experiment ``name`` with a config object or keyword overrides (strings from the
-    command line are converted to the field types). Returns an ``ExperimentResult``."""
+    """Run experiment ``name`` with a config object or keyword overrides (Python values, or
+    strings parsed like command-line values: ``scenarios="[line,circle]"``). Returns an
+    ``ExperimentResult``."""
     from simcalib.experiments.common import build_config
     mod, cls = _lookup(name)
     if config is None:
         config = build_config(cls, overrides)
     elif overrides:
-        raise TypeError("pass either a config object or keyword overrides, not both")
+        raise ConfigTypeError("pass either a config object or keyword overrides, not both")
     elif not isinstance(config, cls):
-        raise TypeError(f"config for {name!r} must be a {cls.__name__}; received "
-                        f"{type(config).__name__}")
+        raise ConfigTypeError(f"config for {name!r} must be a {cls.__name__}; received "
+                              f"{type(config).__name__}")
     return mod.run(config)
 
 
 def _usage() -> str:
     import dataclasses
     lines = ["usage: python -m simcalib experiment NAME [key=value ...] [output=DIR]", "",
-             "experiments and their keys (defaults):"]
+             "Lists are written in brackets: scenarios=[line,circle] algorithms=[dqopt,daniilidis]",
+             "", "experiments and their keys (defaults):"]
     for name in EXPERIMENTS:
         cls = config_class(name)
         lines.append(f"  {name}:")
         for f in dataclasses.fields(cls):
             default = f.default
             if isinstance(default, tuple):
-                default = ",".join(f"{v:.4g}" if isinstance(v, float) else str(v)
-                                   for v in default)
+                default = "[" + ",".join(f"{v:.4g}" if isinstance(v, float) else str(v)
+                                         for v in default) + "]"
             elif isinstance(default, float):
                 default = f"{default:.6g}"
             lines.append(f"      {f.name}={default}")
@@ -88,19 +90,23 @@ def _usage() -> str:
 
 def main(argv=None) -> int:
     """Command-line entry: ``NAME [key=value ...]``. Returns the exit code (0 ok, 2 bad
-    arguments). Prints where the files went and the experiment's notes."""
-    from simcalib.experiments.common import parse_overrides
+    arguments: every key is checked before any work). Errors during the experiment
+    propagate (the ``simcalib`` CLI maps them to exit codes, docs/cli.md). Prints where the
+    files went and the experiment's notes."""
+    from simcalib.errors import ConfigError
+    from simcalib.experiments.common import build_config, parse_overrides
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv or argv[0] in ("-h", "--help", "help"):
         print(_usage())
         return 0 if argv else 2
     name, rest = argv[0], argv[1:]
     try:
-        overrides = parse_overrides(rest)
-        result = run_experiment(name, **overrides)
-    except (ValueError, TypeError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
+        mod, cls = _lookup(name)
+        config = build_config(cls, parse_overrides(rest))
+    except ConfigError as exc:
+        print(f"simcalib: error: {exc}", file=sys.stderr)
         return 2
+    result = mod.run(config)
     print(f"{result.name}: wrote {len(result.files)} files to {result.output_dir} "
           f"in {result.runtime_s:.1f} s")
     for key, path in result.files.items():

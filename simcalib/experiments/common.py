@@ -1,22 +1,22 @@
-"""Shared machinery of the paper experiments: key=value configs, the α grid, batched
+"""Shared machinery of the paper experiments: key=value configs (through the one config
+engine of :mod:`simcalib.config`, lists written ``[a,b]`` as for runs), the α grid, batched
 α sweeps through :func:`simcalib.solve_batch`, error statistics and output files."""
 
 from __future__ import annotations
 
 import csv
-import re
-import dataclasses
-import difflib
 import math
 import os
+import re
 import sys
 import time
-import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from simcalib.checks import check_int, check_names, check_positive, check_that
+from simcalib.errors import unknown_choice
 from simcalib.geometry import rotation_error_rad, translation_error_m
 
 __all__ = [
@@ -57,111 +57,53 @@ class ExperimentResult:
 
 # ------------------------------------------------------------------------ configuration
 def parse_overrides(args: list[str]) -> dict[str, str]:
-    """``["samples=100", "output=out"]`` -> ``{"samples": "100", "output": "out"}``."""
-    out: dict[str, str] = {}
-    for arg in args:
-        if not isinstance(arg, str) or "=" not in arg or arg.startswith("="):
-            raise ValueError(f"expected key=value, received {arg!r}")
-        key, value = arg.split("=", 1)
-        key = key.strip()
-        if key in out:
-            raise ValueError(f"key {key!r} given twice")
-        out[key] = value.strip()
-    return out
-
-
-def _convert(name: str, text, typ):
-    """Convert a CLI string (or a Python value) to the annotated field type."""
-    origin = typing.get_origin(typ)
-    if origin is tuple:
-        inner = typing.get_args(typ)[0]
-        if isinstance(text, str):
-            items = [t for t in (s.strip() for s in text.split(",")) if t]
-        else:
-            try:
-                items = list(text)
-            except TypeError:
-                raise TypeError(f"{name} must be a comma-separated list; received {text!r}") from None
-        if not items:
-            raise ValueError(f"{name} must not be empty")
-        return tuple(_convert(name, t, inner) for t in items)
-    if typ is bool:
-        if isinstance(text, bool):
-            return text
-        low = str(text).lower()
-        if low in ("1", "true", "yes", "on"):
-            return True
-        if low in ("0", "false", "no", "off"):
-            return False
-        raise ValueError(f"{name} must be true/false; received {text!r}")
-    if typ is int:
-        if isinstance(text, bool):
-            raise TypeError(f"{name} must be an integer; received {text!r}")
-        try:
-            val = float(text) if isinstance(text, str) else text
-            if isinstance(val, float) and not val.is_integer():
-                raise ValueError
-            return int(val)
-        except (TypeError, ValueError, OverflowError):
-            raise ValueError(f"{name} must be an integer; received {text!r}") from None
-    if typ is float:
-        try:
-            val = float(text)
-        except (TypeError, ValueError):
-            raise ValueError(f"{name} must be a number; received {text!r}") from None
-        if not math.isfinite(val):
-            raise ValueError(f"{name} must be finite; received {text!r}")
-        return val
-    if typ is str:
-        return str(text)
-    raise TypeError(f"unsupported config type {typ} for {name}")  # pragma: no cover
+    """``["samples=100", "output=out"]`` -> ``{"samples": "100", "output": "out"}``
+    (:func:`simcalib.config.parse_overrides`: a key given twice is an error)."""
+    from simcalib.config import parse_overrides as _parse
+    return _parse(args)
 
 
 def build_config(cls, values: dict):
-    """Instantiate the frozen config dataclass ``cls`` from strings or values; unknown keys
-    are rejected naming the closest valid key and listing all of them."""
-    hints = typing.get_type_hints(cls)
-    names = [f.name for f in dataclasses.fields(cls)]
-    kwargs = {}
+    """Instantiate the frozen config dataclass ``cls`` from override strings (parsed like a
+    run's: YAML numbers and booleans, lists in brackets ``[a,b]``) or Python values,
+    through the one config engine (:func:`simcalib.config.build`): unknown keys are rejected
+    naming the closest valid key and listing all of them."""
+    from simcalib.config import _parse_value, build, leaf_paths
+    leaves = leaf_paths(cls)
+    data = {}
     for key, value in values.items():
-        if key not in names:
-            close = difflib.get_close_matches(key, names, n=1)
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
-            raise ValueError(f"unknown key {key!r} for {cls.__name__}{hint}; "
-                             f"allowed: {', '.join(names)}")
-        kwargs[key] = _convert(key, value, hints[key])
-    return cls(**kwargs)
+        key = str(key)
+        if key in leaves and isinstance(value, str):
+            value = _parse_value(value, leaves[key][0], key)
+        data[key] = value
+    return build(cls, data)
 
 
-def check_positive_int(name: str, value, minimum: int = 1) -> None:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
-        raise ValueError(f"{name} must be an integer >= {minimum}; received {value!r}")
+def check_positive_int(name: str, value, minimum: int = 1) -> int:
+    """An integer >= ``minimum`` (:func:`simcalib.checks.check_int`)."""
+    return check_int(name, value, lo=minimum)
 
 
-def check_positive_float(name: str, value, allow_zero: bool = False) -> None:
-    ok = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool) \
-        and math.isfinite(value) and (value >= 0 if allow_zero else value > 0)
-    if not ok:
-        raise ValueError(f"{name} must be a finite number {'>= 0' if allow_zero else '> 0'}; "
-                         f"received {value!r}")
+def check_positive_float(name: str, value, allow_zero: bool = False) -> float:
+    """A finite number > 0 (>= 0 with ``allow_zero``; :func:`simcalib.checks.check_positive`)."""
+    return check_positive(name, value, allow_zero=allow_zero)
 
 
 def check_methods(name: str, methods) -> None:
+    """Registered solver names, none repeated."""
     from simcalib.solvers import registry
-    for m in methods:
-        registry.get(m)  # ValueError listing the valid names
-    if len(set(methods)) != len(methods):
-        raise ValueError(f"{name} lists a method twice: {methods}")
+    valid = registry.available()
+    for m in check_names(name, methods):
+        if m not in valid:
+            raise unknown_choice("method", m, valid, key=name)
 
 
 def check_scenarios(name: str, scenarios) -> None:
+    """Names of synthetic motions (``random``, ``line``, ``circle``)."""
     from simcalib.synthetic import MOTIONS
-    for s in scenarios:
+    for s in check_names(name, scenarios):
         if s not in MOTIONS:
-            close = difflib.get_close_matches(s, MOTIONS, n=1)
-            hint = f" (did you mean {close[0]!r}?)" if close else ""
-            raise ValueError(f"unknown scenario {s!r} in {name}{hint}; allowed: "
-                             f"{', '.join(MOTIONS)}")
+            raise unknown_choice("scenario", s, MOTIONS, key=name)
 
 
 def alpha_grid(num: int = 100, low: float = 1e-2, high: float = 10 ** 1.7) -> np.ndarray:
@@ -169,8 +111,7 @@ def alpha_grid(num: int = 100, low: float = 1e-2, high: float = 10 ** 1.7) -> np
     check_positive_int("num_alphas", num)
     check_positive_float("alpha_min", low)
     check_positive_float("alpha_max", high)
-    if high < low:
-        raise ValueError(f"alpha_max must be >= alpha_min; received {low} and {high}")
+    check_that(high >= low, "alpha_max", high, f">= alpha_min ({low:g})")
     return np.logspace(math.log10(low), math.log10(high), num)
 
 

@@ -50,20 +50,21 @@ class Figure3Config:
     output: str = "results/figure3"
 
     def __post_init__(self):
-        for name in ("samples", "num_alphas", "chunk"):
-            common.check_positive_int(name, getattr(self, name))
-        common.check_workers(self.workers)
-        common.check_positive_int("n", self.n, 2)
-        common.check_positive_int("num_motions", self.num_motions, 2)
-        common.check_positive_int("seed", self.seed, 0)
-        for v in self.sigma_r_rad:
-            common.check_positive_float("sigma_r_rad", v, allow_zero=True)
-        for v in self.sigma_t_m:
-            common.check_positive_float("sigma_t_m", v, allow_zero=True)
+        from simcalib.checks import check_int, check_positive, check_that, set_fields
+        set_fields(self,
+                   **{name: check_int(name, getattr(self, name), lo=1)
+                      for name in ("samples", "num_alphas", "chunk")},
+                   workers=check_int("workers", self.workers, lo=0),
+                   n=check_int("n", self.n, lo=2),
+                   num_motions=check_int("num_motions", self.num_motions, lo=2),
+                   seed=check_int("seed", self.seed, lo=0),
+                   **{name: tuple(check_positive(f"{name}[{i}]", v, allow_zero=True)
+                                  for i, v in enumerate(getattr(self, name)))
+                      for name in ("sigma_r_rad", "sigma_t_m")})
         common.alpha_grid(self.num_alphas, self.alpha_min, self.alpha_max)
         common.check_scenarios("scenarios", self.scenarios)
-        if self.n > self.num_motions:
-            raise ValueError(f"n={self.n} must be <= num_motions={self.num_motions}")
+        check_that(self.n <= self.num_motions, "n", self.n,
+                   f"<= num_motions ({self.num_motions})")
 
 
 def _ratio(num: np.ndarray, den: np.ndarray) -> float:

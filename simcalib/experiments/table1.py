@@ -60,21 +60,24 @@ class Table1Config:
     output: str = "results/table1"
 
     def __post_init__(self):
-        for name in ("samples", "slow_samples", "timing_runs", "slow_timing_runs", "chunk"):
-            common.check_positive_int(name, getattr(self, name))
-        common.check_positive_int("n", self.n, 2)
-        common.check_positive_int("num_motions", self.num_motions, 2)
-        common.check_positive_int("seed", self.seed, 0)
-        common.check_positive_float("sigma_r_rad", self.sigma_r_rad, allow_zero=True)
-        common.check_positive_float("sigma_t_m", self.sigma_t_m, allow_zero=True)
+        from simcalib.checks import check_int, check_positive, check_that, set_fields
+        set_fields(self,
+                   **{name: check_int(name, getattr(self, name), lo=1)
+                      for name in ("samples", "slow_samples", "timing_runs",
+                                   "slow_timing_runs", "chunk")},
+                   n=check_int("n", self.n, lo=2),
+                   num_motions=check_int("num_motions", self.num_motions, lo=2),
+                   seed=check_int("seed", self.seed, lo=0),
+                   sigma_r_rad=check_positive("sigma_r_rad", self.sigma_r_rad, allow_zero=True),
+                   sigma_t_m=check_positive("sigma_t_m", self.sigma_t_m, allow_zero=True))
         common.alpha_grid(2, self.alpha_min, self.alpha_max)
         common.check_scenarios("scenarios", self.scenarios)
         common.check_methods("methods", self.methods)
         common.check_methods("timing_methods", self.timing_methods)
-        if "dqopt" in self.methods:
-            raise ValueError("methods must not include 'dqopt' (it is the reference)")
-        if self.n > self.num_motions:
-            raise ValueError(f"n={self.n} must be <= num_motions={self.num_motions}")
+        check_that("dqopt" not in self.methods, "methods", list(self.methods),
+                   "a list without 'dqopt' (it is the reference)")
+        check_that(self.n <= self.num_motions, "n", self.n,
+                   f"<= num_motions ({self.num_motions})")
 
 
 def relative_difference(cost_alg: np.ndarray, cost_ref: np.ndarray) -> np.ndarray:

@@ -75,20 +75,22 @@ class Table2Config:
                                X_rotvec_rad=self.X_rotvec_rad)
 
     def __post_init__(self):
-        for name in ("samples", "num_alphas", "slow_samples", "slow_alphas", "opencv_samples",
-                     "chunk"):
-            common.check_positive_int(name, getattr(self, name))
-        common.check_workers(self.workers)
-        common.check_positive_int("n", self.n, 2)
-        common.check_positive_int("num_motions", self.num_motions, 2)
-        common.check_positive_int("seed", self.seed, 0)
-        common.check_positive_float("sigma_r_rad", self.sigma_r_rad, allow_zero=True)
-        common.check_positive_float("sigma_t_m", self.sigma_t_m, allow_zero=True)
+        from simcalib.checks import check_int, check_positive, check_that, set_fields
+        set_fields(self,
+                   **{name: check_int(name, getattr(self, name), lo=1)
+                      for name in ("samples", "num_alphas", "slow_samples", "slow_alphas",
+                                   "opencv_samples", "chunk")},
+                   workers=check_int("workers", self.workers, lo=0),
+                   n=check_int("n", self.n, lo=2),
+                   num_motions=check_int("num_motions", self.num_motions, lo=2),
+                   seed=check_int("seed", self.seed, lo=0),
+                   sigma_r_rad=check_positive("sigma_r_rad", self.sigma_r_rad, allow_zero=True),
+                   sigma_t_m=check_positive("sigma_t_m", self.sigma_t_m, allow_zero=True))
         common.alpha_grid(self.num_alphas, self.alpha_min, self.alpha_max)
         common.check_scenarios("scenarios", self.scenarios)
         common.check_methods("algorithms", self.algorithms)
-        if self.n > self.num_motions:
-            raise ValueError(f"n={self.n} must be <= num_motions={self.num_motions}")
+        check_that(self.n <= self.num_motions, "n", self.n,
+                   f"<= num_motions ({self.num_motions})")
         self.synthetic(self.scenarios[0])   # validates noise, jitter and X
 
 

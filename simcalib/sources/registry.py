@@ -3,8 +3,7 @@ choice of source per camera for a run."""
 
 from __future__ import annotations
 
-import difflib
-
+from simcalib.errors import unknown_choice
 from simcalib.sources.base import CAMERAS, PoseSource, SourceInfo
 
 __all__ = ["register", "get_source", "available_sources", "sources_for_kind",
@@ -45,9 +44,7 @@ def get_source(name: str, kind: str | None = None) -> PoseSource:
     if not isinstance(name, str):
         raise TypeError(f"source name must be a string; received {type(name).__name__}")
     if name not in _SOURCES:
-        close = difflib.get_close_matches(name, list(_SOURCES), n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
-        raise ValueError(f"unknown pose source {name!r}{hint}; valid: {sorted(_SOURCES)}")
+        raise unknown_choice("pose source", name, sorted(_SOURCES), key="source")
     src = _SOURCES[name]
     if kind is not None and kind not in src.info.kinds:
         combos = "; ".join(f"{k}: {list(sources_for_kind(k))}"

@@ -1,7 +1,9 @@
 """Typed, validated configuration of a simulated world (frozen dataclasses).
 
-Every field has a documented default; bad values raise ``ValueError``/``TypeError`` naming
-the field, the received value and what is allowed. Nested dataclasses group the settings::
+Every field has a documented default; bad values raise :class:`~simcalib.errors.ConfigError`
+(a ``ValueError``; :class:`~simcalib.errors.ConfigTypeError`, also a ``TypeError``, for a
+wrong type) naming the field, the received value and what is allowed (checks written with
+:mod:`simcalib.checks`). Nested dataclasses group the settings::
 
     WorldConfig(platform="cart", path="planar", duration_s=20.0, fps=10.0,
                 path_params={}, perturbation=PerturbationConfig(),
@@ -17,6 +19,9 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from simcalib.checks import (check_in, check_int, check_range, check_that,
+                             check_vector, fail, set_fields)
+from simcalib.errors import ConfigError, did_you_mean
 from simcalib.synthetic import PAPER_X_ROTVEC_RAD, PAPER_X_TRANSLATION_M
 
 #: The paper's X rotation in degrees (rounded back to the published decimals).
@@ -30,59 +35,23 @@ PLATFORMS = ("cart", "arm")
 
 
 # ----------------------------------------------------------------------------- helpers
-def _number(owner: str, name: str, value, *, lo=None, hi=None, lo_open=False,
-            hi_open=False) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise TypeError(f"{owner}.{name} must be a number; received {value!r} "
-                        f"({type(value).__name__})")
-    v = float(value)
-    if not math.isfinite(v):
-        raise ValueError(f"{owner}.{name} must be finite; received {value!r}")
-    if lo is not None and (v < lo or (lo_open and v == lo)):
-        rel = ">" if lo_open else ">="
-        raise ValueError(f"{owner}.{name} must be {rel} {lo}; received {value!r}")
-    if hi is not None and (v > hi or (hi_open and v == hi)):
-        rel = "<" if hi_open else "<="
-        raise ValueError(f"{owner}.{name} must be {rel} {hi}; received {value!r}")
-    return v
-
-
-def _integer(owner: str, name: str, value, *, lo=None, hi=None) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise TypeError(f"{owner}.{name} must be an integer; received {value!r} "
-                        f"({type(value).__name__})")
-    v = int(value)
-    if (lo is not None and v < lo) or (hi is not None and v > hi):
-        raise ValueError(f"{owner}.{name} must be in [{lo}, {hi}]; received {value!r}")
-    return v
-
-
-def _vector3(owner: str, name: str, value) -> tuple[float, float, float]:
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise TypeError(f"{owner}.{name} must be 3 numbers; received {value!r}") from None
-    if arr.shape != (3,) or not np.isfinite(arr).all():
-        raise ValueError(f"{owner}.{name} must be 3 finite numbers; received {value!r}")
-    return tuple(float(v) for v in arr)
-
-
-def _set(obj, name, value):
-    object.__setattr__(obj, name, value)
-
-
-def _nested(owner: str, name: str, value, cls):
+def _nested(name: str, value, cls):
     """Accept an instance of ``cls`` or a mapping of its fields (unknown keys rejected)."""
     if isinstance(value, cls):
         return value
     if isinstance(value, Mapping):
         allowed = [f.name for f in fields(cls)]
-        unknown = sorted(set(value) - set(allowed))
-        if unknown:
-            raise ValueError(f"{owner}.{name}: unknown key(s) {unknown}; allowed: {allowed}")
-        return cls(**value)
-    raise TypeError(f"{owner}.{name} must be a {cls.__name__} or a mapping of its fields; "
-                    f"received {type(value).__name__}")
+        for key in value:
+            if key not in allowed:
+                raise ConfigError(f"{name}: unknown key {key!r}"
+                                  f"{did_you_mean(key, allowed, prefix=name + '.')}; "
+                                  f"allowed: {', '.join(allowed)}", key=f"{name}.{key}")
+        try:
+            return cls(**value)
+        except ConfigError as exc:
+            raise exc.at(name) from None
+    raise fail(name, type(value).__name__, f"a {cls.__name__} or a mapping of its fields",
+               type_error=True)
 
 
 # ----------------------------------------------------------------------------- configs
@@ -113,19 +82,18 @@ class CameraConfig:
     drop_prob: float = 0.0
 
     def __post_init__(self):
-        o = "CameraConfig"
-        _set(self, "width", _integer(o, "width", self.width, lo=16, hi=1920))
-        _set(self, "height", _integer(o, "height", self.height, lo=16, hi=1080))
-        _set(self, "fovy_deg", _number(o, "fovy_deg", self.fovy_deg, lo=5.0, hi=150.0))
-        _set(self, "capture_offset_s", _number(o, "capture_offset_s", self.capture_offset_s,
-                                               lo=-10.0, hi=10.0))
-        _set(self, "capture_jitter_s", _number(o, "capture_jitter_s", self.capture_jitter_s,
-                                               lo=0.0))
-        _set(self, "clock_offset_s", _number(o, "clock_offset_s", self.clock_offset_s,
-                                             lo=-1e6, hi=1e6))
-        _set(self, "stamp_jitter_s", _number(o, "stamp_jitter_s", self.stamp_jitter_s, lo=0.0))
-        _set(self, "drop_prob", _number(o, "drop_prob", self.drop_prob, lo=0.0, hi=1.0,
-                                        hi_open=True))
+        set_fields(
+            self,
+            width=check_int("width", self.width, lo=16, hi=1920),
+            height=check_int("height", self.height, lo=16, hi=1080),
+            fovy_deg=check_range("fovy_deg", self.fovy_deg, lo=5.0, hi=150.0),
+            capture_offset_s=check_range("capture_offset_s", self.capture_offset_s,
+                                         lo=-10.0, hi=10.0),
+            capture_jitter_s=check_range("capture_jitter_s", self.capture_jitter_s, lo=0.0),
+            clock_offset_s=check_range("clock_offset_s", self.clock_offset_s,
+                                       lo=-1e6, hi=1e6),
+            stamp_jitter_s=check_range("stamp_jitter_s", self.stamp_jitter_s, lo=0.0),
+            drop_prob=check_range("drop_prob", self.drop_prob, lo=0.0, hi=1.0, hi_open=True))
 
 
 @dataclass(frozen=True)
@@ -144,16 +112,15 @@ class RigConfig:
     rig_cam_a_rotvec_deg: tuple = (0.0, 0.0, 0.0)
 
     def __post_init__(self):
-        o = "RigConfig"
-        for name in ("a_b_translation_m", "a_b_rotvec_deg", "rig_cam_a_translation_m",
-                     "rig_cam_a_rotvec_deg"):
-            _set(self, name, _vector3(o, name, getattr(self, name)))
-        if np.linalg.norm(self.a_b_translation_m) > 2.0:
-            raise ValueError(f"RigConfig.a_b_translation_m must be within 2 m (a rig, not a "
-                             f"building); received {self.a_b_translation_m}")
-        if np.linalg.norm(self.rig_cam_a_translation_m) > 1.0:
-            raise ValueError("RigConfig.rig_cam_a_translation_m must be within 1 m of the "
-                             f"mount; received {self.rig_cam_a_translation_m}")
+        set_fields(
+            self,
+            a_b_translation_m=check_vector("a_b_translation_m", self.a_b_translation_m,
+                                           max_norm=2.0, what="a rig, not a building"),
+            a_b_rotvec_deg=check_vector("a_b_rotvec_deg", self.a_b_rotvec_deg),
+            rig_cam_a_translation_m=check_vector("rig_cam_a_translation_m",
+                                                 self.rig_cam_a_translation_m, max_norm=1.0,
+                                                 what="metres from the mount"),
+            rig_cam_a_rotvec_deg=check_vector("rig_cam_a_rotvec_deg", self.rig_cam_a_rotvec_deg))
 
     def T_a_b(self) -> np.ndarray:
         from simcalib.geometry import matrix_from_rotvec, transform_from_rotation_translation
@@ -173,11 +140,11 @@ class RoomConfig:
     size_m: tuple = (4.4, 4.4, 2.6)
 
     def __post_init__(self):
-        v = _vector3("RoomConfig", "size_m", self.size_m)
-        if not (2.5 <= min(v[:2]) and max(v[:2]) <= 30.0 and 2.0 <= v[2] <= 10.0):
-            raise ValueError("RoomConfig.size_m must be x, y in [2.5, 30] m and z in [2, 10] m "
-                             f"(the platforms need space); received {self.size_m}")
-        _set(self, "size_m", v)
+        v = check_vector("size_m", self.size_m)
+        check_that(2.5 <= min(v[:2]) and max(v[:2]) <= 30.0 and 2.0 <= v[2] <= 10.0,
+                   "size_m", self.size_m,
+                   "x, y in [2.5, 30] m and z in [2, 10] m (the platforms need space)")
+        set_fields(self, size_m=v)
 
 
 @dataclass(frozen=True)
@@ -200,25 +167,24 @@ class MarkerFieldConfig:
     texture_cell_px: int = 24
 
     def __post_init__(self):
-        o = "MarkerFieldConfig"
-        if not isinstance(self.dictionary, str) or not self.dictionary.startswith("DICT_"):
-            raise ValueError(f"{o}.dictionary must be an OpenCV predefined ArUco dictionary "
-                             f"name such as 'DICT_4X4_250'; received {self.dictionary!r}")
-        _set(self, "side_m", _number(o, "side_m", self.side_m, lo=0.02, hi=1.0))
-        _set(self, "pitch_m", _number(o, "pitch_m", self.pitch_m, lo=0.02, hi=5.0))
-        _set(self, "margin_m", _number(o, "margin_m", self.margin_m, lo=0.0, hi=2.0))
-        _set(self, "texture_cell_px", _integer(o, "texture_cell_px", self.texture_cell_px,
-                                               lo=2, hi=128))
-        surfaces = (self.surfaces,) if isinstance(self.surfaces, str) else tuple(self.surfaces)
+        check_that(isinstance(self.dictionary, str) and self.dictionary.startswith("DICT_"),
+                   "dictionary", self.dictionary,
+                   "an OpenCV predefined ArUco dictionary name such as 'DICT_4X4_250'")
+        surfaces = (self.surfaces,) if isinstance(self.surfaces, str) else self.surfaces
         allowed = ("walls", "floor", "ceiling")
-        bad = [s for s in surfaces if s not in allowed]
-        if bad or not surfaces or len(set(surfaces)) != len(surfaces):
-            raise ValueError(f"{o}.surfaces must be distinct names from {allowed}; "
-                             f"received {self.surfaces!r}")
-        _set(self, "surfaces", surfaces)
-        if self.pitch_m < self.side_m * 8.0 / 6.0:
-            raise ValueError(f"{o}.pitch_m ({self.pitch_m}) must leave room for the marker "
-                             f"and its quiet zone (>= side_m * 4/3 = {self.side_m * 4 / 3:.3f})")
+        check_that(isinstance(surfaces, (tuple, list)) and bool(surfaces)
+                   and set(surfaces) <= set(allowed) and len(set(surfaces)) == len(surfaces),
+                   "surfaces", self.surfaces, f"distinct names from {allowed}")
+        set_fields(
+            self,
+            side_m=check_range("side_m", self.side_m, lo=0.02, hi=1.0),
+            pitch_m=check_range("pitch_m", self.pitch_m, lo=0.02, hi=5.0),
+            margin_m=check_range("margin_m", self.margin_m, lo=0.0, hi=2.0),
+            texture_cell_px=check_int("texture_cell_px", self.texture_cell_px, lo=2, hi=128),
+            surfaces=tuple(surfaces))
+        check_that(self.pitch_m >= self.side_m * 8.0 / 6.0, "pitch_m", self.pitch_m,
+                   f">= side_m * 4/3 = {self.side_m * 4 / 3:.3f} (room for the marker and its "
+                   "quiet zone)")
 
 
 @dataclass(frozen=True)
@@ -234,17 +200,15 @@ class PerturbationConfig:
     max_freq_hz: float = 0.5
 
     def __post_init__(self):
-        o = "PerturbationConfig"
-        _set(self, "roll_deg", _number(o, "roll_deg", self.roll_deg, lo=0.0, hi=20.0))
-        _set(self, "pitch_deg", _number(o, "pitch_deg", self.pitch_deg, lo=0.0, hi=20.0))
-        _set(self, "height_m", _number(o, "height_m", self.height_m, lo=0.0, hi=0.3))
-        _set(self, "min_freq_hz", _number(o, "min_freq_hz", self.min_freq_hz, lo=0.0,
-                                          lo_open=True))
-        _set(self, "max_freq_hz", _number(o, "max_freq_hz", self.max_freq_hz, lo=0.0,
-                                          lo_open=True))
-        if self.max_freq_hz < self.min_freq_hz:
-            raise ValueError(f"{o}: max_freq_hz ({self.max_freq_hz}) must be >= min_freq_hz "
-                             f"({self.min_freq_hz})")
+        set_fields(
+            self,
+            roll_deg=check_range("roll_deg", self.roll_deg, lo=0.0, hi=20.0),
+            pitch_deg=check_range("pitch_deg", self.pitch_deg, lo=0.0, hi=20.0),
+            height_m=check_range("height_m", self.height_m, lo=0.0, hi=0.3),
+            min_freq_hz=check_range("min_freq_hz", self.min_freq_hz, lo=0.0, lo_open=True),
+            max_freq_hz=check_range("max_freq_hz", self.max_freq_hz, lo=0.0, lo_open=True))
+        check_that(self.max_freq_hz >= self.min_freq_hz, "max_freq_hz", self.max_freq_hz,
+                   f">= min_freq_hz ({self.min_freq_hz:g})")
 
     @property
     def active(self) -> bool:
@@ -265,11 +229,12 @@ class IKConfig:
     fail_rot_rad: float = 1e-4
 
     def __post_init__(self):
-        o = "IKConfig"
-        _set(self, "damping", _number(o, "damping", self.damping, lo=0.0, hi=1.0, lo_open=True))
-        _set(self, "max_iter", _integer(o, "max_iter", self.max_iter, lo=1, hi=100000))
-        for name in ("tol_pos_m", "tol_rot_rad", "fail_pos_m", "fail_rot_rad"):
-            _set(self, name, _number(o, name, getattr(self, name), lo=0.0, lo_open=True))
+        set_fields(
+            self,
+            damping=check_range("damping", self.damping, lo=0.0, hi=1.0, lo_open=True),
+            max_iter=check_int("max_iter", self.max_iter, lo=1, hi=100000),
+            **{name: check_range(name, getattr(self, name), lo=0.0, lo_open=True)
+               for name in ("tol_pos_m", "tol_rot_rad", "fail_pos_m", "fail_rot_rad")})
 
 
 @dataclass(frozen=True)
@@ -303,42 +268,35 @@ class WorldConfig:
 
     def __post_init__(self):
         from simcalib.world.paths import get_path, resolve_platform
-        o = "WorldConfig"
-        info = get_path(self.path)            # unknown name -> ValueError listing valid ones
-        if self.platform is not None and self.platform not in PLATFORMS:
-            raise ValueError(f"{o}.platform must be one of {list(PLATFORMS)} or None; "
-                             f"received {self.platform!r}")
-        _set(self, "platform", resolve_platform(info, self.platform))
-        if self.arm_model not in ("builtin", "menagerie"):
-            raise ValueError(f"{o}.arm_model must be 'builtin' (models/ur5e.xml) or "
-                             "'menagerie' (UR5e from $MENAGERIE_ROOT); received "
-                             f"{self.arm_model!r}")
-        _set(self, "duration_s", _number(o, "duration_s", self.duration_s, lo=0.0, hi=3600.0,
-                                         lo_open=True))
-        _set(self, "fps", _number(o, "fps", self.fps, lo=0.0, hi=1000.0, lo_open=True))
-        if self.n_frames < 3:
-            raise ValueError(f"{o}: duration_s * fps must give at least 3 frames; received "
-                             f"duration_s={self.duration_s}, fps={self.fps}")
-        if self.n_frames > 200000:
-            raise ValueError(f"{o}: duration_s * fps gives {self.n_frames} frames; at most "
-                             "200000 allowed")
+        check_in("platform", self.platform, PLATFORMS, optional=True)
+        check_that(self.arm_model in ("builtin", "menagerie"), "arm_model", self.arm_model,
+                   "'builtin' (models/ur5e.xml) or 'menagerie' (UR5e from $MENAGERIE_ROOT)")
+        try:
+            info = get_path(self.path)        # unknown name -> ValueError listing valid ones
+            set_fields(self, platform=resolve_platform(info, self.platform))
+        except ValueError as exc:
+            raise ConfigError(str(exc), key="path", value=self.path) from None
+        set_fields(self,
+                   duration_s=check_range("duration_s", self.duration_s, lo=0.0, hi=3600.0,
+                                          lo_open=True),
+                   fps=check_range("fps", self.fps, lo=0.0, hi=1000.0, lo_open=True))
+        check_that(3 <= self.n_frames <= 200000, "duration_s", self.duration_s,
+                   f"such that duration_s * fps gives at least 3 frames and at most 200000 "
+                   f"(fps={self.fps:g} gives {self.n_frames})")
         if not isinstance(self.path_params, Mapping):
-            raise TypeError(f"{o}.path_params must be a mapping; received "
-                            f"{type(self.path_params).__name__}")
-        _set(self, "path_params", dict(self.path_params))
+            raise fail("path_params", self.path_params, "a mapping", type_error=True)
+        set_fields(self, path_params=dict(self.path_params))
         info.params_for(self.platform, self.path_params)   # validates the overrides
-        for name, cls in (("perturbation", PerturbationConfig), ("rig", RigConfig),
-                          ("cam_a", CameraConfig), ("cam_b", CameraConfig),
-                          ("room", RoomConfig), ("markers", MarkerFieldConfig),
-                          ("ik", IKConfig)):
-            _set(self, name, _nested(o, name, getattr(self, name), cls))
+        set_fields(self, **{name: _nested(name, getattr(self, name), cls) for name, cls in (
+            ("perturbation", PerturbationConfig), ("rig", RigConfig), ("cam_a", CameraConfig),
+            ("cam_b", CameraConfig), ("room", RoomConfig), ("markers", MarkerFieldConfig),
+            ("ik", IKConfig))})
         period = 1.0 / self.fps
         for cam in ("cam_a", "cam_b"):
             c = getattr(self, cam)
-            if c.capture_jitter_s > 0.25 * period:
-                raise ValueError(f"{o}.{cam}.capture_jitter_s ({c.capture_jitter_s}) must be "
-                                 f"<= a quarter of the frame period ({0.25 * period:.4g} s) so "
-                                 "capture times stay ordered")
+            check_that(c.capture_jitter_s <= 0.25 * period, f"{cam}.capture_jitter_s",
+                       c.capture_jitter_s, f"<= a quarter of the frame period "
+                       f"({0.25 * period:.4g} s) so capture times stay ordered")
 
     @property
     def n_frames(self) -> int:

@@ -15,11 +15,12 @@ listing what is allowed.
 
 from __future__ import annotations
 
-import difflib
 from dataclasses import dataclass, field
 from typing import Callable, Mapping
 
 import numpy as np
+
+from simcalib.errors import ConfigError, did_you_mean, unknown_choice
 
 __all__ = ["PathInfo", "PathSample", "available_paths", "get_path", "resolve_platform",
            "sample_path", "perturbation_sample", "compose_path"]
@@ -58,9 +59,8 @@ class PathInfo:
         params = dict(self.defaults[platform])
         for key, value in dict(overrides or {}).items():
             if key not in params:
-                close = difflib.get_close_matches(str(key), list(params), n=1)
-                hint = f" (did you mean {close[0]!r}?)" if close else ""
-                raise ValueError(f"path {self.name!r} on {platform!r}: unknown parameter "
+                hint = did_you_mean(key, params)
+                raise ConfigError(f"path {self.name!r} on {platform!r}: unknown parameter "
                                  f"{key!r}{hint}; allowed: {sorted(params)}")
             if isinstance(value, bool) or not isinstance(value, (int, float, np.integer,
                                                                  np.floating)):
@@ -94,10 +94,7 @@ def get_path(name: str) -> PathInfo:
     try:
         return _PATHS[name]
     except KeyError:
-        close = difflib.get_close_matches(name, list(_PATHS), n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
-        raise ValueError(f"unknown path {name!r}{hint}; valid paths: "
-                         f"{sorted(_PATHS)}") from None
+        raise unknown_choice("path", name, sorted(_PATHS), key="world.path") from None
 
 
 def _pairing_error(info: PathInfo, platform: str):

@@ -3,8 +3,7 @@ platform x path combinations."""
 
 from __future__ import annotations
 
-import difflib
-
+from simcalib.errors import unknown_choice
 from simcalib.world.platforms.base import Platform, PlatformInfo
 
 __all__ = ["register", "get_platform", "available_platforms", "combinations"]
@@ -42,7 +41,4 @@ def get_platform(name: str) -> Platform:
     try:
         return _PLATFORMS[name]
     except KeyError:
-        close = difflib.get_close_matches(name, list(_PLATFORMS), n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
-        raise ValueError(f"unknown platform {name!r}{hint}; valid: {list(_PLATFORMS)}") \
-            from None
+        raise unknown_choice("platform", name, _PLATFORMS, key="world.platform") from None
