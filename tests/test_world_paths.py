@@ -24,7 +24,7 @@ def test_registry_names_platforms_and_metadata():
 def test_unknown_path_lists_valid_names():
     with pytest.raises(ValueError, match=r"unknown path 'plannar'.*did you mean 'planar'"):
         get_path("plannar")
-    with pytest.raises(ValueError, match=r"valid paths: \['3d', 'circular', 'linear'"):
+    with pytest.raises(ValueError, match=r"available: 3d, circular, linear"):
         WorldConfig(path="spiral")
 
 
