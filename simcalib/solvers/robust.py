@@ -33,8 +33,8 @@ from simcalib.geometry import (check_transforms, dual_quat_from_transform, quat_
                                quat_right_matrix, rotvec_from_matrix)
 
 __all__ = ["RobustSolution", "WeightsUnsupportedError", "screw_residuals", "noise_threshold",
-           "ransac", "irls", "robust_solve", "ROBUST_METHODS", "solve_supports_weights",
-           "inlier_scores"]
+           "ransac", "irls", "robust_solve", "constraint_errors", "ROBUST_METHODS",
+           "solve_supports_weights", "inlier_scores"]
 
 
 class WeightsUnsupportedError(NotImplementedError):
@@ -101,6 +101,17 @@ def screw_residuals(C, H, X, alpha: float = 1.0) -> np.ndarray:
     plus = np.sum((a - b) ** 2, -1) + alpha**2 * np.sum((ad - bd) ** 2, -1)
     minus = np.sum((a + b) ** 2, -1) + alpha**2 * np.sum((ad + bd) ** 2, -1)
     return np.sqrt(np.minimum(plus, minus))
+
+
+def constraint_errors(C, H, X) -> tuple[np.ndarray, np.ndarray]:
+    """Per-motion errors of ``C_i X = X H_i`` in plain units: rotation angle (rad) and
+    translation norm (m) of ``(C_i X)^-1 (X H_i)`` (pose of b predicted from a vs. from b)."""
+    from simcalib.geometry import invert_transform, rotation_angle_rad
+    C = np.asarray(C, dtype=np.float64)
+    H = np.asarray(H, dtype=np.float64)
+    X = np.asarray(X, dtype=np.float64)
+    E = invert_transform(C @ X) @ (X @ H)
+    return rotation_angle_rad(E[..., :3, :3]), np.linalg.norm(E[..., :3, 3], axis=-1)
 
 
 def noise_threshold(C, H, sigma_r_rad: float, sigma_t_m: float, alpha: float = 1.0,
@@ -194,8 +205,19 @@ def ransac(C, H, *, alpha: float = 1.0, threshold: float | None = None,
     axes = rv / np.where(ang > 1e-12, ang, 1.0)[:, None]
     best_score, best_X, iters, needed = -math.inf, None, 0, max_iterations
     batch = 64
+    min_axis = math.radians(min_axis_angle_deg)
+    note = ""
+    probe = _draw_minimal_sets(rng, axes, 256, 2, min_axis)
+    if probe.shape[0] < 0.05 * 256:
+        # nearly parallel rotation axes everywhere: 2-motion sets are (close to) degenerate;
+        # use larger unfiltered sets so that each hypothesis is determined
+        sample_size = max(sample_size, min(6, N - 1))
+        min_axis = 0.0
+        note = (f"; only {probe.shape[0]}/256 motion pairs have rotation axes > "
+                f"{min_axis_angle_deg:g} deg apart (near-degenerate motion): minimal sets of "
+                f"{sample_size} motions, axis filter off")
     while iters < min(needed, max_iterations):
-        sets = _draw_minimal_sets(rng, axes, batch, sample_size, math.radians(min_axis_angle_deg))
+        sets = _draw_minimal_sets(rng, axes, batch, sample_size, min_axis)
         iters += batch
         if sets.shape[0] == 0:
             continue
@@ -244,7 +266,7 @@ def ransac(C, H, *, alpha: float = 1.0, threshold: float | None = None,
                          f"(threshold {thr:.3g}); give a larger threshold or check the data")
     msg = (f"RANSAC: {int(mask.sum())}/{N} inliers ({mask.mean():.0%}), threshold "
            f"{thr:.3g} ({'auto, LMedS scale' if auto else ('from noise' if noise else 'given')}), "
-           f"{iters} hypotheses; {final_method} on the inliers")
+           f"{iters} hypotheses of {sample_size} motions; {final_method} on the inliers{note}")
     return RobustSolution(X=X, solution=final, inlier_mask=mask,
                           weights=mask.astype(np.float64), residuals=r, threshold=float(thr),
                           method="ransac", iterations=iters, message=msg)
