@@ -116,7 +116,8 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
     """Decide the reading of two :class:`simcalib.importers.PoseStreamData` from the data.
 
     Every candidate reading (quaternion order of each quaternion-format stream x inversion
-    of b relative to a) is scored by the median per-motion screw residual after dqopt on
+    of b relative to a) is scored by the median per-motion screw residual of the RANSAC +
+    dqopt estimate (robust to outlier poses) on
     ``n_pairs`` motions between random pairs of synchronised instants (seeded by ``seed``).
     ``offset``: clock offset ``t_b - t_a`` (s) or a TimeOffset; None: the coarse
     angular-speed cross-correlation estimate (it is the same for every reading: relative
@@ -125,7 +126,7 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
     (``scalar_first_x=True`` = read the quaternion numbers in the other order than the
     reader did).
     """
-    from simcalib.solvers.robust import screw_residuals
+    from simcalib.solvers.robust import ransac, screw_residuals
     from simcalib.timesync import _coarse_offset, as_time_poses
     import simcalib
     forced = tuple(name for name, v in (("invert_a", invert_a), ("invert_b", invert_b),
@@ -157,9 +158,13 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
             C, H = _motions(sa, sb, off, n_pairs, np.random.default_rng(seed))
             if C.shape[0] < 3:
                 continue
-            sol = simcalib.solve(C, H, method="dqopt", alpha=alpha)
+            try:    # robust fit: outlier poses must not decide the reading
+                X = ransac(C, H, alpha=alpha, rng=np.random.default_rng(seed),
+                           max_iterations=256).X
+            except ValueError:
+                X = simcalib.solve(C, H, method="dqopt", alpha=alpha).X
             scores[(sw_a, sw_b, inv_a, inv_b)] = float(np.median(
-                screw_residuals(C, H, sol.X, alpha=alpha)))
+                screw_residuals(C, H, X, alpha=alpha)))
             n_mot = int(C.shape[0])
     if not scores:
         raise ValueError("too few overlapping poses with rotation to check the conventions "
@@ -179,9 +184,12 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
                      f"for the runner-up ({desc(ranked[1])}): {_fmt_ratio(ratio)}, "
                      + ("clear" if clear else f"NOT clear (<= {CLEAR_RATIO}x): check the "
                         "files or force the reading"))
-    if invert_a is None:
+    if invert_a is None and invert_b is None:
         lines.append("inverting both streams fits equally well (it would estimate "
                      "T_world_a_world_b): stream a taken as written, pass invert_a to force")
+    elif invert_a is None:
+        lines.append("b's inversion was forced, so a's reading was chosen relative to it "
+                     "(only the relative reading is identifiable)")
     if forced:
         lines.append("forced by the caller: " + ", ".join(forced))
     return ConventionReport(inv_a, inv_b, sw_a, sw_b,

@@ -169,13 +169,14 @@ class SyncedPoses:
 
 
 def synchronise(stream_a, stream_b, offset=0.0, *, reference: str | None = None,
-                max_gap_s: float | None = None, window_a_s: tuple | None = None
+                max_gap_s: float | None = None, window_s: tuple | None = None
                 ) -> SyncedPoses:
     """Pair two streams: the faster stream (or the one not named by ``reference``, ``"a"``
     or ``"b"``) is interpolated at the other one's stamps, shifted by ``offset`` (seconds
     ``t_b - t_a`` or a :class:`TimeOffset`). ``max_gap_s`` (default 2.5x the interpolated
     stream's median period): interpolation across longer gaps is refused (counted).
-    ``window_a_s`` (lo, hi): keep only instants within it (clock a)."""
+    ``window_s`` (lo, hi): keep only reference stamps within it (in the reference stream's
+    own clock, so the kept stamps do not change with the offset)."""
     ta, Ta = as_time_poses(stream_a, "stream_a")
     tb, Tb = as_time_poses(stream_b, "stream_b")
     off = _as_offset(offset)
@@ -198,8 +199,9 @@ def synchronise(stream_a, stream_b, offset=0.0, *, reference: str | None = None,
         T_a_all, T_b_all = T_other, Tb
         inside = (tq >= ta[0]) & (tq <= ta[-1])
     keep = valid.copy()
-    if window_a_s is not None:
-        keep &= (t_ref >= window_a_s[0]) & (t_ref <= window_a_s[1])
+    if window_s is not None:
+        own = ta if reference == "a" else tb
+        keep &= (own >= window_s[0]) & (own <= window_s[1])
     counts = {"reference_stamps": int(t_ref.size), "outside_overlap": int((~inside).sum()),
               "in_gaps": int((inside & ~valid).sum()), "kept": int(keep.sum())}
     return SyncedPoses(t_ref[keep], T_a_all[keep], T_b_all[keep], reference, counts)
@@ -301,9 +303,21 @@ def _normalised_xcorr(x: np.ndarray, y: np.ndarray, min_overlap: int):
     return lags, r
 
 
-def _coarse_offset(ta, Ta, tb, Tb, max_offset_s, min_overlap_frac):
+def _despike(t, w, k: float = 8.0):
+    from scipy.ndimage import median_filter
+    med = float(np.median(w))
+    mad = float(np.median(np.abs(w - med))) or 1e-12
+    ok = w <= med + k * 1.4826 * mad
+    if ok.sum() >= 2 and not ok.all():
+        w = np.interp(t, t[ok], w[ok])
+    return median_filter(w, size=3, mode="nearest")
+
+
+def _coarse_offset(ta, Ta, tb, Tb, max_offset_s, min_overlap_frac, robust=True):
     tma, wa = angular_speed((ta, Ta))
     tmb, wb = angular_speed((tb, Tb))
+    if robust:      # outlier poses make spikes: drop them (robust bound), then median filter
+        wa, wb = _despike(tma, wa), _despike(tmb, wb)
     dt_a, dt_b = float(np.median(np.diff(ta))), float(np.median(np.diff(tb)))
     dt = 0.5 * min(dt_a, dt_b)
     smooth = max(dt_a, dt_b)
@@ -329,24 +343,42 @@ def _coarse_offset(ta, Ta, tb, Tb, max_offset_s, min_overlap_frac):
 
 # ------------------------------------------------------------------ cost refinement
 def calibration_cost_at_offset(stream_a, stream_b, offset, *, step_s: float, alpha: float = 1.0,
-                               method: str = "dqopt", window_a_s=None, reference=None,
-                               min_rotation_deg: float | None = None):
+                               method: str = "dqopt", window_s=None, reference=None,
+                               min_rotation_deg: float | None = None, motion_mask=None):
     """Mean dqopt cost per motion (paper eq. 8 over the motions) after synchronising with
-    ``offset``; returns ``(mean_cost, n_motions, Solution)``."""
+    ``offset``; ``motion_mask`` (bool per motion) keeps only those motions (e.g. RANSAC
+    inliers; only meaningful with a fixed ``window_s`` and no rotation filter, so that the
+    motions are the same for every offset). Returns ``(mean_cost, n_motions, Solution)``."""
     from simcalib.solvers.api import solve
-    sp = synchronise(stream_a, stream_b, offset, window_a_s=window_a_s, reference=reference)
+    sp = synchronise(stream_a, stream_b, offset, window_s=window_s, reference=reference)
     C, H, _, _ = make_motions(sp, step_s=step_s, min_rotation_deg=min_rotation_deg)
+    if motion_mask is not None:
+        if motion_mask.shape[0] != C.shape[0]:
+            raise ValueError("motion_mask does not match the motions (window changed?)")
+        C, H = C[motion_mask], H[motion_mask]
     if C.shape[0] < 3:
         return math.inf, int(C.shape[0]), None
     sol = solve(C, H, method=method, alpha=alpha)
     return sol.cost / C.shape[0], int(C.shape[0]), sol
 
 
-def _refine(sa, sb, coarse, half_width, step_s, alpha, window, reference, n_grid=13):
+def _refine(sa, sb, coarse, half_width, step_s, alpha, window, reference, n_grid=13,
+            robust=True):
+    mask = None
+    if robust:
+        from simcalib.solvers.robust import ransac
+        sp = synchronise(sa, sb, coarse, window_s=window, reference=reference)
+        C, H, _, _ = make_motions(sp, step_s=step_s)
+        if C.shape[0] >= 8:
+            try:
+                mask = ransac(C, H, alpha=alpha, rng=np.random.default_rng(0),
+                              max_iterations=256).inlier_mask
+            except ValueError:
+                mask = None
+    kw = dict(step_s=step_s, alpha=alpha, window_s=window, reference=reference,
+              motion_mask=mask)
     offs = np.linspace(coarse - half_width, coarse + half_width, n_grid)
-    costs = np.array([calibration_cost_at_offset(sa, sb, o, step_s=step_s, alpha=alpha,
-                                                 window_a_s=window, reference=reference)[0]
-                      for o in offs])
+    costs = np.array([calibration_cost_at_offset(sa, sb, o, **kw)[0] for o in offs])
     if not np.isfinite(costs).any():
         raise ValueError("calibration cost undefined for every offset near the coarse "
                          "estimate (too few motions)")
@@ -354,13 +386,11 @@ def _refine(sa, sb, coarse, half_width, step_s, alpha, window, reference, n_grid
     h = offs[1] - offs[0]
     lo, hi = offs[max(k - 1, 0)], offs[min(k + 1, n_grid - 1)]
     from scipy.optimize import minimize_scalar
-    f = lambda o: calibration_cost_at_offset(sa, sb, o, step_s=step_s, alpha=alpha,  # noqa
-                                             window_a_s=window, reference=reference)[0]
+    f = lambda o: calibration_cost_at_offset(sa, sb, o, **kw)[0]  # noqa: E731
     res = minimize_scalar(f, bounds=(lo, hi), method="bounded",
                           options={"xatol": 1e-5 * max(1.0, h / 1e-3) * 1e-1})
     best = float(res.x)
-    j0, n_mot, _ = calibration_cost_at_offset(sa, sb, best, step_s=step_s, alpha=alpha,
-                                              window_a_s=window, reference=reference)
+    j0, n_mot, _ = calibration_cost_at_offset(sa, sb, best, **kw)
     d = max(h / 4, 1e-4)
     jp = f(best + d)
     jm = f(best - d)
@@ -370,7 +400,8 @@ def _refine(sa, sb, coarse, half_width, step_s, alpha, window, reference, n_grid
 
 def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = None,
                          refine: bool = True, drift: bool = False, step_s: float | None = None,
-                         alpha: float = 1.0, min_overlap_frac: float = 0.3) -> TimeOffset:
+                         alpha: float = 1.0, min_overlap_frac: float = 0.3,
+                         robust: bool = True) -> TimeOffset:
     """Estimate ``offset_s = t_b - t_a`` between two pose streams.
 
     Coarse: the angular speeds (convention-free) on a common grid at half the faster period,
@@ -380,13 +411,15 @@ def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = Non
     4 periods of the slower stream, at least 0.2 s) is minimised over the offset within +-2
     slower periods of the coarse value (grid, then bounded Brent). ``drift=True``: the
     refinement is repeated on the two halves of the overlap and a linear drift fitted.
-    ``alpha`` (1/m) weights translation in the cost. Needs the streams' conventions resolved
+    ``alpha`` (1/m) weights translation in the cost. ``robust``: the angular speeds are
+    median-filtered (isolated outlier poses make spikes) and the refinement cost uses only
+    the RANSAC inliers among the motions at the coarse offset. Needs the streams' conventions resolved
     for the refinement (see :mod:`simcalib.conventions`); the coarse step does not.
     """
     ta, Ta = as_time_poses(stream_a, "stream_a")
     tb, Tb = as_time_poses(stream_b, "stream_b")
     coarse, peak, lags, corr, grid_dt = _coarse_offset(ta, Ta, tb, Tb, max_offset_s,
-                                                       min_overlap_frac)
+                                                       min_overlap_frac, robust)
     slow_dt = max(float(np.median(np.diff(ta))), float(np.median(np.diff(tb))))
     msg = (f"coarse offset {coarse * 1e3:.1f} ms from angular-speed cross-correlation "
            f"(peak r = {peak:.3f}, grid {grid_dt * 1e3:.1f} ms)")
@@ -398,13 +431,15 @@ def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = Non
     reference = "a" if np.median(np.diff(ta)) >= np.median(np.diff(tb)) else "b"
     half = 2.0 * slow_dt
     # restrict to clock-a instants valid for every offset in the bracket
-    lo_a = max(ta[0], tb[0] - coarse + half) + 1e-9
-    hi_a = min(ta[-1], tb[-1] - coarse - half) - 1e-9
+    lo_a = max(ta[0], tb[0] - coarse) + half + 1e-6
+    hi_a = min(ta[-1], tb[-1] - coarse) - half - 1e-6
     if hi_a - lo_a < 4 * step_s:
         raise ValueError(f"the streams overlap for only {max(hi_a - lo_a, 0):.3f} s at the "
                          f"coarse offset {coarse:.3f} s; too short to refine")
+    shift = 0.0 if reference == "a" else coarse       # window in the reference's clock
+    win = (lo_a + shift, hi_a + shift)
     best, j0, n_mot, curv, offs, costs = _refine((ta, Ta), (tb, Tb), coarse, half, step_s,
-                                                 alpha, (lo_a, hi_a), reference)
+                                                 alpha, win, reference, robust=robust)
     thin = max(1.0, step_s / slow_dt)
     if curv > 0 and n_mot > 0:
         sigma = math.sqrt(2.0 * j0 / (n_mot * curv) * thin)
@@ -414,8 +449,10 @@ def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = Non
     t_ref = 0.5 * (lo_a + hi_a)
     if drift:
         mid = t_ref
-        o1 = _refine((ta, Ta), (tb, Tb), best, half, step_s, alpha, (lo_a, mid), reference)[0]
-        o2 = _refine((ta, Ta), (tb, Tb), best, half, step_s, alpha, (mid, hi_a), reference)[0]
+        o1 = _refine((ta, Ta), (tb, Tb), best, half, step_s, alpha,
+                     (lo_a + shift, mid + shift), reference, robust=robust)[0]
+        o2 = _refine((ta, Ta), (tb, Tb), best, half, step_s, alpha,
+                     (mid + shift, hi_a + shift), reference, robust=robust)[0]
         d = (o2 - o1) / (0.5 * (hi_a - lo_a))
         best = 0.5 * (o1 + o2)
         msg += f"; drift {d * 1e6:.1f} ppm from two windows"

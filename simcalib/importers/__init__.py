@@ -266,7 +266,7 @@ def _finalise(raw: RawStream, source: str, fmt: str, detection: str) -> PoseStre
             raise data_error(f"{label}: all {n0} rows contain NaN or inf")
     keep = finite
     if raw.matrices is None:
-        norm = np.linalg.norm(np.where(finite[:, None], q, 1.0), axis=1)
+        norm = np.linalg.norm(np.where(finite[:, None], q, [0.0, 0.0, 0.0, 1.0]), axis=1)
         far = np.abs(norm - 1.0) > QUAT_NORM_MAX_DEV
         if far.any():
             k = int(np.argmax(far))
