@@ -303,13 +303,18 @@ def _normalised_xcorr(x: np.ndarray, y: np.ndarray, min_overlap: int):
     return lags, r
 
 
-def _despike(t, w, k: float = 8.0):
+def _despike(t, w, k: float = 8.0, max_fraction: float = 0.2):
+    """Replace isolated spikes (outlier poses) by interpolation: a speed is a spike when it
+    exceeds its local median (15 samples; two passes) by more than that median plus ``k`` robust sigmas
+    of the deviations. Left alone if more than ``max_fraction`` would go (not spikes)."""
     from scipy.ndimage import median_filter
-    med = float(np.median(w))
-    mad = float(np.median(np.abs(w - med))) or 1e-12
-    ok = w <= med + k * 1.4826 * mad
-    if ok.sum() >= 2 and not ok.all():
-        w = np.interp(t, t[ok], w[ok])
+    for _ in range(2):
+        local = median_filter(w, size=15, mode="nearest")
+        dev = w - local
+        sig = 1.4826 * float(np.median(np.abs(dev))) + 1e-12
+        spike = dev > local + k * sig
+        if 0 < spike.sum() <= max_fraction * w.size and (~spike).sum() >= 2:
+            w = np.interp(t, t[~spike], w[~spike])
     return median_filter(w, size=3, mode="nearest")
 
 
@@ -363,18 +368,25 @@ def calibration_cost_at_offset(stream_a, stream_b, offset, *, step_s: float, alp
 
 
 def _refine(sa, sb, coarse, half_width, step_s, alpha, window, reference, n_grid=13,
-            robust=True):
-    mask = None
-    if robust:
+            robust=True, min_rotation_deg=1.0):
+    # motions are indexed by the reference stream's stamps (fixed window), so a mask chosen
+    # here selects the same motions at every offset. Keep motions in which the reference
+    # stream turns by >= min_rotation_deg (static ones carry no timing information and would
+    # dominate a robust scale), and of those the RANSAC inliers when robust.
+    sp = synchronise(sa, sb, coarse, window_s=window, reference=reference)
+    C, H, _, _ = make_motions(sp, step_s=step_s)
+    ref = C if reference == "a" else H
+    mask = rotation_angle_rad(ref[:, :3, :3]) >= math.radians(min_rotation_deg)
+    if mask.sum() < 8:
+        mask = np.ones(C.shape[0], dtype=bool)
+    if robust and mask.sum() >= 8:
         from simcalib.solvers.robust import ransac
-        sp = synchronise(sa, sb, coarse, window_s=window, reference=reference)
-        C, H, _, _ = make_motions(sp, step_s=step_s)
-        if C.shape[0] >= 8:
-            try:
-                mask = ransac(C, H, alpha=alpha, rng=np.random.default_rng(0),
-                              max_iterations=256).inlier_mask
-            except ValueError:
-                mask = None
+        try:
+            inl = ransac(C[mask], H[mask], alpha=alpha, rng=np.random.default_rng(0),
+                         max_iterations=256).inlier_mask
+            mask[np.nonzero(mask)[0][~inl]] = False
+        except ValueError:
+            pass
     kw = dict(step_s=step_s, alpha=alpha, window_s=window, reference=reference,
               motion_mask=mask)
     offs = np.linspace(coarse - half_width, coarse + half_width, n_grid)
