@@ -5,6 +5,7 @@
     (simcalib.timesync) -> synchronise + motions -> robust solve (RANSAC + dqopt) and, for
     comparison, a plain solve without rejection.
 
+``python -m simcalib.calibrate_streams --simulate`` prints the simulation validation tables;
 ``python -m simcalib.calibrate_streams --eth DIR`` calibrates the two ETH
 hand_eye_calibration data sets (zips in DIR, unpacked to a temporary folder) and prints the
 table of ``docs/calibrate.md``; ``python -m simcalib.calibrate_streams A B`` one pair of files.
@@ -187,6 +188,75 @@ def _table(results: dict) -> str:
     return "\n".join(rows)
 
 
+def simulation_tables(runs: int = 5, ransac_runs: int = 50) -> str:
+    """The simulation numbers of docs/calibrate.md (time alignment and RANSAC)."""
+    import simcalib
+    from simcalib.geometry import (random_rotation_matrices, rotation_error_rad,
+                                   transform_from_rotation_translation, translation_error_m)
+    from simcalib.solvers.robust import inlier_scores, ransac
+    from simcalib.stream_sim import rig_streams
+    from simcalib.synthetic import synthetic_problem
+    from simcalib.timesync import estimate_time_offset, make_motions, synchronise
+
+    def x_err(rs, off):
+        C, H, _, _ = make_motions(synchronise(rs.a, rs.b, off), step_s=0.5)
+        X = simcalib.solve(C, H).X
+        return (math.degrees(float(rotation_error_rad(X, rs.X))),
+                1e3 * float(translation_error_m(X, rs.X)))
+    out = ["| path | offset (ms) | max abs offset error (ms) | mean reported sigma (ms) | "
+           "X rot err, estimated / true offset (deg) | X trans err, estimated / true (mm) | "
+           "X rot err without alignment (deg) |", "|---|---|---|---|---|---|---|"]
+    for path in ("3d", "planar"):
+        for off in (0.0, 0.037, 0.250):
+            errs, sig, xe, xt, xn = [], [], [], [], []
+            for seed in range(runs):
+                rs = rig_streams(offset_s=off, path=path, rng=np.random.default_rng(seed))
+                est = estimate_time_offset(rs.a, rs.b)
+                errs.append(abs(est.offset_s - off))
+                sig.append(est.uncertainty_s)
+                xe.append(x_err(rs, est))
+                xt.append(x_err(rs, off))
+                xn.append(x_err(rs, 0.0))
+            xe, xt, xn = np.median(xe, 0), np.median(xt, 0), np.median(xn, 0)
+            out.append(f"| {path} | {off * 1e3:.0f} | {1e3 * max(errs):.3f} | "
+                       f"{1e3 * np.mean(sig):.3f} | {xe[0]:.4f} / {xt[0]:.4f} | "
+                       f"{xe[1]:.3f} / {xt[1]:.3f} | {xn[0]:.4f} |")
+    out += ["", "| outlier motions | kind | runs | median rot err clean / plain / RANSAC (deg) | "
+            "median trans err clean / plain / RANSAC (cm) | RANSAC / clean | plain / clean | "
+            "precision | recall | inliers found (prec >= .95, rec >= .9) |",
+            "|---|---|---|---|---|---|---|---|---|---|"]
+    from simcalib.geometry import perturb_transforms
+    for frac, kind in ((0.2, "gross"), (0.4, "gross"), (0.2, "moderate")):
+        rows = []
+        for seed in range(ransac_runs):
+            rng = np.random.default_rng(seed)
+            p = synthetic_problem("random", n=100, rng=rng)
+            k = int(round(frac * 100))
+            idx = rng.choice(100, k, replace=False)
+            C = p.C.copy()
+            if kind == "gross":      # a random rigid motion instead of the measured one
+                C[idx] = transform_from_rotation_translation(
+                    random_rotation_matrices(rng, (k,)), rng.uniform(-1, 1, (k, 3)))
+            else:                    # the measured motion corrupted by 5 deg / 5 cm (1 sigma)
+                C[idx] = perturb_transforms(C[idx], math.radians(5.0), 0.05, rng)
+            good = np.ones(100, bool)
+            good[idx] = False
+            e = lambda X: (math.degrees(float(rotation_error_rad(X, p.X))),  # noqa: E731
+                           100 * float(translation_error_m(X, p.X)))
+            r = ransac(C, p.H, rng=np.random.default_rng(1000 + seed))
+            sc = inlier_scores(r.inlier_mask, good)
+            rows.append((*e(simcalib.solve(p.C, p.H).X), *e(simcalib.solve(C, p.H).X),
+                         *e(r.X), sc["precision"], sc["recall"]))
+        a = np.array(rows)
+        m = np.median(a, 0)
+        found = np.mean((a[:, 6] >= 0.95) & (a[:, 7] >= 0.9))
+        out.append(f"| {frac:.0%} | {kind} | {ransac_runs} | {m[0]:.4f} / {m[2]:.3f} / {m[4]:.4f} | "
+                   f"{m[1]:.3f} / {m[3]:.2f} / {m[5]:.3f} | {m[4] / m[0]:.2f} (rot), "
+                   f"{m[5] / m[1]:.2f} (trans) | {m[2] / m[0]:.0f} (rot) | "
+                   f"{a[:, 6].mean():.3f} | {a[:, 7].mean():.3f} | {found:.0%} |")
+    return "\n".join(out)
+
+
 def main(argv=None) -> int:
     import argparse
     p = argparse.ArgumentParser(prog="python -m simcalib.calibrate_streams",
@@ -194,7 +264,12 @@ def main(argv=None) -> int:
     p.add_argument("files", nargs="*", help="two pose files a b")
     p.add_argument("--eth", help="folder with the ETH zips (calibrate both data sets)")
     p.add_argument("--robust", default="ransac")
+    p.add_argument("--simulate", action="store_true",
+                   help="print the simulation validation tables of docs/calibrate.md")
     args = p.parse_args(argv)
+    if args.simulate:
+        print(simulation_tables())
+        return 0
     if args.eth:
         pairs = eth_files(args.eth)
         if not pairs:
