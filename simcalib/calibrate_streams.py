@@ -250,7 +250,8 @@ def simulation_tables(runs: int = 5, ransac_runs: int = 50) -> str:
         a = np.array(rows)
         m = np.median(a, 0)
         found = np.mean((a[:, 6] >= 0.95) & (a[:, 7] >= 0.9))
-        out.append(f"| {frac:.0%} | {kind} | {ransac_runs} | {m[0]:.4f} / {m[2]:.3f} / {m[4]:.4f} | "
+        out.append(f"| {frac:.0%} | {kind} | {ransac_runs} | "
+                   f"{m[0]:.4f} / {m[2]:.3f} / {m[4]:.4f} | "
                    f"{m[1]:.3f} / {m[3]:.2f} / {m[5]:.3f} | {m[4] / m[0]:.2f} (rot), "
                    f"{m[5] / m[1]:.2f} (trans) | {m[2] / m[0]:.0f} (rot) | "
                    f"{a[:, 6].mean():.3f} | {a[:, 7].mean():.3f} | {found:.0%} |")

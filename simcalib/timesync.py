@@ -305,8 +305,8 @@ def _normalised_xcorr(x: np.ndarray, y: np.ndarray, min_overlap: int):
 
 def _despike(t, w, k: float = 8.0, max_fraction: float = 0.2):
     """Replace isolated spikes (outlier poses) by interpolation: a speed is a spike when it
-    exceeds its local median (15 samples; two passes) by more than that median plus ``k`` robust sigmas
-    of the deviations. Left alone if more than ``max_fraction`` would go (not spikes)."""
+    exceeds its local median (15 samples; two passes) by more than that median plus ``k``
+    robust sigmas of the deviations. Left alone if more than ``max_fraction`` would go (not spikes)."""
     from scipy.ndimage import median_filter
     for _ in range(2):
         local = median_filter(w, size=15, mode="nearest")
@@ -425,8 +425,8 @@ def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = Non
     refinement is repeated on the two halves of the overlap and a linear drift fitted.
     ``alpha`` (1/m) weights translation in the cost. ``robust``: the angular speeds are
     median-filtered (isolated outlier poses make spikes) and the refinement cost uses only
-    the RANSAC inliers among the motions at the coarse offset. Needs the streams' conventions resolved
-    for the refinement (see :mod:`simcalib.conventions`); the coarse step does not.
+    the RANSAC inliers among the motions at the coarse offset. Needs the streams'
+    conventions resolved for the refinement (see :mod:`simcalib.conventions`); the coarse step does not.
     """
     ta, Ta = as_time_poses(stream_a, "stream_a")
     tb, Tb = as_time_poses(stream_b, "stream_b")

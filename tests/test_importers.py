@@ -133,13 +133,11 @@ def test_bad_input_errors(tmp_path, rig):
 def _pairs(rig, n=25):
     # synchronous samples: b taken at a's instants (a 30 Hz, every 12th frame)
     k = np.arange(0, rig.t_a.size, 12)[:n]
-    from simcalib.stream_sim import rig_path
-    Tb = rig.T_a[k] @ rig.X           # world_b = world_a here
-    return rig.T_a[k], Tb, rig_path
+    return rig.T_a[k], rig.T_a[k] @ rig.X      # world_b = world_a here
 
 
 def test_easy_handeye_and_moveit_two_streams(tmp_path, rig):
-    Ta, Tb, _ = _pairs(rig)
+    Ta, Tb = _pairs(rig)
     T_cam_target = invert_transform(Tb)          # tracking output: target in the camera
 
     def tf(T):
@@ -214,7 +212,8 @@ def test_eth_data_conventions_and_calibration():
         assert r.stream_a.format == "eth" and r.robust.n_inliers >= 0.8 * r.C.shape[0]
         s = r.summary
         assert s["residuals_inliers"]["rot_median_deg"] < 2.0
-        assert s["residuals_inliers"]["trans_median_mm"] <= s["residuals_plain"]["trans_median_mm"] + 0.05
+        assert (s["residuals_inliers"]["trans_median_mm"]
+                <= s["residuals_plain"]["trans_median_mm"] + 0.05)
 
 
 def test_simulation_round_trip_through_files(tmp_path):

@@ -102,7 +102,8 @@ def test_bad_inputs():
     assert isinstance(estimate_time_offset(rs.a, rs.b, refine=False), TimeOffset)
 
 
-@pytest.mark.skipif(not ETH.is_dir(), reason=f"ETH data sets not present at {ETH} (set SIMCALIB_ETH_DIR)")
+@pytest.mark.skipif(not ETH.is_dir(),
+                    reason=f"ETH data sets not present at {ETH} (set SIMCALIB_ETH_DIR)")
 def test_eth_offsets_refine_the_cost():
     from simcalib.calibrate_streams import eth_files
     from simcalib.conventions import apply_conventions, detect_conventions
