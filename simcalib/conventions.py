@@ -1,0 +1,206 @@
+"""Which reading of two pose files makes them consistent: inverse poses, quaternion order.
+
+Each stream should hold ``T_world_sensor`` (pose of the sensor in a fixed frame). Files often
+hold the inverse (``T_sensor_world``, e.g. camera-to-target PnP output) or write quaternions
+scalar-first. Both are decided from the data:
+
+Neither can be decided from rotation angles alone: the angle between two poses,
+``2 acos |q_i . q_j|``, is the same for a pose stream and its inverse and for any order of the
+four quaternion numbers (a permutation keeps the dot product), so the angular speeds and the
+motion angles agree under every reading. What differs is whether ONE fixed ``X`` satisfies
+every ``C_i X = X H_i``: for a wrong reading the motions of one stream are conjugated by a
+varying pose (inversion) or mapped by a non-homomorphic permutation (quaternion order), and
+no ``X`` fits. So every candidate reading is scored by the median per-motion screw residual
+after dqopt, on motions between random pairs of synchronised instants (large motions; the
+small consecutive ones cannot separate the readings). Inverting *both* streams is
+indistinguishable from the data (it estimates ``T_world_a_world_b`` instead of ``T_a_b``):
+stream a is taken as written unless ``invert_a`` is given, and the report says so.
+
+:func:`detect_conventions` returns a :class:`ConventionReport` (which reading won, the scores
+and how clearly); :func:`apply_conventions` returns the streams read that way.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from simcalib.geometry import rotation_angle_rad
+
+__all__ = ["ConventionReport", "detect_conventions", "apply_conventions", "CLEAR_RATIO"]
+
+CLEAR_RATIO = 3.0   # runner-up score / winner score above this: "clear"
+
+
+@dataclass(frozen=True)
+class ConventionReport:
+    """The reading chosen for two streams.
+
+    ``invert_a`` / ``invert_b``: the file's poses were inverted (the file held
+    ``T_sensor_world``); ``swap_scalar_a`` / ``_b``: the quaternion numbers were read in the
+    other order than the reader's (scalar-first <-> scalar-last). ``scores``: median
+    per-motion screw residual (dqopt) of every candidate reading; ``ratio``: runner-up score
+    / winner score and ``runner_up`` its description; ``clear`` when ``ratio`` exceeds
+    :data:`CLEAR_RATIO`. ``forced`` lists what the caller fixed; ``offset_s`` the clock offset
+    used to pair the poses; ``n_motions`` the motions scored per candidate.
+    """
+    invert_a: bool
+    invert_b: bool
+    swap_scalar_a: bool
+    swap_scalar_b: bool
+    scores: dict = field(default_factory=dict)
+    ratio: float = math.inf
+    runner_up: str = ""
+    clear: bool = True
+    forced: tuple = ()
+    offset_s: float = 0.0
+    n_motions: int = 0
+    message: str = ""
+
+
+def _swap_options(stream, forced):
+    if forced is not None:
+        return [bool(forced)]
+    if getattr(stream, "quat_order", "matrix") == "matrix":
+        return [False]
+    return [False, True]
+
+
+def _apply(stream, swap, invert):
+    s = stream
+    if swap:
+        s = s.with_swapped_scalar()
+    if invert:
+        s = s.with_inverse()
+    return s
+
+
+def _motions(sa, sb, offset, n_pairs, rng):
+    """Motions between random pairs of synchronised instants (large motions separate the
+    readings best; consecutive steps are too small to tell them apart)."""
+    from simcalib.geometry import invert_transform
+    from simcalib.timesync import synchronise
+    sp = synchronise(sa, sb, offset)
+    n = sp.n
+    if n < 3:
+        return np.zeros((0, 4, 4)), np.zeros((0, 4, 4))
+    i = rng.integers(0, n, size=n_pairs)
+    j = rng.integers(0, n, size=n_pairs)
+    keep = i != j
+    i, j = i[keep], j[keep]
+    C = invert_transform(sp.T_a[i]) @ sp.T_a[j]
+    H = invert_transform(sp.T_b[i]) @ sp.T_b[j]
+    ang = 0.5 * (rotation_angle_rad(C[:, :3, :3]) + rotation_angle_rad(H[:, :3, :3]))
+    keep = ang > np.radians(1.0)
+    return C[keep], H[keep]
+
+
+def _fmt_ratio(r):
+    return "inf" if not math.isfinite(r) else f"{r:.1f}x"
+
+
+def _label(sw, inv, name, has_order):
+    s = f"{name}: " + ("inverted (file holds T_sensor_world)" if inv else "as written")
+    if has_order:
+        s += ", quaternion order " + ("swapped" if sw else "as read")
+    return s
+
+
+def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None = None,
+                       invert_b: bool | None = None, scalar_first_a: bool | None = None,
+                       scalar_first_b: bool | None = None, alpha: float = 1.0,
+                       n_pairs: int = 400, seed: int = 0) -> ConventionReport:
+    """Decide the reading of two :class:`simcalib.importers.PoseStreamData` from the data.
+
+    Every candidate reading (quaternion order of each quaternion-format stream x inversion
+    of b relative to a) is scored by the median per-motion screw residual of the RANSAC +
+    dqopt estimate (robust to outlier poses) on
+    ``n_pairs`` motions between random pairs of synchronised instants (seeded by ``seed``).
+    ``offset``: clock offset ``t_b - t_a`` (s) or a TimeOffset; None: the coarse
+    angular-speed cross-correlation estimate (it is the same for every reading: relative
+    rotation angles do not depend on inversion or quaternion order), 0 for sample-indexed
+    files. ``invert_a``/``invert_b``/``scalar_first_a``/``_b``: force a reading
+    (``scalar_first_x=True`` = read the quaternion numbers in the other order than the
+    reader did).
+    """
+    from simcalib.solvers.robust import ransac, screw_residuals
+    from simcalib.timesync import _coarse_offset, as_time_poses
+    import simcalib
+    forced = tuple(name for name, v in (("invert_a", invert_a), ("invert_b", invert_b),
+                                        ("scalar_first_a", scalar_first_a),
+                                        ("scalar_first_b", scalar_first_b)) if v is not None)
+    sample_indexed = bool(getattr(stream_a, "synthetic_time", False)
+                          or getattr(stream_b, "synthetic_time", False))
+    if offset is not None:
+        off = offset
+    elif sample_indexed:
+        off = 0.0
+    else:
+        off = _coarse_offset(*as_time_poses(stream_a, "stream_a"),
+                             *as_time_poses(stream_b, "stream_b"), None, 0.3)[0]
+    if invert_a is not None and invert_b is not None:
+        parities = [(bool(invert_a), bool(invert_b))]
+    elif invert_b is not None:
+        parities = [(False, bool(invert_b)), (True, bool(invert_b))]
+    else:
+        base_a = bool(invert_a) if invert_a is not None else False
+        parities = [(base_a, False), (base_a, True)]
+    has_order_a = len(_swap_options(stream_a, scalar_first_a)) > 1
+    has_order_b = len(_swap_options(stream_b, scalar_first_b)) > 1
+    scores, n_mot = {}, 0
+    for sw_a, sw_b in itertools.product(_swap_options(stream_a, scalar_first_a),
+                                        _swap_options(stream_b, scalar_first_b)):
+        for inv_a, inv_b in parities:
+            sa, sb = _apply(stream_a, sw_a, inv_a), _apply(stream_b, sw_b, inv_b)
+            C, H = _motions(sa, sb, off, n_pairs, np.random.default_rng(seed))
+            if C.shape[0] < 3:
+                continue
+            try:    # robust fit: outlier poses must not decide the reading
+                X = ransac(C, H, alpha=alpha, rng=np.random.default_rng(seed),
+                           max_iterations=256).X
+            except ValueError:
+                X = simcalib.solve(C, H, method="dqopt", alpha=alpha).X
+            scores[(sw_a, sw_b, inv_a, inv_b)] = float(np.median(
+                screw_residuals(C, H, X, alpha=alpha)))
+            n_mot = int(C.shape[0])
+    if not scores:
+        raise ValueError("too few overlapping poses with rotation to check the conventions "
+                         "(do the streams overlap in time, and does the rig rotate?)")
+    ranked = sorted(scores, key=scores.get)
+    best = ranked[0]
+    sw_a, sw_b, inv_a, inv_b = best
+    ratio = scores[ranked[1]] / max(scores[best], 1e-15) if len(ranked) > 1 else math.inf
+    clear = ratio > CLEAR_RATIO
+
+    def desc(k):
+        return (_label(k[0], k[2], "a", has_order_a) + "; "
+                + _label(k[1], k[3], "b", has_order_b))
+    lines = [f"reading used: {desc(best)}"]
+    if len(ranked) > 1:
+        lines.append(f"median screw residual {scores[best]:.3g} vs {scores[ranked[1]]:.3g} "
+                     f"for the runner-up ({desc(ranked[1])}): {_fmt_ratio(ratio)}, "
+                     + ("clear" if clear else f"NOT clear (<= {CLEAR_RATIO}x): check the "
+                        "files or force the reading"))
+    if invert_a is None and invert_b is None:
+        lines.append("inverting both streams fits equally well (it would estimate "
+                     "T_world_a_world_b): stream a taken as written, pass invert_a to force")
+    elif invert_a is None:
+        lines.append("b's inversion was forced, so a's reading was chosen relative to it "
+                     "(only the relative reading is identifiable)")
+    if forced:
+        lines.append("forced by the caller: " + ", ".join(forced))
+    return ConventionReport(inv_a, inv_b, sw_a, sw_b,
+                            scores={desc(k): v for k, v in scores.items()}, ratio=ratio,
+                            runner_up=desc(ranked[1]) if len(ranked) > 1 else "",
+                            clear=clear, forced=forced,
+                            offset_s=float(getattr(off, "offset_s", off)), n_motions=n_mot,
+                            message="; ".join(lines))
+
+
+def apply_conventions(stream_a, stream_b, report: ConventionReport):
+    """The two streams read as ``report`` decided."""
+    return (_apply(stream_a, report.swap_scalar_a, report.invert_a),
+            _apply(stream_b, report.swap_scalar_b, report.invert_b))

@@ -1,0 +1,363 @@
+"""Reading pose streams from files: a registry of formats, one module per format.
+
+    from simcalib.importers import read_pose_stream, read_pose_streams, available
+    s = read_pose_stream("hand.csv")                 # format detected, message in s.detection
+    s = read_pose_stream("cam.txt", format="tum")    # or named explicitly
+    a, b = read_pose_streams("samples.yaml")         # two-stream formats (easy_handeye, moveit)
+
+Every stream is a :class:`PoseStreamData`: timestamps (s), ``T_world_sensor`` (N, 4, 4) as the
+file states it (whether the file really holds ``T_world_sensor`` or its inverse, and whether a
+quaternion was scalar-first, is decided from the data by :mod:`simcalib.conventions`), the
+source file, the format and the repairs made (counted, named).
+
+Formats (``available()``): ``tum``, ``simcalib_tum`` (simcalib's own TUM output), ``eth``,
+``csv``, ``easy_handeye``, ``moveit``. A format module defines ``NAME``, ``DESCRIPTION``,
+``TWO_STREAMS`` (bool), ``sniff(path, text) -> float`` (0..1 confidence) and
+``read(path, text, **options) -> list[RawStream]``.
+"""
+
+from __future__ import annotations
+
+import difflib
+import importlib
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from simcalib.geometry import (invert_transform, matrix_from_quat, quat_from_matrix,
+                               transform_from_rotation_translation)
+
+__all__ = ["PoseStreamData", "RawStream", "data_error", "available", "read_pose_stream",
+           "read_pose_streams", "detect_format", "stream_from_arrays", "MIN_POSES"]
+
+MIN_POSES = 3
+
+_FORMAT_MODULES = {
+    "simcalib_tum": "simcalib.importers.simcalib_tum",
+    "tum": "simcalib.importers.tum",
+    "eth": "simcalib.importers.eth",
+    "csv": "simcalib.importers.csv",
+    "easy_handeye": "simcalib.importers.easy_handeye",
+    "moveit": "simcalib.importers.moveit",
+}
+
+
+def data_error(message: str) -> Exception:
+    """The project's ``DataError`` if it exists (``simcalib.errors``), else ``ValueError``."""
+    try:
+        from simcalib.errors import DataError  # type: ignore[import-not-found]
+    except ImportError:
+        return ValueError(message)
+    return DataError(message)
+
+
+@dataclass(frozen=True)
+class RawStream:
+    """What a format reader returns before validation: timestamps and either positions +
+    quaternions ``(x, y, z, w)`` (already reordered from the file's column order) or 4x4
+    matrices. ``quat_order`` records the order in the file (``xyzw``, ``wxyz``) or
+    ``matrix``; ``name`` labels the stream inside a two-stream file."""
+    timestamps_s: np.ndarray
+    position_m: np.ndarray | None = None
+    quat_xyzw: np.ndarray | None = None
+    matrices: np.ndarray | None = None
+    quat_order: str = "xyzw"
+    name: str = ""
+    note: str = ""
+    synthetic_time: bool = False
+
+
+@dataclass(frozen=True)
+class PoseStreamData:
+    """One pose stream read from a file.
+
+    ``timestamps_s`` (N,) strictly increasing; ``T_world_sensor`` (N, 4, 4) rigid, as read
+    (see :mod:`simcalib.conventions` for the reading actually used); ``source`` the file;
+    ``format`` the format name; ``detection`` how the format was chosen; ``repairs`` maps a
+    repair name to its count (e.g. ``{"duplicate_rows_dropped": 3}``); ``quat_order`` the
+    file's quaternion order (``xyzw``/``wxyz``) or ``matrix``; ``name`` the stream label;
+    ``inverted``/``scalar_first_reinterpreted`` record convention changes applied since
+    reading; ``synthetic_time``: the file had no timestamps (sample index used as time).
+    """
+    timestamps_s: np.ndarray
+    T_world_sensor: np.ndarray
+    source: str
+    format: str
+    detection: str = ""
+    repairs: dict = field(default_factory=dict)
+    quat_order: str = "xyzw"
+    name: str = ""
+    inverted: bool = False
+    scalar_first_reinterpreted: bool = False
+    synthetic_time: bool = False
+
+    def __len__(self) -> int:
+        return int(self.timestamps_s.shape[0])
+
+    @property
+    def n(self) -> int:
+        return len(self)
+
+    @property
+    def duration_s(self) -> float:
+        return float(self.timestamps_s[-1] - self.timestamps_s[0])
+
+    @property
+    def rate_hz(self) -> float:
+        """Median sampling rate."""
+        dt = np.diff(self.timestamps_s)
+        return float(1.0 / np.median(dt)) if dt.size else float("nan")
+
+    def with_inverse(self) -> "PoseStreamData":
+        """The same stream read as the inverse poses (``T_sensor_world`` <-> ``T_world_sensor``)."""
+        return replace(self, T_world_sensor=invert_transform(self.T_world_sensor),
+                       inverted=not self.inverted)
+
+    def with_swapped_scalar(self) -> "PoseStreamData":
+        """The same stream with the file's quaternions read in the other order
+        (scalar-first <-> scalar-last). Only for quaternion formats."""
+        if self.quat_order == "matrix":
+            raise ValueError(f"stream {self.name or self.source!r} was read from 4x4 matrices; "
+                             "it has no quaternion order to swap")
+        T = invert_transform(self.T_world_sensor) if self.inverted else self.T_world_sensor
+        q = quat_from_matrix(T[:, :3, :3])          # = +-(file's 4 numbers) in xyzw reading
+        q_other = np.concatenate([q[:, 1:], q[:, :1]], axis=1)
+        T2 = transform_from_rotation_translation(matrix_from_quat(q_other), T[:, :3, 3])
+        if self.inverted:
+            T2 = invert_transform(T2)
+        return replace(self, T_world_sensor=T2,
+                       scalar_first_reinterpreted=not self.scalar_first_reinterpreted)
+
+    def describe(self) -> str:
+        rep = ", ".join(f"{k}: {v}" for k, v in self.repairs.items() if v) or "none"
+        label = f" [{self.name}]" if self.name else ""
+        return (f"{self.source}{label}: {self.n} poses over {self.duration_s:.3f} s "
+                f"(~{self.rate_hz:.1f} Hz), format {self.format} ({self.detection}); "
+                f"repairs: {rep}")
+
+
+# --------------------------------------------------------------------------- registry
+def available() -> list[str]:
+    """Names of the registered formats."""
+    return list(_FORMAT_MODULES)
+
+
+def _module(name: str):
+    if not isinstance(name, str) or name not in _FORMAT_MODULES:
+        close = difflib.get_close_matches(str(name), list(_FORMAT_MODULES), n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise ValueError(f"unknown pose-file format {name!r}{hint}; "
+                         f"allowed: {', '.join(_FORMAT_MODULES)}")
+    return importlib.import_module(_FORMAT_MODULES[name])
+
+
+def _read_text(path) -> tuple[Path, str]:
+    p = Path(path)
+    if not p.is_file():
+        raise data_error(f"pose file {str(path)!r} does not exist or is not a file")
+    try:
+        text = p.read_text(encoding="utf-8", errors="strict")
+    except UnicodeDecodeError:
+        raise data_error(f"pose file {str(p)!r} is not UTF-8 text; pose files are text "
+                         f"(formats: {', '.join(_FORMAT_MODULES)})") from None
+    if not text.strip():
+        raise data_error(f"pose file {str(p)!r} is empty")
+    return p, text
+
+
+def detect_format(path, text: str | None = None) -> tuple[str, str]:
+    """``(format name, message)``: the most confident sniffer wins; the message names the
+    detected format and the runner-up."""
+    p = Path(path)
+    if text is None:
+        p, text = _read_text(p)
+    scores = []
+    for name in _FORMAT_MODULES:
+        try:
+            s = float(_module(name).sniff(p, text))
+        except Exception:  # noqa: BLE001 - a sniffer that chokes simply does not match
+            s = 0.0
+        scores.append((s, name))
+    scores.sort(key=lambda x: -x[0])
+    best_s, best = scores[0]
+    if best_s <= 0:
+        first = text.strip().splitlines()[0][:120]
+        raise data_error(f"could not detect the format of {str(p)!r} (first line: {first!r}); "
+                         f"name it explicitly, one of: {', '.join(_FORMAT_MODULES)}")
+    runner = scores[1]
+    msg = (f"detected format {best!r} ({_module(best).DESCRIPTION}; confidence {best_s:.2f}"
+           + (f", next {runner[1]!r} {runner[0]:.2f}" if runner[0] > 0 else "") + ")")
+    return best, msg
+
+
+def read_pose_streams(path, format: str | None = None, **options) -> list[PoseStreamData]:
+    """All streams of a file (one for single-stream formats, two for easy_handeye / moveit).
+
+    ``format``: a name from :func:`available`, or None to detect it. ``options`` go to the
+    format reader (e.g. ``columns=`` for csv). Raises the project's DataError (ValueError)
+    on bad input that cannot be repaired.
+    """
+    p, text = _read_text(path)
+    if format is None:
+        format, detection = detect_format(p, text)
+    else:
+        _module(format)
+        detection = f"format {format!r} named explicitly"
+    raws = _module(format).read(p, text, **options)
+    return [_finalise(r, str(p), format, detection) for r in raws]
+
+
+def read_pose_stream(path, format: str | None = None, stream: str | int | None = None,
+                     **options) -> PoseStreamData:
+    """One stream of a file. For two-stream formats ``stream`` picks it by name or index
+    (required there)."""
+    streams = read_pose_streams(path, format, **options)
+    if len(streams) == 1 and stream in (None, 0, streams[0].name):
+        return streams[0]
+    names = [s.name for s in streams]
+    if stream is None:
+        raise ValueError(f"{str(path)!r} holds {len(streams)} streams ({', '.join(names)}); "
+                         "pick one with stream=NAME or an index")
+    if isinstance(stream, (int, np.integer)) and not isinstance(stream, bool):
+        if 0 <= stream < len(streams):
+            return streams[int(stream)]
+    elif stream in names:
+        return streams[names.index(stream)]
+    raise ValueError(f"stream {stream!r} not in {str(path)!r}; allowed: {', '.join(names)} "
+                     f"or 0..{len(streams) - 1}")
+
+
+def stream_from_arrays(timestamps_s, T_world_sensor, *, source: str = "<memory>",
+                       name: str = "", quat_order: str = "xyzw") -> PoseStreamData:
+    """A validated :class:`PoseStreamData` from arrays (same checks and repairs as files)."""
+    T = np.asarray(T_world_sensor, dtype=np.float64)
+    t = np.asarray(timestamps_s, dtype=np.float64)
+    if T.ndim != 3 or T.shape[1:] != (4, 4):
+        raise ValueError(f"T_world_sensor must have shape (N, 4, 4); received {T.shape}")
+    if t.shape != (T.shape[0],):
+        raise ValueError(f"timestamps_s must have shape ({T.shape[0]},); received {t.shape}")
+    raw = RawStream(t, matrices=T, quat_order="matrix", name=name)
+    s = _finalise(raw, source, "arrays", "given as arrays")
+    return replace(s, quat_order=quat_order)
+
+
+# ------------------------------------------------------------------- validation/repair
+QUAT_NORM_TOL = 1e-3      # beyond this deviation from 1 a quaternion is renormalised (counted)
+QUAT_NORM_MAX_DEV = 0.2   # beyond this it is not a unit quaternion at all: error
+
+
+def _finalise(raw: RawStream, source: str, fmt: str, detection: str) -> PoseStreamData:
+    label = f"{source}" + (f" [{raw.name}]" if raw.name else "")
+    repairs: dict[str, int] = {}
+    t = np.asarray(raw.timestamps_s, dtype=np.float64).reshape(-1)
+    n0 = t.shape[0]
+    if raw.matrices is not None:
+        M = np.asarray(raw.matrices, dtype=np.float64)
+        finite = np.isfinite(M).all(axis=(1, 2)) & np.isfinite(t)
+    else:
+        pos = np.asarray(raw.position_m, dtype=np.float64)
+        q = np.asarray(raw.quat_xyzw, dtype=np.float64)
+        finite = np.isfinite(pos).all(1) & np.isfinite(q).all(1) & np.isfinite(t)
+    n_bad = int((~finite).sum())
+    if n_bad:
+        repairs["nan_rows_dropped"] = n_bad
+        if n_bad == n0:
+            raise data_error(f"{label}: all {n0} rows contain NaN or inf")
+    keep = finite
+    if raw.matrices is None:
+        norm = np.linalg.norm(np.where(finite[:, None], q, [0.0, 0.0, 0.0, 1.0]), axis=1)
+        far = np.abs(norm - 1.0) > QUAT_NORM_MAX_DEV
+        if far.any():
+            k = int(np.argmax(far))
+            raise data_error(
+                f"{label}: row {k} has quaternion {q[k].tolist()} of norm {norm[k]:.4g}; "
+                f"unit quaternions (|q| within {QUAT_NORM_MAX_DEV} of 1) are required - "
+                "wrong columns or quaternion order?")
+        renorm = finite & (np.abs(norm - 1.0) > QUAT_NORM_TOL)
+        if renorm.any():
+            repairs["quaternions_renormalised"] = int(renorm.sum())
+        t, pos, q = t[keep], pos[keep], q[keep]
+        T = transform_from_rotation_translation(matrix_from_quat(q), pos)
+    else:
+        t, M = t[keep], M[keep]
+        T = _project_rigid(M, label, repairs)
+    # timestamps: order, duplicates
+    if t.size >= 2 and np.any(np.diff(t) < 0):
+        order = np.argsort(t, kind="stable")
+        repairs["out_of_order_rows_sorted"] = int(np.sum(order != np.arange(t.size)))
+        t, T = t[order], T[order]
+    if t.size >= 2:
+        dup = np.concatenate([[False], np.diff(t) == 0])
+        if dup.any():
+            same = np.zeros_like(dup)
+            same[1:] = np.abs(T[1:] - T[:-1]).max(axis=(1, 2)) < 1e-9
+            n_same = int((dup & same).sum())
+            n_diff = int((dup & ~same).sum())
+            if n_same:
+                repairs["duplicate_rows_dropped"] = n_same
+            if n_diff:
+                repairs["duplicate_timestamps_dropped_kept_first"] = n_diff
+            t, T = t[~dup], T[~dup]
+    if t.size < MIN_POSES:
+        raise data_error(f"{label}: {t.size} usable poses after repairs "
+                         f"({', '.join(f'{k}: {v}' for k, v in repairs.items()) or 'none'}); "
+                         f"at least {MIN_POSES} are needed")
+    t.setflags(write=False)
+    T.setflags(write=False)
+    return PoseStreamData(timestamps_s=t, T_world_sensor=T, source=source, format=fmt,
+                          detection=detection + (f"; {raw.note}" if raw.note else ""),
+                          repairs=repairs, quat_order=raw.quat_order, name=raw.name,
+                          synthetic_time=raw.synthetic_time)
+
+
+def _project_rigid(M: np.ndarray, label: str, repairs: dict) -> np.ndarray:
+    """Check 4x4 rows: bottom row (0,0,0,1); rotation blocks re-orthonormalised (SVD) when
+    slightly off (counted), error when far off."""
+    bottom_ok = np.abs(M[:, 3, :] - np.array([0, 0, 0, 1.0])).max(axis=1) < 1e-6
+    if not bottom_ok.all():
+        k = int(np.argmax(~bottom_ok))
+        raise data_error(f"{label}: matrix {k} has bottom row {M[k, 3].tolist()}; "
+                         "rigid transforms end in (0, 0, 0, 1) - is the matrix row-major 4x4?")
+    R = M[:, :3, :3]
+    err = np.abs(np.swapaxes(R, 1, 2) @ R - np.eye(3)).max(axis=(1, 2))
+    det = np.linalg.det(R)
+    far = (err > 0.05) | (det < 0)
+    if far.any():
+        k = int(np.argmax(far))
+        raise data_error(f"{label}: matrix {k} is not a rotation (|R^T R - I| = {err[k]:.3g}, "
+                         f"det = {det[k]:.3g}); is the matrix transposed or not row-major?")
+    off = err > 1e-9
+    T = M.copy()
+    if off.any():
+        U, _, Vt = np.linalg.svd(R[off])
+        T[off, :3, :3] = U @ Vt
+        if (err > 1e-6).any():
+            repairs["rotations_reorthonormalised"] = int((err > 1e-6).sum())
+    return T
+
+
+# ------------------------------------------------------------------------ text helpers
+def numeric_rows(text: str, sep: str | None, comment: str = "#") -> tuple[np.ndarray, int]:
+    """Parse numeric rows (``sep`` None: whitespace). Returns (array, n_lines_skipped);
+    unparsable lines other than blank/comment raise with the line number."""
+    rows = []
+    width = None
+    for lineno, line in enumerate(text.splitlines(), 1):
+        s = line.strip()
+        if not s or s.startswith(comment) or s.startswith("%"):
+            continue
+        parts = [p for p in (s.split(sep) if sep else s.split())]
+        parts = [p.strip() for p in parts if p.strip() != ""]
+        try:
+            vals = [float(p) for p in parts]
+        except ValueError:
+            raise data_error(f"line {lineno}: could not read numbers from {s[:100]!r}") from None
+        if width is None:
+            width = len(vals)
+        elif len(vals) != width:
+            raise data_error(f"line {lineno}: {len(vals)} values, earlier lines have {width}")
+        rows.append(vals)
+    if not rows:
+        raise data_error("no numeric rows found")
+    return np.asarray(rows, dtype=np.float64), 0

@@ -1,0 +1,364 @@
+"""Outlier-robust hand-eye estimation over motions: RANSAC + dqopt, and IRLS dqopt.
+
+* :func:`screw_residuals` — per-motion residual of the screw constraint ``C_i X = X H_i`` in
+  dual-quaternion form: ``r_i = sqrt(|q_C q_X - q_X q_H|^2 + alpha^2 |(q_C q_X)' - (q_X q_H)'|^2)``
+  (the square root of motion i's term of the paper's cost (8), with the sign of ``q_H``
+  chosen per motion). Units: rotation part ~ half the rotation error (rad), translation part
+  ~ ``alpha`` x half the translation error (m).
+* :func:`ransac` — hypotheses from minimal sets of motions (2 motions with non-parallel
+  rotation axes, solved all at once by ``simcalib.solve_batch`` with a DQ method), consensus
+  by the per-motion residual, threshold given, from the noise level, or automatic (least
+  median of squares scale); the best consensus is refined (dqopt on the inliers, re-scored,
+  repeated until the inlier set is stable) — the final ``X`` is ``simcalib.solve`` (dqopt)
+  on the inliers.
+* :func:`irls` — iteratively re-weighted dqopt (Huber / Cauchy / Tukey weights on the
+  per-motion residuals) through ``simcalib.solve(C, H, ..., weights=w)``; the cost is a sum
+  over motions so the weighted S, W, M keep dqopt exact. Raises
+  :class:`WeightsUnsupportedError` while ``simcalib.solve`` has no ``weights`` argument.
+* :func:`robust_solve` — ``robust="none" | "ransac" | "irls"`` (registry :data:`ROBUST_METHODS`).
+
+All return a :class:`RobustSolution` (``X``, the final ``Solution``, the inlier mask, the
+weights, the residuals, the threshold).
+"""
+
+from __future__ import annotations
+
+import inspect
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from simcalib.geometry import (check_transforms, dual_quat_from_transform, quat_left_matrix,
+                               quat_right_matrix, rotvec_from_matrix)
+
+__all__ = ["RobustSolution", "WeightsUnsupportedError", "screw_residuals", "noise_threshold",
+           "ransac", "irls", "robust_solve", "constraint_errors", "ROBUST_METHODS",
+           "solve_supports_weights", "inlier_scores"]
+
+
+class WeightsUnsupportedError(NotImplementedError):
+    """``simcalib.solve`` does not accept ``weights=`` (needed by IRLS) in this version."""
+
+
+@dataclass(frozen=True, eq=False)
+class RobustSolution:
+    """Result of a robust solve.
+
+    ``X``: estimate of ``T_a_b``; ``solution``: the final :class:`simcalib.Solution` (dqopt on
+    the inliers for RANSAC, the last weighted solve for IRLS, all motions for ``none``);
+    ``inlier_mask`` (N,) bool; ``weights`` (N,) float (0/1 for RANSAC); ``residuals`` (N,)
+    per-motion screw residuals at ``X`` (:func:`screw_residuals`); ``threshold``: the inlier
+    threshold used (same units); ``method``; ``iterations``: hypotheses drawn (RANSAC) or
+    re-weighting rounds (IRLS); ``message``.
+    """
+    X: np.ndarray
+    solution: object
+    inlier_mask: np.ndarray
+    weights: np.ndarray
+    residuals: np.ndarray
+    threshold: float
+    method: str
+    iterations: int
+    message: str = ""
+    diagnostics: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def n_inliers(self) -> int:
+        return int(self.inlier_mask.sum())
+
+    @property
+    def inlier_fraction(self) -> float:
+        return float(self.inlier_mask.mean()) if self.inlier_mask.size else float("nan")
+
+
+# --------------------------------------------------------------------------- residuals
+def _motion_dq(C, H):
+    qC, qCd = dual_quat_from_transform(C)
+    qH, qHd = dual_quat_from_transform(H)
+    return qC, qCd, qH, qHd
+
+
+def screw_residuals(C, H, X, alpha: float = 1.0) -> np.ndarray:
+    """Per-motion screw-constraint residuals ``(..., N)`` of ``C_i X = X H_i`` for one
+    ``X`` (4, 4) or a batch ``(B, 4, 4)`` (result ``(B, N)``); see the module docstring."""
+    C = np.asarray(C, dtype=np.float64)
+    H = np.asarray(H, dtype=np.float64)
+    X = np.asarray(X, dtype=np.float64)
+    if C.ndim != 3 or C.shape[1:] != (4, 4) or H.shape != C.shape:
+        raise ValueError(f"C and H must both have shape (N, 4, 4); received {C.shape}, {H.shape}")
+    if X.shape[-2:] != (4, 4) or X.ndim not in (2, 3):
+        raise ValueError(f"X must have shape (4, 4) or (B, 4, 4); received {X.shape}")
+    qC, qCd, qH, qHd = _motion_dq(C, H)
+    qX, qXd = dual_quat_from_transform(X)
+    LC, LCd = quat_left_matrix(qC), quat_left_matrix(qCd)      # (N,4,4)
+    RH, RHd = quat_right_matrix(qH), quat_right_matrix(qHd)
+    # q_C (x) q_X and q_X (x) q_H as (..., N, 4)
+    a = np.einsum("nij,...j->...ni", LC, qX)
+    b = np.einsum("nij,...j->...ni", RH, qX)
+    ad = np.einsum("nij,...j->...ni", LCd, qX) + np.einsum("nij,...j->...ni", LC, qXd)
+    bd = np.einsum("nij,...j->...ni", RHd, qX) + np.einsum("nij,...j->...ni", RH, qXd)
+    plus = np.sum((a - b) ** 2, -1) + alpha**2 * np.sum((ad - bd) ** 2, -1)
+    minus = np.sum((a + b) ** 2, -1) + alpha**2 * np.sum((ad + bd) ** 2, -1)
+    return np.sqrt(np.minimum(plus, minus))
+
+
+def constraint_errors(C, H, X) -> tuple[np.ndarray, np.ndarray]:
+    """Per-motion errors of ``C_i X = X H_i`` in plain units: rotation angle (rad) and
+    translation norm (m) of ``(C_i X)^-1 (X H_i)`` (pose of b predicted from a vs. from b)."""
+    from simcalib.geometry import invert_transform, rotation_angle_rad
+    C = np.asarray(C, dtype=np.float64)
+    H = np.asarray(H, dtype=np.float64)
+    X = np.asarray(X, dtype=np.float64)
+    E = invert_transform(C @ X) @ (X @ H)
+    return rotation_angle_rad(E[..., :3, :3]), np.linalg.norm(E[..., :3, 3], axis=-1)
+
+
+def noise_threshold(C, H, sigma_r_rad: float, sigma_t_m: float, alpha: float = 1.0,
+                    k: float = 3.0) -> float:
+    """Inlier threshold from the pose noise (paper eq. 38 on every pose of C and H): ``k``
+    times the expected residual of a clean motion, first order:
+    ``E r^2 ~ sigma_r^2/2 + alpha^2 (3 sigma_t^2/2 + sigma_r^2 mean(|t_C|^2+|t_H|^2)/16)``."""
+    for name, v in (("sigma_r_rad", sigma_r_rad), ("sigma_t_m", sigma_t_m)):
+        if not (isinstance(v, (int, float, np.floating)) and math.isfinite(v) and v >= 0):
+            raise ValueError(f"{name} must be finite and >= 0; received {v!r}")
+    C = np.asarray(C, dtype=np.float64)
+    H = np.asarray(H, dtype=np.float64)
+    t2 = float(np.mean(np.sum(C[:, :3, 3] ** 2, -1) + np.sum(H[:, :3, 3] ** 2, -1)))
+    e2 = sigma_r_rad**2 / 2 + alpha**2 * (1.5 * sigma_t_m**2 + sigma_r_rad**2 * t2 / 16)
+    return float(k * math.sqrt(e2))
+
+
+def inlier_scores(inlier_mask, true_inliers) -> dict:
+    """Precision and recall of an inlier mask against ground-truth labels."""
+    m = np.asarray(inlier_mask, dtype=bool)
+    g = np.asarray(true_inliers, dtype=bool)
+    tp = int((m & g).sum())
+    return {"precision": tp / max(int(m.sum()), 1), "recall": tp / max(int(g.sum()), 1),
+            "true_positives": tp, "n_inliers": int(m.sum()), "n_true_inliers": int(g.sum())}
+
+
+# ------------------------------------------------------------------------------ RANSAC
+def _check_problem(C, H):
+    C = check_transforms(C, "C", min_count=2)
+    H = check_transforms(H, "H", min_count=2)
+    if C.shape != H.shape:
+        raise ValueError(f"C and H must have the same shape (N, 4, 4); received {C.shape} "
+                         f"and {H.shape}")
+    return C, H
+
+
+def _draw_minimal_sets(rng, axes, n_sets, sample_size, min_axis_angle_rad):
+    N = axes.shape[0]
+    keys = rng.random((n_sets, N))
+    sets = np.argpartition(keys, sample_size - 1, axis=1)[:, :sample_size]
+    if sample_size >= 2:
+        a0, a1 = axes[sets[:, 0]], axes[sets[:, 1]]
+        ok = np.linalg.norm(np.cross(a0, a1), axis=-1) > math.sin(min_axis_angle_rad)
+        sets = sets[ok]
+    return sets
+
+
+def _auto_threshold(r: np.ndarray, p: int, k: float = 2.5) -> float:
+    """Robust scale (LMedS, Rousseeuw) of the residuals of a good hypothesis, times ``k``."""
+    n = r.size
+    s0 = 1.4826 * (1.0 + 5.0 / max(n - p, 1)) * float(np.median(r))
+    return k * s0
+
+
+def ransac(C, H, *, alpha: float = 1.0, threshold: float | None = None,
+           noise: tuple | None = None, minimal_method: str = "dqopt",
+           final_method: str = "dqopt", max_iterations: int = 1000, confidence: float = 0.999,
+           sample_size: int = 2, min_axis_angle_deg: float = 10.0,
+           rng: np.random.Generator | None = None) -> RobustSolution:
+    """RANSAC over motions, then ``final_method`` (dqopt) on the inliers.
+
+    ``threshold``: inlier threshold on :func:`screw_residuals`; else ``noise=(sigma_r_rad,
+    sigma_t_m)`` gives it (:func:`noise_threshold`); else automatic: hypotheses are scored by
+    the median residual (least median of squares) and the threshold is 2.5 robust sigmas of
+    the best one. Minimal sets: ``sample_size`` motions (2 = minimal) whose first two rotation
+    axes differ by more than ``min_axis_angle_deg``, solved in one ``solve_batch`` call
+    (``minimal_method``). Iterations adapt to the inlier ratio (``confidence``), at most
+    ``max_iterations``. The best consensus is refined (dqopt on its inliers, re-thresholded)
+    until stable. ``rng``: Generator (default ``default_rng(0)``).
+    """
+    import simcalib
+    C, H = _check_problem(C, H)
+    N = C.shape[0]
+    if rng is None:
+        rng = np.random.default_rng(0)
+    if not isinstance(rng, np.random.Generator):
+        raise TypeError(f"rng must be a numpy.random.Generator; received {type(rng).__name__}")
+    if isinstance(sample_size, bool) or not isinstance(sample_size, (int, np.integer)) \
+            or not 2 <= sample_size < N:
+        raise ValueError(f"sample_size must be an integer in [2, N-1] (N = {N}); "
+                         f"received {sample_size!r}")
+    if N < 4:
+        raise ValueError(f"RANSAC needs at least 4 motions; received {N}")
+    if threshold is None and noise is not None:
+        threshold = noise_threshold(C, H, *noise, alpha=alpha)
+    if threshold is not None and not (math.isfinite(threshold) and threshold > 0):
+        raise ValueError(f"threshold must be finite and > 0; received {threshold!r}")
+    auto = threshold is None
+    rv = rotvec_from_matrix(C[:, :3, :3])
+    ang = np.linalg.norm(rv, axis=-1)
+    axes = rv / np.where(ang > 1e-12, ang, 1.0)[:, None]
+    best_score, best_X, iters, needed = -math.inf, None, 0, max_iterations
+    batch = 64
+    min_axis = math.radians(min_axis_angle_deg)
+    note = ""
+    probe = _draw_minimal_sets(rng, axes, 256, 2, min_axis)
+    if probe.shape[0] < 0.05 * 256:
+        # nearly parallel rotation axes everywhere: 2-motion sets are (close to) degenerate;
+        # use larger unfiltered sets so that each hypothesis is determined
+        sample_size = max(sample_size, min(6, N - 1))
+        min_axis = 0.0
+        note = (f"; only {probe.shape[0]}/256 motion pairs have rotation axes > "
+                f"{min_axis_angle_deg:g} deg apart (near-degenerate motion): minimal sets of "
+                f"{sample_size} motions, axis filter off")
+    while iters < min(needed, max_iterations):
+        sets = _draw_minimal_sets(rng, axes, batch, sample_size, min_axis)
+        iters += batch
+        if sets.shape[0] == 0:
+            continue
+        sol = simcalib.solve_batch(C[sets], H[sets], method=minimal_method, alpha=alpha)
+        Xs = sol.X[sol.success]
+        if Xs.shape[0] == 0:
+            continue
+        r = screw_residuals(C, H, Xs, alpha)                         # (B, N)
+        if auto:
+            score = -np.median(r, axis=1)
+        else:
+            score = (r < threshold).sum(axis=1) - 1e-9 * np.minimum(r, threshold).sum(axis=1)
+        k = int(np.argmax(score))
+        if score[k] > best_score:
+            best_score, best_X = float(score[k]), Xs[k]
+            if auto:
+                w = 0.5     # LMedS: plan for the 50 % breakdown point
+            else:
+                w = max(float((r[k] < threshold).mean()), 1.0 / N)
+            p_good = w ** sample_size
+            needed = (math.ceil(math.log(1 - confidence) / math.log(1 - p_good))
+                      if 0 < p_good < 1 else batch)
+    if best_X is None:
+        raise ValueError("RANSAC found no usable minimal set (are all rotation axes "
+                         "parallel? such motions do not determine X)")
+    # local optimisation: dqopt on the inliers until the set is stable
+    X = best_X
+    r = screw_residuals(C, H, X, alpha)
+    thr = _auto_threshold(r, 6) if auto else threshold
+    mask = r < thr
+    final = None
+    for _ in range(10):
+        if mask.sum() < 3:
+            break
+        final = simcalib.solve(C[mask], H[mask], method=final_method, alpha=alpha)
+        X = final.X
+        r = screw_residuals(C, H, X, alpha)
+        if auto:
+            thr = _auto_threshold(r[mask], 6)
+        new = r < thr
+        if np.array_equal(new, mask):
+            break
+        mask = new
+    if final is None or mask.sum() < 3:
+        raise ValueError(f"RANSAC consensus has only {int(mask.sum())} motions "
+                         f"(threshold {thr:.3g}); give a larger threshold or check the data")
+    msg = (f"RANSAC: {int(mask.sum())}/{N} inliers ({mask.mean():.0%}), threshold "
+           f"{thr:.3g} ({'auto, LMedS scale' if auto else ('from noise' if noise else 'given')}), "
+           f"{iters} hypotheses of {sample_size} motions; {final_method} on the inliers{note}")
+    return RobustSolution(X=X, solution=final, inlier_mask=mask,
+                          weights=mask.astype(np.float64), residuals=r, threshold=float(thr),
+                          method="ransac", iterations=iters, message=msg)
+
+
+# -------------------------------------------------------------------------------- IRLS
+def solve_supports_weights() -> bool:
+    """Whether ``simcalib.solve`` accepts ``weights=`` (the solver restructure adds it)."""
+    import simcalib
+    try:
+        return "weights" in inspect.signature(simcalib.solve).parameters
+    except (TypeError, ValueError):
+        return False
+
+
+_LOSSES = {
+    "huber": (1.345, lambda z, c: np.minimum(1.0, c / np.maximum(z, 1e-300))),
+    "cauchy": (2.385, lambda z, c: 1.0 / (1.0 + (z / c) ** 2)),
+    "tukey": (4.685, lambda z, c: np.where(z < c, (1 - (z / c) ** 2) ** 2, 0.0)),
+}
+
+
+def irls(C, H, *, alpha: float = 1.0, loss: str = "cauchy", scale: float | None = None,
+         method: str = "dqopt", init="ransac", max_iterations: int = 50, tol: float = 1e-10,
+         inlier_weight: float = 0.5, rng: np.random.Generator | None = None) -> RobustSolution:
+    """Iteratively re-weighted dqopt: ``w_i = rho'(r_i/s)/(r_i/s)`` for ``loss`` (``huber``,
+    ``cauchy``, ``tukey``, standard tuning constants) with ``s`` = ``scale`` or 1.4826 x the
+    weighted median residual, re-solved with ``simcalib.solve(C, H, method, alpha,
+    weights=w)`` until ``X`` changes by less than ``tol``. ``init``: ``"ransac"`` (default;
+    re-weighting from a least-squares start can lock onto the outliers),
+    ``"none"`` (unweighted start) or a 4x4 ``X``. Inliers: ``w >= inlier_weight``.
+
+    Raises :class:`WeightsUnsupportedError` if ``simcalib.solve`` has no ``weights`` yet.
+    """
+    import simcalib
+    if not solve_supports_weights():
+        raise WeightsUnsupportedError(
+            "IRLS needs simcalib.solve(C, H, ..., weights=w), which this version of "
+            "simcalib.solve does not accept yet (it comes with the solver restructure); "
+            "use robust='ransac' meanwhile")
+    if loss not in _LOSSES:
+        raise ValueError(f"unknown IRLS loss {loss!r}; allowed: {', '.join(_LOSSES)}")
+    C, H = _check_problem(C, H)
+    c, wfun = _LOSSES[loss]
+    if isinstance(init, str) and init == "ransac":
+        X = ransac(C, H, alpha=alpha, rng=rng).X
+    elif isinstance(init, str) and init == "none":
+        X = simcalib.solve(C, H, method=method, alpha=alpha).X
+    else:
+        X = check_transforms(init, "init")
+        if X.shape != (4, 4):
+            raise ValueError(f"init must be 'ransac', 'none' or one 4x4 X; received {X.shape}")
+    sol = None
+    w = np.ones(C.shape[0])
+    it = 0
+    for it in range(1, max_iterations + 1):
+        r = screw_residuals(C, H, X, alpha)
+        s = scale if scale is not None else 1.4826 * float(np.median(r[w > 0.5 * w.max()]))
+        s = max(s, 1e-15)
+        w = wfun(r / s, c)
+        sol = simcalib.solve(C, H, method=method, alpha=alpha, weights=w)
+        dX = float(np.abs(sol.X - X).max())
+        X = sol.X
+        if dX < tol:
+            break
+    r = screw_residuals(C, H, X, alpha)
+    mask = w >= inlier_weight
+    return RobustSolution(X=X, solution=sol, inlier_mask=mask, weights=w, residuals=r,
+                          threshold=float(s * c), method="irls", iterations=it,
+                          message=f"IRLS ({loss}, scale {s:.3g}): {it} rounds, "
+                                  f"{int(mask.sum())}/{C.shape[0]} motions with weight >= "
+                                  f"{inlier_weight}")
+
+
+# ---------------------------------------------------------------------------- registry
+def _none(C, H, *, alpha: float = 1.0, method: str = "dqopt", **_):
+    import simcalib
+    C, H = _check_problem(C, H)
+    sol = simcalib.solve(C, H, method=method, alpha=alpha)
+    r = screw_residuals(C, H, sol.X, alpha)
+    n = C.shape[0]
+    return RobustSolution(X=sol.X, solution=sol, inlier_mask=np.ones(n, bool),
+                          weights=np.ones(n), residuals=r, threshold=math.inf, method="none",
+                          iterations=0, message=f"no outlier rejection ({method} on all {n})")
+
+
+ROBUST_METHODS = {"none": _none, "ransac": ransac, "irls": irls}
+
+
+def robust_solve(C, H, robust: str = "ransac", **options) -> RobustSolution:
+    """Dispatch to a robust method by name (``none``, ``ransac``, ``irls``)."""
+    if robust not in ROBUST_METHODS:
+        raise ValueError(f"unknown robust method {robust!r}; allowed: "
+                         f"{', '.join(ROBUST_METHODS)}")
+    return ROBUST_METHODS[robust](C, H, **options)

@@ -1,0 +1,474 @@
+"""Time alignment of two pose streams stamped by different clocks.
+
+Convention: ``offset_s = t_b - t_a`` for the same physical instant (stream b's clock runs
+``offset_s`` ahead of stream a's). With drift, ``offset(t_a) = offset_s + drift * (t_a - t_ref_s)``.
+
+* :func:`estimate_time_offset` — coarse offset by cross-correlating the angular speeds of the
+  two streams on a common grid (normalised cross-correlation, every lag via FFT), refined to
+  sub-frame precision by minimising the calibration cost (dqopt, per motion) over the offset,
+  with the poses of the faster stream interpolated (linear translation, SLERP rotation).
+  Optional linear clock drift (two windows). Returns a :class:`TimeOffset`.
+* :func:`synchronise` — pair the streams with an offset: the faster stream interpolated at
+  the slower one's (shifted) stamps -> :class:`SyncedPoses`.
+* :func:`make_motions` — relative motions ``C``, ``H`` over a time step, or between keyframes
+  chosen by a rotation-angle threshold; small / huge motions filtered.
+
+A stream is a :class:`simcalib.importers.PoseStreamData`, a ``simcalib.streams.PoseStream``
+or a tuple ``(timestamps_s, T_world_sensor)``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from simcalib.geometry import (invert_transform, matrix_from_quat, quat_from_matrix,
+                               rotation_angle_rad, transform_from_rotation_translation)
+
+__all__ = ["TimeOffset", "SyncedPoses", "as_time_poses", "interpolate_poses", "angular_speed",
+           "estimate_time_offset", "synchronise", "make_motions", "calibration_cost_at_offset"]
+
+
+# ----------------------------------------------------------------------------- inputs
+def as_time_poses(stream, name: str = "stream") -> tuple[np.ndarray, np.ndarray]:
+    """``(t (N,), T (N,4,4))`` from a PoseStreamData, a PoseStream or a ``(t, T)`` tuple."""
+    if isinstance(stream, tuple) and len(stream) == 2:
+        t, T = stream
+    elif hasattr(stream, "T_world_sensor"):
+        t, T = stream.timestamps_s, stream.T_world_sensor
+    elif hasattr(stream, "T_world_cam"):
+        t, T = stream.timestamp_s, stream.T_world_cam
+    else:
+        raise TypeError(f"{name} must be a PoseStreamData, a PoseStream or a (timestamps_s, "
+                        f"T_world_sensor) tuple; received {type(stream).__name__}")
+    t = np.asarray(t, dtype=np.float64)
+    T = np.asarray(T, dtype=np.float64)
+    if T.ndim != 3 or T.shape[1:] != (4, 4) or t.shape != (T.shape[0],):
+        raise ValueError(f"{name}: need timestamps (N,) and poses (N, 4, 4); received "
+                         f"{t.shape} and {T.shape}")
+    if t.size < 3:
+        raise ValueError(f"{name}: at least 3 poses are needed; received {t.size}")
+    if not (np.isfinite(t).all() and np.isfinite(T).all()):
+        raise ValueError(f"{name}: timestamps and poses must be finite")
+    if np.any(np.diff(t) <= 0):
+        raise ValueError(f"{name}: timestamps must be strictly increasing (read files with "
+                         "simcalib.importers, which repairs order and duplicates)")
+    return t, T
+
+
+# ---------------------------------------------------------------------- interpolation
+def _slerp(q0: np.ndarray, q1: np.ndarray, u: np.ndarray) -> np.ndarray:
+    dot = np.sum(q0 * q1, axis=-1)
+    q1 = np.where(dot[..., None] < 0, -q1, q1)
+    dot = np.abs(dot).clip(max=1.0)
+    theta = np.arccos(dot)
+    s = np.sin(theta)
+    small = s < 1e-9
+    safe = np.where(small, 1.0, s)
+    w0 = np.where(small, 1.0 - u, np.sin((1.0 - u) * theta) / safe)
+    w1 = np.where(small, u, np.sin(u * theta) / safe)
+    q = w0[..., None] * q0 + w1[..., None] * q1
+    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+
+
+def interpolate_poses(t: np.ndarray, T: np.ndarray, t_query: np.ndarray,
+                      max_gap_s: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Poses at ``t_query``: translation linear, rotation SLERP between the bracketing
+    samples. Returns ``(T_query (M,4,4), valid (M,))``; queries outside ``[t0, t_end]`` or
+    inside a gap longer than ``max_gap_s`` are invalid (their pose is the nearest sample)."""
+    t_query = np.asarray(t_query, dtype=np.float64)
+    k = np.clip(np.searchsorted(t, t_query, side="right") - 1, 0, t.size - 2)
+    t0, t1 = t[k], t[k + 1]
+    u = ((t_query - t0) / (t1 - t0))
+    valid = (t_query >= t[0]) & (t_query <= t[-1])
+    if max_gap_s is not None:
+        valid &= (t1 - t0) <= max_gap_s
+    u = u.clip(0.0, 1.0)
+    q = quat_from_matrix(T[:, :3, :3])
+    qi = _slerp(q[k], q[k + 1], u)
+    p = T[k, :3, 3] * (1.0 - u)[:, None] + T[k + 1, :3, 3] * u[:, None]
+    return transform_from_rotation_translation(matrix_from_quat(qi), p), valid
+
+
+def angular_speed(stream) -> tuple[np.ndarray, np.ndarray]:
+    """``(t_mid, speed_rad_s)``: rotation angle between consecutive poses over their time
+    step, at the midpoints. The same for a stream and its inverse (T_world_sensor or
+    T_sensor_world), so it needs no convention."""
+    t, T = as_time_poses(stream)
+    R = T[:, :3, :3]
+    ang = rotation_angle_rad(np.swapaxes(R[:-1], 1, 2) @ R[1:])
+    return 0.5 * (t[:-1] + t[1:]), ang / np.diff(t)
+
+
+# ------------------------------------------------------------------------- results
+@dataclass(frozen=True)
+class TimeOffset:
+    """Estimated clock offset ``offset_s = t_b - t_a`` (at ``t_ref_s`` in clock a when a
+    ``drift`` (s/s) is estimated).
+
+    ``uncertainty_s``: 1-sigma from the curvature of the calibration cost (approximate: it
+    treats the motion residuals as independent after thinning by the motion step).
+    ``coarse_offset_s``: from the angular-speed cross-correlation; ``lags_s`` /
+    ``correlation``: that curve (Pearson r per lag); ``peak_correlation``: its maximum;
+    ``cost_offsets_s`` / ``cost``: the refinement curve (mean cost per motion).
+    """
+    offset_s: float
+    uncertainty_s: float
+    coarse_offset_s: float
+    peak_correlation: float
+    lags_s: np.ndarray = field(repr=False)
+    correlation: np.ndarray = field(repr=False)
+    drift: float = 0.0
+    t_ref_s: float = 0.0
+    refined: bool = True
+    cost_offsets_s: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+    cost: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+    message: str = ""
+
+    def offset_at(self, t_a) -> np.ndarray:
+        """Offset ``t_b - t_a`` at clock-a times ``t_a``."""
+        return self.offset_s + self.drift * (np.asarray(t_a, dtype=np.float64) - self.t_ref_s)
+
+    def b_from_a(self, t_a) -> np.ndarray:
+        t_a = np.asarray(t_a, dtype=np.float64)
+        return t_a + self.offset_at(t_a)
+
+    def a_from_b(self, t_b) -> np.ndarray:
+        t_b = np.asarray(t_b, dtype=np.float64)
+        return (t_b - self.offset_s + self.drift * self.t_ref_s) / (1.0 + self.drift)
+
+
+def _as_offset(offset) -> TimeOffset:
+    if isinstance(offset, TimeOffset):
+        return offset
+    if isinstance(offset, bool) or not isinstance(offset, (int, float, np.integer, np.floating)):
+        raise TypeError(f"offset must be seconds (a number) or a TimeOffset; received "
+                        f"{type(offset).__name__}")
+    if not math.isfinite(offset):
+        raise ValueError(f"offset must be finite; received {offset}")
+    return TimeOffset(float(offset), 0.0, float(offset), float("nan"), np.zeros(0),
+                      np.zeros(0), refined=False, message="given")
+
+
+@dataclass(frozen=True)
+class SyncedPoses:
+    """Poses of both streams at common instants: ``time_s`` in clock a, ``T_a``, ``T_b``
+    (N, 4, 4). ``reference``: the stream whose stamps were used (the slower one); the other
+    was interpolated. ``counts``: reference stamps, outside the overlap, in gaps, kept."""
+    time_s: np.ndarray
+    T_a: np.ndarray
+    T_b: np.ndarray
+    reference: str
+    counts: dict
+
+    @property
+    def n(self) -> int:
+        return int(self.time_s.shape[0])
+
+
+def synchronise(stream_a, stream_b, offset=0.0, *, reference: str | None = None,
+                max_gap_s: float | None = None, window_s: tuple | None = None
+                ) -> SyncedPoses:
+    """Pair two streams: the faster stream (or the one not named by ``reference``, ``"a"``
+    or ``"b"``) is interpolated at the other one's stamps, shifted by ``offset`` (seconds
+    ``t_b - t_a`` or a :class:`TimeOffset`). ``max_gap_s`` (default 2.5x the interpolated
+    stream's median period): interpolation across longer gaps is refused (counted).
+    ``window_s`` (lo, hi): keep only reference stamps within it (in the reference stream's
+    own clock, so the kept stamps do not change with the offset)."""
+    ta, Ta = as_time_poses(stream_a, "stream_a")
+    tb, Tb = as_time_poses(stream_b, "stream_b")
+    off = _as_offset(offset)
+    if reference is None:
+        reference = "a" if np.median(np.diff(ta)) >= np.median(np.diff(tb)) else "b"
+    if reference not in ("a", "b"):
+        raise ValueError(f"reference must be 'a', 'b' or None; received {reference!r}")
+    if reference == "a":
+        t_ref = ta
+        tq = off.b_from_a(ta)
+        gap = max_gap_s if max_gap_s is not None else 2.5 * float(np.median(np.diff(tb)))
+        T_other, valid = interpolate_poses(tb, Tb, tq, gap)
+        T_a_all, T_b_all = Ta, T_other
+        inside = (tq >= tb[0]) & (tq <= tb[-1])
+    else:
+        tq = off.a_from_b(tb)
+        t_ref = tq
+        gap = max_gap_s if max_gap_s is not None else 2.5 * float(np.median(np.diff(ta)))
+        T_other, valid = interpolate_poses(ta, Ta, tq, gap)
+        T_a_all, T_b_all = T_other, Tb
+        inside = (tq >= ta[0]) & (tq <= ta[-1])
+    keep = valid.copy()
+    if window_s is not None:
+        own = ta if reference == "a" else tb
+        keep &= (own >= window_s[0]) & (own <= window_s[1])
+    counts = {"reference_stamps": int(t_ref.size), "outside_overlap": int((~inside).sum()),
+              "in_gaps": int((inside & ~valid).sum()), "kept": int(keep.sum())}
+    return SyncedPoses(t_ref[keep], T_a_all[keep], T_b_all[keep], reference, counts)
+
+
+def make_motions(synced: SyncedPoses, *, step_s: float | None = None, step: int = 1,
+                 min_rotation_deg: float | None = None, max_rotation_deg: float | None = None,
+                 keyframes: bool = False):
+    """Relative motions ``C = T_a[i]^-1 T_a[j]``, ``H = T_b[i]^-1 T_b[j]`` (so ``C X = X H``,
+    ``X = T_a_b``). Returns ``(C, H, i, j)``.
+
+    * ``step_s``: ``j`` is the first instant at least ``step_s`` after ``i`` (every ``i``);
+      otherwise ``j = i + step``.
+    * ``keyframes=True`` with ``min_rotation_deg``: non-overlapping motions, each ending at
+      the first instant where stream a has turned by ``min_rotation_deg`` since the last.
+    * ``min_rotation_deg`` / ``max_rotation_deg``: motions whose rotation (mean of the two
+      streams' angles) is smaller / larger are dropped (small motions carry no information,
+      huge ones indicate tracking jumps).
+    """
+    t, Ta, Tb = synced.time_s, synced.T_a, synced.T_b
+    n = t.size
+    if n < 3:
+        raise ValueError(f"only {n} synchronised poses; at least 3 are needed (do the streams "
+                         "overlap in time with this offset?)")
+    if keyframes:
+        if min_rotation_deg is None or not min_rotation_deg > 0:
+            raise ValueError("keyframes=True needs min_rotation_deg > 0")
+        thr = math.radians(min_rotation_deg)
+        Ra = Ta[:, :3, :3]
+        ii, jj = [], []
+        i = 0
+        while i < n - 1:
+            ang = rotation_angle_rad(np.swapaxes(Ra[i], 0, 1)[None] @ Ra[i + 1:])
+            hit = np.nonzero(ang >= thr)[0]
+            if hit.size == 0:
+                break
+            j = i + 1 + int(hit[0])
+            ii.append(i)
+            jj.append(j)
+            i = j
+        i = np.asarray(ii, dtype=np.int64)
+        j = np.asarray(jj, dtype=np.int64)
+    elif step_s is not None:
+        if not (step_s > 0 and math.isfinite(step_s)):
+            raise ValueError(f"step_s must be finite and > 0; received {step_s}")
+        j = np.searchsorted(t, t + step_s - 1e-9, side="left")
+        i = np.arange(n)
+        ok = j < n
+        i, j = i[ok], j[ok]
+        dt = t[j] - t[i]
+        ok = dt <= 2.0 * step_s + 1e-9
+        i, j = i[ok], j[ok]
+    else:
+        if isinstance(step, bool) or not isinstance(step, (int, np.integer)) or step < 1:
+            raise ValueError(f"step must be an integer >= 1; received {step!r}")
+        i = np.arange(n - step)
+        j = i + step
+    C = invert_transform(Ta[i]) @ Ta[j]
+    H = invert_transform(Tb[i]) @ Tb[j]
+    if (min_rotation_deg is not None and not keyframes) or max_rotation_deg is not None:
+        ang = 0.5 * (rotation_angle_rad(C[:, :3, :3]) + rotation_angle_rad(H[:, :3, :3]))
+        ok = np.ones(ang.shape, dtype=bool)
+        if min_rotation_deg is not None and not keyframes:
+            ok &= ang >= math.radians(min_rotation_deg)
+        if max_rotation_deg is not None:
+            ok &= ang <= math.radians(max_rotation_deg)
+        C, H, i, j = C[ok], H[ok], i[ok], j[ok]
+    return C, H, i, j
+
+
+# ----------------------------------------------------------------- cross-correlation
+def _grid_signal(t_mid, speed, t0, t1, dt, smooth_s):
+    grid = np.arange(t0, t1 + 0.5 * dt, dt)
+    y = np.interp(grid, t_mid, speed)
+    w = max(1, int(round(smooth_s / dt)))
+    if w > 1:
+        y = np.convolve(y, np.ones(w) / w, mode="same")
+    return grid, y
+
+
+def _normalised_xcorr(x: np.ndarray, y: np.ndarray, min_overlap: int):
+    """Pearson r between x[i] and y[i + L] for every lag L (FFT); lags with fewer than
+    ``min_overlap`` overlapping samples get NaN. Returns (lags, r)."""
+    from scipy.signal import correlate, correlation_lags
+    ox, oy = np.ones_like(x), np.ones_like(y)
+    c = lambda a, b: correlate(a, b, mode="full", method="fft")  # noqa: E731
+    n = np.rint(c(oy, ox))
+    sxy = c(y, x)
+    sx = c(oy, x)
+    sy = c(y, ox)
+    sxx = c(oy, x * x)
+    syy = c(y * y, ox)
+    lags = correlation_lags(y.size, x.size, mode="full")
+    with np.errstate(invalid="ignore", divide="ignore"):
+        num = n * sxy - sx * sy
+        den = np.sqrt(np.clip(n * sxx - sx * sx, 0, None) * np.clip(n * syy - sy * sy, 0, None))
+        r = num / den
+    r[(n < min_overlap) | ~np.isfinite(r)] = np.nan
+    return lags, r
+
+
+def _despike(t, w, k: float = 8.0, max_fraction: float = 0.2):
+    """Replace isolated spikes (outlier poses) by interpolation: a speed is a spike when it
+    exceeds its local median (15 samples; two passes) by more than that median plus ``k``
+    robust sigmas of the deviations. Left alone if more than ``max_fraction`` would go (not spikes)."""
+    from scipy.ndimage import median_filter
+    for _ in range(2):
+        local = median_filter(w, size=15, mode="nearest")
+        dev = w - local
+        sig = 1.4826 * float(np.median(np.abs(dev))) + 1e-12
+        spike = dev > local + k * sig
+        if 0 < spike.sum() <= max_fraction * w.size and (~spike).sum() >= 2:
+            w = np.interp(t, t[~spike], w[~spike])
+    return median_filter(w, size=3, mode="nearest")
+
+
+def _coarse_offset(ta, Ta, tb, Tb, max_offset_s, min_overlap_frac, robust=True):
+    tma, wa = angular_speed((ta, Ta))
+    tmb, wb = angular_speed((tb, Tb))
+    if robust:      # outlier poses make spikes: drop them (robust bound), then median filter
+        wa, wb = _despike(tma, wa), _despike(tmb, wb)
+    dt_a, dt_b = float(np.median(np.diff(ta))), float(np.median(np.diff(tb)))
+    dt = 0.5 * min(dt_a, dt_b)
+    smooth = max(dt_a, dt_b)
+    ga, x = _grid_signal(tma, wa, tma[0], tma[-1], dt, smooth)
+    gb, y = _grid_signal(tmb, wb, tmb[0], tmb[-1], dt, smooth)
+    min_overlap = max(10, int(min_overlap_frac * min(x.size, y.size)))
+    lags, r = _normalised_xcorr(x, y, min_overlap)
+    offsets = gb[0] - ga[0] + lags * dt        # t_b - t_a at lag L
+    if max_offset_s is not None:
+        r = np.where(np.abs(offsets) <= max_offset_s, r, np.nan)
+    if not np.isfinite(r).any():
+        raise ValueError("the streams do not overlap enough for any allowed offset "
+                         f"(max_offset_s={max_offset_s}); check the timestamps' units/clocks")
+    k = int(np.nanargmax(r))
+    best = offsets[k]
+    if 0 < k < r.size - 1 and np.isfinite(r[k - 1]) and np.isfinite(r[k + 1]):
+        den = r[k - 1] - 2 * r[k] + r[k + 1]
+        if den < 0:
+            best += 0.5 * (r[k - 1] - r[k + 1]) / den * dt
+    ok = np.isfinite(r)
+    return float(best), float(r[k]), offsets[ok], r[ok], dt
+
+
+# ------------------------------------------------------------------ cost refinement
+def calibration_cost_at_offset(stream_a, stream_b, offset, *, step_s: float, alpha: float = 1.0,
+                               method: str = "dqopt", window_s=None, reference=None,
+                               min_rotation_deg: float | None = None, motion_mask=None):
+    """Mean dqopt cost per motion (paper eq. 8 over the motions) after synchronising with
+    ``offset``; ``motion_mask`` (bool per motion) keeps only those motions (e.g. RANSAC
+    inliers; only meaningful with a fixed ``window_s`` and no rotation filter, so that the
+    motions are the same for every offset). Returns ``(mean_cost, n_motions, Solution)``."""
+    from simcalib.solvers.api import solve
+    sp = synchronise(stream_a, stream_b, offset, window_s=window_s, reference=reference)
+    C, H, _, _ = make_motions(sp, step_s=step_s, min_rotation_deg=min_rotation_deg)
+    if motion_mask is not None:
+        if motion_mask.shape[0] != C.shape[0]:
+            raise ValueError("motion_mask does not match the motions (window changed?)")
+        C, H = C[motion_mask], H[motion_mask]
+    if C.shape[0] < 3:
+        return math.inf, int(C.shape[0]), None
+    sol = solve(C, H, method=method, alpha=alpha)
+    return sol.cost / C.shape[0], int(C.shape[0]), sol
+
+
+def _refine(sa, sb, coarse, half_width, step_s, alpha, window, reference, n_grid=13,
+            robust=True, min_rotation_deg=1.0):
+    # motions are indexed by the reference stream's stamps (fixed window), so a mask chosen
+    # here selects the same motions at every offset. Keep motions in which the reference
+    # stream turns by >= min_rotation_deg (static ones carry no timing information and would
+    # dominate a robust scale), and of those the RANSAC inliers when robust.
+    sp = synchronise(sa, sb, coarse, window_s=window, reference=reference)
+    C, H, _, _ = make_motions(sp, step_s=step_s)
+    ref = C if reference == "a" else H
+    mask = rotation_angle_rad(ref[:, :3, :3]) >= math.radians(min_rotation_deg)
+    if mask.sum() < 8:
+        mask = np.ones(C.shape[0], dtype=bool)
+    if robust and mask.sum() >= 8:
+        from simcalib.solvers.robust import ransac
+        try:
+            inl = ransac(C[mask], H[mask], alpha=alpha, rng=np.random.default_rng(0),
+                         max_iterations=256).inlier_mask
+            mask[np.nonzero(mask)[0][~inl]] = False
+        except ValueError:
+            pass
+    kw = dict(step_s=step_s, alpha=alpha, window_s=window, reference=reference,
+              motion_mask=mask)
+    offs = np.linspace(coarse - half_width, coarse + half_width, n_grid)
+    costs = np.array([calibration_cost_at_offset(sa, sb, o, **kw)[0] for o in offs])
+    if not np.isfinite(costs).any():
+        raise ValueError("calibration cost undefined for every offset near the coarse "
+                         "estimate (too few motions)")
+    k = int(np.nanargmin(costs))
+    h = offs[1] - offs[0]
+    lo, hi = offs[max(k - 1, 0)], offs[min(k + 1, n_grid - 1)]
+    from scipy.optimize import minimize_scalar
+    f = lambda o: calibration_cost_at_offset(sa, sb, o, **kw)[0]  # noqa: E731
+    res = minimize_scalar(f, bounds=(lo, hi), method="bounded",
+                          options={"xatol": 1e-5 * max(1.0, h / 1e-3) * 1e-1})
+    best = float(res.x)
+    j0, n_mot, _ = calibration_cost_at_offset(sa, sb, best, **kw)
+    d = max(h / 4, 1e-4)
+    jp = f(best + d)
+    jm = f(best - d)
+    curv = (jp - 2 * j0 + jm) / (d * d)
+    return best, j0, n_mot, curv, offs, costs
+
+
+def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = None,
+                         refine: bool = True, drift: bool = False, step_s: float | None = None,
+                         alpha: float = 1.0, min_overlap_frac: float = 0.3,
+                         robust: bool = True) -> TimeOffset:
+    """Estimate ``offset_s = t_b - t_a`` between two pose streams.
+
+    Coarse: the angular speeds (convention-free) on a common grid at half the faster period,
+    smoothed over the slower period, normalised cross-correlation over every lag with at least
+    ``min_overlap_frac`` overlap (``|offset| <= max_offset_s`` if given); parabolic peak.
+    Refine (``refine=True``): the mean dqopt cost per motion (motions over ``step_s``, default
+    4 periods of the slower stream, at least 0.2 s) is minimised over the offset within +-2
+    slower periods of the coarse value (grid, then bounded Brent). ``drift=True``: the
+    refinement is repeated on the two halves of the overlap and a linear drift fitted.
+    ``alpha`` (1/m) weights translation in the cost. ``robust``: the angular speeds are
+    median-filtered (isolated outlier poses make spikes) and the refinement cost uses only
+    the RANSAC inliers among the motions at the coarse offset. Needs the streams'
+    conventions resolved for the refinement (see :mod:`simcalib.conventions`); the coarse step does not.
+    """
+    ta, Ta = as_time_poses(stream_a, "stream_a")
+    tb, Tb = as_time_poses(stream_b, "stream_b")
+    coarse, peak, lags, corr, grid_dt = _coarse_offset(ta, Ta, tb, Tb, max_offset_s,
+                                                       min_overlap_frac, robust)
+    slow_dt = max(float(np.median(np.diff(ta))), float(np.median(np.diff(tb))))
+    msg = (f"coarse offset {coarse * 1e3:.1f} ms from angular-speed cross-correlation "
+           f"(peak r = {peak:.3f}, grid {grid_dt * 1e3:.1f} ms)")
+    if not refine:
+        return TimeOffset(coarse, grid_dt, coarse, peak, lags, corr, refined=False,
+                          message=msg)
+    if step_s is None:
+        step_s = max(0.2, 4 * slow_dt)
+    reference = "a" if np.median(np.diff(ta)) >= np.median(np.diff(tb)) else "b"
+    half = 2.0 * slow_dt
+    # restrict to clock-a instants valid for every offset in the bracket
+    lo_a = max(ta[0], tb[0] - coarse) + half + 1e-6
+    hi_a = min(ta[-1], tb[-1] - coarse) - half - 1e-6
+    if hi_a - lo_a < 4 * step_s:
+        raise ValueError(f"the streams overlap for only {max(hi_a - lo_a, 0):.3f} s at the "
+                         f"coarse offset {coarse:.3f} s; too short to refine")
+    shift = 0.0 if reference == "a" else coarse       # window in the reference's clock
+    win = (lo_a + shift, hi_a + shift)
+    best, j0, n_mot, curv, offs, costs = _refine((ta, Ta), (tb, Tb), coarse, half, step_s,
+                                                 alpha, win, reference, robust=robust)
+    thin = max(1.0, step_s / slow_dt)
+    if curv > 0 and n_mot > 0:
+        sigma = math.sqrt(2.0 * j0 / (n_mot * curv) * thin)
+    else:
+        sigma = float("nan")
+    d = 0.0
+    t_ref = 0.5 * (lo_a + hi_a)
+    if drift:
+        mid = t_ref
+        o1 = _refine((ta, Ta), (tb, Tb), best, half, step_s, alpha,
+                     (lo_a + shift, mid + shift), reference, robust=robust)[0]
+        o2 = _refine((ta, Ta), (tb, Tb), best, half, step_s, alpha,
+                     (mid + shift, hi_a + shift), reference, robust=robust)[0]
+        d = (o2 - o1) / (0.5 * (hi_a - lo_a))
+        best = 0.5 * (o1 + o2)
+        msg += f"; drift {d * 1e6:.1f} ppm from two windows"
+    msg += (f"; refined to {best * 1e3:.2f} +- {sigma * 1e3:.2f} ms by the dqopt cost over "
+            f"{n_mot} motions of {step_s:.2f} s")
+    return TimeOffset(best, sigma, coarse, peak, lags, corr, drift=d, t_ref_s=t_ref,
+                      refined=True, cost_offsets_s=offs, cost=costs, message=msg)

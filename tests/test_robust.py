@@ -1,0 +1,157 @@
+"""Outlier rejection (simcalib.solvers.robust) validated on the paper's `random` synthetic
+motions (simcalib.synthetic) with injected outlier motions."""
+
+import numpy as np
+import pytest
+
+import simcalib
+from simcalib.geometry import (random_rotation_matrices, rotation_error_rad,
+                               transform_from_rotation_translation, translation_error_m)
+from simcalib.solvers.api import dq_cost
+from simcalib.solvers.robust import (RobustSolution, WeightsUnsupportedError, constraint_errors,
+                                     inlier_scores, irls, noise_threshold, ransac, robust_solve,
+                                     screw_residuals, solve_supports_weights)
+from simcalib.synthetic import synthetic_problem
+
+RUNS = 12
+
+
+def _contaminate(C, frac, rng):
+    n = C.shape[0]
+    k = int(round(frac * n))
+    idx = rng.choice(n, k, replace=False)
+    C = C.copy()
+    C[idx] = transform_from_rotation_translation(random_rotation_matrices(rng, (k,)),
+                                                 rng.uniform(-1, 1, (k, 3)))
+    good = np.ones(n, bool)
+    good[idx] = False
+    return C, good
+
+
+def _trial(frac, seed, **kw):
+    rng = np.random.default_rng(seed)
+    p = synthetic_problem("random", n=100, rng=rng)
+    C, good = _contaminate(p.C, frac, rng)
+    err = lambda X: (float(rotation_error_rad(X, p.X)), float(translation_error_m(X, p.X)))  # noqa
+    clean = err(simcalib.solve(p.C, p.H).X)
+    plain = err(simcalib.solve(C, p.H).X)
+    r = ransac(C, p.H, rng=np.random.default_rng(1000 + seed), **kw)
+    return clean, plain, err(r.X), inlier_scores(r.inlier_mask, good), r
+
+
+def test_residuals_are_the_per_motion_cost_terms():
+    p = synthetic_problem("random", n=50, rng=np.random.default_rng(0))
+    X = simcalib.solve(p.C, p.H).X
+    r = screw_residuals(p.C, p.H, X, alpha=2.0)
+    assert r.shape == (50,)
+    assert np.isclose(np.sum(r**2), dq_cost(X, (p.C, p.H), 2.0), rtol=1e-9)
+    assert np.allclose(screw_residuals(p.C, p.H, p.X[None].repeat(3, 0)),
+                       screw_residuals(p.C, p.H, p.X)[None])
+    exact = screw_residuals(p.X @ p.dataset.H_true[:5] @ np.linalg.inv(p.X),
+                            p.dataset.H_true[:5], p.X)
+    assert np.all(exact < 1e-12)
+    rot, tr = constraint_errors(p.C, p.H, p.X)
+    assert np.median(np.degrees(rot)) < 2.0 and np.median(tr) < 0.05
+
+
+@pytest.mark.parametrize("kw", [{}, {"noise": (np.radians(0.57), 0.01)}],
+                         ids=["auto-threshold", "noise-threshold"])
+def test_ransac_20_percent(kw):
+    rows = [_trial(0.2, s, **kw) for s in range(RUNS)]
+    clean = np.median([r[0] for r in rows], axis=0)
+    plain = np.median([r[1] for r in rows], axis=0)
+    robust = np.median([r[2] for r in rows], axis=0)
+    assert np.all(robust <= 1.5 * clean), (robust, clean)
+    assert np.all(plain >= 10 * clean), (plain, clean)
+    prec = np.mean([r[3]["precision"] for r in rows])
+    rec = np.mean([r[3]["recall"] for r in rows])
+    assert prec > 0.95 and rec > 0.9, (prec, rec)
+    r = rows[0][4]
+    assert isinstance(r, RobustSolution) and r.weights.shape == r.inlier_mask.shape == (100,)
+    assert r.solution.method == "dqopt" and r.solution.n_motions == r.n_inliers
+
+
+def test_ransac_40_percent_finds_the_inliers():
+    found = 0
+    for s in range(RUNS):
+        *_, sc, _ = _trial(0.4, s)
+        found += sc["precision"] >= 0.95 and sc["recall"] >= 0.9
+    assert found >= 0.9 * RUNS
+
+
+def test_ransac_is_deterministic_and_checks_inputs():
+    p = synthetic_problem("random", n=40, rng=np.random.default_rng(3))
+    a = ransac(p.C, p.H, rng=np.random.default_rng(5))
+    b = ransac(p.C, p.H, rng=np.random.default_rng(5))
+    assert np.array_equal(a.X, b.X) and np.array_equal(a.inlier_mask, b.inlier_mask)
+    with pytest.raises(ValueError, match="threshold"):
+        ransac(p.C, p.H, threshold=-1.0)
+    with pytest.raises(ValueError, match="at least 4"):
+        ransac(p.C[:3], p.H[:3])
+    with pytest.raises(ValueError, match="allowed: none, ransac, irls"):
+        robust_solve(p.C, p.H, "lmeds")
+    assert noise_threshold(p.C, p.H, 0.01, 0.01) > 0
+    none = robust_solve(p.C, p.H, "none")
+    assert none.inlier_mask.all() and np.allclose(none.X, simcalib.solve(p.C, p.H).X)
+
+
+def test_irls_guarded_until_solve_takes_weights():
+    p = synthetic_problem("random", n=60, rng=np.random.default_rng(4))
+    if not solve_supports_weights():
+        with pytest.raises(WeightsUnsupportedError, match="weights"):
+            irls(p.C, p.H)
+    else:
+        r = irls(p.C, p.H)
+        assert r.method == "irls" and r.weights.shape == (60,)
+
+
+@pytest.mark.skipif(not solve_supports_weights(),
+                    reason="simcalib.solve has no weights= yet (solver restructure pending)")
+def test_irls_20_percent():
+    rng = np.random.default_rng(9)
+    p = synthetic_problem("random", n=100, rng=rng)
+    C, good = _contaminate(p.C, 0.2, rng)
+    clean = rotation_error_rad(simcalib.solve(p.C, p.H).X, p.X)
+    for init in ("ransac", "none"):
+        r = irls(C, p.H, init=init)
+        if init == "ransac":
+            assert rotation_error_rad(r.X, p.X) <= 1.5 * clean + 1e-4
+            sc = inlier_scores(r.inlier_mask, good)
+            assert sc["precision"] > 0.95 and sc["recall"] > 0.9
+
+
+def test_irls_logic_with_a_weighted_stand_in(monkeypatch):
+    """IRLS against a test-only weighted dqopt (weighted S, W, M via the solver internals),
+    so the re-weighting logic is exercised before simcalib.solve takes weights."""
+    from types import SimpleNamespace
+
+    from simcalib.geometry import transform_from_dual_quat
+    from simcalib.solvers.dq import align_problem, problem_matrices, solve_matrices
+    from simcalib.solvers.problem import MotionProblem, build_problem
+    original = simcalib.solve
+
+    def weighted_solve(C, H, method="dqopt", alpha=1.0, prior=None, rng=None, weights=None):
+        if weights is None:
+            return original(C, H, method=method, alpha=alpha)
+        pr = align_problem(build_problem(C, H), alpha)
+        s = np.sqrt(np.asarray(weights, dtype=np.float64))[:, None]
+        pw = MotionProblem(pr.C, pr.H, pr.q_C * s, pr.q_C_dual * s, pr.q_H * s,
+                           pr.q_H_dual * s)
+        q, qd, _ = solve_matrices("dqopt", *problem_matrices(pw, alpha))
+        return SimpleNamespace(X=transform_from_dual_quat(q, qd), method="dqopt")
+
+    monkeypatch.setattr(simcalib, "solve", weighted_solve)
+    assert solve_supports_weights()
+    rng = np.random.default_rng(9)
+    p = synthetic_problem("random", n=100, rng=rng)
+    C, good = _contaminate(p.C, 0.2, rng)
+    # unit weights reproduce the plain solve
+    Xw = weighted_solve(p.C, p.H, weights=np.ones(100)).X
+    assert np.allclose(Xw, original(p.C, p.H).X, atol=1e-8)
+    clean = rotation_error_rad(original(p.C, p.H).X, p.X)
+    r = irls(C, p.H, init="ransac", loss="cauchy")
+    assert r.method == "irls" and r.weights.shape == (100,)
+    assert rotation_error_rad(r.X, p.X) <= 1.5 * clean
+    sc = inlier_scores(r.inlier_mask, good)
+    assert sc["precision"] > 0.95 and sc["recall"] > 0.9, sc
+    assert r.weights[~good].max() < 0.05

@@ -1,0 +1,119 @@
+"""Time alignment (simcalib.timesync) validated in simulation (simcalib.stream_sim) and on
+the ETH data (skipped when ../shared/data/eth is absent)."""
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import simcalib
+from simcalib.geometry import rotation_error_rad, translation_error_m
+from simcalib.stream_sim import rig_streams
+from simcalib.timesync import (TimeOffset, angular_speed, estimate_time_offset,
+                               interpolate_poses, make_motions, synchronise)
+
+# ../shared/data/eth relative to the repo root; SIMCALIB_ETH_DIR overrides (git worktrees)
+ETH = Path(os.environ.get("SIMCALIB_ETH_DIR",
+                          Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "eth"))
+
+
+def _x_error(rs, offset):
+    sp = synchronise(rs.a, rs.b, offset)
+    C, H, _, _ = make_motions(sp, step_s=0.5)
+    X = simcalib.solve(C, H).X
+    return float(rotation_error_rad(X, rs.X)), float(translation_error_m(X, rs.X))
+
+
+@pytest.mark.parametrize("path", ["3d", "planar"])
+@pytest.mark.parametrize("offset", [0.0, 0.037, 0.250])
+def test_offset_recovered_within_3ms(path, offset):
+    rs = rig_streams(offset_s=offset, path=path, rng=np.random.default_rng(7))
+    est = estimate_time_offset(rs.a, rs.b)
+    assert abs(est.offset_s - offset) < 3e-3, est.message
+    assert np.isfinite(est.uncertainty_s) and 0 < est.uncertainty_s < 3e-3
+    assert est.peak_correlation > 0.9
+    assert est.lags_s.shape == est.correlation.shape and est.lags_s.size > 10
+    if path == "3d":
+        # X as accurate as with perfectly known synchronisation (within 1.2x)
+        r_est, t_est = _x_error(rs, est)
+        r_true, t_true = _x_error(rs, offset)
+        assert r_est <= 1.2 * r_true + 1e-6 and t_est <= 1.2 * t_true + 1e-6
+
+
+def test_unknown_offset_costs_accuracy_without_alignment():
+    rs = rig_streams(offset_s=0.25, rng=np.random.default_rng(1))
+    r_est, _ = _x_error(rs, estimate_time_offset(rs.a, rs.b))
+    r_none, _ = _x_error(rs, 0.0)
+    assert r_none > 10 * r_est
+
+
+def test_large_offset_and_drift():
+    rs = rig_streams(offset_s=-18.0, duration_s=60.0, rng=np.random.default_rng(2))
+    assert abs(estimate_time_offset(rs.a, rs.b).offset_s + 18.0) < 3e-3
+    rs = rig_streams(offset_s=0.1, drift=100e-6, duration_s=40.0, rng=np.random.default_rng(3))
+    est = estimate_time_offset(rs.a, rs.b, drift=True)
+    t = np.array([2.0, 20.0, 38.0])
+    true = rs.offset_s + rs.drift * t
+    assert np.abs(est.offset_at(t) - true).max() < 3e-3
+    assert abs(est.drift - 100e-6) < 50e-6
+
+
+def test_interpolation_hits_samples_and_refuses_gaps():
+    rs = rig_streams(rng=np.random.default_rng(0))
+    T, ok = interpolate_poses(rs.t_a, rs.T_a, rs.t_a[5:9])
+    assert ok.all() and np.allclose(T, rs.T_a[5:9], atol=1e-12)
+    t = np.delete(rs.t_a, np.arange(10, 20))
+    T_a = np.delete(rs.T_a, np.arange(10, 20), axis=0)
+    _, ok = interpolate_poses(t, T_a, np.array([rs.t_a[15], rs.t_a[30], t[-1] + 1]),
+                              max_gap_s=0.1)
+    assert ok.tolist() == [False, True, False]
+
+
+def test_synchronise_and_motions():
+    rs = rig_streams(offset_s=0.05, rng=np.random.default_rng(0))
+    sp = synchronise(rs.a, rs.b, 0.05)
+    assert sp.reference == "b" and sp.counts["kept"] == sp.n > 500
+    C, H, i, j = make_motions(sp, step_s=0.5, min_rotation_deg=3.0)
+    assert C.shape == H.shape and C.shape[0] > 100
+    assert np.all(sp.time_s[j] - sp.time_s[i] >= 0.5 - 1e-9)
+    Ck, Hk, ik, jk = make_motions(sp, keyframes=True, min_rotation_deg=10.0)
+    assert np.all(ik[1:] == jk[:-1])                     # consecutive, non-overlapping
+    from simcalib.geometry import rotation_angle_rad
+    assert np.all(np.degrees(rotation_angle_rad(Ck[:, :3, :3])) >= 10.0 - 1e-9)
+
+
+def test_angular_speed_is_convention_free():
+    from simcalib.geometry import invert_transform
+    rs = rig_streams(rng=np.random.default_rng(0))
+    _, w = angular_speed(rs.a)
+    _, w_inv = angular_speed((rs.t_a, invert_transform(rs.T_a)))
+    assert np.allclose(w, w_inv)
+
+
+def test_bad_inputs():
+    rs = rig_streams(rng=np.random.default_rng(0))
+    with pytest.raises(ValueError, match="strictly increasing"):
+        estimate_time_offset((rs.t_a[::-1], rs.T_a), rs.b)
+    with pytest.raises(TypeError, match="PoseStreamData"):
+        estimate_time_offset([1, 2, 3], rs.b)
+    with pytest.raises(ValueError, match="at least 3"):
+        make_motions(synchronise(rs.a, rs.b, 1000.0))
+    assert isinstance(estimate_time_offset(rs.a, rs.b, refine=False), TimeOffset)
+
+
+@pytest.mark.skipif(not ETH.is_dir(),
+                    reason=f"ETH data sets not present at {ETH} (set SIMCALIB_ETH_DIR)")
+def test_eth_offsets_refine_the_cost():
+    from simcalib.calibrate_streams import eth_files
+    from simcalib.conventions import apply_conventions, detect_conventions
+    from simcalib.importers import read_pose_stream
+    from simcalib.timesync import calibration_cost_at_offset
+    for name, (fa, fb) in eth_files(ETH).items():
+        a, b = read_pose_stream(fa), read_pose_stream(fb)
+        a, b = apply_conventions(a, b, detect_conventions(a, b))
+        est = estimate_time_offset(a, b)
+        assert abs(est.offset_s) < 0.1 and np.isfinite(est.uncertainty_s), (name, est.message)
+        c_est = calibration_cost_at_offset(a, b, est, step_s=0.2)[0]
+        c_coarse = calibration_cost_at_offset(a, b, est.coarse_offset_s, step_s=0.2)[0]
+        assert c_est <= c_coarse * (1 + 1e-9), name
