@@ -372,7 +372,10 @@ def _build(cfg: VehicleConfig, rng, extent_xy_m) -> _Built:
             spec.actuator(f"steer_{c}").ctrlrange = [-max_steer, max_steer]
         for name in ("drive_rl", "drive_rr", "brake_fl", "brake_fr"):
             spec.actuator(name).ctrlrange = [-tq, tq]
-    else:   # differential: front ball casters, no steering servos or front brakes
+    else:
+        # differential: the driven wheels (rl, rr) move to the middle of the wheelbase,
+        # the front corners become ball casters and two more casters (bl, br) are added at
+        # the rear: a differential-drive platform turning about its centre
         for c in ("fl", "fr"):
             spec.delete(spec.actuator(f"steer_{c}"))
             spec.delete(spec.actuator(f"brake_{c}"))
@@ -383,6 +386,28 @@ def _build(cfg: VehicleConfig, rng, extent_xy_m) -> _Built:
                                               damping=0.2, armature=0.05)
             spec.geom(f"wheel_{c}_visual").type = mujoco.mjtGeom.mjGEOM_SPHERE
             spec.geom(f"wheel_{c}_visual").size = [r, 0.0, 0.0]
+        for c in ("rl", "rr"):
+            spec.body(f"susp_{c}").pos = [0.0, 0.5 * W if c[1] == "l" else -0.5 * W, r]
+        for c in ("bl", "br"):
+            hub = chassis.add_body(name=f"susp_{c}",
+                                   pos=[-0.5 * L, 0.5 * W if c[1] == "l" else -0.5 * W, r],
+                                   mass=25.0, ipos=[0, 0, 0], inertia=[0.5, 0.5, 0.5],
+                                   explicitinertial=True)
+            if cfg.sprung:
+                hub.add_joint(name=f"susp_{c}", type=mujoco.mjtJoint.mjJNT_SLIDE,
+                              axis=[0, 0, 1], range=[-travel, travel], armature=0.01,
+                              stiffness=[float(cfg.suspension_stiffness_npm), 0, 0],
+                              damping=[float(cfg.suspension_damping_nspm), 0, 0])
+            wheel = hub.add_body(name=f"wheel_{c}", mass=15.0, ipos=[0, 0, 0],
+                                 inertia=[0.6, 0.6, 0.6], explicitinertial=True)
+            wheel.add_joint(name=f"caster_{c}", type=mujoco.mjtJoint.mjJNT_BALL,
+                            damping=0.2, armature=0.05)
+            wheel.add_geom(name=f"tyre_{c}", type=mujoco.mjtGeom.mjGEOM_SPHERE,
+                           size=[r, 0, 0], contype=1, conaffinity=0, condim=3, group=3,
+                           friction=[float(cfg.friction), 0.005, 0.0001],
+                           rgba=[0.2, 0.2, 0.2, 0.3])
+            wheel.add_geom(name=f"wheel_{c}_visual", type=mujoco.mjtGeom.mjGEOM_SPHERE,
+                           size=[r, 0, 0], contype=0, conaffinity=0, material="car_tyre")
         for name in ("drive_rl", "drive_rr"):
             spec.actuator(name).ctrlrange = [-tq, tq]
 
@@ -436,12 +461,19 @@ def _build(cfg: VehicleConfig, rng, extent_xy_m) -> _Built:
             return interp(np.stack([y, x], axis=-1))
 
     model = spec.compile()
-    # spring preload: each corner's spring carries a quarter of the sprung weight at q = 0
+    # spring preload, so that the chassis rides at q = 0: Ackermann, a quarter of the
+    # sprung weight per corner; differential, half on the two driven wheels and an eighth
+    # on each of the four casters (symmetric about the CG)
     if cfg.sprung:
-        for c in CORNERS:
+        if cfg.drive == "ackermann":
+            share = {c: 0.25 for c in CORNERS}
+        else:
+            share = {"rl": 0.25, "rr": 0.25, "fl": 0.125, "fr": 0.125, "bl": 0.125,
+                     "br": 0.125}
+        for c, f in share.items():
             jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, f"susp_{c}")
             model.qpos_spring[model.jnt_qposadr[jid]] = -(
-                0.25 * mass * _G / float(cfg.suspension_stiffness_npm))
+                f * mass * _G / float(cfg.suspension_stiffness_npm))
     return _Built(model, spec.to_xml(), height)
 
 
@@ -563,8 +595,10 @@ def simulate_vehicle(cfg: VehicleConfig, path, rng: np.random.Generator, *,
     # initial pose: on the path start, facing its start yaw, wheels just above the ground
     yaw0 = float(p.yaw[0])
     cy, sy = math.cos(yaw0), math.sin(yaw0)
-    # the controlled point (rear-axle centre) starts on the path's first point
-    x0, y0 = float(p.x[0]) + 0.5 * L * cy, float(p.y[0]) + 0.5 * L * sy
+    # the controlled point (driven-axle centre: rear axle, or the middle of the
+    # differential platform) starts on the path's first point
+    x_ctrl = -0.5 * L if cfg.drive == "ackermann" else 0.0
+    x0, y0 = float(p.x[0]) - x_ctrl * cy, float(p.y[0]) - x_ctrl * sy
     corners_xy = np.array([[x0 + cy * ax - sy * ay, y0 + sy * ax + cy * ay]
                            for ax in (0.5 * L, -0.5 * L) for ay in (0.5 * W, -0.5 * W)])
     zg = built.ground_height(corners_xy[:, 0], corners_xy[:, 1])
@@ -603,10 +637,10 @@ def simulate_vehicle(cfg: VehicleConfig, path, rng: np.random.Generator, *,
 
     def rear_axle():
         R = data.xmat[chassis_id].reshape(3, 3)
-        pos = data.xpos[chassis_id] + R @ np.array([-0.5 * L, 0.0, 0.0])
+        pos = data.xpos[chassis_id] + R @ np.array([x_ctrl, 0.0, 0.0])
         fwd = R[:, 0]
         heading = math.atan2(fwd[1], fwd[0])
-        v_world = data.qvel[0:3] + np.cross(R @ data.qvel[3:6], R @ np.array([-0.5 * L, 0, 0]))
+        v_world = data.qvel[0:3] + np.cross(R @ data.qvel[3:6], R @ np.array([x_ctrl, 0, 0]))
         v_fwd = float(v_world[0] * math.cos(heading) + v_world[1] * math.sin(heading))
         omega_z = float((R @ data.qvel[3:6])[2])
         return pos, heading, v_fwd, omega_z
