@@ -78,8 +78,10 @@ class VehicleConfig:
     name says ``_deg``.
 
     Variant: ``drive`` ``"ackermann"`` (front-steered, rear-wheel drive, four-wheel
-    brakes) or ``"differential"`` (two driven rear wheels steering by speed difference,
-    front ball casters); ``sprung`` True = slide-joint suspension at each corner with
+    brakes) or ``"differential"`` (a platform with two driven wheels at the middle of the
+    wheelbase steering by speed difference, and four ball casters at the corners; the
+    driven wheels carry half the weight, so its grip limits it to gentle driving);
+    ``sprung`` True = slide-joint suspension at each corner with
     ``suspension_stiffness_npm`` / ``suspension_damping_nspm`` (travel
     ``±suspension_travel_m``), False = wheels rigidly on the chassis; ``ground``
     ``"flat"``, ``"slope"`` (plane rising ``slope_deg`` along world +x) or ``"uneven"``
@@ -486,9 +488,10 @@ class VehicleTrajectory:
     ``time_s`` (N,); ``T_world_base`` (N, 4, 4) chassis frame; ``T_world_rig_mount``
     (N, 4, 4) roof site (camera poses = ``T_world_rig_mount @ T_mount_cam``);
     ``roll_rad``/``pitch_rad``/``yaw_rad`` (N,) chassis ZYX Euler angles w.r.t. gravity;
-    ``speed_mps`` (N,) forward speed; ``speed_ref_mps`` (N,) commanded; ``steer_rad`` (N,)
-    (Ackermann: mean front-wheel angle; differential: 0); ``cross_track_m`` (N,) distance
-    of the controlled point (rear-axle centre) to the path; ``slip_ratio`` (N, nw) and
+    ``speed_mps`` (N,) forward speed of the controlled point; ``speed_ref_mps`` (N,)
+    commanded; ``steer_rad`` (N,) (Ackermann: bicycle-model steering angle; differential:
+    0); ``cross_track_m`` (N,) distance of the controlled point (driven-axle centre: rear
+    axle, or the platform centre for the differential drive) to the path; ``slip_ratio`` (N, nw) and
     ``slip_angle_rad`` (N, nw) of the ``wheels`` with a spin axis (NaN below 1 m/s);
     ``stats`` summary (degrees and metres, see :meth:`summary`); ``timing_s`` wall times;
     ``config``; ``model`` the compiled MjModel; ``mjcf`` the variant's MJCF text."""
