@@ -172,3 +172,20 @@ def test_bad_inputs_raise_clear_errors():
         as_planar_path(lambda t: (t, t, t))
     with pytest.raises(ValueError, match="left the path"):
         simulate_vehicle(VehicleConfig(speed_mps=14.0), PATH, np.random.default_rng(0))
+
+
+def test_translation_sensitivity_separates_planar_from_rolling(sprung, rigid):
+    from simcalib.world.vehicle import translation_sensitivity
+    s = translation_sensitivity(sprung)
+    r = translation_sensitivity(rigid)
+    assert s["n_motions"] > 20 and s["n_motions"] == r["n_motions"]
+    # horizontal axes (rig x, z) are determined by the yaw alike
+    assert np.all(s["amplification"][[0, 2]] < 2.0)
+    assert np.all(r["amplification"][[0, 2]] < 2.0)
+    # the vertical (rig y) only through roll/pitch: poorly on the sprung car, not at all
+    # on the rigid one
+    assert 2.0 < s["amplification"][1] < 100.0
+    assert r["amplification"][1] > 30.0 * s["amplification"][1]
+    assert s["tilt_rms_deg"] > 0.1 > r["tilt_rms_deg"]
+    with pytest.raises(TypeError, match="traj must be a VehicleTrajectory"):
+        translation_sensitivity("x")

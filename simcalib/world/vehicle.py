@@ -36,7 +36,8 @@ import numpy as np
 
 __all__ = ["VehicleConfig", "VehicleTrajectory", "PlanarPath", "DRIVES", "GROUNDS",
            "simulate_vehicle", "build_vehicle_model", "figure_eight_path", "as_planar_path",
-           "terrain_heights", "translation_sensitivity", "physics_table", "CAR_XML"]
+           "terrain_heights", "translation_sensitivity", "physics_table", "step_cost_us",
+           "CAR_XML"]
 
 CAR_XML = Path(__file__).resolve().parents[2] / "models" / "car.xml"
 DRIVES = ("ackermann", "differential")
@@ -900,6 +901,22 @@ def format_table(rows) -> str:
     return "\n".join(lines)
 
 
+def step_cost_us(cfg: VehicleConfig, n: int = 3000, seed: int = 0) -> float:
+    """Wall time of one bare ``mj_step`` (µs, best of 3 runs of ``n`` steps) of the
+    variant ``cfg`` standing on its ground (no controller, no recording)."""
+    mujoco = _mujoco()
+    model, height = build_vehicle_model(cfg, np.random.default_rng(seed))
+    data = mujoco.MjData(model)
+    data.qpos[2] = float(height(np.array([0.0]), np.array([0.0]))[0]) + 0.05
+    mujoco.mj_step(model, data, nstep=500)
+    best = float("inf")
+    for _ in range(3):
+        t0 = time.perf_counter()
+        mujoco.mj_step(model, data, nstep=n)
+        best = min(best, (time.perf_counter() - t0) / n)
+    return 1e6 * best
+
+
 def main(argv=None) -> int:
     import argparse
     ap = argparse.ArgumentParser(prog="python -m simcalib.world.vehicle",
@@ -915,6 +932,13 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     if args.table:
         print(format_table(physics_table(seed=args.seed)))
+        for label, cfg in (("rigid, flat", VehicleConfig(sprung=False)),
+                           ("sprung, flat", VehicleConfig()),
+                           ("sprung, bumps 4 cm", VehicleConfig(ground="uneven",
+                                                                bump_amplitude_m=0.04))):
+            print(f"\nbare mj_step, {label}: {step_cost_us(cfg, seed=args.seed):.1f} µs per "
+                  f"step at rest on the ground", end="")
+        print()
         return 0
     kw = {"ground": args.ground, "drive": args.drive, "sprung": not args.rigid,
           "speed_mps": args.speed}
