@@ -1,0 +1,526 @@
+"""The UR5e arm executing a joint path under joint control in MuJoCo physics.
+
+``track_joint_path(model, qpos_targets, ...) -> ArmTrajectory``: the arm of
+``models/ur5e.xml`` (or another 6-joint arm MJCF / ``MjSpec``) gets one torque-limited
+joint servo per hinge, added with ``MjSpec``::
+
+    tau_j = clip(kp_j (q_ref_j - q_j) + kd_j (qd_ref_j - qd_j), ±max_torque_nm_j)
+
+(a MuJoCo ``general`` actuator: gain 1 on ``ctrl = kp q_ref + kd qd_ref``, bias
+``-kp q - kd qd``, ``forcerange`` = the torque limit), plus gravity compensation of the
+links (``gravcomp``, as a UR controller's model-based feed-forward; optional). The
+reference ``q_ref`` is the target path passed through a joint-speed limiter
+(``max_velocity_rad_s``), updated at ``control_rate_hz`` (UR: 500 Hz). So the arm lags,
+overshoots and settles as its gains and limits dictate; nothing is posed.
+
+Capture modes: ``"continuous"`` captures at ``capture_rate_hz`` while the arm moves;
+``"stop_and_go"`` stops the path at each capture instant, waits until the arm has settled
+(|q - q_target| <= ``settle_tol_rad`` and |qd| <= ``settle_vel_tol_rad_s`` on every
+joint, or ``settle_max_s``) and captures then. The quasi-static tracking error of a PD
+servo is ``e ≈ tau_needed / kp`` (``tau_needed`` = inverse dynamics of the reference
+without gravity when compensated); ``ArmTrajectory.stats["predicted_error_rad"]`` holds it.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import numpy as np
+
+__all__ = ["ArmGains", "ArmLimits", "ArmTrajectory", "CAPTURE_MODES", "track_joint_path", "demo_path",
+           "build_controlled_arm", "UR5E_XML"]
+
+UR5E_XML = Path(__file__).resolve().parents[2] / "models" / "ur5e.xml"
+CAPTURE_MODES = ("continuous", "stop_and_go")
+
+
+def _mujoco():
+    import mujoco
+    return mujoco
+
+
+def _per_joint(name, value, n, lo=0.0, lo_open=True, hi=None):
+    arr = np.atleast_1d(np.asarray(value, dtype=object))
+    if arr.ndim != 1 or arr.size not in (1, n):
+        raise ValueError(f"{name} must be a number or {n} numbers (one per joint); "
+                         f"received {value!r}")
+    out = []
+    for v in arr:
+        if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+            raise TypeError(f"{name} must be numbers; received {value!r}")
+        v = float(v)
+        if not math.isfinite(v) or (v <= lo if lo_open else v < lo) or (hi is not None
+                                                                        and v > hi):
+            rng_txt = f"{'(' if lo_open else '['}{lo}, {hi if hi is not None else 'inf'}]"
+            raise ValueError(f"{name} must be finite and in {rng_txt}; received {value!r}")
+        out.append(v)
+    return tuple(out * n) if len(out) == 1 else tuple(out)
+
+
+@dataclass(frozen=True)
+class ArmGains:
+    """Joint servo gains, one per joint or one for all: ``kp_nm_per_rad`` (N m/rad),
+    ``kd_nm_s_per_rad`` (N m s/rad). Defaults: a stiff UR-like servo, ~0.7 damping ratio
+    and 5-10 Hz bandwidth on the built-in UR5e at its home pose."""
+    kp_nm_per_rad: tuple = (3000.0, 3000.0, 1500.0, 300.0, 300.0, 300.0)
+    kd_nm_s_per_rad: tuple = (70.0, 90.0, 40.0, 8.0, 8.0, 8.0)
+
+    def resolved(self, n: int):
+        return (np.array(_per_joint("ArmGains.kp_nm_per_rad", self.kp_nm_per_rad, n)),
+                np.array(_per_joint("ArmGains.kd_nm_s_per_rad", self.kd_nm_s_per_rad, n,
+                                    lo_open=False)))
+
+
+@dataclass(frozen=True)
+class ArmLimits:
+    """Actuation limits: ``max_torque_nm`` per joint (UR5e data sheet: 150 N m base,
+    shoulder, elbow; 28 N m wrists) and ``max_velocity_rad_s`` of the reference (UR5e:
+    180 °/s). Joint position limits are the model's joint ranges (a target outside them
+    raises ``ValueError``)."""
+    max_torque_nm: tuple = (150.0, 150.0, 150.0, 28.0, 28.0, 28.0)
+    max_velocity_rad_s: tuple = (math.pi,) * 6
+
+    def resolved(self, n: int):
+        return (np.array(_per_joint("ArmLimits.max_torque_nm", self.max_torque_nm, n)),
+                np.array(_per_joint("ArmLimits.max_velocity_rad_s", self.max_velocity_rad_s,
+                                    n)))
+
+
+@dataclass(frozen=True)
+class ArmTrajectory:
+    """Physics result of :func:`track_joint_path`.
+
+    Samples at ``sample_rate_hz``: ``time_s`` (N,) wall-clock of the robot; ``path_time_s``
+    (N,) the path's own clock (stands still at stops); ``qpos`` / ``qvel`` (N, nj) measured;
+    ``qpos_target`` (N, nj) the path at ``path_time_s``; ``qpos_ref`` (N, nj) the
+    speed-limited reference the servos track; ``torque_nm`` (N, nj) actuator torques;
+    ``tracking_error_rad`` (N, nj) = ``qpos_target - qpos``; ``T_world_flange`` (N, 4, 4)
+    pose of the ``site`` (the rig mount).
+    Captures (K of them): ``capture_time_s``, ``capture_path_time_s``, ``capture_qpos``
+    (K, nj), ``capture_T_world_flange`` (K, 4, 4) actual; ``capture_T_world_flange_target``
+    (K, 4, 4) where the path wanted it; ``capture_flange_speed_mps`` /
+    ``capture_flange_rate_rad_s`` (K,) motion at the capture instant (blur);
+    ``capture_settle_s`` (K,) time spent settling before the capture (stop_and_go) and
+    ``capture_settled`` (K,) bool. ``stats``: summary (see module docstring);
+    ``model``: the compiled model with the servos; ``joint_names``."""
+    time_s: np.ndarray
+    path_time_s: np.ndarray
+    qpos: np.ndarray
+    qvel: np.ndarray
+    qpos_target: np.ndarray
+    qpos_ref: np.ndarray
+    torque_nm: np.ndarray
+    tracking_error_rad: np.ndarray
+    T_world_flange: np.ndarray
+    capture_time_s: np.ndarray
+    capture_path_time_s: np.ndarray
+    capture_qpos: np.ndarray
+    capture_T_world_flange: np.ndarray
+    capture_T_world_flange_target: np.ndarray
+    capture_flange_speed_mps: np.ndarray
+    capture_flange_rate_rad_s: np.ndarray
+    capture_settle_s: np.ndarray
+    capture_settled: np.ndarray
+    capture: str
+    joint_names: tuple
+    stats: dict
+    timing_s: dict
+    model: object = field(repr=False, default=None)
+
+
+# ------------------------------------------------------------------------------- model
+def build_controlled_arm(model=None, gains: ArmGains = ArmGains(),
+                         limits: ArmLimits = ArmLimits(), *, gravity_compensation=True,
+                         timestep_s: float = 0.001):
+    """``(MjModel, joint_names)``: the arm with one PD servo per hinge joint (see module
+    docstring). ``model``: ``None`` (built-in UR5e), a path to an MJCF file, or a
+    ``mujoco.MjSpec`` (copied, not modified)."""
+    mujoco = _mujoco()
+    if model is None:
+        spec = mujoco.MjSpec.from_file(str(UR5E_XML))
+    elif isinstance(model, (str, Path)):
+        p = Path(model).expanduser()
+        if not p.is_file():
+            raise ValueError(f"model file {str(p)!r} does not exist")
+        spec = mujoco.MjSpec.from_file(str(p))
+    elif isinstance(model, mujoco.MjSpec):
+        spec = model.copy()
+    else:
+        raise TypeError("model must be None (built-in UR5e), a path to an MJCF file or a "
+                        f"mujoco.MjSpec; received {type(model).__name__} (an MjModel cannot "
+                        "get actuators added: pass its MjSpec)")
+    if not (isinstance(timestep_s, (int, float)) and 1e-5 <= float(timestep_s) <= 0.002):
+        raise ValueError(f"timestep_s must be in [1e-05, 0.002] s (>= 500 Hz); "
+                         f"received {timestep_s!r}")
+    spec.option.timestep = float(timestep_s)
+    hinges = [j for j in spec.joints if j.type == mujoco.mjtJoint.mjJNT_HINGE]
+    if not hinges:
+        raise ValueError("the arm model has no hinge joints to control")
+    if len(spec.actuators):
+        raise ValueError(f"the arm model already has {len(spec.actuators)} actuator(s); "
+                         "pass a model without actuators (the servos are added here)")
+    n = len(hinges)
+    kp, kd = gains.resolved(n)
+    tmax, _ = limits.resolved(n)
+    for j, jnt in enumerate(hinges):
+        a = spec.add_actuator(name=f"servo_{jnt.name}", target=jnt.name,
+                              trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        a.gaintype = mujoco.mjtGain.mjGAIN_FIXED
+        a.biastype = mujoco.mjtBias.mjBIAS_AFFINE
+        a.gainprm[0] = 1.0
+        a.biasprm[0] = 0.0
+        a.biasprm[1] = -kp[j]
+        a.biasprm[2] = -kd[j]
+        a.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
+        a.forcerange = [-tmax[j], tmax[j]]
+    if gravity_compensation:
+        for b in spec.bodies:
+            if b.name != "world":
+                b.gravcomp = 1.0
+    m = spec.compile()
+    return m, tuple(j.name for j in hinges)
+
+
+# ------------------------------------------------------------------------------ target
+def _target_fn(qpos_targets, nj):
+    """``(q(t) -> (nj,), qd(t) -> (nj,), t_end or None)``."""
+    if callable(qpos_targets):
+        def q(t):
+            v = np.asarray(qpos_targets(float(t)), dtype=np.float64)
+            if v.shape != (nj,):
+                raise ValueError(f"qpos_targets(t) must return {nj} joint values; returned "
+                                 f"shape {v.shape}")
+            return v
+
+        def qd(t, h=1e-4):
+            return (q(t + h) - q(max(t - h, 0.0))) / (t + h - max(t - h, 0.0))
+        return q, qd, None
+    if isinstance(qpos_targets, (tuple, list)) and len(qpos_targets) == 2:
+        t = np.asarray(qpos_targets[0], dtype=np.float64)
+        Q = np.asarray(qpos_targets[1], dtype=np.float64)
+        if t.ndim != 1 or Q.shape != (t.size, nj) or t.size < 2:
+            raise ValueError(f"qpos_targets as (t, qpos) needs t (M,) and qpos (M, {nj}) with "
+                             f"M >= 2; received shapes {t.shape} and {Q.shape}")
+        if not (np.isfinite(t).all() and np.isfinite(Q).all()):
+            raise ValueError("qpos_targets contains non-finite values")
+        if np.any(np.diff(t) <= 0):
+            raise ValueError("qpos_targets times must be strictly increasing")
+        dQ = np.gradient(Q, t, axis=0)
+
+        def q(tt):
+            return np.array([np.interp(tt, t, Q[:, j]) for j in range(nj)])
+
+        def qd(tt):
+            if tt <= t[0] or tt >= t[-1]:
+                return np.zeros(nj)
+            return np.array([np.interp(tt, t, dQ[:, j]) for j in range(nj)])
+        return q, qd, float(t[-1] - t[0]) if t[0] == 0.0 else None
+    raise TypeError("qpos_targets must be a callable t -> (nj,) joint positions or a tuple "
+                    f"(t (M,), qpos (M, nj)); received {type(qpos_targets).__name__}")
+
+
+# ------------------------------------------------------------------------------- track
+def track_joint_path(model, qpos_targets, *, duration_s: float | None = None,
+                     gains: ArmGains = ArmGains(), limits: ArmLimits = ArmLimits(),
+                     capture: str = "continuous", capture_rate_hz: float = 10.0,
+                     site: str = "rig_mount", gravity_compensation: bool = True,
+                     timestep_s: float = 0.001, control_rate_hz: float = 500.0,
+                     sample_rate_hz: float = 100.0, settle_tol_rad: float = 1e-4,
+                     settle_vel_tol_rad_s: float = 1e-3,
+                     settle_max_s: float = 3.0) -> ArmTrajectory:
+    """Execute ``qpos_targets`` (callable ``q(t)`` or ``(t, qpos)`` arrays; times from 0)
+    on the arm ``model`` (see :func:`build_controlled_arm`) for ``duration_s`` of path time
+    (default: the arrays' span) and return the :class:`ArmTrajectory`. The arm starts at
+    rest at ``q(0)``. Deterministic (no randomness)."""
+    mujoco = _mujoco()
+    if not isinstance(capture, str) or capture not in CAPTURE_MODES:
+        raise ValueError(f"capture must be one of {list(CAPTURE_MODES)}; received {capture!r}")
+    if not isinstance(gains, ArmGains):
+        raise TypeError(f"gains must be an ArmGains; received {type(gains).__name__}")
+    if not isinstance(limits, ArmLimits):
+        raise TypeError(f"limits must be an ArmLimits; received {type(limits).__name__}")
+    for name, v, lo, hi in (("capture_rate_hz", capture_rate_hz, 1e-3, 1000.0),
+                            ("control_rate_hz", control_rate_hz, 1.0, 10000.0),
+                            ("sample_rate_hz", sample_rate_hz, 1.0, 10000.0),
+                            ("settle_tol_rad", settle_tol_rad, 1e-9, 1.0),
+                            ("settle_vel_tol_rad_s", settle_vel_tol_rad_s, 1e-9, 10.0),
+                            ("settle_max_s", settle_max_s, 0.0, 60.0)):
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not (
+                math.isfinite(v) and lo <= v <= hi):
+            raise ValueError(f"{name} must be a number in [{lo}, {hi}]; received {v!r}")
+    t0 = time.perf_counter()
+    m, jnames = build_controlled_arm(model, gains, limits,
+                                     gravity_compensation=gravity_compensation,
+                                     timestep_s=timestep_s)
+    nj = len(jnames)
+    kp, kd = gains.resolved(nj)
+    tmax, vmax = limits.resolved(nj)
+    n_ctrl = 1.0 / (control_rate_hz * timestep_s)
+    n_samp = 1.0 / (sample_rate_hz * timestep_s)
+    for name, nn in (("control_rate_hz", n_ctrl), ("sample_rate_hz", n_samp)):
+        if abs(nn - round(nn)) > 1e-6 or round(nn) < 1:
+            raise ValueError(f"{name} must divide the physics rate 1/timestep_s = "
+                             f"{1.0 / timestep_s:g} Hz into whole steps")
+    n_ctrl, n_samp = int(round(n_ctrl)), int(round(n_samp))
+    if n_samp % n_ctrl:
+        raise ValueError(f"sample_rate_hz={sample_rate_hz} must divide control_rate_hz="
+                         f"{control_rate_hz}")
+    q_fn, qd_fn, span = _target_fn(qpos_targets, nj)
+    if duration_s is None:
+        if span is None:
+            raise ValueError("duration_s is required for a callable qpos_targets (or arrays "
+                             "whose times do not start at 0)")
+        duration_s = span
+    if not (isinstance(duration_s, (int, float)) and math.isfinite(duration_s)
+            and duration_s > 0):
+        raise ValueError(f"duration_s must be a positive number; received {duration_s!r}")
+    sid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, site)
+    if sid < 0:
+        raise ValueError(f"site {site!r} not found in the arm model; sites: "
+                         f"{[m.site(i).name for i in range(m.nsite)]}")
+    jids = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, n) for n in jnames]
+    qadr = np.array([m.jnt_qposadr[j] for j in jids])
+    vadr = np.array([m.jnt_dofadr[j] for j in jids])
+    lo = np.where(m.jnt_limited[jids].astype(bool), m.jnt_range[jids, 0], -np.inf)
+    hi = np.where(m.jnt_limited[jids].astype(bool), m.jnt_range[jids, 1], np.inf)
+
+    # check the target against the joint ranges (dense sampling)
+    tt = np.linspace(0.0, duration_s, max(50, int(duration_s * 100)))
+    Qs = np.array([q_fn(v) for v in tt])
+    bad = (Qs < lo) | (Qs > hi)
+    if bad.any():
+        k, j = (int(v) for v in np.argwhere(bad)[0])
+        raise ValueError(f"qpos_targets leaves joint {jnames[j]!r}'s range "
+                         f"[{lo[j]:.4g}, {hi[j]:.4g}] rad at t = {tt[k]:.3f} s "
+                         f"(value {Qs[k, j]:.4g} rad)")
+
+    data = mujoco.MjData(m)
+    data.qpos[qadr] = q_fn(0.0)
+    data.qvel[:] = 0.0
+    mujoco.mj_forward(m, data)
+
+    dt_c = n_ctrl * timestep_s
+    n_cap = int(math.floor(duration_s * capture_rate_hz + 1e-9)) + 1
+    cap_tau = np.arange(n_cap) / capture_rate_hz
+    stop_mode = capture == "stop_and_go"
+
+    rec = {k: [] for k in ("t", "tau", "q", "qd", "qt", "qr", "tq", "pos", "mat")}
+    caps = {k: [] for k in ("t", "tau", "q", "pos", "mat", "v", "w", "settle", "ok")}
+    q_ref = q_fn(0.0).copy()
+    tau = 0.0
+    step = 0
+    k_cap = 0
+    holding = stop_mode             # stop_and_go starts with the first capture at tau = 0
+    hold_start = 0.0
+    sat_count = 0
+    ctrl_count = 0
+    jacp = np.zeros((3, m.nv))
+    jacr = np.zeros((3, m.nv))
+
+    def flange_motion():
+        mujoco.mj_jacSite(m, data, jacp, jacr, sid)
+        return float(np.linalg.norm(jacp @ data.qvel)), float(np.linalg.norm(jacr @ data.qvel))
+
+    def do_capture(settle_s, ok):
+        v, w = flange_motion()
+        caps["t"].append(step * timestep_s)
+        caps["tau"].append(tau)
+        caps["q"].append(data.qpos[qadr].copy())
+        caps["pos"].append(data.site_xpos[sid].copy())
+        caps["mat"].append(data.site_xmat[sid].copy())
+        caps["v"].append(v)
+        caps["w"].append(w)
+        caps["settle"].append(settle_s)
+        caps["ok"].append(ok)
+
+    # stop_and_go: between stops the path clock follows a smoothstep (zero speed at both
+    # stops, peak speed = the path's own), so each move takes 1.5x its path time
+    max_steps = int(round((1.5 * duration_s + n_cap * (settle_max_s + dt_c) + 1.0)
+                          / timestep_s))
+    seg_start = 0.0
+    while True:
+        t_now = step * timestep_s
+        if step % n_ctrl == 0:
+            # path clock
+            tau_rate = 1.0
+            if stop_mode and not holding:
+                ta, tb = cap_tau[k_cap - 1], cap_tau[k_cap]
+                T_seg = 1.5 * (tb - ta)
+                u = min(1.0, (t_now - seg_start) / T_seg)
+                tau = ta + (tb - ta) * (3.0 * u * u - 2.0 * u ** 3)
+                tau_rate = (tb - ta) * 6.0 * u * (1.0 - u) / T_seg
+                if u >= 1.0:
+                    tau, holding, hold_start = tb, True, t_now
+            elif not stop_mode:
+                tau = min(t_now, duration_s)
+            # captures
+            if stop_mode and holding:
+                err = np.abs(q_fn(tau) - data.qpos[qadr])
+                settled = bool(err.max() <= settle_tol_rad
+                               and np.abs(data.qvel[vadr]).max() <= settle_vel_tol_rad_s)
+                if settled or t_now - hold_start >= settle_max_s - 1e-12:
+                    do_capture(t_now - hold_start, settled)
+                    k_cap += 1
+                    if k_cap >= n_cap:
+                        break
+                    holding, seg_start = False, t_now
+            elif not stop_mode and k_cap < n_cap and tau >= cap_tau[k_cap] - 1e-9:
+                do_capture(0.0, True)
+                k_cap += 1
+            if not stop_mode and t_now >= duration_s - 1e-9 and k_cap >= n_cap:
+                break
+            # reference (speed-limited)
+            q_tgt = q_fn(tau)
+            qd_tgt = np.zeros(nj) if holding else qd_fn(tau) * tau_rate
+            step_lim = vmax * dt_c
+            q_new = q_ref + np.clip(q_tgt - q_ref, -step_lim, step_lim)
+            limited = np.abs(q_tgt - q_ref) > step_lim
+            qd_ref = np.where(limited, (q_new - q_ref) / dt_c, np.clip(qd_tgt, -vmax, vmax))
+            q_ref = q_new
+            data.ctrl[:] = kp * q_ref + kd * qd_ref
+            ctrl_count += 1
+        if step % n_samp == 0:
+            rec["t"].append(t_now)
+            rec["tau"].append(tau)
+            rec["q"].append(data.qpos[qadr].copy())
+            rec["qd"].append(data.qvel[vadr].copy())
+            rec["qt"].append(q_fn(tau))
+            rec["qr"].append(q_ref.copy())
+            rec["tq"].append(data.actuator_force.copy())
+            rec["pos"].append(data.site_xpos[sid].copy())
+            rec["mat"].append(data.site_xmat[sid].copy())
+        if step >= max_steps:
+            raise ValueError(f"the arm did not finish the path within "
+                             f"{max_steps * timestep_s:.1f} s of simulated time")
+        mujoco.mj_step(m, data, nstep=n_ctrl)
+        sat_count += int(np.any(np.abs(data.actuator_force) >= tmax - 1e-9))
+        step += n_ctrl
+    t_sim = time.perf_counter() - t0
+
+    from simcalib.geometry import transform_from_rotation_translation
+    T_fl = transform_from_rotation_translation(np.array(rec["mat"]).reshape(-1, 3, 3),
+                                               np.array(rec["pos"]))
+    T_cap = transform_from_rotation_translation(np.array(caps["mat"]).reshape(-1, 3, 3),
+                                                np.array(caps["pos"]))
+    # target flange poses at the capture path times (forward kinematics of the target)
+    dk = mujoco.MjData(m)
+    T_tgt = np.zeros_like(T_cap)
+    for i, tau_i in enumerate(caps["tau"]):
+        dk.qpos[qadr] = q_fn(tau_i)
+        mujoco.mj_kinematics(m, dk)
+        T_tgt[i] = np.eye(4)
+        T_tgt[i, :3, :3] = dk.site_xmat[sid].reshape(3, 3)
+        T_tgt[i, :3, 3] = dk.site_xpos[sid]
+    qpos = np.array(rec["q"])
+    qt = np.array(rec["qt"])
+    err = qt - qpos
+    cap_pos_err = np.linalg.norm(T_cap[:, :3, 3] - T_tgt[:, :3, 3], axis=1)
+    pred = _predicted_error(m, q_fn, qd_fn, duration_s, qadr, vadr, kp)
+    stats = {
+        "max_tracking_error_rad": np.abs(err).max(axis=0).tolist(),
+        "rms_tracking_error_rad": np.sqrt((err ** 2).mean(axis=0)).tolist(),
+        "predicted_error_rad": pred.tolist(),
+        "capture_position_error_max_m": float(cap_pos_err.max()),
+        "capture_position_error_mean_m": float(cap_pos_err.mean()),
+        "capture_flange_speed_max_mps": float(np.max(caps["v"])),
+        "settle_mean_s": float(np.mean(caps["settle"])),
+        "settle_max_s": float(np.max(caps["settle"])),
+        "settled_fraction": float(np.mean(caps["ok"])),
+        "torque_saturated_fraction": sat_count / max(ctrl_count, 1),
+        "duration_s": float(step * timestep_s),
+        "physics_ms_per_sim_s": 1e3 * t_sim / max(step * timestep_s, 1e-9),
+    }
+    return ArmTrajectory(
+        time_s=np.array(rec["t"]), path_time_s=np.array(rec["tau"]), qpos=qpos,
+        qvel=np.array(rec["qd"]), qpos_target=qt, qpos_ref=np.array(rec["qr"]),
+        torque_nm=np.array(rec["tq"]), tracking_error_rad=err, T_world_flange=T_fl,
+        capture_time_s=np.array(caps["t"]), capture_path_time_s=np.array(caps["tau"]),
+        capture_qpos=np.array(caps["q"]), capture_T_world_flange=T_cap,
+        capture_T_world_flange_target=T_tgt,
+        capture_flange_speed_mps=np.array(caps["v"]),
+        capture_flange_rate_rad_s=np.array(caps["w"]),
+        capture_settle_s=np.array(caps["settle"]), capture_settled=np.array(caps["ok"]),
+        capture=capture, joint_names=jnames, stats=stats,
+        timing_s={"total": time.perf_counter() - t0}, model=m)
+
+
+def _predicted_error(m, q_fn, qd_fn, duration_s, qadr, vadr, kp, n=400):
+    """Quasi-static PD tracking error ``max_t |tau_needed(t)| / kp`` per joint, with
+    ``tau_needed`` from MuJoCo's inverse dynamics of the target (passive forces, i.e.
+    joint damping and gravity compensation, included)."""
+    mujoco = _mujoco()
+    d = mujoco.MjData(m)
+    t = np.linspace(0.0, duration_s, n)
+    h = t[1] - t[0]
+    out = np.zeros(len(qadr))
+    for tt in t:
+        d.qpos[qadr] = q_fn(tt)
+        d.qvel[vadr] = qd_fn(tt)
+        ta, tb = max(tt - 0.5 * h, 0.0), min(tt + 0.5 * h, duration_s)
+        d.qacc[vadr] = (qd_fn(tb) - qd_fn(ta)) / (tb - ta)
+        mujoco.mj_inverse(m, d)
+        out = np.maximum(out, np.abs(d.qfrc_inverse[vadr]) / kp)
+    return out
+
+
+# ----------------------------------------------------------------------------- CLI
+#: The UR5e home joint angles of the scene builder (see simcalib.world.scene).
+DEMO_Q_HOME = np.array([0.3005, -1.8099, -1.9046, 0.5729, 1.2703, 0.0])
+DEMO_AMP_RAD = np.array([0.3, 0.2, 0.25, 0.4, 0.4, 0.5])
+
+
+def demo_path(t: float, freq_hz: float = 0.25) -> np.ndarray:
+    """The docs' joint path: from rest at the home pose, a ``freq_hz`` swing of
+    ``DEMO_AMP_RAD`` on every joint (``q = q_home + A (1 - cos 2π f t)``)."""
+    return DEMO_Q_HOME + DEMO_AMP_RAD * (1.0 - np.cos(2.0 * np.pi * freq_hz * t))
+
+
+def report_rows(duration_s: float = 4.0) -> list[dict]:
+    rows = []
+    for capture in CAPTURE_MODES:
+        for f in (0.25, 0.5):
+            tr = track_joint_path(None, lambda t, f=f: demo_path(t, f), duration_s=duration_s,
+                                  capture=capture, capture_rate_hz=2.0)
+            d = np.linalg.norm(tr.capture_T_world_flange[:, :3, 3]
+                               - tr.capture_T_world_flange_target[:, :3, 3], axis=1)
+            rows.append({"capture": capture, "freq_hz": f,
+                         "max_err_mrad": 1e3 * np.abs(tr.tracking_error_rad).max(axis=0),
+                         "pred_mrad": 1e3 * np.array(tr.stats["predicted_error_rad"]),
+                         "capture_pos_err_max_mm": 1e3 * float(d.max()),
+                         "capture_speed_max_mps": tr.stats["capture_flange_speed_max_mps"],
+                         "settle_max_s": tr.stats["settle_max_s"],
+                         "duration_s": tr.stats["duration_s"],
+                         "ms_per_sim_s": tr.stats["physics_ms_per_sim_s"]})
+    return rows
+
+
+def main(argv=None) -> int:
+    import argparse
+    ap = argparse.ArgumentParser(prog="python -m simcalib.world.arm_control",
+                                 description="UR5e under joint control: regenerate the "
+                                             "docs/physics.md arm table.")
+    ap.add_argument("--table", action="store_true", help="print the docs table")
+    args = ap.parse_args(argv)
+    if not args.table:
+        ap.print_help()
+        return 0
+    print("| capture | swing Hz | max error / predicted τ/kp (mrad), joints 1-6 "
+          "| flange error at captures max mm | flange speed at captures max m/s "
+          "| settle max s | run s | physics ms per sim s |")
+    print("|" + "---|" * 8)
+    for r in report_rows():
+        pairs = " ".join(f"{e:.2f}/{p:.2f}" for e, p in zip(r["max_err_mrad"], r["pred_mrad"]))
+        print(f"| {r['capture']} | {r['freq_hz']:g} | {pairs} | {r['capture_pos_err_max_mm']:.3f} "
+              f"| {r['capture_speed_max_mps']:.3f} | {r['settle_max_s']:.3f} "
+              f"| {r['duration_s']:.2f} | {r['ms_per_sim_s']:.0f} |")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
