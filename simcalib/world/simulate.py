@@ -13,8 +13,6 @@ import os
 import time
 from dataclasses import dataclass, field
 
-os.environ.setdefault("MUJOCO_GL", "egl")
-
 import numpy as np
 
 from simcalib.geometry import (quat_from_matrix, quat_wxyz_from_xyzw,
@@ -71,6 +69,8 @@ class World:
 
 
 def _mujoco():
+    # Rendering backend default at the first mujoco import (read once, at import).
+    os.environ.setdefault("MUJOCO_GL", "egl")
     import mujoco
     return mujoco
 
