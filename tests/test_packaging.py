@@ -136,3 +136,18 @@ def test_no_backend_chosen_at_import(module):
         assert mpl is None or mpl.rcParams._get_backend_or_none() is None, mpl.get_backend()
         """)
     _run([sys.executable, "-c", code], cwd=REPO, env=_clean_env())
+
+
+def test_experiment_figures_leave_the_matplotlib_backend_alone(tmp_path):
+    code = textwrap.dedent(f"""
+        import sys
+        import matplotlib
+        from simcalib.experiments import plots
+        fig, axes = plots._subplots(1, 2, figsize=(3, 2), layout="constrained")
+        axes[0].plot([1, 2], [1, 4], color=plots._cmap("tab20")(0))
+        path = plots._save(fig, {str(tmp_path / "f.png")!r})
+        assert path.stat().st_size > 1000
+        assert matplotlib.rcParams._get_backend_or_none() is None
+        assert "matplotlib.pyplot" not in sys.modules
+        """)
+    _run([sys.executable, "-c", code], cwd=REPO, env=_clean_env())
