@@ -851,15 +851,10 @@ def _deep_copy(data):
 
 # ------------------------------------------------------------------------- scenarios
 def scenario_dir() -> Path:
-    """Directory of the scenario files: ``$SIMCALIB_SCENARIOS``, else ``scenarios/`` of the
-    source tree (editable install / checkout), else ``./scenarios``."""
-    env = os.environ.get("SIMCALIB_SCENARIOS")
-    if env:
-        return Path(env)
-    repo = Path(__file__).resolve().parent.parent / "scenarios"
-    if repo.is_dir():
-        return repo
-    return Path.cwd() / "scenarios"
+    """Directory of the scenario files: ``$SIMCALIB_SCENARIOS``, else the built-in
+    ``scenarios/`` (see :mod:`simcalib.resources`)."""
+    from simcalib.resources import scenarios_dir
+    return scenarios_dir()
 
 
 def list_scenarios() -> dict[str, str]:

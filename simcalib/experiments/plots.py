@@ -1,4 +1,9 @@
-"""Matplotlib figures of the experiments (Agg backend, imported lazily)."""
+"""Matplotlib figures of the experiments (imported lazily).
+
+Figures are built with the object-oriented API (``matplotlib.figure.Figure``), not pyplot:
+no backend is selected or forced, so a user's own matplotlib backend stays untouched, and
+``savefig`` renders the PNG with Agg by itself (no display needed).
+"""
 
 from __future__ import annotations
 
@@ -10,11 +15,16 @@ import numpy as np
 __all__ = ["table2_sweep_figure", "table1_figure", "figure3", "figure6"]
 
 
-def _plt():
+def _subplots(*args, figsize=None, layout=None, **kwargs):
+    """``(fig, axes)`` like ``pyplot.subplots``, on a standalone ``Figure``."""
+    from matplotlib.figure import Figure
+    fig = Figure(figsize=figsize, layout=layout)
+    return fig, fig.subplots(*args, **kwargs)
+
+
+def _cmap(name: str):
     import matplotlib
-    matplotlib.use("Agg", force=True)
-    import matplotlib.pyplot as plt
-    return plt
+    return matplotlib.colormaps[name]
 
 
 def _finite(x: np.ndarray) -> np.ndarray:
@@ -41,16 +51,14 @@ def _log_axes(ax, x=True, y=True):
 def _save(fig, path: Path) -> Path:
     path = Path(path)
     fig.savefig(path, dpi=110, bbox_inches="tight")
-    _plt().close(fig)
     return path
 
 
 def table2_sweep_figure(curves: dict, scenarios, algorithms, path: Path) -> Path:
     """Median rotation (top) and translation (bottom) error vs α, one column per scenario."""
-    plt = _plt()
-    fig, axes = plt.subplots(2, len(scenarios), figsize=(5 * len(scenarios), 7.5),
+    fig, axes = _subplots(2, len(scenarios), figsize=(5 * len(scenarios), 7.5),
                              squeeze=False, layout="constrained")
-    cmap = plt.get_cmap("tab20")
+    cmap = _cmap("tab20")
     for j, s in enumerate(scenarios):
         for k, alg in enumerate(algorithms):
             sw = curves.get((s, alg))
@@ -81,8 +89,7 @@ def table2_sweep_figure(curves: dict, scenarios, algorithms, path: Path) -> Path
 
 def table1_figure(rel: dict, timing_rows: list, path: Path) -> Path:
     """Left: distribution of the relative cost differences (symlog); right: timing bars."""
-    plt = _plt()
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(13, 4.5), layout="constrained")
+    fig, (a1, a2) = _subplots(1, 2, figsize=(13, 4.5), layout="constrained")
     names = list(rel)
     data = [np.nan_to_num(np.concatenate(rel[m]), nan=0.0, posinf=1.0, neginf=-1.0)
             for m in names]
@@ -108,9 +115,8 @@ def table1_figure(rel: dict, timing_rows: list, path: Path) -> Path:
 
 def figure3(maps: dict, cfg, path: Path) -> Path:
     """2 rows (rotation, translation) x (scenarios at best α, then scenarios at α = 1)."""
-    plt = _plt()
     cols = [(s, "best") for s in cfg.scenarios] + [(s, "alpha1") for s in cfg.scenarios]
-    fig, axes = plt.subplots(2, len(cols), figsize=(3.3 * len(cols), 6.4), squeeze=False)
+    fig, axes = _subplots(2, len(cols), figsize=(3.3 * len(cols), 6.4), squeeze=False)
     vals = np.concatenate([m.ravel() for m in maps.values()])
     vmax = max(1e-3, float(np.nanmax(np.abs(vals))))
     sr = [math.degrees(v) for v in cfg.sigma_r_rad]
@@ -139,9 +145,8 @@ def figure3(maps: dict, cfg, path: Path) -> Path:
 def figure6(curves: dict, alphas, cfg, path: Path) -> Path:
     """Rows: algorithms. Columns: mean rotation error vs α (σ_t varied, σ_r varied), mean
     translation error vs α (σ_t varied, σ_r varied)."""
-    plt = _plt()
     algs = list(cfg.algorithms)
-    fig, axes = plt.subplots(len(algs), 4, figsize=(18, 3.6 * len(algs)), squeeze=False,
+    fig, axes = _subplots(len(algs), 4, figsize=(18, 3.6 * len(algs)), squeeze=False,
                              layout="constrained")
     panels = [("rot", "sigma_t", "Purples"), ("rot", "sigma_r", "Purples"),
               ("trans", "sigma_t", "Greens"), ("trans", "sigma_r", "Greens")]
@@ -149,7 +154,7 @@ def figure6(curves: dict, alphas, cfg, path: Path) -> Path:
         for j, (err, varied, cmap_name) in enumerate(panels):
             ax = axes[i, j]
             keys = [k for k in curves if k[0] == varied and k[3] == alg]
-            cmap = plt.get_cmap(cmap_name)
+            cmap = _cmap(cmap_name)
             for n, k in enumerate(keys):
                 rot, tr = curves[k]
                 lvl = (f"σt={100 * k[2]:.3g} cm" if varied == "sigma_t"

@@ -8,10 +8,9 @@ import argparse
 import os
 import sys
 
-os.environ.setdefault("MUJOCO_GL", "egl")
-
 
 def main(argv=None) -> int:
+    os.environ.setdefault("MUJOCO_GL", "egl")   # this CLI renders: decide before mujoco
     import numpy as np
 
     from simcalib.world import WorldConfig, available_paths, build_world

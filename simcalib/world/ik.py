@@ -12,8 +12,6 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 
-os.environ.setdefault("MUJOCO_GL", "egl")
-
 import numpy as np
 
 from simcalib.geometry import rotvec_from_matrix
@@ -33,6 +31,8 @@ class IKResult:
 
 
 def _mujoco():
+    # Rendering backend default at the first mujoco import (read once, at import).
+    os.environ.setdefault("MUJOCO_GL", "egl")
     import mujoco
     return mujoco
 

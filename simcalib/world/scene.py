@@ -14,20 +14,19 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-os.environ.setdefault("MUJOCO_GL", "egl")   # before any mujoco import (rendering users)
-
 import numpy as np
 
 from simcalib.geometry import (invert_transform, quat_from_matrix, quat_wxyz_from_xyzw,
                                transform_from_rotation_translation)
 from simcalib.markers import MarkerField, marker_png
+from simcalib.resources import models_dir
 from simcalib.streams import CameraIntrinsics
 
 __all__ = ["Scene", "build_scene", "build_model", "MODELS_DIR", "CAMERA_NAMES", "MJ_FROM_CV",
            "T_world_cv_from_mujoco"]
 
 #: Directory holding the MJCF files (room, cart, ur5e, rig).
-MODELS_DIR = Path(__file__).resolve().parents[2] / "models"
+MODELS_DIR = models_dir()
 CAMERA_NAMES = ("cam_a", "cam_b")
 #: OpenCV camera frame <-> MuJoCo camera frame (its own inverse): R_mj = R_cv @ MJ_FROM_CV.
 MJ_FROM_CV = np.diag([1.0, -1.0, -1.0])
@@ -64,6 +63,8 @@ class Scene:
 
 
 def _mujoco():
+    # Rendering backend default at the first mujoco import (read once, at import).
+    os.environ.setdefault("MUJOCO_GL", "egl")
     import mujoco
     return mujoco
 

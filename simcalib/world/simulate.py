@@ -14,8 +14,6 @@ import os
 import time
 from dataclasses import dataclass, field
 
-os.environ.setdefault("MUJOCO_GL", "egl")
-
 import numpy as np
 
 from simcalib.markers import MarkerField
@@ -70,6 +68,8 @@ class World:
 
 
 def _mujoco():
+    # Rendering backend default at the first mujoco import (read once, at import).
+    os.environ.setdefault("MUJOCO_GL", "egl")
     import mujoco
     return mujoco
 
