@@ -229,8 +229,6 @@ def _stage_world(st: _State) -> None:
         if st.recorder is not None:
             st.recorder.log_world(None)
         return
-    import os
-    os.environ.setdefault("MUJOCO_GL", "egl")
     from simcalib.world import build_world
     st.world = build_world(cfg.world, st.rngs["world"])
     st.X_true = np.asarray(st.world.trajectory.T_a_b, dtype=np.float64)

@@ -5,10 +5,8 @@ marker visibility (the numbers in docs/world.md)."""
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 
-os.environ.setdefault("MUJOCO_GL", "egl")
 
 
 def main(argv=None) -> int:

@@ -9,10 +9,8 @@ previous solution (continuous joint trajectories, no branch flips).
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 
-os.environ.setdefault("MUJOCO_GL", "egl")
 
 import numpy as np
 
@@ -33,8 +31,8 @@ class IKResult:
 
 
 def _mujoco():
-    import mujoco
-    return mujoco
+    from simcalib.render import import_mujoco  # decides MUJOCO_GL once
+    return import_mujoco()
 
 
 def _site_error(data, sid, T_target):

@@ -11,7 +11,6 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-os.environ.setdefault("MUJOCO_GL", "egl")   # before any mujoco import (rendering users)
 
 import numpy as np
 
@@ -128,8 +127,8 @@ class Scene:
 
 
 def _mujoco():
-    import mujoco
-    return mujoco
+    from simcalib.render import import_mujoco  # decides MUJOCO_GL once
+    return import_mujoco()
 
 
 def _quat_wxyz(R: np.ndarray) -> list[float]:

@@ -13,7 +13,6 @@ import os
 import time
 from dataclasses import dataclass, field
 
-os.environ.setdefault("MUJOCO_GL", "egl")
 
 import numpy as np
 
@@ -71,8 +70,8 @@ class World:
 
 
 def _mujoco():
-    import mujoco
-    return mujoco
+    from simcalib.render import import_mujoco  # decides MUJOCO_GL once
+    return import_mujoco()
 
 
 def camera_poses_from_state(model, qpos: np.ndarray, mocap_pos: np.ndarray,
