@@ -24,6 +24,7 @@ import os
 import subprocess
 import sys
 import time
+import warnings
 from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
 
@@ -36,7 +37,11 @@ __all__ = [
     "RenderBackendError",
     "RenderSettings",
     "CameraRenderer",
+    "RenderInterrupted",
+    "VALID_BACKENDS",
     "available_backend",
+    "import_mujoco",
+    "select_backend",
     "backend_error_message",
     "loaded_backend",
     "model_to_bytes",
@@ -69,15 +74,77 @@ def backend_error_message(failures: dict[str, str]) -> str:
         "MUJOCO_GL=egl or MUJOCO_GL=osmesa set before Python starts.")
 
 
-def _ensure_env_default() -> None:
-    # Library rule: set the default before mujoco can be imported anywhere.
-    os.environ.setdefault("MUJOCO_GL", "egl")
+#: Values of ``MUJOCO_GL`` simcalib accepts on Linux, with what each needs.
+VALID_BACKENDS = {
+    "egl": "headless OpenGL through EGL (Mesa llvmpipe on the CPU; the default)",
+    "osmesa": "headless software OpenGL (needs libOSMesa: apt-get install libosmesa6)",
+    "glfw": "a window-system context (needs a display)",
+    "glx": "X11 GLX context (needs a display)",
+}
+
+_DECISION: dict[str, str] = {}
 
 
-def _import_mujoco():
-    _ensure_env_default()
+def _osmesa_available() -> bool:
+    import ctypes.util  # noqa: PLC0415
+    return bool(ctypes.util.find_library("OSMesa")) or any(
+        os.path.exists(os.path.join(d, "libOSMesa.so.8"))
+        for d in ("/usr/lib/x86_64-linux-gnu", "/usr/lib/aarch64-linux-gnu", "/usr/lib"))
+
+
+def select_backend() -> str:
+    """Decide the OpenGL backend once, before mujoco is imported, and return it.
+
+    Reads ``MUJOCO_GL``: unset or empty -> ``egl``; ``osmesa`` without libOSMesa -> ``egl``
+    with a warning naming the package to install; a value MuJoCo does not know raises
+    :class:`RenderBackendError` listing the valid values (instead of MuJoCo's import-time
+    ``RuntimeError``). Once mujoco is imported its backend is fixed; this then returns the
+    value it was imported with. Called by :func:`import_mujoco`, i.e. when rendering (or any
+    MuJoCo use) is first needed — no simcalib module sets ``MUJOCO_GL`` at import time.
+    """
+    if "backend" in _DECISION:
+        return _DECISION["backend"]
+    raw = os.environ.get("MUJOCO_GL")
+    value = (raw or "").strip().lower()
+    if "mujoco" in sys.modules:  # somebody imported mujoco first: its choice stands
+        _DECISION["backend"] = value or "glfw"
+        return _DECISION["backend"]
+    if value in ("", "enable", "enabled", "on", "true", "1"):
+        value = "egl"
+    elif value in ("disable", "disabled", "off", "false", "0"):
+        raise RenderBackendError(
+            f"MUJOCO_GL={raw!r} disables OpenGL, but simcalib needs offscreen rendering; "
+            f"unset it (simcalib then uses egl) or set one of {sorted(VALID_BACKENDS)}")
+    elif value not in VALID_BACKENDS:
+        valid = "; ".join(f"{k}: {v}" for k, v in VALID_BACKENDS.items())
+        raise RenderBackendError(
+            f"MUJOCO_GL={raw!r} is not a valid MuJoCo rendering backend. Valid values: "
+            f"{valid}. Unset it to use egl.")
+    elif value == "osmesa" and not _osmesa_available():
+        warnings.warn(
+            "MUJOCO_GL=osmesa but libOSMesa is not installed (Debian/Ubuntu: apt-get install "
+            f"{DEBIAN_PACKAGES['osmesa']}); falling back to MUJOCO_GL=egl", RuntimeWarning,
+            stacklevel=2)
+        value = "egl"
+    os.environ["MUJOCO_GL"] = value
+    if value == "egl":
+        os.environ["PYOPENGL_PLATFORM"] = "egl"
+    elif value == "osmesa":
+        os.environ["PYOPENGL_PLATFORM"] = "osmesa"
+    _DECISION["backend"] = value
+    return value
+
+
+def import_mujoco():
+    """``import mujoco`` after :func:`select_backend` has decided ``MUJOCO_GL``: the one
+    way simcalib modules import mujoco."""
+    select_backend()
     import mujoco  # noqa: PLC0415  (heavy import kept local)
     return mujoco
+
+
+_ensure_env_default = select_backend  # old name kept for callers inside this module
+_import_mujoco = import_mujoco
 
 
 def loaded_backend() -> str:
@@ -431,17 +498,55 @@ def _worker_chunk(jobs: Sequence[FrameJob]) -> list:
 
 def default_workers() -> int:
     """Worker processes used by default: the usable cores (at least 1)."""
-    try:
-        n = len(os.sched_getaffinity(0))
-    except AttributeError:  # pragma: no cover - non-Linux
-        n = os.cpu_count() or 1
-    return max(1, n)
+    from .parallel import default_workers as _dw  # noqa: PLC0415
+    return _dw()
+
+
+class RenderInterrupted(KeyboardInterrupt):
+    """Ctrl-C (or another interrupt) during :func:`render_map`, carrying what was done.
+
+    ``results`` / ``timings``: lists in job order, ``None`` for frames not rendered;
+    ``n_done``: frames rendered. A ``KeyboardInterrupt``, so code that does not handle it
+    still stops as on Ctrl-C.
+    """
+
+    def __init__(self, results: list, timings: list):
+        super().__init__("rendering interrupted")
+        self.results = results
+        self.timings = timings
+        self.n_done = sum(r is not None for r in timings)
+
+
+class LineProgress:
+    """Progress callback ``(n_done, n_total)`` that prints a line to ``stream`` (stderr)
+    every ``every`` frames and at the end — for logs and non-terminal stderr, where a bar
+    would print nothing useful."""
+
+    def __init__(self, label: str = "frames", every: int = 100, stream=None):
+        if isinstance(every, bool) or not isinstance(every, int) or every < 1:
+            raise ValueError(f"every must be a positive integer; received {every!r}")
+        self.label, self.every, self.stream = label, every, stream
+        self._last = 0
+        self._t0 = time.perf_counter()
+
+    def __call__(self, n_done: int, n_total: int) -> None:
+        if n_done - self._last < self.every and n_done < n_total:
+            return
+        if n_done == self._last:
+            return
+        self._last = n_done
+        dt = time.perf_counter() - self._t0
+        rate = n_done / dt if dt > 0 else float("inf")
+        print(f"{self.label}: {n_done}/{n_total} ({rate:.1f}/s)",
+              file=self.stream or sys.stderr, flush=True)
 
 
 def render_map(model, settings: RenderSettings, jobs: Sequence[FrameJob],
                fn: Callable[[np.ndarray, FrameJob], Any] | None = None,
                workers: int | None = None, chunk_size: int = 8,
-               use_this_process: bool = True) -> tuple[list, list[FrameTiming]]:
+               use_this_process: bool = True,
+               progress: Callable[[int, int], None] | None = None
+               ) -> tuple[list, list[FrameTiming]]:
     """Render every job's frame and return ``([fn(image, job) ...], [FrameTiming ...])``
     in job order.
 
@@ -452,6 +557,10 @@ def render_map(model, settings: RenderSettings, jobs: Sequence[FrameJob],
     plus ``n - 1`` spawned worker processes (``n`` spawned ones when this process cannot
     render, or with ``use_this_process=False``). The results do not depend on ``workers``,
     ``chunk_size`` or ``use_this_process``.
+
+    ``progress(n_done, n_total)`` is called in this process as frames complete (per frame
+    rendered here, per chunk from workers). An interrupt (Ctrl-C) stops the workers
+    quietly and raises :class:`RenderInterrupted` carrying the frames already rendered.
     """
     if workers is None:
         workers = default_workers()
@@ -459,6 +568,9 @@ def render_map(model, settings: RenderSettings, jobs: Sequence[FrameJob],
         raise ValueError(f"workers must be a positive integer or None; received {workers!r}")
     if not isinstance(chunk_size, (int, np.integer)) or chunk_size < 1:
         raise ValueError(f"chunk_size must be a positive integer; received {chunk_size!r}")
+    if progress is not None and not callable(progress):
+        raise TypeError(f"progress must be a callable (n_done, n_total) or None; received "
+                        f"{type(progress).__name__}")
     jobs = list(jobs)
     if not jobs:
         return [], []
@@ -467,12 +579,22 @@ def render_map(model, settings: RenderSettings, jobs: Sequence[FrameJob],
     # Starting a worker costs ~1 s (a fresh interpreter importing mujoco and cv2): not
     # worth it below ~MIN_JOBS_PER_WORKER frames per process.
     workers = int(min(workers, -(-len(jobs) // MIN_JOBS_PER_WORKER)))
+    n_total = len(jobs)
+    from .parallel import deferred_interrupt, worker_pool  # noqa: PLC0415
     if workers == 1 and inprocess:
-        with CameraRenderer(model, settings) as r:
-            pairs = _run_jobs(r, fn, jobs)
+        pairs: list = []
+        try:
+            with deferred_interrupt() as intr, CameraRenderer(model, settings) as r:
+                for job in jobs:
+                    pairs += _run_jobs(r, fn, [job])
+                    if progress is not None:
+                        progress(len(pairs), n_total)
+                    intr.check()
+        except KeyboardInterrupt:
+            pad = [None] * (n_total - len(pairs))
+            raise RenderInterrupted([p[0] for p in pairs] + pad,
+                                    [p[1] for p in pairs] + pad) from None
         return [p[0] for p in pairs], [p[1] for p in pairs]
-    import multiprocessing as mp  # noqa: PLC0415
-    from concurrent.futures import ProcessPoolExecutor  # noqa: PLC0415
     blob = model_to_bytes(model)
     # Contiguous chunks, several per worker for load balance.
     size = int(max(1, min(chunk_size, -(-len(jobs) // (2 * workers)))))
@@ -481,23 +603,57 @@ def render_map(model, settings: RenderSettings, jobs: Sequence[FrameJob],
     # interpreter start-up) and takes chunks from the end while the spawned processes
     # take them from the front. Chunk results do not depend on who renders them.
     n_proc = workers - 1 if inprocess else workers
-    ctx = mp.get_context("spawn")  # never fork a process that may hold a GL context
     results: list = [None] * len(chunks)
-    pool = ProcessPoolExecutor(max_workers=n_proc, mp_context=ctx, initializer=_worker_init,
-                               initargs=(blob, settings, backend, fn))
-    try:
-        futures = [pool.submit(_worker_chunk, c) for c in chunks]
-        if inprocess:
-            with CameraRenderer(model, settings) as r:
-                for i in range(len(chunks) - 1, -1, -1):
-                    if futures[i].cancel():
-                        results[i] = _run_jobs(r, fn, chunks[i])
+    state = {"done": 0}
+
+    def _collect(futures, block: bool) -> None:
+        from concurrent.futures import FIRST_COMPLETED, wait  # noqa: PLC0415
+        pending = [f for i, f in enumerate(futures) if results[i] is None]
+        if block and pending:
+            wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
         for i, f in enumerate(futures):
-            if results[i] is None:
+            if results[i] is None and f.done() and not f.cancelled():
                 results[i] = f.result()
-    finally:
+                state["done"] += len(results[i])
+        if progress is not None:
+            progress(state["done"], n_total)
+
+    try:
         # Do not wait for workers that are still starting up once every result is in:
         # they receive the shutdown request and exit on their own.
-        pool.shutdown(wait=False, cancel_futures=True)
+        with deferred_interrupt() as intr, \
+                worker_pool(n_proc, _worker_init, (blob, settings, backend, fn),
+                            wait=False) as pool:
+            futures = []
+            for c in chunks:
+                futures.append(pool.submit(_worker_chunk, c))
+                intr.check()
+            if inprocess:
+                with CameraRenderer(model, settings) as r:
+                    for i in range(len(chunks) - 1, -1, -1):
+                        if futures[i].cancel():
+                            part = []
+                            for job in chunks[i]:
+                                part += _run_jobs(r, fn, [job])
+                                if progress is not None:
+                                    progress(state["done"] + len(part), n_total)
+                                intr.check()
+                            results[i] = part
+                            state["done"] += len(part)
+                            _collect(futures, block=False)
+            while any(r is None for r in results):
+                _collect(futures, block=True)
+                intr.check()
+    except KeyboardInterrupt:
+        res_out: list = []
+        tim_out: list = []
+        for c, chunk_res in zip(chunks, results):
+            if chunk_res is None:
+                res_out += [None] * len(c)
+                tim_out += [None] * len(c)
+            else:
+                res_out += [p[0] for p in chunk_res]
+                tim_out += [p[1] for p in chunk_res]
+        raise RenderInterrupted(res_out, tim_out) from None
     pairs = [p for chunk in results for p in chunk]
     return [p[0] for p in pairs], [p[1] for p in pairs]

@@ -26,7 +26,8 @@ from .markers import (DROP_REASONS, DetectorSettings, MarkerField, PnPSettings,
                       CORNER_REFINEMENTS)
 from .streams import CameraIntrinsics, PoseStream
 
-__all__ = ["VisionConfig", "VisualFrame", "VisualLog", "visual_streams", "FrameProcessor"]
+__all__ = ["VisionConfig", "VisualFrame", "VisualLog", "VisualStreamsInterrupted", "visual_streams",
+           "FrameProcessor"]
 
 
 @dataclass(frozen=True)
@@ -270,7 +271,8 @@ def _camera_intrinsics(world, camera: str, cfg: VisionConfig) -> tuple[CameraInt
 
 def _check_model_fovy(model, camera: str, fovy_deg: float, base: CameraIntrinsics) -> None:
     """The world's intrinsics must be the pinhole MuJoCo renders (else poses are biased)."""
-    import mujoco  # noqa: PLC0415  (world.model exists, so mujoco is imported already)
+    from .render import import_mujoco  # noqa: PLC0415
+    mujoco = import_mujoco()
     cid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, camera)
     if cid < 0:
         names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_CAMERA, i) for i in range(model.ncam)]
@@ -333,8 +335,19 @@ def _camera_frames(world, camera: str):
     raise ValueError(f"camera {camera!r} has no frames in world.trajectory; it has {names}")
 
 
+class VisualStreamsInterrupted(KeyboardInterrupt):
+    """Interrupt (Ctrl-C) during :func:`visual_streams`, carrying what was rendered:
+    ``streams`` / ``log`` as :func:`visual_streams` returns them, built from the frames
+    finished before the interrupt (the others count as drop reason ``not_rendered``);
+    ``n_done`` / ``n_total`` camera frames."""
+
+    def __init__(self, streams: dict, log: "VisualLog", n_done: int, n_total: int):
+        super().__init__(f"visual streams interrupted after {n_done} of {n_total} frames")
+        self.streams, self.log, self.n_done, self.n_total = streams, log, n_done, n_total
+
+
 def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Generator | None = None,
-                   workers: int | None = None) -> tuple[dict, VisualLog]:
+                   workers: int | None = None, progress=None) -> tuple[dict, VisualLog]:
     """Visual ``PoseStream`` of every camera of ``world`` and the :class:`VisualLog`.
 
     ``rng`` (required ``numpy.random.Generator``) seeds the image noise: one number is
@@ -343,8 +356,13 @@ def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Genera
     cores; ``1``: render in this process). Poses are ``T_world_cam`` in the marker map's
     frame (the MuJoCo world); ``info`` holds ``n_markers``, ``reproj_rmse_px`` and
     ``ambiguity`` per pose; ``drop_reasons`` counts dropped frames by reason.
+
+    ``progress(n_done, n_total)`` (optional) is called as camera frames finish (e.g. a
+    progress bar's update; :class:`simcalib.render.LineProgress` prints a line every N
+    frames for non-terminal stderr). On Ctrl-C the render workers stop quietly and
+    :class:`VisualStreamsInterrupted` is raised carrying the streams of the frames done.
     """
-    from .render import FrameJob, RenderSettings, render_map  # noqa: PLC0415
+    from .render import FrameJob, RenderInterrupted, RenderSettings, render_map  # noqa: PLC0415
     cfg = VisionConfig() if cfg is None else cfg
     if not isinstance(cfg, VisionConfig):
         raise TypeError(f"cfg must be a VisionConfig; received {type(cfg).__name__}")
@@ -369,6 +387,9 @@ def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Genera
     outs: dict[str, list] = {}
     timings: list = []
     t_start = time.perf_counter()
+    n_jobs_total = int(sum(_delivered(frames[c]).sum() for c in cameras))
+    n_before = 0
+    interrupted = None
     for (w, h), cams in sizes.items():
         settings = RenderSettings(
             width=w, height=h, msaa_samples=cfg.msaa_samples,
@@ -380,11 +401,25 @@ def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Genera
                 k = int(k)
                 jobs.append(FrameJob(cam, k, _row(fr.qpos, k), _row(fr.mocap_pos, k),
                                      _row(fr.mocap_quat_wxyz, k)))
-        results, rtimes = render_map(world.model, settings, jobs, proc, workers=workers)
-        timings += rtimes
-        _check_rendered_poses(jobs, rtimes, frames)
+        sub_progress = None
+        if progress is not None:
+            def sub_progress(n, _t, _base=n_before):
+                progress(_base + n, n_jobs_total)
+        try:
+            results, rtimes = render_map(world.model, settings, jobs, proc, workers=workers,
+                                         progress=sub_progress)
+        except RenderInterrupted as exc:
+            interrupted = exc
+            results = [r if r is not None else _NOT_RENDERED for r in exc.results]
+            rtimes = exc.timings
+        done = [i for i, t in enumerate(rtimes) if t is not None]
+        timings += [rtimes[i] for i in done]
+        _check_rendered_poses([jobs[i] for i in done], [rtimes[i] for i in done], frames)
         for job, res in zip(jobs, results):
             outs.setdefault(job.camera, []).append(res)
+        n_before += len(jobs)
+        if interrupted is not None:
+            break
     wall_s = time.perf_counter() - t_start
 
     streams, log_frames, log_images = {}, {}, {}
@@ -430,9 +465,13 @@ def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Genera
         "pnp_ms_mean": 1e3 * float(np.mean([r.pnp_s for r in all_res])) if all_res else 0.0,
     }
     log = VisualLog(cfg, intr, log_frames, log_images, timing)
+    if interrupted is not None:
+        raise VisualStreamsInterrupted(streams, log, len(timings), n_jobs_total) from None
     return streams, log
 
 
+_NOT_RENDERED = _FrameOut("not_rendered", None, np.zeros(0, dtype=np.int64), np.zeros((0, 4, 2)),
+                          np.zeros(0, dtype=np.int64), float("inf"), float("inf"), None, 0.0, 0.0)
 _NOT_DELIVERED = _FrameOut("frame_dropped", None, np.zeros(0, dtype=np.int64), np.zeros((0, 4, 2)),
                            np.zeros(0, dtype=np.int64), float("inf"), float("inf"), None, 0.0, 0.0)
 

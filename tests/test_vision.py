@@ -387,3 +387,125 @@ def test_vision_modules_import_light():
                          timeout=120, cwd=root)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "[]"
+
+
+# ------------------------------------------------------------ backend choice, Ctrl-C, progress
+def _run_py(code, env_update, drop=(), timeout=180):
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    env = {k: v for k, v in os.environ.items() if k not in drop}
+    env.update(env_update)
+    env["PYTHONPATH"] = root + os.pathsep + env.get("PYTHONPATH", "")
+    return subprocess.run([sys.executable, "-W", "always", "-c", code], env=env,
+                          capture_output=True, text=True, timeout=timeout, cwd=root)
+
+
+def test_mujoco_gl_is_decided_by_render_not_at_import():
+    """No simcalib module sets MUJOCO_GL at import; import_mujoco decides it (egl)."""
+    code = ("import os, simcalib, simcalib.world, simcalib.vision, simcalib.pipeline, "
+            "simcalib.cli, simcalib.render, simcalib.markers\n"
+            "print('SET' if 'MUJOCO_GL' in os.environ else 'UNSET')\n"
+            "from simcalib.render import import_mujoco; import_mujoco()\n"
+            "print(os.environ['MUJOCO_GL'])")
+    out = _run_py(code, {}, drop=("MUJOCO_GL", "PYOPENGL_PLATFORM"))
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["UNSET", "egl"]
+
+
+def test_mujoco_gl_bogus_lists_valid_values():
+    code = ("from simcalib.render import import_mujoco, RenderBackendError\n"
+            "try:\n    import_mujoco()\nexcept RenderBackendError as e:\n    print('ERR', e)")
+    out = _run_py(code, {"MUJOCO_GL": "bogus"})
+    assert out.returncode == 0, out.stderr
+    assert "ERR" in out.stdout and "'bogus'" in out.stdout
+    for name in ("egl", "osmesa", "glfw"):
+        assert name in out.stdout
+
+
+def test_mujoco_gl_osmesa_without_library_falls_back_to_egl(gl):
+    code = ("import simcalib.render as r\nr._osmesa_available = lambda: False\n"
+            "m = r.import_mujoco()\nimport os\nprint('GL', os.environ['MUJOCO_GL'])\n"
+            "print('BACKEND', r.loaded_backend())")
+    out = _run_py(code, {"MUJOCO_GL": "osmesa"})
+    assert out.returncode == 0, out.stderr
+    assert "GL egl" in out.stdout and "BACKEND egl" in out.stdout
+    assert "libosmesa6" in out.stderr and "falling back" in out.stderr
+
+
+class _InterruptAfter:
+    """Per-frame function raising KeyboardInterrupt at one frame (simulated Ctrl-C)."""
+
+    def __init__(self, k):
+        self.k = k
+
+    def __call__(self, img, job):
+        if job.frame_index == self.k:
+            raise KeyboardInterrupt
+        return float(img.mean())
+
+
+def test_render_interrupt_keeps_done_frames_and_progress_reports(world):
+    from simcalib.render import (FrameJob, LineProgress, RenderInterrupted, RenderSettings,
+                                 render_map)
+    fr = world.trajectory.cam_a
+    jobs = [FrameJob("cam_a", k, None, fr.mocap_pos[k], fr.mocap_quat_wxyz[k])
+            for k in range(6)]
+    seen = []
+    out, tim = render_map(world.model, RenderSettings(width=64, height=48), jobs, None,
+                          workers=1, progress=lambda n, t: seen.append((n, t)))
+    assert seen == [(k, 6) for k in range(1, 7)] and len(out) == 6
+    with pytest.raises(RenderInterrupted) as info:
+        render_map(world.model, RenderSettings(width=64, height=48), jobs, _InterruptAfter(4),
+                   workers=1)
+    exc = info.value
+    assert isinstance(exc, KeyboardInterrupt) and exc.n_done == 4
+    assert all(r is not None for r in exc.results[:4]) and exc.results[4:] == [None, None]
+    import io
+    buf = io.StringIO()
+    lp = LineProgress("render", every=2, stream=buf)
+    for n in range(1, 6):
+        lp(n, 5)
+    assert buf.getvalue().splitlines()[0].startswith("render: 2/5") and \
+        len(buf.getvalue().splitlines()) == 3
+
+
+def test_visual_streams_interrupt_returns_partial_streams(world, monkeypatch):
+    from simcalib import vision
+    from simcalib.vision import VisualStreamsInterrupted
+    orig = vision.FrameProcessor.__call__
+
+    def stop_at_5(self, rgb, job):
+        if job.camera == "cam_a" and job.frame_index == 5:
+            raise KeyboardInterrupt
+        return orig(self, rgb, job)
+
+    monkeypatch.setattr(vision.FrameProcessor, "__call__", stop_at_5)
+    with pytest.raises(VisualStreamsInterrupted) as info:
+        visual_streams(world, VisionConfig(log_every=0), np.random.default_rng(0), workers=1)
+    exc = info.value
+    st = exc.streams["cam_a"]
+    assert exc.n_done == 5 and st.n_used >= 4 and st.drop_reasons.get("not_rendered", 0) >= 1
+
+
+def test_ctrl_c_in_worker_pool_prints_no_worker_traceback(gl):
+    """SIGINT to the whole process group while worker processes render: the parent stops
+    with RenderInterrupted, the workers print nothing."""
+    code = """
+import os, signal, threading, time, numpy as np, mujoco
+from simcalib.render import FrameJob, RenderSettings, render_map, RenderInterrupted
+m = mujoco.MjModel.from_xml_string('<mujoco><worldbody><light pos="0 0 2"/>'
+    '<geom type="box" size=".2 .2 .2"/><camera name="c" pos="0 0 1"/></worldbody></mujoco>')
+jobs = [FrameJob("c", k, None, None, None) for k in range(200000)]
+threading.Timer(4.0, lambda: os.killpg(os.getpgid(0), signal.SIGINT)).start()
+try:
+    render_map(m, RenderSettings(width=320, height=240), jobs, None, workers=2, chunk_size=4)
+    print("FINISHED")
+except RenderInterrupted as e:
+    print("INTERRUPTED", e.n_done)
+time.sleep(1.0)
+"""
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    env = dict(os.environ, PYTHONPATH=root + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                          timeout=120, cwd=root, start_new_session=True)
+    assert "INTERRUPTED" in proc.stdout, (proc.stdout, proc.stderr[-2000:])
+    assert "Traceback" not in proc.stderr, proc.stderr[-2000:]

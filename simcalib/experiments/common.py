@@ -391,18 +391,22 @@ def run_tasks(fn, tasks: list, workers: int, bar=None, weights=None, priority=No
             if bar is not None:
                 bar.update(w)
         return out
-    import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-    ctx = mp.get_context("spawn")
+    from concurrent.futures import FIRST_COMPLETED, wait
+
+    from simcalib.parallel import deferred_interrupt, worker_pool
     results = [None] * len(tasks)
     # longest first for balance
     order = sorted(range(len(tasks)), key=lambda i: -priority[i])
-    with ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
-                             initializer=_worker_init) as ex:
+    # workers ignore Ctrl-C (no worker tracebacks); the parent raises it between tasks
+    with deferred_interrupt() as intr, worker_pool(workers, _worker_init) as ex:
         futs = {ex.submit(fn, *tasks[i]): i for i in order}
-        for f in as_completed(futs):
-            i = futs[f]
-            results[i] = f.result()
-            if bar is not None:
-                bar.update(weights[i])
+        pending = set(futs)
+        while pending:
+            done, pending = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
+            for f in done:
+                i = futs[f]
+                results[i] = f.result()
+                if bar is not None:
+                    bar.update(weights[i])
+            intr.check()
     return results

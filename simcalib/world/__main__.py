@@ -5,12 +5,10 @@ marker visibility (the numbers in docs/world.md)."""
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 
 
 def main(argv=None) -> int:
-    os.environ.setdefault("MUJOCO_GL", "egl")   # this CLI renders: decide before mujoco
     import numpy as np
 
     from simcalib.world import WorldConfig, available_paths, build_world

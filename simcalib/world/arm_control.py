@@ -24,14 +24,14 @@ without gravity when compensated); ``ArmTrajectory.stats["predicted_error_rad"]`
 from __future__ import annotations
 
 import math
-import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-os.environ.setdefault("MUJOCO_GL", "egl")
 
 import numpy as np
+
+from simcalib.render import import_mujoco as _mujoco
 
 __all__ = ["ArmGains", "ArmLimits", "ArmTrajectory", "CAPTURE_MODES", "track_joint_path", "demo_path",
            "build_controlled_arm", "UR5E_XML"]
@@ -40,9 +40,6 @@ UR5E_XML = Path(__file__).resolve().parents[2] / "models" / "ur5e.xml"
 CAPTURE_MODES = ("continuous", "stop_and_go")
 
 
-def _mujoco():
-    import mujoco
-    return mujoco
 
 
 def _per_joint(name, value, n, lo=0.0, lo_open=True, hi=None):

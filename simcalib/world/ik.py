@@ -9,10 +9,11 @@ previous solution (continuous joint trajectories, no branch flips).
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 
 import numpy as np
+
+from simcalib.render import import_mujoco as _mujoco
 
 from simcalib.geometry import rotvec_from_matrix
 
@@ -30,11 +31,6 @@ class IKResult:
     converged: np.ndarray
 
 
-def _mujoco():
-    # Rendering backend default at the first mujoco import (read once, at import).
-    os.environ.setdefault("MUJOCO_GL", "egl")
-    import mujoco
-    return mujoco
 
 
 def _site_error(data, sid, T_target):

@@ -10,11 +10,12 @@ process can rebuild the identical ``MjModel`` from the (picklable) ``WorldConfig
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+from simcalib.render import import_mujoco as _mujoco
 
 from simcalib.geometry import (invert_transform, quat_from_matrix, quat_wxyz_from_xyzw,
                                transform_from_rotation_translation)
@@ -62,11 +63,6 @@ class Scene:
     xml: str
 
 
-def _mujoco():
-    # Rendering backend default at the first mujoco import (read once, at import).
-    os.environ.setdefault("MUJOCO_GL", "egl")
-    import mujoco
-    return mujoco
 
 
 def _quat_wxyz(R: np.ndarray) -> list[float]:

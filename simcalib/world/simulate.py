@@ -10,11 +10,12 @@ cameras are sampled at different platform poses, exactly as an unsynchronised re
 
 from __future__ import annotations
 
-import os
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from simcalib.render import import_mujoco as _mujoco
 
 from simcalib.markers import MarkerField
 from simcalib.streams import CameraFrames, CameraIntrinsics, Trajectory
@@ -67,11 +68,6 @@ class World:
         return getattr(self.trajectory, camera)
 
 
-def _mujoco():
-    # Rendering backend default at the first mujoco import (read once, at import).
-    os.environ.setdefault("MUJOCO_GL", "egl")
-    import mujoco
-    return mujoco
 
 
 def camera_poses_from_state(model, qpos: np.ndarray, mocap_pos: np.ndarray,

@@ -24,15 +24,15 @@ docs/physics.md.
 from __future__ import annotations
 
 import math
-import os
 import time
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Callable
 
-os.environ.setdefault("MUJOCO_GL", "egl")   # before any mujoco import (rendering users)
 
 import numpy as np
+
+from simcalib.render import import_mujoco as _mujoco
 
 __all__ = ["VehicleConfig", "VehicleTrajectory", "PlanarPath", "DRIVES", "GROUNDS",
            "simulate_vehicle", "build_vehicle_model", "figure_eight_path", "as_planar_path",
@@ -46,9 +46,6 @@ CORNERS = ("fl", "fr", "rl", "rr")
 _G = 9.81
 
 
-def _mujoco():
-    import mujoco
-    return mujoco
 
 
 # ------------------------------------------------------------------------------ config

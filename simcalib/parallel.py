@@ -1,0 +1,108 @@
+"""One process pool for simcalib: spawned workers that die quietly on Ctrl-C.
+
+``worker_pool(n, initializer, initargs)`` is a context manager around
+``concurrent.futures.ProcessPoolExecutor`` (``spawn`` context: never fork a process that
+may hold an OpenGL context or numba threads) used by rendering (:mod:`simcalib.render`)
+and the experiments (:mod:`simcalib.experiments.common`).
+
+Ctrl-C: a terminal sends SIGINT to the whole foreground process group, so every worker
+would print its own ``KeyboardInterrupt`` traceback (or an ``UnpicklingError`` when it is
+interrupted while reading its task). Workers therefore ignore SIGINT (:func:`_quiet_init`
+runs before the caller's initializer); only the parent sees the interrupt, and on leaving
+the ``with`` block because of it the pool's pending tasks are cancelled and the workers
+exit after their current task — no traceback from a worker reaches the terminal. Use
+:func:`deferred_interrupt` around the loop that submits and waits, so the parent's own
+``KeyboardInterrupt`` is raised between tasks, never inside a lock of the pool.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+from typing import Any, Callable, Iterator, Sequence
+
+__all__ = ["worker_pool", "default_workers", "terminate_pool", "deferred_interrupt"]
+
+
+def default_workers() -> int:
+    """Worker processes used by default: the usable cores (at least 1)."""
+    try:
+        n = len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - non-Linux
+        n = os.cpu_count() or 1
+    return max(1, n)
+
+
+def _quiet_init(initializer: Callable | None, initargs: Sequence[Any]) -> None:
+    # The parent decides what an interrupt means; a worker just stops when told to.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if initializer is not None:
+        initializer(*initargs)
+
+
+def terminate_pool(pool) -> None:
+    """Cancel pending tasks and let the workers exit after their current task, without
+    waiting here. (Killing a worker while it writes its result would leave the pool's
+    reader thread blocked on a half-written message and hang the interpreter at exit.)"""
+    pool.shutdown(wait=False, cancel_futures=True)
+
+
+class _Deferred:
+    def __init__(self):
+        self.hit = False
+
+    def check(self) -> None:
+        """Raise ``KeyboardInterrupt`` here if Ctrl-C arrived since the block started."""
+        if self.hit:
+            self.hit = False
+            raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def deferred_interrupt() -> Iterator[_Deferred]:
+    """Within the block SIGINT only sets a flag; ``flag.check()`` raises
+    ``KeyboardInterrupt`` at a point the caller chooses. A ``KeyboardInterrupt`` raised
+    asynchronously inside ``concurrent.futures``/``multiprocessing`` code can leave one of
+    their locks held and hang the interpreter at exit; checking between tasks cannot. In
+    a thread other than the main one (where signals cannot be handled) it does nothing."""
+    import threading  # noqa: PLC0415
+    flag = _Deferred()
+    if threading.current_thread() is not threading.main_thread():
+        yield flag
+        return
+
+    def _handler(signum, frame):
+        flag.hit = True
+
+    old = signal.signal(signal.SIGINT, _handler)
+    try:
+        yield flag
+    finally:
+        signal.signal(signal.SIGINT, old)
+    if flag.hit:  # arrived after the last check
+        raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def worker_pool(workers: int, initializer: Callable | None = None,
+                initargs: Sequence[Any] = (), wait: bool = True) -> Iterator:
+    """A ``ProcessPoolExecutor`` with ``workers`` spawned processes whose workers ignore
+    SIGINT. Leaving the block normally shuts the pool down (``wait``: wait for the
+    workers to exit; ``False`` lets workers still starting up exit on their own). Leaving
+    it by an exception (Ctrl-C included) cancels pending tasks; workers stop after their
+    current task.
+    """
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise ValueError(f"workers must be a positive integer; received {workers!r}")
+    import multiprocessing as mp  # noqa: PLC0415
+    from concurrent.futures import ProcessPoolExecutor  # noqa: PLC0415
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"),
+                               initializer=_quiet_init, initargs=(initializer, tuple(initargs)))
+    try:
+        yield pool
+    except BaseException:
+        terminate_pool(pool)
+        raise
+    else:
+        pool.shutdown(wait=wait, cancel_futures=not wait)
