@@ -857,14 +857,14 @@ def scenario_dir() -> Path:
     return scenarios_dir()
 
 
-def list_scenarios() -> dict[str, str]:
-    """``{name: one-line description}`` of the scenario files, sorted by name."""
+def describe_yaml_files(folder: Path) -> dict[str, str]:
+    """``{stem: one-line description}`` of the YAML files in ``folder``, sorted (scenarios,
+    sweeps); a broken file is listed with its problem."""
     import yaml
     out = {}
-    d = scenario_dir()
-    if not d.is_dir():
+    if not folder.is_dir():
         return out
-    for p in sorted(d.glob("*.yaml")):
+    for p in sorted(folder.glob("*.yaml")):
         try:
             data = yaml.safe_load(p.read_text()) or {}
             desc = str(data.get("description", "")).strip().splitlines()
@@ -874,24 +874,36 @@ def list_scenarios() -> dict[str, str]:
     return out
 
 
-def scenario_path(name: str) -> Path:
-    """Path of scenario ``name`` (a name in the scenario directory or a YAML file path)."""
+def find_yaml(name: str, folder: Path, kind: str) -> Path:
+    """The YAML file of ``kind`` (``"scenario"``, ``"sweep"``) called ``name`` in
+    ``folder``, or ``name`` itself when it is a YAML path; unknown names list the valid
+    ones with the closest match."""
     if not isinstance(name, str) or not name:
-        raise ConfigError(f"scenario must be a non-empty name; received {name!r}")
+        raise ConfigError(f"{kind} must be a non-empty name; received {name!r}")
     if name.endswith((".yaml", ".yml")) or os.sep in name:
         p = Path(name)
         if not p.is_file():
-            raise ConfigError(f"scenario file {name!r} does not exist")
+            raise ConfigError(f"{kind} file {name!r} does not exist")
         return p
-    p = scenario_dir() / f"{name}.yaml"
+    p = folder / f"{name}.yaml"
     if p.is_file():
         return p
-    names = list(list_scenarios())
+    names = list(describe_yaml_files(folder))
     if not names:
-        raise ConfigError(f"unknown scenario {name!r}; no scenario files found in "
-                          f"{scenario_dir()} (set SIMCALIB_SCENARIOS)", key="scenario",
-                          value=name)
-    raise unknown_choice("scenario", name, names)
+        raise ConfigError(f"unknown {kind} {name!r}; no {kind} files found in {folder}"
+                          + (" (set SIMCALIB_SCENARIOS)" if kind == "scenario" else ""),
+                          key=kind, value=name)
+    raise unknown_choice(kind, name, names)
+
+
+def list_scenarios() -> dict[str, str]:
+    """``{name: one-line description}`` of the scenario files, sorted by name."""
+    return describe_yaml_files(scenario_dir())
+
+
+def scenario_path(name: str) -> Path:
+    """Path of scenario ``name`` (a name in the scenario directory or a YAML file path)."""
+    return find_yaml(name, scenario_dir(), "scenario")
 
 
 def load_scenario_data(scenario: str | Mapping) -> dict:

@@ -101,31 +101,13 @@ def sweep_dir() -> Path:
 
 def list_sweeps() -> dict[str, str]:
     """Shipped sweep files: name -> description."""
-    import yaml
-    out = {}
-    d = sweep_dir()
-    for p in sorted(d.glob("*.yaml")) if d.is_dir() else ():
-        try:
-            data = yaml.safe_load(p.read_text()) or {}
-            out[p.stem] = str(data.get("description", "")).strip().splitlines()[0] \
-                if data.get("description") else ""
-        except Exception as exc:  # noqa: BLE001 - listing must not die on one bad file
-            out[p.stem] = f"(unreadable: {type(exc).__name__})"
-    return out
+    from simcalib.config import describe_yaml_files
+    return describe_yaml_files(sweep_dir())
 
 
 def _sweep_path(name: str) -> Path:
-    p = Path(name)
-    if p.suffix in (".yaml", ".yml") or p.exists():
-        if not p.is_file():
-            raise ConfigError(f"sweep file {name!r} does not exist")
-        return p
-    cand = sweep_dir() / f"{name}.yaml"
-    if cand.is_file():
-        return cand
-    names = list(list_sweeps())
-    raise ConfigError(f"unknown sweep {name!r}{did_you_mean(name, names)}; shipped sweeps: "
-                      f"{', '.join(names) or '(none)'} (or give a YAML path)")
+    from simcalib.config import find_yaml
+    return find_yaml(name, sweep_dir(), "sweep")
 
 
 def load_sweep(name_or_path: str | Mapping, overrides: Mapping[str, Any] | None = None
