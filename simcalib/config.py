@@ -70,6 +70,10 @@ try:  # the visual pose source (issue 4)
     from simcalib.vision import VisionConfig
 except ImportError:  # pragma: no cover
     VisionConfig = _placeholder("VisionConfig", "simcalib.vision")
+from simcalib.sources.corruption import OutliersConfig  # noqa: E402  (issue 10 sections)
+from simcalib.sources.selection import StreamsConfig  # noqa: E402
+from simcalib.world.robot_error import RobotConfig  # noqa: E402
+
 try:  # the synthetic generator of appendix D.2 (issue 3)
     from simcalib.synthetic import SyntheticConfig
 except ImportError:  # pragma: no cover
@@ -189,7 +193,7 @@ class RecordingConfig:
             raise ConfigError(f"recording.max_images must be >= 0; received {self.max_images}")
 
 
-SOURCES = ("ground_truth", "noisy", "aruco")
+SOURCES = ("ground_truth", "noisy", "aruco", "robot_fk")
 KINDS = ("sim", "synthetic")
 
 
@@ -200,8 +204,9 @@ class ScenarioConfig:
     description: str = field(default="", metadata=_doc("one-line description"))
     kind: Literal["sim", "synthetic"] = field(default="sim", metadata=_doc(
         "sim: MuJoCo world (world.*, vision.*); synthetic: paper appendix D.2 (synthetic.*)"))
-    source: Literal["ground_truth", "noisy", "aruco"] = field(default="aruco", metadata=_doc(
-        "pose source fed to the solvers"))
+    source: Literal["ground_truth", "noisy", "aruco", "robot_fk"] = field(
+        default="aruco", metadata=_doc("pose source of both streams (unless streams.a/b.source "
+                                       "says otherwise)"))
     seed: int = field(default=0, metadata=_doc("seed of every random draw of the run"))
     output: str | None = field(default=None, metadata=_doc(
         "run directory (default runs/<scenario>-<timestamp>)"))
@@ -222,15 +227,32 @@ class ScenarioConfig:
     pairing: PairingConfig = field(default_factory=PairingConfig)
     prior: PriorConfig = field(default_factory=PriorConfig)
     recording: RecordingConfig = field(default_factory=RecordingConfig)
+    streams: StreamsConfig = field(default_factory=StreamsConfig, metadata=_doc(
+        "per-stream pose sources (a = cam_a, b = cam_b)"))
+    robot: RobotConfig = field(default_factory=RobotConfig, metadata=_doc(
+        "arm kinematic error and encoders (robot_fk)"))
+    outliers: OutliersConfig = field(default_factory=OutliersConfig, metadata=_doc(
+        "injected outliers with ground-truth labels"))
 
     def __post_init__(self):
         if self.seed < 0:
             raise ConfigError(f"seed must be >= 0; received {self.seed}")
         if self.workers < 1:
             raise ConfigError(f"workers must be >= 1; received {self.workers}")
-        if self.kind == "synthetic" and self.source == "aruco":
-            raise ConfigError("source=aruco needs a simulated world (kind=sim); a synthetic "
-                              "scenario allows source=ground_truth or source=noisy")
+        if self.kind == "synthetic" and self.source in ("aruco", "robot_fk"):
+            raise ConfigError(f"source={self.source} needs a simulated world (kind=sim); a "
+                              "synthetic scenario allows source=ground_truth or source=noisy")
+        for key in ("a", "b"):
+            name = getattr(self.streams, key).source
+            if name is not None and name not in SOURCES:
+                close = difflib.get_close_matches(name, SOURCES, n=1)
+                hint = f" (did you mean {close[0]!r}?)" if close else ""
+                raise ConfigError(f"streams.{key}.source: unknown source {name!r}{hint}; "
+                                  f"valid: {', '.join(SOURCES)} (or null: the run's source)")
+            if name is not None and self.kind == "synthetic":
+                raise ConfigError(f"streams.{key}.source applies to simulated worlds "
+                                  "(kind=sim); a synthetic scenario measures with its own "
+                                  "source")
         if not self.solvers:
             raise ConfigError("solvers must name at least one method")
         if len(set(self.solvers)) != len(self.solvers):

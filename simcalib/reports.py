@@ -119,7 +119,22 @@ def results_dict(result) -> dict:
                        for cam, e in result.pose_errors.items()},
         "solvers": {s.label: solver_entry(s) for s in result.solvers},
         "timing_s": dict(result.timing_s),
+        **{key: _plain(getattr(result, "sensing", {}).get(key))
+           for key in ("stream_sources", "robot", "clocks", "outliers")},
     }
+
+
+def _plain(obj):
+    """JSON-ready copy (numpy arrays and scalars to lists / floats)."""
+    if isinstance(obj, dict):
+        return {str(k): _plain(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_plain(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, np.generic):
+        return obj.item()
+    return obj
 
 
 def extrinsics_dict(result) -> dict:

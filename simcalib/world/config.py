@@ -286,6 +286,9 @@ class WorldConfig:
       configs (instances or mappings of their fields).
     * ``arm_model``: ``"builtin"`` (default: models/ur5e.xml, UR5e DH kinematics, primitive
       geoms) or ``"menagerie"`` (the Menagerie UR5e with meshes from ``$MENAGERIE_ROOT``).
+    * ``arm_dh_error``: ``None`` (default) or the true arm's deviation from the nominal UR5e
+      DH table, 6 rows ``(theta_rad, d_m, a_m, alpha_rad)`` (built-in arm only; the run
+      draws it from ``robot.kinematic_error``, see :mod:`simcalib.world.robot_error`).
     """
     platform: str | None = None
     path: str = "planar"
@@ -300,6 +303,7 @@ class WorldConfig:
     markers: MarkerFieldConfig = field(default_factory=MarkerFieldConfig)
     ik: IKConfig = field(default_factory=IKConfig)
     arm_model: str = "builtin"
+    arm_dh_error: tuple | None = None
 
     def __post_init__(self):
         from simcalib.world.paths import get_path, resolve_platform
@@ -313,6 +317,13 @@ class WorldConfig:
             raise ValueError(f"{o}.arm_model must be 'builtin' (models/ur5e.xml) or "
                              "'menagerie' (UR5e from $MENAGERIE_ROOT); received "
                              f"{self.arm_model!r}")
+        from simcalib.world.robot_error import check_dh_error
+        _set(self, "arm_dh_error", check_dh_error(self.arm_dh_error))
+        if self.arm_dh_error is not None and (self.platform != "arm"
+                                              or self.arm_model != "builtin"):
+            raise ValueError(f"{o}.arm_dh_error needs platform='arm' with arm_model='builtin' "
+                             f"(a DH model); received platform={self.platform!r}, "
+                             f"arm_model={self.arm_model!r}")
         _set(self, "duration_s", _number(o, "duration_s", self.duration_s, lo=0.0, hi=3600.0,
                                          lo_open=True))
         _set(self, "fps", _number(o, "fps", self.fps, lo=0.0, hi=1000.0, lo_open=True))
