@@ -511,8 +511,11 @@ def _stage_reports(st: RunState) -> None:
     st.summary = reports.summary_table(st.result())
     tum = out / "tum"
     tum.mkdir(exist_ok=True)
-    for cam, s in st.gt.items():
-        reports.write_tum(tum / f"{cam}_ground_truth.tum", s.timestamp_s, s.T_world_cam)
+    world = st.truth.world
+    for cam, s in st.gt.items():   # ground truth at the TRUE capture times (sensor clocks aside)
+        t_true = (s.timestamp_s if world is None
+                  else np.asarray(world.frames(cam).time_s)[np.asarray(s.frame_index)])
+        reports.write_tum(tum / f"{cam}_ground_truth.tum", t_true, s.T_world_cam)
     for cam, s in st.measured.items():
         name = st.camera_sources[cam]
         if not get_source(name).info.exact:

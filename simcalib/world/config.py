@@ -97,9 +97,13 @@ class CameraConfig:
       (the paper's real cameras were ~0.05 s apart). Default 0.
     * ``capture_jitter_s``: std of Gaussian jitter on the true capture time per frame
       (must stay below a quarter of the frame period). Default 0.
-    * ``clock_offset_s``, ``stamp_jitter_s``: the reported timestamp is the true capture time
-      plus this constant offset plus Gaussian jitter of this std (the clock error a
-      synchroniser would see). Defaults 0.
+    * ``clock_offset_s``, ``clock_drift_ppm``, ``stamp_jitter_s``: the camera's clock; the
+      reported timestamp is ``t_cap * (1 + drift_ppm * 1e-6) + clock_offset_s + jitter``
+      (true capture time ``t_cap``; Gaussian jitter of std ``stamp_jitter_s``), i.e. what the
+      sensor's own clock says. Ground truth keeps ``t_cap``. Defaults 0.
+    * ``fps``: this camera's frame rate (Hz); ``None`` (default): the world's ``fps``. Frame
+      ``k`` is then nominally at ``k / fps`` for ``k = 0 .. floor(duration_s * fps)``, so two
+      cameras may run at e.g. 30 Hz and 20 Hz.
     * ``drop_prob``: probability that a frame is never delivered (i.i.d., seeded); dropped
       frames are counted in every ``PoseStream`` of the camera, never filled in. Default 0.
     """
@@ -111,6 +115,8 @@ class CameraConfig:
     clock_offset_s: float = 0.0
     stamp_jitter_s: float = 0.0
     drop_prob: float = 0.0
+    fps: float | None = None
+    clock_drift_ppm: float = 0.0
 
     def __post_init__(self):
         o = "CameraConfig"
@@ -126,6 +132,10 @@ class CameraConfig:
         _set(self, "stamp_jitter_s", _number(o, "stamp_jitter_s", self.stamp_jitter_s, lo=0.0))
         _set(self, "drop_prob", _number(o, "drop_prob", self.drop_prob, lo=0.0, hi=1.0,
                                         hi_open=True))
+        if self.fps is not None:
+            _set(self, "fps", _number(o, "fps", self.fps, lo=0.0, hi=1000.0, lo_open=True))
+        _set(self, "clock_drift_ppm", _number(o, "clock_drift_ppm", self.clock_drift_ppm,
+                                              lo=-1e5, hi=1e5))
 
 
 @dataclass(frozen=True)
@@ -343,9 +353,12 @@ class WorldConfig:
                           ("room", RoomConfig), ("markers", MarkerFieldConfig),
                           ("ik", IKConfig)):
             _set(self, name, _nested(o, name, getattr(self, name), cls))
-        period = 1.0 / self.fps
         for cam in ("cam_a", "cam_b"):
             c = getattr(self, cam)
+            period = 1.0 / self.camera_fps(cam)
+            if self.n_frames_of(cam) < 3 or self.n_frames_of(cam) > 200000:
+                raise ValueError(f"{o}.{cam}: duration_s * fps gives {self.n_frames_of(cam)} "
+                                 "frames; 3 to 200000 allowed")
             if c.capture_jitter_s > 0.25 * period:
                 raise ValueError(f"{o}.{cam}.capture_jitter_s ({c.capture_jitter_s}) must be "
                                  f"<= a quarter of the frame period ({0.25 * period:.4g} s) so "
@@ -355,5 +368,19 @@ class WorldConfig:
     def n_frames(self) -> int:
         return int(math.floor(self.duration_s * self.fps + 1e-9)) + 1
 
-    def nominal_times_s(self) -> np.ndarray:
-        return np.arange(self.n_frames, dtype=np.float64) / self.fps
+    def nominal_times_s(self, camera: str | None = None) -> np.ndarray:
+        """Nominal frame times ``k / fps`` of the world (or of ``camera``, its own fps)."""
+        if camera is None:
+            return np.arange(self.n_frames, dtype=np.float64) / self.fps
+        return np.arange(self.n_frames_of(camera), dtype=np.float64) / self.camera_fps(camera)
+
+    def camera_fps(self, camera: str) -> float:
+        """Frame rate of ``camera`` (its ``fps``, else the world's)."""
+        if camera not in ("cam_a", "cam_b"):
+            raise ValueError(f"unknown camera {camera!r}; valid: ['cam_a', 'cam_b']")
+        f = getattr(self, camera).fps
+        return self.fps if f is None else f
+
+    def n_frames_of(self, camera: str) -> int:
+        """Number of frames of ``camera`` (``floor(duration_s * fps) + 1``)."""
+        return int(math.floor(self.duration_s * self.camera_fps(camera) + 1e-9)) + 1
