@@ -15,7 +15,8 @@ delivered poses is replaced, after the source measured them, by one of
 * ``swapped_frames``: poses exchanged among the chosen frames (a cyclic shift in random
   order, so every one of them carries another frame's pose; timestamps stay).
 
-``kind=mixed`` draws each outlier's kind uniformly from the three. The labels (frame index,
+``kind=mixed`` draws each outlier's kind uniformly from the three (from the other two when
+there is no marker map). The labels (frame index,
 timestamp, kind and how far each corrupted pose is from the clean one) go to results.json
 ``outliers`` so a robust estimator can be scored; ``PoseStream.info["outlier"]`` marks them.
 Draws come from the run's ``outliers`` generator, split per camera.
@@ -136,8 +137,10 @@ def _inject_one(stream, cfg: OutliersConfig, rng, marker_field):
     if k == 0:
         return stream, np.zeros(0, int), []
     pos = np.sort(rng.choice(n, size=k, replace=False))
-    if cfg.kind == "mixed":
-        kinds = np.array(OUTLIER_KINDS)[rng.integers(0, len(OUTLIER_KINDS), size=k)]
+    if cfg.kind == "mixed":   # flipped_marker only where there is a marker map
+        avail = OUTLIER_KINDS if marker_field is not None else ("random_pose",
+                                                                 "swapped_frames")
+        kinds = np.array(avail)[rng.integers(0, len(avail), size=k)]
     else:
         kinds = np.full(k, cfg.kind)
     sw = pos[kinds == "swapped_frames"]
