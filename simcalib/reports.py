@@ -228,7 +228,11 @@ def summary_table(result) -> str:
             reasons = ", ".join(f"{k} {v}" for k, v in (c.get("drop_reasons") or {}).items())
             cams.append(f"{cam} used {c.get('used')}, dropped {c.get('dropped')}"
                         + (f" ({reasons})" if reasons else ""))
-        out.append(f"frames: {fr['rendered']} per camera; " + "; ".join(cams))
+        n = {(fr.get(cam) or {}).get("frames") for cam in result.camera_names}
+        head = (f"{fr['rendered']} per camera" if len(n) == 1 else "per camera "
+                + ", ".join(f"{cam} {(fr.get(cam) or {}).get('frames')}"
+                            for cam in result.camera_names))
+        out.append(f"frames: {head}; " + "; ".join(cams))
     p = result.pairing or {}
     if p.get("candidate_pairs") is not None and p.get("matched") is not None:
         out.append(f"motion pairs: {p.get('used')} used of {p.get('candidate_pairs')} "
