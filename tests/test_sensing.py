@@ -145,7 +145,7 @@ def _stream(n=50, seed=0):
 @pytest.mark.parametrize("kind", ["random_pose", "swapped_frames", "mixed"])
 def test_injected_outliers_counts_and_labels(kind):
     s = _stream()
-    cfg = OutliersConfig(fraction=0.2, kind=kind, streams=("a",))
+    cfg = OutliersConfig(fraction=0.2, kind=kind, apply_to=("a",))
     out, rep = inject_outliers({"cam_a": s}, cfg, np.random.default_rng(1))
     o = out["cam_a"]
     lab = rep["cam_a"]
@@ -199,8 +199,8 @@ def test_outlier_config_validation():
         OutliersConfig(fraction=0.7)
     with pytest.raises(ValueError, match="kind must be one of"):
         OutliersConfig(kind="flip")
-    with pytest.raises(ValueError, match="streams must be"):
-        OutliersConfig(streams=("c",))
+    with pytest.raises(ValueError, match="apply_to must be"):
+        OutliersConfig(apply_to=("c",))
 
 
 # ----------------------------------------------------------------------------- clocks

@@ -48,7 +48,7 @@ class OutliersConfig:
     kind: str = field(default="mixed", metadata=_doc(
         "random_pose | flipped_marker | swapped_frames | mixed (each outlier's kind drawn "
         "uniformly)"))
-    streams: tuple[str, ...] = field(default=("a", "b"), metadata=_doc(
+    apply_to: tuple[str, ...] = field(default=("a", "b"), metadata=_doc(
         "streams that get outliers: a (cam_a), b (cam_b)"))
     random_margin_m: float = field(default=0.5, metadata=_doc(
         "random_pose: positions uniform in the stream's bounding box grown by this, metres"))
@@ -62,12 +62,11 @@ class OutliersConfig:
         valid = OUTLIER_KINDS + ("mixed",)
         if self.kind not in valid:
             raise ValueError(f"{o}.kind must be one of {list(valid)}; received {self.kind!r}")
-        streams = (self.streams,) if isinstance(self.streams, str) else tuple(self.streams)
-        if not streams or any(s not in ("a", "b") for s in streams) or len(set(streams)) != len(
-                streams):
-            raise ValueError(f"{o}.streams must be distinct names from ['a', 'b']; received "
-                             f"{self.streams!r}")
-        object.__setattr__(self, "streams", streams)
+        keys = (self.apply_to,) if isinstance(self.apply_to, str) else tuple(self.apply_to)
+        if not keys or any(k not in ("a", "b") for k in keys) or len(set(keys)) != len(keys):
+            raise ValueError(f"{o}.apply_to must be distinct stream names from ['a', 'b']; "
+                             f"received {self.apply_to!r}")
+        object.__setattr__(self, "apply_to", keys)
         if not (math.isfinite(self.random_margin_m) and self.random_margin_m >= 0):
             raise ValueError(f"{o}.random_margin_m must be finite and >= 0; received "
                              f"{self.random_margin_m}")
@@ -196,7 +195,7 @@ def inject_outliers(streams: dict, cfg: OutliersConfig, rng: np.random.Generator
     report = {"enabled": cfg.active, "config": to_dict(cfg)}
     if not cfg.active:
         return out, report
-    for key in cfg.streams:
+    for key in cfg.apply_to:
         cam = STREAM_CAMERAS[key]
         if cam not in streams:
             continue
