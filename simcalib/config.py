@@ -67,7 +67,7 @@ __all__ = [
 ]
 
 
-from simcalib.checks import (check_int, check_names, check_positive, check_range,
+from simcalib.checks import (check_in, check_int, check_names, check_positive, check_range,
                              check_that, check_vector, set_fields)
 from simcalib.errors import ConfigError, did_you_mean, unknown_choice
 
@@ -89,6 +89,10 @@ try:  # the visual pose source (issue 4)
     from simcalib.vision import VisionConfig
 except ImportError:  # pragma: no cover
     VisionConfig = _placeholder("VisionConfig", "simcalib.vision")
+from simcalib.sources.corruption import OutliersConfig  # noqa: E402  (issue 10 sections)
+from simcalib.sources.selection import StreamsConfig  # noqa: E402
+from simcalib.world.robot_error import RobotConfig  # noqa: E402
+
 try:  # the synthetic generator of appendix D.2 (issue 3)
     from simcalib.synthetic import SyntheticConfig
 except ImportError:  # pragma: no cover
@@ -202,7 +206,7 @@ class RecordingConfig:
                    max_images=check_int("max_images", self.max_images, lo=0))
 
 
-SOURCES = ("ground_truth", "noisy", "aruco")
+SOURCES = ("ground_truth", "noisy", "aruco", "robot_fk")
 KINDS = ("sim", "synthetic")
 
 
@@ -213,8 +217,9 @@ class ScenarioConfig:
     description: str = field(default="", metadata=_doc("one-line description"))
     kind: Literal["sim", "synthetic"] = field(default="sim", metadata=_doc(
         "sim: MuJoCo world (world.*, vision.*); synthetic: paper appendix D.2 (synthetic.*)"))
-    source: Literal["ground_truth", "noisy", "aruco"] = field(default="aruco", metadata=_doc(
-        "pose source fed to the solvers"))
+    source: Literal["ground_truth", "noisy", "aruco", "robot_fk"] = field(
+        default="aruco", metadata=_doc("pose source of both streams (unless streams.a/b.source "
+                                       "says otherwise)"))
     seed: int = field(default=0, metadata=_doc("seed of every random draw of the run"))
     output: str | None = field(default=None, metadata=_doc(
         "run directory (default runs/<scenario>-<timestamp>)"))
@@ -235,14 +240,26 @@ class ScenarioConfig:
     pairing: PairingConfig = field(default_factory=PairingConfig)
     prior: PriorConfig = field(default_factory=PriorConfig)
     recording: RecordingConfig = field(default_factory=RecordingConfig)
+    streams: StreamsConfig = field(default_factory=StreamsConfig, metadata=_doc(
+        "per-stream pose sources (a = cam_a, b = cam_b)"))
+    robot: RobotConfig = field(default_factory=RobotConfig, metadata=_doc(
+        "arm kinematic error and encoders (robot_fk)"))
+    outliers: OutliersConfig = field(default_factory=OutliersConfig, metadata=_doc(
+        "injected outliers with ground-truth labels"))
 
     def __post_init__(self):
         set_fields(self, seed=check_int("seed", self.seed, lo=0),
                    workers=check_int("workers", self.workers, lo=1))
-        if self.kind == "synthetic" and self.source == "aruco":
-            raise ConfigError("source=aruco needs a simulated world (kind=sim); a synthetic "
-                              "scenario allows source=ground_truth or source=noisy",
+        if self.kind == "synthetic" and self.source in ("aruco", "robot_fk"):
+            raise ConfigError(f"source={self.source} needs a simulated world (kind=sim); a "
+                              "synthetic scenario allows source=ground_truth or source=noisy",
                               key="source", value=self.source)
+        for key in ("a", "b"):
+            name = getattr(self.streams, key).source
+            check_in(f"streams.{key}.source", name, SOURCES, optional=True)
+            check_that(name is None or self.kind == "sim", f"streams.{key}.source", name,
+                       "null in a synthetic scenario (it measures with its own source); "
+                       "per-stream sources apply to simulated worlds (kind=sim)")
         set_fields(self, solvers=check_names("solvers", self.solvers))
         if isinstance(self.alpha, (tuple, list)):
             check_that(len(self.alpha) > 0, "alpha", list(self.alpha),

@@ -45,7 +45,8 @@ __all__ = ["RunResult", "RunState", "SolverResult", "RunInterrupted", "run", "ST
 STAGES = ("world", "streams", "pairs", "solvers", "evaluation", "reports")
 CAMERAS = ("cam_a", "cam_b")
 # order of the child generators spawned from the run's seed (never reorder: determinism)
-RNG_STREAMS = ("world", "noise", "vision", "synthetic", "pairing", "solvers", "prior")
+RNG_STREAMS = ("world", "noise", "vision", "synthetic", "pairing", "solvers", "prior",
+               "robot", "robot_fk", "outliers")
 
 
 @dataclass(frozen=True)
@@ -92,6 +93,7 @@ class RunResult:
     results_path: Path | None = None
     recording_path: Path | None = None
     error: dict | None = None
+    sensing: dict = field(default_factory=dict)
 
     @property
     def status(self) -> str:
@@ -148,6 +150,7 @@ class RunState:
     solvers: list[SolverResult] = field(default_factory=list)
     summary: str = ""
     error: dict | None = None
+    sensing: dict = field(default_factory=dict)   # stream_sources, robot, clocks, outliers
 
     @property
     def X_true(self):
@@ -164,7 +167,7 @@ class RunState:
                          solvers=tuple(self.solvers), timing_s=dict(self.timing),
                          completed_stages=tuple(self.done), interrupted=interrupted,
                          results_path=results_path, recording_path=recording_path,
-                         error=self.error)
+                         error=self.error, sensing=dict(self.sensing))
 
 
 def _output_dir(cfg: ScenarioConfig) -> Path:
@@ -301,6 +304,7 @@ def _stage_streams(st: RunState) -> None:
             st.motions_from_source = out.motions
             st.pairing_mode = out.pairing_mode
         frames |= dict(out.frames) if out.frames is not None else {}
+    _corrupt_streams(st)
     if not frames:
         frames = {"rendered": max(int(s.n_frames) for s in st.measured.values())}
         for cam in CAMERAS:
@@ -312,8 +316,26 @@ def _stage_streams(st: RunState) -> None:
     st.frames = frames
 
 
+def _corrupt_streams(st: RunState) -> None:
+    """After the sources measured: injected outliers (``outliers.*``, labelled) and the
+    record of each stream's source, the robot error and the clocks (results.json)."""
+    from simcalib.sources.corruption import clock_report, inject_outliers
+    from simcalib.world.robot_error import robot_report
+    cfg, truth = st.cfg, st.truth
+    st.sensing["stream_sources"] = dict(st.camera_sources)
+    if truth.world is not None:
+        st.sensing["robot"] = robot_report(truth.world, cfg, st.source_logs.get("robot_fk"))
+        st.sensing["clocks"] = clock_report(truth.world)
+    if cfg.outliers.active and not st.measured:
+        raise ValueError("outliers.* needs pose streams; a source of relative motions "
+                         f"({', '.join(sorted(set(st.camera_sources.values())))}) has none")
+    st.measured, st.sensing["outliers"] = inject_outliers(
+        st.measured, cfg.outliers, st.rngs["outliers"], truth.marker_field)
+
+
 def _stage_pairs(st: RunState) -> None:
     from simcalib.pairing import make_pairs
+    from simcalib.sources.corruption import outlier_pairs
     cfg = st.cfg
     if st.motions_from_source is not None:
         st.pairs = st.motions_from_source
@@ -322,6 +344,8 @@ def _stage_pairs(st: RunState) -> None:
     st.pairs = make_pairs(st.measured["cam_a"], st.measured["cam_b"], cfg.pairing,
                           st.rngs["pairing"])
     st.pairing = dict(st.pairs.counts) | {"mode": cfg.pairing.mode}
+    if st.sensing.get("outliers", {}).get("enabled"):
+        st.sensing["outliers"]["pairs"] = outlier_pairs(st.pairs, st.sensing["outliers"])
 
 
 def _observability(sol) -> tuple:
@@ -487,8 +511,11 @@ def _stage_reports(st: RunState) -> None:
     st.summary = reports.summary_table(st.result())
     tum = out / "tum"
     tum.mkdir(exist_ok=True)
-    for cam, s in st.gt.items():
-        reports.write_tum(tum / f"{cam}_ground_truth.tum", s.timestamp_s, s.T_world_cam)
+    world = st.truth.world
+    for cam, s in st.gt.items():   # ground truth at the TRUE capture times (sensor clocks aside)
+        t_true = (s.timestamp_s if world is None
+                  else np.asarray(world.frames(cam).time_s)[np.asarray(s.frame_index)])
+        reports.write_tum(tum / f"{cam}_ground_truth.tum", t_true, s.T_world_cam)
     for cam, s in st.measured.items():
         name = st.camera_sources[cam]
         if not get_source(name).info.exact:

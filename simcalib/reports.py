@@ -119,7 +119,22 @@ def results_dict(result) -> dict:
                        for cam, e in result.pose_errors.items()},
         "solvers": {s.label: solver_entry(s) for s in result.solvers},
         "timing_s": dict(result.timing_s),
+        **{key: _plain(getattr(result, "sensing", {}).get(key))
+           for key in ("stream_sources", "robot", "clocks", "outliers")},
     }
+
+
+def _plain(obj):
+    """JSON-ready copy (numpy arrays and scalars to lists / floats)."""
+    if isinstance(obj, dict):
+        return {str(k): _plain(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_plain(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, np.generic):
+        return obj.item()
+    return obj
 
 
 def extrinsics_dict(result) -> dict:
@@ -213,7 +228,11 @@ def summary_table(result) -> str:
             reasons = ", ".join(f"{k} {v}" for k, v in (c.get("drop_reasons") or {}).items())
             cams.append(f"{cam} used {c.get('used')}, dropped {c.get('dropped')}"
                         + (f" ({reasons})" if reasons else ""))
-        out.append(f"frames: {fr['rendered']} per camera; " + "; ".join(cams))
+        n = {(fr.get(cam) or {}).get("frames") for cam in result.camera_names}
+        head = (f"{fr['rendered']} per camera" if len(n) == 1 else "per camera "
+                + ", ".join(f"{cam} {(fr.get(cam) or {}).get('frames')}"
+                            for cam in result.camera_names))
+        out.append(f"frames: {head}; " + "; ".join(cams))
     p = result.pairing or {}
     if p.get("candidate_pairs") is not None and p.get("matched") is not None:
         out.append(f"motion pairs: {p.get('used')} used of {p.get('candidate_pairs')} "

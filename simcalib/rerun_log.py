@@ -106,7 +106,8 @@ class RunRecorder:
                         if not get_source(st.camera_sources[cam]).info.exact}
             self.log_trajectories(dict(truth.streams), measured, truth.X_true)
             if truth.intrinsics:
-                logs = [log for log in st.source_logs.values() if log is not None]
+                logs = [log for name, log in st.source_logs.items()   # a rendering source's
+                        if log is not None and get_source(name).info.renders]
                 self.log_cameras(dict(truth.intrinsics), dict(truth.streams),
                                  logs[0] if logs else None)
         elif stage == "solvers":

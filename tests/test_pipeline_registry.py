@@ -24,6 +24,9 @@ def _small_cfg(source):
     if "synthetic" in info.kinds:
         return load_config("random", ["synthetic.num_motions=40", "pairing.n_pairs=20",
                                       "progress=false"])
+    if source == "robot_fk":     # needs the arm; a robot with ~1 mm / 1 mrad DH error
+        return load_config("handeye", ["source=robot_fk", "streams.a.source=null",
+                                       "streams.b.source=null", *SMALL_SIM])
     return load_config("planar", [f"source={source}", *SMALL_SIM,
                                   "world.cam_a.width=320", "world.cam_a.height=240",
                                   "world.cam_b.width=320", "world.cam_b.height=240"])
@@ -36,7 +39,8 @@ def _rngs(seed=0):
 
 
 def test_registry_lists_the_builtin_sources_and_rejects_unknown_names():
-    assert set(available_sources()) == {"ground_truth", "noisy", "aruco", "synthetic"}
+    assert set(available_sources()) == {"ground_truth", "noisy", "aruco", "robot_fk",
+                                        "synthetic"}
     assert set(sources_for_kind("sim")) == set(SOURCES)  # the config's names are served
     with pytest.raises(ValueError, match=r"unknown pose source 'nosy'.*did you mean 'noisy'"
                                          r".*available: aruco, ground_truth"):

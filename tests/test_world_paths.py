@@ -8,7 +8,7 @@ from simcalib.world import (CameraConfig, MarkerFieldConfig, PerturbationConfig,
 from simcalib.world.paths import compose_path, perturbation_sample
 
 EXPECTED = {"3d": ("arm",), "planar": ("cart", "arm"), "linear": ("cart", "arm"),
-            "circular": ("cart", "arm"), "rotation": ("cart", "arm")}
+            "circular": ("cart", "arm"), "rotation": ("cart", "arm"), "scara": ("arm",)}
 
 
 def test_registry_names_platforms_and_metadata():

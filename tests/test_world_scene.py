@@ -33,8 +33,9 @@ def worlds():
 
 
 def test_every_sensible_pair_is_covered():
-    assert len(PAIRS) == 9
+    assert len(PAIRS) == 10                      # 5 paths x 2 platforms but 3d, scara: arm
     assert ("arm", "3d") in PAIRS and ("cart", "3d") not in PAIRS
+    assert ("arm", "scara") in PAIRS and ("cart", "scara") not in PAIRS
 
 
 @pytest.mark.parametrize("pair", PAIRS, ids=lambda p: f"{p[0]}-{p[1]}")

@@ -3,7 +3,7 @@
     from simcalib.sources import available_sources, get_source
     out = get_source("noisy", "sim").measure(truth, cfg, rng, ("cam_a", "cam_b"))
 
-Built-in sources: ``ground_truth``, ``noisy``, ``aruco`` (simulated worlds) and
+Built-in sources: ``ground_truth``, ``noisy``, ``aruco``, ``robot_fk`` (simulated worlds) and
 ``synthetic`` (paper appendix D.2 problems). See :mod:`simcalib.sources.base` for the
 protocol and how to add one.
 """
@@ -13,7 +13,7 @@ from simcalib.sources.registry import (available_sources, camera_sources, get_so
                                        register, sources_for_kind)
 # the built-in sources register themselves on import (each file is light: heavy imports
 # happen inside measure())
-from simcalib.sources import aruco, ground_truth, noisy, synthetic  # noqa: E402,F401
+from simcalib.sources import aruco, ground_truth, noisy, robot_fk, synthetic  # noqa: E402,F401
 from simcalib.sources.truth import KINDS, build_truth  # noqa: E402
 
 __all__ = ["CAMERAS", "GroundTruth", "PoseSource", "SourceInfo", "SourceOutput", "KINDS",

@@ -14,8 +14,13 @@ class ArucoSource:
                                   "against the known marker map (vision.*)")
 
     def measure(self, truth: GroundTruth, cfg, rng, cameras) -> SourceOutput:
+        import dataclasses
         from simcalib.vision import visual_streams  # heavy (cv2, mujoco rendering): lazy
-        streams, log = visual_streams(truth.world, cfg.vision, rng, workers=cfg.workers)
+        world = truth.world
+        if set(cameras) != set(world.camera_names):   # per-stream selection: render only these
+            world = dataclasses.replace(world, camera_names=tuple(
+                c for c in world.camera_names if c in cameras))
+        streams, log = visual_streams(world, cfg.vision, rng, workers=cfg.workers)
         return SourceOutput(streams={cam: streams[cam] for cam in cameras}, log=log)
 
 

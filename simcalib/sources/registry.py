@@ -57,8 +57,20 @@ def get_source(name: str, kind: str | None = None) -> PoseSource:
 def camera_sources(cfg, kind: str) -> dict[str, str]:
     """camera -> source name for a run of ``cfg`` over ground truth of ``kind``.
 
-    Today every camera uses ``cfg.source`` (or the kind's native source); per-stream
-    selection (``streams.a.source=...``) only has to change this function."""
-    name = _NATIVE_SOURCE.get(kind, cfg.source)
-    get_source(name, kind)
-    return {cam: name for cam in CAMERAS}
+    Each camera uses its stream's source (``streams.a.source`` / ``streams.b.source``),
+    else ``cfg.source``; a kind with a native source (synthetic) always uses it."""
+    streams = getattr(cfg, "streams", None)
+    if kind in _NATIVE_SOURCE:
+        if streams is not None and streams.any_set:
+            raise ValueError(f"kind={kind!r} measures with its own source "
+                             f"{_NATIVE_SOURCE[kind]!r}; streams.a.source / streams.b.source "
+                             "apply to simulated worlds (kind='sim') only")
+        name = _NATIVE_SOURCE[kind]
+        get_source(name, kind)
+        return {cam: name for cam in CAMERAS}
+    out = {}
+    for cam in CAMERAS:
+        name = cfg.source if streams is None else streams.source_of(cam, cfg.source)
+        get_source(name, kind)
+        out[cam] = name
+    return out

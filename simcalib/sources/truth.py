@@ -19,20 +19,38 @@ def build_truth(cfg, rngs: dict) -> GroundTruth:
     """Ground truth of ``cfg`` (a ScenarioConfig); ``rngs``: the run's named generators
     (``"world"`` for a simulated world, ``"synthetic"`` for a synthetic problem)."""
     if cfg.kind == "sim":
-        return _sim_truth(cfg, rngs["world"])
+        return _sim_truth(cfg, rngs["world"], rngs.get("robot"))
     if cfg.kind == "synthetic":
         return _synthetic_truth(cfg, rngs["synthetic"])
     raise ValueError(f"kind must be one of {list(KINDS)}; received {cfg.kind!r}")
 
 
-def _sim_truth(cfg, rng) -> GroundTruth:
+def _sim_truth(cfg, rng, rng_robot=None) -> GroundTruth:
     from simcalib.world import build_world, ground_truth_stream
-    world = build_world(cfg.world, rng)
+    world = build_world(_true_world_config(cfg, rng_robot), rng)
     return GroundTruth(kind="sim", X_true=np.asarray(world.trajectory.T_a_b, dtype=np.float64),
                        streams={c: ground_truth_stream(world.frames(c))
                                 for c in world.camera_names},
                        world=world, intrinsics=dict(world.intrinsics),
                        marker_field=world.marker_field)
+
+
+def _true_world_config(cfg, rng_robot):
+    """``cfg.world`` with the true arm: when ``robot.kinematic_error`` is set, the arm is
+    built from the nominal DH table plus a deviation drawn from the run's ``robot``
+    generator (``world.arm_dh_error``, unless the config gives one explicitly)."""
+    import dataclasses
+    w = cfg.world
+    robot = getattr(cfg, "robot", None)
+    if (robot is None or not robot.kinematic_error.active or w.platform != "arm"
+            or w.arm_model != "builtin" or w.arm_dh_error is not None):
+        return w
+    if rng_robot is None:
+        raise ValueError("robot.kinematic_error needs the run's 'robot' generator "
+                         "(rngs['robot'])")
+    from simcalib.world.robot_error import draw_dh_error
+    return dataclasses.replace(w, arm_dh_error=draw_dh_error(robot.kinematic_error,
+                                                             rng_robot))
 
 
 def _synthetic_truth(cfg, rng) -> GroundTruth:

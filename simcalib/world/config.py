@@ -66,9 +66,13 @@ class CameraConfig:
       (the paper's real cameras were ~0.05 s apart). Default 0.
     * ``capture_jitter_s``: std of Gaussian jitter on the true capture time per frame
       (must stay below a quarter of the frame period). Default 0.
-    * ``clock_offset_s``, ``stamp_jitter_s``: the reported timestamp is the true capture time
-      plus this constant offset plus Gaussian jitter of this std (the clock error a
-      synchroniser would see). Defaults 0.
+    * ``clock_offset_s``, ``clock_drift_ppm``, ``stamp_jitter_s``: the camera's clock; the
+      reported timestamp is ``t_cap * (1 + drift_ppm * 1e-6) + clock_offset_s + jitter``
+      (true capture time ``t_cap``; Gaussian jitter of std ``stamp_jitter_s``), i.e. what the
+      sensor's own clock says. Ground truth keeps ``t_cap``. Defaults 0.
+    * ``fps``: this camera's frame rate (Hz); ``None`` (default): the world's ``fps``. Frame
+      ``k`` is then nominally at ``k / fps`` for ``k = 0 .. floor(duration_s * fps)``, so two
+      cameras may run at e.g. 30 Hz and 20 Hz.
     * ``drop_prob``: probability that a frame is never delivered (i.i.d., seeded); dropped
       frames are counted in every ``PoseStream`` of the camera, never filled in. Default 0.
     """
@@ -80,6 +84,8 @@ class CameraConfig:
     clock_offset_s: float = 0.0
     stamp_jitter_s: float = 0.0
     drop_prob: float = 0.0
+    fps: float | None = None
+    clock_drift_ppm: float = 0.0
 
     def __post_init__(self):
         set_fields(
@@ -93,7 +99,10 @@ class CameraConfig:
             clock_offset_s=check_range("clock_offset_s", self.clock_offset_s,
                                        lo=-1e6, hi=1e6),
             stamp_jitter_s=check_range("stamp_jitter_s", self.stamp_jitter_s, lo=0.0),
-            drop_prob=check_range("drop_prob", self.drop_prob, lo=0.0, hi=1.0, hi_open=True))
+            drop_prob=check_range("drop_prob", self.drop_prob, lo=0.0, hi=1.0, hi_open=True),
+            fps=check_range("fps", self.fps, lo=0.0, hi=1000.0, lo_open=True, optional=True),
+            clock_drift_ppm=check_range("clock_drift_ppm", self.clock_drift_ppm,
+                                        lo=-1e5, hi=1e5))
 
 
 @dataclass(frozen=True)
@@ -251,6 +260,9 @@ class WorldConfig:
       configs (instances or mappings of their fields).
     * ``arm_model``: ``"builtin"`` (default: models/ur5e.xml, UR5e DH kinematics, primitive
       geoms) or ``"menagerie"`` (the Menagerie UR5e with meshes from ``$MENAGERIE_ROOT``).
+    * ``arm_dh_error``: ``None`` (default) or the true arm's deviation from the nominal UR5e
+      DH table, 6 rows ``(theta_rad, d_m, a_m, alpha_rad)`` (built-in arm only; the run
+      draws it from ``robot.kinematic_error``, see :mod:`simcalib.world.robot_error`).
     """
     platform: str | None = None
     path: str = "planar"
@@ -265,6 +277,7 @@ class WorldConfig:
     markers: MarkerFieldConfig = field(default_factory=MarkerFieldConfig)
     ik: IKConfig = field(default_factory=IKConfig)
     arm_model: str = "builtin"
+    arm_dh_error: tuple | None = None
 
     def __post_init__(self):
         from simcalib.world.paths import get_path, resolve_platform
@@ -276,6 +289,13 @@ class WorldConfig:
             set_fields(self, platform=resolve_platform(info, self.platform))
         except ValueError as exc:
             raise ConfigError(str(exc), key="path", value=self.path) from None
+        from simcalib.world.robot_error import check_dh_error
+        set_fields(self, arm_dh_error=check_dh_error(self.arm_dh_error))
+        check_that(self.arm_dh_error is None or (self.platform == "arm"
+                                                 and self.arm_model == "builtin"),
+                   "arm_dh_error", "(a 6x4 table)",
+                   f"only set with platform='arm' and arm_model='builtin' (a DH model); "
+                   f"here platform={self.platform!r}, arm_model={self.arm_model!r}")
         set_fields(self,
                    duration_s=check_range("duration_s", self.duration_s, lo=0.0, hi=3600.0,
                                           lo_open=True),
@@ -291,9 +311,12 @@ class WorldConfig:
             ("perturbation", PerturbationConfig), ("rig", RigConfig), ("cam_a", CameraConfig),
             ("cam_b", CameraConfig), ("room", RoomConfig), ("markers", MarkerFieldConfig),
             ("ik", IKConfig))})
-        period = 1.0 / self.fps
         for cam in ("cam_a", "cam_b"):
             c = getattr(self, cam)
+            period = 1.0 / self.camera_fps(cam)
+            check_that(3 <= self.n_frames_of(cam) <= 200000, f"{cam}.fps", c.fps,
+                       f"such that duration_s * fps gives 3 to 200000 frames (gives "
+                       f"{self.n_frames_of(cam)})")
             check_that(c.capture_jitter_s <= 0.25 * period, f"{cam}.capture_jitter_s",
                        c.capture_jitter_s, f"<= a quarter of the frame period "
                        f"({0.25 * period:.4g} s) so capture times stay ordered")
@@ -302,5 +325,19 @@ class WorldConfig:
     def n_frames(self) -> int:
         return int(math.floor(self.duration_s * self.fps + 1e-9)) + 1
 
-    def nominal_times_s(self) -> np.ndarray:
-        return np.arange(self.n_frames, dtype=np.float64) / self.fps
+    def nominal_times_s(self, camera: str | None = None) -> np.ndarray:
+        """Nominal frame times ``k / fps`` of the world (or of ``camera``, its own fps)."""
+        if camera is None:
+            return np.arange(self.n_frames, dtype=np.float64) / self.fps
+        return np.arange(self.n_frames_of(camera), dtype=np.float64) / self.camera_fps(camera)
+
+    def camera_fps(self, camera: str) -> float:
+        """Frame rate of ``camera`` (its ``fps``, else the world's)."""
+        if camera not in ("cam_a", "cam_b"):
+            raise ValueError(f"unknown camera {camera!r}; valid: ['cam_a', 'cam_b']")
+        f = getattr(self, camera).fps
+        return self.fps if f is None else f
+
+    def n_frames_of(self, camera: str) -> int:
+        """Number of frames of ``camera`` (``floor(duration_s * fps) + 1``)."""
+        return int(math.floor(self.duration_s * self.camera_fps(camera) + 1e-9)) + 1

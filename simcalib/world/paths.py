@@ -9,7 +9,7 @@ home pose ``T_world_home`` whose forward direction is world +x::
 (rotations about world axes through the target, x = forward at yaw 0). Frequencies are
 given in cycles per run, so a path's shape does not depend on ``duration_s``.
 Names: ``3d``, ``planar``, ``linear``, ``circular``, ``rotation`` (the paper's real-data
-motion types). Unknown names and senseless platform/path pairings raise ``ValueError``
+motion types) and ``scara`` (arm: 3D translation, yaw only). Unknown names and senseless platform/path pairings raise ``ValueError``
 listing what is allowed.
 """
 
@@ -137,6 +137,22 @@ def _path_3d(t, T, p):
                       np.deg2rad(p["amp_yaw_deg"]) * np.sin(_w(t, T, 2 * c) + 0.7),
                       np.deg2rad(p["amp_roll_deg"]) * np.sin(_w(t, T, 3 * c) + 2.0),
                       np.deg2rad(p["amp_pitch_deg"]) * np.sin(_w(t, T, c) + 0.4))
+
+
+@_register(
+    "scara", "SCARA-like motion: 3D translation (Lissajous) with rotation only about the "
+             "vertical axis (yaw), no roll or pitch (arm)",
+    {"arm": {"amp_x_m": 0.10, "amp_y_m": 0.15, "amp_z_m": 0.10, "amp_yaw_deg": 40.0,
+             "cycles": 1.0}},
+    degenerate="every rotation about the vertical axis (the classic SCARA degeneracy): "
+               "translation of X along it is unobservable")
+def _path_scara(t, T, p):
+    c = p["cycles"]
+    dp = np.stack([p["amp_x_m"] * np.sin(_w(t, T, 2 * c)),
+                   p["amp_y_m"] * np.sin(_w(t, T, c) + 0.3),
+                   p["amp_z_m"] * np.sin(_w(t, T, 3 * c) + 1.1)], axis=-1)
+    return PathSample(dp, np.deg2rad(p["amp_yaw_deg"]) * np.sin(_w(t, T, 2 * c) + 0.7),
+                      _zeros(t), _zeros(t))
 
 
 @_register(

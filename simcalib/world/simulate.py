@@ -4,7 +4,7 @@ The platform (:mod:`simcalib.world.platforms`) turns the path's target poses int
 states for every capture time (cart: mocap pose; arm: joints from IK), then MuJoCo's
 forward kinematics gives each camera's pose
 (``cam_xpos``, ``cam_xmat @ diag(1, -1, -1)`` = OpenCV frame). Each camera has its own
-capture times (``k / fps + capture_offset_s + jitter``), so with a time offset the two
+capture times (``k / fps + capture_offset_s + jitter``, its own ``fps`` if set), so with a time offset the two
 cameras are sampled at different platform poses, exactly as an unsynchronised real rig.
 """
 
@@ -93,13 +93,15 @@ def camera_poses_from_state(model, qpos: np.ndarray, mocap_pos: np.ndarray,
     return T_world_cv_from_mujoco(pos, mat)
 
 
-def _capture_times(cfg: WorldConfig, cam_cfg, rng: np.random.Generator):
-    t_nom = cfg.nominal_times_s()
+def _capture_times(cfg: WorldConfig, camera: str, rng: np.random.Generator):
+    cam_cfg = getattr(cfg, camera)
+    t_nom = cfg.nominal_times_s(camera)
     n = t_nom.shape[0]
     jitter = rng.normal(0.0, cam_cfg.capture_jitter_s, n) if cam_cfg.capture_jitter_s else 0.0
     t_cap = t_nom + cam_cfg.capture_offset_s + jitter
     stamp_noise = rng.normal(0.0, cam_cfg.stamp_jitter_s, n) if cam_cfg.stamp_jitter_s else 0.0
-    stamp = t_cap + cam_cfg.clock_offset_s + stamp_noise
+    drift = t_cap * (cam_cfg.clock_drift_ppm * 1e-6) if cam_cfg.clock_drift_ppm else 0.0
+    stamp = t_cap + drift + cam_cfg.clock_offset_s + stamp_noise
     delivered = rng.random(n) >= cam_cfg.drop_prob if cam_cfg.drop_prob else np.ones(n, bool)
     return t_nom, t_cap, stamp, delivered
 
@@ -122,11 +124,13 @@ def build_world(cfg: WorldConfig, rng: np.random.Generator) -> World:
     t_build = time.perf_counter() - t0
 
     rng_pert, rng_a, rng_b = rng.spawn(3)
-    timing = {"cam_a": _capture_times(cfg, cfg.cam_a, rng_a),
-              "cam_b": _capture_times(cfg, cfg.cam_b, rng_b)}
+    timing = {"cam_a": _capture_times(cfg, "cam_a", rng_a),
+              "cam_b": _capture_times(cfg, "cam_b", rng_b)}
     t_all = np.concatenate([timing["cam_a"][1], timing["cam_b"][1]])
     t_unique, inverse = np.unique(t_all, return_inverse=True)
     n = cfg.n_frames
+    n_cam = {c: timing[c][1].shape[0] for c in CAMERA_NAMES}
+    first = {"cam_a": 0, "cam_b": n_cam["cam_a"]}
 
     samples = [sample_path(cfg.path, cfg.platform, t_unique, cfg.duration_s, cfg.path_params)]
     if cfg.perturbation.active:
@@ -144,9 +148,9 @@ def build_world(cfg: WorldConfig, rng: np.random.Generator) -> World:
 
     from simcalib.world.layout import visible_markers
     frames = {}
-    for j, name in enumerate(CAMERA_NAMES):
+    for name in CAMERA_NAMES:
         t_nom, t_cap, stamp, delivered = timing[name]
-        idx = inverse[j * n:(j + 1) * n]
+        idx = inverse[first[name]:first[name] + n_cam[name]]
         T_wc = T_cams[idx, cam_ids[name]]
         vis = visible_markers(scene.marker_field, T_wc, scene.intrinsics[name]).sum(axis=1)
         frames[name] = SimCameraFrames(
@@ -161,6 +165,8 @@ def build_world(cfg: WorldConfig, rng: np.random.Generator) -> World:
             "path_description": info.description, "degenerate": info.degenerate,
             "perturbation": cfg.perturbation.active,
             "capture_offset_s": {c: getattr(cfg, c).capture_offset_s for c in CAMERA_NAMES},
+            "camera_fps": {c: cfg.camera_fps(c) for c in CAMERA_NAMES},
+            "camera_n_frames": n_cam,
             "min_visible_markers": {c: int(frames[c].visible_markers.min())
                                     for c in CAMERA_NAMES}}
     traj = Trajectory(cam_a=frames["cam_a"], cam_b=frames["cam_b"], T_a_b=scene.T_a_b,

@@ -105,6 +105,9 @@ class ArmPlatform:
     def attach(self, spec, cfg) -> str:
         import mujoco
         arm, site_name = _arm_spec(cfg.arm_model)
+        if getattr(cfg, "arm_dh_error", None) is not None:   # the true (imperfect) arm
+            from simcalib.world.robot_error import apply_dh_to_spec, true_dh
+            apply_dh_to_spec(arm, true_dh(cfg.arm_dh_error))
         foot = arm_base_position(cfg.room.size_m)
         if cfg.arm_model == "menagerie":     # the Menagerie arm has no pedestal: add ours
             spec.worldbody.add_geom(name="arm_pedestal", type=mujoco.mjtGeom.mjGEOM_CYLINDER,
