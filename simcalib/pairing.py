@@ -6,7 +6,7 @@
    differ by more than ``max_time_diff_s`` (0.1 s) are dropped.
 3. **Pairs.** Datapoint ``k`` is paired with datapoint ``k + step``:
    ``C = T_w_a[k]^-1 T_w_a[k+step]`` and ``H = T_w_b[k]^-1 T_w_b[k+step]``, so that
-   ``C X = X H`` with ``X = T_a_b`` (NOTES.md).
+   ``C X = X H`` with ``X = T_a_b`` (docs/paper-notes.md).
 4. **Pre-filter, motion** (appendix D.1): pairs in which either camera moved more than
    ``max_translation_m`` (10 cm) or rotated more than ``max_rotation_deg`` (11.5°) are
    dropped — such jumps indicate tracking errors.

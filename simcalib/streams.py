@@ -30,7 +30,7 @@ class CameraIntrinsics:
 
     @classmethod
     def from_fovy(cls, width: int, height: int, fovy_deg: float) -> "CameraIntrinsics":
-        """MuJoCo's pinhole from a vertical field of view (PLATFORM.md):
+        """MuJoCo's pinhole from a vertical field of view (docs/platform.md):
         ``fx = fy = H / (2 tan(fovy / 2))``, ``cx = (W - 1) / 2``, ``cy = (H - 1) / 2``."""
         if not (width > 0 and height > 0):
             raise ValueError(f"camera size must be positive; received {width}x{height}")

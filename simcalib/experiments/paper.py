@@ -4,7 +4,7 @@ Table 2 (synthetic part): per scenario and algorithm, for the α giving the best
 rotation error and the one giving the best median translation error:
 ``(rot_median_deg, rot_minus, rot_plus, trans_median_cm, trans_minus, trans_plus, alpha)``
 where minus/plus are the paper's distances to the 25th/75th percentiles. ``alpha`` is None
-for DQ2Steps. Transcribed from ``dekel2020-main-text.md``.
+for DQ2Steps. Transcribed from the paper's Table 2 (CVPR 2020 main text).
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ Marker frame (simcalib/markers.py): origin at the marker centre on its printed f
 of the face (into the room), +y up in the upright marker image, +x to its right. In MuJoCo
 each marker is a thin box geom whose frame *is* the marker frame shifted by half the
 thickness along -z; the marker texture on the box's +z face appears with its top towards
-geom +y and its left towards geom -x (PLATFORM.md), i.e. no extra rotation.
+geom +y and its left towards geom -x (docs/platform.md), i.e. no extra rotation.
 
 Walls: markers stand upright (marker +y = world +z) with +z along the wall's inward normal.
 Floor: +z = world +z, +y = world +y. Ceiling: +z = world -z, +y = world +y.
