@@ -125,7 +125,14 @@ class CarPlatform:
             spec.delete(spec.geom(name))
         floor = spec.geom("floor")
         floor.size = [OUTDOOR_FLOOR_HALF_M, OUTDOOR_FLOOR_HALF_M, 0.05]
-        spec.visual.map.zfar = 2.0 * OUTDOOR_FLOOR_HALF_M
+        # MuJoCo scales znear/zfar by the model extent (which the 400 m floor makes huge):
+        # fix the extent, clip at 5 cm and 2 x the floor's half size
+        spec.stat.extent = 100.0
+        spec.visual.map.znear = 0.05 / 100.0
+        spec.visual.map.zfar = 2.0 * OUTDOOR_FLOOR_HALF_M / 100.0
+        spec.add_texture(name="outdoor_sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
+                         builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT, rgb1=[0.55, 0.7, 0.9],
+                         rgb2=[0.9, 0.92, 0.95], width=64, height=64)
         # a kinematic copy of the physics car (same geometry), moved as a mocap body
         car = mujoco.MjSpec.from_file(str(CAR_XML))
         apply_vehicle_geometry(car, cfg.vehicle)
@@ -140,6 +147,7 @@ class CarPlatform:
         car.option.timestep = spec.option.timestep            # no attach conflicts
         car.option.integrator = spec.option.integrator
         car.visual.map.zfar = spec.visual.map.zfar
+        car.visual.map.znear = spec.visual.map.znear
         spec.attach(car, prefix="car/", frame=spec.worldbody.add_frame())
         return "car/rig_mount"
 
