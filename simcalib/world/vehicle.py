@@ -36,8 +36,8 @@ import numpy as np
 
 __all__ = ["VehicleConfig", "VehicleTrajectory", "PlanarPath", "DRIVES", "GROUNDS",
            "simulate_vehicle", "build_vehicle_model", "figure_eight_path", "as_planar_path",
-           "terrain_heights", "translation_sensitivity", "apply_vehicle_geometry", "physics_table", "step_cost_us",
-           "CAR_XML"]
+           "terrain_heights", "translation_sensitivity", "apply_vehicle_geometry",
+           "physics_table", "step_cost_us", "CAR_XML"]
 
 CAR_XML = Path(__file__).resolve().parents[2] / "models" / "car.xml"
 DRIVES = ("ackermann", "differential")
