@@ -291,6 +291,7 @@ class ScenarioConfig:
             raise ConfigError("source=aruco needs simcalib.vision, which is not available "
                               "in this installation", key="source", value=self.source)
         if self.kind == "sim":
+            _check_outdoor_source(self)
             _check_path_feasible(self)
 
     def _sync_synthetic_noise(self):
@@ -331,6 +332,19 @@ def _check_solver_names(names: Sequence[str], key: str) -> None:
             raise unknown_choice("method", name, valid, key=key)
 
 
+def _check_outdoor_source(cfg: "ScenarioConfig") -> None:
+    """An outdoor platform (``car``) has no marker field: no ArUco source."""
+    if cfg.source != "aruco" or getattr(type(cfg.world), "_simcalib_missing", None):
+        return
+    from simcalib.world.platforms import get_platform
+    if get_platform(cfg.world.platform).info.outdoor:
+        raise ConfigError(f"source=aruco needs a marker field, and platform "
+                          f"{cfg.world.platform!r} drives outdoors at car scale where the "
+                          "simulated world has none; use source=noisy (realistic pose noise "
+                          "via noise.*) or source=ground_truth", key="source",
+                          value=cfg.source)
+
+
 def _check_path_feasible(cfg: "ScenarioConfig") -> None:
     """Reject, before any work, a world whose path moves too far between frames for the
     pairing pre-filter to keep two motions.
@@ -345,6 +359,8 @@ def _check_path_feasible(cfg: "ScenarioConfig") -> None:
     The message names the shortest duration that passes."""
     world, pairing = cfg.world, cfg.pairing
     if getattr(type(world), "_simcalib_missing", None) or not pairing.prefilter:
+        return
+    if world.platform == "car":   # the physics sets the car's speed, not the path's clock
         return
     if math.isinf(pairing.max_translation_m) and math.isinf(pairing.max_rotation_deg):
         return

@@ -17,13 +17,15 @@ from simcalib.world import (MarkerFieldConfig, RigConfig, RoomConfig, WorldConfi
                             available_paths, build_model, build_scene, build_world,
                             visible_markers)
 from simcalib.world.layout import marker_layout
+from simcalib.world.platforms import get_platform
 from simcalib.world.platforms.arm import R_WORLD_RIG_FORWARD
 from simcalib.world.scene import MJ_FROM_CV
 
 mujoco = pytest.importorskip("mujoco")
 
+# indoor platforms (room + marker field); the outdoor car has tests/test_world_car.py
 PAIRS = [(p, name) for name, info in sorted(available_paths().items())
-         for p in info.platforms]
+         for p in info.platforms if not get_platform(p).info.outdoor]
 
 
 @pytest.fixture(scope="module")

@@ -15,8 +15,9 @@ from __future__ import annotations
 
 import importlib
 
-from simcalib.world.config import (PLATFORMS, CameraConfig, IKConfig, MarkerFieldConfig,
-                                   PerturbationConfig, RigConfig, RoomConfig, WorldConfig)
+from simcalib.world.config import (PLATFORMS, ArmControlConfig, CameraConfig, IKConfig,
+                                   MarkerFieldConfig, PerturbationConfig, RigConfig,
+                                   RoomConfig, VehicleConfig, WorldConfig)
 from simcalib.world.paths import PathInfo, available_paths, get_path, sample_path
 from simcalib.world.sensors import delivered_mask, ground_truth_stream, noisy_stream
 
@@ -35,7 +36,7 @@ _LAZY = {
     "solve_ik_path": "simcalib.world.ik",
 }
 
-__all__ = sorted(["PLATFORMS", "CameraConfig", "IKConfig", "MarkerFieldConfig",
+__all__ = sorted(["PLATFORMS", "ArmControlConfig", "VehicleConfig", "CameraConfig", "IKConfig", "MarkerFieldConfig",
                   "PerturbationConfig", "RigConfig", "RoomConfig", "WorldConfig", "PathInfo",
                   "available_paths", "get_path", "sample_path", "delivered_mask",
                   "ground_truth_stream", "noisy_stream", *_LAZY])

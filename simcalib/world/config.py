@@ -8,7 +8,8 @@ wrong type) naming the field, the received value and what is allowed (checks wri
     WorldConfig(platform="cart", path="planar", duration_s=20.0, fps=10.0,
                 path_params={}, perturbation=PerturbationConfig(),
                 rig=RigConfig(), cam_a=CameraConfig(), cam_b=CameraConfig(),
-                room=RoomConfig(), markers=MarkerFieldConfig(), ik=IKConfig())
+                room=RoomConfig(), markers=MarkerFieldConfig(), ik=IKConfig(),
+                vehicle=VehicleConfig(), arm=ArmControlConfig())
 """
 
 from __future__ import annotations
@@ -23,15 +24,17 @@ from simcalib.checks import (check_in, check_int, check_range, check_that,
                              check_vector, fail, set_fields)
 from simcalib.errors import ConfigError, did_you_mean
 from simcalib.synthetic import PAPER_X_ROTVEC_RAD, PAPER_X_TRANSLATION_M
+from simcalib.world.vehicle import VehicleConfig
 
 #: The paper's X rotation in degrees (rounded back to the published decimals).
 PAPER_X_ROTVEC_DEG = tuple(round(math.degrees(v), 10) for v in PAPER_X_ROTVEC_RAD)
 
 __all__ = ["CameraConfig", "IKConfig", "MarkerFieldConfig", "PerturbationConfig",
-           "RigConfig", "RoomConfig", "WorldConfig", "PLATFORMS"]
+           "RigConfig", "RoomConfig", "WorldConfig", "ArmControlConfig", "VehicleConfig",
+           "PLATFORMS"]
 
 #: Platforms that can carry the rig.
-PLATFORMS = ("cart", "arm")
+PLATFORMS = ("cart", "arm", "car")
 
 
 # ----------------------------------------------------------------------------- helpers
@@ -50,6 +53,8 @@ def _nested(name: str, value, cls):
             return cls(**value)
         except ConfigError as exc:
             raise exc.at(name) from None
+        except (ValueError, TypeError) as exc:   # a section with its own checks (vehicle)
+            raise ConfigError(f"{name}: {exc}", key=name) from None
     raise fail(name, type(value).__name__, f"a {cls.__name__} or a mapping of its fields",
                type_error=True)
 
@@ -247,6 +252,38 @@ class IKConfig:
 
 
 @dataclass(frozen=True)
+class ArmControlConfig:
+    """How the ``arm`` platform executes its path (``world.arm.*``).
+
+    * ``control``: ``"kinematic"`` (default: posed joint by joint from IK, the flange is
+      exactly on the path) or ``"physics"`` (the IK joint path is executed by torque-limited
+      PD servos in MuJoCo physics, :func:`simcalib.world.arm_control.track_joint_path`:
+      the flange lags, overshoots and settles; the cameras see where it really is).
+    * ``capture`` (physics only): ``"continuous"`` (frames at ``k / fps`` while moving) or
+      ``"stop_and_go"`` (the path stops at every frame, the arm settles, then captures;
+      the frames' times are the path clock, the robot's wall clock is longer).
+    * ``gain_scale``: multiplies the default servo stiffness ``kp`` (``kd`` by its square
+      root, keeping the damping ratio); ``settle_tol_rad`` / ``settle_max_s``: when a
+      stop-and-go capture is taken (every joint within the tolerance of its target and
+      slower than 1e-3 rad/s, or after ``settle_max_s``)."""
+    control: str = "kinematic"
+    capture: str = "continuous"
+    gain_scale: float = 1.0
+    settle_tol_rad: float = 1e-4
+    settle_max_s: float = 3.0
+
+    def __post_init__(self):
+        check_in("control", self.control, ("kinematic", "physics"))
+        check_in("capture", self.capture, ("continuous", "stop_and_go"))
+        set_fields(self,
+                   gain_scale=check_range("gain_scale", self.gain_scale, lo=0.01, hi=100.0),
+                   settle_tol_rad=check_range("settle_tol_rad", self.settle_tol_rad,
+                                              lo=1e-9, hi=1.0),
+                   settle_max_s=check_range("settle_max_s", self.settle_max_s, lo=0.0,
+                                            hi=60.0))
+
+
+@dataclass(frozen=True)
 class WorldConfig:
     """A simulated run.
 
@@ -263,6 +300,9 @@ class WorldConfig:
     * ``arm_dh_error``: ``None`` (default) or the true arm's deviation from the nominal UR5e
       DH table, 6 rows ``(theta_rad, d_m, a_m, alpha_rad)`` (built-in arm only; the run
       draws it from ``robot.kinematic_error``, see :mod:`simcalib.world.robot_error`).
+    * ``vehicle``: the physics car of platform ``car`` (``world.vehicle.*``: the fields and
+      checks of :class:`simcalib.world.vehicle.VehicleConfig`, reused as they are).
+    * ``arm``: how the arm executes its path (:class:`ArmControlConfig`).
     """
     platform: str | None = None
     path: str = "planar"
@@ -278,6 +318,8 @@ class WorldConfig:
     ik: IKConfig = field(default_factory=IKConfig)
     arm_model: str = "builtin"
     arm_dh_error: tuple | None = None
+    vehicle: VehicleConfig = field(default_factory=VehicleConfig)
+    arm: ArmControlConfig = field(default_factory=ArmControlConfig)
 
     def __post_init__(self):
         from simcalib.world.paths import get_path, resolve_platform
@@ -310,7 +352,11 @@ class WorldConfig:
         set_fields(self, **{name: _nested(name, getattr(self, name), cls) for name, cls in (
             ("perturbation", PerturbationConfig), ("rig", RigConfig), ("cam_a", CameraConfig),
             ("cam_b", CameraConfig), ("room", RoomConfig), ("markers", MarkerFieldConfig),
-            ("ik", IKConfig))})
+            ("ik", IKConfig), ("vehicle", VehicleConfig), ("arm", ArmControlConfig))})
+        if self.platform == "car":
+            check_that(not self.perturbation.active, "perturbation", self.perturbation,
+                       "off with platform 'car' (its roll, pitch and heave come from the "
+                       "physics: suspension and ground)")
         for cam in ("cam_a", "cam_b"):
             c = getattr(self, cam)
             period = 1.0 / self.camera_fps(cam)

@@ -160,6 +160,10 @@ def _path_scara(t, T, p):
     {"cart": {"amp_x_m": 0.6, "amp_y_m": 0.6, "yaw_turns": 1.0, "amp_yaw_deg": 30.0,
               "cycles": 1.0},
      "arm": {"amp_x_m": 0.10, "amp_y_m": 0.15, "yaw_turns": 0.0, "amp_yaw_deg": 30.0,
+             "cycles": 1.0},
+     # car: a 60 m x 24 m figure-eight (the physics car follows the geometry; its heading
+     # is the path tangent, so the yaw parameters are ignored)
+     "car": {"amp_x_m": 30.0, "amp_y_m": 12.0, "yaw_turns": 0.0, "amp_yaw_deg": 0.0,
              "cycles": 1.0}},
     degenerate="all rotations about the vertical axis: translation of X along it is "
                "unobservable")
@@ -175,7 +179,8 @@ def _path_planar(t, T, p):
 @_register(
     "linear", "straight line back and forth, constant orientation",
     {"cart": {"amp_m": 1.0, "direction_deg": 90.0, "cycles": 1.0},
-     "arm": {"amp_m": 0.2, "direction_deg": 90.0, "cycles": 1.0}},
+     "arm": {"amp_m": 0.2, "direction_deg": 90.0, "cycles": 1.0},
+     "car": {"amp_m": 25.0, "direction_deg": 0.0, "cycles": 0.5}},   # one pass, forward
     degenerate="no rotation: X's translation is unobservable")
 def _path_linear(t, T, p):
     s = -p["amp_m"] * np.cos(_w(t, T, p["cycles"]))
@@ -188,7 +193,8 @@ def _path_linear(t, T, p):
     "circular", "a circle in the horizontal plane, facing outwards (rotation about a fixed "
                 "vertical axis); full turns, or a back-and-forth arc when arc_deg > 0",
     {"cart": {"radius_m": 0.8, "turns": 1.0, "arc_deg": 0.0, "centre_back_m": 0.0},
-     "arm": {"radius_m": 0.2, "turns": 0.0, "arc_deg": 70.0, "centre_back_m": 0.2}},
+     "arm": {"radius_m": 0.2, "turns": 0.0, "arc_deg": 70.0, "centre_back_m": 0.2},
+     "car": {"radius_m": 15.0, "turns": 1.0, "arc_deg": 0.0, "centre_back_m": 0.0}},
     degenerate="one fixed rotation axis: translation of X along it is unobservable")
 def _path_circular(t, T, p):
     theta = _sweep(t, T, p)

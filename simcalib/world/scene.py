@@ -139,10 +139,13 @@ def build_scene(cfg) -> Scene:
     from simcalib.world.layout import marker_layout
     spec = mujoco.MjSpec.from_file(str(MODELS_DIR / "room.xml"))
     _resize_room(spec, cfg.room.size_m)
-    field = marker_layout(cfg.room, cfg.markers)
-
     from simcalib.world.platforms import get_platform
     platform = get_platform(cfg.platform)
+    if platform.info.outdoor:     # no room, no marker field (the platform edits the scene)
+        field = MarkerField(cfg.markers.dictionary, np.zeros(0, dtype=np.int64),
+                            cfg.markers.side_m, np.zeros((0, 4, 4)))
+    else:
+        field = marker_layout(cfg.room, cfg.markers)
     mount = platform.attach(spec, cfg)
 
     rig_spec = mujoco.MjSpec.from_file(str(MODELS_DIR / "rig.xml"))

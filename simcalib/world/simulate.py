@@ -10,6 +10,7 @@ cameras are sampled at different platform poses, exactly as an unsynchronised re
 
 from __future__ import annotations
 
+import copy
 import time
 from dataclasses import dataclass, field
 
@@ -50,8 +51,9 @@ class World:
     ``intrinsics``: camera -> ``CameraIntrinsics``; ``marker_field``: the known map;
     ``trajectory``: ground truth (``cam_a``/``cam_b`` are :class:`SimCameraFrames`,
     ``T_a_b`` the true X); ``config``; ``scene``: assembly details (home pose, mount site,
-    MJCF text); ``ik``: arm IK statistics (``None`` for the cart); ``timing_s``: build and
-    simulate wall times."""
+    MJCF text); ``ik``: the platform's statistics (arm IK errors, physics stats; ``None`` for
+    the cart); ``timing_s``: build and simulate wall times; ``platform_record``: a simulated
+    platform's full record (``VehicleTrajectory`` / ``ArmTrajectory``), else ``None``."""
     config: WorldConfig
     model: object
     camera_names: tuple
@@ -61,6 +63,7 @@ class World:
     scene: Scene = field(repr=False)
     ik: dict | None = None
     timing_s: dict = field(default_factory=dict)
+    platform_record: object = field(default=None, repr=False)
 
     def frames(self, camera: str) -> SimCameraFrames:
         if camera not in self.camera_names:
@@ -123,7 +126,8 @@ def build_world(cfg: WorldConfig, rng: np.random.Generator) -> World:
     model = scene.model
     t_build = time.perf_counter() - t0
 
-    rng_pert, rng_a, rng_b = rng.spawn(3)
+    # the 4th child (physics platforms) leaves the first three as they always were
+    rng_pert, rng_a, rng_b, rng_platform = rng.spawn(4)
     timing = {"cam_a": _capture_times(cfg, "cam_a", rng_a),
               "cam_b": _capture_times(cfg, "cam_b", rng_b)}
     t_all = np.concatenate([timing["cam_a"][1], timing["cam_b"][1]])
@@ -132,19 +136,27 @@ def build_world(cfg: WorldConfig, rng: np.random.Generator) -> World:
     n_cam = {c: timing[c][1].shape[0] for c in CAMERA_NAMES}
     first = {"cam_a": 0, "cam_b": n_cam["cam_a"]}
 
-    samples = [sample_path(cfg.path, cfg.platform, t_unique, cfg.duration_s, cfg.path_params)]
-    if cfg.perturbation.active:
-        samples.append(perturbation_sample(t_unique, cfg.perturbation, rng_pert))
-    T_target = compose_path(scene.T_world_home, *samples)
+    def target_fn(tt):
+        """Path poses of the target frame at any times (same perturbation draws)."""
+        tt = np.asarray(tt, dtype=np.float64)
+        samples = [sample_path(cfg.path, cfg.platform, tt, cfg.duration_s, cfg.path_params)]
+        if cfg.perturbation.active:
+            samples.append(perturbation_sample(tt, cfg.perturbation, copy.deepcopy(rng_pert)))
+        return compose_path(scene.T_world_home, *samples)
 
     from simcalib.world.platforms import get_platform
-    motion = get_platform(cfg.platform).drive(scene, T_target, t_unique, cfg)
+    platform = get_platform(cfg.platform)
+    if callable(getattr(platform, "simulates", None)) and platform.simulates(cfg):
+        motion = platform.simulate(scene, target_fn, t_unique, cfg, rng_platform)
+    else:
+        motion = platform.drive(scene, target_fn(t_unique), t_unique, cfg)
     qpos, mocap_pos, mocap_quat = motion.qpos, motion.mocap_pos, motion.mocap_quat_wxyz
 
     T_cams = camera_poses_from_state(model, qpos, mocap_pos, mocap_quat)   # (nu, ncam, 4, 4)
     cam_ids = {name: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, name)
                for name in CAMERA_NAMES}
-    _check_inside_room(cfg, T_cams[:, [cam_ids[c] for c in CAMERA_NAMES]], t_unique)
+    if not platform.info.outdoor:
+        _check_inside_room(cfg, T_cams[:, [cam_ids[c] for c in CAMERA_NAMES]], t_unique)
 
     from simcalib.world.layout import visible_markers
     frames = {}
@@ -175,6 +187,7 @@ def build_world(cfg: WorldConfig, rng: np.random.Generator) -> World:
     return World(config=cfg, model=model, camera_names=CAMERA_NAMES,
                  intrinsics=dict(scene.intrinsics), marker_field=scene.marker_field,
                  trajectory=traj, scene=scene, ik=motion.stats,
+                 platform_record=motion.record,
                  timing_s={"build_scene": t_build, "simulate": total - t_build,
                            "total": total})
 

@@ -36,8 +36,8 @@ from simcalib.render import import_mujoco as _mujoco
 
 __all__ = ["VehicleConfig", "VehicleTrajectory", "PlanarPath", "DRIVES", "GROUNDS",
            "simulate_vehicle", "build_vehicle_model", "figure_eight_path", "as_planar_path",
-           "terrain_heights", "translation_sensitivity", "physics_table", "step_cost_us",
-           "CAR_XML"]
+           "terrain_heights", "translation_sensitivity", "apply_vehicle_geometry",
+           "physics_table", "step_cost_us", "CAR_XML"]
 
 CAR_XML = Path(__file__).resolve().parents[2] / "models" / "car.xml"
 DRIVES = ("ackermann", "differential")
@@ -318,13 +318,12 @@ def build_vehicle_model(cfg: VehicleConfig, rng: np.random.Generator | None = No
     return b.model, b.ground_height
 
 
-def _build(cfg: VehicleConfig, rng, extent_xy_m) -> _Built:
-    mujoco = _mujoco()
-    spec = mujoco.MjSpec.from_file(str(CAR_XML))
-    spec.option.timestep = float(cfg.timestep_s)
+def apply_vehicle_geometry(spec, cfg: VehicleConfig) -> None:
+    """Edit a ``models/car.xml`` ``MjSpec`` to the geometry of ``cfg``: wheel positions and
+    radii, tyre friction, chassis mass and inertia, the (visual) shell scaled with the
+    footprint, and the rig-mount site at ``cfg.mount_pos_m``. Used by the physics build and
+    by the kinematic copy the ``car`` platform puts in a scene (one place for both)."""
     L, W, r = float(cfg.wheelbase_m), float(cfg.track_m), float(cfg.wheel_radius_m)
-
-    # geometry and masses
     for c in CORNERS:
         sx = 0.5 * L if c[0] == "f" else -0.5 * L
         sy = 0.5 * W if c[1] == "l" else -0.5 * W
@@ -351,6 +350,16 @@ def _build(cfg: VehicleConfig, rng, extent_xy_m) -> _Built:
         g.pos = [base_pos[0] * sxl, 0.0, base_pos[2]]
         g.size = [base_size[0] * sxl, base_size[1] * syl, base_size[2]]
     spec.site("rig_mount").pos = [float(v) for v in cfg.mount_pos_m]
+
+
+def _build(cfg: VehicleConfig, rng, extent_xy_m) -> _Built:
+    mujoco = _mujoco()
+    spec = mujoco.MjSpec.from_file(str(CAR_XML))
+    spec.option.timestep = float(cfg.timestep_s)
+    apply_vehicle_geometry(spec, cfg)
+    L, W, r = float(cfg.wheelbase_m), float(cfg.track_m), float(cfg.wheel_radius_m)
+    chassis = spec.body("chassis")
+    mass = float(cfg.chassis_mass_kg)
 
     # suspension
     travel = float(cfg.suspension_travel_m)

@@ -2,14 +2,16 @@
 
     from simcalib.world.platforms import available_platforms, combinations, get_platform
 
-Built-in: ``cart`` (kinematic mocap cart), ``arm`` (UR5e posed by IK). Each module is
+Built-in: ``cart`` (kinematic mocap cart), ``arm`` (UR5e posed by IK, or executing the
+IK path under joint control in physics: ``world.arm.control``), ``car`` (car-scale vehicle
+in physics, outdoors). Each module is
 light (MuJoCo is imported inside the methods). See :mod:`simcalib.world.platforms.base`.
 """
 
 from simcalib.world.platforms.base import Platform, PlatformInfo, PlatformMotion
 from simcalib.world.platforms.registry import (available_platforms, combinations,
                                                get_platform, register)
-from simcalib.world.platforms import cart, arm  # noqa: E402,F401  (register themselves)
+from simcalib.world.platforms import cart, arm, car  # noqa: E402,F401  (register themselves)
 
 __all__ = ["Platform", "PlatformInfo", "PlatformMotion", "available_platforms",
            "combinations", "get_platform", "register"]

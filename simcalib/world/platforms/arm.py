@@ -1,11 +1,34 @@
-"""Platform ``arm``: a UR5e on a pedestal, posed joint by joint from IK along the path
-(its flange carries the rig and is the target frame).
+"""Platform ``arm``: a UR5e on a pedestal whose flange carries the rig and is the target
+frame; the path is turned into joint angles by IK.
+
+``world.arm.control`` chooses how the joint path is executed:
+
+* ``kinematic`` (default): the arm is *posed* at the IK solution of every capture time;
+  the flange is exactly on the path (the clean case).
+* ``physics``: the IK joint path (solved at 100 Hz over the run) is the reference of
+  torque-limited PD joint servos in MuJoCo physics
+  (:func:`simcalib.world.arm_control.track_joint_path`, gains scaled by
+  ``world.arm.gain_scale``); the flange lags, overshoots and settles, and the cameras'
+  ground truth is where the simulated arm really is at each capture time (its joint
+  samples at 500 Hz, interpolated). ``world.arm.capture=continuous`` captures while
+  moving at ``k / fps``; ``stop_and_go`` stops the path at every frame and captures when
+  the arm has settled (the frames keep the path clock ``k / fps``; the robot's own,
+  longer clock is in ``World.platform_record``).
+
+Why one platform with a control mode rather than a second platform ``arm_physics``: the
+arm, its mount, home pose, workspace and the paths it supports (with their per-platform
+parameters in the path registry) are the same; only the execution differs. A second
+platform would duplicate every path's ``arm`` defaults and double the platform x path
+matrix for no new geometry, and a scenario switches between ideal and real execution with
+one key (``world.arm.control=physics``).
 
 The built-in model is ``models/ur5e.xml`` (UR5e DH kinematics, primitive geoms);
-``world.arm_model=menagerie`` loads the Menagerie UR5e from ``$MENAGERIE_ROOT``."""
+``world.arm_model=menagerie`` loads the Menagerie UR5e from ``$MENAGERIE_ROOT``. The
+physics arm is the arm model alone (the rig's small mass is not in its dynamics)."""
 
 from __future__ import annotations
 
+import math
 import os
 import time
 from pathlib import Path
@@ -15,7 +38,7 @@ import numpy as np
 from simcalib.world.platforms.base import PlatformInfo, PlatformMotion
 from simcalib.world.platforms.registry import register
 
-__all__ = ["ArmPlatform", "ARM_HOME_OFFSET_M", "ARM_HOME_SEED", "R_WORLD_RIG_FORWARD",
+__all__ = ["ArmPlatform", "REFERENCE_RATE_HZ", "ARM_HOME_OFFSET_M", "ARM_HOME_SEED", "R_WORLD_RIG_FORWARD",
            "ARM_BASE_TO_WALL_M", "PEDESTAL_HEIGHT_M", "MENAGERIE_UR5E", "arm_base_position"]
 
 #: Arm home: the flange frame equals the rig frame looking along world +x (flange z = +x,
@@ -126,19 +149,9 @@ class ArmPlatform:
         return T_world_home, _arm_home_qpos(model, data, mount_site, T_world_home)
 
     def drive(self, scene, T_world_target, t, cfg) -> PlatformMotion:
-        from simcalib.world.ik import solve_ik_path
-        from simcalib.world.paths import get_path
         model = scene.model
         t1 = time.perf_counter()
-        # start from the home solution at the path's first pose (continuous branch)
-        res = solve_ik_path(model, scene.mount_site, T_world_target, scene.home_qpos, cfg.ik)
-        if not res.converged.all():
-            k = int(np.flatnonzero(~res.converged)[0])
-            raise ValueError(
-                f"path {cfg.path!r} is not reachable by the arm within its joint limits: at "
-                f"t = {t[k]:.3f} s the IK error is {res.pos_error_m[k] * 1e3:.3g} mm / "
-                f"{np.rad2deg(res.rot_error_rad[k]):.3g} deg; reduce the path amplitudes "
-                f"(path_params) — defaults: {get_path(cfg.path).defaults['arm']}")
+        res = _ik_path(scene, T_world_target, t, cfg)
         n = T_world_target.shape[0]
         return PlatformMotion(
             qpos=res.qpos, mocap_pos=np.zeros((n, model.nmocap, 3)),
@@ -147,6 +160,69 @@ class ArmPlatform:
                    "max_rot_error_rad": float(res.rot_error_rad.max()),
                    "mean_iterations": float(res.iterations.mean()),
                    "n_waypoints": int(n), "time_s": time.perf_counter() - t1})
+
+    def simulates(self, cfg) -> bool:
+        return cfg.arm.control == "physics"
+
+    def simulate(self, scene, target_fn, t, cfg, rng) -> PlatformMotion:
+        """Execute the IK joint path under joint control in physics (module docstring)."""
+        from simcalib.world.arm_control import ArmGains, track_joint_path
+        model = scene.model
+        t1 = time.perf_counter()
+        t = np.asarray(t, dtype=np.float64)
+        t_ref = np.arange(int(math.floor(cfg.duration_s * REFERENCE_RATE_HZ + 1e-9)) + 1
+                          ) / REFERENCE_RATE_HZ
+        if t_ref[-1] < cfg.duration_s - 1e-9:
+            t_ref = np.append(t_ref, cfg.duration_s)
+        res = _ik_path(scene, target_fn(t_ref), t_ref, cfg)
+        g0, s = ArmGains(), float(cfg.arm.gain_scale)
+        gains = ArmGains(kp_nm_per_rad=tuple(s * np.asarray(g0.kp_nm_per_rad)),
+                         kd_nm_s_per_rad=tuple(math.sqrt(s) * np.asarray(g0.kd_nm_s_per_rad)))
+        spec, site = _arm_spec(cfg.arm_model)
+        for act in list(spec.actuators):        # the Menagerie arm brings its own
+            spec.delete(act)
+        tr = track_joint_path(spec, (t_ref, res.qpos), duration_s=float(t_ref[-1]),
+                              gains=gains, capture=cfg.arm.capture, capture_rate_hz=cfg.fps,
+                              site=site, sample_rate_hz=500.0,
+                              settle_tol_rad=cfg.arm.settle_tol_rad,
+                              settle_max_s=cfg.arm.settle_max_s)
+        # frame times are path times: map them to the robot's clock (identical when
+        # continuous; at a stop, the end of the settling = the capture instant)
+        pt, rt = tr.path_time_s, tr.time_s
+        last_of_run = np.r_[pt[1:] != pt[:-1], True]
+        t_robot = np.interp(t, pt[last_of_run], rt[last_of_run])
+        qpos = np.stack([np.interp(t_robot, rt, tr.qpos[:, j])
+                         for j in range(tr.qpos.shape[1])], axis=-1)
+        n = t.shape[0]
+        stats = {"max_pos_error_m": float(res.pos_error_m.max()),
+                 "max_rot_error_rad": float(res.rot_error_rad.max()),
+                 "n_waypoints": int(t_ref.size), "control": "physics",
+                 "capture": cfg.arm.capture, **tr.stats, "robot_time_s": t_robot,
+                 "time_s": time.perf_counter() - t1}
+        return PlatformMotion(qpos=qpos, mocap_pos=np.zeros((n, model.nmocap, 3)),
+                              mocap_quat_wxyz=np.zeros((n, model.nmocap, 4)), stats=stats,
+                              record=tr)
+
+
+#: Rate at which the physics arm's joint reference is solved by IK (then interpolated).
+REFERENCE_RATE_HZ = 100.0
+
+
+def _ik_path(scene, T_world_target, t, cfg):
+    """IK of the path (start from the home solution at the first pose); a waypoint the
+    arm cannot reach raises ``ValueError`` naming the time."""
+    from simcalib.world.ik import solve_ik_path
+    from simcalib.world.paths import get_path
+    res = solve_ik_path(scene.model, scene.mount_site, T_world_target, scene.home_qpos,
+                        cfg.ik)
+    if not res.converged.all():
+            k = int(np.flatnonzero(~res.converged)[0])
+            raise ValueError(
+                f"path {cfg.path!r} is not reachable by the arm within its joint limits: at "
+                f"t = {t[k]:.3f} s the IK error is {res.pos_error_m[k] * 1e3:.3g} mm / "
+                f"{np.rad2deg(res.rot_error_rad[k]):.3g} deg; reduce the path amplitudes "
+                f"(path_params) — defaults: {get_path(cfg.path).defaults['arm']}")
+    return res
 
 
 register(ArmPlatform())

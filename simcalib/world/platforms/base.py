@@ -2,8 +2,9 @@
 
 A platform adds its bodies to the scene, says where the rig is mounted and where its
 *target frame* (the frame a path moves: cart base, arm flange) sits at home, and turns the
-path's target poses into MuJoCo states (kinematically today; a physics platform would
-simulate here). One file per platform under ``simcalib/world/platforms/``; each registers
+path's target poses into MuJoCo states: kinematically (``drive``: the target frame is put
+exactly on the path) or by a physics simulation that follows the path (``simulate``: the
+states are where the simulated platform really is at the capture times). One file per platform under ``simcalib/world/platforms/``; each registers
 itself (``register``). Paths state the platforms they support
 (:class:`simcalib.world.paths.PathInfo` ``defaults`` keys).
 """
@@ -20,20 +21,27 @@ __all__ = ["PlatformInfo", "PlatformMotion", "Platform"]
 
 @dataclass(frozen=True)
 class PlatformInfo:
-    """``name`` (``world.platform=<name>``) and a one-line ``description``."""
+    """``name`` (``world.platform=<name>``) and a one-line ``description``.
+    ``outdoor``: the platform needs more space than a room (car scale): its scene has no
+    walls, no ceiling and no marker field (so no ArUco source), and cameras may go
+    anywhere."""
     name: str
     description: str
+    outdoor: bool = False
 
 
 @dataclass(frozen=True)
 class PlatformMotion:
     """MuJoCo state of the platform at ``N`` times: ``qpos`` ``(N, nq)``, ``mocap_pos``
     ``(N, nmocap, 3)``, ``mocap_quat_wxyz`` ``(N, nmocap, 4)`` (MuJoCo order); ``stats``
-    platform diagnostics for ``World.ik``/results (e.g. IK errors), or ``None``."""
+    platform diagnostics for ``World.ik``/results (e.g. IK errors), or ``None``;
+    ``record``: a simulated platform's full physics record (``VehicleTrajectory``,
+    ``ArmTrajectory``), kept as ``World.platform_record``, or ``None``."""
     qpos: np.ndarray
     mocap_pos: np.ndarray
     mocap_quat_wxyz: np.ndarray
     stats: dict | None = None
+    record: object = None
 
 
 @runtime_checkable
@@ -48,6 +56,16 @@ class Platform(Protocol):
     * ``drive(scene, T_world_target, t, cfg) -> PlatformMotion``: the states that put the
       target frame at ``T_world_target`` ``(N, 4, 4)`` at times ``t`` ``(N,)`` (seconds,
       increasing); raise ``ValueError`` naming the time when the path cannot be followed.
+
+    Optional, for platforms driven by physics:
+
+    * ``simulates(cfg) -> bool``: True when this configuration is simulated (then
+      ``simulate`` is called instead of ``drive``).
+    * ``simulate(scene, target_fn, t, cfg, rng) -> PlatformMotion``: the states at the
+      capture times ``t`` of a simulation that follows the path; ``target_fn(tt)`` gives
+      the target frame's path poses ``(M, 4, 4)`` at any times ``tt`` (the same path
+      ``drive`` gets, sampled where the simulation needs it); ``rng`` a generator of its
+      own (e.g. uneven ground). The states need not put the target frame on the path.
     """
     info: PlatformInfo
 
