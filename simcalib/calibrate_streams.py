@@ -29,7 +29,10 @@ class StreamCalibration:
     all motions); ``time_offset``: :class:`simcalib.timesync.TimeOffset`; ``conventions``:
     :class:`simcalib.conventions.ConventionReport`; ``robust`` / ``plain``:
     :class:`simcalib.solvers.robust.RobustSolution`; ``C``, ``H`` the motions used,
-    ``motion_time_s`` their start instants (clock a); ``summary``: numbers for reports.
+    ``motion_time_s`` their start instants (clock a); ``summary``: numbers for reports;
+    ``synced``: the synchronised poses (:class:`simcalib.timesync.SyncedPoses`) the motions
+    were formed from; ``motion_index``: ``(i, j)``, motion k runs from ``synced`` instant
+    ``i[k]`` to ``j[k]``.
     """
     X: np.ndarray
     X_plain: np.ndarray
@@ -43,6 +46,8 @@ class StreamCalibration:
     H: np.ndarray = field(repr=False)
     motion_time_s: np.ndarray = field(repr=False)
     summary: dict = field(default_factory=dict)
+    synced: object = field(default=None, repr=False)
+    motion_index: tuple = field(default=(), repr=False)
 
 
 def _errors_summary(C, H, X, mask=None):
@@ -68,13 +73,17 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
                       max_rotation_deg: float | None = None, invert_a: bool | None = None,
                       invert_b: bool | None = None, scalar_first_a: bool | None = None,
                       scalar_first_b: bool | None = None, drift: bool = False,
-                      robust_options: dict | None = None, seed: int = 0) -> StreamCalibration:
+                      robust_options: dict | None = None, method: str = "dqopt",
+                      prior=None, seed: int = 0) -> StreamCalibration:
     """Calibrate ``X = T_a_b`` from two pose streams (paths or PoseStreamData).
 
     ``time_offset``: ``"estimate"`` or seconds ``t_b - t_a``. ``robust``: ``none``,
     ``ransac`` or ``irls``. Motions: over ``step_s`` seconds from every synchronised instant,
     kept when they rotate at least ``min_rotation_deg`` (at most ``max_rotation_deg``).
-    Conventions are detected unless forced (``invert_*``, ``scalar_first_*``).
+    Conventions are detected unless forced (``invert_*``, ``scalar_first_*``). ``method``:
+    the solver of the final estimate (RANSAC's minimal sets stay dqopt); ``prior``: a
+    :class:`simcalib.Prior`, used in a final solve on the inliers (IRLS: with their weights).
+    Bad files raise :class:`simcalib.errors.DataError`.
     """
     from simcalib.conventions import apply_conventions, detect_conventions
     from simcalib.importers import PoseStreamData, read_pose_stream
@@ -96,12 +105,15 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     else:
         off = estimate_time_offset(sa, sb, drift=drift, alpha=alpha)
     sp = synchronise(sa, sb, off)
-    C, H, i, _ = make_motions(sp, step_s=step_s, min_rotation_deg=min_rotation_deg,
+    C, H, i, j = make_motions(sp, step_s=step_s, min_rotation_deg=min_rotation_deg,
                               max_rotation_deg=max_rotation_deg)
     opts = dict(robust_options or {})
     if robust in ("ransac", "irls"):
         opts.setdefault("rng", np.random.default_rng(seed))
+    opts.setdefault("final_method" if robust == "ransac" else "method", method)
     rob = robust_solve(C, H, robust, alpha=alpha, **opts)
+    if prior is not None:
+        rob = _with_prior(C, H, rob, method, alpha, prior)
     # plain: synchronous (offset 0), no rejection, same motion rule
     sp0 = synchronise(sa, sb, 0.0)
     C0, H0, _, _ = make_motions(sp0, step_s=step_s, min_rotation_deg=min_rotation_deg,
@@ -125,7 +137,43 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
         "degenerate": bool(rob.solution.degenerate) if rob.solution is not None else None,
     }
     return StreamCalibration(rob.X, plain.X, off, conv, rob, plain, sa, sb, C, H, sp.time_s[i],
-                             summary)
+                             summary, synced=sp, motion_index=(i, j))
+
+
+def _with_prior(C, H, rob, method, alpha, prior):
+    """The robust result re-solved with ``prior`` on its inliers (IRLS: all motions with
+    their weights); residuals re-evaluated at the new ``X``."""
+    import dataclasses
+
+    import simcalib
+    from simcalib.solvers.robust import screw_residuals
+    if rob.method == "irls":
+        sol = simcalib.solve(C, H, method=method, alpha=alpha, prior=prior,
+                             weights=rob.weights)
+    else:
+        m = rob.inlier_mask
+        sol = simcalib.solve(C[m], H[m], method=method, alpha=alpha, prior=prior)
+    return dataclasses.replace(rob, X=sol.X, solution=sol,
+                               residuals=screw_residuals(C, H, sol.X, alpha),
+                               message=rob.message + f"; final {method} with the prior")
+
+
+def align_worlds(T_a: np.ndarray, T_b: np.ndarray, X: np.ndarray) -> np.ndarray:
+    """``T_wa_wb``: the fixed transform between the two streams' world frames implied by
+    ``X`` (``T_wa_a X = T_wa_wb T_wb_b`` at every synchronised instant), as the chordal
+    mean rotation (SVD projection of the mean) and the median translation of the per-instant
+    estimates ``T_wa_a X T_wb_b^-1``. Used to draw both trajectories in one frame."""
+    from simcalib.geometry import invert_transform
+    Y = T_a @ X @ invert_transform(T_b)
+    U, _, Vt = np.linalg.svd(Y[:, :3, :3].mean(axis=0))
+    R = U @ Vt
+    if np.linalg.det(R) < 0:
+        U[:, -1] *= -1
+        R = U @ Vt
+    out = np.eye(4)
+    out[:3, :3] = R
+    out[:3, 3] = np.median(Y[:, :3, 3], axis=0)
+    return out
 
 
 def _rot_angle(X1, X2):

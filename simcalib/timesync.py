@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from simcalib.errors import DataError
 from simcalib.geometry import (invert_transform, matrix_from_quat, quat_from_matrix,
                                rotation_angle_rad, transform_from_rotation_translation)
 
@@ -224,7 +225,7 @@ def make_motions(synced: SyncedPoses, *, step_s: float | None = None, step: int 
     t, Ta, Tb = synced.time_s, synced.T_a, synced.T_b
     n = t.size
     if n < 3:
-        raise ValueError(f"only {n} synchronised poses; at least 3 are needed (do the streams "
+        raise DataError(f"only {n} synchronised poses; at least 3 are needed (do the streams "
                          "overlap in time with this offset?)")
     if keyframes:
         if min_rotation_deg is None or not min_rotation_deg > 0:
@@ -385,7 +386,7 @@ def _refine(sa, sb, coarse, half_width, step_s, alpha, window, reference, n_grid
             inl = ransac(C[mask], H[mask], alpha=alpha, rng=np.random.default_rng(0),
                          max_iterations=256).inlier_mask
             mask[np.nonzero(mask)[0][~inl]] = False
-        except ValueError:
+        except (ValueError, RuntimeError):   # RANSAC: too few motions / no consensus
             pass
     kw = dict(step_s=step_s, alpha=alpha, window_s=window, reference=reference,
               motion_mask=mask)
@@ -446,7 +447,7 @@ def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = Non
     lo_a = max(ta[0], tb[0] - coarse) + half + 1e-6
     hi_a = min(ta[-1], tb[-1] - coarse) - half - 1e-6
     if hi_a - lo_a < 4 * step_s:
-        raise ValueError(f"the streams overlap for only {max(hi_a - lo_a, 0):.3f} s at the "
+        raise DataError(f"the streams overlap for only {max(hi_a - lo_a, 0):.3f} s at the "
                          f"coarse offset {coarse:.3f} s; too short to refine")
     shift = 0.0 if reference == "a" else coarse       # window in the reference's clock
     win = (lo_a + shift, hi_a + shift)

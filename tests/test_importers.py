@@ -36,7 +36,7 @@ def _same(s: PoseStreamData, t, T):
 
 def test_registry_lists_formats():
     assert set(available()) == {"tum", "simcalib_tum", "eth", "csv", "easy_handeye", "moveit"}
-    with pytest.raises(ValueError, match="allowed: .*eth"):
+    with pytest.raises(ValueError, match="available: .*eth"):
         read_pose_stream(__file__, format="ethz")
 
 
