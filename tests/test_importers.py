@@ -201,7 +201,8 @@ def test_stream_from_arrays(rig):
 @pytest.mark.skipif(not ETH.is_dir(), reason=f"ETH data sets not present at {ETH} "
                     "(set SIMCALIB_ETH_DIR)")
 def test_eth_data_conventions_and_calibration():
-    from simcalib.calibrate_streams import calibrate_streams, eth_files
+    from simcalib.calibrate_streams import calibrate_streams
+    from simcalib.experiments.streams import eth_files
     files = eth_files(ETH)
     assert set(files) == {"robot_arm_w_color_camera_sim", "prime_sense_1"}
     for name, (fa, fb) in files.items():

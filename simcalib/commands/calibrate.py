@@ -343,6 +343,9 @@ def report_dict(opts: CalibrateOptions, r, a: Assessment) -> dict:
         "plain": {"description": "dqopt, offset 0, all motions, no rejection",
                   "X": _pose(r.X_plain), "n_motions": s["n_motions_plain"],
                   "residuals": s["residuals_plain"]},
+        "aligned_no_rejection": {"description": "dqopt, offset as above, all "
+                                 "motions, no rejection", "X": _pose(r.X_aligned),
+                                 "residuals": s["residuals_aligned"]},
         "solution": rob.solution.to_dict() if rob.solution is not None else None,
         "options": to_dict(opts),
         "warnings": warnings(r),

@@ -1,0 +1,244 @@
+"""``simcalib calibrate``: the simulation round trip through files (issue 11 §5), exit codes,
+options, outputs, and the ETH data sets (skipped when absent)."""
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from simcalib.cli import main
+from simcalib.errors import EXIT_CONFIG, EXIT_DEGENERATE, EXIT_INPUT, EXIT_OK, EXIT_SOLVER
+from simcalib.geometry import (invert_transform, quat_from_matrix, rotation_error_rad,
+                               transform_from_rotation_translation, translation_error_m)
+from simcalib.reports import write_tum
+from simcalib.stream_sim import rig_streams
+
+ETH = Path(os.environ.get("SIMCALIB_ETH_DIR",
+                          Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "eth"))
+
+
+def _read_tum(path):
+    rows = np.loadtxt(path, comments="#")
+    from simcalib.geometry import matrix_from_quat
+    return rows[:, 0], transform_from_rotation_translation(matrix_from_quat(rows[:, 4:8]),
+                                                           rows[:, 1:4])
+
+
+def _write_eth_wxyz(path, t, T):
+    """ETH layout (no header) but the quaternion written scalar-first: only the data can
+    tell the reading."""
+    q = quat_from_matrix(T[:, :3, :3])
+    rows = np.column_stack([t, T[:, :3, 3], q[:, 3:], q[:, :3]])
+    np.savetxt(path, rows, fmt="%.10f", delimiter=", ")
+    return path
+
+
+def _calibrate(capsys, *args):
+    code = main(["calibrate", *map(str, args)])
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+@pytest.mark.slow
+def test_round_trip_simulated_run(tmp_path, capsys):
+    """A simulated run (UR5e arm, 3d path, noisy poses 0.1 deg / 1 mm at 30 Hz) exported
+    as files: a as simcalib TUM; b at 15 Hz, stamped 37 ms late, 3 % of its poses replaced
+    by gross outliers, written INVERTED (T_sensor_world) with SCALAR-FIRST quaternions in
+    the header-less ETH layout. The command must find the reading, the offset (within
+    3 ms) and X (within 0.15 deg / 3 mm; the synchronised outlier-free solve of the run
+    itself is at ~0.05 deg / 3 mm), rejecting the outlier motions."""
+    import simcalib
+    cfg = simcalib.load_config("3d", ["source=noisy", "noise.sigma_r_deg=0.1",
+                                      "noise.sigma_t_m=0.001", "world.fps=30",
+                                      "recording.enabled=false", "solvers=[dqopt]",
+                                      f"output={tmp_path / 'run'}"])
+    run = simcalib.run(cfg)
+    run_dir = Path(run.output_dir)
+    X_true = np.array(json.loads((run_dir / "extrinsics.json").read_text())["X_true"]["T"])
+    t_b, T_b = _read_tum(run_dir / "tum" / "cam_b_noisy.tum")
+    t_b, T_b = t_b[::2], T_b[::2].copy()
+    rng = np.random.default_rng(5)
+    k = int(round(0.03 * t_b.size))
+    idx = rng.choice(t_b.size, k, replace=False)
+    from simcalib.geometry import random_rotation_matrices
+    T_b[idx] = T_b[idx] @ transform_from_rotation_translation(
+        random_rotation_matrices(rng, (k,)), rng.uniform(-0.3, 0.3, (k, 3)))
+    pa = run_dir / "tum" / "cam_a_noisy.tum"
+    pb = _write_eth_wxyz(tmp_path / "b_camera.csv", t_b + 0.037, invert_transform(T_b))
+    out = tmp_path / "calib"
+    code, text, err = _calibrate(capsys, f"a={pa}", f"b={pb}", f"output={out}")
+    assert code == EXIT_OK, err + text
+    rep = json.loads((out / "calibration.json").read_text())
+    X = np.array(rep["X"]["T_a_b"])
+    conv = rep["conventions"]
+    assert conv["invert_b"] and conv["swap_scalar_b"] and not conv["invert_a"], conv["message"]
+    assert conv["clear"], conv["message"]
+    assert abs(rep["time_offset"]["offset_s"] - 0.037) < 3e-3, rep["time_offset"]["message"]
+    rot_deg = np.degrees(rotation_error_rad(X, X_true))
+    trans_m = translation_error_m(X, X_true)
+    assert rot_deg < 0.15 and trans_m < 3e-3, (rot_deg, trans_m)
+    X_plain = np.array(rep["plain"]["X"]["T_a_b"])
+    assert translation_error_m(X_plain, X_true) > 5 * trans_m          # what it fixed
+    inl = rep["inliers"]
+    assert inl["n_inliers"] < inl["n_motions"]
+    m = np.load(out / "motions.npz")
+    assert m["C"].shape == (inl["n_motions"], 4, 4) and m["inlier"].sum() == inl["n_inliers"]
+    # the outlier motions are the rejected ones: every motion touching an outlier pose of b
+    # is in the rejected set at a rate far above the inliers'
+    assert rep["verdict"]["verdict"] == "determined" and rep["status"] == "determined"
+    for word in ("X = T_a_b", "quaternion (x,y,z,w)", "uncertainty", "verdict: DETERMINED",
+                 "time offset t_b - t_a: 3", "inliers:", "residuals", "conventions:",
+                 "inverted", "swapped", "status: determined (exit 0)"):
+        assert word in text, word
+    from rerun.chunk import RrdReader
+    summary = str(RrdReader(str(out / "recording.rrd")).store().summary())
+    assert "/time_offset/correlation" in summary and "/time_offset/cost" in summary
+
+
+def _rig_files(tmp_path, path="3d", offset_s=0.0, seed=1):
+    rs = rig_streams(offset_s=offset_s, duration_s=15.0, path=path,
+                     rng=np.random.default_rng(seed))
+    pa = write_tum(tmp_path / f"{path}_a.tum", rs.t_a, rs.T_a)
+    pb = write_tum(tmp_path / f"{path}_b.tum", rs.t_b, rs.T_b)
+    return rs, pa, pb
+
+
+def test_outputs_schema_recording_and_given_offset(tmp_path, capsys):
+    rs, pa, pb = _rig_files(tmp_path, offset_s=0.02)
+    out = tmp_path / "o"
+    code, text, err = _calibrate(capsys, f"a={pa}", f"b={pb}", f"output={out}",
+                                 "time_offset=0.02", "robust=none", "step_s=0.5")
+    assert code == EXIT_OK, err
+    rep = json.loads((out / "calibration.json").read_text())
+    assert rep["schema"] == "simcalib.calibration/1" and rep["exit_code"] == 0
+    for key in ("X", "uncertainty", "verdict", "time_offset", "inliers", "residuals",
+                "conventions", "streams", "plain", "solution", "options", "warnings"):
+        assert key in rep, key
+    assert rep["time_offset"]["offset_s"] == 0.02 and not rep["time_offset"]["estimated"]
+    assert rep["inliers"]["robust"] == "none"
+    assert rep["options"]["step_s"] == 0.5
+    q = np.array(rep["X"]["quaternion_xyzw"])
+    assert abs(np.linalg.norm(q) - 1) < 1e-9
+    assert np.degrees(rotation_error_rad(np.array(rep["X"]["T_a_b"]), rs.X)) < 0.05
+    from rerun.chunk import RrdReader
+    summary = str(RrdReader(str(out / "recording.rrd")).store().summary())
+    for ent in ("/world/a/trajectory", "/world/b_measured/trajectory",
+                "/world/b_predicted/trajectory", "/residuals/rotation_deg",
+                "/time_offset/estimate", "/summary"):   # no curve: offset given
+        assert ent in summary, ent
+
+
+def test_degenerate_motion_exits_6_and_still_writes(tmp_path, capsys):
+    """Planar path: all rotations about the vertical, X's vertical translation is not
+    determined."""
+    _, pa, pb = _rig_files(tmp_path, path="planar")
+    out = tmp_path / "o"
+    code, text, _ = _calibrate(capsys, f"a={pa}", f"b={pb}", f"output={out}",
+                               "time_offset=0", "recording=false")
+    assert code == EXIT_DEGENERATE
+    rep = json.loads((out / "calibration.json").read_text())
+    assert rep["status"] == "degenerate" and rep["verdict"]["degenerate"]
+    assert rep["verdict"]["directions"] and "translation" in rep["verdict"]["directions"][0]
+    assert "exit 6" in text and not (out / "recording.rrd").exists()
+
+
+@pytest.mark.slow
+def test_prior_inline_and_from_a_calibration_json(tmp_path, capsys):
+    rs, pa, pb = _rig_files(tmp_path, path="planar")
+    t = rs.X[:3, 3]
+    q = quat_from_matrix(rs.X[:3, :3])
+    inline = "[" + ",".join(f"{v:.9f}" for v in [*t, *q]) + "]"
+    out = tmp_path / "p"
+    code, _, err = _calibrate(capsys, f"a={pa}", f"b={pb}", f"output={out}", "time_offset=0",
+                              f"prior={inline}", "recording=false")
+    assert code in (EXIT_OK, EXIT_DEGENERATE), err
+    rep = json.loads((out / "calibration.json").read_text())
+    X = np.array(rep["X"]["T_a_b"])
+    assert translation_error_m(X, rs.X) < 2e-3      # the prior fixes the vertical
+    assert rep["solution"]["prior"] is not None
+    code2, _, err = _calibrate(capsys, f"a={pa}", f"b={pb}", f"output={tmp_path / 'p2'}",
+                               "time_offset=0", f"prior={out / 'calibration.json'}",
+                               "recording=false")
+    rep2 = json.loads((tmp_path / "p2" / "calibration.json").read_text())
+    assert code2 == code and np.allclose(rep2["solution"]["prior"]["X"], X)
+
+
+def test_errors_have_exit_codes(tmp_path, capsys):
+    _, pa, pb = _rig_files(tmp_path)
+    bad = tmp_path / "bad.txt"
+    bad.write_text("1 2 3 4 5 6 7 8\n")
+    cases = [
+        ([f"a={pa}", f"b={pb}", f"output={tmp_path}", "robus=none"], EXIT_CONFIG,
+         "did you mean 'robust'"),
+        ([f"a={pa}", f"b={pb}", f"output={tmp_path}", "method=dqop"], EXIT_CONFIG,
+         "did you mean 'dqopt'"),
+        ([f"a={pa}", f"b={pb}", f"output={tmp_path}", "format=tun"], EXIT_CONFIG,
+         "did you mean 'tum'"),
+        ([f"a={pa}", f"b={pb}", f"output={tmp_path}", "time_offset=soon"], EXIT_CONFIG,
+         "time_offset"),
+        ([f"b={pb}", f"output={tmp_path}"], EXIT_CONFIG, "'a'"),
+        ([f"a={pa}", f"b={tmp_path / 'missing.tum'}", f"output={tmp_path}"], EXIT_INPUT,
+         "does not exist"),
+        ([f"a={pa}", f"b={bad}", f"output={tmp_path}"], EXIT_INPUT, "unit quaternions"),
+        ([f"a={pa}", f"b={pb}", f"output={tmp_path}", "time_offset=100"], EXIT_INPUT,
+         "too few overlapping poses"),
+        ([f"a={pa}", f"b={pb}", f"output={tmp_path}", "prior=[1,2]"], EXIT_INPUT,
+         "7 numbers"),
+    ]
+    for args, want, words in cases:
+        code, _, err = _calibrate(capsys, *args)
+        assert code == want and words in err, (args, code, err)
+
+
+def test_irls_is_exit_5_until_solve_takes_weights(tmp_path, capsys):
+    from simcalib.solvers.robust import solve_supports_weights
+    _, pa, pb = _rig_files(tmp_path)
+    code, _, err = _calibrate(capsys, f"a={pa}", f"b={pb}", f"output={tmp_path / 'i'}",
+                              "robust=irls", "time_offset=0", "recording=false")
+    if solve_supports_weights():
+        assert code == EXIT_OK, err
+    else:
+        assert code == EXIT_SOLVER and "weights" in err
+
+
+def test_assess_uses_observability_or_uncertainty():
+    """The one quality function: today's observability, or Solution.uncertainty (issue 9)
+    when present."""
+    import simcalib
+    from simcalib.commands.calibrate import assess
+    from simcalib.synthetic import synthetic_problem
+    p = synthetic_problem("random", n=30, rng=np.random.default_rng(0))
+    a = assess(simcalib.solve(p.C, p.H))
+    assert a.verdict == "determined" and not a.degenerate and a.exit_code == 0
+    if a.source == "observability":
+        assert a.std_rot_deg is None
+    else:
+        assert len(a.std_rot_deg) == 3 and all(s > 0 for s in a.std_rot_deg)
+    # every rotation about one axis (z): X's translation along z is not determined
+    from simcalib.geometry import matrix_from_rotvec
+    r = np.random.default_rng(1)
+    C = transform_from_rotation_translation(
+        matrix_from_rotvec(np.outer(r.uniform(0.2, 1.0, 20), [0, 0, 1])),
+        np.column_stack([r.uniform(-1, 1, (20, 2)), np.zeros(20)]))
+    H = invert_transform(p.X) @ C @ p.X
+    a = assess(simcalib.solve(C, H))
+    assert a.degenerate and a.verdict != "determined" and a.exit_code == EXIT_DEGENERATE
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not ETH.is_dir(), reason=f"ETH data sets not present at {ETH} "
+                    "(set SIMCALIB_ETH_DIR)")
+def test_eth_prime_sense_with_the_command(tmp_path, capsys):
+    from simcalib.experiments.streams import eth_files
+    fa, fb = eth_files(ETH, tmp_path / "eth")["prime_sense_1"]
+    out = tmp_path / "ps"
+    code, text, err = _calibrate(capsys, f"a={fa}", f"b={fb}", f"output={out}",
+                                 "recording=false")
+    rep = json.loads((out / "calibration.json").read_text())
+    assert code == rep["exit_code"] and code in (EXIT_OK, EXIT_DEGENERATE), err
+    assert abs(rep["time_offset"]["offset_s"] + 0.024) < 0.01     # ~ -24 ms
+    assert rep["conventions"]["clear"] and not rep["conventions"]["invert_b"]
+    assert rep["inliers"]["n_inliers"] >= 0.8 * rep["inliers"]["n_motions"]
+    assert rep["residuals"]["inliers"]["rot_rms_deg"] < rep["plain"]["residuals"]["rot_rms_deg"]
