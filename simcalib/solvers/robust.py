@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from simcalib.errors import SolverError
+from simcalib.errors import SolverError, unknown_choice
 from simcalib.geometry import (check_transforms, dual_quat_from_transform, quat_left_matrix,
                                quat_right_matrix, rotvec_from_matrix)
 
@@ -309,7 +309,7 @@ def irls(C, H, *, alpha: float = 1.0, loss: str = "cauchy", scale: float | None 
             "simcalib.solve does not accept yet (it comes with the solver restructure); "
             "use robust='ransac' meanwhile")
     if loss not in _LOSSES:
-        raise ValueError(f"unknown IRLS loss {loss!r}; allowed: {', '.join(_LOSSES)}")
+        raise unknown_choice("IRLS loss", loss, _LOSSES, key="loss")
     C, H = _check_problem(C, H)
     c, wfun = _LOSSES[loss]
     if isinstance(init, str) and init == "ransac":
@@ -360,6 +360,5 @@ ROBUST_METHODS = {"none": _none, "ransac": ransac, "irls": irls}
 def robust_solve(C, H, robust: str = "ransac", **options) -> RobustSolution:
     """Dispatch to a robust method by name (``none``, ``ransac``, ``irls``)."""
     if robust not in ROBUST_METHODS:
-        raise ValueError(f"unknown robust method {robust!r}; allowed: "
-                         f"{', '.join(ROBUST_METHODS)}")
+        raise unknown_choice("robust method", robust, ROBUST_METHODS, key="robust")
     return ROBUST_METHODS[robust](C, H, **options)
