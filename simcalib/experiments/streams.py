@@ -1,10 +1,14 @@
 """Validation of the stream calibration (issue 11): ``python -m simcalib experiment streams``.
 
-Parts (``parts=[sync,ransac,eth]``):
+Parts (``parts=[sync,ransac,roundtrip,eth]``):
 
 * ``sync`` — time alignment in simulation (:func:`simcalib.stream_sim.rig_streams`: 3d and
   planar paths, offsets 0 / 37 / 250 ms, a at 30 Hz, b at 20 Hz);
 * ``ransac`` — RANSAC on the paper's ``random`` motions with 20 % / 40 % outlier motions;
+* ``roundtrip`` — a simulated run (``simcalib.run``: UR5e arm, 3d path, noisy poses) exported
+  as files with a clock offset, outlier poses and b inverted + scalar-first
+  (:func:`export_run_streams`), calibrated by the ``calibrate`` COMMAND, compared with the
+  run's true X (:func:`roundtrip`; the same as ``tests/test_calibrate_command.py``);
 * ``eth`` — the two ETH hand_eye_calibration data sets (zips in ``eth_dir``, unpacked into
   the output folder), each calibrated by the ``calibrate`` COMMAND
   (``simcalib.cli.main(["calibrate", ...])``, outputs in ``<output>/eth/<set>/``); the table
@@ -26,9 +30,9 @@ import numpy as np
 from simcalib.experiments.common import ExperimentResult
 
 __all__ = ["StreamsConfig", "run", "ETH_SETS", "eth_files", "sync_table", "ransac_table",
-           "eth_table"]
+           "eth_table", "export_run_streams", "roundtrip", "roundtrip_table"]
 
-PARTS = ("sync", "ransac", "eth")
+PARTS = ("sync", "ransac", "roundtrip", "eth")
 
 #: set -> (stream a = hand / Vicon body, stream b = camera): X = T_hand_camera
 ETH_SETS = {
@@ -71,6 +75,101 @@ def eth_files(root, dest=None) -> dict:
         if pa is not None and pb is not None:
             found[name] = (pa, pb)
     return found
+
+
+def export_run_streams(run_dir, dest, *, offset_s: float = 0.037,
+                       outlier_fraction: float = 0.03, subsample_b: int = 2,
+                       seed: int = 5) -> tuple[Path, Path]:
+    """Pose files of a simulated run's noisy streams, made as hard as real ones: a is the
+    run's ``tum/cam_a_noisy.tum`` as written; b (``tum/cam_b_noisy.tum``) keeps every
+    ``subsample_b``-th pose, is stamped ``offset_s`` late, has ``outlier_fraction`` of its
+    poses replaced by gross outliers (random rotation, +-0.3 m), and is written INVERTED
+    (``T_sensor_world``) with SCALAR-FIRST quaternions in the header-less ETH layout
+    (``t, x, y, z, qw, qx, qy, qz``), so that only the data can tell the reading. Returns
+    ``(path_a, path_b)``."""
+    from simcalib.geometry import (invert_transform, quat_from_matrix,
+                                   random_rotation_matrices,
+                                   transform_from_rotation_translation)
+    from simcalib.importers import read_pose_stream
+    run_dir, dest = Path(run_dir), Path(dest)
+    dest.mkdir(parents=True, exist_ok=True)
+    b = read_pose_stream(run_dir / "tum" / "cam_b_noisy.tum")
+    t = b.timestamps_s[::subsample_b] + offset_s
+    T = np.array(b.T_world_sensor[::subsample_b])
+    rng = np.random.default_rng(seed)
+    k = int(round(outlier_fraction * t.size))
+    idx = rng.choice(t.size, k, replace=False)
+    T[idx] = T[idx] @ transform_from_rotation_translation(
+        random_rotation_matrices(rng, (k,)), rng.uniform(-0.3, 0.3, (k, 3)))
+    T = invert_transform(T)
+    q = quat_from_matrix(T[:, :3, :3])
+    path_b = dest / "b_camera_inverted_wxyz.csv"
+    np.savetxt(path_b, np.column_stack([t, T[:, :3, 3], q[:, 3:], q[:, :3]]), fmt="%.10f",
+               delimiter=", ")
+    return run_dir / "tum" / "cam_a_noisy.tum", path_b
+
+
+ROUNDTRIP_RUN = ["source=noisy", "noise.sigma_r_deg=0.1", "noise.sigma_t_m=0.001",
+                 "world.fps=30", "recording.enabled=false", "solvers=[dqopt]"]
+
+
+def roundtrip(output, *, scenario: str = "3d", offset_s: float = 0.037,
+              outlier_fraction: float = 0.03) -> dict:
+    """Simulate ``scenario`` (:data:`ROUNDTRIP_RUN` overrides), export its streams
+    (:func:`export_run_streams`), calibrate them with ``simcalib calibrate`` and compare
+    with the truth. Returns ``{"exit", "report" (calibration.json), "X_true",
+    "offset_error_ms", "rotation_error_deg", "translation_error_mm",
+    "plain_rotation_error_deg", "plain_translation_error_mm", "run_rotation_error_deg",
+    "run_translation_error_mm"}`` (``run_*``: dqopt on the same poses, b subsampled alike,
+    synchronous, outlier-free, same motion rule)."""
+    import simcalib
+    from simcalib.cli import main
+    from simcalib.geometry import rotation_error_rad, translation_error_m
+    out = Path(output)
+    cfg = simcalib.load_config(scenario, ROUNDTRIP_RUN + [f"output={out / 'run'}"])
+    res = simcalib.run(cfg)
+    run_dir = Path(res.output_dir)
+    X_true = np.array(json.loads((run_dir / "extrinsics.json").read_text())["X_true"]["T"])
+    pa, pb = export_run_streams(run_dir, out / "files", offset_s=offset_s,
+                                outlier_fraction=outlier_fraction)
+    code = main(["calibrate", f"a={pa}", f"b={pb}", f"output={out / 'calibration'}"])
+    rep = json.loads((out / "calibration" / "calibration.json").read_text())
+    X = np.array(rep["X"]["T_a_b"])
+    Xp = np.array(rep["plain"]["X"]["T_a_b"])
+    # reference: the same poses (b subsampled alike) synchronous, without outliers, same
+    # motion rule, dqopt
+    from simcalib.importers import read_pose_stream
+    from simcalib.timesync import make_motions, synchronise
+    sa, sb = (read_pose_stream(run_dir / "tum" / f"cam_{c}_noisy.tum") for c in "ab")
+    sb = (sb.timestamps_s[::2], sb.T_world_sensor[::2])
+    C, H, _, _ = make_motions(synchronise(sa, sb, 0.0), step_s=1.0, min_rotation_deg=2.0)
+    Xs = simcalib.solve(C, H).X
+    return {"exit": code, "report": rep, "X_true": X_true, "offset_s": offset_s,
+            "offset_error_ms": 1e3 * (rep["time_offset"]["offset_s"] - offset_s),
+            "rotation_error_deg": math.degrees(float(rotation_error_rad(X, X_true))),
+            "translation_error_mm": 1e3 * float(translation_error_m(X, X_true)),
+            "plain_rotation_error_deg": math.degrees(float(rotation_error_rad(Xp, X_true))),
+            "plain_translation_error_mm": 1e3 * float(translation_error_m(Xp, X_true)),
+            "run_rotation_error_deg": math.degrees(float(rotation_error_rad(Xs, X_true))),
+            "run_translation_error_mm": 1e3 * float(translation_error_m(Xs, X_true))}
+
+
+def roundtrip_table(r: dict) -> str:
+    rep = r["report"]
+    c, off, inl = rep["conventions"], rep["time_offset"], rep["inliers"]
+    reading = ("b inverted" if c["invert_b"] else "b as written") + (
+        ", b quaternion order swapped" if c["swap_scalar_b"] else "")
+    return "\n".join([
+        "| exit | reading found (ratio) | offset true / estimated (ms) | motions / inliers | "
+        "X error rot (deg) / trans (mm) | plain solve error rot / trans | same poses synchronous, "
+        "no outliers: dqopt error rot / trans |",
+        "|---|---|---|---|---|---|---|",
+        f"| {r['exit']} | {reading} ({c['ratio']:.1f}x) | {1e3 * r['offset_s']:.1f} / "
+        f"{1e3 * off['offset_s']:.2f} +- {1e3 * (off['uncertainty_s'] or 0):.2f} | "
+        f"{inl['n_motions']} / {inl['n_inliers']} | {r['rotation_error_deg']:.3f} / "
+        f"{r['translation_error_mm']:.2f} | {r['plain_rotation_error_deg']:.2f} / "
+        f"{r['plain_translation_error_mm']:.1f} | {r['run_rotation_error_deg']:.3f} / "
+        f"{r['run_translation_error_mm']:.2f} |"])
 
 
 def calibrate_eth(eth_dir, output) -> dict:
@@ -210,6 +309,10 @@ def run(cfg: StreamsConfig) -> ExperimentResult:
         docs["sync"] = sync_table(cfg.runs)
     if "ransac" in cfg.parts:
         docs["ransac"] = ransac_table(cfg.ransac_runs)
+    if "roundtrip" in cfg.parts:
+        r = roundtrip(out / "roundtrip")
+        docs["roundtrip"] = roundtrip_table(r)
+        extra["roundtrip"] = r
     if "eth" in cfg.parts:
         if Path(cfg.eth_dir).is_dir():
             results = calibrate_eth(cfg.eth_dir, out / "eth")
