@@ -133,7 +133,13 @@ def parse_options(args: list[str]) -> CalibrateOptions:
         if a.startswith("-"):
             raise UsageError(f"unknown option {a!r}; options: --help, --debug "
                              "(everything else is key=value)")
-    return build(CalibrateOptions, apply_overrides({}, args, cls=CalibrateOptions))
+    try:
+        return build(CalibrateOptions, apply_overrides({}, args, cls=CalibrateOptions))
+    except ConfigError as exc:      # the engine's key hint names `run --help`
+        msg = str(exc).replace("python -m simcalib run --help", "calibrate --help")
+        if msg == str(exc):
+            raise
+        raise type(exc)(msg, key=exc.key) from None
 
 
 # ---------------------------------------------------------------------------- the prior
