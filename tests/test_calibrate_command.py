@@ -207,3 +207,29 @@ def test_eth_prime_sense_with_the_command(tmp_path, capsys):
     assert rep["conventions"]["clear"] and not rep["conventions"]["invert_b"]
     assert rep["inliers"]["n_inliers"] >= 0.8 * rep["inliers"]["n_motions"]
     assert rep["residuals"]["inliers"]["rot_rms_deg"] < rep["plain"]["residuals"]["rot_rms_deg"]
+
+
+def test_two_stream_sample_file_alone(tmp_path, capsys):
+    """easy_handeye samples (robot + tracking = target in camera): ``a=`` alone; the
+    tracking stream is found inverted; sample index as time, no offset estimated."""
+    import yaml
+    rs = rig_streams(duration_s=15.0, rng=np.random.default_rng(3))
+    from simcalib.timesync import synchronise
+    sp = synchronise(rs.a, rs.b, 0.0)
+    k = np.linspace(0, sp.n - 1, 30).round().astype(int)
+
+    def tf(T):
+        q = quat_from_matrix(T[:3, :3])
+        return {"translation": dict(zip("xyz", map(float, T[:3, 3]))),
+                "rotation": dict(zip("xyzw", map(float, q)))}
+    doc = [{"robot": tf(A), "tracking": tf(B)}
+           for A, B in zip(sp.T_a[k], invert_transform(sp.T_b[k]))]
+    p = tmp_path / "samples.yaml"
+    p.write_text(yaml.safe_dump(doc))
+    out = tmp_path / "o"
+    code, text, err = _calibrate(capsys, f"a={p}", f"output={out}", "recording=false")
+    assert code == EXIT_OK, err + text
+    rep = json.loads((out / "calibration.json").read_text())
+    assert rep["conventions"]["invert_b"] and rep["streams"]["a"]["sample_index_as_time"]
+    assert rep["time_offset"]["offset_s"] == 0.0
+    assert np.degrees(rotation_error_rad(np.array(rep["X"]["T_a_b"]), rs.X)) < 0.2

@@ -119,6 +119,9 @@ class CalibrateOptions:
                                                            allow_zero=True))
         check_that(self.threshold is None or self.robust == "ransac", "threshold",
                    self.threshold, "given only with robust=ransac")
+        check_that(self.prior_weight_rotation > 0 or self.prior_weight_translation > 0,
+                   "prior_weight_rotation", self.prior_weight_rotation,
+                   "> 0 when prior_weight_translation is 0 (omit prior instead)")
 
     @property
     def formats(self) -> tuple[str | None, str | None]:
