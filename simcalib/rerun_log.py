@@ -336,8 +336,8 @@ def record_calibration(path, *, time_s, T_world_a, T_world_b, X, T_wa_wb, motion
         Ta = np.asarray(T_world_a, dtype=np.float64)
         Tb_meas = np.asarray(T_wa_wb, dtype=np.float64) @ np.asarray(T_world_b, np.float64)
         Tb_pred = Ta @ np.asarray(X, dtype=np.float64)
-        for name, T, color in (("a", Ta, _COLORS["cam_a"]),
-                               ("b_measured", Tb_meas, _COLORS["cam_b"]),
+        for name, T, color in (("a", Ta, (230, 120, 30)),
+                               ("b_measured", Tb_meas, (40, 140, 230)),
                                ("b_predicted", Tb_pred, (40, 200, 120))):
             rec.log(f"world/{name}/trajectory", rr.LineStrips3D([T[:, :3, 3]], colors=color,
                                                                 radii=0.002), static=True)
