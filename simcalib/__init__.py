@@ -6,6 +6,7 @@ Library entry points (heavy dependencies are imported lazily)::
     sol = simcalib.solve(C, H, method="dqopt", alpha=1.0)   # C_i X = X H_i, X = T_a_b
     batch = simcalib.solve_batch(C_batch, H_batch, method="dqopt", alpha=alphas)
     result = simcalib.run(config)                            # a whole simulated scenario
+    off = simcalib.estimate_time_offset(stream_a, stream_b)  # clock offset t_b - t_a
 
 Conventions: ``docs/conventions.md``.
 """
@@ -24,6 +25,7 @@ _LAZY = {
     "Prior": "simcalib.solvers.api",
     "run": "simcalib.pipeline",
     "load_config": "simcalib.config",
+    "estimate_time_offset": "simcalib.timesync",
 }
 
 __all__ = sorted(_LAZY) + ["__version__"]

@@ -161,13 +161,14 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
             try:    # robust fit: outlier poses must not decide the reading
                 X = ransac(C, H, alpha=alpha, rng=np.random.default_rng(seed),
                            max_iterations=256).X
-            except ValueError:
+            except (ValueError, RuntimeError):   # RANSAC: too few motions / no consensus
                 X = simcalib.solve(C, H, method="dqopt", alpha=alpha).X
             scores[(sw_a, sw_b, inv_a, inv_b)] = float(np.median(
                 screw_residuals(C, H, X, alpha=alpha)))
             n_mot = int(C.shape[0])
     if not scores:
-        raise ValueError("too few overlapping poses with rotation to check the conventions "
+        from simcalib.errors import DataError
+        raise DataError("too few overlapping poses with rotation to check the conventions "
                          "(do the streams overlap in time, and does the rig rotate?)")
     ranked = sorted(scores, key=scores.get)
     best = ranked[0]

@@ -292,3 +292,86 @@ def _get(entry, *names):
         if hasattr(entry, n):
             return getattr(entry, n)
     return None
+
+
+# ------------------------------------------------------- calibrate command (issue 11)
+def record_calibration(path, *, time_s, T_world_a, T_world_b, X, T_wa_wb, motion_time_s,
+                       rotation_error_deg, translation_error_m, inlier, lags_s, correlation,
+                       cost_offsets_s=None, cost=None, offset_s: float = 0.0,
+                       summary: str = "") -> Path:
+    """The recording of ``simcalib calibrate`` (self-contained; headless, no viewer).
+
+    Entities (timeline ``time`` = synchronised instants in clock a, seconds):
+
+    * ``world/a/trajectory`` — sensor a's path (its world frame); ``world/a`` its pose.
+    * ``world/b_measured/trajectory`` — sensor b's measured path, brought into a's world
+      frame through the estimate (``T_wa_wb T_wb_b``); ``world/b_predicted/trajectory`` —
+      where the estimate puts b (``T_wa_a X``). They coincide when X is right.
+    * ``residuals/rotation_deg``, ``residuals/translation_mm`` — per-motion errors of
+      ``C X = X H`` at the motions' start; ``residuals/inlier`` 1/0.
+    * ``time_offset/correlation`` — angular-speed cross-correlation over the lag (timeline
+      ``lag``, seconds); ``time_offset/cost`` — the refinement cost over the offset
+      (timeline ``offset``); ``time_offset/estimate`` — the chosen offset (text).
+    * ``summary`` — the console report.
+    """
+    import rerun as rr
+    import rerun.blueprint as rrb
+    path = Path(path)
+    rec = rr.RecordingStream("simcalib", recording_id=str(uuid.uuid4()), send_properties=False)
+    if hasattr(rec, "set_log_time_enabled"):
+        rec.set_log_time_enabled(False)
+    blueprint = rrb.Blueprint(
+        rrb.Horizontal(
+            rrb.Spatial3DView(origin="world", name="trajectories (frame of a's world)"),
+            rrb.Vertical(
+                rrb.TimeSeriesView(origin="residuals", name="motion residuals over time"),
+                rrb.TimeSeriesView(origin="time_offset/correlation",
+                                   name="angular-speed correlation over lag"),
+                rrb.TextDocumentView(origin="summary", name="summary"),
+                row_shares=[2, 2, 3]),
+            column_shares=[3, 2]),
+        rrb.TimePanel(timeline="time"), collapse_panels=True)
+    rec.save(str(path), default_blueprint=blueprint)
+    try:
+        rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+        Ta = np.asarray(T_world_a, dtype=np.float64)
+        Tb_meas = np.asarray(T_wa_wb, dtype=np.float64) @ np.asarray(T_world_b, np.float64)
+        Tb_pred = Ta @ np.asarray(X, dtype=np.float64)
+        for name, T, color in (("a", Ta, (230, 120, 30)),
+                               ("b_measured", Tb_meas, (40, 140, 230)),
+                               ("b_predicted", Tb_pred, (40, 200, 120))):
+            rec.log(f"world/{name}/trajectory", rr.LineStrips3D([T[:, :3, 3]], colors=color,
+                                                                radii=0.002), static=True)
+            rec.send_columns(f"world/{name}",
+                             indexes=[rr.TimeColumn("time", duration=np.asarray(time_s))],
+                             columns=rr.Transform3D.columns(translation=T[:, :3, 3],
+                                                            mat3x3=T[:, :3, :3]))
+            rec.log(f"world/{name}/axes", rr.TransformAxes3D(0.05), static=True)
+        mt = np.asarray(motion_time_s, dtype=np.float64)
+        for name, values, color in (
+                ("rotation_deg", np.asarray(rotation_error_deg), (220, 50, 50)),
+                ("translation_mm", 1e3 * np.asarray(translation_error_m), (50, 120, 220)),
+                ("inlier", np.asarray(inlier, dtype=np.float64), (120, 120, 120))):
+            if mt.size == 0:
+                break
+            rec.log(f"residuals/{name}", rr.SeriesLines(names=name, colors=color), static=True)
+            rec.send_columns(f"residuals/{name}", indexes=[rr.TimeColumn("time", duration=mt)],
+                             columns=rr.Scalars.columns(scalars=values.astype(np.float64)))
+        for ent, x, y, timeline in (("time_offset/correlation", lags_s, correlation, "lag"),
+                                    ("time_offset/cost", cost_offsets_s, cost, "offset")):
+            x = np.zeros(0) if x is None else np.asarray(x, dtype=np.float64)
+            y = np.zeros(0) if y is None else np.asarray(y, dtype=np.float64)
+            ok = np.isfinite(x) & np.isfinite(y) if x.size == y.size else np.zeros(0, bool)
+            if ok.any():
+                rec.log(ent, rr.SeriesLines(names=ent.split("/")[-1]), static=True)
+                rec.send_columns(ent, indexes=[rr.TimeColumn(timeline, duration=x[ok])],
+                                 columns=rr.Scalars.columns(scalars=y[ok]))
+        rec.log("time_offset/estimate", rr.TextDocument(
+            f"offset t_b - t_a = {1e3 * float(offset_s):.3f} ms"), static=True)
+        if summary:
+            rec.log("summary", rr.TextDocument(f"```\n{summary}\n```",
+                                               media_type="text/markdown"), static=True)
+    finally:
+        rec.flush()
+        rec.disconnect()
+    return path

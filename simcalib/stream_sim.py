@@ -27,7 +27,8 @@ def rig_path(t_s: np.ndarray, path: str = "3d") -> np.ndarray:
     """Poses ``T_world_a`` (N, 4, 4) of a smooth path at times ``t_s`` (sums of sinusoids;
     rotation up to ~1 rad, translation ~0.5 m)."""
     if path not in PATHS:
-        raise ValueError(f"unknown path {path!r}; allowed: {', '.join(PATHS)}")
+        from simcalib.errors import unknown_choice
+        raise unknown_choice("path", path, PATHS, key="path")
     t = np.asarray(t_s, dtype=np.float64)[:, None]
     f = np.array([0.23, 0.37, 0.51])
     ph = np.array([0.3, 1.1, 2.0])

@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from simcalib.errors import DataError
 from simcalib.geometry import (invert_transform, matrix_from_quat, quat_from_matrix,
                                rotation_angle_rad, transform_from_rotation_translation)
 
@@ -90,6 +91,43 @@ def interpolate_poses(t: np.ndarray, T: np.ndarray, t_query: np.ndarray,
     qi = _slerp(q[k], q[k + 1], u)
     p = T[k, :3, 3] * (1.0 - u)[:, None] + T[k + 1, :3, 3] * u[:, None]
     return transform_from_rotation_translation(matrix_from_quat(qi), p), valid
+
+
+def smooth_poses(t: np.ndarray, T: np.ndarray, t_query: np.ndarray, sigma_s: float
+                 ) -> np.ndarray:
+    """Poses at ``t_query`` by Gaussian kernel regression over the samples (bandwidth
+    ``sigma_s``): weighted mean translation and weighted, sign-aligned, renormalised
+    quaternion mean over the samples (weights below exp(-10) are negligible; the support is
+    symmetric about each query, so a truncated kernel cannot shift the timing).
+
+    Why (time alignment): plain interpolation of NOISY poses has a noise level that depends
+    on where the query falls between two samples (halfway, two samples are averaged), so a
+    cost compared over offsets prefers offsets that put the queries between samples -- a
+    bias of up to half a sample period when the two streams are sampled on commensurate
+    clocks (e.g. 30 Hz and 15 Hz from one trigger). With ``sigma_s`` >= one sample period
+    the kernel's weight sums are the same for every query position (to ~1e-8), so the noise
+    no longer depends on the offset; the kernel is symmetric, so the smoothing does not
+    shift the timing."""
+    t_query = np.asarray(t_query, dtype=np.float64)
+    n = t.size
+    dt = float(np.median(np.diff(t)))
+    k = max(1, int(math.ceil(4.5 * sigma_s / dt))) + 1      # symmetric: both sides >= 4.5 sigma
+    c = np.searchsorted(t, t_query)
+    idx = c[:, None] + np.arange(-k, k + 1)[None, :]
+    inside = (idx >= 0) & (idx < n)
+    idx = idx.clip(0, n - 1)
+    w = np.exp(-0.5 * ((t[idx] - t_query[:, None]) / sigma_s) ** 2) * inside
+    empty = w.sum(axis=1) <= 0          # far outside the samples (invalid anyway): nearest
+    w[empty, k] = 1.0
+    w /= w.sum(axis=1, keepdims=True)
+    p = np.einsum("mk,mkj->mj", w, T[idx, :3, 3])
+    q = quat_from_matrix(T[:, :3, :3])
+    qk = q[idx]
+    q0 = q[c.clip(0, n - 1)]
+    sign = np.where(np.sum(qk * q0[:, None, :], axis=-1) < 0, -1.0, 1.0)
+    qm = np.einsum("mk,mkj->mj", w * sign, qk)
+    qm /= np.linalg.norm(qm, axis=-1, keepdims=True)
+    return transform_from_rotation_translation(matrix_from_quat(qm), p)
 
 
 def angular_speed(stream) -> tuple[np.ndarray, np.ndarray]:
@@ -169,14 +207,16 @@ class SyncedPoses:
 
 
 def synchronise(stream_a, stream_b, offset=0.0, *, reference: str | None = None,
-                max_gap_s: float | None = None, window_s: tuple | None = None
-                ) -> SyncedPoses:
+                max_gap_s: float | None = None, window_s: tuple | None = None,
+                smooth_s: float | None = None) -> SyncedPoses:
     """Pair two streams: the faster stream (or the one not named by ``reference``, ``"a"``
     or ``"b"``) is interpolated at the other one's stamps, shifted by ``offset`` (seconds
     ``t_b - t_a`` or a :class:`TimeOffset`). ``max_gap_s`` (default 2.5x the interpolated
     stream's median period): interpolation across longer gaps is refused (counted).
     ``window_s`` (lo, hi): keep only reference stamps within it (in the reference stream's
-    own clock, so the kept stamps do not change with the offset)."""
+    own clock, so the kept stamps do not change with the offset). ``smooth_s``: both
+    streams' poses by Gaussian kernel regression with this bandwidth instead of plain
+    interpolation (:func:`smooth_poses`; used by the offset refinement)."""
     ta, Ta = as_time_poses(stream_a, "stream_a")
     tb, Tb = as_time_poses(stream_b, "stream_b")
     off = _as_offset(offset)
@@ -198,6 +238,9 @@ def synchronise(stream_a, stream_b, offset=0.0, *, reference: str | None = None,
         T_other, valid = interpolate_poses(ta, Ta, tq, gap)
         T_a_all, T_b_all = T_other, Tb
         inside = (tq >= ta[0]) & (tq <= ta[-1])
+    if smooth_s is not None:
+        T_a_all = smooth_poses(ta, Ta, ta if reference == "a" else tq, smooth_s)
+        T_b_all = smooth_poses(tb, Tb, tq if reference == "a" else tb, smooth_s)
     keep = valid.copy()
     if window_s is not None:
         own = ta if reference == "a" else tb
@@ -224,7 +267,7 @@ def make_motions(synced: SyncedPoses, *, step_s: float | None = None, step: int 
     t, Ta, Tb = synced.time_s, synced.T_a, synced.T_b
     n = t.size
     if n < 3:
-        raise ValueError(f"only {n} synchronised poses; at least 3 are needed (do the streams "
+        raise DataError(f"only {n} synchronised poses; at least 3 are needed (do the streams "
                          "overlap in time with this offset?)")
     if keyframes:
         if min_rotation_deg is None or not min_rotation_deg > 0:
@@ -247,12 +290,15 @@ def make_motions(synced: SyncedPoses, *, step_s: float | None = None, step: int 
     elif step_s is not None:
         if not (step_s > 0 and math.isfinite(step_s)):
             raise ValueError(f"step_s must be finite and > 0; received {step_s}")
-        j = np.searchsorted(t, t + step_s - 1e-9, side="left")
+        # tolerance: a step of exactly k sample periods must give j = i + k whatever the
+        # rounding of the stamps (files print 6-9 decimals) and of the offset shift
+        tol = 0.01 * float(np.median(np.diff(t))) + 1e-9
+        j = np.searchsorted(t, t + step_s - tol, side="left")
         i = np.arange(n)
         ok = j < n
         i, j = i[ok], j[ok]
         dt = t[j] - t[i]
-        ok = dt <= 2.0 * step_s + 1e-9
+        ok = dt <= 2.0 * step_s + tol
         i, j = i[ok], j[ok]
     else:
         if isinstance(step, bool) or not isinstance(step, (int, np.integer)) or step < 1:
@@ -349,13 +395,15 @@ def _coarse_offset(ta, Ta, tb, Tb, max_offset_s, min_overlap_frac, robust=True):
 # ------------------------------------------------------------------ cost refinement
 def calibration_cost_at_offset(stream_a, stream_b, offset, *, step_s: float, alpha: float = 1.0,
                                method: str = "dqopt", window_s=None, reference=None,
-                               min_rotation_deg: float | None = None, motion_mask=None):
+                               min_rotation_deg: float | None = None, motion_mask=None,
+                               smooth_s: float | None = None):
     """Mean dqopt cost per motion (paper eq. 8 over the motions) after synchronising with
     ``offset``; ``motion_mask`` (bool per motion) keeps only those motions (e.g. RANSAC
     inliers; only meaningful with a fixed ``window_s`` and no rotation filter, so that the
     motions are the same for every offset). Returns ``(mean_cost, n_motions, Solution)``."""
     from simcalib.solvers.api import solve
-    sp = synchronise(stream_a, stream_b, offset, window_s=window_s, reference=reference)
+    sp = synchronise(stream_a, stream_b, offset, window_s=window_s, reference=reference,
+                     smooth_s=smooth_s)
     C, H, _, _ = make_motions(sp, step_s=step_s, min_rotation_deg=min_rotation_deg)
     if motion_mask is not None:
         if motion_mask.shape[0] != C.shape[0]:
@@ -368,12 +416,12 @@ def calibration_cost_at_offset(stream_a, stream_b, offset, *, step_s: float, alp
 
 
 def _refine(sa, sb, coarse, half_width, step_s, alpha, window, reference, n_grid=13,
-            robust=True, min_rotation_deg=1.0):
+            robust=True, min_rotation_deg=1.0, smooth_s=None):
     # motions are indexed by the reference stream's stamps (fixed window), so a mask chosen
     # here selects the same motions at every offset. Keep motions in which the reference
     # stream turns by >= min_rotation_deg (static ones carry no timing information and would
     # dominate a robust scale), and of those the RANSAC inliers when robust.
-    sp = synchronise(sa, sb, coarse, window_s=window, reference=reference)
+    sp = synchronise(sa, sb, coarse, window_s=window, reference=reference, smooth_s=smooth_s)
     C, H, _, _ = make_motions(sp, step_s=step_s)
     ref = C if reference == "a" else H
     mask = rotation_angle_rad(ref[:, :3, :3]) >= math.radians(min_rotation_deg)
@@ -385,10 +433,10 @@ def _refine(sa, sb, coarse, half_width, step_s, alpha, window, reference, n_grid
             inl = ransac(C[mask], H[mask], alpha=alpha, rng=np.random.default_rng(0),
                          max_iterations=256).inlier_mask
             mask[np.nonzero(mask)[0][~inl]] = False
-        except ValueError:
+        except (ValueError, RuntimeError):   # RANSAC: too few motions / no consensus
             pass
     kw = dict(step_s=step_s, alpha=alpha, window_s=window, reference=reference,
-              motion_mask=mask)
+              motion_mask=mask, smooth_s=smooth_s)
     offs = np.linspace(coarse - half_width, coarse + half_width, n_grid)
     costs = np.array([calibration_cost_at_offset(sa, sb, o, **kw)[0] for o in offs])
     if not np.isfinite(costs).any():
@@ -410,6 +458,24 @@ def _refine(sa, sb, coarse, half_width, step_s, alpha, window, reference, n_grid
     return best, j0, n_mot, curv, offs, costs
 
 
+def _other_peaks(offsets, r, peak, best, min_sep_s, rel: float = 0.9, max_n: int = 3):
+    """Offsets of local maxima of the correlation ``r`` other than ``best`` that reach
+    ``rel`` x ``peak`` and lie at least ``min_sep_s`` from ``best`` and each other (at most
+    ``max_n``, highest first)."""
+    if r.size < 3 or not peak > 0:
+        return []
+    is_max = np.zeros(r.size, dtype=bool)
+    is_max[1:-1] = (r[1:-1] >= r[:-2]) & (r[1:-1] >= r[2:]) & (r[1:-1] >= rel * peak)
+    out = []
+    for k in np.nonzero(is_max)[0][np.argsort(-r[is_max])]:
+        o = float(offsets[k])
+        if all(abs(o - x) >= min_sep_s for x in [best, *out]):
+            out.append(o)
+        if len(out) >= max_n:
+            break
+    return out
+
+
 def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = None,
                          refine: bool = True, drift: bool = False, step_s: float | None = None,
                          alpha: float = 1.0, min_overlap_frac: float = 0.3,
@@ -421,7 +487,10 @@ def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = Non
     ``min_overlap_frac`` overlap (``|offset| <= max_offset_s`` if given); parabolic peak.
     Refine (``refine=True``): the mean dqopt cost per motion (motions over ``step_s``, default
     4 periods of the slower stream, at least 0.2 s) is minimised over the offset within +-2
-    slower periods of the coarse value (grid, then bounded Brent). ``drift=True``: the
+    slower periods of the coarse value (grid, then bounded Brent), with both streams' poses
+    kernel-smoothed over the faster period (:func:`smooth_poses`: removes the bias of
+    interpolating noisy poses). Other correlation peaks within 90 % of the highest (a
+    periodic motion) are refined too and the lowest cost wins. ``drift=True``: the
     refinement is repeated on the two halves of the overlap and a linear drift fitted.
     ``alpha`` (1/m) weights translation in the cost. ``robust``: the angular speeds are
     median-filtered (isolated outlier poses make spikes) and the refinement cost uses only
@@ -442,16 +511,41 @@ def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = Non
         step_s = max(0.2, 4 * slow_dt)
     reference = "a" if np.median(np.diff(ta)) >= np.median(np.diff(tb)) else "b"
     half = 2.0 * slow_dt
-    # restrict to clock-a instants valid for every offset in the bracket
-    lo_a = max(ta[0], tb[0] - coarse) + half + 1e-6
-    hi_a = min(ta[-1], tb[-1] - coarse) - half - 1e-6
-    if hi_a - lo_a < 4 * step_s:
-        raise ValueError(f"the streams overlap for only {max(hi_a - lo_a, 0):.3f} s at the "
-                         f"coarse offset {coarse:.3f} s; too short to refine")
-    shift = 0.0 if reference == "a" else coarse       # window in the reference's clock
-    win = (lo_a + shift, hi_a + shift)
-    best, j0, n_mot, curv, offs, costs = _refine((ta, Ta), (tb, Tb), coarse, half, step_s,
-                                                 alpha, win, reference, robust=robust)
+    smooth_s = min(float(np.median(np.diff(ta))), float(np.median(np.diff(tb))))
+
+    def refine_at(c):
+        # restrict to clock-a instants valid for every offset in the bracket
+        # (and far enough from the ends that the smoothing kernel is never truncated)
+        lo = max(ta[0], tb[0] - c) + half + 5 * smooth_s + slow_dt
+        hi = min(ta[-1], tb[-1] - c) - half - 5 * smooth_s - slow_dt
+        if hi - lo < 4 * step_s:
+            raise DataError(f"the streams overlap for only {max(hi - lo, 0):.3f} s at the "
+                            f"coarse offset {c:.3f} s; too short to refine")
+        sh = 0.0 if reference == "a" else c       # window in the reference's clock
+        out = _refine((ta, Ta), (tb, Tb), c, half, step_s, alpha, (lo + sh, hi + sh),
+                      reference, robust=robust, smooth_s=smooth_s)
+        return out, lo, hi, sh
+    # a periodic motion gives several near-equal correlation peaks: refine each, keep the
+    # one with the lowest calibration cost
+    cands = [coarse] + [o for o in _other_peaks(lags, corr, peak, coarse, 4 * slow_dt)]
+    tried = []
+    for c in cands:
+        try:
+            tried.append((refine_at(c), c))
+        except DataError:
+            if c == coarse and len(cands) == 1:
+                raise
+    if not tried:
+        raise DataError(f"the streams overlap too little at every candidate offset "
+                        f"({', '.join(f'{c:.3f}' for c in cands)} s) to refine")
+    ((best, j0, n_mot, curv, offs, costs), lo_a, hi_a, shift), chosen = min(
+        tried, key=lambda x: x[0][0][1])
+    if len(tried) > 1:
+        msg += (f"; {len(tried)} correlation peaks of similar height (periodic motion?) at "
+                + ", ".join(f"{c * 1e3:.0f}" for _, c in tried) + " ms, the one at "
+                f"{chosen * 1e3:.0f} ms has the lowest calibration cost ("
+                + ", ".join(f"{t[0][1]:.3g}" for t, _ in tried) + ")")
+        coarse = chosen
     thin = max(1.0, step_s / slow_dt)
     if curv > 0 and n_mot > 0:
         sigma = math.sqrt(2.0 * j0 / (n_mot * curv) * thin)
@@ -462,9 +556,11 @@ def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = Non
     if drift:
         mid = t_ref
         o1 = _refine((ta, Ta), (tb, Tb), best, half, step_s, alpha,
-                     (lo_a + shift, mid + shift), reference, robust=robust)[0]
+                     (lo_a + shift, mid + shift), reference, robust=robust,
+                     smooth_s=smooth_s)[0]
         o2 = _refine((ta, Ta), (tb, Tb), best, half, step_s, alpha,
-                     (mid + shift, hi_a + shift), reference, robust=robust)[0]
+                     (mid + shift, hi_a + shift), reference, robust=robust,
+                     smooth_s=smooth_s)[0]
         d = (o2 - o1) / (0.5 * (hi_a - lo_a))
         best = 0.5 * (o1 + o2)
         msg += f"; drift {d * 1e6:.1f} ppm from two windows"

@@ -36,7 +36,7 @@ def _same(s: PoseStreamData, t, T):
 
 def test_registry_lists_formats():
     assert set(available()) == {"tum", "simcalib_tum", "eth", "csv", "easy_handeye", "moveit"}
-    with pytest.raises(ValueError, match="allowed: .*eth"):
+    with pytest.raises(ValueError, match="available: .*eth"):
         read_pose_stream(__file__, format="ethz")
 
 
@@ -201,7 +201,8 @@ def test_stream_from_arrays(rig):
 @pytest.mark.skipif(not ETH.is_dir(), reason=f"ETH data sets not present at {ETH} "
                     "(set SIMCALIB_ETH_DIR)")
 def test_eth_data_conventions_and_calibration():
-    from simcalib.calibrate_streams import calibrate_streams, eth_files
+    from simcalib.calibrate_streams import calibrate_streams
+    from simcalib.experiments.streams import eth_files
     files = eth_files(ETH)
     assert set(files) == {"robot_arm_w_color_camera_sim", "prime_sense_1"}
     for name, (fa, fb) in files.items():

@@ -88,7 +88,7 @@ def test_ransac_is_deterministic_and_checks_inputs():
         ransac(p.C, p.H, threshold=-1.0)
     with pytest.raises(ValueError, match="at least 4"):
         ransac(p.C[:3], p.H[:3])
-    with pytest.raises(ValueError, match="allowed: none, ransac, irls"):
+    with pytest.raises(ValueError, match="available: none, ransac, irls"):
         robust_solve(p.C, p.H, "lmeds")
     assert noise_threshold(p.C, p.H, 0.01, 0.01) > 0
     none = robust_solve(p.C, p.H, "none")

@@ -105,7 +105,7 @@ def test_bad_inputs():
 @pytest.mark.skipif(not ETH.is_dir(),
                     reason=f"ETH data sets not present at {ETH} (set SIMCALIB_ETH_DIR)")
 def test_eth_offsets_refine_the_cost():
-    from simcalib.calibrate_streams import eth_files
+    from simcalib.experiments.streams import eth_files
     from simcalib.conventions import apply_conventions, detect_conventions
     from simcalib.importers import read_pose_stream
     from simcalib.timesync import calibration_cost_at_offset

@@ -1,5 +1,5 @@
 """The paper's experiments (Dekel et al., CVPR 2020): ``table1``, ``table2``, ``figure3``,
-``figure6``.
+``figure6``; and ``streams``, the validation of the stream calibration (issue 11).
 
 Command line::
 
@@ -34,6 +34,7 @@ EXPERIMENTS = {
     "table2": ("simcalib.experiments.table2", "Table2Config"),
     "figure3": ("simcalib.experiments.figure3", "Figure3Config"),
     "figure6": ("simcalib.experiments.figure6", "Figure6Config"),
+    "streams": ("simcalib.experiments.streams", "StreamsConfig"),
 }
 
 

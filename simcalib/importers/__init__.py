@@ -18,13 +18,13 @@ Formats (``available()``): ``tum``, ``simcalib_tum`` (simcalib's own TUM output)
 
 from __future__ import annotations
 
-import difflib
 import importlib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
+from simcalib.errors import DataError, unknown_choice
 from simcalib.geometry import (invert_transform, matrix_from_quat, quat_from_matrix,
                                transform_from_rotation_translation)
 
@@ -43,12 +43,9 @@ _FORMAT_MODULES = {
 }
 
 
-def data_error(message: str) -> Exception:
-    """The project's ``DataError`` if it exists (``simcalib.errors``), else ``ValueError``."""
-    try:
-        from simcalib.errors import DataError  # type: ignore[import-not-found]
-    except ImportError:
-        return ValueError(message)
+def data_error(message: str) -> DataError:
+    """The error for a bad pose file: :class:`simcalib.errors.DataError` (a ``ValueError``;
+    exit code 3 on the command line)."""
     return DataError(message)
 
 
@@ -145,10 +142,7 @@ def available() -> list[str]:
 
 def _module(name: str):
     if not isinstance(name, str) or name not in _FORMAT_MODULES:
-        close = difflib.get_close_matches(str(name), list(_FORMAT_MODULES), n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
-        raise ValueError(f"unknown pose-file format {name!r}{hint}; "
-                         f"allowed: {', '.join(_FORMAT_MODULES)}")
+        raise unknown_choice("pose-file format", name, _FORMAT_MODULES, key="format")
     return importlib.import_module(_FORMAT_MODULES[name])
 
 
@@ -217,14 +211,14 @@ def read_pose_stream(path, format: str | None = None, stream: str | int | None =
         return streams[0]
     names = [s.name for s in streams]
     if stream is None:
-        raise ValueError(f"{str(path)!r} holds {len(streams)} streams ({', '.join(names)}); "
+        raise data_error(f"{str(path)!r} holds {len(streams)} streams ({', '.join(names)}); "
                          "pick one with stream=NAME or an index")
     if isinstance(stream, (int, np.integer)) and not isinstance(stream, bool):
         if 0 <= stream < len(streams):
             return streams[int(stream)]
     elif stream in names:
         return streams[names.index(stream)]
-    raise ValueError(f"stream {stream!r} not in {str(path)!r}; allowed: {', '.join(names)} "
+    raise data_error(f"stream {stream!r} not in {str(path)!r}; allowed: {', '.join(names)} "
                      f"or 0..{len(streams) - 1}")
 
 

@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from simcalib.errors import SolverError, unknown_choice
 from simcalib.geometry import (check_transforms, dual_quat_from_transform, quat_left_matrix,
                                quat_right_matrix, rotvec_from_matrix)
 
@@ -241,7 +242,7 @@ def ransac(C, H, *, alpha: float = 1.0, threshold: float | None = None,
             needed = (math.ceil(math.log(1 - confidence) / math.log(1 - p_good))
                       if 0 < p_good < 1 else batch)
     if best_X is None:
-        raise ValueError("RANSAC found no usable minimal set (are all rotation axes "
+        raise SolverError("RANSAC found no usable minimal set (are all rotation axes "
                          "parallel? such motions do not determine X)")
     # local optimisation: dqopt on the inliers until the set is stable
     X = best_X
@@ -262,7 +263,7 @@ def ransac(C, H, *, alpha: float = 1.0, threshold: float | None = None,
             break
         mask = new
     if final is None or mask.sum() < 3:
-        raise ValueError(f"RANSAC consensus has only {int(mask.sum())} motions "
+        raise SolverError(f"RANSAC consensus has only {int(mask.sum())} motions "
                          f"(threshold {thr:.3g}); give a larger threshold or check the data")
     msg = (f"RANSAC: {int(mask.sum())}/{N} inliers ({mask.mean():.0%}), threshold "
            f"{thr:.3g} ({'auto, LMedS scale' if auto else ('from noise' if noise else 'given')}), "
@@ -308,7 +309,7 @@ def irls(C, H, *, alpha: float = 1.0, loss: str = "cauchy", scale: float | None 
             "simcalib.solve does not accept yet (it comes with the solver restructure); "
             "use robust='ransac' meanwhile")
     if loss not in _LOSSES:
-        raise ValueError(f"unknown IRLS loss {loss!r}; allowed: {', '.join(_LOSSES)}")
+        raise unknown_choice("IRLS loss", loss, _LOSSES, key="loss")
     C, H = _check_problem(C, H)
     c, wfun = _LOSSES[loss]
     if isinstance(init, str) and init == "ransac":
@@ -359,6 +360,5 @@ ROBUST_METHODS = {"none": _none, "ransac": ransac, "irls": irls}
 def robust_solve(C, H, robust: str = "ransac", **options) -> RobustSolution:
     """Dispatch to a robust method by name (``none``, ``ransac``, ``irls``)."""
     if robust not in ROBUST_METHODS:
-        raise ValueError(f"unknown robust method {robust!r}; allowed: "
-                         f"{', '.join(ROBUST_METHODS)}")
+        raise unknown_choice("robust method", robust, ROBUST_METHODS, key="robust")
     return ROBUST_METHODS[robust](C, H, **options)

@@ -1,0 +1,501 @@
+"""``simcalib calibrate a=PATH b=PATH output=DIR [key=value ...]``: calibrate ``X = T_a_b``
+from two recorded pose files (docs/calibrate.md).
+
+A thin layer over :func:`simcalib.calibrate_streams.calibrate_streams` (read -> conventions
+-> clock offset -> synchronise -> motions -> robust solve). The options are the typed
+dataclass :class:`CalibrateOptions`, built by the config engine (``simcalib.config``): the
+same value syntax as ``run``, unknown keys rejected with the closest match. The result's
+quality is judged in ONE place, :func:`assess`.
+
+Outputs in ``output``: ``calibration.json`` (schema in docs/calibrate.md),
+``motions.npz`` (the aligned motion pairs and the synchronised poses) and
+``recording.rrd`` (rerun: both trajectories aligned through the estimate, residuals over
+time, the correlation curve).
+
+Exit status: 0 determined, 6 degenerate (:data:`simcalib.errors.EXIT_DEGENERATE`; the
+outputs are still written), 5 the solver failed, 3 bad data (``DataError``), 2 bad options.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+
+from simcalib.checks import check_positive, check_range, check_that, set_fields
+from simcalib.errors import (EXIT_DEGENERATE, EXIT_OK, EXIT_SOLVER, ConfigError, DataError,
+                             SolverError, UsageError, unknown_choice)
+
+__all__ = ["CalibrateOptions", "Assessment", "assess", "parse_options", "calibrate",
+           "load_prior", "main", "SCHEMA"]
+
+SCHEMA = "simcalib.calibration/1"
+
+
+def _doc(text: str) -> dict:
+    return {"help": text}
+
+
+@dataclass(frozen=True)
+class CalibrateOptions:
+    """Options of ``simcalib calibrate`` (every key ``key=value``)."""
+    a: Path = field(metadata=_doc("pose file of sensor a (X = T_a_b); a two-stream file "
+                                  "(easy_handeye, moveit) may give both, then omit b"))
+    output: Path = field(metadata=_doc("output directory (created)"))
+    b: Path | None = field(default=None, metadata=_doc("pose file of sensor b"))
+    format: str | None = field(default=None, metadata=_doc(
+        "format of both files (default: detected); see format_a / format_b"))
+    format_a: str | None = field(default=None, metadata=_doc("format of file a"))
+    format_b: str | None = field(default=None, metadata=_doc("format of file b"))
+    time_offset: float | Literal["estimate"] = field(default="estimate", metadata=_doc(
+        "clock offset t_b - t_a in seconds, or 'estimate'"))
+    drift: bool = field(default=False, metadata=_doc("also estimate a linear clock drift"))
+    robust: Literal["ransac", "irls", "none"] = field(default="ransac", metadata=_doc(
+        "outlier rejection over motions"))
+    threshold: float | None = field(default=None, metadata=_doc(
+        "RANSAC inlier threshold on the screw residual (default: automatic, LMedS)"))
+    method: str = field(default="dqopt", metadata=_doc("solver of the final estimate"))
+    alpha: float = field(default=1.0, metadata=_doc(
+        "weight of translation in the cost, 1/m"))
+    prior: str | None = field(default=None, metadata=_doc(
+        "prior X: a JSON file (a calibration.json, {\"X\": 4x4} or {\"translation_m\", "
+        "\"quaternion_xyzw\"}) or inline [tx,ty,tz,qx,qy,qz,qw] / 16 numbers row-major"))
+    prior_weight_rotation: float = field(default=1e-4, metadata=_doc(
+        "prior weight a (rotation; small: determined directions keep the data value)"))
+    prior_weight_translation: float = field(default=1e-2, metadata=_doc(
+        "prior weight b (translation)"))
+    invert_a: bool | None = field(default=None, metadata=_doc(
+        "force reading file a as inverted (it holds T_sensor_world); default: detected"))
+    invert_b: bool | None = field(default=None, metadata=_doc("the same for file b"))
+    scalar_first_a: bool | None = field(default=None, metadata=_doc(
+        "force reading a's quaternion numbers in the other order; default: detected"))
+    scalar_first_b: bool | None = field(default=None, metadata=_doc("the same for file b"))
+    step_s: float = field(default=1.0, metadata=_doc("motions span this time step, s"))
+    min_rotation_deg: float = field(default=2.0, metadata=_doc(
+        "motions rotating less are dropped (they carry no information)"))
+    max_rotation_deg: float | None = field(default=None, metadata=_doc(
+        "motions rotating more are dropped (tracking jumps)"))
+    seed: int = field(default=0, metadata=_doc("seed of RANSAC and convention scoring"))
+    recording: bool = field(default=True, metadata=_doc("write recording.rrd"))
+
+    def __post_init__(self):
+        from simcalib.importers import available
+        from simcalib.solvers import registry
+        for key in ("format", "format_a", "format_b"):
+            v = getattr(self, key)
+            if v is not None and v not in available():
+                raise unknown_choice("pose-file format", v, available(), key=key)
+        if self.format is not None and (self.format_a or self.format_b):
+            raise ConfigError("give format (both files) or format_a / format_b, not both",
+                              key="format")
+        if self.method not in registry.available():
+            raise unknown_choice("method", self.method, registry.available(), key="method")
+        if self.prior is not None and not registry.get(self.method).supports_prior:
+            raise ConfigError(key="prior", value=self.prior, allowed="used with a method "
+                              "that supports a prior (" + ", ".join(
+                                  i.name for i in registry.infos() if i.supports_prior) + ")")
+        if self.time_offset != "estimate":
+            set_fields(self, time_offset=check_range("time_offset", self.time_offset))
+        check_that(not (self.drift and self.time_offset != "estimate"), "drift", self.drift,
+                   "false when time_offset is given")
+        set_fields(self,
+                   alpha=check_positive("alpha", self.alpha),
+                   step_s=check_positive("step_s", self.step_s),
+                   min_rotation_deg=check_range("min_rotation_deg", self.min_rotation_deg,
+                                                lo=0.0, hi=180.0),
+                   max_rotation_deg=check_range("max_rotation_deg", self.max_rotation_deg,
+                                                lo=0.0, hi=180.0, lo_open=True, optional=True),
+                   threshold=check_range("threshold", self.threshold, lo=0.0, lo_open=True,
+                                         optional=True),
+                   prior_weight_rotation=check_positive("prior_weight_rotation",
+                                                        self.prior_weight_rotation,
+                                                        allow_zero=True),
+                   prior_weight_translation=check_positive("prior_weight_translation",
+                                                           self.prior_weight_translation,
+                                                           allow_zero=True))
+        check_that(self.threshold is None or self.robust == "ransac", "threshold",
+                   self.threshold, "given only with robust=ransac")
+        check_that(self.prior_weight_rotation > 0 or self.prior_weight_translation > 0,
+                   "prior_weight_rotation", self.prior_weight_rotation,
+                   "> 0 when prior_weight_translation is 0 (omit prior instead)")
+
+    @property
+    def formats(self) -> tuple[str | None, str | None]:
+        return (self.format_a or self.format, self.format_b or self.format)
+
+
+def parse_options(args: list[str]) -> CalibrateOptions:
+    """``["a=x.csv", "b=y.csv", "output=out"]`` -> :class:`CalibrateOptions` through the
+    config engine (typed values, closest match for unknown keys; :class:`ConfigError`)."""
+    from simcalib.config import apply_overrides, build
+    for a in args:
+        if a.startswith("-"):
+            raise UsageError(f"unknown option {a!r}; options: --help, --debug "
+                             "(everything else is key=value)")
+    try:
+        return build(CalibrateOptions, apply_overrides({}, args, cls=CalibrateOptions))
+    except ConfigError as exc:      # the engine's key hint names `run --help`
+        msg = str(exc).replace("python -m simcalib run --help", "calibrate --help")
+        if msg == str(exc):
+            raise
+        raise type(exc)(msg, key=exc.key) from None
+
+
+# ---------------------------------------------------------------------------- the prior
+def load_prior(spec: str) -> np.ndarray:
+    """A 4x4 prior ``X`` from ``spec``: a JSON file (a ``calibration.json`` of this command,
+    ``{"X": 4x4}``, ``{"T_a_b": 4x4}`` or ``{"translation_m": [3], "quaternion_xyzw": [4]}``)
+    or inline JSON/YAML (``[tx,ty,tz,qx,qy,qz,qw]``, 16 numbers row-major, or a mapping)."""
+    import yaml
+
+    from simcalib.geometry import matrix_from_quat, transform_from_rotation_translation
+    text = spec.strip()
+    where = "prior"
+    if not text.startswith(("[", "{")):
+        p = Path(text)
+        if not p.is_file():
+            raise DataError(f"prior {spec!r} is neither a file nor an inline list "
+                            "[tx,ty,tz,qx,qy,qz,qw]")
+        text, where = p.read_text(), f"prior file {str(p)!r}"
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise DataError(f"{where}: not JSON/YAML ({str(exc).splitlines()[0]})") from None
+    if isinstance(data, dict):
+        if isinstance(data.get("X"), dict):        # a calibration.json of this command
+            data = data["X"]
+        if "T_a_b" in data or "X" in data:
+            data = data.get("T_a_b", data.get("X"))
+        elif "translation_m" in data and "quaternion_xyzw" in data:
+            data = list(data["translation_m"]) + list(data["quaternion_xyzw"])
+        else:
+            raise DataError(f"{where}: expected keys X, T_a_b or translation_m + "
+                            f"quaternion_xyzw; received {sorted(data)}")
+    try:
+        v = np.asarray(data, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise DataError(f"{where}: expected numbers; received {data!r}"[:200]) from None
+    if v.size == 7 and v.ndim == 1:
+        q = v[3:]
+        if not 0.8 < np.linalg.norm(q) < 1.2:
+            raise DataError(f"{where}: quaternion {q.tolist()} is not unit (order x,y,z,w)")
+        X = transform_from_rotation_translation(matrix_from_quat(q / np.linalg.norm(q)), v[:3])
+    elif v.size == 16:
+        X = v.reshape(4, 4)
+    else:
+        raise DataError(f"{where}: expected 7 numbers (t, q_xyzw) or a 4x4 matrix; received "
+                        f"shape {v.shape}")
+    from simcalib.geometry import check_transforms
+    try:
+        check_transforms(X[None], "prior X")
+    except ValueError as exc:
+        raise DataError(f"{where}: {exc}") from None
+    return X
+
+
+# ----------------------------------------------------------------- quality: ONE place
+@dataclass(frozen=True)
+class Assessment:
+    """How far the estimate can be trusted. ``verdict``: ``determined``, ``poorly
+    determined``, ``undetermined`` or ``FAILED``; ``std_rot_deg`` / ``std_trans_m``: 1-sigma
+    per axis (frame a) or None when not available; ``covariance`` 6x6 (rad, m) or None;
+    ``source``: what it was computed from; ``summary``: one line for people."""
+    verdict: str
+    degenerate: bool
+    summary: str
+    source: str
+    std_rot_deg: tuple | None = None
+    std_trans_m: tuple | None = None
+    covariance: tuple | None = None
+    undetermined: tuple = ()
+
+    @property
+    def exit_code(self) -> int:
+        if self.verdict == "FAILED":
+            return EXIT_SOLVER
+        return EXIT_DEGENERATE if self.degenerate else EXIT_OK
+
+
+def assess(solution) -> Assessment:
+    """The verdict on ``solution`` (a :class:`simcalib.Solution`): from its uncertainty
+    (``Solution.uncertainty`` / ``std`` / ``verdict``, issue 9) when this version has it,
+    else from today's observability analysis (``degenerate``, ``undetermined``), which
+    gives the verdict but no standard deviations."""
+    if solution is None or not solution.success or not np.isfinite(solution.X).all():
+        why = getattr(solution, "solver_message", "") or "no estimate"
+        return Assessment("FAILED", True, f"the solver failed: {why}", "solver")
+    unc = getattr(solution, "uncertainty", None) if hasattr(type(solution), "verdict") \
+        else None
+    if unc is not None:                    # issue 9: covariance, std, verdict
+        std = np.asarray(unc.std, dtype=np.float64)
+        fin = lambda v: tuple(float(x) if math.isfinite(x) else None for x in v)  # noqa
+        return Assessment(unc.verdict, unc.verdict != "determined", unc.summary(),
+                          "Solution.uncertainty (covariance from the residuals)",
+                          fin(std[:3]), fin(std[3:]),
+                          tuple(fin(r) for r in np.asarray(unc.covariance)),
+                          tuple(d.summary() for d in unc.directions))
+    obs = solution.observability            # today: observability only
+    dirs = tuple(obs.undetermined)
+    verdict = ("undetermined" if any(d.reason == "undetermined" for d in dirs) else
+               "poorly determined" if dirs else "determined")
+    return Assessment(verdict, bool(obs.degenerate),
+                      obs.summary() + "; standard deviations: not available in this "
+                      "version (Solution has no covariance)", "observability",
+                      undetermined=tuple(d.description for d in dirs))
+
+
+# ---------------------------------------------------------------------- the calibration
+def calibrate(opts: CalibrateOptions):
+    """Run the calibration for ``opts``; returns ``(StreamCalibration, Assessment)``.
+    Raises DataError (bad files) or SolverError (no estimate)."""
+    import simcalib
+    from simcalib.calibrate_streams import calibrate_streams
+    from simcalib.importers import read_pose_stream, read_pose_streams
+    fa, fb = opts.formats
+    if opts.b is None:
+        streams = read_pose_streams(opts.a, fa)
+        if len(streams) != 2:
+            raise DataError(f"{str(opts.a)!r} holds {len(streams)} stream(s); give b=PATH "
+                            "(only easy_handeye / moveit sample files hold both)")
+        a, b = streams
+    else:
+        a, b = read_pose_stream(opts.a, fa), read_pose_stream(opts.b, fb)
+    prior = None
+    if opts.prior is not None:
+        prior = simcalib.Prior(load_prior(opts.prior), opts.prior_weight_rotation,
+                               opts.prior_weight_translation)
+    robust_options = {"threshold": opts.threshold} if opts.threshold is not None else {}
+    try:
+        r = calibrate_streams(a, b, time_offset=opts.time_offset, robust=opts.robust,
+                              alpha=opts.alpha, step_s=opts.step_s,
+                              min_rotation_deg=opts.min_rotation_deg,
+                              max_rotation_deg=opts.max_rotation_deg,
+                              invert_a=opts.invert_a, invert_b=opts.invert_b,
+                              scalar_first_a=opts.scalar_first_a,
+                              scalar_first_b=opts.scalar_first_b, drift=opts.drift,
+                              robust_options=robust_options, method=opts.method,
+                              prior=prior, seed=opts.seed)
+    except NotImplementedError as exc:          # IRLS before solve(weights=) exists
+        raise SolverError(str(exc)) from None
+    except (DataError, SolverError):
+        raise
+    except ValueError as exc:                   # too few motions, no overlap ...
+        raise DataError(f"cannot calibrate these streams: {exc}") from None
+    return r, assess(r.robust.solution)
+
+
+# ------------------------------------------------------------------------------ outputs
+def _fin(x):
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def _pose(X) -> dict:
+    from simcalib.geometry import quat_from_matrix, rotvec_from_matrix
+    X = np.asarray(X, dtype=np.float64)
+    return {"T_a_b": X.tolist(), "translation_m": X[:3, 3].tolist(),
+            "quaternion_xyzw": quat_from_matrix(X[:3, :3]).tolist(),
+            "rotvec_deg": np.degrees(rotvec_from_matrix(X[:3, :3])).tolist()}
+
+
+def _stream(s) -> dict:
+    return {"file": s.source, "name": s.name, "format": s.format, "detection": s.detection,
+            "poses": s.n, "duration_s": s.duration_s, "rate_hz": _fin(s.rate_hz),
+            "quaternion_order_in_file": s.quat_order, "inverted": s.inverted,
+            "quaternion_order_swapped": s.scalar_first_reinterpreted,
+            "sample_index_as_time": s.synthetic_time, "repairs": dict(s.repairs)}
+
+
+def report_dict(opts: CalibrateOptions, r, a: Assessment) -> dict:
+    """The content of ``calibration.json`` (schema :data:`SCHEMA`, docs/calibrate.md)."""
+    from simcalib.config import to_dict
+    off, conv, rob, s = r.time_offset, r.conventions, r.robust, r.summary
+    status = {EXIT_OK: "determined", EXIT_DEGENERATE: "degenerate"}.get(a.exit_code,
+                                                                        "failed")
+    return {
+        "schema": SCHEMA,
+        "status": status,
+        "exit_code": a.exit_code,
+        "X": _pose(r.X),
+        "frames": "X = T_a_b: pose of sensor b in sensor a (p_a = X p_b); metres, "
+                  "quaternion (x, y, z, w)",
+        "uncertainty": {"source": a.source, "std_rotation_deg": a.std_rot_deg,
+                        "std_translation_m": a.std_trans_m, "covariance": a.covariance,
+                        "covariance_order": "(wx, wy, wz, vx, vy, vz), rad and m, frame a"},
+        "verdict": {"verdict": a.verdict, "degenerate": a.degenerate,
+                    "directions": list(a.undetermined), "message": a.summary},
+        "time_offset": {"offset_s": off.offset_s, "uncertainty_s": _fin(off.uncertainty_s),
+                        "estimated": opts.time_offset == "estimate",
+                        "coarse_offset_s": off.coarse_offset_s,
+                        "peak_correlation": _fin(off.peak_correlation),
+                        "drift": off.drift, "t_ref_s": off.t_ref_s,
+                        "convention": "offset_s = t_b - t_a for the same instant",
+                        "message": off.message},
+        "inliers": {"robust": rob.method, "n_motions": int(r.C.shape[0]),
+                    "n_inliers": rob.n_inliers, "threshold": _fin(rob.threshold),
+                    "message": rob.message},
+        "residuals": {"inliers": s["residuals_inliers"], "all": s["residuals_all"],
+                      "definition": "per-motion errors of C X = X H (rotation angle, "
+                                    "translation norm)"},
+        "conventions": {"invert_a": conv.invert_a, "invert_b": conv.invert_b,
+                        "swap_scalar_a": conv.swap_scalar_a,
+                        "swap_scalar_b": conv.swap_scalar_b, "ratio": _fin(conv.ratio),
+                        "clear": conv.clear, "runner_up": conv.runner_up,
+                        "scores": conv.scores, "forced": list(conv.forced),
+                        "message": conv.message},
+        "streams": {"a": _stream(r.stream_a), "b": _stream(r.stream_b),
+                    "synchronised": dict(r.synced.counts), "reference": r.synced.reference},
+        "plain": {"description": "dqopt, offset 0, all motions, no rejection",
+                  "X": _pose(r.X_plain), "n_motions": s["n_motions_plain"],
+                  "residuals": s["residuals_plain"]},
+        "aligned_no_rejection": {"description": "dqopt, offset as above, all "
+                                 "motions, no rejection", "X": _pose(r.X_aligned),
+                                 "residuals": s["residuals_aligned"]},
+        "solution": rob.solution.to_dict() if rob.solution is not None else None,
+        "options": to_dict(opts),
+        "warnings": warnings(r),
+        "files": {"motions": "motions.npz",
+                  "recording": "recording.rrd" if opts.recording else None},
+    }
+
+
+def write_outputs(opts: CalibrateOptions, r, a: Assessment) -> dict:
+    """Write calibration.json, motions.npz and recording.rrd into ``opts.output``."""
+    from simcalib.solvers.robust import constraint_errors
+    out = Path(opts.output)
+    out.mkdir(parents=True, exist_ok=True)
+    report = report_dict(opts, r, a)
+    (out / "calibration.json").write_text(json.dumps(report, indent=2) + "\n")
+    rot, trans = constraint_errors(r.C, r.H, r.X)
+    i, j = r.motion_index
+    sp = r.synced
+    np.savez_compressed(
+        out / "motions.npz", C=r.C, H=r.H, time_start_s=sp.time_s[i], time_end_s=sp.time_s[j],
+        index_start=i, index_end=j, inlier=r.robust.inlier_mask, weight=r.robust.weights,
+        screw_residual=r.robust.residuals, rotation_error_deg=np.degrees(rot),
+        translation_error_m=trans, X=r.X, synced_time_s=sp.time_s, synced_T_world_a=sp.T_a,
+        synced_T_world_b=sp.T_b)
+    if opts.recording:
+        from simcalib.calibrate_streams import align_worlds
+        from simcalib.rerun_log import record_calibration
+        off = r.time_offset
+        record_calibration(
+            out / "recording.rrd", time_s=sp.time_s, T_world_a=sp.T_a, T_world_b=sp.T_b,
+            X=r.X, T_wa_wb=align_worlds(sp.T_a, sp.T_b, r.X), motion_time_s=sp.time_s[i],
+            rotation_error_deg=np.degrees(rot), translation_error_m=trans,
+            inlier=r.robust.inlier_mask, lags_s=off.lags_s, correlation=off.correlation,
+            cost_offsets_s=off.cost_offsets_s, cost=off.cost, offset_s=off.offset_s,
+            summary=format_report(report))
+    return report
+
+
+def _vec(v, scale=1.0, digits=3):
+    if v is None:
+        return "n/a"
+    return "[" + ", ".join("inf" if x is None else f"{scale * x:.{digits}f}" for x in v) + "]"
+
+
+def format_report(rep: dict) -> str:
+    """The console report of one calibration (from the calibration.json content)."""
+    X = np.asarray(rep["X"]["T_a_b"])
+    u, v, off, inl = rep["uncertainty"], rep["verdict"], rep["time_offset"], rep["inliers"]
+    res, conv = rep["residuals"]["inliers"], rep["conventions"]
+    rows = "\n".join("    " + " ".join(f"{x:+.6f}" for x in row) for row in X)
+    sig = off["uncertainty_s"]
+    lines = [
+        f"X = T_a_b (pose of b in a):\n{rows}",
+        f"  translation (m):        {_vec(rep['X']['translation_m'], digits=5)}",
+        f"  quaternion (x,y,z,w):   {_vec(rep['X']['quaternion_xyzw'], digits=6)}",
+        f"  rotation vector (deg):  {_vec(rep['X']['rotvec_deg'], digits=3)}",
+        f"uncertainty (1 sigma, frame a): rotation {_vec(u['std_rotation_deg'], digits=4)} deg,"
+        f" translation {_vec(u['std_translation_m'], 1e3, 2)} mm  [{u['source']}]",
+        f"verdict: {v['verdict'].upper()} - {v['message']}",
+        f"time offset t_b - t_a: {1e3 * off['offset_s']:.2f}"
+        + (f" +- {1e3 * sig:.2f} ms" if sig else " ms")
+        + (" (estimated)" if off["estimated"] else " (given)")
+        + (f", drift {off['drift'] * 1e6:.1f} ppm" if off["drift"] else ""),
+        f"  {off['message']}",
+        f"inliers: {inl['n_inliers']} of {inl['n_motions']} motions ({inl['robust']}): "
+        f"{inl['message']}",
+        f"residuals of C X = X H over the inliers: rotation median {res['rot_median_deg']:.3f}"
+        f" / rms {res['rot_rms_deg']:.3f} deg, translation median "
+        f"{res['trans_median_mm']:.2f} / rms {res['trans_rms_mm']:.2f} mm",
+        f"conventions: {conv['message']}",
+    ]
+    for k in ("a", "b"):
+        s = rep["streams"][k]
+        rep_txt = ", ".join(f"{n}: {c}" for n, c in s["repairs"].items() if c) or "none"
+        lines.append(f"stream {k}: {s['file']}{' [' + s['name'] + ']' if s['name'] else ''}"
+                     f" - {s['poses']} poses, {s['duration_s']:.2f} s, ~{s['rate_hz']:.1f} Hz,"
+                     f" {s['detection']}; repairs: {rep_txt}")
+    p = rep["plain"]
+    lines.append(f"plain solve (offset 0, no rejection, {p['n_motions']} motions): t = "
+                 f"{_vec(p['X']['translation_m'], 1e3, 2)} mm, rotvec "
+                 f"{_vec(p['X']['rotvec_deg'], digits=3)} deg, residual rms "
+                 f"{p['residuals']['rot_rms_deg']:.3f} deg / "
+                 f"{p['residuals']['trans_rms_mm']:.2f} mm")
+    lines += [f"WARNING: {w}" for w in rep["warnings"]]
+    lines.append(f"status: {rep['status']} (exit {rep['exit_code']})")
+    return "\n".join(lines)
+
+
+def warnings(r) -> list[str]:
+    """Signs that the result should not be trusted even when X is determined."""
+    out = []
+    if not r.conventions.clear:
+        out.append(f"the reading of the files did not clearly win (ratio "
+                   f"{r.conventions.ratio:.2f} <= 3): check the files or force invert_a/_b, "
+                   "scalar_first_a/_b")
+    peak = r.time_offset.peak_correlation
+    if math.isfinite(peak) and peak < 0.5:
+        out.append(f"weak angular-speed correlation (peak r = {peak:.2f}): the offset "
+                   "may be wrong")
+    if r.robust.inlier_fraction < 0.5:
+        out.append(f"only {r.robust.inlier_fraction:.0%} of the motions are inliers")
+    return out
+
+
+# ------------------------------------------------------------------------------ command
+USAGE = """usage: python -m simcalib calibrate a=PATH b=PATH output=DIR [key=value ...]
+
+Calibrates X = T_a_b (pose of sensor b in sensor a) from two recorded pose files: reads
+them (format detected or named), decides which reading makes them consistent (inverse
+poses, quaternion order), estimates the clock offset, pairs the poses into motions,
+rejects outlier motions and solves. Prints X, its uncertainty, the verdict on degeneracy,
+the offset, inliers, residuals and the conventions used; writes calibration.json,
+motions.npz and recording.rrd (open with `rerun recording.rrd`) into output.
+
+formats: {formats}
+
+keys (type = default):
+{keys}
+
+exit status: 0 determined, 6 degenerate (outputs written), 5 solver failed, 3 bad data,
+2 bad options.
+"""
+
+
+def help_text() -> str:
+    from simcalib.config import describe_keys
+    from simcalib.importers import available
+    return USAGE.format(formats=", ".join(available()),
+                        keys="\n".join(describe_keys(CalibrateOptions)))
+
+
+def main(args: list[str]) -> int:
+    if any(a in ("-h", "--help") for a in args):
+        print(help_text(), end="")
+        return 0
+    if not args:
+        raise UsageError("calibrate needs a=PATH b=PATH output=DIR (see calibrate --help)")
+    opts = parse_options(args)
+    r, a = calibrate(opts)
+    report = write_outputs(opts, r, a)
+    print(format_report(report))
+    print(f"written: {Path(opts.output) / 'calibration.json'}, motions.npz"
+          + (", recording.rrd" if opts.recording else ""))
+    return a.exit_code
