@@ -1,10 +1,13 @@
 """ALL MuJoCo offscreen rendering of simcalib: backend selection, camera renderer, workers.
 
-Backend (PLATFORM.md): MuJoCo reads ``MUJOCO_GL`` once, at import. simcalib uses ``egl``
-(Mesa llvmpipe on CPU, no display needed) and falls back to ``osmesa``; if neither can
-create an OpenGL context, :class:`RenderBackendError` names the Debian packages to install.
-Because the choice cannot be undone inside a process, a fallback backend is used in
-worker processes started with that ``MUJOCO_GL``.
+Backend: MuJoCo reads ``MUJOCO_GL`` once, at import. No simcalib module sets it at import
+time; :func:`import_mujoco` (the one way simcalib imports mujoco) lets
+:func:`select_backend` decide once, when MuJoCo is first needed: unset -> ``egl``,
+``osmesa`` without libOSMesa -> ``egl`` with a warning naming the package, an unknown
+value -> :class:`RenderBackendError` listing the valid ones. If the chosen backend cannot
+create an OpenGL context, ``egl`` then ``osmesa`` are probed in fresh interpreters and a
+working one is used in worker processes; if none works, :class:`RenderBackendError`
+names the Debian packages to install.
 
 Renderer: :class:`CameraRenderer` renders a named model camera from raw MuJoCo state
 (``qpos``, ``mocap_pos``, ``mocap_quat_wxyz``) with shadows off (shadow edges move marker
@@ -12,8 +15,10 @@ corners by pixels) and, by default, no multisampling (``offsamples=0``: ~3x fast
 detected corners are as accurate; docs/vision.md). It renders a private copy of the model,
 so the caller's model is never modified.
 
-Parallel: :func:`render_map` renders many frames in worker processes and applies a
-picklable per-frame function there (so only small results travel back). Results are
+Parallel: :func:`render_map` renders many frames in worker processes
+(:func:`simcalib.parallel.worker_pool`: Ctrl-C stops them quietly and returns the frames
+done in :class:`RenderInterrupted`; ``progress`` reports frames as they finish) and
+applies a picklable per-frame function there (so only small results travel back). Results are
 returned in job order and do not depend on the worker count: a job carries everything its
 frame needs (state, seed key), and rendering the same state gives the same pixels.
 """
