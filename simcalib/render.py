@@ -1,10 +1,13 @@
 """ALL MuJoCo offscreen rendering of simcalib: backend selection, camera renderer, workers.
 
-Backend (PLATFORM.md): MuJoCo reads ``MUJOCO_GL`` once, at import. simcalib uses ``egl``
-(Mesa llvmpipe on CPU, no display needed) and falls back to ``osmesa``; if neither can
-create an OpenGL context, :class:`RenderBackendError` names the Debian packages to install.
-Because the choice cannot be undone inside a process, a fallback backend is used in
-worker processes started with that ``MUJOCO_GL``.
+Backend: MuJoCo reads ``MUJOCO_GL`` once, at import. No simcalib module sets it at import
+time; :func:`import_mujoco` (the one way simcalib imports mujoco) lets
+:func:`select_backend` decide once, when MuJoCo is first needed: unset -> ``egl``,
+``osmesa`` without libOSMesa -> ``egl`` with a warning naming the package, an unknown
+value -> :class:`RenderBackendError` listing the valid ones. If the chosen backend cannot
+create an OpenGL context, ``egl`` then ``osmesa`` are probed in fresh interpreters and a
+working one is used in worker processes; if none works, :class:`RenderBackendError`
+names the Debian packages to install.
 
 Renderer: :class:`CameraRenderer` renders a named model camera from raw MuJoCo state
 (``qpos``, ``mocap_pos``, ``mocap_quat_wxyz``) with shadows off (shadow edges move marker
@@ -12,8 +15,10 @@ corners by pixels) and, by default, no multisampling (``offsamples=0``: ~3x fast
 detected corners are as accurate; docs/vision.md). It renders a private copy of the model,
 so the caller's model is never modified.
 
-Parallel: :func:`render_map` renders many frames in worker processes and applies a
-picklable per-frame function there (so only small results travel back). Results are
+Parallel: :func:`render_map` renders many frames in worker processes
+(:func:`simcalib.parallel.worker_pool`: Ctrl-C stops them quietly and returns the frames
+done in :class:`RenderInterrupted`; ``progress`` reports frames as they finish) and
+applies a picklable per-frame function there (so only small results travel back). Results are
 returned in job order and do not depend on the worker count: a job carries everything its
 frame needs (state, seed key), and rendering the same state gives the same pixels.
 """
@@ -348,6 +353,50 @@ class CameraRenderer:
             raise RenderBackendError(backend_error_message({loaded_backend(): reason})) from exc
         self._renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = bool(settings.shadows)
         self._cam_ids: dict[str, int] = {}
+        self._light0 = (np.array(m.light_diffuse, copy=True), np.array(m.light_ambient,
+                        copy=True), np.array(m.light_dir, copy=True),
+                        np.array(m.vis.headlight.diffuse, copy=True),
+                        np.array(m.vis.headlight.ambient, copy=True))
+        self._light_now = (1.0, 0.0)
+
+    def set_light(self, scale: float = 1.0, yaw_rad: float = 0.0) -> None:
+        """Scale every light's intensity (and the headlight's) by ``scale`` and turn the
+        model lights' directions by ``yaw_rad`` about the world z axis (1, 0 restores)."""
+        if (float(scale), float(yaw_rad)) == self._light_now:
+            return
+        m = self.model
+        diffuse, ambient, direction, h_diffuse, h_ambient = self._light0
+        m.light_diffuse[:] = np.clip(diffuse * scale, 0.0, 1.0)
+        m.light_ambient[:] = np.clip(ambient * scale, 0.0, 1.0)
+        c, s_ = np.cos(yaw_rad), np.sin(yaw_rad)
+        Rz = np.array([[c, -s_, 0.0], [s_, c, 0.0], [0.0, 0.0, 1.0]])
+        m.light_dir[:] = direction @ Rz.T
+        m.vis.headlight.diffuse[:] = np.clip(h_diffuse * scale, 0.0, 1.0)
+        m.vis.headlight.ambient[:] = np.clip(h_ambient * scale, 0.0, 1.0)
+        self._light_now = (float(scale), float(yaw_rad))
+        self._mujoco.mj_camlight(m, self.data)
+
+    def occluded(self, camera: str, points_world: np.ndarray, tol_m: float = 0.005
+                 ) -> np.ndarray:
+        """``(N,)`` bool: is the straight line from the camera to each world point blocked
+        by a geom (robot, cart, ...) more than ``tol_m`` before the point? Uses the current
+        state; geoms of the camera's own body are ignored."""
+        pts = np.asarray(points_world, dtype=np.float64).reshape(-1, 3)
+        if pts.shape[0] == 0:
+            return np.zeros(0, dtype=bool)
+        i = self.camera_id(camera)
+        p0 = np.array(self.data.cam_xpos[i], dtype=np.float64)
+        vec = pts - p0
+        length = np.linalg.norm(vec, axis=1)
+        unit = np.ascontiguousarray(vec / np.maximum(length, 1e-12)[:, None])
+        n = pts.shape[0]
+        geomid = np.zeros(n, dtype=np.int32)
+        dist = np.zeros(n, dtype=np.float64)
+        body = int(self.model.cam_bodyid[i])  # the world body (0) holds the room: keep it
+        self._mujoco.mj_multiRay(self.model, self.data, p0, unit.ravel(), None, 1,
+                                 body if body > 0 else -1, geomid, dist, None, n,
+                                 float(length.max() + 1.0))
+        return (dist >= 0) & (dist < length - tol_m)
 
     @staticmethod
     def _camera_id(m, camera: str) -> int:
@@ -427,13 +476,23 @@ class CameraRenderer:
 @dataclass(frozen=True)
 class FrameJob:
     """One frame to render: camera name, frame index, raw MuJoCo state, and ``key`` (any
-    picklable data the per-frame function needs, e.g. a seed key)."""
+    picklable data the per-frame function needs, e.g. a seed key).
+
+    ``substates``: ``((qpos, mocap_pos, mocap_quat_wxyz), ...)`` — when given, each is
+    rendered and the per-frame function receives the ``(S, H, W, 3)`` stack (motion blur,
+    rolling shutter); the frame's own state still defines ``FrameTiming.T_world_cam``.
+    ``light``: ``(intensity scale, azimuth offset rad)`` for :meth:`CameraRenderer.set_light`
+    (``None``: the model's lights). ``check_points``: ``(N, 3)`` world points tested for
+    occlusion at the frame's state (``FrameTiming.occluded``)."""
     camera: str
     frame_index: int
     qpos: np.ndarray | None
     mocap_pos: np.ndarray | None
     mocap_quat_wxyz: np.ndarray | None
     key: Any = None
+    substates: tuple = ()
+    light: tuple | None = None
+    check_points: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -448,6 +507,7 @@ class FrameTiming:
     cpu_s: float
     pid: int
     T_world_cam: np.ndarray
+    occluded: np.ndarray | None = None
 
 
 _WORKER: dict[str, Any] = {}
@@ -481,12 +541,19 @@ def _run_jobs(renderer: CameraRenderer, fn: Callable, jobs: Sequence[FrameJob]) 
     for job in jobs:
         c0 = time.process_time()
         t0 = time.perf_counter()
-        img = renderer.render(job.camera, job.qpos, job.mocap_pos, job.mocap_quat_wxyz)
+        renderer.set_light(*(job.light if job.light is not None else (1.0, 0.0)))
+        if job.substates:
+            img = np.stack([renderer.render(job.camera, *st) for st in job.substates])
+            renderer.set_state(job.qpos, job.mocap_pos, job.mocap_quat_wxyz)
+        else:
+            img = renderer.render(job.camera, job.qpos, job.mocap_pos, job.mocap_quat_wxyz)
+        T = renderer.T_world_cam(job.camera)
+        occ = None if job.check_points is None else renderer.occluded(job.camera,
+                                                                      job.check_points)
         t1 = time.perf_counter()
         res = img if fn is None else fn(img, job)
         out.append((res, FrameTiming(t1 - t0, time.perf_counter() - t0,
-                                     time.process_time() - c0, os.getpid(),
-                                     renderer.T_world_cam(job.camera))))
+                                     time.process_time() - c0, os.getpid(), T, occ)))
     return out
 
 

@@ -44,6 +44,15 @@ class VisionConfig:
     ``ambiguity_ratio``, ``refine`` (see :class:`simcalib.markers.PnPSettings`).
     Log: ``log_every`` (keep the JPEG image of every n-th frame per camera; 0 = none),
     ``jpeg_quality`` (1–100).
+    Camera effects (:mod:`simcalib.camera_effects`): ``preset`` (``ideal`` — every effect
+    off — ``realistic`` or ``harsh``) and per-effect overrides, ``None`` keeping the
+    preset's value: ``distortion`` (k1, k2, p1, p2, k3), ``intrinsics_error`` (focal
+    fraction, principal point px, distortion fraction: std of the estimator's calibration
+    error), ``read_noise_dn``, ``shot_noise_dn``, ``gain_log_std``, ``compression_quality``
+    (camera JPEG, 0 = none), ``exposure_s`` (motion blur), ``readout_s`` (rolling shutter),
+    ``subframes`` (renders per frame for both), ``light_variation``, ``light_motion_deg``.
+    ``count_occlusion``: count markers in view whose line of sight is blocked (robot,
+    cart) per frame.
     """
     width: int | None = None
     height: int | None = None
@@ -60,6 +69,19 @@ class VisionConfig:
     refine: bool = True
     log_every: int = 10
     jpeg_quality: int = 80
+    preset: str = "ideal"
+    distortion: tuple | None = None
+    intrinsics_error: tuple | None = None
+    read_noise_dn: float | None = None
+    shot_noise_dn: float | None = None
+    gain_log_std: float | None = None
+    compression_quality: int | None = None
+    exposure_s: float | None = None
+    readout_s: float | None = None
+    subframes: int | None = None
+    light_variation: float | None = None
+    light_motion_deg: float | None = None
+    count_occlusion: bool = True
 
     def __post_init__(self):
         from simcalib.checks import (check_bool, check_in, check_int, check_range,
@@ -78,8 +100,32 @@ class VisionConfig:
             edge_refinement=check_bool("edge_refinement", self.edge_refinement),
             refine=check_bool("refine", self.refine),
             log_every=check_int("log_every", self.log_every, lo=0, hi=10**9),
-            jpeg_quality=check_int("jpeg_quality", self.jpeg_quality, lo=1, hi=100))
+            jpeg_quality=check_int("jpeg_quality", self.jpeg_quality, lo=1, hi=100),
+            count_occlusion=check_bool("count_occlusion", self.count_occlusion))
         self.pnp_settings()  # validates the PnP fields with their own messages
+        self.effects()       # validates preset and camera-effect fields
+
+    #: VisionConfig field -> CameraEffects field (``None`` in VisionConfig: the preset's).
+    EFFECT_FIELDS = {"distortion": "distortion", "intrinsics_error": "intrinsics_error",
+                     "read_noise_dn": "read_noise_dn", "shot_noise_dn": "shot_noise_dn",
+                     "gain_log_std": "gain_log_std", "compression_quality": "jpeg_quality",
+                     "exposure_s": "exposure_s", "readout_s": "readout_s",
+                     "subframes": "subframes", "light_variation": "light_variation",
+                     "light_motion_deg": "light_motion_deg"}
+
+    def effects(self):
+        """The camera effects in force: :attr:`preset` with the fields set here replacing
+        the preset's (:class:`simcalib.camera_effects.CameraEffects`)."""
+        from .camera_effects import PRESETS, preset  # noqa: PLC0415
+        from simcalib.checks import check_in  # noqa: PLC0415
+        check_in("preset", self.preset, sorted(PRESETS))
+        over = {eff: getattr(self, mine) for mine, eff in self.EFFECT_FIELDS.items()
+                if getattr(self, mine) is not None}
+        try:
+            return preset(self.preset, **over)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"VisionConfig: {exc} (camera-effect fields: "
+                             f"{sorted(self.EFFECT_FIELDS)})") from None
 
     def detector_settings(self, dictionary: str) -> DetectorSettings:
         return DetectorSettings(dictionary=dictionary, corner_refinement=self.corner_refinement,
@@ -113,7 +159,10 @@ class VisualFrame:
     ``status``: ``"ok"`` or a drop reason (:data:`simcalib.markers.DROP_REASONS`);
     ``ids`` ``(N,)`` / ``corners_px`` ``(N, 4, 2)``: all detected markers; ``ids_used``: the
     markers of the final pose; ``reproj_rmse_px`` (``inf`` when no pose was fitted);
-    ``T_world_cam``: the estimated pose (``None`` when dropped).
+    ``T_world_cam``: the estimated pose (``None`` when dropped); ``markers_in_view``: map
+    markers geometrically in view (inside the image, facing the camera), of which
+    ``markers_occluded`` have their line of sight blocked by the robot/cart (-1: not
+    counted).
     """
     camera: str
     frame_index: int
@@ -125,6 +174,8 @@ class VisualFrame:
     reproj_rmse_px: float
     ambiguity: float
     T_world_cam: np.ndarray | None
+    markers_in_view: int = -1
+    markers_occluded: int = -1
 
 
 @dataclass(frozen=True)
@@ -174,6 +225,9 @@ class VisualLog:
                                                         if f.status == "ok"])) if rm.size else 0.0,
                 "median_reproj_rmse_px": float(np.median(rm)) if rm.size else None,
                 "n_images": len(self.images_jpeg.get(cam, {})),
+                "markers_in_view": int(sum(max(f.markers_in_view, 0) for f in frames)),
+                "markers_occluded": int(sum(max(f.markers_occluded, 0) for f in frames)),
+                "frames_with_occlusion": int(sum(f.markers_occluded > 0 for f in frames)),
             }
         return out
 
@@ -192,26 +246,45 @@ class _FrameOut:
     pnp_s: float
 
 
+@dataclass(frozen=True)
+class CameraOptics:
+    """One camera's lens and calibration in a run: ``dist`` the true distortion, ``K_est`` /
+    ``dist_est`` the calibration the estimator uses (``vision.intrinsics_error``),
+    ``margin_px`` ``(mx, my)`` the render margin of a distorted camera, ``gain_phase``
+    the phase of its auto-exposure drift."""
+    dist: tuple
+    K_est: np.ndarray
+    dist_est: np.ndarray
+    margin_px: tuple
+    gain_phase: float = 0.0
+
+
 class FrameProcessor:
     """Per-frame work after rendering (runs in render workers; picklable).
 
-    Converts to grey, applies blur then noise (generator seeded by ``(entropy, camera
-    index, frame index)``), detects markers, estimates the camera pose, and JPEG-encodes the
-    degraded image when the frame is in the log subsample.
+    Mixes the sub-frame renders (motion blur, rolling shutter), converts to grey, applies
+    lens distortion, the sensor (gain, shot/read noise) and the camera's JPEG, then the
+    legacy blur/noise knobs (generator seeded by ``(entropy, camera index, frame index)``),
+    detects markers, undistorts their corners with the estimator's calibration, estimates
+    the camera pose, and JPEG-encodes the image when the frame is in the log subsample.
     """
 
     def __init__(self, field: MarkerField, K_by_camera: dict, cam_index: dict, cfg: VisionConfig,
-                 entropy: int):
+                 entropy: int, optics: dict | None = None):
         self.field = field
         self.K_by_camera = {c: np.asarray(K, dtype=np.float64) for c, K in K_by_camera.items()}
         self.cam_index = dict(cam_index)
         self.cfg = cfg
+        self.effects = cfg.effects()
         self.entropy = int(entropy)
+        self.optics = dict(optics or {})
         self._detector = None
+        self._maps: dict = {}
 
     def __getstate__(self):
         state = dict(self.__dict__)
         state["_detector"] = None  # OpenCV objects do not pickle; rebuilt per process
+        state["_maps"] = {}        # remap tables are rebuilt per process (cheap, large)
         return state
 
     def frame_rng(self, camera: str, frame_index: int) -> np.random.Generator:
@@ -219,8 +292,9 @@ class FrameProcessor:
             self.entropy, spawn_key=(self.cam_index[camera], int(frame_index))))
 
     def degrade(self, rgb: np.ndarray, camera: str, frame_index: int) -> np.ndarray:
+        """Legacy knobs on the grey image: Gaussian blur then Gaussian noise."""
         import cv2  # noqa: PLC0415
-        gray = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
+        gray = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY) if rgb.ndim == 3 else rgb
         cfg = self.cfg
         if cfg.blur_sigma_px > 0:
             gray = cv2.GaussianBlur(gray, (0, 0), sigmaX=float(cfg.blur_sigma_px),
@@ -232,19 +306,66 @@ class FrameProcessor:
             gray = np.clip(gray.astype(np.float32) + noise, 0, 255).round().astype(np.uint8)
         return gray
 
-    def __call__(self, rgb: np.ndarray, job) -> _FrameOut:
+    def _remap(self, camera: str, gray: np.ndarray) -> np.ndarray:
         import cv2  # noqa: PLC0415
-        from .markers import detect_markers, estimate_camera_pose, make_detector  # noqa: PLC0415
+        from .camera_effects import distortion_maps  # noqa: PLC0415
+        opt = self.optics[camera]
+        if camera not in self._maps:
+            K = self.K_by_camera[camera]
+            h = int(round(2 * K[1, 2] + 1))
+            w = int(round(2 * K[0, 2] + 1))
+            self._maps[camera] = distortion_maps(K, opt.dist, w, h, opt.margin_px)
+        mx, my = self._maps[camera]
+        return cv2.remap(gray, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+
+    def camera_image(self, rendered: np.ndarray, job) -> np.ndarray:
+        """The ``(H, W)`` uint8 grey image the camera delivers for one rendered frame
+        (``(H', W', 3)`` render or ``(S, H', W', 3)`` sub-frame stack)."""
+        import cv2  # noqa: PLC0415
+        from .camera_effects import apply_sensor, combine_subframes, jpeg_roundtrip, row_weights  # noqa: PLC0415,E501
+        eff = self.effects
+        opt = self.optics.get(job.camera)
+        rng = self.frame_rng(job.camera, job.frame_index)
+        stack = rendered if rendered.ndim == 4 else rendered[None]
+        grays = np.stack([cv2.cvtColor(im, cv2.COLOR_RGB2GRAY) for im in stack])
+        distorted = opt is not None and eff.has_distortion
+        sensor = eff.read_noise_dn > 0 or eff.shot_noise_dn > 0 or eff.gain_log_std > 0
+        if grays.shape[0] == 1 and not distorted and not sensor:
+            gray = grays[0]
+        else:
+            my = opt.margin_px[1] if distorted else 0
+            h_out = grays.shape[1] - 2 * my
+            w = row_weights(eff, grays.shape[1], first_row=-my, height=h_out) \
+                if grays.shape[0] > 1 else np.ones((grays.shape[1], 1))
+            img = combine_subframes(grays, w)
+            if distorted:
+                img = self._remap(job.camera, img)
+            t = float(job.key) if job.key is not None else 0.0
+            gray = apply_sensor(img, eff, rng, t, opt.gain_phase if opt is not None else 0.0)
+        gray = jpeg_roundtrip(gray, eff.jpeg_quality)
+        return self.degrade(gray, job.camera, job.frame_index)
+
+    def __call__(self, rendered: np.ndarray, job) -> _FrameOut:
+        import cv2  # noqa: PLC0415
+        from .camera_effects import undistort_points  # noqa: PLC0415
+        from .markers import Detections, detect_markers, estimate_camera_pose, make_detector  # noqa: PLC0415,E501
         cfg = self.cfg
         dsettings = cfg.detector_settings(self.field.dictionary)
         if self._detector is None:
             self._detector = make_detector(dsettings)
-        gray = self.degrade(rgb, job.camera, job.frame_index)
+        gray = self.camera_image(rendered, job)
         t0 = time.perf_counter()
         det = detect_markers(gray, self._detector, dsettings)
         t1 = time.perf_counter()
-        est = estimate_camera_pose(det, self.field, self.K_by_camera[job.camera],
-                                   cfg.pnp_settings())
+        K = self.K_by_camera[job.camera]
+        opt = self.optics.get(job.camera)
+        det_pnp = det
+        if opt is not None:
+            K = opt.K_est
+            if det.n and np.any(opt.dist_est != 0):
+                det_pnp = Detections(det.ids, undistort_points(det.corners_px, K, opt.dist_est),
+                                     det.n_rejected)
+        est = estimate_camera_pose(det_pnp, self.field, K, cfg.pnp_settings())
         t2 = time.perf_counter()
         jpeg = None
         if cfg.log_every and job.frame_index % cfg.log_every == 0:
@@ -377,30 +498,55 @@ def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Genera
         if cfg.fovy_deg is None:
             _check_model_fovy(world.model, cam, fovy[cam], world.intrinsics[cam])
     frames = {cam: _camera_frames(world, cam) for cam in cameras}
+    eff = cfg.effects()
+    optics = _camera_optics(cameras, intr, eff, entropy)
     proc = FrameProcessor(world.marker_field, {c: intr[c].K for c in cameras},
-                          {c: i for i, c in enumerate(cameras)}, cfg, entropy)
+                          {c: i for i, c in enumerate(cameras)}, cfg, entropy, optics)
+    light_phase = float(np.random.default_rng(np.random.SeedSequence(
+        entropy, spawn_key=(10**6,))).uniform(0, 2 * np.pi))
+    offsets = _subframe_offsets(eff)
 
-    # One render pass per image size (cameras usually share one).
+    # One render pass per rendered image size (cameras usually share one).
     sizes: dict[tuple[int, int], list[str]] = {}
     for cam in cameras:
-        sizes.setdefault((intr[cam].width, intr[cam].height), []).append(cam)
+        mx, my = optics[cam].margin_px if optics else (0, 0)
+        sizes.setdefault((intr[cam].width + 2 * mx, intr[cam].height + 2 * my), []).append(cam)
     outs: dict[str, list] = {}
+    occl: dict[str, dict] = {c: {} for c in cameras}
     timings: list = []
     t_start = time.perf_counter()
     n_jobs_total = int(sum(_delivered(frames[c]).sum() for c in cameras))
     n_before = 0
     interrupted = None
     for (w, h), cams in sizes.items():
-        settings = RenderSettings(
-            width=w, height=h, msaa_samples=cfg.msaa_samples,
-            fovy_deg={c: fovy[c] for c in cams} if cfg.fovy_deg is not None else {})
+        fov_over = {}
+        for c in cams:
+            if cfg.fovy_deg is not None or (w, h) != (intr[c].width, intr[c].height):
+                fov_over[c] = float(np.rad2deg(2 * np.arctan(h / (2 * intr[c].fy))))
+        settings = RenderSettings(width=w, height=h, msaa_samples=cfg.msaa_samples,
+                                  fovy_deg=fov_over)
         jobs = []
         for cam in cams:
             fr = frames[cam]
+            in_view = _markers_in_view(world.marker_field, fr.T_world_cam, intr[cam]) \
+                if cfg.count_occlusion else None
             for k in np.flatnonzero(_delivered(fr)):
                 k = int(k)
+                t_k = float(fr.time_s[k])
+                subs = () if offsets is None else tuple(
+                    _state_at(fr, t_k + o) for o in offsets)
+                light = None
+                if eff.light_variation > 0 or eff.light_motion_deg > 0:
+                    from .camera_effects import light_state  # noqa: PLC0415
+                    light = light_state(t_k, eff, light_phase,
+                                        float(np.sin(2 * np.pi * 3.7 * t_k + light_phase)))
+                pts = None
+                if in_view is not None:
+                    pts = _shrunk_corners(world.marker_field, in_view[k])
+                    occl[cam][k] = int(in_view[k].sum())
                 jobs.append(FrameJob(cam, k, _row(fr.qpos, k), _row(fr.mocap_pos, k),
-                                     _row(fr.mocap_quat_wxyz, k)))
+                                     _row(fr.mocap_quat_wxyz, k), key=t_k, substates=subs,
+                                     light=light, check_points=pts))
         sub_progress = None
         if progress is not None:
             def sub_progress(n, _t, _base=n_before):
@@ -414,6 +560,11 @@ def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Genera
             rtimes = exc.timings
         done = [i for i, t in enumerate(rtimes) if t is not None]
         timings += [rtimes[i] for i in done]
+        for i in done:
+            if rtimes[i].occluded is not None:
+                n_occ = int(rtimes[i].occluded.reshape(-1, 4).any(axis=1).sum())
+                occl[jobs[i].camera][jobs[i].frame_index] = (
+                    occl[jobs[i].camera][jobs[i].frame_index], n_occ)
         _check_rendered_poses([jobs[i] for i in done], [rtimes[i] for i in done], frames)
         for job, res in zip(jobs, results):
             outs.setdefault(job.camera, []).append(res)
@@ -445,9 +596,11 @@ def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Genera
                   "reproj_rmse_px": np.array([res[i].reproj_rmse_px for i in idx]),
                   "ambiguity": np.array([res[i].ambiguity for i in idx])},
             drop_reasons=reasons)
+        vis = {k: v for k, v in occl[cam].items() if isinstance(v, tuple)}
         log_frames[cam] = tuple(
             VisualFrame(cam, k, float(fr.time_s[k]), r.status, r.ids, r.corners_px, r.ids_used,
-                        r.reproj_rmse_px, r.ambiguity, r.T_world_cam)
+                        r.reproj_rmse_px, r.ambiguity, r.T_world_cam,
+                        *vis.get(k, (-1, -1)))
             for k, r in enumerate(res))
         log_images[cam] = {k: r.jpeg for k, r in enumerate(res) if r.jpeg is not None}
     n_total = sum(len(v) for v in outs.values())
@@ -468,6 +621,69 @@ def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Genera
     if interrupted is not None:
         raise VisualStreamsInterrupted(streams, log, len(timings), n_jobs_total) from None
     return streams, log
+
+
+def _camera_optics(cameras, intr: dict, eff, entropy: int) -> dict:
+    """Per camera: true distortion, the estimator's (perturbed) calibration, render margin;
+    ``{}`` when no effect needs them (the ideal pinhole path)."""
+    from .camera_effects import perturbed_calibration, render_margin_px  # noqa: PLC0415
+    if not eff.has_distortion and not any(eff.intrinsics_error) and eff.gain_log_std == 0:
+        return {}
+    out = {}
+    for i, cam in enumerate(cameras):
+        K = intr[cam].K
+        rng = np.random.default_rng(np.random.SeedSequence(entropy, spawn_key=(10**6 + 1 + i,)))
+        K_est, d_est = perturbed_calibration(K, eff.distortion, eff, rng)
+        out[cam] = CameraOptics(eff.distortion, K_est, d_est,
+                                render_margin_px(K, eff.distortion, intr[cam].width,
+                                                 intr[cam].height),
+                                float(rng.uniform(0, 2 * np.pi)))
+    return out
+
+
+def _subframe_offsets(eff):
+    from .camera_effects import subframe_offsets_s  # noqa: PLC0415
+    return subframe_offsets_s(eff) if eff.timed else None
+
+
+def _state_at(fr, t: float) -> tuple:
+    """Raw MuJoCo state ``(qpos, mocap_pos, mocap_quat_wxyz)`` at time ``t``, linearly
+    interpolated between the camera's frames (quaternions: normalised lerp in one
+    hemisphere); outside the frames, extrapolated from the nearest pair."""
+    ts = np.asarray(fr.time_s, dtype=np.float64)
+    n = ts.size
+    if n == 1:
+        return (_row(fr.qpos, 0), _row(fr.mocap_pos, 0), _row(fr.mocap_quat_wxyz, 0))
+    i = int(np.clip(np.searchsorted(ts, t) - 1, 0, n - 2))
+    dt = ts[i + 1] - ts[i]
+    a = (t - ts[i]) / dt if dt > 0 else 0.0
+
+    def lerp(arr):
+        r0, r1 = _row(arr, i), _row(arr, i + 1)
+        return None if r0 is None else (1 - a) * r0 + a * r1
+
+    q0, q1 = _row(fr.mocap_quat_wxyz, i), _row(fr.mocap_quat_wxyz, i + 1)
+    q = None
+    if q0 is not None:
+        sign = np.where(np.sum(q0 * q1, axis=-1, keepdims=True) < 0, -1.0, 1.0)
+        q = (1 - a) * q0 + a * sign * q1
+        q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    return (lerp(fr.qpos), lerp(fr.mocap_pos), q)
+
+
+def _markers_in_view(field: MarkerField, T_world_cam: np.ndarray, intr) -> np.ndarray:
+    """``(F, M)`` markers geometrically in view (simcalib.world.layout.visible_markers
+    with no minimum size: inside the image, in front, facing within 80 deg)."""
+    from .world.layout import visible_markers  # noqa: PLC0415
+    return visible_markers(field, T_world_cam, intr, min_side_px=0.0, max_view_angle_deg=80.0)
+
+
+def _shrunk_corners(field: MarkerField, mask: np.ndarray) -> np.ndarray:
+    """Corners of the markers in ``mask`` pulled 5 % towards their centre, ``(4 n, 3)``
+    (rays to the exact corners graze the marker's own edge)."""
+    c = field.corners_world()[np.asarray(mask, dtype=bool)]
+    centre = c.mean(axis=1, keepdims=True)
+    return (centre + 0.95 * (c - centre)).reshape(-1, 3)
 
 
 _NOT_RENDERED = _FrameOut("not_rendered", None, np.zeros(0, dtype=np.int64), np.zeros((0, 4, 2)),
