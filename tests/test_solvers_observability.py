@@ -8,7 +8,7 @@ import simcalib
 from simcalib import geometry as g
 from simcalib.solvers import available
 from simcalib.solvers.api import Prior
-from test_solvers_cases import general_case, motions_from_C, planar_case, random_X
+from solver_cases import general_case, motions_from_C, planar_case, random_X
 
 
 def _kinds(sol):

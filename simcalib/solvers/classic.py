@@ -175,6 +175,7 @@ def daniilidis(problem: MotionProblem, alpha: float = 1.0) -> SolverOutput:
 
 
 @register("daniilidis", family="classic", uses_alpha=True, supports_prior=False,
+          expected_cost_us=2000.0,
           description="Daniilidis 1999 dual-quaternion SVD (translation scaled by alpha)")
 def _daniilidis(problem: MotionProblem, alpha: float, prior, rng) -> SolverOutput:
     if prior is not None:
