@@ -38,7 +38,7 @@ AMBIGUOUS_W = 0.25
 _FIT_DOT = 0.9
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _cost_soa(Q, wts, weighted, n, q, qd, a2):
     """Cost (8) motion by motion from the SoA quaternions Q (16, N) (accurate near 0)."""
     x, y, z, w = q[0], q[1], q[2], q[3]
@@ -58,7 +58,7 @@ def _cost_soa(Q, wts, weighted, n, q, qd, a2):
     return tot
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _solve_gram(opt, T, Q, wts, weighted, n, a2, Z0, q, qd, info, P, nrm, AtA, BtB, BtA, S, W,
                 M):
     """dqopt (method code ``opt``, passed as a runtime value so that ``_solve_core`` is
@@ -70,49 +70,48 @@ def _solve_gram(opt, T, Q, wts, weighted, n, a2, Z0, q, qd, info, P, nrm, AtA, B
     _solve_core(opt, S, W, M, q, qd, info)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _flip(Q, i):
     for k in range(4):
         Q[4 + k, i] = -Q[4 + k, i]
         Q[12 + k, i] = -Q[12 + k, i]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _fit_dot(Q, i, q):
     a = _qmul(Q[0, i], Q[1, i], Q[2, i], Q[3, i], q[0], q[1], q[2], q[3])
     b = _qmul(q[0], q[1], q[2], q[3], Q[4, i], Q[5, i], Q[6, i], Q[7, i])
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _refine(opt, T, Q, wts, weighted, n, amb, a2, Z0, q, qd, info, P, nrm, AtA, BtB, BtA, S, W,
             M):
     """Flip ambiguous pairs that the dqopt rotation fits with the other sign; re-solve until
-    stable (<= 4 rounds). Returns (flips, smallest |fit dot| over ambiguous motions)."""
-    total = 0
-    nflip = 0
-    for rnd in range(4):
-        _solve_gram(opt, T, Q, wts, weighted, n, a2, Z0, q, qd, info, P, nrm, AtA, BtB, BtA, S, W, M)
+    stable (<= 4 flip rounds). Returns the smallest |fit dot| over ambiguous motions.
+    (One call site of the solver: the compiled code holds one copy of it.)"""
+    for rnd in range(5):
+        _solve_gram(opt, T, Q, wts, weighted, n, a2, Z0, q, qd, info, P, nrm, AtA, BtB, BtA, S,
+                    W, M)
+        if rnd == 4:
+            break
         nflip = 0
         for i in range(n):
             if amb[i] > 0.0 and _fit_dot(Q, i, q) < 0.0:
                 _flip(Q, i)
                 nflip += 1
-        total += nflip
         if nflip == 0:
             break
-    if nflip > 0:
-        _solve_gram(opt, T, Q, wts, weighted, n, a2, Z0, q, qd, info, P, nrm, AtA, BtB, BtA, S, W, M)
     worst = 1.0
     for i in range(n):
         if amb[i] > 0.0:
             d = abs(_fit_dot(Q, i, q))
             if d < worst:
                 worst = d
-    return total, worst
+    return worst
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _propagate_signs(Q, n, amb, sgn):
     """Relative signs (+-1 in sgn) of the ambiguous motions from the scalar parts of motion
     products, starting at the first ambiguous motion; unreachable motions keep +1 and
@@ -151,7 +150,7 @@ def _propagate_signs(Q, n, amb, sgn):
             break
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _align(opt, T, Q, wts, weighted, n, a2, q, qd, info, AtA, BtB, BtA):
     """Choose the motion pair signs (module doc); q, qd, info hold the dqopt solution (no
     prior) and AtA, BtB, BtA the Gram blocks of the final alignment. Returns the number of
@@ -169,28 +168,56 @@ def _align(opt, T, Q, wts, weighted, n, a2, q, qd, info, AtA, BtB, BtA):
             amb[i] = 1.0
             namb += 1
     Q0 = Q.copy()
-    flips, worst = _refine(opt, T, Q, wts, weighted, n, amb, a2, Z0, q, qd, info, P, nrm, AtA, BtB,
-                           BtA, S, W, M)
-    if namb > 0 and worst < _FIT_DOT:
-        best_cost = info[I_COST]
-        best_Q = Q.copy()
-        sgn = np.empty(n)
-        _propagate_signs(Q0, n, amb, sgn)
-        for glob in range(2):
-            Qc = Q0.copy()
+    sgn = np.empty(n)
+    Qc = Q.copy()
+    best_Q = Q.copy()
+    best = np.empty(12 + 16 + 48)    # q, qd, info, AtA, BtB, BtA of the best start
+    best_cost = np.inf
+    n_starts = 1
+    start = 0
+    while start < n_starts:   # one call site of _refine (see _refine)
+        if start > 0:
+            # start 1, 2: relative signs propagated from a reference motion, both global signs
+            Qc[:, :] = Q0
             for i in range(n):
                 s = sgn[i] if abs(sgn[i]) < 1.5 else (1.0 if sgn[i] > 0 else -1.0)
-                if glob == 1 and abs(sgn[i]) > 1.5:
+                if start == 2 and abs(sgn[i]) > 1.5:
                     s = -s
                 if s < 0.0:
                     _flip(Qc, i)
-            _refine(opt, T, Qc, wts, weighted, n, amb, a2, Z0, q, qd, info, P, nrm, AtA, BtB, BtA,
-                    S, W, M)
-            if info[I_COST] < best_cost:
-                best_cost = info[I_COST]
-                best_Q[:, :] = Qc
+        worst = _refine(opt, T, Qc, wts, weighted, n, amb, a2, Z0, q, qd, info, P, nrm, AtA,
+                        BtB, BtA, S, W, M)
+        if start == 0 and namb > 0 and worst < _FIT_DOT:
+            n_starts = 3
+            _propagate_signs(Q0, n, amb, sgn)
+        if info[I_COST] < best_cost or start == 0:
+            best_cost = info[I_COST]
+            best_Q[:, :] = Qc
+            for k in range(4):
+                best[k] = q[k]
+                best[4 + k] = qd[k]
+            for k in range(info.shape[0]):
+                best[8 + k] = info[k]
+            for i in range(4):
+                for j in range(4):
+                    best[28 + 4 * i + j] = AtA[i, j]
+                    best[44 + 4 * i + j] = BtB[i, j]
+                    best[60 + 4 * i + j] = BtA[i, j]
+        start += 1
+    if n_starts > 1:
         Q[:, :] = best_Q
-        _solve_gram(opt, T, Q, wts, weighted, n, a2, Z0, q, qd, info, P, nrm, AtA, BtB, BtA, S, W, M)
+        for k in range(4):
+            q[k] = best[k]
+            qd[k] = best[4 + k]
+        for k in range(info.shape[0]):
+            info[k] = best[8 + k]
+        for i in range(4):
+            for j in range(4):
+                AtA[i, j] = best[28 + 4 * i + j]
+                BtB[i, j] = best[44 + 4 * i + j]
+                BtA[i, j] = best[60 + 4 * i + j]
+    else:
+        Q[:, :] = Qc
     total = 0
     for i in range(n):
         if Q[7, i] != Q0[7, i] or Q[4, i] != Q0[4, i]:
@@ -198,7 +225,7 @@ def _align(opt, T, Q, wts, weighted, n, a2, q, qd, info, AtA, BtB, BtA):
     return total
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _solve_problem(method, opt, T, Cb, Hb, Qin, use_q, align, alpha, wts, weighted, tol,
                    has_prior, S_add, W_add, M_add, X, info, Q):
     """One problem: fill Q (16, N) (from C, H, or Qin when use_q), align (unless the motions
@@ -251,7 +278,7 @@ def _solve_problem(method, opt, T, Cb, Hb, Qin, use_q, align, alpha, wts, weight
     return -1, nflip, cst
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _one(b, method, opt, T, C, H, Qin, use_q, align, alphas, wts, weighted, tol, has_prior,
          S_add, W_add, M_add, X, cost, info, bad, nflip, Qout, keep_q):
     """Problem b of a batch (shared body of the serial and the parallel kernel)."""
@@ -268,7 +295,7 @@ def _one(b, method, opt, T, C, H, Qin, use_q, align, alphas, wts, weighted, tol,
         Qout[b, :, :] = Q
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, error_model="numpy", parallel=True)
 def _batch_kernel(method, opt, T, C, H, Qin, use_q, align, alphas, wts, weighted, tol,
                   has_prior, S_add, W_add, M_add, X, cost, info, bad, nflip, Qout, keep_q):
     """B problems in parallel (see :func:`_solve_problem`). With ``use_q`` the motions come
@@ -279,7 +306,7 @@ def _batch_kernel(method, opt, T, C, H, Qin, use_q, align, alphas, wts, weighted
              S_add, W_add, M_add, X, cost, info, bad, nflip, Qout, keep_q)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _serial_kernel(method, opt, T, C, H, Qin, use_q, align, alphas, wts, weighted, tol,
                    has_prior, S_add, W_add, M_add, X, cost, info, bad, nflip, Qout, keep_q):
     """As :func:`_batch_kernel`, on the calling thread: single solves use it, so a process

@@ -39,7 +39,7 @@ STATUS_TEXT = {ST_OK: "", ST_MAXITER: "iteration limit reached",
 FAILED_STATUSES = (ST_MAXITER, ST_NONFINITE)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _m_eig(S, M, xi, V):
     """Eigen-decomposition of M with eigenvalues clipped to >= CLIP_REL * scale (scale = the
     largest eigenvalue of M, or trace(S)/4 when M is ~0).
@@ -60,7 +60,7 @@ def _m_eig(S, M, xi, V):
     return nclip
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _zmat(S, WV, V, xi, mu, Z):
     """Z(mu) = S - (W - mu) M^-1 (W - mu)^T = Z0 + mu Z1 - mu^2 Z2 (eq. 12)."""
     for i in range(4):
@@ -72,7 +72,7 @@ def _zmat(S, WV, V, xi, mu, Z):
             Z[j, i] = acc
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _proj(E, col, WV, V, mu, pv, pu):
     """pv[k] = e . v_k, pu[k] = e . u_k with u_k = (W - mu) v_k, e = E[:, col]."""
     for k in range(4):
@@ -85,7 +85,7 @@ def _proj(E, col, WV, V, mu, pv, pu):
         pu[k] = su
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _f_df(E, lam, WV, V, xi, mu, pv, pu, pva, pua):
     """f(mu) = q0 . q0' (eq. 18) and its derivative (first-order perturbation of q0)."""
     _proj(E, 0, WV, V, mu, pv, pu)
@@ -106,7 +106,7 @@ def _f_df(E, lam, WV, V, xi, mu, pv, pu, pva, pua):
     return f, df
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _mu_tilde(q, WV, V, xi):
     """mu~(q) = 1/2 q.Z1.q / q.Z2.q (eq. 14/24)."""
     num = 0.0
@@ -122,7 +122,7 @@ def _mu_tilde(q, WV, V, xi):
     return num / den
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _qdual(q, mu, WV, V, xi, qd):
     """q' = M^-1 (mu - W^T) q (eq. 11), with the component along the smallest eigenvector
     of M taken from the constraint q . q' = 0 when that eigenvalue is small (stable for
@@ -153,7 +153,7 @@ def _qdual(q, mu, WV, V, xi, qd):
         qd[i] -= dot * q[i]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _z_basis(E, WV, V, xi, Z1ab, Z2ab):
     """Z1^{ab} = q_a Z1 q_b, Z2^{ab} = q_a Z2 q_b in the eigenbasis E of Z0."""
     P = np.empty((4, 4))
@@ -178,7 +178,7 @@ def _z_basis(E, WV, V, xi, Z1ab, Z2ab):
             Z2ab[a, b] = z2
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _second_order_mu(E, lam, Z1ab, Z2ab, q):
     """DQ2ndOrd, eq. (23): mu_(2) and q_(2) (unnormalised) from the Z0 eigenbasis."""
     den = Z2ab[0, 0]
@@ -205,7 +205,7 @@ def _second_order_mu(E, lam, Z1ab, Z2ab, q):
     return mu
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _second_order_lambda(E, lam, Z1ab, Z2ab, q):
     """DQ2ndOrd in Delta-lambda (appendix A, eqs. 35-36, derived for Z = Z0 + mu Z1 - mu^2 Z2;
     the printed appendix uses the opposite sign of the Z2 term). Returns False when the
@@ -270,14 +270,14 @@ def _second_order_lambda(E, lam, Z1ab, Z2ab, q):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _normalize(q):
     n = np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
     for i in range(4):
         q[i] /= n
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _m_eig_wv(S, W, M, xi, V, WV):
     """Eigen-decomposition of M (clipped as in the solvers) and W @ V; returns the clip count."""
     nclip = _m_eig(S, M, xi, V)
@@ -290,7 +290,7 @@ def _m_eig_wv(S, W, M, xi, V, WV):
     return nclip
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _solve_core(method, S, W, M, q, qd, info):
     """One DQ problem given (S, W, M) (eq. 9, prior included). Writes q, q' and info."""
     xi = np.empty(4)
@@ -304,6 +304,7 @@ def _solve_core(method, S, W, M, q, qd, info):
     pu = np.empty(4)
     pva = np.empty(4)
     pua = np.empty(4)
+    E0 = np.empty((4, 4))
     mu = 0.0
     iters = 0
     status = ST_OK
@@ -335,16 +336,14 @@ def _solve_core(method, S, W, M, q, qd, info):
         mu = 0.0
         blo = lo
         bhi = hi
-        E0 = np.empty((4, 4))
         for it in range(200):
             _zmat(S, WV, V, xi, mu, Z)
-            if it == 0:
-                _eigh(Z, lam, E)
-            else:
-                for i in range(4):
-                    for j in range(4):
-                        E0[i, j] = E[i, j]
-                _eigh_warm(Z, E0, lam, E)
+            # warm start from the previous eigenvectors (identity at first: then exactly
+            # _eigh); one call site keeps one copy of the eigensolver in the compiled code
+            for i in range(4):
+                for j in range(4):
+                    E0[i, j] = (1.0 if i == j else 0.0) if it == 0 else E[i, j]
+            _eigh_warm(Z, E0, lam, E)
             f, df = _f_df(E, lam, WV, V, xi, mu, pv, pu, pva, pua)
             iters += 1
             qdn = 0.0
@@ -398,13 +397,12 @@ def _solve_core(method, S, W, M, q, qd, info):
         E0 = np.empty((4, 4))
         for it in range(500):
             _zmat(S, WV, V, xi, mu, Z)
-            if it == 0:
-                _eigh(Z, lam, E)
-            else:
-                for i in range(4):
-                    for j in range(4):
-                        E0[i, j] = E[i, j]
-                _eigh_warm(Z, E0, lam, E)
+            # warm start from the previous eigenvectors (identity at first: then exactly
+            # _eigh); one call site keeps one copy of the eigensolver in the compiled code
+            for i in range(4):
+                for j in range(4):
+                    E0[i, j] = (1.0 if i == j else 0.0) if it == 0 else E[i, j]
+            _eigh_warm(Z, E0, lam, E)
             iters += 1
             for i in range(4):
                 q[i] = E[i, 0]
@@ -474,7 +472,7 @@ def _solve_core(method, S, W, M, q, qd, info):
     info[I_COST] = cost
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _eval_mu(S, W, M, mu, lam, E, out):
     """Z(mu) eigen-decomposition (M clipped as in the solvers), f, f' at mu, the clip count
     and the exact appendix-C bracket (eigenvalues of K = sym(M^1/2 W M^-1/2)) into out."""
@@ -509,22 +507,26 @@ def _eval_mu(S, W, M, mu, lam, E, out):
     out[4] = kw[3]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _certificate_kernel(opt, S, W, M, q, qd, info, lam, E, out):
     """Everything the certificate evaluates, in one compiled entry: the dqopt solution of
     (S, W, M) (q, qd, info), then Z's eigen-decomposition and f, f' at mu*, at the bracket
     ends k_min, k_max and at mu* -/+ h (rows 0..4 of lam (5, 4), E (5, 4, 4), out (5, 5))."""
     _solve_core(opt, S, W, M, q, qd, info)
     mu = info[I_MU]
-    _eval_mu(S, W, M, mu, lam[0], E[0], out[0])
-    kmin = out[0, 3]
-    kmax = out[0, 4]
-    span = max(kmax - kmin, 1e-300)
-    h = 1e-4 * span
-    _eval_mu(S, W, M, kmin, lam[1], E[1], out[1])
-    _eval_mu(S, W, M, kmax, lam[2], E[2], out[2])
-    _eval_mu(S, W, M, mu - h, lam[3], E[3], out[3])
-    _eval_mu(S, W, M, mu + h, lam[4], E[4], out[4])
+    h = 0.0
+    for r in range(5):   # one call site of _eval_mu
+        if r == 0:
+            at = mu
+        elif r == 1:
+            at = out[0, 3]
+        elif r == 2:
+            at = out[0, 4]
+        else:
+            at = mu - h if r == 3 else mu + h
+        _eval_mu(S, W, M, at, lam[r], E[r], out[r])
+        if r == 0:
+            h = 1e-4 * max(out[0, 4] - out[0, 3], 1e-300)
 
 
 def _c(a):

@@ -36,7 +36,7 @@ def _lr_tensors():
         [[[f(E[i]).T @ g(E[j]) for j in range(4)] for i in range(4)] for f, g in pairs]))
 
 
-@njit(cache=True, fastmath={"reassoc", "contract"})
+@njit(cache=True, error_model="numpy", fastmath={"reassoc", "contract"})
 def _dot_rows(Q, wts, weighted, a, b, n):
     """sum_m w_m Q[a, m] Q[b, m] (w = 1 when not weighted)."""
     s = 0.0
@@ -49,7 +49,7 @@ def _dot_rows(Q, wts, weighted, a, b, n):
     return s
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _outer_from_soa(Q, wts, weighted, n, P, nrm):
     """Q (16, N) rows: c (0-3), h (4-7), c' (8-11), h' (12-15). Fills the summed outer
     products P[0] = sum c h^T, P[1] = c' h'^T, P[2] = c' c^T, P[3] = c' h^T, P[4] = h' c^T,
@@ -72,7 +72,7 @@ def _outer_from_soa(Q, wts, weighted, n, P, nrm):
     nrm[1] = s1
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _quats_soa(C, H, tol, Q):
     """Validate + convert motions into Q (16, N) (sign-aligned); returns first bad index
     or -1."""
@@ -90,7 +90,7 @@ def _quats_soa(C, H, tol, Q):
     return -1
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _contract(T, k, P, sign, out):
     for j in range(4):
         for l in range(4):
@@ -101,7 +101,7 @@ def _contract(T, k, P, sign, out):
                         out[a, b] += p * T[k, j, l, a, b]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _grams_from_outer(T, P, nrm, AtA, BtB, BtA):
     """A^T A, B^T B, B^T A from the accumulated outer products (A = L(c) - R(h), ...)."""
     X1 = np.zeros((4, 4))
@@ -124,7 +124,7 @@ def _grams_from_outer(T, P, nrm, AtA, BtB, BtA):
 _T = _lr_tensors()   # (4 [LR, LL, RL, RR], 4, 4, 4, 4)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _assemble(AtA, BtB, BtA, a2, S_add, W_add, M_add, S, W, M):
     """(S, W, M) of eq. 9 from the Gram blocks (symmetrised) plus the prior terms."""
     for i in range(4):
@@ -135,7 +135,7 @@ def _assemble(AtA, BtB, BtA, a2, S_add, W_add, M_add, S, W, M):
             M[i, j] = a2 * sa + M_add[i, j]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _grams_entry(T, Q, wts, weighted, AtA, BtB, BtA):
     n = Q.shape[1]
     P = np.empty((6, 4, 4))

@@ -14,7 +14,7 @@ from numba import njit
 __all__ = ["eigh", "eigh_numpy"]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _eigh(A, w, V):
     """Symmetric eigen-decomposition by cyclic Jacobi (accurate, small n); ascending ``w``,
     eigenvectors in the columns of ``V``."""
@@ -26,7 +26,7 @@ def _eigh(A, w, V):
     _jacobi(a, w, V)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _eigh_warm(A, V0, w, V):
     """As :func:`_eigh`, starting from the approximate eigenvectors V0 (columns)."""
     n = A.shape[0]
@@ -51,7 +51,7 @@ def _eigh_warm(A, V0, w, V):
     _jacobi(a, w, V)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _jacobi(a, w, V):
     """Cyclic Jacobi on the symmetric matrix a (overwritten); V accumulates rotations."""
     n = a.shape[0]

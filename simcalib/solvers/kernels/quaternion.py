@@ -16,7 +16,7 @@ __all__ = ["dual_quat_one", "is_rigid"]
 RIGID_TOL = 1e-6
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _quat_dq_at(T, i):
     """(q, q') of the rigid transform T[i] as 8 scalars: same algorithm as
     geometry.quat_from_matrix (largest-diagonal branch, normalised, w >= 0) and
@@ -70,7 +70,7 @@ def _quat_dq_at(T, i):
             -ty * x + tx * y + tz * w, -tx * x - ty * y - tz * z)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _quat_dq(T, q, qd):
     """(q, q') of one 4x4 transform into q, qd."""
     T3 = T.reshape((1, 4, 4))
@@ -80,7 +80,7 @@ def _quat_dq(T, q, qd):
         qd[k] = r[4 + k]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, error_model="numpy", inline="always")
 def _rigid_ok_at(T, i, tol):
     tot = 0.0
     for r in range(4):
@@ -104,7 +104,7 @@ def _rigid_ok_at(T, i, tol):
     return abs(det - 1.0) <= tol
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):
     """Hamilton product (x, y, z, w) of a and b."""
     return (a3 * b0 + b3 * a0 + a1 * b2 - a2 * b1,
@@ -113,7 +113,7 @@ def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):
             a3 * b3 - a0 * b0 - a1 * b1 - a2 * b2)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _transform_from_dq(q, qd, X):
     x, y, z, w = q[0], q[1], q[2], q[3]
     X[0, 0] = 1 - 2 * (y * y + z * z)
@@ -136,7 +136,7 @@ def _transform_from_dq(q, qd, X):
     X[3, 3] = 1.0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _rigid_one(T, tol):
     return _rigid_ok_at(T.reshape((1, 4, 4)), 0, tol)
 
