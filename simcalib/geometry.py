@@ -10,7 +10,7 @@ Conventions (written once, used everywhere; see ``docs/conventions.md``):
 * A pose ``(R, t)`` is the unit dual quaternion ``q + eps q'`` with ``q = quat(R)`` and
   ``q' = 1/2 (t, 0) ⊗ q`` (paper eq. 2).
 * ``q ⊗ p = L(q) p = R(p) q`` with the matrices of :func:`quat_left_matrix` and
-  :func:`quat_right_matrix` (NOTES.md, checked).
+  :func:`quat_right_matrix` (docs/conventions.md, checked).
 * Metres and radians inside; degrees and centimetres only in reports.
 
 Every function is pure and batched over leading axes; no Python loop per pose.
@@ -302,7 +302,7 @@ def relative_motions(T_w_a: np.ndarray, T_w_b: np.ndarray, i: np.ndarray, j: np.
     """Relative motions ``C_k = T_w_a[i_k]^-1 T_w_a[j_k]``, ``H_k = T_w_b[i_k]^-1 T_w_b[j_k]``.
 
     For two rigidly attached sensors a and b these satisfy ``C_k X = X H_k`` with
-    ``X = T_a_b`` (NOTES.md). ``T_w_a`` and ``T_w_b`` may live in different world frames.
+    ``X = T_a_b`` (docs/conventions.md). ``T_w_a`` and ``T_w_b`` may live in different world frames.
     """
     T_w_a = np.asarray(T_w_a, dtype=np.float64)
     T_w_b = np.asarray(T_w_b, dtype=np.float64)

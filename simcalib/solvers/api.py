@@ -1,7 +1,7 @@
 """Public solver API: :func:`solve`, :func:`solve_batch`, :class:`Solution`,
 :class:`BatchSolution`, :class:`Prior`, :func:`dq_cost`.
 
-Convention (NOTES.md): ``C_i X = X H_i`` with ``X = T_a_b`` (pose of sensor b in sensor a),
+Convention (docs/conventions.md): ``C_i X = X H_i`` with ``X = T_a_b`` (pose of sensor b in sensor a),
 ``C_i`` the relative motions of a and ``H_i`` those of b.
 """
 
@@ -144,7 +144,7 @@ class Solution:
     """Result of :func:`solve`.
 
     ``X``: estimate of ``T_a_b`` (4x4). ``cost``: paper cost (8) at ``X`` for ``alpha``
-    (data term only, motions sign-aligned per NOTES.md); ``objective``: cost plus the prior
+    (data term only, motions sign-aligned as in docs/solvers.md); ``objective``: cost plus the prior
     terms (equal to ``cost`` without a prior). ``runtime_s``: time from the ``(N, 4, 4)``
     arrays to ``X`` (validation + conversion + solver). ``success``/``message``.
 
