@@ -403,7 +403,7 @@ def solve_batch(C, H, method: str = "dqopt", alpha=1.0, prior: Prior | None = No
     cost = out.get("cost")
     if cost is None:
         from simcalib.solvers.problem import prepare_batch
-        cost = batch_cost(prepare_batch(C, H, alphas, w), X, alphas, w)
+        cost = batch_cost(prepare_batch(C, H, alphas, w)[0], X, alphas, w)
     cost = np.where(success, cost, np.inf)
     X = np.where(success[:, None, None], X, np.nan) if not success.all() else X
     objective = cost.copy()

@@ -128,12 +128,14 @@ def prepare_problem(C, H, alpha: float = 1.0, weights=None) -> MotionProblem:
                          Q[12:16].T.copy(), w, int(out["nflip"][0]))
 
 
-def prepare_batch(C, H, alphas, weights=None) -> np.ndarray:
-    """Aligned motions ``Q (B, 16, N)`` of validated ``(B, N, 4, 4)`` C, H (compiled)."""
+def prepare_batch(C, H, alphas, weights=None) -> tuple[np.ndarray, np.ndarray]:
+    """Aligned motions ``Q (B, 16, N)`` of validated ``(B, N, 4, 4)`` C, H (compiled) and
+    the number of sign flips per problem ``(B,)``."""
     from simcalib.solvers.kernels.batch import run_batch
     from simcalib.solvers.kernels.dqcore import DQOPT
-    return run_batch(DQOPT, alphas, C=np.ascontiguousarray(C), H=np.ascontiguousarray(H),
-                     weights=weights, keep_q=True)["Q"]
+    out = run_batch(DQOPT, alphas, C=np.ascontiguousarray(C), H=np.ascontiguousarray(H),
+                    weights=weights, keep_q=True)
+    return out["Q"], out["nflip"]
 
 
 def problem_cost(problem: MotionProblem, q, qd, alpha: float) -> float:
