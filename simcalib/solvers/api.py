@@ -374,7 +374,7 @@ def solve_batch(C, H, method: str = "dqopt", alpha=1.0, prior: Prior | None = No
         raise ValueError(f"each problem needs at least 2 motions; received N = {N}")
     alphas = _check_alphas(alpha, B)
     w = check_weights(weights, (B, N))
-    compile_s = warm_up()
+    compile_s = warm_up(parallel=B > 1)
     t0 = time.perf_counter()
     if info.batch_fn is not None and info.extra.get("batch_validates", False):
         out = info.batch_fn(C, H, alphas, prior, w)
