@@ -58,7 +58,7 @@ def _cost_soa(Q, wts, weighted, n, q, qd, a2):
     return tot
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _solve_gram(opt, T, Q, wts, weighted, n, a2, Z0, q, qd, info, P, nrm, AtA, BtB, BtA, S, W,
                 M):
     """dqopt (method code ``opt``, passed as a runtime value so that ``_solve_core`` is
@@ -70,21 +70,21 @@ def _solve_gram(opt, T, Q, wts, weighted, n, a2, Z0, q, qd, info, P, nrm, AtA, B
     _solve_core(opt, S, W, M, q, qd, info)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _flip(Q, i):
     for k in range(4):
         Q[4 + k, i] = -Q[4 + k, i]
         Q[12 + k, i] = -Q[12 + k, i]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _fit_dot(Q, i, q):
     a = _qmul(Q[0, i], Q[1, i], Q[2, i], Q[3, i], q[0], q[1], q[2], q[3])
     b = _qmul(q[0], q[1], q[2], q[3], Q[4, i], Q[5, i], Q[6, i], Q[7, i])
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _refine(opt, T, Q, wts, weighted, n, amb, a2, Z0, q, qd, info, P, nrm, AtA, BtB, BtA, S, W,
             M):
     """Flip ambiguous pairs that the dqopt rotation fits with the other sign; re-solve until
@@ -150,7 +150,7 @@ def _propagate_signs(Q, n, amb, sgn):
             break
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _align(opt, T, Q, wts, weighted, n, a2, q, qd, info, AtA, BtB, BtA):
     """Choose the motion pair signs (module doc); q, qd, info hold the dqopt solution (no
     prior) and AtA, BtB, BtA the Gram blocks of the final alignment. Returns the number of
@@ -225,7 +225,7 @@ def _align(opt, T, Q, wts, weighted, n, a2, q, qd, info, AtA, BtB, BtA):
     return total
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _solve_problem(method, opt, T, Cb, Hb, Qin, use_q, align, alpha, wts, weighted, tol,
                    has_prior, S_add, W_add, M_add, X, info, Q):
     """One problem: fill Q (16, N) (from C, H, or Qin when use_q), align (unless the motions
@@ -278,7 +278,7 @@ def _solve_problem(method, opt, T, Cb, Hb, Qin, use_q, align, alpha, wts, weight
     return -1, nflip, cst
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _one(b, method, opt, T, C, H, Qin, use_q, align, alphas, wts, weighted, tol, has_prior,
          S_add, W_add, M_add, X, cost, info, bad, nflip, Qout, keep_q):
     """Problem b of a batch (shared body of the serial and the parallel kernel)."""
