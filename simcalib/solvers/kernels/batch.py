@@ -278,7 +278,7 @@ def _solve_problem(method, opt, T, Cb, Hb, Qin, use_q, align, alpha, wts, weight
     return -1, nflip, cst
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _one(b, method, opt, T, C, H, Qin, use_q, align, alphas, wts, weighted, tol, has_prior,
          S_add, W_add, M_add, X, cost, info, bad, nflip, Qout, keep_q):
     """Problem b of a batch (shared body of the serial and the parallel kernel)."""
@@ -302,7 +302,9 @@ def _batch_kernel(method, opt, T, C, H, Qin, use_q, align, alphas, wts, weighted
     from Qin (B, 16, N) (already converted) instead of C, H; with ``keep_q`` the aligned
     motions are written to Qout (B, 16, N)."""
     for b in prange(alphas.shape[0]):
-        _one(b, method, opt, T, C, H, Qin, use_q, align, alphas, wts, weighted, tol, has_prior,
+        # prange's index is unsigned: cast, or _one (and everything inlined into it) would
+        # be compiled a second time for a uint64 index
+        _one(np.int64(b), method, opt, T, C, H, Qin, use_q, align, alphas, wts, weighted, tol, has_prior,
              S_add, W_add, M_add, X, cost, info, bad, nflip, Qout, keep_q)
 
 
