@@ -71,10 +71,25 @@ def _solve_gram(opt, T, Q, wts, weighted, n, a2, Z0, q, qd, info, P, nrm, AtA, B
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _flip(Q, i):
+def _flip(Q, par, i):
+    par[i] = -par[i]
     for k in range(4):
         Q[4 + k, i] = -Q[4 + k, i]
         Q[12 + k, i] = -Q[12 + k, i]
+
+
+@njit(cache=True, error_model="numpy")
+def _save_state(best, q, qd, info, AtA, BtB, BtA):
+    for k in range(4):
+        best[k] = q[k]
+        best[4 + k] = qd[k]
+    for k in range(N_INFO):
+        best[8 + k] = info[k]
+    for i in range(4):
+        for j in range(4):
+            best[8 + N_INFO + 4 * i + j] = AtA[i, j]
+            best[24 + N_INFO + 4 * i + j] = BtB[i, j]
+            best[40 + N_INFO + 4 * i + j] = BtA[i, j]
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -85,7 +100,7 @@ def _fit_dot(Q, i, q):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _refine(opt, T, Q, wts, weighted, n, amb, a2, Z0, q, qd, info, P, nrm, AtA, BtB, BtA, S, W,
+def _refine(opt, T, Q, par, wts, weighted, n, amb, namb, a2, Z0, q, qd, info, P, nrm, AtA, BtB, BtA, S, W,
             M):
     """Flip ambiguous pairs that the dqopt rotation fits with the other sign; re-solve until
     stable (<= 4 flip rounds). Returns the smallest |fit dot| over ambiguous motions.
@@ -98,11 +113,13 @@ def _refine(opt, T, Q, wts, weighted, n, amb, a2, Z0, q, qd, info, P, nrm, AtA, 
         nflip = 0
         for i in range(n):
             if amb[i] > 0.0 and _fit_dot(Q, i, q) < 0.0:
-                _flip(Q, i)
+                _flip(Q, par, i)
                 nflip += 1
         if nflip == 0:
             break
     worst = 1.0
+    if namb == 0:
+        return worst
     for i in range(n):
         if amb[i] > 0.0:
             d = abs(_fit_dot(Q, i, q))
@@ -167,60 +184,58 @@ def _align(opt, T, Q, wts, weighted, n, a2, q, qd, info, AtA, BtB, BtA):
         if abs(Q[3, i]) <= AMBIGUOUS_W or abs(Q[7, i]) <= AMBIGUOUS_W:
             amb[i] = 1.0
             namb += 1
-    Q0 = Q.copy()
-    sgn = np.empty(n)
-    Qc = Q.copy()
-    best_Q = Q.copy()
-    best = np.empty(12 + 16 + 48)    # q, qd, info, AtA, BtB, BtA of the best start
+    par = np.ones(n)   # -1: pair flipped relative to the scalar-part rule
+    best_par = par
+    sgn = par
+    best = np.empty(1)
     best_cost = np.inf
     n_starts = 1
     start = 0
     while start < n_starts:   # one call site of _refine (see _refine)
         if start > 0:
             # start 1, 2: relative signs propagated from a reference motion, both global signs
-            Qc[:, :] = Q0
             for i in range(n):
                 s = sgn[i] if abs(sgn[i]) < 1.5 else (1.0 if sgn[i] > 0 else -1.0)
                 if start == 2 and abs(sgn[i]) > 1.5:
                     s = -s
-                if s < 0.0:
-                    _flip(Qc, i)
-        worst = _refine(opt, T, Qc, wts, weighted, n, amb, a2, Z0, q, qd, info, P, nrm, AtA,
-                        BtB, BtA, S, W, M)
+                if s != par[i]:
+                    _flip(Q, par, i)
+        worst = _refine(opt, T, Q, par, wts, weighted, n, amb, namb, a2, Z0, q, qd, info, P,
+                        nrm, AtA, BtB, BtA, S, W, M)
         if start == 0 and namb > 0 and worst < _FIT_DOT:
             n_starts = 3
-            _propagate_signs(Q0, n, amb, sgn)
-        if info[I_COST] < best_cost or start == 0:
+            sgn = np.empty(n)
+            best_par = par.copy()              # start 0 is the best so far
+            best = np.empty(8 + N_INFO + 48)   # q, qd, info, AtA, BtB, BtA of the best start
             best_cost = info[I_COST]
-            best_Q[:, :] = Qc
-            for k in range(4):
-                best[k] = q[k]
-                best[4 + k] = qd[k]
-            for k in range(info.shape[0]):
-                best[8 + k] = info[k]
-            for i in range(4):
-                for j in range(4):
-                    best[28 + 4 * i + j] = AtA[i, j]
-                    best[44 + 4 * i + j] = BtB[i, j]
-                    best[60 + 4 * i + j] = BtA[i, j]
+            _save_state(best, q, qd, info, AtA, BtB, BtA)
+            # the propagation works on the scalar-part signs: undo start 0's flips
+            for i in range(n):
+                if par[i] < 0.0:
+                    _flip(Q, par, i)
+            _propagate_signs(Q, n, amb, sgn)
+        elif start > 0 and info[I_COST] < best_cost:
+            best_cost = info[I_COST]
+            best_par[:] = par
+            _save_state(best, q, qd, info, AtA, BtB, BtA)
         start += 1
-    if n_starts > 1:
-        Q[:, :] = best_Q
+    if n_starts > 1:   # restore the best start
+        for i in range(n):
+            if par[i] != best_par[i]:
+                _flip(Q, par, i)
         for k in range(4):
             q[k] = best[k]
             qd[k] = best[4 + k]
-        for k in range(info.shape[0]):
+        for k in range(N_INFO):
             info[k] = best[8 + k]
         for i in range(4):
             for j in range(4):
-                AtA[i, j] = best[28 + 4 * i + j]
-                BtB[i, j] = best[44 + 4 * i + j]
-                BtA[i, j] = best[60 + 4 * i + j]
-    else:
-        Q[:, :] = Qc
+                AtA[i, j] = best[8 + N_INFO + 4 * i + j]
+                BtB[i, j] = best[24 + N_INFO + 4 * i + j]
+                BtA[i, j] = best[40 + N_INFO + 4 * i + j]
     total = 0
     for i in range(n):
-        if Q[7, i] != Q0[7, i] or Q[4, i] != Q0[4, i]:
+        if par[i] < 0.0:
             total += 1
     return total
 
