@@ -18,7 +18,8 @@ import time
 
 import numpy as np
 
-__all__ = ["main", "make_problems", "time_methods", "batch_throughput"]
+__all__ = ["main", "make_problems", "time_methods", "batch_throughput", "repeated_throughput",
+           "startup_times", "markdown_tables"]
 
 
 def make_problems(rng: np.random.Generator, count: int, n: int, sigma_r: float,
@@ -82,6 +83,104 @@ def batch_throughput(methods, n: int, batch_size: int, alpha: float, sigma_r: fl
     return out
 
 
+def repeated_throughput(method: str, n: int, batch_size: int, repeats: int, alpha: float,
+                        sigma_r: float, sigma_t: float, seed: int) -> np.ndarray:
+    """problems/s of ``repeats`` consecutive ``solve_batch`` calls (B = batch_size)."""
+    import simcalib
+    C, H, _ = make_problems(np.random.default_rng(seed + 2), batch_size, n, sigma_r, sigma_t)
+    simcalib.solve_batch(C[:4], H[:4], method=method, alpha=alpha)   # compile / load
+    rates = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        simcalib.solve_batch(C, H, method=method, alpha=alpha)
+        rates.append(batch_size / (time.perf_counter() - t0))
+    return np.array(rates)
+
+
+_STARTUP_CODE = """
+import resource, time
+t0 = time.perf_counter()
+import numpy as np, simcalib
+from simcalib import geometry as g
+rng = np.random.default_rng(0)
+C = g.transform_from_rotation_translation(g.random_rotation_matrices(rng, 30), rng.normal(size=(30, 3)))
+H = C.copy()
+t1 = time.perf_counter()
+sol = simcalib.solve(C, H, method="dqopt")
+t2 = time.perf_counter()
+sol.message
+t3 = time.perf_counter()
+{batch}
+t4 = time.perf_counter()
+print(t1 - t0, t2 - t1, sol.runtime_s, sol.diagnostics["compile_s"], t3 - t2, t4 - t3,
+      resource.getrusage(resource.RUSAGE_SELF).ru_utime)
+"""
+
+
+def startup_times(batch: bool = True) -> dict:
+    """Start-up cost measured in fresh interpreters: ``cold`` with an empty numba cache
+    (first use after installation), then ``warm`` (cache filled). Seconds: import,
+    first ``solve`` (wall), its ``runtime_s``, its ``compile_s``, certificate/observability
+    (``message``), first ``solve_batch`` (compiles the parallel kernel), process CPU."""
+    import subprocess
+    import tempfile
+    code = _STARTUP_CODE.format(batch="simcalib.solve_batch(C[None].repeat(2, 0), "
+                                      "H[None].repeat(2, 0))" if batch else "")
+    keys = ("import_s", "first_solve_s", "runtime_s", "compile_s", "diagnostics_s",
+            "first_batch_s", "cpu_s")
+    out = {}
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+        for label in ("cold", "warm"):
+            t0 = time.perf_counter()
+            res = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                                 text=True, check=True)
+            vals = [float(v) for v in res.stdout.split()]
+            out[label] = dict(zip(keys, vals), process_wall_s=time.perf_counter() - t0)
+    return out
+
+
+def markdown_tables(result: dict) -> str:
+    """The numbers of a bench run as markdown tables (for docs/solvers.md)."""
+    lines = []
+    if "table" in result:
+        lines += [f"Time per solve (µs, `Solution.runtime_s`, N = {result['n_motions']}, "
+                  f"alpha = {result['alpha']:g}):", "",
+                  "| method | runs | mean | std | min | median | max | failed |",
+                  "|---|---:|---:|---:|---:|---:|---:|---:|"]
+        for m, r in result["table"].items():
+            lines.append(f"| {m} | {r['count']} | {r['mean_us']:.1f} | {r['std_us']:.1f} | "
+                         f"{r['min_us']:.1f} | {r['median_us']:.1f} | {r['max_us']:.1f} | "
+                         f"{r['failures']} |")
+        lines.append("")
+    if "batch_problems_per_s" in result:
+        lines += ["`solve_batch` throughput (best of 3):", "",
+                  "| method | problems/s (wall) | CPU µs / problem |", "|---|---:|---:|"]
+        for m, v in result["batch_problems_per_s"].items():
+            lines.append(f"| {m} | {v['problems_per_s']:,.0f} | {v['cpu_us_per_problem']:.2f} |")
+        lines.append("")
+    if "throughput" in result:
+        t = result["throughput"]
+        r = np.array(t["problems_per_s"])
+        lines += [f"`solve_batch(method={t['method']!r})` at B = {t['batch_size']}, "
+                  f"N = {t['n_motions']}, {len(r)} consecutive calls: problems/s",
+                  "", "| min | median | max |", "|---:|---:|---:|",
+                  f"| {r.min():,.0f} | {np.median(r):,.0f} | {r.max():,.0f} |", ""]
+    if "startup" in result:
+        lines += ["Start-up (fresh interpreters; cold = empty numba cache, i.e. first use "
+                  "after installation; seconds):", "",
+                  "| | import | first solve (wall) | its runtime_s | its compile_s | "
+                  "certificate + observability | first solve_batch | process CPU | "
+                  "process wall |", "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+        for label, v in result["startup"].items():
+            lines.append(f"| {label} | {v['import_s']:.2f} | {v['first_solve_s']:.2f} | "
+                         f"{v['runtime_s']:.5f} | {v['compile_s']:.2f} | "
+                         f"{v['diagnostics_s']:.2f} | {v['first_batch_s']:.2f} | "
+                         f"{v['cpu_s']:.1f} | {v['process_wall_s']:.1f} |")
+        lines.append("")
+    return "\n".join(lines)
+
+
 def _fmt_table(rows, ref: str | None) -> str:
     ref_mean = rows[ref]["runtime_s"].mean() if ref in rows else None
     head = (f"{'method':<18}{'n':>5}{'mean us':>10}{'std':>9}{'min':>9}{'max':>10}"
@@ -129,6 +228,18 @@ def main(argv=None) -> int:
                         help="problems per solve_batch call for the throughput (20000; 0 = skip)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", default=None, help="also write the numbers to this file")
+    parser.add_argument("--markdown", default=None, metavar="FILE",
+                        help="also write the numbers as markdown tables ('-' = stdout); "
+                             "docs/solvers.md's tables come from this")
+    parser.add_argument("--throughput", action="store_true",
+                        help="only measure solve_batch throughput of --throughput-method at "
+                             "B = --throughput-batch, N = --n-motions, --repeats times")
+    parser.add_argument("--throughput-method", default="dqopt")
+    parser.add_argument("--throughput-batch", type=int, default=1000)
+    parser.add_argument("--repeats", type=int, default=10)
+    parser.add_argument("--startup", action="store_true",
+                        help="only measure start-up (compile) cost in fresh interpreters, "
+                             "cold (empty numba cache) and warm")
     args = parser.parse_args(argv)
     if args.n_motions < 2:
         parser.error(f"--n-motions must be >= 2; received {args.n_motions}")
@@ -136,6 +247,22 @@ def main(argv=None) -> int:
         parser.error(f"--problems must be >= 1; received {args.problems}")
     if not (np.isfinite(args.alpha) and args.alpha > 0):
         parser.error(f"--alpha must be finite and > 0; received {args.alpha}")
+    if args.startup or args.throughput:
+        result = {}
+        if args.startup:
+            result["startup"] = startup_times()
+        if args.throughput:
+            get(args.throughput_method)
+            rates = repeated_throughput(args.throughput_method, args.n_motions,
+                                        args.throughput_batch, args.repeats, args.alpha,
+                                        np.radians(args.sigma_r_deg), args.sigma_t, args.seed)
+            result["throughput"] = {"method": args.throughput_method,
+                                    "batch_size": args.throughput_batch,
+                                    "n_motions": args.n_motions,
+                                    "problems_per_s": rates.tolist()}
+        print(markdown_tables(result))
+        _write_outputs(result, args)
+        return 0
     names = available()
     if args.methods == "all":
         methods = names
@@ -186,10 +313,21 @@ def main(argv=None) -> int:
                       f"{v['cpu_us_per_problem']:7.2f} us CPU per problem   "
                       f"{v['idle_machine_problems_per_s']:>10,.0f} problems/s idle-machine")
             result["batch_problems_per_s"] = tp
+    _write_outputs(result, args)
+    return 0
+
+
+def _write_outputs(result: dict, args) -> None:
     if args.json:
         with open(args.json, "w") as fh:
             json.dump(result, fh, indent=2)
-    return 0
+    if args.markdown:
+        md = markdown_tables(result)
+        if args.markdown == "-":
+            print(md)
+        else:
+            with open(args.markdown, "w") as fh:
+                fh.write(md + "\n")
 
 
 if __name__ == "__main__":

@@ -10,7 +10,7 @@ Conventions (written once, used everywhere; see ``docs/conventions.md``):
 * A pose ``(R, t)`` is the unit dual quaternion ``q + eps q'`` with ``q = quat(R)`` and
   ``q' = 1/2 (t, 0) ⊗ q`` (paper eq. 2).
 * ``q ⊗ p = L(q) p = R(p) q`` with the matrices of :func:`quat_left_matrix` and
-  :func:`quat_right_matrix` (NOTES.md, checked).
+  :func:`quat_right_matrix` (docs/conventions.md, checked).
 * Metres and radians inside; degrees and centimetres only in reports.
 
 Every function is pure and batched over leading axes; no Python loop per pose.
@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = [
+    "as_real_array",
     "project_points",
     "check_transforms",
     "check_rotation_matrices",
@@ -59,11 +60,7 @@ def check_transforms(T, name: str = "T", *, min_count: int | None = None,
     determinant +1 (to ``tol``), bottom rows ``(0, 0, 0, 1)``.
     ``min_count`` (if given) requires ``(N, 4, 4)`` with ``N >= min_count``.
     """
-    try:
-        arr = np.asarray(T, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"{name} must be an array of 4x4 rigid transforms; "
-                        f"could not convert {type(T).__name__} to float64 ({exc})") from None
+    arr = as_real_array(T, name, "an array of 4x4 rigid transforms")
     if arr.ndim < 2 or arr.shape[-2:] != (4, 4):
         raise ValueError(f"{name} must have shape (..., 4, 4); received shape {arr.shape}")
     if min_count is not None:
@@ -87,9 +84,28 @@ def check_transforms(T, name: str = "T", *, min_count: int | None = None,
     return arr
 
 
+def as_real_array(a, name: str, what: str = "a real array") -> np.ndarray:
+    """``a`` as a float64 array; complex input (even with zero imaginary part) and
+    non-numeric input raise TypeError naming ``name`` (no silent dropping of imaginary
+    parts)."""
+    try:
+        raw = np.asarray(a)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"{name} must be {what}; could not convert {type(a).__name__} "
+                        f"({exc})") from None
+    if np.iscomplexobj(raw):
+        raise TypeError(f"{name} must be {what} with real entries; received complex dtype "
+                        f"{raw.dtype}")
+    try:
+        return np.asarray(raw, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"{name} must be {what}; could not convert {type(a).__name__} to "
+                        f"float64 ({exc})") from None
+
+
 def check_rotation_matrices(R, name: str = "R", tol: float = ORTHONORMAL_TOL) -> np.ndarray:
     """Validate ``(..., 3, 3)`` rotation matrices (orthonormal, det +1)."""
-    arr = np.asarray(R, dtype=np.float64)
+    arr = as_real_array(R, name, "an array of 3x3 rotation matrices")
     if arr.ndim < 2 or arr.shape[-2:] != (3, 3):
         raise ValueError(f"{name} must have shape (..., 3, 3); received shape {arr.shape}")
     if not np.isfinite(arr).all():
@@ -99,10 +115,13 @@ def check_rotation_matrices(R, name: str = "R", tol: float = ORTHONORMAL_TOL) ->
     ok = (gram_err <= tol) & (np.abs(det - 1.0) <= tol)
     if not ok.all():
         idx = _first_bad_index(ok)
+        g_err = float(np.asarray(gram_err)[idx])
+        d = float(np.asarray(det)[idx])
+        why = (f"|R^T R - I|_max = {g_err:.3g}" if g_err > tol else
+               f"det = {d:.15g} (|det - 1| = {abs(d - 1.0):.3g})")
         raise ValueError(
-            f"{name}[{idx}] is not a rotation: |R^T R - I|_max = {float(np.asarray(gram_err)[idx]):.3g}, "
-            f"det = {float(np.asarray(det)[idx]):.6g}; allowed: orthonormal with det +1 "
-            f"(tolerance {tol:g})")
+            f"{name}[{idx}] is not a rotation: {why}; allowed: orthonormal with det +1 "
+            f"(tolerance {tol:g}; |R^T R - I|_max = {g_err:.3g}, det = {d:.15g})")
     return arr
 
 
@@ -285,7 +304,7 @@ def relative_motions(T_w_a: np.ndarray, T_w_b: np.ndarray, i: np.ndarray, j: np.
     """Relative motions ``C_k = T_w_a[i_k]^-1 T_w_a[j_k]``, ``H_k = T_w_b[i_k]^-1 T_w_b[j_k]``.
 
     For two rigidly attached sensors a and b these satisfy ``C_k X = X H_k`` with
-    ``X = T_a_b`` (NOTES.md). ``T_w_a`` and ``T_w_b`` may live in different world frames.
+    ``X = T_a_b`` (docs/conventions.md). ``T_w_a`` and ``T_w_b`` may live in different world frames.
     """
     T_w_a = np.asarray(T_w_a, dtype=np.float64)
     T_w_b = np.asarray(T_w_b, dtype=np.float64)

@@ -74,7 +74,7 @@ __all__ = [
 
 MOTIONS = ("random", "line", "circle")
 
-# The real rig of the paper (appendix D.1 / NOTES.md): translation [-0.7, 28.1, -0.1] cm,
+# The real rig of the paper (paper appendix D.1): translation [-0.7, 28.1, -0.1] cm,
 # axis-angle [2.35, -0.92, -48.93] deg.
 PAPER_X_TRANSLATION_M = (-0.007, 0.281, -0.001)
 PAPER_X_ROTVEC_RAD = tuple(math.radians(v) for v in (2.35, -0.92, -48.93))
@@ -106,7 +106,7 @@ class SyntheticConfig:
     circle_radius_m:     radius of the ``circle`` path (paper 2 m).
     random_translation_max_m: ``random`` translations are ``U(0, max)^3`` (paper 1 m).
     X_translation_m, X_rotvec_rad: the true extrinsic ``X = T_a_b`` (default: the paper's
-                         real rig, NOTES.md).
+                         real rig, paper appendix D.1).
     """
     motion: str = "random"
     num_motions: int = 1000

@@ -7,7 +7,7 @@ import simcalib
 from simcalib import geometry as g
 from simcalib.solvers import available, get
 from simcalib.solvers.api import Prior, dq_cost
-from test_solvers_cases import general_case, planar_case
+from solver_cases import general_case, planar_case
 
 
 @pytest.fixture(scope="module")
@@ -23,7 +23,7 @@ def _raises(exc, match, fn, *args, **kw):
 def test_bad_shapes_and_counts(case):
     C, H, _ = case
     _raises(ValueError, r"shape \(N, 4, 4\); received shape \(4, 4\)", simcalib.solve, C[0], H[0])
-    _raises(ValueError, r"shape \(\.\.\., 4, 4\); received shape \(10, 3, 4\)",
+    _raises(ValueError, r"shape \(N, 4, 4\); received shape \(10, 3, 4\)",
             simcalib.solve, C[:, :3], H)
     _raises(ValueError, "at least 2 transforms; received 1", simcalib.solve, C[:1], H[:1])
     _raises(ValueError, "same number of motions; received 10 and 9", simcalib.solve, C, H[:9])
@@ -169,6 +169,8 @@ def test_batch_equals_single(method):
         s = simcalib.solve(C[b], H[b], method=method, alpha=alphas[b])
         assert np.abs(s.X - bs.X[b]).max() < 1e-10, (method, b)
         assert abs(s.cost - bs.cost[b]) <= 1e-10 * max(s.cost, 1e-12), (method, b)
+    if not get(method).supports_prior:
+        return
     # with a prior and a scalar alpha
     prior = Prior(X=simcalib.solve(C[0], H[0]).X, a=0.5, b=0.5)
     bp = simcalib.solve_batch(C, H, method=method, alpha=1.5, prior=prior)

@@ -193,7 +193,7 @@ def test_sturm_exact_count_on_known_roots():
 
 
 def test_curve_coefficients_reproduce_the_determinant(noisy_problems):
-    from simcalib.solvers.dq import problem_matrices
+    from simcalib.solvers.kernels.gram import problem_matrices
     from simcalib.solvers.dqpoly import curve_coefficients
     X, C, H = noisy_problems[0]
     S, W, M = problem_matrices(build_problem(C, H), 1.0)

@@ -7,8 +7,8 @@ import simcalib
 from simcalib import geometry as g
 from simcalib.solvers import available, get
 from simcalib.solvers.api import Prior, dq_cost
-from simcalib.solvers.dq import prior_terms, problem_matrices
-from test_solvers_cases import general_case, planar_case
+from simcalib.solvers.kernels.gram import prior_terms, problem_matrices
+from solver_cases import general_case, planar_case
 
 ALL = available()
 DQ = [m for m in ALL if get(m).family == "dq"]
@@ -168,7 +168,7 @@ def test_prior_terms_reproduce_prior_cost():
     C, H, X = general_case(rng, n=20, sigma_r=0.02, sigma_t=0.02)
     prior = Prior(X=g.transform_from_rotation_translation(g.random_rotation_matrices(rng),
                                                          rng.normal(size=3)), a=2.0, b=3.0)
-    from simcalib.solvers.dq import fast_build_problem
+    from simcalib.solvers.problem import prepare_problem as fast_build_problem
     p = fast_build_problem(C, H)
     S, W, M = problem_matrices(p, 1.5, prior)
     for _ in range(3):

@@ -32,14 +32,15 @@ __all__ = [
     "markdown_table",
     "fmt",
     "child_rngs",
-    "SLOW_METHODS",
+    "is_slow",
     "uses_alpha",
     "run_tasks",
 ]
 
-# Methods solved by iterative nonlinear least squares (scipy), ~ms per problem: the
-# experiments subsample these (``slow_samples`` / ``slow_alphas``) and say so.
-SLOW_METHODS = ("chvecopt", "quatvecopt", "dqnlopt", "dqnloptrnd")
+def is_slow(method: str) -> bool:
+    """Methods solved by iterative nonlinear least squares (``SolverInfo.slow``), ~ms per
+    problem: the experiments subsample these (``slow_samples`` / ``slow_alphas``)."""
+    return solver_info(method).slow
 
 
 @dataclass(frozen=True)
@@ -124,27 +125,16 @@ def solver_info(method: str):
     return registry.get(method)
 
 
-# Methods registered as using alpha whose estimate is nevertheless independent of it:
-# DQ2Steps (paper Table 2 caption; alpha^2 cancels in q' = M^-1 (mu - W^T) q).
-ALPHA_INDEPENDENT = ("dq2steps",)
-
-
 def uses_alpha(method: str) -> bool:
-    """Whether the method's estimate depends on alpha (registry flag, minus
-    :data:`ALPHA_INDEPENDENT`)."""
-    return solver_info(method).uses_alpha and method not in ALPHA_INDEPENDENT
+    """Whether the method's estimate depends on alpha (``SolverInfo.depends_on_alpha``:
+    dq2steps takes alpha but alpha^2 cancels, paper Table 2 caption)."""
+    return solver_info(method).depends_on_alpha
 
 
-# Rough single-problem cost (µs, N = 100) used only to schedule the slowest tasks first.
 def expected_cost_us(method: str) -> float:
-    if method.startswith("opencv_"):
-        return 40000.0
-    if method in ("chvecopt", "dqnloptrnd"):
-        return 40000.0
-    if method in SLOW_METHODS or method == "dqoptpoly":
-        return 8000.0
-    info = solver_info(method)
-    return 20.0 if info.batch_fn is not None else 2000.0
+    """Rough single-problem cost (µs, N = 100; ``SolverInfo.expected_cost_us``), used only
+    to schedule the slowest tasks first."""
+    return solver_info(method).expected_cost_us
 
 
 # ----------------------------------------------------------------------------- sweeps

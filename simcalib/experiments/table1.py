@@ -151,7 +151,7 @@ def run(cfg: Table1Config) -> ExperimentResult:
     t_rng = rngs[-1]
     order = t_rng.permutation(C_all.shape[0])
     runs_of = {m: min(C_all.shape[0], cfg.slow_timing_runs if m in cfg.slow_methods
-                      or m in common.SLOW_METHODS else cfg.timing_runs)
+                      or common.is_slow(m) else cfg.timing_runs)
                for m in cfg.timing_methods}
     with common.progress(2 * sum(runs_of.values()), "table1 timing", cfg.progress) as bar:
         for m in cfg.timing_methods:

@@ -36,7 +36,7 @@ DEFAULT_ALGORITHMS = ("dqopt", "dq2ndord", "dqconvrlx", "dq2steps", "daniilidis"
 class Table2Config:
     """``samples``: bootstrap problems per scenario (paper 1000); ``n``: motions per problem
     (100); ``num_alphas``/``alpha_min``/``alpha_max``: the α grid (100 in [1e-2, 10^1.7],
-    1/m); ``slow_samples``/``slow_alphas``: subsampling of :data:`common.SLOW_METHODS`;
+    1/m); ``slow_samples``/``slow_alphas``: subsampling of the slow methods (``SolverInfo.slow``);
     ``opencv_samples``: samples for the OpenCV methods (each builds all i<j pairs of the
     chained poses, ~20-85 ms per problem); ``workers``: processes (0 = one per CPU);
     ``num_motions``: size of each D.2 data set; ``sigma_r_rad``/``sigma_t_m``: eq. 38 noise;
@@ -126,7 +126,7 @@ def best_alpha_rows(scenario: str, sweep: common.SweepResult) -> list[dict]:
 def _plan(cfg: Table2Config, alg: str) -> tuple[int, np.ndarray, str]:
     """(number of samples, α indices, reason) for one algorithm."""
     all_alphas = np.arange(cfg.num_alphas)
-    if alg in common.SLOW_METHODS:
+    if common.is_slow(alg):
         return (min(cfg.samples, cfg.slow_samples), _subgrid(cfg.num_alphas, cfg.slow_alphas),
                 "slow nonlinear")
     if alg.startswith("opencv_"):

@@ -1,7 +1,7 @@
 """Public solver API: :func:`solve`, :func:`solve_batch`, :class:`Solution`,
 :class:`BatchSolution`, :class:`Prior`, :func:`dq_cost`.
 
-Convention (NOTES.md): ``C_i X = X H_i`` with ``X = T_a_b`` (pose of sensor b in sensor a),
+Convention (docs/conventions.md): ``C_i X = X H_i`` with ``X = T_a_b`` (pose of sensor b in sensor a),
 ``C_i`` the relative motions of a and ``H_i`` those of b.
 """
 
@@ -14,9 +14,12 @@ from functools import cached_property
 
 import numpy as np
 
-from simcalib.geometry import check_transforms, dual_quat_from_transform
+from simcalib.geometry import as_real_array, check_transforms, dual_quat_from_transform
 from simcalib.solvers import registry
-from simcalib.solvers.problem import MotionProblem, SolverOutput
+from simcalib.solvers.kernels.batch import warm_up
+from simcalib.solvers.kernels.gram import prior_penalty
+from simcalib.solvers.problem import ALPHA_MAX, ALPHA_MIN, MotionProblem, SolverOutput, \
+    alpha_range_error, batch_cost, check_weights, prepare_problem, problem_cost
 
 __all__ = ["Prior", "Solution", "BatchSolution", "solve", "solve_batch", "dq_cost",
            "check_alpha"]
@@ -68,16 +71,20 @@ def _check_prior(prior) -> Prior | None:
 
 
 def check_alpha(alpha) -> float:
-    """Validate the weighting factor alpha (1/m): a finite real number > 0."""
+    """Validate the weighting factor alpha (1/m): a real number in [ALPHA_MIN, ALPHA_MAX]."""
     if isinstance(alpha, bool) or not isinstance(alpha, (int, float, np.integer, np.floating)):
         if isinstance(alpha, np.ndarray) and alpha.ndim == 0:
             alpha = alpha.item()
         else:
             raise TypeError(f"alpha must be a real number; received {type(alpha).__name__} "
                             f"{alpha!r}")
+    if isinstance(alpha, (complex, np.complexfloating)):
+        raise TypeError(f"alpha must be a real number; received complex {alpha!r}")
     alpha = float(alpha)
     if not math.isfinite(alpha) or alpha <= 0:
         raise ValueError(f"alpha must be finite and > 0; received {alpha}")
+    if not ALPHA_MIN <= alpha <= ALPHA_MAX:
+        raise ValueError(alpha_range_error(alpha))
     return alpha
 
 
@@ -95,7 +102,7 @@ def _as_problem(problem, alpha: float = 1.0) -> MotionProblem:
     if isinstance(problem, MotionProblem):
         return problem
     if isinstance(problem, tuple) and len(problem) == 2:
-        return _fast_problem(*problem, alpha)
+        return prepare_problem(*problem, alpha)
     raise TypeError(f"problem must be a MotionProblem or a (C, H) tuple; received "
                     f"{type(problem).__name__}")
 
@@ -118,30 +125,17 @@ def dq_cost(X, problem, alpha: float, prior: Prior | None = None) -> float:
 
     ``X``: a 4x4 transform or a dual quaternion ``(q, q')`` (used as given, not
     normalised). ``problem``: a :class:`MotionProblem` or ``(C, H)``; the motions are
-    sign-aligned per NOTES.md (scalar parts of q_C and q_H of equal sign).
+    sign-aligned by the one alignment rule of the solvers (docs/solvers.md).
     With ``prior`` the prior terms ``a |vec(dq)|^2 + b |dq'|^2`` are added (eq. 26).
     """
-    from simcalib.geometry import quat_left_matrix, quat_right_matrix
     alpha = check_alpha(alpha)
     problem = _as_problem(problem, alpha)
     q, qd = _as_dual_quat(X)
-    A = quat_left_matrix(problem.q_C) - quat_right_matrix(problem.q_H)
-    B = quat_left_matrix(problem.q_C_dual) - quat_right_matrix(problem.q_H_dual)
-    r1 = A @ q
-    r2 = B @ q + A @ qd
-    cost = float(np.sum(r1 * r1) + alpha**2 * np.sum(r2 * r2))
+    cost = problem_cost(problem, q, qd, alpha)
     prior = _check_prior(prior)
     if prior is not None:
-        cost += _prior_penalty(q, qd, prior)
+        cost += prior_penalty(q, qd, prior)
     return cost
-
-
-def _prior_penalty(q, qd, prior: Prior) -> float:
-    from simcalib.geometry import quat_conjugate, quat_multiply
-    q_hat, q_hat_dual = dual_quat_from_transform(prior.X)
-    dq = quat_multiply(quat_conjugate(q_hat), q)
-    dqd = quat_multiply(quat_conjugate(q_hat_dual), q) + quat_multiply(quat_conjugate(q_hat), qd)
-    return float(prior.a * np.sum(dq[:3] ** 2) + prior.b * np.sum(dqd**2))
 
 
 # --------------------------------------------------------------------------- solution
@@ -150,7 +144,7 @@ class Solution:
     """Result of :func:`solve`.
 
     ``X``: estimate of ``T_a_b`` (4x4). ``cost``: paper cost (8) at ``X`` for ``alpha``
-    (data term only, motions sign-aligned per NOTES.md); ``objective``: cost plus the prior
+    (data term only, motions sign-aligned as in docs/solvers.md); ``objective``: cost plus the prior
     terms (equal to ``cost`` without a prior). ``runtime_s``: time from the ``(N, 4, 4)``
     arrays to ``X`` (validation + conversion + solver). ``success``/``message``.
 
@@ -283,37 +277,51 @@ def _finish_output(out, method: str):
     if X.shape != (4, 4) or not np.isfinite(X).all():
         return (np.full((4, 4), np.nan), False,
                 f"solver {method!r} returned no valid transform ({message or 'non-finite'})", diag)
-    from simcalib.solvers.dq import is_rigid
-    if not is_rigid(X):
-        try:
-            check_transforms(X, "X")
-            why = "not rigid"
-        except ValueError as exc:
-            why = str(exc)
-        return X, False, f"solver {method!r} returned a non-rigid X ({why})", diag
+    try:
+        check_transforms(X, "X")
+    except ValueError as exc:
+        return X, False, f"solver {method!r} returned a non-rigid X ({exc})", diag
     return X, success, message, diag
 
 
+def _check_weights_supported(info, weights):
+    if weights is not None and not info.supports_weights:
+        able = [i.name for i in registry.infos() if i.supports_weights]
+        raise ValueError(f"method {info.name!r} does not take per-motion weights; methods "
+                         f"with weights: {', '.join(able)}")
+
+
+def _check_prior_supported(info, prior):
+    if prior is not None and not info.supports_prior:
+        with_prior = [i.name for i in registry.infos() if i.supports_prior]
+        raise ValueError(f"method {info.name!r} does not support a prior; methods with a "
+                         f"prior: {', '.join(with_prior)}")
+
+
 def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None = None,
-          rng: np.random.Generator | None = None) -> Solution:
+          rng: np.random.Generator | None = None, weights=None) -> Solution:
     """Estimate ``X = T_a_b`` from relative motions with ``C_i X = X H_i``.
 
     ``C``, ``H``: array-like ``(N, 4, 4)``, N >= 2. ``method``: a name from
-    ``simcalib.solvers.available()``. ``alpha`` (1/m, > 0): weight of the translation
-    equations. ``prior``: optional :class:`Prior` (DQ methods). ``rng``: Generator for
-    stochastic methods (default ``default_rng(0)``).
+    ``simcalib.solvers.available()``. ``alpha`` (1/m, in [ALPHA_MIN, ALPHA_MAX]): weight of
+    the translation equations. ``prior``: optional :class:`Prior` (DQ methods). ``rng``:
+    Generator for stochastic methods (default ``default_rng(0)``). ``weights``: optional
+    per-motion weights ``(N,)`` (finite, >= 0, not all 0) of the cost; methods with
+    ``SolverInfo.supports_weights`` only.
+
+    ``runtime_s`` never includes compilation: the compiled kernel is loaded (or compiled,
+    once per machine) before the timed region; that time is ``diagnostics["compile_s"]``.
     """
     info = registry.get(method)
     alpha = check_alpha(alpha)
     prior = _check_prior(prior)
-    if prior is not None and not info.supports_prior:
-        with_prior = [i.name for i in registry.infos() if i.supports_prior]
-        raise ValueError(f"method {method!r} does not support a prior; methods with a "
-                         f"prior: {', '.join(with_prior)}")
+    _check_prior_supported(info, prior)
+    _check_weights_supported(info, weights)
     if rng is not None or info.stochastic:
         rng = _check_rng(rng)   # stochastic methods get default_rng(0) when none is given
+    compile_s = warm_up()
     t0 = time.perf_counter()
-    problem, flips = _fast_problem(C, H, alpha, return_flips=True)
+    problem = prepare_problem(C, H, alpha, weights)
     try:
         out = info.fn(problem, alpha, prior, rng)
     except Exception as exc:  # noqa: BLE001 - a solver failing on valid input is reported
@@ -321,40 +329,35 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
                            message=f"solver raised {type(exc).__name__}: {exc}")
     runtime = time.perf_counter() - t0
     X, success, message, diag = _finish_output(out, method)
-    diag["sign_flips"] = flips
+    diag["sign_flips"] = problem.sign_flips
+    diag["compile_s"] = compile_s
     if np.isfinite(X).all():
-        from simcalib.solvers.dq import data_cost, dual_quat_fast
-        q, qd = dual_quat_fast(X)
-        cost = data_cost(problem, q, qd, alpha)
-        objective = cost + (_prior_penalty(q, qd, prior) if prior is not None else 0.0)
+        q, qd = dual_quat_from_transform(X)
+        cost = problem_cost(problem, q, qd, alpha)
+        objective = cost + (prior_penalty(q, qd, prior) if prior is not None else 0.0)
     else:
         cost = objective = math.inf
+        success = False
     return Solution(X=X, cost=cost, objective=objective, method=method, alpha=alpha,
                     runtime_s=runtime, success=success, solver_message=message,
                     n_motions=problem.n, family=info.family, prior=prior,
                     diagnostics=diag, problem=problem)
 
 
-def _fast_problem(C, H, alpha: float = 1.0, return_flips: bool = False):
-    """build_problem (compiled path) + sign re-alignment of near-180-degree motion pairs
-    (see simcalib.solvers.dq.fast_build_problem)."""
-    from simcalib.solvers.dq import fast_build_problem
-    return fast_build_problem(C, H, alpha, return_flips)
-
-
 def solve_batch(C, H, method: str = "dqopt", alpha=1.0, prior: Prior | None = None,
-                rng: np.random.Generator | None = None) -> BatchSolution:
+                rng: np.random.Generator | None = None, weights=None) -> BatchSolution:
     """Solve ``B`` problems at once: ``C``, ``H`` of shape ``(B, N, 4, 4)``; ``alpha`` a
-    scalar or ``(B,)``; one optional ``prior`` for all. Methods with a registered batch
-    function run vectorised (DQ methods: compiled, parallel over problems); others loop over
-    the method's solver function. ``X[b]`` equals ``solve(C[b], H[b], ...).X`` (to ~1e-12).
+    scalar or ``(B,)``; one optional ``prior`` for all; ``weights`` optional ``(B, N)``
+    per-motion weights. Methods with a registered batch function run vectorised (DQ
+    methods: one compiled kernel, parallel over problems); others loop over the method's
+    solver function. ``X[b]`` equals ``solve(C[b], H[b], ...).X``. A problem whose solve
+    fails or gives a non-finite X has ``success[b] = False`` (and
+    ``diagnostics["failure_reason"][b]``).
     """
     info = registry.get(method)
     prior = _check_prior(prior)
-    if prior is not None and not info.supports_prior:
-        with_prior = [i.name for i in registry.infos() if i.supports_prior]
-        raise ValueError(f"method {method!r} does not support a prior; methods with a "
-                         f"prior: {', '.join(with_prior)}")
+    _check_prior_supported(info, prior)
+    _check_weights_supported(info, weights)
     rng = _check_rng(rng)
     C = _as_float_array(C, "C")
     H = _as_float_array(H, "H")
@@ -370,10 +373,11 @@ def solve_batch(C, H, method: str = "dqopt", alpha=1.0, prior: Prior | None = No
     if N < 2:
         raise ValueError(f"each problem needs at least 2 motions; received N = {N}")
     alphas = _check_alphas(alpha, B)
-    diagnostics = {}
+    w = check_weights(weights, (B, N))
+    compile_s = warm_up(parallel=B > 1)
     t0 = time.perf_counter()
     if info.batch_fn is not None and info.extra.get("batch_validates", False):
-        out = info.batch_fn(C, H, alphas, prior)
+        out = info.batch_fn(C, H, alphas, prior, w)
         bad = out["bad"]
         if (bad >= 0).any():
             b = int(np.argmax(bad >= 0))
@@ -389,66 +393,80 @@ def solve_batch(C, H, method: str = "dqopt", alpha=1.0, prior: Prior | None = No
             if isinstance(out, np.ndarray):
                 out = {"X": out}
         else:
-            from simcalib.solvers.dq import data_cost, dual_quat_fast
-            X = np.full((B, 4, 4), np.nan)
-            ok = np.zeros(B, dtype=bool)
-            cost = np.full(B, np.inf)
-            flips = np.zeros(B, dtype=np.int64)
-            for b in range(B):
-                problem, flips[b] = _fast_problem(C[b], H[b], float(alphas[b]), True)
-                try:
-                    res = info.fn(problem, float(alphas[b]), prior, rng)
-                except Exception:  # noqa: BLE001 - reported as a failed problem
-                    continue
-                X[b], ok[b], _, _ = _finish_output(res, method)
-                if np.isfinite(X[b]).all():
-                    cost[b] = data_cost(problem, *dual_quat_fast(X[b]), float(alphas[b]))
-            out = {"X": X, "success": ok, "cost": cost, "sign_flips": flips}
+            out = _loop(info, C, H, alphas, prior, rng, w)
     runtime = time.perf_counter() - t0
     X = np.asarray(out["X"], dtype=np.float64)
-    success = np.asarray(out.get("success", np.isfinite(X).all(axis=(-2, -1))), dtype=bool)
+    finite = np.isfinite(X).all(axis=(-2, -1))
+    success = np.asarray(out.get("success", finite), dtype=bool) & finite
+    reason = np.asarray(out.get("failure_reason", np.full(B, "", dtype=object)), dtype=object)
+    reason = np.where(~finite & (reason == ""), "non-finite X", reason)
     cost = out.get("cost")
     if cost is None:
-        from simcalib.solvers.dq import batch_data_cost
-        cost = batch_data_cost(C, H, X, alphas)
+        from simcalib.solvers.problem import prepare_batch
+        cost = batch_cost(prepare_batch(C, H, alphas, w)[0], X, alphas, w)
     cost = np.where(success, cost, np.inf)
+    X = np.where(success[:, None, None], X, np.nan) if not success.all() else X
     objective = cost.copy()
     if prior is not None:
         objective = objective + _prior_penalty_batch(X, prior)
-    for k, v in out.items():
-        if k not in ("X", "cost", "success", "bad"):
-            diagnostics[k] = v
+    diagnostics = {k: v for k, v in out.items()
+                   if k not in ("X", "cost", "success", "bad", "failure_reason")}
+    diagnostics["failure_reason"] = np.where(success, "", reason)
+    diagnostics["compile_s"] = compile_s
     return BatchSolution(X=X, cost=cost, objective=objective, success=success, alpha=alphas,
                          method=method, runtime_s=runtime, prior=prior,
                          diagnostics=diagnostics)
 
 
+def _loop(info, C, H, alphas, prior, rng, w) -> dict:
+    """Problem by problem through the method's solver function."""
+    B = C.shape[0]
+    X = np.full((B, 4, 4), np.nan)
+    ok = np.zeros(B, dtype=bool)
+    cost = np.full(B, np.inf)
+    flips = np.zeros(B, dtype=np.int64)
+    reason = np.full(B, "", dtype=object)
+    for b in range(B):
+        problem = prepare_problem(C[b], H[b], float(alphas[b]), None if w is None else w[b])
+        flips[b] = problem.sign_flips
+        try:
+            res = info.fn(problem, float(alphas[b]), prior, rng)
+        except Exception as exc:  # noqa: BLE001 - reported as a failed problem
+            reason[b] = f"solver raised {type(exc).__name__}: {exc}"
+            continue
+        X[b], ok[b], msg, _ = _finish_output(res, info.name)
+        if not ok[b]:
+            reason[b] = msg or "failed"
+        if np.isfinite(X[b]).all():
+            cost[b] = problem_cost(problem, *dual_quat_from_transform(X[b]), float(alphas[b]))
+    return {"X": X, "success": ok, "cost": cost, "sign_flips": flips, "failure_reason": reason}
+
+
 def _as_float_array(a, name):
-    try:
-        return np.ascontiguousarray(a, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"{name} must be an array of 4x4 rigid transforms; could not convert "
-                        f"{type(a).__name__} to float64 ({exc})") from None
+    return np.ascontiguousarray(as_real_array(a, name, "an array of 4x4 rigid transforms"))
 
 
 def _prior_penalty_batch(X, prior: Prior) -> np.ndarray:
-    from simcalib.geometry import quat_conjugate, quat_multiply
-    q, qd = dual_quat_from_transform(X)
-    q_hat, q_hat_dual = dual_quat_from_transform(prior.X)
-    dq = quat_multiply(quat_conjugate(q_hat), q)
-    dqd = quat_multiply(quat_conjugate(q_hat_dual), q) + quat_multiply(quat_conjugate(q_hat), qd)
-    return prior.a * np.sum(dq[..., :3] ** 2, axis=-1) + prior.b * np.sum(dqd**2, axis=-1)
+    finite = np.isfinite(X).all(axis=(-2, -1))
+    q, qd = dual_quat_from_transform(np.where(finite[:, None, None], X, np.eye(4)))
+    return np.where(finite, prior_penalty(q, qd, prior), np.inf)
 
 
 def _check_alphas(alpha, B: int) -> np.ndarray:
-    try:
-        arr = np.asarray(alpha, dtype=np.float64) if not isinstance(alpha, bool) else None
-    except (TypeError, ValueError):
-        arr = None
-    if arr is None or arr.ndim > 1 or (arr.ndim == 1 and arr.shape[0] != B):
+    """alpha as (B,): a real scalar or (B,) array, every value in [ALPHA_MIN, ALPHA_MAX]."""
+    raw = None if isinstance(alpha, (bool, str, bytes)) else np.asarray(alpha)
+    if raw is None or raw.dtype.kind not in "iuf":
+        kind = "complex" if raw is not None and raw.dtype.kind == "c" else type(alpha).__name__
+        raise TypeError(f"alpha must be a real number or a real array of shape ({B},); "
+                        f"received {kind} {alpha!r}")
+    if raw.ndim > 1 or (raw.ndim == 1 and raw.shape[0] != B):
         raise ValueError(f"alpha must be a scalar or an array of shape ({B},); received "
-                         f"{alpha!r}")
+                         f"shape {raw.shape}")
+    arr = raw.astype(np.float64)
     bad = ~np.isfinite(arr) | (arr <= 0)
     if bad.any():
         raise ValueError(f"alpha must be finite and > 0; received {arr[bad].ravel()[0]}")
+    out_of = (arr < ALPHA_MIN) | (arr > ALPHA_MAX)
+    if out_of.any():
+        raise ValueError(alpha_range_error(arr[out_of].ravel()[0]))
     return np.broadcast_to(arr, (B,)).astype(np.float64)

@@ -54,6 +54,7 @@ from numpy.polynomial import polynomial as npoly
 
 from simcalib.geometry import transform_from_dual_quat
 from simcalib.solvers.classic import unit_dual_quat_from_span
+from simcalib.solvers.kernels.gram import prior_terms, problem_matrices
 from simcalib.solvers.problem import MotionProblem, SolverOutput
 from simcalib.solvers.registry import register
 
@@ -186,7 +187,6 @@ def _upper_bound(S, W, M, G):
 
 def dqoptpoly(problem: MotionProblem, alpha: float = 1.0, prior=None) -> SolverOutput:
     """The optimal X of cost (8) (+ prior) by appendix B's root counting."""
-    from simcalib.solvers.dq import prior_terms, problem_matrices
     S, W, M = problem_matrices(problem, alpha, prior)
     G = np.block([[S, W], [W.T, M]])
     G = 0.5 * (G + G.T)
@@ -338,6 +338,7 @@ def dqoptpoly(problem: MotionProblem, alpha: float = 1.0, prior=None) -> SolverO
 
 
 @register("dqoptpoly", family="dq", uses_alpha=True, supports_prior=True,
+          supports_weights=True, expected_cost_us=8000.0,
           description="optimal DQ solution by Sturm root counting of the degree-8 mu "
                       "polynomial (appendix B); slower, independent of dqopt")
 def _dqoptpoly(problem, alpha, prior, rng):

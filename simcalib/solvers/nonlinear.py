@@ -22,7 +22,7 @@ repeated until the step ``|d|`` is tiny, so the chart never reaches its singular
   manifold of unit dual quaternions (``q + eps q'`` with ``q' = 1/2 (T, 0) ⊗ q``, which
   satisfies both constraints identically), started at the ``dqopt`` solution. The 8N
   residuals are compressed to 8 through a square root of the 8x8 Gram matrix
-  ``[[S, W], [W^T, M]]`` of :func:`simcalib.solvers.dq.problem_matrices` (a constant
+  ``[[S, W], [W^T, M]]`` of :func:`simcalib.solvers.kernels.gram.problem_matrices` (a constant
   ``c |q|^2`` is added when the prior makes it indefinite; it does not move the minimiser).
 * ``dqnloptrnd``: the same from ``n_starts`` random starts (rotation uniform on SO(3),
   translation ~ N(0, s^2 I) with s the RMS translation of the motions, at least 1 m), drawn
@@ -39,7 +39,8 @@ import numpy as np
 from simcalib.geometry import dual_quat_from_transform, matrix_from_quat, quat_from_matrix, \
     quat_left_matrix, quat_multiply, quat_right_matrix, random_rotation_matrices, \
     transform_from_rotation_translation
-from simcalib.solvers.problem import MotionProblem, SolverOutput
+from simcalib.solvers.kernels.gram import prior_penalty, problem_matrices
+from simcalib.solvers.problem import MotionProblem, SolverOutput, problem_cost
 from simcalib.solvers.registry import register
 
 __all__ = ["chvecopt", "quatvecopt", "dqnlopt", "dqnlopt_random_starts", "make_dqnloptrnd",
@@ -211,12 +212,11 @@ def _two_step_start(problem):
 
 
 def _dqopt_start(problem, alpha, prior=None, rng=None):
-    from simcalib.solvers.registry import get
-    out = get("dqopt").fn(problem, alpha, prior, rng)
-    X = out.X if isinstance(out, SolverOutput) else out
-    X = np.asarray(X, dtype=np.float64)
-    if X.shape != (4, 4) or not np.isfinite(X).all():
-        raise ValueError("dqopt returned no finite transform")
+    from simcalib.solvers.dq import solve_dq
+    out = solve_dq("dqopt", problem, alpha, prior)
+    X = np.asarray(out.X, dtype=np.float64)
+    if not out.success or X.shape != (4, 4) or not np.isfinite(X).all():
+        raise ValueError(f"dqopt returned no valid transform ({out.message or 'non-finite'})")
     return X
 
 
@@ -263,7 +263,6 @@ def quatvecopt(problem: MotionProblem, alpha: float = 1.0, rng=None) -> SolverOu
 def _gram_sqrt(problem, alpha, prior):
     """``U`` (8x8) with ``z^T U^T U z = z^T G z + c |q|^2``, G = [[S, W], [W^T, M]]
     (c >= 0 only when the prior makes G indefinite)."""
-    from simcalib.solvers.dq import problem_matrices
     S, W, M = problem_matrices(problem, alpha, prior)
     G = np.block([[S, W], [W.T, M]])
     G = 0.5 * (G + G.T)
@@ -305,9 +304,10 @@ def _dq_from_X(X):
 def _objective(problem, alpha, prior, q, T):
     """Cost (8) plus the prior terms, from the full residuals (accurate to rounding; the
     8-residual Gram form used inside the optimiser is only ~1e-11 relative)."""
-    from simcalib.solvers.api import dq_cost
     X = transform_from_rotation_translation(matrix_from_quat(q), T)
-    return dq_cost(X, problem, alpha, prior)
+    qq, qd = dual_quat_from_transform(X)
+    cost = problem_cost(problem, qq, qd, alpha)
+    return cost + (prior_penalty(qq, qd, prior) if prior is not None else 0.0)
 
 
 def dqnlopt(problem: MotionProblem, alpha: float = 1.0, prior=None, rng=None,
@@ -375,24 +375,28 @@ def make_dqnloptrnd(n_starts: int):
 
 # ------------------------------------------------------------------ registration
 @register("chvecopt", family="dq-nonlinear", uses_alpha=True, supports_prior=False,
+          slow=True, expected_cost_us=40000.0,
           description="eq. 30 chordal-rotation + translation cost, Levenberg-Marquardt")
 def _chvecopt(problem, alpha, prior, rng):
     return chvecopt(problem, alpha, rng)
 
 
 @register("quatvecopt", family="dq-nonlinear", uses_alpha=True, supports_prior=False,
+          slow=True, expected_cost_us=8000.0,
           description="eq. 30 quaternion-rotation + translation cost, Levenberg-Marquardt")
 def _quatvecopt(problem, alpha, prior, rng):
     return quatvecopt(problem, alpha, rng)
 
 
 @register("dqnlopt", family="dq-nonlinear", uses_alpha=True, supports_prior=True,
+          slow=True, expected_cost_us=8000.0, supports_weights=True,
           description="paper cost (8) by Levenberg-Marquardt on SE(3) from the dqopt solution")
 def _dqnlopt(problem, alpha, prior, rng):
     return dqnlopt(problem, alpha, prior, rng)
 
 
 register("dqnloptrnd", family="dq-nonlinear", uses_alpha=True, supports_prior=True,
-         stochastic=True, n_starts=DEFAULT_RANDOM_STARTS,
+         stochastic=True, n_starts=DEFAULT_RANDOM_STARTS, slow=True,
+         expected_cost_us=40000.0, supports_weights=True,
          description=f"paper cost (8) by Levenberg-Marquardt from {DEFAULT_RANDOM_STARTS} "
                      "random starts (rng), best kept")(make_dqnloptrnd(DEFAULT_RANDOM_STARTS))

@@ -311,22 +311,22 @@ KKT_TOL = 1e-9
 
 def certify(problem, alpha: float, prior, q, q_dual) -> Certificate:
     """Certificate for the DQ solution ``(q, q')`` of ``problem`` (see :class:`Certificate`)."""
-    from simcalib.solvers import dq
-    S, W, M = dq.problem_matrices(problem, alpha, prior)
+    from simcalib.solvers.kernels.dqcore import I_MU, certificate_values
+    from simcalib.solvers.kernels.gram import problem_matrices
+    S, W, M = problem_matrices(problem, alpha, prior)
     q = np.asarray(q, dtype=np.float64)
     qd = np.asarray(q_dual, dtype=np.float64)
     obj = float(q @ S @ q + qd @ M @ qd + 2 * q @ W @ qd)
     scale = float(np.trace(S) / 4 + np.trace(M) / 4 + np.abs(W).max() + 1e-300)
-    # the optimum's multiplier from the optimal solver
-    qs, _, info = dq.solve_matrices("dqopt", S, W, M)
-    mu = float(info[dq.I_MU])
-    lam, q0, f, df, nclip, (kmin, kmax) = dq.eval_at_mu(S, W, M, mu)
-    span = max(kmax - kmin, 1e-300)
-    f_lo = dq.eval_at_mu(S, W, M, kmin)[2]
-    f_hi = dq.eval_at_mu(S, W, M, kmax)[2]
-    h = 1e-4 * span
-    lam_m = dq.eval_at_mu(S, W, M, mu - h)[0][0]
-    lam_p = dq.eval_at_mu(S, W, M, mu + h)[0][0]
+    # the optimum's multiplier from the optimal solver, and Z evaluated at mu*, at the
+    # bracket ends and at mu* -/+ h (one compiled call)
+    _, _, info, lams, _, vals = certificate_values(S, W, M)
+    mu = float(info[I_MU])
+    lam = lams[0]
+    f, df, nclip = float(vals[0, 0]), float(vals[0, 1]), int(vals[0, 2])
+    kmin, kmax = float(vals[0, 3]), float(vals[0, 4])
+    f_lo, f_hi = float(vals[1, 0]), float(vals[2, 0])
+    lam_m, lam_p = float(lams[3, 0]), float(lams[4, 0])
     lam0 = float(lam[0])
     tol_l = 1e-13 * scale
     is_max = bool(lam_m <= lam0 + tol_l and lam_p <= lam0 + tol_l)
@@ -341,7 +341,8 @@ def certify(problem, alpha: float, prior, q, q_dual) -> Certificate:
     if nclip > 0 and (prior is None):
         # M numerically singular: noise-free (or degenerate) data; bound = 0 (sum of
         # squares), the cost summed motion by motion (accurate near 0)
-        cost = dq.data_cost(problem, q, qd, alpha)
+        from simcalib.solvers.problem import problem_cost
+        cost = problem_cost(problem, q, qd, alpha)
         ok = bool(cost <= 1e-20 * scale * max(problem.n, 1))
         notes = ("M numerically singular (noise-free or degenerate data)" if ok else
                  f"M numerically singular but cost {cost:.3g} is not at rounding level; "

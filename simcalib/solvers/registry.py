@@ -25,16 +25,34 @@ __all__ = ["SolverInfo", "register", "get", "available", "infos"]
 
 @dataclass(frozen=True)
 class SolverInfo:
+    """A registered solver and what callers need to know about it.
+
+    ``uses_alpha``: the method takes alpha; ``alpha_independent``: it takes alpha but its
+    estimate does not depend on it (dq2steps: alpha^2 cancels); ``supports_prior``,
+    ``supports_weights`` (per-motion weights of the cost); ``certified``: returns a
+    certificate of global optimality; ``stochastic``: uses the rng; ``slow``: a nonlinear
+    optimiser (experiments time fewer runs of it); ``expected_cost_us``: rough time of one
+    solve at N = 100 (schedules experiment chunks, slowest first).
+    """
     name: str
     fn: Callable
     family: str                 # "dq" (paper), "dq-nonlinear", "classic", "opencv"
     description: str
     uses_alpha: bool = True
     supports_prior: bool = False
-    certified: bool = False     # returns a certificate of global optimality
-    stochastic: bool = False    # uses the rng (random starts)
+    certified: bool = False
+    stochastic: bool = False
     batch_fn: Callable | None = None
+    supports_weights: bool = False
+    alpha_independent: bool = False
+    slow: bool = False
+    expected_cost_us: float = 100.0
     extra: dict = field(default_factory=dict)
+
+    @property
+    def depends_on_alpha(self) -> bool:
+        """Whether the estimate changes with alpha."""
+        return self.uses_alpha and not self.alpha_independent
 
 
 _REGISTRY: dict[str, SolverInfo] = {}
@@ -43,40 +61,33 @@ _LOADED = False
 
 def register(name: str, *, family: str, description: str, uses_alpha: bool = True,
              supports_prior: bool = False, certified: bool = False, stochastic: bool = False,
-             batch: Callable | None = None, **extra):
+             batch: Callable | None = None, supports_weights: bool = False,
+             alpha_independent: bool = False, slow: bool = False,
+             expected_cost_us: float = 100.0, **extra):
     """Decorator adding a solver function to the registry under ``name``."""
     def deco(fn):
         if name in _REGISTRY:
             raise ValueError(f"solver {name!r} registered twice")
         _REGISTRY[name] = SolverInfo(name, fn, family, description, uses_alpha,
-                                     supports_prior, certified, stochastic, batch, dict(extra))
+                                     supports_prior, certified, stochastic, batch,
+                                     supports_weights, alpha_independent, slow,
+                                     float(expected_cost_us), dict(extra))
         return fn
     return deco
 
 
 def _load_all() -> None:
-    """Import the modules that register solvers (once, lazily)."""
+    """Import the modules that register solvers (once, on first lookup)."""
     global _LOADED
     if _LOADED:
         return
     _LOADED = True
-    import importlib
-    for mod in _SOLVER_MODULES:
-        try:
-            importlib.import_module(mod)
-        except ModuleNotFoundError as exc:
-            if exc.name != mod:  # a real import error inside the module
-                raise
-
-
-# Modules that register solvers; each is imported lazily on first lookup.
-_SOLVER_MODULES = (
-    "simcalib.solvers.dq",          # dqopt, dq2steps, dqconvrlx, dq2ndord, dq2ndord_lambda, dqitr
-    "simcalib.solvers.dqpoly",      # dqoptpoly
-    "simcalib.solvers.classic",     # daniilidis
-    "simcalib.solvers.nonlinear",   # chvecopt, quatvecopt, dqnlopt, dqnloptrnd
-    "simcalib.solvers.opencv",      # opencv_tsai, opencv_park, ...
-)
+    # each module registers its methods at import (cv2, scipy are imported lazily inside)
+    from simcalib.solvers import dq  # noqa: F401  dqopt, dq2steps, dqconvrlx, dq2ndord, ...
+    from simcalib.solvers import dqpoly  # noqa: F401  dqoptpoly
+    from simcalib.solvers import classic  # noqa: F401  daniilidis
+    from simcalib.solvers import nonlinear  # noqa: F401  chvecopt, quatvecopt, dqnlopt, ...
+    from simcalib.solvers import opencv  # noqa: F401  opencv_tsai, opencv_park, ...
 
 
 def available() -> list[str]:

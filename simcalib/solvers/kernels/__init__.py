@@ -1,0 +1,7 @@
+"""Compiled kernels of the DQ solvers (numba), each with a numpy twin checked in
+``tests/test_solvers_kernels.py``: ``linalg`` (Jacobi eigensolver), ``quaternion``,
+``gram`` (Gram accumulation, (S, W, M) assembly), ``dqcore`` (the methods on (S, W, M)),
+``batch`` (the fused, parallel per-problem kernel used by solve and solve_batch).
+
+Compilation: every kernel is ``cache=True``; see docs/solvers.md ("Start-up").
+"""
