@@ -62,6 +62,7 @@ chi-square of ``k`` = number of determined directions degrees of freedom.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -414,7 +415,10 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
         qr_tr = np.sum(wn * np.trace(Qr[:, 3:, 3:], axis1=1, axis2=2))
         qt_tr = np.sum(wn * np.trace(Qt[:, 3:, 3:], axis1=1, axis2=2))
         s_r2 = rot2 / qr_rot
-        s_t2 = max(tr2 - s_r2 * qr_tr, 0.0) / qt_tr
+        # rotation noise leaks into tau through R_Ci' t_X; at least 10 % of the translation
+        # residual is attributed to translation noise (a wrong X with a large t_X would
+        # otherwise explain all of it by rotation noise and claim a perfect translation)
+        s_t2 = max(tr2 - s_r2 * qr_tr, 0.1 * tr2) / qt_tr
         if not (math.isfinite(s_r2) and math.isfinite(s_t2)):
             raise ValueError("residuals of X are not finite; X is not a usable estimate")
         noise_out = NoiseModel(math.sqrt(s_r2), math.sqrt(s_t2), estimated=True)
@@ -473,6 +477,8 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
         Mb = Bt.T @ Mt @ Bt
         Hb_inv = _sym_inv(Hb)
         Sig_b = Hb_inv @ Mb @ Hb_inv
+        lb, Vb = np.linalg.eigh(0.5 * (Sig_b + Sig_b.T))
+        Sig_b = (Vb * np.clip(lb, 0.0, None)) @ Vb.T        # PSD despite rounding
         cov_t = Bt @ Sig_b @ Bt.T
     else:
         cov_t = np.zeros((6, 6))
@@ -514,6 +520,24 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
         else:
             by_prior, swd, swm = False, sdeg, sm
         dirs.append(_describe(u, dsc, reason, sdeg, sm, swd, swm, by_prior))
+    # directions this estimate (covariance of the alpha-cost minimiser) leaves beyond the
+    # tolerance although the information would allow better (a poorly chosen alpha or an
+    # estimator that ignores part of the data)
+    flagged = np.array([U_d[:, k] for k in range(6) if sig_d[k] > 1.0]).reshape(-1, 6).T
+    le, Ve = np.linalg.eigh(0.5 * (cov_t + cov_t.T))
+    for k in range(6):
+        if not le[k] > 1.0:
+            continue
+        u = Ve[:, k]
+        if flagged.shape[1] and np.linalg.norm(u - flagged @ (flagged.T @ u)) < 0.5:
+            continue
+        sg = math.sqrt(le[k])
+        sdeg = math.degrees(sg * tol_r * np.linalg.norm(u[:3]))
+        sm = sg * tol_m * np.linalg.norm(u[3:])
+        d = _describe(u, dsc, "poorly determined", sdeg, sm, sdeg, sm, False)
+        dirs.append(dataclasses.replace(d, description=d.description + " by this estimate "
+                                        "(the motions would determine it better)"))
+        flagged = np.concatenate([flagged, u[:, None]], axis=1)
     dirs.sort(key=lambda d: d.reason != "undetermined")
     return Uncertainty(X=X, covariance=cov, covariance_determined=cov_det,
                        determined_basis=Bp, information=F, prior_covariance=prior_cov,
