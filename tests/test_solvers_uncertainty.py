@@ -342,3 +342,24 @@ def test_fuzz_families_methods_alpha():
                             beyond += 1
     assert n > 300
     assert beyond <= 0.01 * n, (beyond, n)
+
+
+# ------------------------------------------------------------------- Solution wiring
+def test_solution_properties():
+    import json
+    C, H, X = _d2("random", 1, n=50, seed=16)
+    sol = solve(C[0], H[0], alpha=1.0)
+    assert sol.covariance.shape == (6, 6) and np.isfinite(sol.covariance).all()
+    assert sol.std.shape == (6,) and sol.verdict == "determined"
+    assert sol.inside_region(X) in (True, False)
+    d = sol.to_dict()
+    json.dumps(d, allow_nan=False)
+    assert d["uncertainty"]["verdict"] == "determined"
+    strict = solve(C[0], H[0], alpha=1.0, tolerance_deg=1e-3, tolerance_m=1e-5)
+    assert strict.verdict == "poorly determined"
+    with pytest.raises(ValueError, match="tolerance_m"):
+        solve(C[0], H[0], tolerance_m=-1.0)
+    Cl, Hl, _ = _d2("line", 1, n=50, seed=16)
+    line = solve(Cl[0], Hl[0], alpha=1.0)
+    assert line.verdict in ("poorly determined", "undetermined")
+    json.dumps(line.to_dict(), allow_nan=False)

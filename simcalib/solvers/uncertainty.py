@@ -79,7 +79,7 @@ from simcalib.geometry import (
 )
 
 __all__ = ["NoiseModel", "Direction", "Uncertainty", "AlphaChoice", "covariance",
-           "choose_alpha", "bootstrap_covariance", "pose_error", "TOLERANCE_DEG",
+           "choose_alpha", "bootstrap_covariance", "pose_error", "check_tolerances", "TOLERANCE_DEG",
            "TOLERANCE_M", "ROTATION_FLOOR_RAD", "TRANSLATION_FLOOR_REL"]
 
 TOLERANCE_DEG = 1.0
@@ -102,6 +102,11 @@ def _real(name, val, *, positive=True, allow_zero=False) -> float:
         raise ValueError(f"{name} must be finite and {'>= 0' if allow_zero else '> 0'}; "
                          f"received {val}")
     return val
+
+
+def check_tolerances(tolerance_deg, tolerance_m) -> tuple[float, float]:
+    """Validate the verdict tolerances (finite, > 0); returns them as floats."""
+    return _real("tolerance_deg", tolerance_deg), _real("tolerance_m", tolerance_m)
 
 
 @dataclass(frozen=True)
