@@ -363,3 +363,14 @@ def test_solution_properties():
     line = solve(Cl[0], Hl[0], alpha=1.0)
     assert line.verdict in ("poorly determined", "undetermined")
     json.dumps(line.to_dict(), allow_nan=False)
+
+
+def test_covariance_batch():
+    C, H, X = _d2("random", 3, n=30, seed=17)
+    sol = solve_batch(C, H, alpha=[0.5, 1.0, 2.0])
+    Xs = sol.X.copy()
+    Xs[1] = np.nan
+    us = U.covariance_batch(C, H, Xs, sol.alpha)
+    assert us[1] is None and us[0] is not None
+    np.testing.assert_allclose(us[2].covariance,
+                               U.covariance(C[2], H[2], Xs[2], 2.0).covariance)

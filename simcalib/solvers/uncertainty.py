@@ -79,6 +79,7 @@ from simcalib.geometry import (
 )
 
 __all__ = ["NoiseModel", "Direction", "Uncertainty", "AlphaChoice", "covariance",
+           "covariance_batch",
            "choose_alpha", "bootstrap_covariance", "pose_error", "check_tolerances", "TOLERANCE_DEG",
            "TOLERANCE_M", "ROTATION_FLOOR_RAD", "TRANSLATION_FLOOR_REL"]
 
@@ -580,6 +581,32 @@ def _describe(u, dsc, reason, sdeg, sm, swd, swm, by_prior) -> Direction:
                 f"{_fmt_vec(td)} (camera-a frame)")
     return Direction(reason, kind, ax, td, float(sdeg), float(sm), float(swd), float(swm),
                      bool(by_prior), desc)
+
+
+def covariance_batch(C, H, X, alpha=1.0, prior=None, noise=None, *,
+                     tolerance_deg: float = TOLERANCE_DEG, tolerance_m: float = TOLERANCE_M
+                     ) -> tuple:
+    """:func:`covariance` per problem of a batch: ``C``, ``H`` (B, N, 4, 4), ``X`` (B, 4, 4),
+    ``alpha`` scalar or (B,). Problems whose ``X`` is not a finite rigid transform (failed
+    solves) give None."""
+    C = np.asarray(C, dtype=np.float64)
+    H = np.asarray(H, dtype=np.float64)
+    X = np.asarray(X, dtype=np.float64)
+    if C.ndim != 4 or X.ndim != 3 or X.shape[0] != C.shape[0]:
+        raise ValueError(f"C, H must be (B, N, 4, 4) and X (B, 4, 4); received {C.shape}, "
+                         f"{H.shape}, {X.shape}")
+    alphas = np.broadcast_to(np.asarray(alpha, dtype=np.float64), (C.shape[0],))
+    out = []
+    for b in range(C.shape[0]):
+        if not np.isfinite(X[b]).all():
+            out.append(None)
+            continue
+        try:
+            out.append(covariance(C[b], H[b], X[b], float(alphas[b]), prior, noise,
+                                  tolerance_deg=tolerance_deg, tolerance_m=tolerance_m))
+        except ValueError:
+            out.append(None)
+    return tuple(out)
 
 
 # ------------------------------------------------------------------------------- alpha
