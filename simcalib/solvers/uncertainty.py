@@ -32,9 +32,10 @@ the rotation noise of ``H_i`` into ``tau_i`` through ``R_Ci' t_X``).
 * **Prior** (paper eqs. 26-29): read as a pseudo-measurement of ``vec(dq)`` with weight ``a``
   and of ``dq'`` with weight ``b``, each in units of the per-component noise variance of the
   data residuals of the same kind (rotation part ``nu_a``, dual part without alpha ``nu_b``):
-  information ``a Jpa^T Jpa / nu_a + b Jpb^T Jpb / nu_b``; in the sandwich it adds
-  ``a Jpa^T Jpa + b Jpb^T Jpb`` to ``H`` and ``a^2 nu_a Jpa^T Jpa + b^2 nu_b Jpb^T Jpb``
-  to ``M``. :attr:`Uncertainty.prior_covariance` is the covariance this reading implies
+  (``sqrt(a) vec(dq)`` has the noise of one rotation residual component, so ``vec(dq)`` has
+  variance ``nu_a / a``): information ``a Jpa^T Jpa / nu_a + b Jpb^T Jpb / nu_b``; in the
+  sandwich it adds ``a Jpa^T Jpa + b Jpb^T Jpb`` to ``H`` and
+  ``a nu_a Jpa^T Jpa + b nu_b Jpb^T Jpb`` to ``M``. :attr:`Uncertainty.prior_covariance` is the covariance this reading implies
   for the prior's own error.
 
 Verdict
@@ -454,7 +455,7 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
         Bm = Jb.T @ Jb
         F_prior = prior.a * A / nu_a + prior.b * Bm / nu_b
         Hs = Hs + prior.a * A + prior.b * Bm
-        Ms = Ms + prior.a**2 * nu_a * A + prior.b**2 * nu_b * Bm
+        Ms = Ms + prior.a * nu_a * A + prior.b * nu_b * Bm
         prior_cov = _pinv_cov(F_prior)
 
     # ---- tolerance-scaled coordinates
