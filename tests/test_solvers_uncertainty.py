@@ -374,3 +374,16 @@ def test_covariance_batch():
     assert us[1] is None and us[0] is not None
     np.testing.assert_allclose(us[2].covariance,
                                U.covariance(C[2], H[2], Xs[2], 2.0).covariance)
+
+
+def test_weights():
+    C, H, X = _d2("random", 1, n=40, seed=18)
+    C, H = C[0], H[0]
+    sol = solve(C, H, alpha=1.0)
+    u = U.covariance(C, H, sol.X, 1.0)
+    u2 = U.covariance(C, H, sol.X, 1.0, weights=np.full(40, 2.0))
+    np.testing.assert_allclose(u2.covariance, u.covariance, rtol=1e-9)
+    w = np.r_[np.ones(30), np.zeros(10)]
+    uw = U.covariance(C, H, sol.X, 1.0, weights=w)
+    us = U.covariance(C[:30], H[:30], sol.X, 1.0)
+    np.testing.assert_allclose(uw.covariance, us.covariance, rtol=1e-3)

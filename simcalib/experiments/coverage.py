@@ -142,6 +142,21 @@ def render(cov_rows, flag_rows, alpha_rows, args, runtime_s) -> str:
          "Error: `delta = (rotvec(R_true R_est^T), t_true - t_est)` in frame a. Trials: "
          f"independent appendix D.2 data sets of n = {args.n} motions, paper noise "
          "(0.57 deg, 0.01 m).", "",
+         "## API", "",
+         "- `simcalib.solvers.uncertainty.covariance(C, H, X, alpha, prior=None, noise=None, "
+         "weights=None, *, tolerance_deg=1, tolerance_m=0.01) -> Uncertainty`: `.covariance` "
+         "(6x6, inf on undetermined axes, off-diagonals of those axes 0), "
+         "`.covariance_determined` (finite part), `.std` (deg, deg, deg, m, m, m), "
+         "`.verdict`, `.degenerate`, `.directions` / `.undetermined` / `.poorly_determined` "
+         "(words, camera-a frame, 1-sigma, `determined_by_prior`), `.noise` (fitted or given), "
+         "`.mahalanobis2(X)`, `.inside_region(X, level=0.95)` (chi2 over the k determined "
+         "directions).",
+         "- `choose_alpha(C, H, X, alpha_initial, how='noise_ratio' | 'min_predicted_error') "
+         "-> AlphaChoice(alpha, how, sigma_r_rad, sigma_t_m, ...)`.",
+         "- `bootstrap_covariance(C, H, X, solve_fn, n_boot, rng)`; `covariance_batch(C, H, X, "
+         "alpha, ...)`.",
+         "- `Solution.uncertainty`, `.covariance`, `.std`, `.verdict`, `.inside_region(X)`; "
+         "`solve(..., tolerance_deg=1, tolerance_m=0.01)`.", "",
          "## Coverage on `random` (95 % region, chi2 with 6 dof)", "",
          "| method | alpha | prior | trials | coverage | pred/RMS wx wy wz | pred/RMS vx vy vz "
          "| RMS rot (deg) | RMS trans (mm) | flagged |",
