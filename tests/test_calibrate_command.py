@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from simcalib.cli import main
-from simcalib.errors import EXIT_CONFIG, EXIT_DEGENERATE, EXIT_INPUT, EXIT_OK, EXIT_SOLVER
+from simcalib.errors import EXIT_CONFIG, EXIT_DEGENERATE, EXIT_INPUT, EXIT_OK
 from simcalib.geometry import (invert_transform, quat_from_matrix, rotation_error_rad,
                                transform_from_rotation_translation, translation_error_m)
 from simcalib.reports import write_tum
@@ -157,15 +157,11 @@ def test_errors_have_exit_codes(tmp_path, capsys):
         assert code == want and words in err, (args, code, err)
 
 
-def test_irls_is_exit_5_until_solve_takes_weights(tmp_path, capsys):
-    from simcalib.solvers.robust import solve_supports_weights
+def test_irls_calibrates(tmp_path, capsys):
     _, pa, pb = _rig_files(tmp_path)
     code, _, err = _calibrate(capsys, f"a={pa}", f"b={pb}", f"output={tmp_path / 'i'}",
                               "robust=irls", "time_offset=0", "recording=false")
-    if solve_supports_weights():
-        assert code == EXIT_OK, err
-    else:
-        assert code == EXIT_SOLVER and "weights" in err
+    assert code == EXIT_OK, err
 
 
 def test_assess_uses_observability_or_uncertainty():

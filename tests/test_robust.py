@@ -8,9 +8,9 @@ import simcalib
 from simcalib.geometry import (random_rotation_matrices, rotation_error_rad,
                                transform_from_rotation_translation, translation_error_m)
 from simcalib.solvers.api import dq_cost
-from simcalib.solvers.robust import (RobustSolution, WeightsUnsupportedError, constraint_errors,
+from simcalib.solvers.robust import (RobustSolution, constraint_errors,
                                      inlier_scores, irls, noise_threshold, ransac, robust_solve,
-                                     screw_residuals, solve_supports_weights)
+                                     screw_residuals)
 from simcalib.synthetic import synthetic_problem
 
 RUNS = 12
@@ -97,16 +97,10 @@ def test_ransac_is_deterministic_and_checks_inputs():
 
 def test_irls_guarded_until_solve_takes_weights():
     p = synthetic_problem("random", n=60, rng=np.random.default_rng(4))
-    if not solve_supports_weights():
-        with pytest.raises(WeightsUnsupportedError, match="weights"):
-            irls(p.C, p.H)
-    else:
-        r = irls(p.C, p.H)
-        assert r.method == "irls" and r.weights.shape == (60,)
+    r = irls(p.C, p.H)
+    assert r.method == "irls" and r.weights.shape == (60,)
 
 
-@pytest.mark.skipif(not solve_supports_weights(),
-                    reason="simcalib.solve has no weights= yet (solver restructure pending)")
 def test_irls_20_percent():
     rng = np.random.default_rng(9)
     p = synthetic_problem("random", n=100, rng=rng)
@@ -118,40 +112,3 @@ def test_irls_20_percent():
             assert rotation_error_rad(r.X, p.X) <= 1.5 * clean + 1e-4
             sc = inlier_scores(r.inlier_mask, good)
             assert sc["precision"] > 0.95 and sc["recall"] > 0.9
-
-
-def test_irls_logic_with_a_weighted_stand_in(monkeypatch):
-    """IRLS against a test-only weighted dqopt (weighted S, W, M via the solver internals),
-    so the re-weighting logic is exercised before simcalib.solve takes weights."""
-    from types import SimpleNamespace
-
-    from simcalib.geometry import transform_from_dual_quat
-    from simcalib.solvers.dq import align_problem, problem_matrices, solve_matrices
-    from simcalib.solvers.problem import MotionProblem, build_problem
-    original = simcalib.solve
-
-    def weighted_solve(C, H, method="dqopt", alpha=1.0, prior=None, rng=None, weights=None):
-        if weights is None:
-            return original(C, H, method=method, alpha=alpha)
-        pr = align_problem(build_problem(C, H), alpha)
-        s = np.sqrt(np.asarray(weights, dtype=np.float64))[:, None]
-        pw = MotionProblem(pr.C, pr.H, pr.q_C * s, pr.q_C_dual * s, pr.q_H * s,
-                           pr.q_H_dual * s)
-        q, qd, _ = solve_matrices("dqopt", *problem_matrices(pw, alpha))
-        return SimpleNamespace(X=transform_from_dual_quat(q, qd), method="dqopt")
-
-    monkeypatch.setattr(simcalib, "solve", weighted_solve)
-    assert solve_supports_weights()
-    rng = np.random.default_rng(9)
-    p = synthetic_problem("random", n=100, rng=rng)
-    C, good = _contaminate(p.C, 0.2, rng)
-    # unit weights reproduce the plain solve
-    Xw = weighted_solve(p.C, p.H, weights=np.ones(100)).X
-    assert np.allclose(Xw, original(p.C, p.H).X, atol=1e-8)
-    clean = rotation_error_rad(original(p.C, p.H).X, p.X)
-    r = irls(C, p.H, init="ransac", loss="cauchy")
-    assert r.method == "irls" and r.weights.shape == (100,)
-    assert rotation_error_rad(r.X, p.X) <= 1.5 * clean
-    sc = inlier_scores(r.inlier_mask, good)
-    assert sc["precision"] > 0.95 and sc["recall"] > 0.9, sc
-    assert r.weights[~good].max() < 0.05

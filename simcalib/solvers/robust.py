@@ -13,8 +13,7 @@
   on the inliers.
 * :func:`irls` — iteratively re-weighted dqopt (Huber / Cauchy / Tukey weights on the
   per-motion residuals) through ``simcalib.solve(C, H, ..., weights=w)``; the cost is a sum
-  over motions so the weighted S, W, M keep dqopt exact. Raises
-  :class:`WeightsUnsupportedError` while ``simcalib.solve`` has no ``weights`` argument.
+  over motions so the weighted S, W, M keep dqopt exact.
 * :func:`robust_solve` — ``robust="none" | "ransac" | "irls"`` (registry :data:`ROBUST_METHODS`).
 
 All return a :class:`RobustSolution` (``X``, the final ``Solution``, the inlier mask, the
@@ -23,7 +22,6 @@ weights, the residuals, the threshold).
 
 from __future__ import annotations
 
-import inspect
 import math
 from dataclasses import dataclass, field
 
@@ -33,13 +31,9 @@ from simcalib.errors import SolverError, unknown_choice
 from simcalib.geometry import (check_transforms, dual_quat_from_transform, quat_left_matrix,
                                quat_right_matrix, rotvec_from_matrix)
 
-__all__ = ["RobustSolution", "WeightsUnsupportedError", "screw_residuals", "noise_threshold",
+__all__ = ["RobustSolution", "screw_residuals", "noise_threshold",
            "ransac", "irls", "robust_solve", "constraint_errors", "ROBUST_METHODS",
-           "solve_supports_weights", "inlier_scores"]
-
-
-class WeightsUnsupportedError(NotImplementedError):
-    """``simcalib.solve`` does not accept ``weights=`` (needed by IRLS) in this version."""
+           "inlier_scores"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -274,15 +268,6 @@ def ransac(C, H, *, alpha: float = 1.0, threshold: float | None = None,
 
 
 # -------------------------------------------------------------------------------- IRLS
-def solve_supports_weights() -> bool:
-    """Whether ``simcalib.solve`` accepts ``weights=`` (the solver restructure adds it)."""
-    import simcalib
-    try:
-        return "weights" in inspect.signature(simcalib.solve).parameters
-    except (TypeError, ValueError):
-        return False
-
-
 _LOSSES = {
     "huber": (1.345, lambda z, c: np.minimum(1.0, c / np.maximum(z, 1e-300))),
     "cauchy": (2.385, lambda z, c: 1.0 / (1.0 + (z / c) ** 2)),
@@ -299,15 +284,8 @@ def irls(C, H, *, alpha: float = 1.0, loss: str = "cauchy", scale: float | None 
     weights=w)`` until ``X`` changes by less than ``tol``. ``init``: ``"ransac"`` (default;
     re-weighting from a least-squares start can lock onto the outliers),
     ``"none"`` (unweighted start) or a 4x4 ``X``. Inliers: ``w >= inlier_weight``.
-
-    Raises :class:`WeightsUnsupportedError` if ``simcalib.solve`` has no ``weights`` yet.
     """
     import simcalib
-    if not solve_supports_weights():
-        raise WeightsUnsupportedError(
-            "IRLS needs simcalib.solve(C, H, ..., weights=w), which this version of "
-            "simcalib.solve does not accept yet (it comes with the solver restructure); "
-            "use robust='ransac' meanwhile")
     if loss not in _LOSSES:
         raise unknown_choice("IRLS loss", loss, _LOSSES, key="loss")
     C, H = _check_problem(C, H)
