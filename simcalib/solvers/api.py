@@ -176,6 +176,48 @@ class Solution:
     prior: Prior | None = None
     diagnostics: dict = field(default_factory=dict, repr=False)
     problem: MotionProblem | None = field(default=None, repr=False, compare=False)
+    tolerance_deg: float = 1.0      # issue 9: verdict tolerances (1-sigma), see uncertainty.py
+    tolerance_m: float = 0.01
+
+    # ---- issue 9: uncertainty and the verdict that follows from it
+    @cached_property
+    def uncertainty(self):
+        """:class:`simcalib.solvers.uncertainty.Uncertainty` of ``X`` (None if the solve
+        failed): covariance of ``delta = (omega, v)`` (frame a), noise estimated from the
+        residuals, verdict with ``tolerance_deg`` / ``tolerance_m``."""
+        if not self.success or not np.isfinite(self.X).all():
+            return None
+        from simcalib.solvers.uncertainty import covariance
+        try:
+            return covariance(self.problem.C, self.problem.H, self.X, self.alpha, self.prior,
+                              tolerance_deg=self.tolerance_deg, tolerance_m=self.tolerance_m)
+        except ValueError:
+            return None
+
+    @property
+    def covariance(self) -> np.ndarray:
+        """6x6 covariance of (wx, wy, wz, vx, vy, vz) in rad and m (inf: undetermined)."""
+        u = self.uncertainty
+        return np.full((6, 6), np.inf) if u is None else u.covariance
+
+    @property
+    def std(self) -> np.ndarray:
+        """1-sigma per axis: rotation (deg) about x, y, z and translation (m), frame a."""
+        u = self.uncertainty
+        return np.full(6, np.inf) if u is None else u.std
+
+    @property
+    def verdict(self) -> str:
+        """"determined", "poorly determined", "undetermined" or "FAILED"."""
+        u = self.uncertainty
+        return "FAILED" if u is None else u.verdict
+
+    def inside_region(self, X_candidate, level: float = 0.95) -> bool:
+        """Whether ``X_candidate`` lies in the ``level`` confidence region of ``X``."""
+        u = self.uncertainty
+        if u is None:
+            raise ValueError(f"{self.method} failed; there is no confidence region")
+        return u.inside_region(X_candidate, level)
 
     @cached_property
     def observability(self):
@@ -236,6 +278,7 @@ class Solution:
                 "relative_gap": _num(cert.relative_gap), "kkt_residual": _num(cert.kkt_residual),
                 "summary": cert.summary()},
             "sign_flips": int(self.diagnostics.get("sign_flips", 0)),
+            "uncertainty": _uncertainty_dict(self.uncertainty),
         }
 
     def __str__(self) -> str:
@@ -264,6 +307,23 @@ class BatchSolution:
 
     def __len__(self):
         return self.X.shape[0]
+
+
+def _uncertainty_dict(u) -> dict | None:
+    if u is None:
+        return None
+    return {"verdict": u.verdict, "degenerate": u.degenerate,
+            "std_deg": [_num(x) for x in u.std[:3]], "std_m": [_num(x) for x in u.std[3:]],
+            "covariance": [[_num(x) for x in row] for row in u.covariance],
+            "noise": {"sigma_r_rad": u.noise.sigma_r_rad, "sigma_t_m": u.noise.sigma_t_m,
+                      "estimated": u.noise.estimated},
+            "tolerance_deg": u.tolerance_deg, "tolerance_m": u.tolerance_m,
+            "directions": [{"reason": d.reason, "kind": d.kind, "description": d.description,
+                            "rotation_axis_a": d.rotation_axis_a.tolist(),
+                            "translation_dir_a": d.translation_dir_a.tolist(),
+                            "std_deg": _num(d.std_deg), "std_m": _num(d.std_m),
+                            "determined_by_prior": d.determined_by_prior}
+                           for d in u.directions]}
 
 
 def _num(x):
@@ -295,16 +355,20 @@ def _finish_output(out, method: str):
 
 
 def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None = None,
-          rng: np.random.Generator | None = None) -> Solution:
+          rng: np.random.Generator | None = None, *, tolerance_deg: float = 1.0,
+          tolerance_m: float = 0.01) -> Solution:
     """Estimate ``X = T_a_b`` from relative motions with ``C_i X = X H_i``.
 
     ``C``, ``H``: array-like ``(N, 4, 4)``, N >= 2. ``method``: a name from
     ``simcalib.solvers.available()``. ``alpha`` (1/m, > 0): weight of the translation
     equations. ``prior``: optional :class:`Prior` (DQ methods). ``rng``: Generator for
-    stochastic methods (default ``default_rng(0)``).
+    stochastic methods (default ``default_rng(0)``). ``tolerance_deg`` / ``tolerance_m``:
+    1-sigma above which a direction is "poorly determined" (``Solution.verdict``).
     """
     info = registry.get(method)
     alpha = check_alpha(alpha)
+    from simcalib.solvers.uncertainty import check_tolerances
+    tolerance_deg, tolerance_m = check_tolerances(tolerance_deg, tolerance_m)
     prior = _check_prior(prior)
     if prior is not None and not info.supports_prior:
         with_prior = [i.name for i in registry.infos() if i.supports_prior]
@@ -332,7 +396,8 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
     return Solution(X=X, cost=cost, objective=objective, method=method, alpha=alpha,
                     runtime_s=runtime, success=success, solver_message=message,
                     n_motions=problem.n, family=info.family, prior=prior,
-                    diagnostics=diag, problem=problem)
+                    diagnostics=diag, problem=problem, tolerance_deg=tolerance_deg,
+                    tolerance_m=tolerance_m)
 
 
 def _fast_problem(C, H, alpha: float = 1.0, return_flips: bool = False):

@@ -1,0 +1,229 @@
+"""Monte-Carlo check of the predicted uncertainty and of the degeneracy verdict (issue 9);
+writes ``docs/uncertainty.md``.
+
+    python -m simcalib.experiments.coverage --trials 500 --flag-trials 200 \
+        --out docs/uncertainty.md
+
+Every trial is an independent appendix-D.2 data set of ``n`` motions (paper noise: 0.57 deg,
+0.01 m, on C and H) with its own seed derived from ``--seed``; the estimate is solved with
+:func:`simcalib.solve_batch` and its uncertainty computed by
+:func:`simcalib.solvers.uncertainty.covariance` with the noise estimated from the residuals.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+
+import numpy as np
+
+from simcalib.solvers import uncertainty as U
+
+COVERAGE_CASES = (("dqopt", 0.3, False), ("dqopt", 1.0, False), ("dqopt", 3.0, False),
+                  ("dq2steps", 1.0, False), ("daniilidis", 1.0, False), ("dqopt", 1.0, True))
+FLAG_ALPHAS = (0.1, 1.0, 10.0, 30.0)
+PRIOR_AB = (100.0, 100.0)
+
+
+def _datasets(motion: str, trials: int, n: int, seed: int):
+    from simcalib.synthetic import SyntheticConfig, generate_dataset
+    cfg = SyntheticConfig(motion=motion, num_motions=n)
+    ds = [generate_dataset(cfg, r) for r in np.random.default_rng(seed).spawn(trials)]
+    return np.stack([d.C for d in ds]), np.stack([d.H for d in ds]), ds[0].X, ds[0].config
+
+
+def coverage_case(method: str, alpha: float, with_prior: bool, trials: int, n: int = 100,
+                  seed: int = 0, level: float = 0.95) -> dict:
+    """Coverage of the ``level`` region and predicted vs empirical RMS per axis."""
+    from scipy.stats import chi2
+
+    from simcalib.solvers.api import Prior, solve_batch
+    C, H, X, cfg = _datasets("random", trials, n, seed)
+    priors = [None] * trials
+    if with_prior:
+        # the prior's own error is drawn from the covariance the prior reading implies
+        prng = np.random.default_rng([seed, 1])
+        for b in range(trials):
+            u0 = U.covariance(C[b], H[b], X, alpha, prior=Prior(X, *PRIOR_AB),
+                              noise=(cfg.sigma_r_rad, cfg.sigma_t_m))
+            d0 = prng.multivariate_normal(np.zeros(6), u0.prior_covariance)
+            priors[b] = Prior(_perturb(X, d0), *PRIOR_AB)
+        Xs = np.stack([_solve_one(C[b], H[b], method, alpha, priors[b]) for b in range(trials)])
+    else:
+        Xs = solve_batch(C, H, method=method, alpha=alpha).X
+    d2, err, pred, flagged, ok = [], [], [], 0, 0
+    for b in range(trials):
+        if not np.isfinite(Xs[b]).all():
+            continue
+        ok += 1
+        u = U.covariance(C[b], H[b], Xs[b], alpha, prior=priors[b])
+        flagged += u.degenerate
+        d2.append(u.mahalanobis2(X))
+        err.append(U.pose_error(X, Xs[b]))
+        pred.append(np.diag(u.covariance_determined))
+    d2, err, pred = np.array(d2), np.array(err), np.array(pred)
+    rms = np.sqrt(np.mean(err**2, axis=0))
+    prd = np.sqrt(np.mean(pred, axis=0))
+    return {"method": method, "alpha": alpha, "prior": with_prior, "trials": trials,
+            "solved": ok, "coverage": float(np.mean(d2 <= chi2.ppf(level, 6))),
+            "rms": rms, "pred": prd, "ratio": prd / rms, "flagged": flagged / max(ok, 1)}
+
+
+def _perturb(X, d):
+    from simcalib.geometry import matrix_from_rotvec
+    Y = X.copy()
+    Y[:3, :3] = matrix_from_rotvec(d[:3]) @ X[:3, :3]
+    Y[:3, 3] = X[:3, 3] + d[3:]
+    return Y
+
+
+def _solve_one(C, H, method, alpha, prior):
+    from simcalib.solvers.api import solve
+    s = solve(C, H, method=method, alpha=alpha, prior=prior)
+    return s.X if s.success else np.full((4, 4), np.nan)
+
+
+def flag_case(motion: str, alpha: float, trials: int, n: int = 100, seed: int = 0,
+              method: str = "dqopt") -> dict:
+    from simcalib.solvers.api import solve_batch
+    C, H, X, _ = _datasets(motion, trials, n, seed)
+    Xs = solve_batch(C, H, method=method, alpha=alpha).X
+    flags, undet, beyond = 0, 0, 0
+    errs = []
+    for b in range(trials):
+        u = U.covariance(C[b], H[b], Xs[b], alpha)
+        flags += u.degenerate
+        undet += bool(u.undetermined)
+        d = U.pose_error(X, Xs[b])
+        errs.append(math.degrees(np.linalg.norm(d[:3])))
+        if not u.degenerate:
+            s = np.sqrt(np.diag(u.covariance))
+            beyond += bool(np.any(np.abs(d) > 5 * s))
+    return {"motion": motion, "alpha": alpha, "trials": trials, "flagged": flags / trials,
+            "undetermined": undet / trials, "median_rot_err_deg": float(np.median(errs)),
+            "unflagged_beyond_5sigma": beyond / trials}
+
+
+def alpha_case(motion: str, trials: int, n: int = 100, seed: int = 0) -> dict:
+    """Median errors of dqopt at the data-chosen alpha (noise ratio from dqopt at alpha=1)
+    vs the oracle alpha of the paper's grid (100 log-spaced values, best median rotation
+    error against the truth)."""
+    from simcalib.geometry import rotation_error_rad, translation_error_m
+    from simcalib.solvers.api import solve_batch
+    C, H, X, _ = _datasets(motion, trials, n, seed)
+    X1 = solve_batch(C, H, method="dqopt", alpha=1.0).X
+    chosen = np.array([U.choose_alpha(C[b], H[b], X1[b], 1.0).alpha for b in range(trials)])
+    Xc = solve_batch(C, H, method="dqopt", alpha=chosen).X
+    rc = np.degrees(np.median(rotation_error_rad(Xc, X)))
+    tc = np.median(translation_error_m(Xc, X))
+    grid = np.logspace(-2, 1.7, 100)
+    best = (math.inf, math.inf, None)
+    for a in grid:
+        Xa = solve_batch(C, H, method="dqopt", alpha=a).X
+        r = np.degrees(np.median(rotation_error_rad(Xa, X)))
+        if r < best[0]:
+            best = (r, np.median(translation_error_m(Xa, X)), a)
+    return {"motion": motion, "alpha_median": float(np.median(chosen)), "rot_deg": rc,
+            "trans_m": tc, "oracle_alpha": best[2], "oracle_rot_deg": best[0],
+            "oracle_trans_m": best[1]}
+
+
+def render(cov_rows, flag_rows, alpha_rows, args, runtime_s) -> str:
+    cmd = (f"python -m simcalib.experiments.coverage --trials {args.trials} --flag-trials "
+           f"{args.flag_trials} --alpha-trials {args.alpha_trials} --n {args.n} --seed "
+           f"{args.seed} --out {args.out}")
+    L = ["# Uncertainty and degeneracy verdicts: measured", "",
+         f"Generated by `{cmd}` ({runtime_s:.0f} s). Do not edit by hand.", "",
+         "Model: `simcalib/solvers/uncertainty.py` (module docstring): sandwich covariance of "
+         "the paper's cost at alpha, linearised at the estimate, eq. 38 noise on C and H "
+         "estimated from the residuals; degeneracy from the alpha-free information in "
+         "tolerance units (1 deg, 1 cm).", "",
+         "Error: `delta = (rotvec(R_true R_est^T), t_true - t_est)` in frame a. Trials: "
+         f"independent appendix D.2 data sets of n = {args.n} motions, paper noise "
+         "(0.57 deg, 0.01 m).", "",
+         "## API", "",
+         "- `simcalib.solvers.uncertainty.covariance(C, H, X, alpha, prior=None, noise=None, "
+         "weights=None, *, tolerance_deg=1, tolerance_m=0.01) -> Uncertainty`: `.covariance` "
+         "(6x6, inf on undetermined axes, off-diagonals of those axes 0), "
+         "`.covariance_determined` (finite part), `.std` (deg, deg, deg, m, m, m), "
+         "`.verdict`, `.degenerate`, `.directions` / `.undetermined` / `.poorly_determined` "
+         "(words, camera-a frame, 1-sigma, `determined_by_prior`), `.noise` (fitted or given), "
+         "`.mahalanobis2(X)`, `.inside_region(X, level=0.95)` (chi2 over the k determined "
+         "directions).",
+         "- `choose_alpha(C, H, X, alpha_initial, how='noise_ratio' | 'min_predicted_error') "
+         "-> AlphaChoice(alpha, how, sigma_r_rad, sigma_t_m, ...)`.",
+         "- `bootstrap_covariance(C, H, X, solve_fn, n_boot, rng)`; `covariance_batch(C, H, X, "
+         "alpha, ...)`.",
+         "- `Solution.uncertainty`, `.covariance`, `.std`, `.verdict`, `.inside_region(X)`; "
+         "`solve(..., tolerance_deg=1, tolerance_m=0.01)`.", "",
+         "## Coverage on `random` (95 % region, chi2 with 6 dof)", "",
+         "| method | alpha | prior | trials | coverage | pred/RMS wx wy wz | pred/RMS vx vy vz "
+         "| RMS rot (deg) | RMS trans (mm) | flagged |",
+         "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in cov_rows:
+        L.append(f"| {r['method']} | {r['alpha']:g} | {'yes' if r['prior'] else 'no'} | "
+                 f"{r['solved']}/{r['trials']} | {r['coverage']:.3f} | "
+                 + " ".join(f"{x:.2f}" for x in r["ratio"][:3]) + " | "
+                 + " ".join(f"{x:.2f}" for x in r["ratio"][3:]) + " | "
+                 + " ".join(f"{math.degrees(x):.3f}" for x in r["rms"][:3]) + " | "
+                 + " ".join(f"{1e3 * x:.2f}" for x in r["rms"][3:]) + f" | {r['flagged']:.3f} |")
+    L += ["", "Target (issue 9): coverage in [0.92, 0.98] and pred/RMS in [1/1.5, 1.5] for "
+          "dqopt at alpha 0.3, 1, 3. The covariance is that of the minimiser of the alpha "
+          "cost; for dq2steps and daniilidis it is an approximation. The prior row: prior "
+          f"weights a, b = {PRIOR_AB}, the prior's own error drawn from "
+          "`Uncertainty.prior_covariance` (the reading of the prior as a pseudo-measurement).",
+          "", "## Degeneracy flags (dqopt)", "",
+          "| motion | alpha | trials | flagged | undetermined | unflagged error > 5 sigma | "
+          "median rot err (deg) |", "|---|---|---|---|---|---|---|"]
+    for r in flag_rows:
+        L.append(f"| {r['motion']} | {r['alpha']:g} | {r['trials']} | {r['flagged']:.3f} | "
+                 f"{r['undetermined']:.3f} | {r['unflagged_beyond_5sigma']:.3f} | "
+                 f"{r['median_rot_err_deg']:.3g} |")
+    L += ["", "Target: `line`, `circle` flagged in >= 95 %, `random` in <= 5 % at every alpha.",
+          "", "## alpha from the data (dqopt)", "",
+          "Chosen alpha: `choose_alpha(..., how='noise_ratio')` at the dqopt estimate for "
+          "alpha = 1, then re-solved. Oracle: the alpha of the paper's grid (100 log-spaced "
+          "values in [1e-2, 10^1.7]) with the best median rotation error **against the "
+          "ground truth**.", "",
+          "| motion | median chosen alpha | rot (deg) | trans (cm) | oracle alpha | "
+          "oracle rot (deg) | oracle trans (cm) | ratio rot |", "|---|---|---|---|---|---|---|---|"]
+    for r in alpha_rows:
+        L.append(f"| {r['motion']} | {r['alpha_median']:.3g} | {r['rot_deg']:.4g} | "
+                 f"{100 * r['trans_m']:.4g} | {r['oracle_alpha']:.3g} | "
+                 f"{r['oracle_rot_deg']:.4g} | {100 * r['oracle_trans_m']:.4g} | "
+                 f"{r['rot_deg'] / r['oracle_rot_deg']:.2f} |")
+    return "\n".join(L) + "\n"
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(prog="python -m simcalib.experiments.coverage",
+                                description=__doc__.splitlines()[0])
+    p.add_argument("--trials", type=int, default=500)
+    p.add_argument("--flag-trials", type=int, default=200)
+    p.add_argument("--alpha-trials", type=int, default=100)
+    p.add_argument("--n", type=int, default=100)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--out", default="docs/uncertainty.md")
+    args = p.parse_args(argv)
+    t0 = time.perf_counter()
+    cov_rows = []
+    for method, alpha, pr in COVERAGE_CASES:
+        cov_rows.append(coverage_case(method, alpha, pr, args.trials, args.n, args.seed))
+        print(cov_rows[-1], flush=True)
+    flag_rows = []
+    for motion in ("line", "circle", "random"):
+        for a in FLAG_ALPHAS:
+            flag_rows.append(flag_case(motion, a, args.flag_trials, args.n, args.seed + 1))
+            print(flag_rows[-1], flush=True)
+    alpha_rows = [alpha_case(m, args.alpha_trials, args.n, args.seed + 2)
+                  for m in ("random", "line", "circle")] if args.alpha_trials > 0 else []
+    text = render(cov_rows, flag_rows, alpha_rows, args, time.perf_counter() - t0)
+    with open(args.out, "w") as fh:
+        fh.write(text)
+    print(text)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,705 @@
+"""Uncertainty of a hand-eye estimate, the degeneracy verdict that follows from it, and a
+data-driven choice of alpha. Pure numpy/scipy; no solver imports (any estimate ``X`` works).
+
+Error convention (issue 9): ``delta = (omega, v)`` with ``omega`` the rotation vector of
+``R_true @ R_est.T`` (rad) and ``v = t_true - t_est`` (m), both in frame a (``X = T_a_b``),
+order ``(wx, wy, wz, vx, vy, vz)``.
+
+Model
+-----
+Per motion ``i`` the geometric residual ``e_i = (rho_i, tau_i)`` of ``C_i X = X H_i`` is
+``rho_i = rotvec(R_Ci R_Ci'^T)``, ``tau_i = t_Ci - t_Ci'`` with ``C_i' = X H_i X^-1``.
+Linearised: ``e_i(delta) = e_i + K_i delta``. The measurement noise is the paper's eq. 38 on
+every ``C_i`` and ``H_i`` (rotation angle ~ N(0, sigma_r^2) about a uniform axis, translation
+~ N(0, sigma_t^2 I)); propagated to first order it gives ``Cov(e_i) = Q_i`` (6x6, coupling
+the rotation noise of ``H_i`` into ``tau_i`` through ``R_Ci' t_X``).
+
+* ``sigma_r``, ``sigma_t`` are estimated from the residuals by the method of moments
+  (rotation residuals give ``sigma_r``; translation residuals minus the rotation-noise part
+  give ``sigma_t``), with a degrees-of-freedom factor ``N / (N - 1)``; a known
+  :class:`NoiseModel` can be passed instead. A numerical floor is added in quadrature:
+  ``sqrt(eps)`` rad and ``1e-9 L`` m (``L`` the translation scale of the data): DQ solvers
+  square the motion matrices, so relative rotations below ~1e-8 rad carry no usable
+  information even on noise-free data.
+* **Covariance of the estimate** (the sandwich of the paper's cost at ``alpha``): the DQ
+  residual of cost (8) is ``r_i ~= T_i e_i`` (8x6, with alpha on the dual rows), so the cost is
+  ``sum e_i^T S_i e_i`` with ``S_i = T_i^T T_i``. Gauss-Newton / first-order perturbation of
+  the minimiser: ``Sigma = H^-1 M H^-1`` with ``H = sum K^T S K (+ prior)`` and
+  ``M = sum K^T S Q S K (+ prior)``. This is the covariance of the minimiser of the alpha
+  cost; for other estimators (daniilidis, dq2steps, ...) it is used as an approximation.
+* **Information** (alpha-free, for the verdict): ``F = sum K^T Q^-1 K`` (Fisher information
+  of the data under the noise model; alpha cancels exactly).
+* **Prior** (paper eqs. 26-29): read as a pseudo-measurement of ``vec(dq)`` with weight ``a``
+  and of ``dq'`` with weight ``b``, each in units of the per-component noise variance of the
+  data residuals of the same kind (rotation part ``nu_a``, dual part without alpha ``nu_b``):
+  (``sqrt(a) vec(dq)`` has the noise of one rotation residual component, so ``vec(dq)`` has
+  variance ``nu_a / a``): information ``a Jpa^T Jpa / nu_a + b Jpb^T Jpb / nu_b``; in the
+  sandwich it adds ``a Jpa^T Jpa + b Jpb^T Jpb`` to ``H`` and
+  ``a nu_a Jpa^T Jpa + b nu_b Jpb^T Jpb`` to ``M``. :attr:`Uncertainty.prior_covariance` is the covariance this reading implies
+  for the prior's own error.
+
+Verdict
+-------
+Coordinates are scaled by the tolerances (``omega / tolerance_deg``, ``v / tolerance_m``)
+and the eigen-directions of the scaled information are examined (so the result does not
+depend on units when ``tolerance_m`` follows them, nor on alpha). A direction with 1-sigma
+``s`` (in tolerance units) is
+
+* **undetermined** when its 1-sigma exceeds the range of the quantity: more than 1 rad of
+  rotation or more than ``L`` of translation (``L`` = largest of the RMS translation of the
+  motions, ``|t_X|`` and ``tolerance_m``) - the data, relative to their noise, say nothing
+  about it. Exactly singular directions (noise-free planar motion ...) fall here;
+* **poorly determined** when ``s > 1`` (1-sigma above the tolerance).
+
+Covariance with undetermined directions: along the undetermined subspace ``U`` (of the total
+information, data plus prior) the variance is infinite. The finite part is the sandwich
+restricted to the determined subspace ``B`` (error along ``U`` held fixed). In
+:attr:`Uncertainty.covariance` every axis with a component in ``U`` gets ``inf`` variance and
+its off-diagonal entries are set to 0; the other entries are those of the finite part.
+:attr:`Uncertainty.covariance_determined` holds the finite part alone (0 along ``U``), and
+:meth:`Uncertainty.mahalanobis2` / :meth:`Uncertainty.inside_region` use it with a
+chi-square of ``k`` = number of determined directions degrees of freedom.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from simcalib.geometry import (
+    check_transforms,
+    dual_quat_from_transform,
+    invert_transform,
+    quat_conjugate,
+    quat_left_matrix,
+    quat_right_matrix,
+    rotvec_from_matrix,
+)
+
+__all__ = ["NoiseModel", "Direction", "Uncertainty", "AlphaChoice", "covariance",
+           "covariance_batch",
+           "choose_alpha", "bootstrap_covariance", "pose_error", "check_tolerances", "TOLERANCE_DEG",
+           "TOLERANCE_M", "ROTATION_FLOOR_RAD", "TRANSLATION_FLOOR_REL"]
+
+TOLERANCE_DEG = 1.0
+TOLERANCE_M = 0.01
+ROTATION_FLOOR_RAD = math.sqrt(np.finfo(float).eps)
+TRANSLATION_FLOOR_REL = 1e-9
+_UNDETERMINED_ROT_RAD = 1.0
+_PURE = 0.05
+
+
+# ----------------------------------------------------------------------------- inputs
+def _real(name, val, *, positive=True, allow_zero=False) -> float:
+    if isinstance(val, np.ndarray) and val.ndim == 0:
+        val = val.item()
+    if isinstance(val, bool) or not isinstance(val, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{name} must be a real number; received {type(val).__name__} {val!r}")
+    val = float(val)
+    ok = math.isfinite(val) and (val > 0 or (allow_zero and val == 0))
+    if not ok:
+        raise ValueError(f"{name} must be finite and {'>= 0' if allow_zero else '> 0'}; "
+                         f"received {val}")
+    return val
+
+
+def check_tolerances(tolerance_deg, tolerance_m) -> tuple[float, float]:
+    """Validate the verdict tolerances (finite, > 0); returns them as floats."""
+    return _real("tolerance_deg", tolerance_deg), _real("tolerance_m", tolerance_m)
+
+
+@dataclass(frozen=True)
+class NoiseModel:
+    """Eq. 38 noise on every motion of both sensors: rotation angle std ``sigma_r_rad``
+    (about a uniform random axis), translation std per axis ``sigma_t_m``.
+    ``estimated``: True when fitted to the residuals (then ``n_motions`` is the sample)."""
+    sigma_r_rad: float
+    sigma_t_m: float
+    estimated: bool = False
+
+    def __post_init__(self):
+        object.__setattr__(self, "sigma_r_rad",
+                           _real("sigma_r_rad", self.sigma_r_rad, allow_zero=True))
+        object.__setattr__(self, "sigma_t_m", _real("sigma_t_m", self.sigma_t_m, allow_zero=True))
+
+
+def _check_noise(noise) -> NoiseModel | None:
+    if noise is None or isinstance(noise, NoiseModel):
+        return noise
+    if isinstance(noise, (tuple, list)) and len(noise) == 2:
+        return NoiseModel(noise[0], noise[1])
+    raise TypeError(f"noise must be a NoiseModel, a (sigma_r_rad, sigma_t_m) pair or None; "
+                    f"received {type(noise).__name__}")
+
+
+def _check_X(X, name="X") -> np.ndarray:
+    X = check_transforms(X, name)
+    if X.shape != (4, 4):
+        raise ValueError(f"{name} must be one 4x4 transform; received shape {X.shape}")
+    return X
+
+
+def _check_weights(weights, n) -> np.ndarray:
+    if weights is None:
+        return np.ones(n)
+    try:
+        w = np.asarray(weights, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise TypeError(f"weights must be {n} non-negative numbers; received "
+                        f"{type(weights).__name__}") from None
+    if w.shape != (n,) or not np.isfinite(w).all() or (w < 0).any() or not (w > 0).any():
+        raise ValueError(f"weights must be {n} finite numbers >= 0, not all 0; received "
+                         f"shape {w.shape}")
+    return w
+
+
+def _skew(v):
+    S = np.zeros(v.shape[:-1] + (3, 3))
+    S[..., 0, 1], S[..., 0, 2] = -v[..., 2], v[..., 1]
+    S[..., 1, 0], S[..., 1, 2] = v[..., 2], -v[..., 0]
+    S[..., 2, 0], S[..., 2, 1] = -v[..., 1], v[..., 0]
+    return S
+
+
+def pose_error(X_true, X_est) -> np.ndarray:
+    """``delta = (omega, v)``: rotvec of ``R_true R_est^T`` (rad) and ``t_true - t_est`` (m),
+    batched over ``(..., 4, 4)``."""
+    X_true = np.asarray(X_true, dtype=np.float64)
+    X_est = np.asarray(X_est, dtype=np.float64)
+    om = rotvec_from_matrix(X_true[..., :3, :3] @ np.swapaxes(X_est[..., :3, :3], -1, -2))
+    return np.concatenate([om, X_true[..., :3, 3] - X_est[..., :3, 3]], axis=-1)
+
+
+# ------------------------------------------------------------------------ linear model
+def _linear_model(C, H, X):
+    """Residuals e (N,6), Jacobians K (N,6,6) w.r.t. delta, and the two noise-covariance
+    parts Qr, Qt (N,6,6) with Cov(e_i) = sigma_r^2 Qr_i + sigma_t^2 Qt_i."""
+    N = C.shape[0]
+    RX, tX = X[:3, :3], X[:3, 3]
+    Cp = X @ H @ invert_transform(X)                       # C_i' = X H_i X^-1
+    RCp, tCp = Cp[:, :3, :3], Cp[:, :3, 3]
+    RC, tC = C[:, :3, :3], C[:, :3, 3]
+    rho = rotvec_from_matrix(RC @ np.swapaxes(RCp, -1, -2))
+    tau = tC - tCp
+    e = np.concatenate([rho, tau], axis=1)
+    I3 = np.eye(3)
+    K = np.zeros((N, 6, 6))
+    K[:, :3, :3] = RCp - I3
+    K[:, 3:, :3] = _skew(tCp) - _skew(np.broadcast_to(tX, (N, 3))) + RCp @ _skew(tX)
+    K[:, 3:, 3:] = RCp - I3
+    # noise Jacobians (eq. 38 right-multiplied noise on C_i and H_i)
+    u_map = RX @ H[:, :3, :3]                              # eps_h -> u = R_X R_H eps_h
+    G_ec = np.zeros((N, 6, 3))
+    G_ec[:, :3] = RC
+    G_nc = np.zeros((N, 6, 3))
+    G_nc[:, 3:] = RC
+    G_eh = np.zeros((N, 6, 3))
+    G_eh[:, :3] = -u_map
+    G_eh[:, 3:] = -_skew(RCp @ tX) @ u_map
+    G_nh = np.zeros((N, 6, 3))
+    G_nh[:, 3:] = -u_map
+    Qr = (G_ec @ np.swapaxes(G_ec, -1, -2) + G_eh @ np.swapaxes(G_eh, -1, -2)) / 3.0
+    Qt = G_nc @ np.swapaxes(G_nc, -1, -2) + G_nh @ np.swapaxes(G_nh, -1, -2)
+    return e, K, Qr, Qt
+
+
+def _dq_map(C, X, alpha):
+    """T_i (N,8,6): DQ residual of cost (8), [A q; alpha (B q + A q')], as a linear function
+    of the geometric residual e_i (sign of the DQ pair irrelevant: only T^T T is used)."""
+    N = C.shape[0]
+    qC, qCd = dual_quat_from_transform(C)
+    qX, qXd = dual_quat_from_transform(X)
+    Rq = quat_right_matrix(qC)[:, :, :3]                   # (rho,0) -> q_C-ish: 1/2 R(q_C)
+    dq_rho = 0.5 * Rq                                      # d q_C / d rho
+    tq = np.concatenate([C[:, :3, 3], np.zeros((N, 1))], axis=1)
+    dqd_rho = 0.5 * quat_left_matrix(tq) @ dq_rho          # d q_C' / d rho
+    dqd_tau = 0.5 * Rq                                     # d q_C' / d tau
+    RqX = quat_right_matrix(qX)
+    RqXd = quat_right_matrix(qXd)
+    T = np.zeros((N, 8, 6))
+    T[:, :4, :3] = RqX @ dq_rho
+    T[:, 4:, :3] = alpha * (RqXd @ dq_rho + RqX @ dqd_rho)
+    T[:, 4:, 3:] = alpha * (RqX @ dqd_tau)
+    return T
+
+
+def _prior_jacobians(X, prior):
+    """Jacobians (3x6, 4x6) of vec(dq) and dq' (dq + eps dq' = Q_prior^* Q_X) w.r.t. delta."""
+    q, _ = dual_quat_from_transform(X)
+    qh, qhd = dual_quat_from_transform(prior.X)
+    dq_dw = 0.5 * quat_right_matrix(q)[:, :3]              # d q / d omega
+    tq = np.concatenate([X[:3, 3], [0.0]])
+    dqd_dw = 0.5 * quat_left_matrix(tq) @ dq_dw
+    dqd_dv = 0.5 * quat_right_matrix(q)[:, :3]
+    Lh = quat_left_matrix(quat_conjugate(qh))
+    Lhd = quat_left_matrix(quat_conjugate(qhd))
+    Ja = np.zeros((4, 6))
+    Ja[:, :3] = Lh @ dq_dw
+    Jb = np.zeros((4, 6))
+    Jb[:, :3] = Lhd @ dq_dw + Lh @ dqd_dw
+    Jb[:, 3:] = Lh @ dqd_dv
+    return Ja[:3], Jb
+
+
+# ----------------------------------------------------------------------------- results
+@dataclass(frozen=True)
+class Direction:
+    """An eigen-direction of the (tolerance-scaled) information the data do not pin down.
+
+    ``reason``: "undetermined" or "poorly determined"; ``rotation_axis_a`` /
+    ``translation_dir_a``: unit 3-vectors in camera-a coordinates (zeros if that part is
+    < 5 % of the direction); ``std_deg`` / ``std_m``: 1-sigma of the rotation / translation
+    part along it from the data alone (inf when undetermined); ``std_with_prior_deg/_m``:
+    the same with the prior; ``determined_by_prior``: the prior brings it within tolerance;
+    ``description``: words.
+    """
+    reason: str
+    kind: str
+    rotation_axis_a: np.ndarray
+    translation_dir_a: np.ndarray
+    std_deg: float
+    std_m: float
+    std_with_prior_deg: float
+    std_with_prior_m: float
+    determined_by_prior: bool
+    description: str
+
+    def summary(self) -> str:
+        sd = (f"1-sigma {_fmt_std(self.std_deg, 'deg')}, {_fmt_std(self.std_m, 'm')}")
+        tail = (f"; fixed by the prior (1-sigma {_fmt_std(self.std_with_prior_deg, 'deg')}, "
+                f"{_fmt_std(self.std_with_prior_m, 'm')})" if self.determined_by_prior else "")
+        return f"{self.description}: {self.reason} ({sd}){tail}"
+
+
+def _fmt_std(x, unit):
+    return "inf " + unit if not math.isfinite(x) else f"{x:.3g} {unit}"
+
+
+def _fmt_vec(v) -> str:
+    return "[" + ", ".join(f"{x:+.3f}" for x in v) + "]"
+
+
+@dataclass(frozen=True, eq=False)
+class Uncertainty:
+    """Uncertainty of estimate ``X`` (see module doc). Arrays are 6x6 in the order
+    ``(wx, wy, wz, vx, vy, vz)``, rad and m, frame a."""
+    X: np.ndarray
+    covariance: np.ndarray
+    covariance_determined: np.ndarray
+    determined_basis: np.ndarray
+    information: np.ndarray
+    prior_covariance: np.ndarray | None
+    noise: NoiseModel
+    alpha: float
+    tolerance_deg: float
+    tolerance_m: float
+    directions: tuple
+    translation_scale_m: float
+    n_motions: int
+    method: str = "sandwich"
+
+    @property
+    def std(self) -> np.ndarray:
+        """1-sigma per axis: (wx, wy, wz) in deg, (vx, vy, vz) in m (inf if undetermined)."""
+        s = np.sqrt(np.diag(self.covariance))
+        return np.concatenate([np.degrees(s[:3]), s[3:]])
+
+    @property
+    def std_deg(self) -> np.ndarray:
+        return self.std[:3]
+
+    @property
+    def std_m(self) -> np.ndarray:
+        return self.std[3:]
+
+    @property
+    def undetermined(self) -> tuple:
+        return tuple(d for d in self.directions if d.reason == "undetermined")
+
+    @property
+    def poorly_determined(self) -> tuple:
+        return tuple(d for d in self.directions if d.reason == "poorly determined")
+
+    @property
+    def degenerate(self) -> bool:
+        """True when the motions leave any direction undetermined or poorly determined
+        (even if a prior fixes it; see ``Direction.determined_by_prior``)."""
+        return bool(self.directions)
+
+    @property
+    def verdict(self) -> str:
+        if not self.directions:
+            return "determined"
+        if self.undetermined:
+            return "undetermined"
+        return "poorly determined"
+
+    def summary(self) -> str:
+        s = self.std
+        head = (f"1-sigma rot {_fmt_vec3(s[:3])} deg, trans {_fmt_vec3(s[3:])} m "
+                f"(noise {'estimated' if self.noise.estimated else 'given'}: "
+                f"{math.degrees(self.noise.sigma_r_rad):.3g} deg, {self.noise.sigma_t_m:.3g} m)")
+        if not self.directions:
+            return (f"determined within {self.tolerance_deg:g} deg / {self.tolerance_m:g} m; "
+                    + head)
+        return (f"{self.verdict.upper()}: " + "; ".join(d.summary() for d in self.directions)
+                + "; " + head)
+
+    def mahalanobis2(self, X_candidate) -> float:
+        """``d^T Sigma_det^+ d`` with ``d`` the error of ``X_candidate`` relative to ``X``,
+        over the determined directions only."""
+        d = pose_error(_check_X(X_candidate, "X_candidate"), self.X)
+        B = self.determined_basis
+        if B.shape[1] == 0:
+            return 0.0
+        c = B.T @ d
+        S = B.T @ self.covariance_determined @ B
+        return float(c @ np.linalg.lstsq(S, c, rcond=None)[0])
+
+    @property
+    def dof(self) -> int:
+        return int(self.determined_basis.shape[1])
+
+    def inside_region(self, X_candidate, level: float = 0.95) -> bool:
+        """True if ``X_candidate`` lies in the ``level`` confidence region of ``X``: its
+        squared Mahalanobis distance over the ``k`` determined directions is at most the
+        chi-square(k) quantile. Undetermined directions are unconstrained."""
+        level = _real("level", level)
+        if not level < 1:
+            raise ValueError(f"level must be in (0, 1); received {level}")
+        if self.dof == 0:
+            return True
+        from scipy.stats import chi2
+        return self.mahalanobis2(X_candidate) <= chi2.ppf(level, self.dof)
+
+
+def _fmt_vec3(v):
+    return "[" + ", ".join("inf" if not math.isfinite(x) else f"{x:.3g}" for x in v) + "]"
+
+
+# -------------------------------------------------------------------------- main entry
+def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None, *,
+               tolerance_deg: float = TOLERANCE_DEG, tolerance_m: float = TOLERANCE_M
+               ) -> Uncertainty:
+    """Uncertainty of the estimate ``X`` (= ``T_a_b``) from motions ``C``, ``H`` (N,4,4),
+    ``C_i X = X H_i``, for the paper's cost at ``alpha`` (1/m) with an optional
+    :class:`simcalib.solvers.api.Prior`. ``noise``: a :class:`NoiseModel` or
+    ``(sigma_r_rad, sigma_t_m)``; default estimated from the residuals. ``weights``: optional
+    (N,) non-negative per-motion weights of the cost. See the module doc."""
+    C = check_transforms(C, "C", min_count=2)
+    H = check_transforms(H, "H", min_count=2)
+    if C.shape != H.shape:
+        raise ValueError(f"C and H must hold the same number of motions; received "
+                         f"{C.shape[0]} and {H.shape[0]}")
+    X = _check_X(X)
+    alpha = _real("alpha", alpha)
+    tol_r = math.radians(_real("tolerance_deg", tolerance_deg))
+    tol_m = _real("tolerance_m", tolerance_m)
+    noise = _check_noise(noise)
+    if prior is not None and not all(hasattr(prior, k) for k in ("X", "a", "b")):
+        raise TypeError(f"prior must be a simcalib.Prior or None; received "
+                        f"{type(prior).__name__}")
+    N = C.shape[0]
+    w = _check_weights(weights, N)
+    e, K, Qr, Qt = _linear_model(C, H, X)
+
+    # translation scale of the data (units follow the input)
+    L = float(max(np.sqrt(np.mean(np.sum(C[:, :3, 3] ** 2, axis=1))),
+                  np.sqrt(np.mean(np.sum(H[:, :3, 3] ** 2, axis=1))),
+                  np.linalg.norm(X[:3, 3]), tol_m))
+
+    # ---- noise level
+    if noise is None:
+        n_eff = float(w.sum() ** 2 / np.sum(w * w))
+        dof = n_eff / max(n_eff - 1.0, 1.0)
+        wn = w / w.sum()
+        rot2 = np.sum(wn * np.sum(e[:, :3] ** 2, axis=1)) * dof
+        tr2 = np.sum(wn * np.sum(e[:, 3:] ** 2, axis=1)) * dof
+        qr_rot = np.sum(wn * np.trace(Qr[:, :3, :3], axis1=1, axis2=2))
+        qr_tr = np.sum(wn * np.trace(Qr[:, 3:, 3:], axis1=1, axis2=2))
+        qt_tr = np.sum(wn * np.trace(Qt[:, 3:, 3:], axis1=1, axis2=2))
+        s_r2 = rot2 / qr_rot
+        # rotation noise leaks into tau through R_Ci' t_X; at least 10 % of the translation
+        # residual is attributed to translation noise (a wrong X with a large t_X would
+        # otherwise explain all of it by rotation noise and claim a perfect translation)
+        s_t2 = max(tr2 - s_r2 * qr_tr, 0.1 * tr2) / qt_tr
+        if not (math.isfinite(s_r2) and math.isfinite(s_t2)):
+            raise ValueError("residuals of X are not finite; X is not a usable estimate")
+        noise_out = NoiseModel(math.sqrt(s_r2), math.sqrt(s_t2), estimated=True)
+    else:
+        s_r2, s_t2 = noise.sigma_r_rad ** 2, noise.sigma_t_m ** 2
+        noise_out = noise
+    s_r2 += ROTATION_FLOOR_RAD ** 2
+    s_t2 += (TRANSLATION_FLOOR_REL * L) ** 2
+    Q = s_r2 * Qr + s_t2 * Qt                              # (N,6,6), full rank (floors)
+
+    # ---- information (alpha-free) and the alpha-cost sandwich
+    Qinv = np.linalg.inv(Q)
+    F = np.einsum("n,nki,nkl,nlj->ij", w, K, Qinv, K)
+    T = _dq_map(C, X, alpha)
+    S = np.einsum("nki,nkj->nij", T, T)                    # (N,6,6)
+    Hs = np.einsum("n,nki,nkl,nlj->ij", w, K, S, K)
+    SQS = S @ Q @ S
+    Ms = np.einsum("n,nki,nkl,nlj->ij", w * w, K, SQS, K)
+    F_prior = np.zeros((6, 6))
+    prior_cov = None
+    if prior is not None:
+        Ja, Jb = _prior_jacobians(X, prior)
+        TQT = T @ Q @ np.swapaxes(T, -1, -2)
+        nu_a = float(np.mean(np.trace(TQT[:, :4, :4], axis1=1, axis2=2)) / 3.0)
+        nu_b = float(np.mean(np.trace(TQT[:, 4:, 4:], axis1=1, axis2=2)) / 3.0) / alpha**2
+        A = Ja.T @ Ja
+        Bm = Jb.T @ Jb
+        F_prior = prior.a * A / nu_a + prior.b * Bm / nu_b
+        Hs = Hs + prior.a * A + prior.b * Bm
+        Ms = Ms + prior.a * nu_a * A + prior.b * nu_b * Bm
+        prior_cov = _pinv_cov(F_prior)
+
+    # ---- tolerance-scaled coordinates
+    dsc = np.array([tol_r] * 3 + [tol_m] * 3)              # delta = dsc * delta_tilde
+    Ft = F * np.outer(dsc, dsc)
+    Ftot = (F + F_prior) * np.outer(dsc, dsc)
+    Ht = Hs * np.outer(dsc, dsc)
+    Mt = Ms * np.outer(dsc, dsc)
+    range_sc = np.array([_UNDETERMINED_ROT_RAD] * 3 + [L] * 3) / dsc   # range in tol units
+
+    def modes(Fm):
+        lam, U = np.linalg.eigh(0.5 * (Fm + Fm.T))
+        sig = np.where(lam > 0, 1.0 / np.sqrt(np.maximum(lam, 1e-300)), np.inf)
+        # range criterion: 1-sigma larger than the range of rotation/translation
+        rng_ratio = sig * np.sqrt(np.sum((U / range_sc[:, None]) ** 2, axis=0))
+        return lam, U, sig, rng_ratio
+
+    lam_d, U_d, sig_d, rr_d = modes(Ft)
+    lam_t, U_t, sig_t, rr_t = modes(Ftot)
+    undet_tot = rr_t > 1.0
+    # axes rotated so that |u|=1 in tol coords; range ratio uses the physical ranges
+    Bt = U_t[:, ~undet_tot]                                # determined basis, tol coords
+    Ut = U_t[:, undet_tot]
+    if Bt.shape[1]:
+        Hb = Bt.T @ Ht @ Bt
+        Mb = Bt.T @ Mt @ Bt
+        Hb_inv = _sym_inv(Hb)
+        Sig_b = Hb_inv @ Mb @ Hb_inv
+        lb, Vb = np.linalg.eigh(0.5 * (Sig_b + Sig_b.T))
+        Sig_b = (Vb * np.clip(lb, 0.0, None)) @ Vb.T        # PSD despite rounding
+        cov_t = Bt @ Sig_b @ Bt.T
+    else:
+        cov_t = np.zeros((6, 6))
+    cov_det = cov_t * np.outer(dsc, dsc)
+    cov_det = 0.5 * (cov_det + cov_det.T)
+    cov = cov_det.copy()
+    if Ut.shape[1]:
+        touched = np.linalg.norm(Ut, axis=1) > 1e-9
+        cov[touched, :] = 0.0
+        cov[:, touched] = 0.0
+        cov[touched, touched] = np.inf
+    # physical determined basis (orthonormalised in delta coordinates)
+    if Bt.shape[1]:
+        Bp, _ = np.linalg.qr(Bt * dsc[:, None])
+    else:
+        Bp = np.zeros((6, 0))
+
+    # ---- directions from the data information
+    Ftot_inv = _pinv_cov(Ftot) if Ut.shape[1] == 0 else None
+    dirs = []
+    for k in range(6):
+        if sig_d[k] <= 1.0:
+            continue
+        reason = "undetermined" if rr_d[k] > 1.0 else "poorly determined"
+        u = U_d[:, k]
+        sdeg = math.degrees(sig_d[k] * tol_r * np.linalg.norm(u[:3])) if np.isfinite(sig_d[k]) \
+            else (math.inf if np.linalg.norm(u[:3]) > 1e-9 else 0.0)
+        sm = sig_d[k] * tol_m * np.linalg.norm(u[3:]) if np.isfinite(sig_d[k]) \
+            else (math.inf if np.linalg.norm(u[3:]) > 1e-9 else 0.0)
+        if prior is not None:
+            if Ftot_inv is not None:
+                st = math.sqrt(max(float(u @ Ftot_inv @ u), 0.0))
+            else:
+                st = math.sqrt(max(float(u @ _pinv_cov(Ftot) @ u), 0.0)) \
+                    if np.linalg.norm(Ut.T @ u) < 1e-6 else math.inf
+            by_prior = st <= 1.0
+            swd = math.degrees(st * tol_r * np.linalg.norm(u[:3]))
+            swm = st * tol_m * np.linalg.norm(u[3:])
+        else:
+            by_prior, swd, swm = False, sdeg, sm
+        dirs.append(_describe(u, dsc, reason, sdeg, sm, swd, swm, by_prior))
+    # directions this estimate (covariance of the alpha-cost minimiser) leaves beyond the
+    # tolerance although the information would allow better (a poorly chosen alpha or an
+    # estimator that ignores part of the data)
+    flagged = np.array([U_d[:, k] for k in range(6) if sig_d[k] > 1.0]).reshape(-1, 6).T
+    le, Ve = np.linalg.eigh(0.5 * (cov_t + cov_t.T))
+    for k in range(6):
+        if not le[k] > 1.0:
+            continue
+        u = Ve[:, k]
+        if flagged.shape[1] and np.linalg.norm(u - flagged @ (flagged.T @ u)) < 0.5:
+            continue
+        sg = math.sqrt(le[k])
+        sdeg = math.degrees(sg * tol_r * np.linalg.norm(u[:3]))
+        sm = sg * tol_m * np.linalg.norm(u[3:])
+        d = _describe(u, dsc, "poorly determined", sdeg, sm, sdeg, sm, False)
+        dirs.append(dataclasses.replace(d, description=d.description + " by this estimate "
+                                        "(the motions would determine it better)"))
+        flagged = np.concatenate([flagged, u[:, None]], axis=1)
+    dirs.sort(key=lambda d: d.reason != "undetermined")
+    return Uncertainty(X=X, covariance=cov, covariance_determined=cov_det,
+                       determined_basis=Bp, information=F, prior_covariance=prior_cov,
+                       noise=noise_out, alpha=alpha, tolerance_deg=math.degrees(tol_r),
+                       tolerance_m=tol_m, directions=tuple(dirs), translation_scale_m=L,
+                       n_motions=N)
+
+
+def _sym_inv(A):
+    lam, V = np.linalg.eigh(0.5 * (A + A.T))
+    lam_inv = np.where(lam > 1e-300, 1.0 / np.maximum(lam, 1e-300), 0.0)
+    return (V * lam_inv) @ V.T
+
+
+def _pinv_cov(F):
+    lam, V = np.linalg.eigh(0.5 * (F + F.T))
+    lam_inv = np.where(lam > 1e-14 * max(lam[-1], 1e-300), 1.0 / np.maximum(lam, 1e-300), 0.0)
+    return (V * lam_inv) @ V.T
+
+
+def _describe(u, dsc, reason, sdeg, sm, swd, swm, by_prior) -> Direction:
+    """Words for eigen-direction ``u`` (tolerance coordinates) in camera-a frame."""
+    w, t = u[:3], u[3:]
+    nw, nt = np.linalg.norm(w), np.linalg.norm(t)
+    tot = math.hypot(nw, nt)
+    ax = w / nw if nw > _PURE * tot else np.zeros(3)
+    td = t / nt if nt > _PURE * tot else np.zeros(3)
+    if not td.any():
+        kind, desc = "rotation", f"rotation of X about {_fmt_vec(ax)} (camera-a frame)"
+    elif not ax.any():
+        kind, desc = "translation", f"translation of X along {_fmt_vec(td)} (camera-a frame)"
+    else:
+        kind = "coupled"
+        desc = (f"rotation of X about {_fmt_vec(ax)} coupled with translation along "
+                f"{_fmt_vec(td)} (camera-a frame)")
+    return Direction(reason, kind, ax, td, float(sdeg), float(sm), float(swd), float(swm),
+                     bool(by_prior), desc)
+
+
+def covariance_batch(C, H, X, alpha=1.0, prior=None, noise=None, *,
+                     tolerance_deg: float = TOLERANCE_DEG, tolerance_m: float = TOLERANCE_M
+                     ) -> tuple:
+    """:func:`covariance` per problem of a batch: ``C``, ``H`` (B, N, 4, 4), ``X`` (B, 4, 4),
+    ``alpha`` scalar or (B,). Problems whose ``X`` is not a finite rigid transform (failed
+    solves) give None."""
+    C = np.asarray(C, dtype=np.float64)
+    H = np.asarray(H, dtype=np.float64)
+    X = np.asarray(X, dtype=np.float64)
+    if C.ndim != 4 or X.ndim != 3 or X.shape[0] != C.shape[0]:
+        raise ValueError(f"C, H must be (B, N, 4, 4) and X (B, 4, 4); received {C.shape}, "
+                         f"{H.shape}, {X.shape}")
+    alphas = np.broadcast_to(np.asarray(alpha, dtype=np.float64), (C.shape[0],))
+    out = []
+    for b in range(C.shape[0]):
+        if not np.isfinite(X[b]).all():
+            out.append(None)
+            continue
+        try:
+            out.append(covariance(C[b], H[b], X[b], float(alphas[b]), prior, noise,
+                                  tolerance_deg=tolerance_deg, tolerance_m=tolerance_m))
+        except ValueError:
+            out.append(None)
+    return tuple(out)
+
+
+# ------------------------------------------------------------------------------- alpha
+@dataclass(frozen=True)
+class AlphaChoice:
+    """``alpha`` (1/m) chosen from the data, ``how`` it was chosen, the residual noise levels
+    it used and the estimate it was computed at (``X_initial``, at ``alpha_initial``)."""
+    alpha: float
+    how: str
+    sigma_r_rad: float
+    sigma_t_m: float
+    alpha_initial: float
+    candidates: np.ndarray | None = None
+    predicted: np.ndarray | None = None
+
+
+ALPHA_RANGE = (1e-2, 10 ** 1.7)
+
+
+def choose_alpha(C, H, X, alpha_initial: float = 1.0, how: str = "noise_ratio", *,
+                 tolerance_deg: float = TOLERANCE_DEG, tolerance_m: float = TOLERANCE_M,
+                 alpha_range=ALPHA_RANGE, num: int = 41) -> AlphaChoice:
+    """Choose alpha from the residuals of an initial estimate ``X`` (e.g. dqopt at
+    ``alpha_initial``).
+
+    ``how="noise_ratio"`` (default): inverse-variance weighting of the cost (8). Its rotation
+    residual has per-component variance ``var_r`` and its dual residual ``var_d``; equal
+    weights per unit noise need ``alpha^2 = var_r / var_d``, computed from the noise model
+    fitted to the residuals (:func:`covariance`). ``how="min_predicted_error"``: the alpha of
+    a log grid over ``alpha_range`` minimising the predicted error trace
+    ``tr(D Sigma(alpha) D)`` in tolerance units. Clipped to ``alpha_range`` (the paper's grid).
+    """
+    if how not in ("noise_ratio", "min_predicted_error"):
+        raise ValueError(f"unknown alpha choice {how!r}; allowed: noise_ratio, "
+                         "min_predicted_error")
+    u = covariance(C, H, X, alpha_initial, tolerance_deg=tolerance_deg, tolerance_m=tolerance_m)
+    lo, hi = (_real("alpha_range[0]", alpha_range[0]), _real("alpha_range[1]", alpha_range[1]))
+    C = np.asarray(C, dtype=np.float64)
+    H = np.asarray(H, dtype=np.float64)
+    X = np.asarray(X, dtype=np.float64)
+    e, K, Qr, Qt = _linear_model(C, H, X)
+    L = u.translation_scale_m
+    Q = ((u.noise.sigma_r_rad ** 2 + ROTATION_FLOOR_RAD ** 2) * Qr
+         + (u.noise.sigma_t_m ** 2 + (TRANSLATION_FLOOR_REL * L) ** 2) * Qt)
+    if how == "noise_ratio":
+        T1 = _dq_map(C, X, 1.0)
+        TQT = T1 @ Q @ np.swapaxes(T1, -1, -2)
+        var_r = float(np.mean(np.trace(TQT[:, :4, :4], axis1=1, axis2=2)))
+        var_d = float(np.mean(np.trace(TQT[:, 4:, 4:], axis1=1, axis2=2)))
+        a = math.sqrt(var_r / var_d) if var_d > 0 else hi
+        a = float(np.clip(a, lo, hi))
+        return AlphaChoice(a, "noise_ratio: alpha = sqrt(var(rotation residual) / "
+                           "var(dual residual)) of the noise fitted at alpha_initial",
+                           u.noise.sigma_r_rad, u.noise.sigma_t_m, float(alpha_initial))
+    grid = np.logspace(math.log10(lo), math.log10(hi), int(num))
+    dsc = np.array([math.radians(tolerance_deg)] * 3 + [tolerance_m] * 3)
+    pred = np.empty(grid.size)
+    for j, a in enumerate(grid):
+        T = _dq_map(C, X, a)
+        S = np.einsum("nki,nkj->nij", T, T)
+        Hs = np.einsum("nki,nkl,nlj->ij", K, S, K)
+        Ms = np.einsum("nki,nkl,nlj->ij", K, S @ Q @ S, K)
+        Hi = _sym_inv(Hs * np.outer(dsc, dsc))
+        pred[j] = np.trace(Hi @ (Ms * np.outer(dsc, dsc)) @ Hi)
+    j = int(np.argmin(pred))
+    return AlphaChoice(float(grid[j]), "min_predicted_error: argmin over a log grid of the "
+                       "predicted error trace in tolerance units", u.noise.sigma_r_rad,
+                       u.noise.sigma_t_m, float(alpha_initial), grid, pred)
+
+
+# --------------------------------------------------------------------------- bootstrap
+def bootstrap_covariance(C, H, X, solve_fn, n_boot: int = 200,
+                         rng: np.random.Generator | None = None) -> np.ndarray:
+    """Bootstrap covariance (6x6) of ``delta`` around ``X``: ``n_boot`` resamplings of the
+    motions with replacement, each solved by ``solve_fn(C_b, H_b) -> X_b`` (a callable, or
+    ``solve_fn(Cb, Hb)`` batched over ``(n_boot, N, 4, 4)`` if it accepts 4-D input).
+    Failed (non-finite) resamples are dropped. ``rng``: explicit Generator (required)."""
+    if not isinstance(rng, np.random.Generator):
+        raise TypeError(f"rng must be a numpy.random.Generator; received {type(rng).__name__}")
+    if isinstance(n_boot, bool) or not isinstance(n_boot, (int, np.integer)) or n_boot < 2:
+        raise ValueError(f"n_boot must be an integer >= 2; received {n_boot!r}")
+    C = check_transforms(C, "C", min_count=2)
+    H = check_transforms(H, "H", min_count=2)
+    X = _check_X(X)
+    N = C.shape[0]
+    idx = rng.integers(0, N, size=(int(n_boot), N))
+    Xb = np.asarray(solve_fn(C[idx], H[idx]), dtype=np.float64)
+    if Xb.shape != (int(n_boot), 4, 4):
+        raise ValueError(f"solve_fn must return (n_boot, 4, 4) transforms; received {Xb.shape}")
+    ok = np.isfinite(Xb).all(axis=(1, 2))
+    if ok.sum() < 2:
+        raise ValueError("fewer than 2 bootstrap resamples were solved")
+    d = pose_error(Xb[ok], X)
+    d = d - d.mean(axis=0)
+    return d.T @ d / (d.shape[0] - 1)
