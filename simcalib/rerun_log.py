@@ -325,10 +325,12 @@ def record_advice(path, base, adv) -> Path:
         ref = cand.ref["T_world_cam"][cam]
         Tp = cand.T_world_cam[cam][adv.chosen]
         rec.log(f"world/advice/{cam}/reference", rr.Transform3D(
-            translation=ref[:3, 3], mat3x3=ref[:3, :3], axis_length=0.08), static=True)
+            translation=ref[:3, 3], mat3x3=ref[:3, :3]), rr.TransformAxes3D(0.08),
+            static=True)
         for k, Tk in enumerate(Tp):
             rec.log(f"world/advice/{cam}/stop_{k + 1}", rr.Transform3D(
-                translation=Tk[:3, 3], mat3x3=Tk[:3, :3], axis_length=0.06), static=True)
+                translation=Tk[:3, 3], mat3x3=Tk[:3, :3]), rr.TransformAxes3D(0.06),
+                static=True)
         if len(Tp):
             rec.log(f"world/advice/{cam}/stops", rr.Points3D(
                 Tp[:, :3, 3], colors=color, radii=0.01,

@@ -203,7 +203,7 @@ def solve_errors(C, H, X_true, alpha, *, tolerance_deg=1.0, tolerance_m=0.01) ->
             "rotation_error_deg": float(np.rad2deg(rotation_error_rad(X, X_true))),
             "translation_error_cm": float(100 * np.linalg.norm(X[:3, 3] - X_true[:3, 3])),
             "predicted_std": _std_dict(std), "verdict": verdict,
-            "max_std_deg": float(np.max(std[:3])), "max_std_cm": float(100 * np.max(std[3:]))}
+            "max_std_deg": _f(np.max(std[:3])), "max_std_cm": _f(100 * np.max(std[3:]))}
 
 
 def _std_dict(s) -> dict:
@@ -251,8 +251,9 @@ def verify(base: Baseline, adv: Advice, *, seeds=(0, 1, 2, 3, 4)) -> Verificatio
         res_rand.append(r)
     med = {}
     for key in ("rotation_error_deg", "translation_error_cm", "max_std_deg", "max_std_cm"):
-        vals = [r[key] for r in res_rand if r.get("success")]
-        med[key] = float(np.median(vals)) if vals else None
+        vals = [np.inf if r.get(key) is None else r[key] for r in res_rand
+                if r.get("success")]
+        med[key] = _f(np.median(vals)) if vals else None
     ratio = {}
     for key in ("rotation_error_deg", "translation_error_cm"):
         a, m = res_adv.get(key), med.get(key)
@@ -275,7 +276,8 @@ def _joint_names(model) -> list:
     names = [""] * model.nq
     for j in range(model.njnt):
         a = int(model.jnt_qposadr[j])
-        if model.jnt_type[j] in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE):
+        if int(model.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE),
+                                      int(mujoco.mjtJoint.mjJNT_SLIDE)):
             names[a] = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) or f"q{a}"
     return names
 

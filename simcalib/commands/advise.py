@@ -98,7 +98,7 @@ def print_table(out: dict) -> None:
                 print(f"{label:<12} FAILED: {r.get('error')}")
                 return
             print(f"{label:<12}{r['rotation_error_deg']:>10.3f}{r['translation_error_cm']:>12.3f}"
-                  f"{r['max_std_deg']:>13.3f}{r['max_std_cm']:>14.3f}")
+                  f"{_n(r['max_std_deg']):>13}{_n(r['max_std_cm']):>14}")
         vr("baseline", ver["baseline"])
         vr("advised", ver["advised"])
         for r in ver["random"]:
@@ -113,7 +113,7 @@ def print_table(out: dict) -> None:
 
 
 def _n(v):
-    return "n/a" if v is None else f"{v:.3f}"
+    return "inf/n/a" if v is None else f"{v:.3f}"
 
 
 def main(args: list[str]) -> int:
@@ -122,7 +122,7 @@ def main(args: list[str]) -> int:
         return 0
     scenario, overrides, opts = parse_args(args)
     from simcalib.config import load_config
-    cfg = load_config(scenario, list(overrides) + ["recording.enabled=false"])
+    cfg = load_config(scenario, list(overrides))
     out_dir = Path(cfg.output) if cfg.output else Path("runs") / f"advise-{cfg.scenario}"
     out_dir.mkdir(parents=True, exist_ok=True)
     from simcalib.advise import advice_dict, advise, baseline, verify
