@@ -106,15 +106,27 @@ class Advice:
     F_cand: np.ndarray
     X: np.ndarray
     timing_s: dict
+    message: str = ""
+
+
+WHEN_DETERMINED = ("stop", "advise")
 
 
 def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alpha: float = 1.0,
                    n_candidates: int = 300, aruco_cameras=(), tolerance_deg: float = 1.0,
-                   tolerance_m: float = 0.01, render_check=None, **cand_kw) -> Advice:
+                   tolerance_m: float = 0.01, render_check=None, when_determined: str = "stop",
+                   **cand_kw) -> Advice:
     """Propose ``k`` stops for a platform modelled by ``world`` given recorded motions
     ``C``, ``H`` (N, 4, 4) and the estimate ``X``. ``render_check(cand, idx) -> {camera:
     PoseStream}`` (optional) renders and detects the chosen stops; those not measured by an
-    ArUco camera are dropped and the choice repeated (at most 3 times)."""
+    ArUco camera are dropped and the choice repeated (at most 3 times).
+
+    ``when_determined``: ``"stop"`` (default) proposes no motion when the recorded motions
+    already determine every direction of X within the tolerance (largest predicted 1-sigma
+    <= 1 tolerance) and says so in ``message``; ``"advise"`` proposes ``k`` anyway."""
+    if when_determined not in WHEN_DETERMINED:
+        raise ValueError(f"when_determined must be one of {list(WHEN_DETERMINED)}; received "
+                         f"{when_determined!r}")
     from simcalib.solvers.uncertainty import covariance
     t0 = time.perf_counter()
     u = covariance(C, H, X, alpha, tolerance_deg=tolerance_deg, tolerance_m=tolerance_m)
@@ -129,6 +141,14 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
     L = u.translation_scale_m
     kw = dict(tolerance_deg=tolerance_deg, tolerance_m=tolerance_m)
     rejected, checked = [], {}
+    message = ""
+    g0 = pl.greedy(F_base, F_cand, 1, feasible=np.zeros_like(feasible), **kw)
+    if when_determined == "stop" and g0.max_std_tol[0] <= 1.0:
+        feasible = np.zeros_like(feasible)
+        message = (f"X is already determined within the tolerance by the recorded motions "
+                   f"(largest predicted 1-sigma {g0.max_std_tol[0]:.3g} tolerance units); no "
+                   "motion proposed: more motions add measurement bias as well as "
+                   "information (use when_determined='advise' / force=true to get k anyway)")
     for _ in range(4):
         g = pl.greedy(F_base, F_cand, k, feasible=feasible, **kw)
         if render_check is None or not aruco_cameras or g.order.size == 0:
@@ -163,14 +183,14 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
                   criterion=g.criterion, noise=(s_r, s_t), tolerance_deg=tolerance_deg,
                   tolerance_m=tolerance_m, cannot_help=cannot, render_check=checked,
                   rejected_by_render=tuple(rejected), F_base=F_base, F_cand=F_cand, X=X,
-                  timing_s={"information": t1 - t0, "candidates": t2 - t1,
+                  message=message, timing_s={"information": t1 - t0, "candidates": t2 - t1,
                             "choice_and_render_check": t3 - t2,
                             "total": time.perf_counter() - t0})
 
 
 def advise(base: Baseline, k: int = 5, *, seed: int = 0, n_candidates: int = 300,
            tolerance_deg: float = 1.0, tolerance_m: float = 0.01, render: bool = True,
-           **cand_kw) -> Advice:
+           when_determined: str = "stop", **cand_kw) -> Advice:
     """Advice for a :class:`Baseline` (candidates drawn from ``seed``)."""
     rng = np.random.default_rng([int(seed), 13])
     rc_rng = np.random.default_rng([int(seed), 17])
@@ -182,7 +202,7 @@ def advise(base: Baseline, k: int = 5, *, seed: int = 0, n_candidates: int = 300
                           alpha=base.alpha, n_candidates=n_candidates,
                           aruco_cameras=base.aruco_cameras, tolerance_deg=tolerance_deg,
                           tolerance_m=tolerance_m, render_check=check if render else None,
-                          **cand_kw)
+                          when_determined=when_determined, **cand_kw)
 
 
 def solve_errors(C, H, X_true, alpha, *, tolerance_deg=1.0, tolerance_m=0.01) -> dict:
@@ -240,7 +260,10 @@ def verify(base: Baseline, adv: Advice, *, seeds=(0, 1, 2, 3, 4)) -> Verificatio
         r["stops"] = [int(i) for i in idx]
         return r
 
-    res_adv = run(adv.chosen, np.random.default_rng([base.cfg.seed, 101]))
+    if adv.chosen.size:
+        res_adv = run(adv.chosen, np.random.default_rng([base.cfg.seed, 101]))
+    else:                                   # advice: no motion needed
+        res_adv = dict(res0, stops_measured=0, stops=[])
     feas = np.flatnonzero(adv.candidates.feasible)
     res_rand = []
     for s in seeds:
@@ -328,6 +351,7 @@ def advice_dict(base: Baseline, adv: Advice, ver: Verification | None = None) ->
                             if names else {})},
            "predicted_std_before": _std_dict(adv.std_before),
            "max_std_tolerance_units_before": _f(adv.max_std_tol[0]),
+           "message": adv.message,
            "motions": motions,
            "cannot_help": adv.cannot_help,
            "candidates": {"drawn": cand.n, "feasible": int(cand.feasible.sum()),

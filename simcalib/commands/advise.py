@@ -21,13 +21,14 @@ for `seeds` seeds. Writes DIR/advice.json and DIR/advice.rrd (proposed poses in 
 prints the predicted 1-sigma per axis before and after each motion.
 
 Advice options: k, verify, seeds, candidates, max_rotation_deg, max_translation_m,
-min_markers, recording (true|false). Every other key=value is a scenario override
+min_markers, recording (true|false), force (true: propose k motions even when the
+recorded motions already determine X within the tolerance; default false: none then). Every other key=value is a scenario override
 (see `run --help`), e.g. world.platform=arm.
 """
 
 ADVICE_KEYS = {"k": int, "verify": bool, "seeds": int, "candidates": int,
                "max_rotation_deg": float, "max_translation_m": float, "min_markers": int,
-               "recording": bool}
+               "recording": bool, "force": bool}
 
 
 def _value(key, text):
@@ -85,6 +86,8 @@ def print_table(out: dict) -> None:
         jt = (" joints [deg] " + " ".join(f"{math.degrees(v):.1f}" for v in joints.values())
               if joints else f" cart {m['cart_pose']}")
         print(f"stop {m['step']}: {desc};{jt}")
+    if out.get("message"):
+        print(out["message"])
     for c in out["cannot_help"]:
         print(f"cannot help: {c['statement']}. Fix: {c['fix']}")
     print(f"advice took {out['timing_s']['total']:.1f} s")
@@ -129,7 +132,8 @@ def main(args: list[str]) -> int:
     base = baseline(cfg)
     kw = {k: opts[k] for k in ("max_rotation_deg", "max_translation_m", "min_markers")
           if k in opts}
-    adv = advise(base, opts["k"], seed=cfg.seed, n_candidates=opts["candidates"], **kw)
+    adv = advise(base, opts["k"], seed=cfg.seed, n_candidates=opts["candidates"],
+                 when_determined="advise" if opts.get("force") else "stop", **kw)
     ver = verify(base, adv, seeds=tuple(range(opts["seeds"]))) if opts["verify"] else None
     out = advice_dict(base, adv, ver)
     path = out_dir / "advice.json"
