@@ -150,7 +150,8 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
                    "motion proposed: more motions add measurement bias as well as "
                    "information (use when_determined='advise' / force=true to get k anyway)")
     for _ in range(4):
-        g = pl.greedy(F_base, F_cand, k, feasible=feasible, **kw)
+        g, added = pl.greedy_chain(F_base, cand.motion["cam_a"], X, s_r, s_t, k,
+                                   feasible=feasible, **kw)
         if render_check is None or not aruco_cameras or g.order.size == 0:
             break
         streams = render_check(cand, g.order)
@@ -173,8 +174,8 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
     t3 = time.perf_counter()
     F = F_base.copy()
     after = []
-    for j in g.order:
-        F = F + F_cand[j]
+    for Fa in added:
+        F = F + Fa
         after.append(pl.predicted_std(F, range_m=L, **kw))
     cannot = pl.undeterminable(F_base, F_cand, feasible=cand.feasible, range_m=L, **kw)
     return Advice(k=int(k), candidates=cand, chosen=g.order,
@@ -253,7 +254,7 @@ def verify(base: Baseline, adv: Advice, *, seeds=(0, 1, 2, 3, 4)) -> Verificatio
 
     def run(idx, rng):
         streams = fz.execute_stops(base.truth, base.cfg, adv.candidates, idx, rng)
-        Cs, Hs, got = fz.stop_motions(streams)
+        Cs, Hs, got = fz.stop_motions(streams, chain=True)
         r = solve_errors(np.concatenate([base.C, Cs]), np.concatenate([base.H, Hs]), X_true,
                          base.alpha, **kw)
         r["stops_measured"] = int(got.size)
@@ -294,6 +295,13 @@ def _rel(T) -> dict:
             "translation_m": T[:3, 3].tolist()}
 
 
+def _prev_inv(cand, c, chosen, step):
+    """Inverse of camera c's motion from the reference to the previous stop (stop and go:
+    each advised motion starts at the previous stop, the first at the reference)."""
+    from simcalib.geometry import invert_transform
+    return np.eye(4) if step == 0 else invert_transform(cand.motion[c][int(chosen[step - 1])])
+
+
 def _joint_names(model) -> list:
     import mujoco
     names = [""] * model.nq
@@ -316,7 +324,8 @@ def advice_dict(base: Baseline, adv: Advice, ver: Verification | None = None) ->
              "waypoint": {"T_world_target": cand.T_world_target[j].tolist(),
                           "dp_world_m": cand.dp_world_m[j].tolist(),
                           "rotvec_world_deg": np.degrees(cand.rotvec_world_rad[j]).tolist()},
-             "camera_motions": {c: _rel(cand.motion[c][j]) for c in cand.motion},
+             "camera_motions": {c: _rel(_prev_inv(cand, c, adv.chosen, step)
+                                     @ cand.motion[c][j]) for c in cand.motion},
              "predicted_std_after": _std_dict(adv.std_after[step]),
              "max_std_tolerance_units_after": _f(adv.max_std_tol[step + 1])}
         if cand.platform == "arm":

@@ -334,9 +334,11 @@ def _quiet(cfg):
         return cfg
 
 
-def stop_motions(streams: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(C, H, stop index)``: the motion of each camera from the reference stop (0) to every
-    later stop both cameras measured."""
+def stop_motions(streams: dict, chain: bool = True
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(C, H, stop index)``: the motion of each camera between the stops both cameras
+    measured: from the previous measured stop to each stop (``chain``, stop and go), or from
+    the reference stop (0) to each (``chain=False``)."""
     sa, sb = streams["cam_a"], streams["cam_b"]
     fa, fb = np.asarray(sa.frame_index), np.asarray(sb.frame_index)
     if 0 not in fa or 0 not in fb:
@@ -347,7 +349,11 @@ def stop_motions(streams: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     ib = {int(f): k for k, f in enumerate(fb)}
     Ta = np.asarray(sa.T_world_cam)
     Tb = np.asarray(sb.T_world_cam)
-    A0, B0 = invert_transform(Ta[ia[0]]), invert_transform(Tb[ib[0]])
-    C = A0 @ Ta[[ia[int(f)] for f in common]] if common.size else np.zeros((0, 4, 4))
-    H = B0 @ Tb[[ib[int(f)] for f in common]] if common.size else np.zeros((0, 4, 4))
+    if not common.size:
+        return np.zeros((0, 4, 4)), np.zeros((0, 4, 4)), common
+    start = np.concatenate([[0], common[:-1]]) if chain else np.zeros_like(common)
+    Ta0 = Ta[[ia[int(f)] for f in start]]
+    Tb0 = Tb[[ib[int(f)] for f in start]]
+    C = invert_transform(Ta0) @ Ta[[ia[int(f)] for f in common]]
+    H = invert_transform(Tb0) @ Tb[[ib[int(f)] for f in common]]
     return C, H, common

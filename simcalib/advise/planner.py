@@ -28,7 +28,7 @@ import numpy as np
 
 from simcalib.geometry import invert_transform
 
-__all__ = ["motion_information", "predicted_std", "greedy", "GreedyResult",
+__all__ = ["motion_information", "predicted_std", "greedy", "greedy_chain", "GreedyResult",
            "undeterminable", "EPS"]
 
 EPS = 1e-6
@@ -127,6 +127,43 @@ def greedy(F_base, F_cand, k: int, *, feasible=None, tolerance_deg: float = 1.0,
         crit.append(float(_criterion(cur)))
         mx.append(_max_std(cur))
     return GreedyResult(np.array(order, dtype=np.int64), np.array(crit), np.array(mx))
+
+
+def greedy_chain(F_base, motion_a, X, sigma_r_rad: float, sigma_t_m: float, k: int, *,
+                 feasible=None, tolerance_deg: float = 1.0, tolerance_m: float = 0.01
+                 ) -> tuple[GreedyResult, np.ndarray]:
+    """Greedy choice of ``k`` stops visited in order (stop and go): the motion each stop adds
+    is the one from the previous stop (the reference for the first), so a stop's pose error
+    enters two consecutive motions instead of one shared reference error entering all.
+    ``motion_a`` ``(N, 4, 4)``: camera a's motion from the reference to each candidate.
+    Returns the :class:`GreedyResult` and the information ``(k, 6, 6)`` each step added."""
+    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
+        raise ValueError(f"k must be an integer >= 1; received {k!r}")
+    dsc = _scale(tolerance_deg, tolerance_m)
+    S = np.outer(dsc, dsc)
+    M = np.asarray(motion_a, dtype=np.float64)
+    avail = np.ones(M.shape[0], bool) if feasible is None else np.asarray(feasible, bool).copy()
+    cur_F = np.asarray(F_base, dtype=np.float64)
+    cur_T = np.eye(4)
+    order, added = [], []
+    crit, mx = [float(_criterion(cur_F * S))], [_max_std(cur_F * S)]
+    for _ in range(int(k)):
+        idx = np.flatnonzero(avail)
+        if idx.size == 0:
+            break
+        C, H = predicted_motions(invert_transform(cur_T) @ M[idx], X)
+        Fc = motion_information(C, H, X, sigma_r_rad, sigma_t_m)
+        c = _criterion((cur_F[None] + Fc) * S)
+        j = int(np.argmin(c))
+        order.append(int(idx[j]))
+        avail[idx[j]] = False
+        added.append(Fc[j])
+        cur_F = cur_F + Fc[j]
+        cur_T = M[idx[j]]
+        crit.append(float(_criterion(cur_F * S)))
+        mx.append(_max_std(cur_F * S))
+    return (GreedyResult(np.array(order, dtype=np.int64), np.array(crit), np.array(mx)),
+            np.array(added).reshape(-1, 6, 6))
 
 
 def _max_std(Ft) -> float:
