@@ -114,6 +114,13 @@ def test_every_proposed_stop_is_feasible(scara_advice):
                             world.intrinsics[c]).sum(axis=1)
         assert (v >= 4).all()
         assert all(n >= 1 for n in adv.render_check[c])     # detected in the render
+    # self-collision: none at the chosen stops; a folded elbow is caught
+    from simcalib.advise.feasibility import SelfCollision
+    collide = SelfCollision(m, cand.ref["qpos"])
+    assert all(collide(cand.qpos[j]) == [] for j in adv.chosen)
+    q = cand.ref["qpos"].copy()
+    q[2] = 3.1
+    assert any("wrist" in a or "wrist" in b for a, b in collide(q))
     # infeasible candidates carry a reason, feasible ones none
     assert all((r == "") == f for r, f in zip(cand.reason, cand.feasible))
 

@@ -30,7 +30,7 @@ import numpy as np
 
 from simcalib.geometry import invert_transform, matrix_from_rotvec
 
-__all__ = ["Candidates", "candidates", "stop_state", "execute_stops", "reference_index",
+__all__ = ["Candidates", "SelfCollision", "candidates", "stop_state", "execute_stops", "reference_index",
            "ROOM_MARGIN_M"]
 
 ROOM_MARGIN_M = 0.05
@@ -116,6 +116,12 @@ def _collision_model(model):
     m.geom_conaffinity[:] = 0
     m.geom_contype[mask] = 1
     m.geom_conaffinity[mask] = 1
+    # the broad phase uses per-body masks computed at compile time (OR over their geoms)
+    for attr in ("body_contype", "body_conaffinity"):
+        if hasattr(m, attr):
+            arr = getattr(m, attr)
+            arr[:] = 0
+            arr[np.unique(m.geom_bodyid[mask])] = 1
     return m, mask
 
 
@@ -129,6 +135,25 @@ def _contact_pairs(m, d, qpos) -> set:
         if c.dist < -1e-4:
             pairs.add((min(c.geom1, c.geom2), max(c.geom1, c.geom2)))
     return pairs
+
+
+class SelfCollision:
+    """Self-collision check of a platform model: ``SelfCollision(model, q_allowed)(q)`` ->
+    names of the geom pairs in contact at ``q`` (arm, pedestal and rig geoms), except those
+    already in contact at ``q_allowed`` (allowed-collision pairs)."""
+
+    def __init__(self, model, q_allowed=None):
+        import mujoco
+        self.model, _ = _collision_model(model)
+        self.data = mujoco.MjData(self.model)
+        self.allowed = set() if q_allowed is None else _contact_pairs(self.model, self.data,
+                                                                      q_allowed)
+
+    def __call__(self, q) -> list:
+        import mujoco
+        hits = _contact_pairs(self.model, self.data, np.asarray(q, dtype=np.float64))
+        return [tuple(mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_GEOM, g) for g in p)
+                for p in sorted(hits - self.allowed)]
 
 
 def _camera_ids(model, cameras):
@@ -223,9 +248,7 @@ def candidates(world, n: int, rng: np.random.Generator, *, aruco_cameras=(),
         from simcalib.world.ik import solve_ik
         ik = cfg.ik
         qpos = np.zeros((n, model.nq))
-        cm, _ = _collision_model(model)
-        cd = mujoco.MjData(cm)
-        allowed = _contact_pairs(cm, cd, q_ref)
+        collide = SelfCollision(model, q_ref)
         lim = model.jnt_limited.astype(bool)
         lo, hi = model.jnt_range[:, 0], model.jnt_range[:, 1]
         for i in range(n):
@@ -240,12 +263,9 @@ def candidates(world, n: int, rng: np.random.Generator, *, aruco_cameras=(),
             if (lim & ((q < lo - 1e-9) | (q > hi + 1e-9))).any():
                 reason[i] = "joint limit"
                 continue
-            hits = _contact_pairs(cm, cd, q) - allowed
+            hits = collide(q)
             if hits:
-                g1, g2 = next(iter(hits))
-                n1 = mujoco.mj_id2name(cm, mujoco.mjtObj.mjOBJ_GEOM, g1)
-                n2 = mujoco.mj_id2name(cm, mujoco.mjtObj.mjOBJ_GEOM, g2)
-                reason[i] = f"self-collision ({n1} / {n2})"
+                reason[i] = f"self-collision ({hits[0][0]} / {hits[0][1]})"
         mocap_pos = np.repeat(mp_ref[None], n, axis=0)
         mocap_quat = np.repeat(mq_ref[None], n, axis=0)
     else:
