@@ -347,8 +347,9 @@ def advice_dict(base: Baseline, adv: Advice, ver: Verification | None = None) ->
         reasons[key] = reasons.get(key, 0) + 1
     out = {"scenario": base.cfg.scenario, "platform": cand.platform,
            "path": base.cfg.world.path, "seed": base.cfg.seed, "k": adv.k,
-           "criterion": "greedy: minimise max + mean of 1/(lambda + 1e-6) of the information "
-                        "in tolerance units (lambda_min = 1/largest sigma^2)",
+           "criterion": "greedy along the stop-and-go chain: minimise max + mean of "
+                        "1/(lambda + 1e-6) of the information in tolerance units "
+                        "(lambda_min = 1/largest sigma^2)",
            "tolerance": {"deg": adv.tolerance_deg, "m": adv.tolerance_m},
            "noise_fitted": {"sigma_r_deg": math.degrees(adv.noise[0]),
                             "sigma_t_m": adv.noise[1]},

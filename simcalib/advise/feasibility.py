@@ -3,8 +3,9 @@
 A *candidate* is a stop: the platform's target frame (arm flange / cart base) moved from a
 reference pose ``T_world_target_ref`` (the last pose of the recorded run) to
 ``T_world_target = Trans(p_ref + dp) · R(omega) · R_ref`` (rotation ``omega`` about world
-axes through the target, as the scripted paths do). The motion it adds to the calibration
-data is the relative motion of each camera between the reference stop and this stop.
+axes through the target, as the scripted paths do). Stops are visited in order (stop and
+go); the motion a stop adds to the calibration data is the relative motion of each camera
+from the previous stop (``motion`` holds the one from the reference).
 
 Feasibility:
 
