@@ -374,4 +374,59 @@ def record_calibration(path, *, time_s, T_world_a, T_world_b, X, T_wa_wb, motion
     finally:
         rec.flush()
         rec.disconnect()
+
+
+# ------------------------------------------------------------------- motion advice
+def record_advice(path, base, adv) -> Path:
+    """Recording of motion advice (``simcalib advise``): the marker field, each camera's
+    recorded trajectory, its pose at the reference stop and at every proposed stop (axes,
+    labelled ``stop k``, a line from the reference), and the predicted 1-sigma per axis
+    (deg / cm) against the number of added stops. ``base``/``adv``:
+    :class:`simcalib.advise.Baseline` / :class:`simcalib.advise.Advice`. Self-contained."""
+    import rerun as rr
+    path = Path(path)
+    rec = rr.RecordingStream("simcalib-advice", recording_id=str(uuid.uuid4()),
+                             send_properties=False)
+    if hasattr(rec, "set_log_time_enabled"):
+        rec.set_log_time_enabled(False)
+    rec.save(str(path))
+    rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+    mf = base.truth.marker_field
+    if mf is not None and len(getattr(mf, "ids", ())):
+        T = np.asarray(mf.T_world_marker)
+        h = 0.5 * float(mf.side_m)
+        rec.log("world/markers", rr.Boxes3D(
+            centers=T[:, :3, 3], half_sizes=np.tile([h, h, 0.002], (T.shape[0], 1)),
+            quaternions=quat_from_matrix(T[:, :3, :3]), colors=(40, 40, 40)), static=True)
+    cand = adv.candidates
+    for cam, s in base.truth.streams.items():
+        color = _COLORS.get(cam, (200, 200, 200))
+        T = np.asarray(s.T_world_cam)
+        rec.log(f"world/recorded/{cam}", rr.LineStrips3D([T[:, :3, 3]], colors=color,
+                                                         radii=0.002), static=True)
+        ref = cand.ref["T_world_cam"][cam]
+        Tp = cand.T_world_cam[cam][adv.chosen]
+        rec.log(f"world/advice/{cam}/reference", rr.Transform3D(
+            translation=ref[:3, 3], mat3x3=ref[:3, :3]), rr.TransformAxes3D(0.08),
+            static=True)
+        for k, Tk in enumerate(Tp):
+            rec.log(f"world/advice/{cam}/stop_{k + 1}", rr.Transform3D(
+                translation=Tk[:3, 3], mat3x3=Tk[:3, :3]), rr.TransformAxes3D(0.06),
+                static=True)
+        if len(Tp):
+            rec.log(f"world/advice/{cam}/stops", rr.Points3D(
+                Tp[:, :3, 3], colors=color, radii=0.01,
+                labels=[f"stop {k + 1}" for k in range(len(Tp))]), static=True)
+            rec.log(f"world/advice/{cam}/moves", rr.LineStrips3D(
+                [[ref[:3, 3], p] for p in Tp[:, :3, 3]], colors=color, radii=0.002),
+                static=True)
+    names = ["wx [deg]", "wy [deg]", "wz [deg]", "vx [cm]", "vy [cm]", "vz [cm]"]
+    rec.log("advice/predicted_std", rr.SeriesLines(names=names), static=True)
+    rows = [adv.std_before] + list(adv.std_after)
+    for k, s in enumerate(rows):
+        rec.set_time("added_stops", sequence=k)
+        v = np.concatenate([s[:3], 100.0 * s[3:]])
+        rec.log("advice/predicted_std", rr.Scalars(np.where(np.isfinite(v), v, np.nan)))
+    rec.flush() if hasattr(rec, "flush") else None
+    rec.disconnect() if hasattr(rec, "disconnect") else None
     return path

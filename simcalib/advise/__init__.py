@@ -1,0 +1,11 @@
+"""Motion advice: which motions to record next so that X becomes best determined, within
+what the platform can do, verified in simulation (docs/advice.md)."""
+
+from simcalib.advise.advisor import (Advice, Baseline, Verification, advice_dict, advise,
+                                     advise_motions, baseline, solve_errors, verify)
+from simcalib.advise.feasibility import Candidates, candidates, execute_stops, stop_motions
+from simcalib.advise.planner import greedy, motion_information, predicted_std, undeterminable
+
+__all__ = ["Advice", "Baseline", "Verification", "advice_dict", "advise", "advise_motions",
+           "baseline", "solve_errors", "verify", "Candidates", "candidates", "execute_stops",
+           "stop_motions", "greedy", "motion_information", "predicted_std", "undeterminable"]

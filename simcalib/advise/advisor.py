@@ -1,0 +1,380 @@
+"""Advice for a scenario's run, and its verification in simulation.
+
+``baseline(cfg)`` runs the world, streams and pairs stages of :func:`simcalib.run` (the same
+seeds, so the same data) and solves dqopt; ``advise(base, k)`` proposes the next ``k`` stops
+(:mod:`simcalib.advise.feasibility`, :mod:`simcalib.advise.planner`); ``verify(base, adv)``
+executes them in the simulator (render, detect, solve) and compares with ``k`` random
+feasible stops over several seeds. :func:`advise_motions` is the core for motions from any
+source (e.g. pose streams read by :mod:`simcalib.importers`) given a world that models
+the platform.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from simcalib.advise import feasibility as fz
+from simcalib.advise import planner as pl
+
+__all__ = ["Baseline", "Advice", "Verification", "baseline", "advise", "advise_motions",
+           "verify", "solve_errors", "advice_dict"]
+
+AXES = ("wx_deg", "wy_deg", "wz_deg", "vx_m", "vy_m", "vz_m")
+
+
+@dataclass(frozen=True)
+class Baseline:
+    """The recorded run: ``cfg``, ``truth`` (GroundTruth), ``C``, ``H`` (its motions),
+    ``X`` (the estimate advice linearises at: dqopt, with the prior when the config has
+    one), ``X_noprior`` (dqopt alone), ``alpha``, ``aruco_cameras``, ``timing_s``."""
+    cfg: object
+    truth: object
+    C: np.ndarray
+    H: np.ndarray
+    X: np.ndarray
+    X_noprior: np.ndarray
+    alpha: float
+    aruco_cameras: tuple
+    prior: object = None
+    timing_s: dict = field(default_factory=dict)
+
+
+def baseline(cfg) -> Baseline:
+    """Run the stages ``world``, ``streams``, ``pairs`` of ``cfg`` (a ScenarioConfig) and
+    solve dqopt at ``cfg.alpha`` (plus its prior when ``cfg.prior.enabled``)."""
+    import simcalib
+    from simcalib import pipeline
+    from simcalib.sources import camera_sources
+    if cfg.kind != "sim":
+        raise ValueError(f"advice needs a simulated platform (kind 'sim'); scenario "
+                         f"{cfg.scenario!r} has kind {cfg.kind!r}")
+    t0 = time.perf_counter()
+    children = np.random.SeedSequence(cfg.seed).spawn(len(pipeline.RNG_STREAMS))
+    rngs = {n: np.random.default_rng(s) for n, s in zip(pipeline.RNG_STREAMS, children)}
+    st = pipeline.RunState(cfg=cfg, out=None, rngs=rngs)
+    pipeline._stage_world(st)
+    pipeline._stage_streams(st)
+    pipeline._stage_pairs(st)
+    C, H = st.pairs.C, st.pairs.H
+    alpha = float(cfg.alpha)
+    sol = simcalib.solve(C, H, method="dqopt", alpha=alpha)
+    X0 = np.asarray(sol.X, dtype=np.float64)
+    X = X0
+    prior = None
+    if cfg.prior.enabled:
+        prior, _ = pipeline._prior(st)
+        sp = simcalib.solve(C, H, method="dqopt", alpha=alpha, prior=prior)
+        if sp.success and np.isfinite(sp.X).all():
+            X = np.asarray(sp.X, dtype=np.float64)
+    if not np.isfinite(X).all():
+        raise ValueError(f"dqopt failed on the recorded run of {cfg.scenario!r}: "
+                         f"{sol.solver_message}")
+    srcs = camera_sources(cfg, st.truth.kind)
+    aruco = tuple(c for c, s in srcs.items() if s == "aruco")
+    return Baseline(cfg, st.truth, C, H, X, X0, alpha, aruco, prior,
+                    {"baseline": time.perf_counter() - t0})
+
+
+@dataclass(frozen=True)
+class Advice:
+    """``candidates`` (all drawn, with feasibility), ``chosen`` (indices into them, in the
+    order added), ``std_before`` (6,) and ``std_after`` (k, 6): predicted 1-sigma per axis
+    (deg, deg, deg, m, m, m) with the recorded motions and after each added stop;
+    ``max_std_tol``: largest 1-sigma in tolerance units per step; ``noise``
+    (sigma_r_rad, sigma_t_m) fitted to the recorded motions; ``cannot_help``: directions
+    no feasible motion determines (with the fix); ``render_check``: camera -> markers
+    detected per chosen stop; ``rejected_by_render``: candidates dropped by it."""
+    k: int
+    candidates: fz.Candidates
+    chosen: np.ndarray
+    std_before: np.ndarray
+    std_after: np.ndarray
+    max_std_tol: np.ndarray
+    criterion: np.ndarray
+    noise: tuple
+    tolerance_deg: float
+    tolerance_m: float
+    cannot_help: list
+    render_check: dict
+    rejected_by_render: tuple
+    F_base: np.ndarray
+    F_cand: np.ndarray
+    X: np.ndarray
+    timing_s: dict
+    message: str = ""
+
+
+WHEN_DETERMINED = ("stop", "advise")
+
+
+def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alpha: float = 1.0,
+                   n_candidates: int = 300, aruco_cameras=(), tolerance_deg: float = 1.0,
+                   tolerance_m: float = 0.01, render_check=None, when_determined: str = "stop",
+                   **cand_kw) -> Advice:
+    """Propose ``k`` stops for a platform modelled by ``world`` given recorded motions
+    ``C``, ``H`` (N, 4, 4) and the estimate ``X``. ``render_check(cand, idx) -> {camera:
+    PoseStream}`` (optional) renders and detects the chosen stops; those not measured by an
+    ArUco camera are dropped and the choice repeated (at most 3 times).
+
+    ``when_determined``: ``"stop"`` (default) proposes no motion when the recorded motions
+    already determine every direction of X within the tolerance (largest predicted 1-sigma
+    <= 1 tolerance) and says so in ``message``; ``"advise"`` proposes ``k`` anyway."""
+    if when_determined not in WHEN_DETERMINED:
+        raise ValueError(f"when_determined must be one of {list(WHEN_DETERMINED)}; received "
+                         f"{when_determined!r}")
+    from simcalib.solvers.uncertainty import covariance
+    t0 = time.perf_counter()
+    u = covariance(C, H, X, alpha, tolerance_deg=tolerance_deg, tolerance_m=tolerance_m)
+    s_r, s_t = u.noise.sigma_r_rad, u.noise.sigma_t_m
+    F_base = pl.motion_information(C, H, X, s_r, s_t).sum(axis=0)
+    t1 = time.perf_counter()
+    cand = fz.candidates(world, n_candidates, rng, aruco_cameras=aruco_cameras, **cand_kw)
+    t2 = time.perf_counter()
+    Cc, Hc = pl.predicted_motions(cand.motion["cam_a"], X)
+    F_cand = pl.motion_information(Cc, Hc, X, s_r, s_t)
+    feasible = cand.feasible.copy()
+    L = u.translation_scale_m
+    kw = dict(tolerance_deg=tolerance_deg, tolerance_m=tolerance_m)
+    rejected, checked = [], {}
+    message = ""
+    g0 = pl.greedy(F_base, F_cand, 1, feasible=np.zeros_like(feasible), **kw)
+    if when_determined == "stop" and g0.max_std_tol[0] <= 1.0:
+        feasible = np.zeros_like(feasible)
+        message = (f"X is already determined within the tolerance by the recorded motions "
+                   f"(largest predicted 1-sigma {g0.max_std_tol[0]:.3g} tolerance units); no "
+                   "motion proposed: more motions add measurement bias as well as "
+                   "information (use when_determined='advise' / force=true to get k anyway)")
+    for _ in range(4):
+        g, added = pl.greedy_chain(F_base, cand.motion["cam_a"], X, s_r, s_t, k,
+                                   feasible=feasible, **kw)
+        if render_check is None or not aruco_cameras or g.order.size == 0:
+            break
+        streams = render_check(cand, g.order)
+        bad = []
+        checked = {}
+        for c in aruco_cameras:
+            got = set(int(f) for f in np.asarray(streams[c].frame_index))
+            nm = np.asarray(streams[c].info.get("n_markers", np.zeros(0)))
+            per = {int(f): int(nm[j]) if j < nm.size else -1
+                   for j, f in enumerate(np.asarray(streams[c].frame_index))}
+            checked[c] = [per.get(j + 1, 0) for j in range(g.order.size)]
+            bad += [int(g.order[j]) for j in range(g.order.size) if (j + 1) not in got]
+            if 0 not in got:
+                raise ValueError(f"{c} measures no pose at the reference stop; advice needs "
+                                 "the reference pose")
+        if not bad:
+            break
+        rejected += sorted(set(bad))
+        feasible[np.array(sorted(set(bad)))] = False
+    t3 = time.perf_counter()
+    F = F_base.copy()
+    after = []
+    for Fa in added:
+        F = F + Fa
+        after.append(pl.predicted_std(F, range_m=L, **kw))
+    cannot = pl.undeterminable(F_base, F_cand, feasible=cand.feasible, range_m=L, **kw)
+    return Advice(k=int(k), candidates=cand, chosen=g.order,
+                  std_before=pl.predicted_std(F_base, range_m=L, **kw),
+                  std_after=np.array(after).reshape(-1, 6), max_std_tol=g.max_std_tol,
+                  criterion=g.criterion, noise=(s_r, s_t), tolerance_deg=tolerance_deg,
+                  tolerance_m=tolerance_m, cannot_help=cannot, render_check=checked,
+                  rejected_by_render=tuple(rejected), F_base=F_base, F_cand=F_cand, X=X,
+                  message=message, timing_s={"information": t1 - t0, "candidates": t2 - t1,
+                            "choice_and_render_check": t3 - t2,
+                            "total": time.perf_counter() - t0})
+
+
+def advise(base: Baseline, k: int = 5, *, seed: int = 0, n_candidates: int = 300,
+           tolerance_deg: float = 1.0, tolerance_m: float = 0.01, render: bool = True,
+           when_determined: str = "stop", **cand_kw) -> Advice:
+    """Advice for a :class:`Baseline` (candidates drawn from ``seed``)."""
+    rng = np.random.default_rng([int(seed), 13])
+    rc_rng = np.random.default_rng([int(seed), 17])
+
+    def check(cand, idx):
+        return fz.execute_stops(base.truth, base.cfg, cand, idx, rc_rng)
+
+    return advise_motions(base.truth.world, base.C, base.H, base.X, k, rng=rng,
+                          alpha=base.alpha, n_candidates=n_candidates,
+                          aruco_cameras=base.aruco_cameras, tolerance_deg=tolerance_deg,
+                          tolerance_m=tolerance_m, render_check=check if render else None,
+                          when_determined=when_determined, **cand_kw)
+
+
+def solve_errors(C, H, X_true, alpha, *, tolerance_deg=1.0, tolerance_m=0.01) -> dict:
+    """dqopt on ``C``, ``H``: actual errors against ``X_true`` and the predicted 1-sigma."""
+    import simcalib
+    from simcalib.geometry import rotation_error_rad
+    sol = simcalib.solve(C, H, method="dqopt", alpha=alpha, tolerance_deg=tolerance_deg,
+                         tolerance_m=tolerance_m)
+    X = np.asarray(sol.X, dtype=np.float64)
+    if not sol.success or not np.isfinite(X).all():
+        return {"success": False, "error": sol.solver_message, "n_motions": int(C.shape[0])}
+    try:
+        std = np.asarray(sol.std, dtype=np.float64)
+        verdict = sol.verdict
+    except Exception as exc:  # noqa: BLE001 - report, never pretend
+        std, verdict = np.full(6, np.nan), f"unavailable: {exc}"
+    return {"success": True, "n_motions": int(C.shape[0]),
+            "rotation_error_deg": float(np.rad2deg(rotation_error_rad(X, X_true))),
+            "translation_error_cm": float(100 * np.linalg.norm(X[:3, 3] - X_true[:3, 3])),
+            "predicted_std": _std_dict(std), "verdict": verdict,
+            "max_std_deg": _f(np.max(std[:3])), "max_std_cm": _f(100 * np.max(std[3:]))}
+
+
+def _std_dict(s) -> dict:
+    return {a: (None if not np.isfinite(v) else float(v)) for a, v in zip(AXES, s)}
+
+
+@dataclass(frozen=True)
+class Verification:
+    """Actual errors and predicted 1-sigma of dqopt for ``baseline``, ``advised`` and each
+    ``random`` seed (dicts of :func:`solve_errors` plus ``stops_measured``), the medians
+    over the random seeds and the ratios advised / median random."""
+    baseline: dict
+    advised: dict
+    random: list
+    random_median: dict
+    ratio: dict
+    timing_s: dict
+
+
+def verify(base: Baseline, adv: Advice, *, seeds=(0, 1, 2, 3, 4)) -> Verification:
+    """Execute the advised stops and ``len(seeds)`` sets of ``k`` random feasible stops
+    (uniform over the same feasible candidates) in the simulator; solve with each added."""
+    t0 = time.perf_counter()
+    X_true = base.truth.X_true
+    kw = dict(tolerance_deg=adv.tolerance_deg, tolerance_m=adv.tolerance_m)
+    res0 = solve_errors(base.C, base.H, X_true, base.alpha, **kw)
+
+    def run(idx, rng):
+        streams = fz.execute_stops(base.truth, base.cfg, adv.candidates, idx, rng)
+        Cs, Hs, got = fz.stop_motions(streams, chain=True)
+        r = solve_errors(np.concatenate([base.C, Cs]), np.concatenate([base.H, Hs]), X_true,
+                         base.alpha, **kw)
+        r["stops_measured"] = int(got.size)
+        r["stops"] = [int(i) for i in idx]
+        return r
+
+    if adv.chosen.size:
+        res_adv = run(adv.chosen, np.random.default_rng([base.cfg.seed, 101]))
+    else:                                   # advice: no motion needed
+        res_adv = dict(res0, stops_measured=0, stops=[])
+    feas = np.flatnonzero(adv.candidates.feasible)
+    res_rand = []
+    for s in seeds:
+        rng = np.random.default_rng([int(s), 202])
+        idx = rng.choice(feas, size=min(adv.k, feas.size), replace=False)
+        r = run(idx, np.random.default_rng([int(s), 303]))
+        r["seed"] = int(s)
+        res_rand.append(r)
+    med = {}
+    for key in ("rotation_error_deg", "translation_error_cm", "max_std_deg", "max_std_cm"):
+        vals = [np.inf if r.get(key) is None else r[key] for r in res_rand
+                if r.get("success")]
+        med[key] = _f(np.median(vals)) if vals else None
+    ratio = {}
+    for key in ("rotation_error_deg", "translation_error_cm"):
+        a, m = res_adv.get(key), med.get(key)
+        ratio[key] = None if a is None or not m else float(a / m)
+    return Verification(res0, res_adv, res_rand, med, ratio,
+                        {"verification": time.perf_counter() - t0})
+
+
+# ---------------------------------------------------------------------------- report
+def _rel(T) -> dict:
+    from simcalib.geometry import rotvec_from_matrix
+    rv = rotvec_from_matrix(T[:3, :3])
+    return {"rotvec_deg": np.degrees(rv).tolist(),
+            "angle_deg": float(np.degrees(np.linalg.norm(rv))),
+            "translation_m": T[:3, 3].tolist()}
+
+
+def _prev_inv(cand, c, chosen, step):
+    """Inverse of camera c's motion from the reference to the previous stop (stop and go:
+    each advised motion starts at the previous stop, the first at the reference)."""
+    from simcalib.geometry import invert_transform
+    return np.eye(4) if step == 0 else invert_transform(cand.motion[c][int(chosen[step - 1])])
+
+
+def _joint_names(model) -> list:
+    import mujoco
+    names = [""] * model.nq
+    for j in range(model.njnt):
+        a = int(model.jnt_qposadr[j])
+        if int(model.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE),
+                                      int(mujoco.mjtJoint.mjJNT_SLIDE)):
+            names[a] = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) or f"q{a}"
+    return names
+
+
+def advice_dict(base: Baseline, adv: Advice, ver: Verification | None = None) -> dict:
+    """advice.json (see docs/advice.md)."""
+    cand = adv.candidates
+    world = base.truth.world
+    names = _joint_names(world.model) if cand.platform == "arm" else []
+    motions = []
+    for step, j in enumerate(adv.chosen):
+        m = {"step": step + 1, "candidate": int(j),
+             "waypoint": {"T_world_target": cand.T_world_target[j].tolist(),
+                          "dp_world_m": cand.dp_world_m[j].tolist(),
+                          "rotvec_world_deg": np.degrees(cand.rotvec_world_rad[j]).tolist()},
+             "camera_motions": {c: _rel(_prev_inv(cand, c, adv.chosen, step)
+                                     @ cand.motion[c][j]) for c in cand.motion},
+             "predicted_std_after": _std_dict(adv.std_after[step]),
+             "max_std_tolerance_units_after": _f(adv.max_std_tol[step + 1])}
+        if cand.platform == "arm":
+            m["joint_targets_rad"] = {n: float(cand.qpos[j, a]) for a, n in enumerate(names)
+                                      if n}
+            m["ik_error"] = {"position_m": float(cand.ik_pos_error_m[j]),
+                             "rotation_rad": float(cand.ik_rot_error_rad[j])}
+        else:
+            m["cart_pose"] = {"position_m": cand.mocap_pos[j, 0].tolist(),
+                              "yaw_deg": float(np.degrees(cand.rotvec_world_rad[j, 2]))}
+        m["visible_markers"] = {c: int(v[j]) for c, v in cand.visible.items()}
+        m["rendered_markers"] = {c: v[step] for c, v in adv.render_check.items()
+                                 if step < len(v)}
+        motions.append(m)
+    reasons: dict = {}
+    for r in cand.reason:
+        key = r.split(" (")[0] if r else "feasible"
+        key = "cam sees too few markers" if "markers" in key else key
+        reasons[key] = reasons.get(key, 0) + 1
+    out = {"scenario": base.cfg.scenario, "platform": cand.platform,
+           "path": base.cfg.world.path, "seed": base.cfg.seed, "k": adv.k,
+           "criterion": "greedy along the stop-and-go chain: minimise max + mean of "
+                        "1/(lambda + 1e-6) of the information in tolerance units "
+                        "(lambda_min = 1/largest sigma^2)",
+           "tolerance": {"deg": adv.tolerance_deg, "m": adv.tolerance_m},
+           "noise_fitted": {"sigma_r_deg": math.degrees(adv.noise[0]),
+                            "sigma_t_m": adv.noise[1]},
+           "recorded_motions": int(base.C.shape[0]),
+           "reference": {"frame": int(cand.ref["frame"]),
+                         "T_world_target": cand.ref["T_world_target"].tolist(),
+                         **({"joints_rad": {n: float(cand.ref["qpos"][a])
+                                            for a, n in enumerate(names) if n}}
+                            if names else {})},
+           "predicted_std_before": _std_dict(adv.std_before),
+           "max_std_tolerance_units_before": _f(adv.max_std_tol[0]),
+           "message": adv.message,
+           "motions": motions,
+           "cannot_help": adv.cannot_help,
+           "candidates": {"drawn": cand.n, "feasible": int(cand.feasible.sum()),
+                          "by_reason": reasons,
+                          "rejected_by_render_check": list(adv.rejected_by_render)},
+           "timing_s": dict(adv.timing_s)}
+    if ver is not None:
+        out["verification"] = {"baseline": ver.baseline, "advised": ver.advised,
+                               "random": ver.random, "random_median": ver.random_median,
+                               "ratio_advised_to_random_median": ver.ratio,
+                               "timing_s": ver.timing_s}
+    return out
+
+
+def _f(x):
+    return None if x is None or not np.isfinite(x) else float(x)

@@ -1,0 +1,147 @@
+"""``simcalib advise scenario=NAME [k=5] [verify=true] [output=DIR] [key=value ...]``:
+which motions to record next (docs/advice.md)."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+from simcalib.errors import UsageError
+
+USAGE = """usage: python -m simcalib advise scenario=NAME [k=5] [verify=true|false]
+       [seeds=5] [candidates=300] [output=DIR] [key=value ...] [--debug]
+
+Proposes the next k stop-and-go motions of the platform that most reduce the predicted
+uncertainty of X (greedy over feasible candidates: IK within joint limits, no
+self-collision, markers visible and detected in the render for ArUco cameras), after the
+scenario's recorded run. With verify=true the advised stops are executed in the
+simulator (render, detect, solve with dqopt) and compared with k random feasible stops
+for `seeds` seeds. Writes DIR/advice.json and DIR/advice.rrd (proposed poses in 3D);
+prints the predicted 1-sigma per axis before and after each motion.
+
+Advice options: k, verify, seeds, candidates, max_rotation_deg, max_translation_m,
+min_markers, recording (true|false), force (true: propose k motions even when the
+recorded motions already determine X within the tolerance; default false: none then). Every other key=value is a scenario override
+(see `run --help`), e.g. world.platform=arm.
+"""
+
+ADVICE_KEYS = {"k": int, "verify": bool, "seeds": int, "candidates": int,
+               "max_rotation_deg": float, "max_translation_m": float, "min_markers": int,
+               "recording": bool, "force": bool}
+
+
+def _value(key, text):
+    typ = ADVICE_KEYS[key]
+    t = text.strip().lower()
+    if typ is bool:
+        if t in ("true", "yes", "1", "on"):
+            return True
+        if t in ("false", "no", "0", "off"):
+            return False
+        raise UsageError(f"{key} must be true or false; received {text!r}")
+    try:
+        v = typ(t)
+    except ValueError:
+        raise UsageError(f"{key} must be {'an integer' if typ is int else 'a number'}; "
+                         f"received {text!r}") from None
+    if typ is int and v < 1 or (typ is float and not (math.isfinite(v) and v > 0)):
+        raise UsageError(f"{key} must be > 0; received {text!r}")
+    return v
+
+
+def parse_args(args):
+    from simcalib.commands.run import parse_args as run_args
+    opts = {"k": 5, "verify": False, "seeds": 5, "candidates": 300, "recording": True}
+    rest = []
+    for a in args:
+        key, eq, val = a.partition("=")
+        if eq and key.strip() in ADVICE_KEYS:
+            opts[key.strip()] = _value(key.strip(), val)
+        else:
+            rest.append(a)
+    scenario, overrides, _ = run_args(rest)
+    return scenario, overrides, opts
+
+
+def print_table(out: dict) -> None:
+    def row(label, s):
+        vals = [s.get(a) for a in ("wx_deg", "wy_deg", "wz_deg")]
+        tr = [s.get(a) for a in ("vx_m", "vy_m", "vz_m")]
+        f = lambda v, m=1.0: "    inf" if v is None else f"{v * m:7.3f}"   # noqa: E731
+        return f"{label:<10}" + " ".join(f(v) for v in vals) + "  " + " ".join(
+            f(v, 100) for v in tr)
+    print(f"advice for {out['scenario']} ({out['platform']}, {out['recorded_motions']} recorded "
+          f"motions; {out['candidates']['feasible']} of {out['candidates']['drawn']} candidates "
+          f"feasible)")
+    print("predicted 1-sigma   wx      wy      wz [deg]   vx      vy      vz [cm]")
+    print(row("before", out["predicted_std_before"]))
+    for m in out["motions"]:
+        print(row(f"+ stop {m['step']}", m["predicted_std_after"]))
+    for m in out["motions"]:
+        cm = m["camera_motions"]
+        desc = ", ".join(f"{c}: {v['angle_deg']:.1f} deg / "
+                         f"{100 * math.hypot(*v['translation_m']):.1f} cm" for c, v in cm.items())
+        joints = m.get("joint_targets_rad")
+        jt = (" joints [deg] " + " ".join(f"{math.degrees(v):.1f}" for v in joints.values())
+              if joints else f" cart {m['cart_pose']}")
+        print(f"stop {m['step']}: {desc};{jt}")
+    if out.get("message"):
+        print(out["message"])
+    for c in out["cannot_help"]:
+        print(f"cannot help: {c['statement']}. Fix: {c['fix']}")
+    print(f"advice took {out['timing_s']['total']:.1f} s")
+    ver = out.get("verification")
+    if ver:
+        print("verification (dqopt; actual error vs truth, predicted largest 1-sigma):")
+        print(f"{'':<12}{'rot [deg]':>10}{'trans [cm]':>12}{'σ rot [deg]':>13}{'σ trans [cm]':>14}")
+
+        def vr(label, r):
+            if not r.get("success"):
+                print(f"{label:<12} FAILED: {r.get('error')}")
+                return
+            print(f"{label:<12}{r['rotation_error_deg']:>10.3f}{r['translation_error_cm']:>12.3f}"
+                  f"{_n(r['max_std_deg']):>13}{_n(r['max_std_cm']):>14}")
+        vr("baseline", ver["baseline"])
+        vr("advised", ver["advised"])
+        for r in ver["random"]:
+            vr(f"random s{r['seed']}", r)
+        med = ver["random_median"]
+        print(f"{'random med':<12}{_n(med['rotation_error_deg']):>10}"
+              f"{_n(med['translation_error_cm']):>12}{_n(med['max_std_deg']):>13}"
+              f"{_n(med['max_std_cm']):>14}")
+        rt = ver["ratio_advised_to_random_median"]
+        print(f"advised / random median: rotation {_n(rt['rotation_error_deg'])}, "
+              f"translation {_n(rt['translation_error_cm'])}")
+
+
+def _n(v):
+    return "inf/n/a" if v is None else f"{v:.3f}"
+
+
+def main(args: list[str]) -> int:
+    if any(a in ("-h", "--help") for a in args):
+        print(USAGE, end="")
+        return 0
+    scenario, overrides, opts = parse_args(args)
+    from simcalib.config import load_config
+    cfg = load_config(scenario, list(overrides))
+    out_dir = Path(cfg.output) if cfg.output else Path("runs") / f"advise-{cfg.scenario}"
+    out_dir.mkdir(parents=True, exist_ok=True)
+    from simcalib.advise import advice_dict, advise, baseline, verify
+    base = baseline(cfg)
+    kw = {k: opts[k] for k in ("max_rotation_deg", "max_translation_m", "min_markers")
+          if k in opts}
+    adv = advise(base, opts["k"], seed=cfg.seed, n_candidates=opts["candidates"],
+                 when_determined="advise" if opts.get("force") else "stop", **kw)
+    ver = verify(base, adv, seeds=tuple(range(opts["seeds"]))) if opts["verify"] else None
+    out = advice_dict(base, adv, ver)
+    path = out_dir / "advice.json"
+    path.write_text(json.dumps(out, indent=1, allow_nan=False))
+    if opts["recording"]:
+        from simcalib.rerun_log import record_advice
+        out["recording"] = str(record_advice(out_dir / "advice.rrd", base, adv))
+        path.write_text(json.dumps(out, indent=1, allow_nan=False))
+    print_table(out)
+    print(f"wrote {path}" + (f", {out['recording']}" if opts["recording"] else ""))
+    return 0
