@@ -134,6 +134,7 @@ class RunState:
     out: Path
     rngs: dict
     t_start: float = 0.0
+    compile_job: object = None   # child compiling the solver kernels (first run on a machine)
     timing: dict = field(default_factory=dict)
     done: list = field(default_factory=list)
     truth: GroundTruth | None = None
@@ -221,6 +222,8 @@ def run(config, overrides=(), *, echo: bool = True) -> RunResult:
         from simcalib.rerun_log import RunRecorder
         recorder = RunRecorder(out / "recording.rrd", cfg)
     rec_path = None if recorder is None else recorder.path
+    from simcalib.solvers.kernels.batch import start_background_compile
+    st.compile_job = start_background_compile()   # first run on a machine: overlap with the world
     bar = reports.progress(total=len(STAGES), enabled=cfg.progress, desc="stages",
                            unit="stage", position=0)
     where = None   # the stage running (or whose results are being recorded)
@@ -412,7 +415,11 @@ def _prior(st: RunState):
 
 def _stage_solvers(st: RunState) -> None:
     from simcalib import reports
+    from simcalib.solvers.kernels.batch import finish_background_compile
     cfg = st.cfg
+    if st.compile_job is not None:
+        st.timing["waited_for_compile"] = finish_background_compile(st.compile_job)
+        st.compile_job = None
     jobs = [(m, m, False) for m in cfg.solvers]
     prior = prior_info = None
     if cfg.prior.enabled:
