@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import math
 import re
+import time
 import uuid
 from pathlib import Path
 
@@ -65,7 +66,10 @@ _SOLVER_COLORS = [(220, 50, 50), (50, 170, 80), (150, 80, 200), (240, 180, 0),
                   (0, 170, 190), (200, 100, 150), (120, 120, 120), (90, 60, 20)]
 _TRUE_COLOR = (40, 140, 230)
 _OFFSCALE_COLOR = (255, 40, 40)
-_LABEL_COLOR = (255, 255, 255)    # label text (drawn on the viewer's grey label boxes)
+_LABEL_COLOR = (255, 255, 255)
+#: backgrounds of the two 3D views (the screenshot checks rely on them)
+SCENE_BACKGROUND = (245, 245, 245)
+CLOSEUP_BACKGROUND = (28, 30, 34)    # label text (drawn on the viewer's grey label boxes)
 
 
 def closeup_bound_m(t_true_norm_m: float) -> float:
@@ -125,11 +129,11 @@ def default_blueprint(kind: str = "sim", images: bool = True, cameras=("cam_a", 
 
     scene = rrb.Spatial3DView(
         origin="world", name="scene (true paths: lines, pose source: points)",
-        eye_controls=eye_controls(eye), background=(245, 245, 245),
+        eye_controls=eye_controls(eye), background=SCENE_BACKGROUND,
         line_grid=rrb.LineGrid3D(visible=False))
     closeup = rrb.Spatial3DView(
         origin="closeup", name="extrinsic close-up (camera a frame; true cam_b blue)",
-        eye_controls=eye_controls(closeup_eye), background=(250, 250, 250),
+        eye_controls=eye_controls(closeup_eye), background=CLOSEUP_BACKGROUND,
         line_grid=rrb.LineGrid3D(visible=False))
     pose = rrb.Vertical(
         rrb.TimeSeriesView(origin="pose_error/rotation_deg",
@@ -186,6 +190,7 @@ class RunRecorder:
     """
 
     def __init__(self, path: Path, cfg):
+        t_init = time.perf_counter()
         import rerun as rr
         self.path = Path(path)
         self.cfg = cfg
@@ -202,12 +207,21 @@ class RunRecorder:
         self.closeup_eye = None
         self.room = None                 # (min, max) corners of the room, sim runs
         self._workspace = []             # points the scene view frames
+        self.elapsed_s = 0.0             # wall time spent recording (recording_view.json)
         self.rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         self.rec.log("closeup", rr.ViewCoordinates.RDF, static=True)
+        self.elapsed_s = time.perf_counter() - t_init
 
     # ------------------------------------------------------------- dispatch
     def record_stage(self, stage: str, st) -> None:
         """Log what ``stage`` produced (``st``: :class:`simcalib.pipeline.RunState`)."""
+        t0 = time.perf_counter()
+        try:
+            self._record_stage(stage, st)
+        finally:
+            self.elapsed_s += time.perf_counter() - t0
+
+    def _record_stage(self, stage: str, st) -> None:
         truth = st.truth
         if stage == "world":
             self.kind = truth.kind
@@ -560,13 +574,16 @@ class RunRecorder:
         if self._closed:
             return
         self._closed = True
+        t0 = time.perf_counter()
         try:
             self.rec.send_blueprint(self.blueprint(), make_active=True, make_default=True)
             self.rec.flush()
+            self.elapsed_s += time.perf_counter() - t0
             # the views' framing, for tools that open one view alone (tools/screenshots.py)
             import json
             self.path.with_name("recording_view.json").write_text(json.dumps(
-                {"kind": self.kind, "images": self.images, "eye": self.eye,
+                {"kind": self.kind, "images": self.images, "recording_s": self.elapsed_s,
+                 "eye": self.eye,
                  "closeup_eye": self.closeup_eye,
                  "room": None if self.room is None else [v.tolist() for v in self.room]},
                 indent=1))

@@ -34,13 +34,14 @@ from pathlib import Path
 
 import numpy as np
 
+from simcalib.rerun_log import CLOSEUP_BACKGROUND, SCENE_BACKGROUND
+
 __all__ = ["missing_prerequisites", "screenshot", "ocr_text", "check_recording",
-           "ShotReport", "DEFAULT_SCENARIOS", "WINDOW_SIZE", "MIN_SCENE_FILL", "main"]
+           "ShotReport", "text_contains", "DEFAULT_SCENARIOS", "WINDOW_SIZE", "MIN_SCENE_FILL", "main"]
 
 DEFAULT_SCENARIOS = ("planar", "3d", "line")
 WINDOW_SIZE = (1600, 1000)
 MIN_SCENE_FILL = 0.15
-_SCENE_BG = (245, 245, 245)       # the scene view's background (rerun_log.default_blueprint)
 REPO = Path(__file__).resolve().parents[2]
 
 
@@ -93,14 +94,19 @@ def screenshot(rrd: Path, png: Path, *, blueprint: Path | None = None,
     return png
 
 
-def ocr_text(png: Path) -> str:
-    """The text tesseract reads in ``png`` (upscaled and inverted: the viewer draws light
-    text on a dark theme)."""
+def ocr_text(png: Path, bright_text: bool = False) -> str:
+    """The text tesseract reads in ``png``: inverted (the viewer draws light text on a dark
+    theme), or with ``bright_text`` only the near-white pixels as black text (the 3D
+    views' white labels on grey boxes over a dark background)."""
     from PIL import Image, ImageOps
     im = Image.open(png).convert("L")
     with tempfile.TemporaryDirectory() as d:
         p = Path(d) / "ocr.png"
-        ImageOps.autocontrast(ImageOps.invert(im)).save(p)
+        if bright_text:
+            a = np.asarray(im.resize((2 * im.width, 2 * im.height), Image.LANCZOS))
+            Image.fromarray(np.where(a >= 215, 0, 255).astype(np.uint8)).save(p)
+        else:
+            ImageOps.autocontrast(ImageOps.invert(im)).save(p)
         out = subprocess.run(["tesseract", str(p), "-", "--psm", "11"], capture_output=True,
                              text=True, timeout=300)
     return out.stdout
@@ -110,13 +116,28 @@ def _norm(text: str) -> str:
     return re.sub(r"[^a-z0-9]", "", text.lower())
 
 
+def text_contains(text: str, label: str) -> bool:
+    """Whether OCR ``text`` contains ``label`` (letters and digits only, case-insensitive),
+    allowing one misread character in five (tesseract reads q as g or a at small sizes)."""
+    t, w = _norm(text), _norm(label)
+    if not w or w in t:
+        return bool(w)
+    tol = len(w) // 5
+    a = np.frombuffer(t.encode(), dtype=np.uint8)
+    b = np.frombuffer(w.encode(), dtype=np.uint8)
+    if tol == 0 or a.size < b.size:
+        return False
+    win = np.lib.stride_tricks.sliding_window_view(a, b.size)
+    return bool(((win != b).sum(axis=1) <= tol).any())
+
+
 def _scene_fill(png: Path) -> float:
     """Fraction of the 3D view's pixels (below the title bar) that are not background."""
     from PIL import Image
     a = np.asarray(Image.open(png).convert("RGB"), dtype=np.int16)
     h = a.shape[0]
     body = a[int(0.08 * h):int(0.9 * h)]
-    bg = np.abs(body - np.array(_SCENE_BG)).sum(axis=2) <= 12
+    bg = np.abs(body - np.array(SCENE_BACKGROUND)).sum(axis=2) <= 12
     return float(1.0 - bg.mean())
 
 
@@ -144,7 +165,7 @@ def _single_view_blueprint(rrd_dir: Path, which: str, path: Path) -> Path:
         eye_up=e["eye_up"])
     view = rrb.Spatial3DView(origin="closeup" if which == "closeup" else "world",
                              name=which, eye_controls=eye, background=(
-                                 250, 250, 250) if which == "closeup" else _SCENE_BG,
+                                 CLOSEUP_BACKGROUND if which == "closeup" else SCENE_BACKGROUND),
                              line_grid=rrb.LineGrid3D(visible=False))
     rrb.Blueprint(view, rrb.TimePanel(state="hidden"), rrb.BlueprintPanel(state="hidden"),
                   rrb.SelectionPanel(state="hidden"), rrb.TopPanel(state="hidden"),
@@ -174,9 +195,9 @@ def check_recording(run_dir: Path, out_dir: Path, scenario: str | None = None) -
         text = ocr_text(rep.shots["layout"])
         if "nodataavailable" in _norm(text) or "no data available" in text.lower():
             rep.problems.append("a pane says 'No data available'")
-        close = _norm(ocr_text(rep.shots["closeup"]))
+        close = ocr_text(rep.shots["closeup"], bright_text=True)
         for label, s in (results.get("solvers") or {}).items():
-            if s.get("X") is not None and _norm(label) not in close:
+            if s.get("X") is not None and not text_contains(close, label):
                 rep.problems.append(f"close-up: no label for successful estimate {label!r}")
     rep.scene_fill = _scene_fill(rep.shots["scene"])
     if rep.scene_fill < MIN_SCENE_FILL:
