@@ -123,7 +123,7 @@ def test_synthetic_recording_has_no_room_or_images(tmp_path):
 
 @pytest.mark.slow
 def test_arm_recording_draws_the_arm_links_and_images(tmp_path):
-    out, res = _run(tmp_path, "3d", "world.duration_s=2", "progress=false",
+    out, res = _run(tmp_path, "3d", "world.duration_s=4", "progress=false",
                     "solvers=[dqopt]")
     ents = _chunks(out / "recording.rrd")
     links = {e.split("/")[3] for e in ents if e.startswith("/world/platform/")}
