@@ -167,4 +167,4 @@ def test_interrupt_leaves_readable_recording_and_partial_results(tmp_path, monke
     assert res["completed_stages"] == ["world", "streams", "pairs"]
     assert res["solvers"] == {} and res["pairing"]["used"] >= 2
     ents = _entities(out / "recording.rrd")
-    assert "/world/cam_a" in ents and "/world/markers" in ents
+    assert "/world/cam_a" in ents and any(e.startswith("/world/markers/") for e in ents)
