@@ -490,17 +490,21 @@ class RunRecorder:
                 labels=[", ".join(s.label for s, _, _ in grp)]), rr.LineStrips3D(
                 [[p0, p1]], colors=grp[0][2], radii=0.01 * L), static=True)
             extent.append(p1)
+        # one label for every off-scale estimate (at the first marker): no overdrawn text
+        lines = []
         for j, grp in enumerate(offscale):
             p = grp[0][1]
-            text = f"OFF-SCALE (drawn at {bound:g} m), real error:\n" + "\n".join(
-                f"{s.label}: {_fmt(s.rotation_error_deg)}° / {_fmt_len_cm(s.translation_error_m)}"
-                for s, _ in grp)
             self.rec.log(f"closeup/offscale/{j}", rr.Points3D(
                 [p], radii=0.2 * L, colors=_OFFSCALE_COLOR), rr.Arrows3D(
                 origins=[0.85 * p], vectors=[0.15 * p], colors=_OFFSCALE_COLOR), static=True)
-            self.rec.log(f"closeup/offscale/{j}/label", rr.Points3D(
-                [p], radii=0.01 * L, colors=_LABEL_COLOR, labels=[text]), static=True)
+            lines += [f"{s.label}: {_fmt(s.rotation_error_deg)}° / "
+                      f"{_fmt_len_cm(s.translation_error_m)}" for s, _ in grp]
             extent.append(p)
+        if offscale:
+            self.rec.log("closeup/offscale/0/label", rr.Points3D(
+                [offscale[0][0][1]], radii=0.01 * L, colors=_LABEL_COLOR,
+                labels=[f"OFF-SCALE (drawn at {bound:g} m), real error:\n" + "\n".join(lines)]),
+                static=True)
         self.rec.log("closeup/labels/true_cam_b", rr.Points3D(
             [t_true + np.array([0.0, 0.5 * L, 0.0])], radii=0.05 * L, colors=_LABEL_COLOR,
             labels=["true cam b"]), static=True)
