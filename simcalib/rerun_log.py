@@ -111,7 +111,8 @@ def _decades(values) -> tuple[float, float]:
 
 # -------------------------------------------------------------------------- blueprints
 def default_blueprint(kind: str = "sim", images: bool = True, cameras=("cam_a", "cam_b"),
-                      eye: dict | None = None, closeup_eye: dict | None = None):
+                      eye: dict | None = None, closeup_eye: dict | None = None,
+                      present: set | None = None):
     """The layout a run recording opens on, per scenario kind.
 
     Left: the scene (room, platform, cameras, trajectories) and, when images were logged
@@ -119,7 +120,9 @@ def default_blueprint(kind: str = "sim", images: bool = True, cameras=("cam_a", 
     close-up, the pose-source error (rotation and translation in separate plots), the
     per-solver error table and the summary. Synthetic runs (no room, no images) give the
     scene less room and the tables more. ``eye`` / ``closeup_eye``: ``{"position",
-    "look_target", "eye_up"}`` of the two 3D views."""
+    "look_target", "eye_up"}`` of the two 3D views. ``present``: the views that have data
+    (``"scene"``, ``"closeup"``, ``"pose_error"``, ``"summary"``); the others are left out
+    (no pane says "No data available"); ``None`` keeps all."""
     import rerun.blueprint as rrb
 
     def eye_controls(e):
@@ -135,33 +138,43 @@ def default_blueprint(kind: str = "sim", images: bool = True, cameras=("cam_a", 
         origin="closeup", name="extrinsic close-up (camera a frame; true cam_b blue)",
         eye_controls=eye_controls(closeup_eye), background=CLOSEUP_BACKGROUND,
         line_grid=rrb.LineGrid3D(visible=False))
-    pose = rrb.Vertical(
-        rrb.TimeSeriesView(origin="pose_error/rotation_deg",
-                           name="pose-source rotation error [deg]"),
-        rrb.TimeSeriesView(origin="pose_error/translation_mm",
-                           name="pose-source translation error [mm]"))
+    pose = [rrb.TimeSeriesView(origin="pose_error/rotation_deg",
+                               name="pose-source rotation error [deg]"),
+            rrb.TimeSeriesView(origin="pose_error/translation_mm",
+                               name="pose-source translation error [mm]")]
     summary = rrb.TextDocumentView(origin="summary",
                                    name="summary: errors per solver (log bars), verdict")
+    images_row = [rrb.Spatial2DView(origin=f"world/{c}/image", name=f"{c} image + detections")
+                  for c in cameras]
+    if present is not None:   # only views with data (an interrupted run has fewer)
+        scene, closeup, summary = (v if k in present else None for v, k in (
+            (scene, "scene"), (closeup, "closeup"), (summary, "summary")))
+        pose = pose if "pose_error" in present else []
+
+    def box(cls, items, shares):
+        kept = [(i, sh) for i, sh in zip(items, shares) if i is not None]
+        if not kept:
+            return None
+        if len(kept) == 1:
+            return kept[0][0]
+        key = "row_shares" if cls is rrb.Vertical else "column_shares"
+        return cls(*[i for i, _ in kept], **{key: [sh for _, sh in kept]})
+
+    pose_box = box(rrb.Vertical, pose, [1] * len(pose))
     if kind == "synthetic":
-        body = rrb.Horizontal(
-            rrb.Vertical(scene, closeup, row_shares=[1, 1]),
-            rrb.Vertical(pose, summary, row_shares=[2, 3]),
-            column_shares=[2, 3])
+        body = box(rrb.Horizontal, [box(rrb.Vertical, [scene, closeup], [1, 1]),
+                                    box(rrb.Vertical, [pose_box, summary], [2, 3])], [2, 3])
     elif images:
-        body = rrb.Horizontal(
-            rrb.Vertical(scene,
-                         rrb.Horizontal(*[rrb.Spatial2DView(
-                             origin=f"world/{c}/image", name=f"{c} image + detections")
-                             for c in cameras]),
-                         row_shares=[3, 2]),
-            rrb.Vertical(rrb.Horizontal(closeup, pose, column_shares=[3, 2]),
-                         summary, row_shares=[1, 1]),
-            column_shares=[1, 1])
+        body = box(rrb.Horizontal, [
+            box(rrb.Vertical, [scene, box(rrb.Horizontal, images_row, [1] * len(cameras))],
+                [3, 2]),
+            box(rrb.Vertical, [box(rrb.Horizontal, [closeup, pose_box], [3, 2]), summary],
+                [1, 1])], [1, 1])
     else:
-        body = rrb.Horizontal(
-            rrb.Vertical(scene, closeup, row_shares=[3, 2]),
-            rrb.Vertical(pose, summary, row_shares=[2, 3]),
-            column_shares=[1, 1])
+        body = box(rrb.Horizontal, [box(rrb.Vertical, [scene, closeup], [3, 2]),
+                                    box(rrb.Vertical, [pose_box, summary], [2, 3])], [1, 1])
+    if body is None:
+        body = rrb.Spatial3DView(origin="world", name="scene")
     return rrb.Blueprint(body, rrb.TimePanel(timeline="frame", state="collapsed"),
                          rrb.BlueprintPanel(state="collapsed"),
                          rrb.SelectionPanel(state="collapsed"), auto_views=False)
@@ -208,6 +221,7 @@ class RunRecorder:
         self.room = None                 # (min, max) corners of the room, sim runs
         self._workspace = []             # points the scene view frames
         self.elapsed_s = 0.0             # wall time spent recording (recording_view.json)
+        self.present: set[str] = set()   # views with data (the blueprint shows only those)
         self.rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         self.rec.log("closeup", rr.ViewCoordinates.RDF, static=True)
         self.elapsed_s = time.perf_counter() - t_init
@@ -279,6 +293,7 @@ class RunRecorder:
                                                                  mat3x3=T[:, :3, :3]))
             self._log_geoms(f"{ent}/geoms", body.geoms)
             self._workspace.append(T[:, :3, 3])
+        self._update_eye()
 
     def _log_geoms(self, ent: str, geoms) -> None:
         import rerun as rr
@@ -381,6 +396,7 @@ class RunRecorder:
     def _update_eye(self) -> None:
         if not self._workspace:
             return
+        self.present.add("scene")
         p = np.concatenate(self._workspace)
         lo, hi = p.min(0), p.max(0)
         if self.room is not None:
@@ -434,6 +450,7 @@ class RunRecorder:
         import rerun as rr
         X_true = np.asarray(X_true, dtype=np.float64)
         t_true = X_true[:3, 3]
+        self.present.add("closeup")
         bound = closeup_bound_m(np.linalg.norm(t_true))
         L = float(np.clip(0.3 * np.linalg.norm(t_true), 0.02, 0.15))   # axis length
         ok = [s for s in solvers if s.X is not None and np.isfinite(s.X).all()]
@@ -558,6 +575,7 @@ class RunRecorder:
                                              ("translation_mm", e.translation_m, 1000.0,
                                               "mm")):
                 ent = f"pose_error/{name}/{cam}"
+                self.present.add("pose_error")
                 self.rec.log(ent, rr.SeriesLines(names=f"{cam} ({e.source}) [{what}]",
                                                  colors=_COLORS.get(cam, (200, 200, 200))),
                              static=True)
@@ -567,12 +585,13 @@ class RunRecorder:
 
     def log_summary(self, markdown: str) -> None:
         import rerun as rr
+        self.present.add("summary")
         self.rec.log("summary", rr.TextDocument(markdown, media_type="text/markdown"),
                      static=True)
 
     def blueprint(self):
         return default_blueprint(kind=self.kind, images=self.images, eye=self.eye,
-                                 closeup_eye=self.closeup_eye)
+                                 closeup_eye=self.closeup_eye, present=self.present)
 
     def close(self) -> None:
         if self._closed:

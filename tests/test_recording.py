@@ -254,3 +254,29 @@ def test_screenshots_of_a_short_planar_run(tmp_path):
     assert rep.ok, rep.problems
     for p in rep.shots.values():
         assert Path(p).stat().st_size > 10_000
+
+
+def _view_origins(bp) -> set:
+    out, stack = set(), [bp.root_container]
+    while stack:
+        c = stack.pop()
+        if hasattr(c, "contents") and not hasattr(c, "origin"):
+            stack.extend(c.contents)
+        else:
+            out.add(str(c.origin))
+    return out
+
+
+def test_blueprint_per_kind_shows_only_views_with_data():
+    from simcalib.rerun_log import default_blueprint
+    full = {"scene", "closeup", "pose_error", "summary"}
+    aruco = _view_origins(default_blueprint("sim", images=True, present=full))
+    assert {"world/cam_a/image", "world/cam_b/image", "world", "closeup", "summary"} <= aruco
+    for kind, images in (("sim", False), ("synthetic", False)):
+        got = _view_origins(default_blueprint(kind, images=images, present=full))
+        assert not any(o.endswith("/image") for o in got)
+        assert {"world", "closeup", "pose_error/rotation_deg", "summary"} <= got
+    # an interrupted run (no solvers, no evaluation): no empty panes
+    partial = _view_origins(default_blueprint("sim", images=True, present={"scene"}))
+    assert "closeup" not in partial and "summary" not in partial
+    assert not any(o.startswith("pose_error") for o in partial)
