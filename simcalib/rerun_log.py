@@ -363,7 +363,6 @@ class RunRecorder:
             allp = np.concatenate(pts)
             ext = float(np.linalg.norm(allp.max(0) - allp.min(0))) if len(allp) else 1.0
             scale = float(np.clip(0.04 * ext, 0.02, 0.1))
-        self._scale = scale
         for cam, s in gt.items():
             color = _COLORS.get(cam, (200, 200, 200))
             T = np.asarray(s.T_world_cam)
