@@ -1,4 +1,5 @@
-"""ALL rerun code of simcalib: the run recording (``recording.rrd``) and its blueprint.
+"""ALL rerun code of simcalib: the run recording (``recording.rrd``), the sweep and experiment
+recordings, and their blueprints (docs/recording.md shows them).
 
 Headless: a :class:`rerun.RecordingStream` saved straight to a file (no viewer), wall-clock
 log time disabled; application id ``simcalib``, a fresh recording id per run (two runs
@@ -6,28 +7,41 @@ opened together stay apart). Open it with ``rerun recording.rrd``.
 
 The pipeline's stages never call rerun: after each stage the run loop hands the state to
 :meth:`RunRecorder.record_stage`, the ONE place that decides what a stage's results look
-like in the recording (``world``: markers; ``streams``: trajectories, cameras, images with
-the detections of the same frames; ``solvers``: the successful estimates — a failed
-solver is never drawn; ``evaluation``: pose-source errors; ``reports``: the summary).
+like in the recording (``world``: room, markers, the platform's geoms posed per frame;
+``streams``: trajectories, cameras, images with the detections of the same frames;
+``solvers``: the extrinsic close-up and the per-solver error table; ``evaluation``:
+pose-source errors; ``reports``: the summary). The blueprint is chosen from what was
+recorded (scenario kind, images or not) and written when the recording is closed.
 
 Entity layout (timeline ``frame`` = simulated frame index, plus ``sim_time``):
 
-* ``world/markers`` — the marker field (thin boxes labelled with their ids), static.
-* ``world/trajectories/<cam>/ground_truth`` and ``.../<source>`` — paths, static.
-* ``world/<cam>`` — the camera's true pose per frame; ``world/<cam>/image`` its pinhole,
-  the rendered (JPEG) image and ``world/<cam>/image/corners`` the detected marker corners.
-* ``world/cam_a/estimates/<solver>`` — each solver's estimate of camera b, placed with
-  ``X_est`` relative to the true camera a, so it sits beside the true ``world/cam_b``
-  (``world/cam_a/true_cam_b`` is the same with the true X).
-* ``errors/rotation_deg``, ``errors/translation_cm`` — per-solver bar charts (order in
-  ``errors/legend``); ``errors/<solver>/...`` the same as scalars.
-* ``pose_error/<cam>/rotation_deg|translation_mm`` — per-frame pose-source error series.
-* ``summary`` — the console table as text.
+* ``world`` (z up): ``world/room/<geom>`` floor (solid), walls and ceiling (outlines);
+  ``world/markers/<id>`` textured marker quads; ``world/platform/<body>`` every moving body
+  of the MuJoCo model (cart, wheels, arm links, rig) posed per frame, its geoms logged once
+  under ``.../geoms``; ``world/<cam>`` the true camera pose per frame with
+  ``world/<cam>/image`` (pinhole frustum, JPEG image, ``corners``/``markers`` overlays of
+  that frame); ``world/trajectories/<cam>/ground_truth`` (line) and ``.../<source>``
+  (points).
+* ``closeup`` (camera a's OpenCV frame, x right, y down, z forward): ``closeup/cam_a``,
+  ``closeup/true_cam_b`` and ``closeup/estimates/<solver>`` as axes; estimates farther than
+  the close-up bound (:func:`closeup_bound_m`) are drawn at the bound as
+  ``closeup/offscale/<k>`` (one marker per place) with the real errors in the label;
+  ``closeup/uncertainty/<solver>`` the 3-sigma translation ellipsoid when the solver
+  result carries a ``covariance``; failed solvers are only named in ``closeup/cam_a``'s
+  label.
+* ``errors/<solver>/rotation_deg|translation_cm`` — per-solver errors as scalars (the
+  summary shows them as a table with log-scale bars).
+* ``pose_error/rotation_deg/<cam>``, ``pose_error/translation_mm/<cam>`` — per-frame
+  pose-source error, one unit per plot, a colour per camera.
+* ``summary`` — the console summary as a markdown document: per-solver errors with
+  log-scale bars, FAILED and degenerate rows, undetermined directions, frames, pairs.
 """
 
 from __future__ import annotations
 
+import math
 import re
+import time
 import uuid
 from pathlib import Path
 
@@ -35,70 +49,199 @@ import numpy as np
 
 from simcalib.geometry import quat_from_matrix
 
-__all__ = ["RunRecorder", "default_blueprint", "entity_name"]
+__all__ = ["RunRecorder", "default_blueprint", "entity_name", "closeup_bound_m",
+           "record_sweep", "log_experiment", "summary_markdown", "SCENE_ROOTS"]
+
+#: top-level entity roots of a run recording
+SCENE_ROOTS = ("world", "closeup", "errors", "pose_error", "summary")
 
 
 def entity_name(label: str) -> str:
     """Entity-path-safe name of a solver label (``dqopt+prior`` -> ``dqopt_prior``)."""
     return re.sub(r"[^A-Za-z0-9_]", "_", label)
 
+
 _COLORS = {"cam_a": (230, 120, 30), "cam_b": (40, 140, 230)}
 _SOLVER_COLORS = [(220, 50, 50), (50, 170, 80), (150, 80, 200), (240, 180, 0),
                   (0, 170, 190), (200, 100, 150), (120, 120, 120), (90, 60, 20)]
+_TRUE_COLOR = (40, 140, 230)
+_OFFSCALE_COLOR = (255, 40, 40)
+_LABEL_COLOR = (255, 255, 255)
+#: backgrounds of the two 3D views (the screenshot checks rely on them)
+SCENE_BACKGROUND = (245, 245, 245)
+CLOSEUP_BACKGROUND = (28, 30, 34)    # label text (drawn on the viewer's grey label boxes)
 
 
-def default_blueprint(cameras=("cam_a", "cam_b")):
-    """The layout the recording opens on: 3D world left; camera images, pose-error series,
-    per-solver error bars and the summary right; ``frame`` timeline."""
+def closeup_bound_m(t_true_norm_m: float) -> float:
+    """Radius of the extrinsic close-up around camera a: ``min(1 m, 10 |t_X|)``, at least
+    0.1 m. Estimates beyond it are drawn at the bound as off-scale markers."""
+    return float(max(0.1, min(1.0, 10.0 * float(t_true_norm_m))))
+
+
+def _fmt_len_cm(x_m: float | None) -> str:
+    if x_m is None or not np.isfinite(x_m):
+        return "–"
+    cm = 100.0 * float(x_m)
+    return f"{cm:.3g} cm" if abs(cm) < 1e4 else f"{cm:.3g} cm ({x_m:.3g} m)"
+
+
+def _fmt(x, digits=3) -> str:
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "–"
+    x = float(x)
+    return f"{x:.{digits}g}" if abs(x) < 1e4 and (x == 0 or abs(x) >= 1e-3) else f"{x:.2e}"
+
+
+def _log_bar(value: float | None, lo: float, hi: float, width: int = 12) -> str:
+    """A log-scale bar (unicode blocks) of ``value`` between decades ``lo`` and ``hi``."""
+    if value is None or not np.isfinite(value) or value <= 0:
+        return ""
+    f = (math.log10(value) - lo) / max(hi - lo, 1e-9)
+    n = int(round(min(max(f, 0.0), 1.0) * width))
+    return "█" * max(n, 1)
+
+
+def _decades(values) -> tuple[float, float]:
+    v = np.array([x for x in values if x is not None and np.isfinite(x) and x > 0])
+    if v.size == 0:
+        return 0.0, 1.0
+    lo, hi = math.floor(math.log10(v.min())), math.ceil(math.log10(v.max()))
+    return float(lo), float(max(hi, lo + 1))
+
+
+# -------------------------------------------------------------------------- blueprints
+def default_blueprint(kind: str = "sim", images: bool = True, cameras=("cam_a", "cam_b"),
+                      eye: dict | None = None, closeup_eye: dict | None = None,
+                      present: set | None = None):
+    """The layout a run recording opens on, per scenario kind.
+
+    Left: the scene (room, platform, cameras, trajectories) and, when images were logged
+    (ArUco runs), both camera images with that frame's detections. Right: the extrinsic
+    close-up, the pose-source error (rotation and translation in separate plots), the
+    per-solver error table and the summary. Synthetic runs (no room, no images) give the
+    scene less room and the tables more. ``eye`` / ``closeup_eye``: ``{"position",
+    "look_target", "eye_up"}`` of the two 3D views. ``present``: the views that have data
+    (``"scene"``, ``"closeup"``, ``"pose_error"``, ``"summary"``); the others are left out
+    (no pane says "No data available"); ``None`` keeps all."""
     import rerun.blueprint as rrb
-    return rrb.Blueprint(
-        rrb.Horizontal(
-            rrb.Spatial3DView(origin="world", name="world (true: cam_b; estimates beside it)"),
-            rrb.Vertical(
-                rrb.Horizontal(*[rrb.Spatial2DView(origin=f"world/{c}/image", name=c)
-                                 for c in cameras]),
-                rrb.TimeSeriesView(origin="pose_error", name="pose-source error per frame"),
-                rrb.Horizontal(
-                    rrb.BarChartView(origin="errors/rotation_deg", name="rotation error [deg]"),
-                    rrb.BarChartView(origin="errors/translation_cm",
-                                     name="translation error [cm]"),
-                    rrb.TextDocumentView(origin="errors/legend", name="solvers"),
-                ),
-                rrb.TextDocumentView(origin="summary", name="summary"),
-                row_shares=[3, 2, 2, 2],
-            ),
-            column_shares=[3, 2],
-        ),
-        rrb.TimePanel(timeline="frame"),
-        collapse_panels=True,
-    )
+
+    def eye_controls(e):
+        return None if e is None else rrb.EyeControls3D(
+            kind=rrb.Eye3DKind.Orbital, position=e["position"], look_target=e["look_target"],
+            eye_up=e["eye_up"])
+
+    scene = rrb.Spatial3DView(
+        origin="world", name="scene (true paths: lines, pose source: points)",
+        eye_controls=eye_controls(eye), background=SCENE_BACKGROUND,
+        line_grid=rrb.LineGrid3D(visible=False))
+    closeup = rrb.Spatial3DView(
+        origin="closeup", name="extrinsic close-up (camera a frame; true cam_b blue)",
+        eye_controls=eye_controls(closeup_eye), background=CLOSEUP_BACKGROUND,
+        line_grid=rrb.LineGrid3D(visible=False))
+    pose = [rrb.TimeSeriesView(origin="pose_error/rotation_deg",
+                               name="pose-source rotation error [deg]"),
+            rrb.TimeSeriesView(origin="pose_error/translation_mm",
+                               name="pose-source translation error [mm]")]
+    summary = rrb.TextDocumentView(origin="summary",
+                                   name="summary: errors per solver (log bars), verdict")
+    images_row = [rrb.Spatial2DView(origin=f"world/{c}/image", name=f"{c} image + detections")
+                  for c in cameras]
+    if present is not None:   # only views with data (an interrupted run has fewer)
+        scene, closeup, summary = (v if k in present else None for v, k in (
+            (scene, "scene"), (closeup, "closeup"), (summary, "summary")))
+        pose = pose if "pose_error" in present else []
+
+    def box(cls, items, shares):
+        kept = [(i, sh) for i, sh in zip(items, shares) if i is not None]
+        if not kept:
+            return None
+        if len(kept) == 1:
+            return kept[0][0]
+        key = "row_shares" if cls is rrb.Vertical else "column_shares"
+        return cls(*[i for i, _ in kept], **{key: [sh for _, sh in kept]})
+
+    pose_box = box(rrb.Vertical, pose, [1] * len(pose))
+    if kind == "synthetic":
+        body = box(rrb.Horizontal, [box(rrb.Vertical, [scene, closeup], [1, 1]),
+                                    box(rrb.Vertical, [pose_box, summary], [2, 3])], [2, 3])
+    elif images:
+        body = box(rrb.Horizontal, [
+            box(rrb.Vertical, [scene, box(rrb.Horizontal, images_row, [1] * len(cameras))],
+                [3, 2]),
+            box(rrb.Vertical, [box(rrb.Horizontal, [closeup, pose_box], [3, 2]), summary],
+                [1, 1])], [1, 1])
+    else:
+        body = box(rrb.Horizontal, [box(rrb.Vertical, [scene, closeup], [3, 2]),
+                                    box(rrb.Vertical, [pose_box, summary], [2, 3])], [1, 1])
+    if body is None:
+        body = rrb.Spatial3DView(origin="world", name="scene")
+    return rrb.Blueprint(body, rrb.TimePanel(timeline="frame", state="collapsed"),
+                         rrb.BlueprintPanel(state="collapsed"),
+                         rrb.SelectionPanel(state="collapsed"), auto_views=False)
 
 
+def _eye(bbox_min, bbox_max, direction, up, inside=None, min_dist=0.0) -> dict:
+    """An orbital eye looking at the centre of a box from ``direction`` (kept inside the
+    box ``inside`` = (min, max) when given)."""
+    lo, hi = np.asarray(bbox_min, float), np.asarray(bbox_max, float)
+    c = 0.5 * (lo + hi)
+    ext = max(float(np.linalg.norm(hi - lo)), 0.05)
+    d = np.asarray(direction, float)
+    d = d / np.linalg.norm(d)
+    pos = c + max(1.3 * ext, min_dist) * d
+    if inside is not None:
+        pos = np.clip(pos, np.asarray(inside[0]) + 0.05, np.asarray(inside[1]) - 0.05)
+    return {"position": pos.tolist(), "look_target": c.tolist(), "eye_up": list(up)}
+
+
+# ------------------------------------------------------------------------------ run
 class RunRecorder:
     """Writes one run's recording; every ``log_*`` method is safe to call once per stage.
 
-    ``close()`` flushes and finalises the file (also after an interrupt, so the partial
-    recording stays readable).
+    ``close()`` writes the blueprint for what was recorded, flushes and finalises the file
+    (also after an interrupt, so the partial recording stays readable).
     """
 
     def __init__(self, path: Path, cfg):
+        t_init = time.perf_counter()
         import rerun as rr
         self.path = Path(path)
         self.cfg = cfg
         self.recording_id = str(uuid.uuid4())   # unique per run; the application id is shared
         self.rec = rr.RecordingStream("simcalib", recording_id=self.recording_id,
                                       send_properties=False)
-        self.rec.set_log_time_enabled(False) if hasattr(self.rec, "set_log_time_enabled") \
-            else None
-        self.rec.save(str(self.path), default_blueprint=default_blueprint())
+        if hasattr(self.rec, "set_log_time_enabled"):
+            self.rec.set_log_time_enabled(False)
+        self.rec.save(str(self.path))
         self._closed = False
+        self.kind = getattr(cfg, "kind", "sim")
+        self.images = False
+        self.eye = None
+        self.closeup_eye = None
+        self.room = None                 # (min, max) corners of the room, sim runs
+        self._workspace = []             # points the scene view frames
+        self.elapsed_s = 0.0             # wall time spent recording (recording_view.json)
+        self.present: set[str] = set()   # views with data (the blueprint shows only those)
         self.rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+        self.rec.log("closeup", rr.ViewCoordinates.RDF, static=True)
+        self.elapsed_s = time.perf_counter() - t_init
 
     # ------------------------------------------------------------- dispatch
     def record_stage(self, stage: str, st) -> None:
         """Log what ``stage`` produced (``st``: :class:`simcalib.pipeline.RunState`)."""
+        t0 = time.perf_counter()
+        try:
+            self._record_stage(stage, st)
+        finally:
+            self.elapsed_s += time.perf_counter() - t0
+
+    def _record_stage(self, stage: str, st) -> None:
         truth = st.truth
         if stage == "world":
+            self.kind = truth.kind
+            world = getattr(truth, "world", None)
+            if world is not None:
+                self.log_room_and_platform(world)
             self.log_world(truth.marker_field)
         elif stage == "streams":
             from simcalib.sources import get_source
@@ -115,29 +258,119 @@ class RunRecorder:
         elif stage == "evaluation":
             self.log_pose_errors(st.pose_errors)
         elif stage == "reports":
-            self.log_summary(st.summary)
+            self.log_summary(summary_markdown(st.result()))
 
     # ------------------------------------------------------------------ world
+    def log_room_and_platform(self, world) -> None:
+        """The room (floor solid, walls/ceiling as outlines) and the platform: every moving
+        body's geoms logged once in the body frame, the body posed per simulated frame."""
+        import rerun as rr
+        from simcalib.world.visual import scene_geometry
+        frames = world.frames(world.camera_names[0])
+        geo = scene_geometry(world.model, frames.qpos, frames.mocap_pos, frames.mocap_quat_wxyz)
+        size = np.asarray(world.config.room.size_m, dtype=np.float64)
+        self.room = (np.array([-0.5 * size[0], -0.5 * size[1], 0.0]),
+                     np.array([0.5 * size[0], 0.5 * size[1], size[2]]))
+        for g in geo.static:
+            if g.kind != "box":
+                continue
+            # clip the wall slabs to the room so nothing is drawn outside it
+            lo = np.maximum(g.pos - g.size, self.room[0] - 0.02)
+            hi = np.minimum(g.pos + g.size, self.room[1] + 0.02)
+            floor = g.name == "floor"
+            if floor:
+                lo[2], hi[2] = -0.01, 0.0
+            self.rec.log(f"world/room/{entity_name(g.name)}", rr.Boxes3D(
+                centers=[0.5 * (lo + hi)], half_sizes=[0.5 * (hi - lo)],
+                colors=[(200, 200, 205) if floor else (150, 150, 150)],
+                fill_mode="solid" if floor else "majorwireframe", radii=0.004),
+                static=True)
+        frame_idx = np.arange(frames.qpos.shape[0], dtype=np.int64)
+        for body in geo.bodies:
+            ent = f"world/platform/{entity_name(body.name)}"
+            T = body.T_world_body
+            self.rec.send_columns(ent, indexes=[rr.TimeColumn("frame", sequence=frame_idx)],
+                                  columns=rr.Transform3D.columns(translation=T[:, :3, 3],
+                                                                 mat3x3=T[:, :3, :3]))
+            self._log_geoms(f"{ent}/geoms", body.geoms)
+            self._workspace.append(T[:, :3, 3])
+        self._update_eye()
+
+    def _log_geoms(self, ent: str, geoms) -> None:
+        import rerun as rr
+        by_kind: dict[str, list] = {}
+        for g in geoms:
+            by_kind.setdefault(g.kind, []).append(g)
+        for kind, gs in by_kind.items():
+            pos = np.array([g.pos for g in gs])
+            quat = np.array([g.quat_xyzw for g in gs])
+            col = (np.clip(np.array([g.rgba for g in gs]), 0, 1) * 255).astype(np.uint8)
+            size = np.array([g.size for g in gs])
+            if kind == "box":
+                arch = rr.Boxes3D(centers=pos, half_sizes=size, quaternions=quat, colors=col,
+                                  fill_mode="solid")
+            elif kind == "cylinder":
+                arch = rr.Cylinders3D(centers=pos, lengths=2 * size[:, 1], radii=size[:, 0],
+                                      quaternions=quat, colors=col, fill_mode="solid")
+            elif kind == "capsule":
+                from simcalib.geometry import matrix_from_quat
+                z = matrix_from_quat(quat)[..., :, 2]
+                arch = rr.Capsules3D(translations=pos - z * size[:, 1:2],
+                                     lengths=2 * size[:, 1], radii=size[:, 0],
+                                     quaternions=quat, colors=col, fill_mode="solid")
+            elif kind in ("sphere", "ellipsoid"):
+                half = np.repeat(size[:, :1], 3, axis=1) if kind == "sphere" else size
+                arch = rr.Ellipsoids3D(centers=pos, half_sizes=half, quaternions=quat,
+                                       colors=col, fill_mode="solid")
+            elif kind == "mesh":
+                for k, g in enumerate(gs):
+                    self.rec.log(f"{ent}/{entity_name(g.name)}",
+                                 rr.Transform3D(translation=g.pos, quaternion=g.quat_xyzw),
+                                 rr.Mesh3D(vertex_positions=g.vertices,
+                                           triangle_indices=g.faces,
+                                           albedo_factor=tuple(col[k])), static=True)
+                continue
+            else:   # planes: the room's floor is a box; a plane is drawn as a thin box
+                arch = rr.Boxes3D(centers=pos, half_sizes=np.c_[size[:, :2], 0.001 * np.ones(
+                    len(gs))], quaternions=quat, colors=col, fill_mode="solid")
+            self.rec.log(f"{ent}/{kind}", arch, static=True)
+
     def log_world(self, marker_field) -> None:
+        """The marker field as textured quads (the ArUco pattern with its quiet zone)."""
         import rerun as rr
         if marker_field is None or len(getattr(marker_field, "ids", ())) == 0:
             return
+        from simcalib.markers import marker_image
         T = np.asarray(marker_field.T_world_marker)
-        h = 0.5 * float(marker_field.side_m)
-        self.rec.log("world/markers", rr.Boxes3D(
-            centers=T[:, :3, 3], half_sizes=np.tile([h, h, 0.002], (T.shape[0], 1)),
-            quaternions=quat_from_matrix(T[:, :3, :3]),
-            colors=(40, 40, 40), fill_mode=rr.components.FillMode.Solid,
-            labels=[str(int(i)) for i in marker_field.ids]), static=True)
+        cell = 6
+        for mid, Tm in zip(marker_field.ids, T):
+            img = marker_image(int(mid), pixels=8 * cell, dictionary=marker_field.dictionary)
+            img = np.pad(img, cell, constant_values=255)
+            n_cells = img.shape[0] / cell
+            h = 0.5 * float(marker_field.side_m) * n_cells / (n_cells - 2)
+            local = np.array([[-h, h, 0.0], [h, h, 0.0], [h, -h, 0.0], [-h, -h, 0.0]])
+            verts = local @ Tm[:3, :3].T + Tm[:3, 3] + 0.003 * Tm[:3, 2]
+            self.rec.log(f"world/markers/{int(mid)}", rr.Mesh3D(
+                vertex_positions=verts, triangle_indices=[[0, 2, 1], [0, 3, 2]],
+                vertex_texcoords=[[0, 0], [1, 0], [1, 1], [0, 1]],
+                albedo_texture=np.repeat(img[:, :, None], 3, axis=2)), static=True)
 
     # ----------------------------------------------------------- trajectories
     def log_trajectories(self, gt: dict, source: dict, X_true) -> None:
         import rerun as rr
+        scale = 0.08
+        pts = [np.asarray(s.T_world_cam)[:, :3, 3] for s in gt.values()]
+        if pts:
+            allp = np.concatenate(pts)
+            ext = float(np.linalg.norm(allp.max(0) - allp.min(0))) if len(allp) else 1.0
+            scale = float(np.clip(0.04 * ext, 0.02, 0.1))
         for cam, s in gt.items():
             color = _COLORS.get(cam, (200, 200, 200))
             T = np.asarray(s.T_world_cam)
+            self._workspace.append(T[:, :3, 3])
             self.rec.log(f"world/trajectories/{cam}/ground_truth",
-                         rr.LineStrips3D([T[:, :3, 3]], colors=color, radii=0.004),
+                         rr.LineStrips3D([T[:, :3, 3]], colors=color, radii=0.1 * scale,
+                                         labels=[f"{cam} true path"], show_labels=False),
                          static=True)
             frames = np.asarray(s.frame_index, dtype=np.int64)
             self.rec.send_columns(
@@ -147,22 +380,31 @@ class RunRecorder:
                                                                         dtype=np.float64))],
                 columns=rr.Transform3D.columns(translation=T[:, :3, 3],
                                                mat3x3=T[:, :3, :3]))
-            self.rec.log(f"world/{cam}/axes", rr.TransformAxes3D(0.08), static=True)
+            self.rec.log(f"world/{cam}/axes", rr.TransformAxes3D(1.5 * scale), static=True)
         for cam, s in source.items():
             color = tuple(int(0.55 * c) for c in _COLORS.get(cam, (200, 200, 200)))
             T = np.asarray(s.T_world_cam)
             if T.shape[0] == 0:
                 continue
+            p = T[:, :3, 3]
+            if self.room is not None:   # a wild pose-source sample must not zoom the view out
+                p = np.clip(p, self.room[0], self.room[1])
             self.rec.log(f"world/trajectories/{cam}/{s.source}",
-                         rr.Points3D(T[:, :3, 3], colors=color, radii=0.006), static=True)
-        if X_true is not None:
-            self._log_pose("world/cam_a/true_cam_b", np.asarray(X_true), static=True)
-            self.rec.log("world/cam_a/true_cam_b", rr.TransformAxes3D(0.1), static=True)
+                         rr.Points3D(p, colors=color, radii=0.12 * scale), static=True)
+        self._update_eye()
 
-    def _log_pose(self, entity: str, T: np.ndarray, static: bool = False) -> None:
-        import rerun as rr
-        self.rec.log(entity, rr.Transform3D(translation=T[:3, 3], mat3x3=T[:3, :3]),
-                     static=static)
+    def _update_eye(self) -> None:
+        if not self._workspace:
+            return
+        self.present.add("scene")
+        p = np.concatenate(self._workspace)
+        lo, hi = p.min(0), p.max(0)
+        if self.room is not None:
+            lo = np.minimum(lo, [lo[0], lo[1], 0.0])     # include the floor under the platform
+            self.eye = _eye(lo, hi, (-1.0, -1.4, 1.0), (0, 0, 1), inside=self.room,
+                            min_dist=2.5)
+        else:
+            self.eye = _eye(lo, hi, (-1.0, -1.4, 0.9), (0, 0, 1))
 
     # ---------------------------------------------------------------- cameras
     def log_cameras(self, intrinsics: dict, gt: dict, visual_log) -> None:
@@ -173,7 +415,8 @@ class RunRecorder:
             self.rec.log(f"world/{cam}/image",
                          rr.Pinhole(image_from_camera=np.asarray(K.K),
                                     resolution=[K.width, K.height],
-                                    image_plane_distance=0.15), static=True)
+                                    image_plane_distance=0.15,
+                                    color=_COLORS.get(cam, (200, 200, 200))), static=True)
         if visual_log is None:
             return
         for cam, frame, image, corners, ids in _iter_visual_log(visual_log,
@@ -181,6 +424,7 @@ class RunRecorder:
             self.rec.set_time("frame", sequence=int(frame))
             ent = f"world/{cam}/image"
             if image is not None:
+                self.images = True
                 if isinstance(image, (bytes, bytearray, memoryview)):
                     self.rec.log(ent, rr.EncodedImage(contents=bytes(image),
                                                       media_type="image/jpeg"))
@@ -201,63 +445,352 @@ class RunRecorder:
         self.rec.reset_time()
 
     # ------------------------------------------------------------- estimates
-    def log_estimates(self, solvers, X_true, gt: dict) -> None:
+    def log_estimates(self, solvers, X_true, gt: dict | None = None) -> None:
+        """The extrinsic close-up (camera a frame) and the per-solver error table."""
         import rerun as rr
+        X_true = np.asarray(X_true, dtype=np.float64)
+        t_true = X_true[:3, 3]
+        self.present.add("closeup")
+        bound = closeup_bound_m(np.linalg.norm(t_true))
+        L = float(np.clip(0.3 * np.linalg.norm(t_true), 0.02, 0.15))   # axis length
         ok = [s for s in solvers if s.X is not None and np.isfinite(s.X).all()]
+        failed = [s for s in solvers if s not in ok]
+        cam_label = "cam a (origin)"
+        if failed:
+            cam_label += "; FAILED, not drawn: " + ", ".join(s.label for s in failed)
+        self.rec.log("closeup/cam_a", rr.TransformAxes3D(L), rr.Points3D(
+            [[0.0, 0.0, 0.0]], radii=0.1 * L, colors=_COLORS["cam_a"]), static=True)
+        self.rec.log("closeup/labels/cam_a", rr.Points3D(
+            [[0.0, 0.5 * L, 0.0]], radii=0.05 * L, colors=_LABEL_COLOR, labels=[cam_label]),
+            static=True)
+        self._log_pose("closeup/true_cam_b", X_true, static=True)
+        self.rec.log("closeup/true_cam_b", rr.TransformAxes3D(1.3 * L), rr.Points3D(
+            [[0.0, 0.0, 0.0]], radii=0.12 * L, colors=_TRUE_COLOR), static=True)
+        extent = [np.zeros(3), t_true]
+        groups: list[list] = []          # estimates on top of each other share one label
+        offscale: list[list] = []        # so do off-scale markers at the same place
         for k, s in enumerate(ok):
-            ent = f"world/cam_a/estimates/{entity_name(s.label)}"
+            t = np.asarray(s.X)[:3, 3]
+            color = _SOLVER_COLORS[k % len(_SOLVER_COLORS)]
+            name = entity_name(s.label)
+            if np.linalg.norm(t) > bound:
+                p = t / np.linalg.norm(t) * bound
+                for grp in offscale:
+                    if np.linalg.norm(grp[0][1] - p) < 0.3 * L:
+                        grp.append((s, p))
+                        break
+                else:
+                    offscale.append([(s, p)])
+                continue
+            ent = f"closeup/estimates/{name}"
             self._log_pose(ent, np.asarray(s.X), static=True)
-            self.rec.log(ent, rr.TransformAxes3D(0.06), static=True)
-            self.rec.log(f"{ent}/origin", rr.Points3D(
-                [[0.0, 0.0, 0.0]], radii=0.012, colors=_SOLVER_COLORS[k % len(_SOLVER_COLORS)],
-                labels=[s.label]), static=True)
-        if not ok:
+            self.rec.log(ent, rr.TransformAxes3D(L), rr.Points3D(
+                [[0.0, 0.0, 0.0]], radii=0.08 * L, colors=color), static=True)
+            extent.append(t)
+            for grp in groups:
+                if np.linalg.norm(grp[0][1] - t) < 0.3 * L:
+                    grp.append((s, t, color))
+                    break
+            else:
+                groups.append([(s, t, color)])
+            cov = getattr(s, "covariance", None)
+            if cov is not None:
+                self._log_ellipsoid(f"closeup/uncertainty/{name}", np.asarray(cov), t, bound,
+                                    color, s.label)
+        # labels stacked above (-y) their estimates, with a leader line; the true camera
+        # b's label below it, so no two labels are drawn over each other
+        for j, grp in enumerate(groups):
+            p0 = grp[0][1]
+            p1 = p0 + np.array([0.0, -(0.6 + 0.45 * j) * L, 0.0])
+            self.rec.log(f"closeup/labels/{j}", rr.Points3D(
+                [p1], radii=0.05 * L, colors=_LABEL_COLOR,
+                labels=[", ".join(s.label for s, _, _ in grp)]), rr.LineStrips3D(
+                [[p0, p1]], colors=grp[0][2], radii=0.01 * L), static=True)
+            extent.append(p1)
+        # one label for every off-scale estimate (at the first marker): no overdrawn text
+        lines = []
+        for j, grp in enumerate(offscale):
+            p = grp[0][1]
+            self.rec.log(f"closeup/offscale/{j}", rr.Points3D(
+                [p], radii=0.2 * L, colors=_OFFSCALE_COLOR), rr.Arrows3D(
+                origins=[0.85 * p], vectors=[0.15 * p], colors=_OFFSCALE_COLOR), static=True)
+            lines += [f"{s.label}: {_fmt(s.rotation_error_deg)}° / "
+                      f"{_fmt_len_cm(s.translation_error_m)}" for s, _ in grp]
+            extent.append(p)
+        if offscale:
+            self.rec.log("closeup/offscale/0/label", rr.Points3D(
+                [offscale[0][0][1]], radii=0.01 * L, colors=_LABEL_COLOR,
+                labels=[f"OFF-SCALE (drawn at {bound:g} m), real error:\n" + "\n".join(lines)]),
+                static=True)
+        self.rec.log("closeup/labels/true_cam_b", rr.Points3D(
+            [t_true + np.array([0.0, 0.5 * L, 0.0])], radii=0.05 * L, colors=_LABEL_COLOR,
+            labels=["true cam b"]), static=True)
+        self.closeup_extent = np.array(extent)
+        lo, hi = self.closeup_extent.min(0) - L, self.closeup_extent.max(0) + L
+        self.closeup_eye = _eye(lo, hi, (-0.35, -0.5, -1.0), (0, -1, 0))
+        for s in ok:
+            self.rec.log(f"errors/{entity_name(s.label)}/rotation_deg",
+                         rr.Scalars([s.rotation_error_deg]), static=True)
+            self.rec.log(f"errors/{entity_name(s.label)}/translation_cm",
+                         rr.Scalars([100.0 * s.translation_error_m]), static=True)
+
+    def _log_ellipsoid(self, ent, cov, center, bound, color, label) -> None:
+        """3-sigma ellipsoid of the translation block (rows/cols 3..5 of the 6x6 covariance
+        of (omega, v) in frame a); infinite or huge axes are clipped at the bound."""
+        import rerun as rr
+        C = np.asarray(cov, dtype=np.float64)
+        if C.shape != (6, 6):
             return
-        rot = np.array([s.rotation_error_deg for s in ok], dtype=np.float64)
-        trans = np.array([s.translation_error_m for s in ok], dtype=np.float64) * 100.0
-        self.rec.log("errors/rotation_deg", rr.BarChart(rot), static=True)
-        self.rec.log("errors/translation_cm", rr.BarChart(trans), static=True)
-        legend = "\n".join(f"{i}. **{s.label}** (alpha {s.alpha:g}): {r:.3f} deg, {t:.2f} cm"
-                           + (" — degenerate" if s.degenerate else "")
-                           for i, (s, r, t) in enumerate(zip(ok, rot, trans)))
-        self.rec.log("errors/legend", rr.TextDocument(legend, media_type="text/markdown"),
-                     static=True)
-        for s, r, t in zip(ok, rot, trans):
-            self.rec.log(f"errors/{entity_name(s.label)}/rotation_deg", rr.Scalars([r]),
-                         static=True)
-            self.rec.log(f"errors/{entity_name(s.label)}/translation_cm", rr.Scalars([t]),
-                         static=True)
+        Ct = C[3:, 3:]
+        if not np.isfinite(Ct).all():
+            Ct = np.where(np.isfinite(Ct), Ct, 0.0) + np.diag(
+                np.where(np.isfinite(np.diag(C[3:, 3:])), 0.0, bound ** 2 / 9.0))
+        w, V = np.linalg.eigh(0.5 * (Ct + Ct.T))
+        half = np.minimum(3.0 * np.sqrt(np.clip(w, 0.0, None)), bound)
+        if np.linalg.det(V) < 0:
+            V[:, 0] = -V[:, 0]
+        sigma = np.sqrt(np.clip(np.diag(Ct), 0, None))
+        self.rec.log(ent, rr.Ellipsoids3D(
+            centers=[center], half_sizes=[np.maximum(half, 1e-4)],
+            quaternions=[quat_from_matrix(V)], colors=[(*color, 90)],
+            fill_mode="transparentfillmajorwireframe",
+            labels=[f"{label} 3σ: σ = " + ", ".join(f"{100 * v:.2g}" for v in sigma)
+                    + " cm"], show_labels=False), static=True)
+
+    def _log_pose(self, entity: str, T: np.ndarray, static: bool = False) -> None:
+        import rerun as rr
+        self.rec.log(entity, rr.Transform3D(translation=T[:3, 3], mat3x3=T[:3, :3]),
+                     static=static)
 
     # ------------------------------------------------------------ pose error
     def log_pose_errors(self, pose_errors: dict) -> None:
+        """One plot per unit (``pose_error/rotation_deg``, ``pose_error/translation_mm``),
+        one named series per camera in the camera's colour."""
         import rerun as rr
         for cam, e in pose_errors.items():
             if e.n == 0:
                 continue
             frames = np.asarray(e.frame_index, dtype=np.int64)
-            for name, values, unit in (("rotation_deg", e.rotation_deg, 1.0),
-                                       ("translation_mm", e.translation_m, 1000.0)):
-                ent = f"pose_error/{cam}/{name}"
-                self.rec.log(ent, rr.SeriesLines(names=f"{cam} {name}",
+            for name, values, unit, what in (("rotation_deg", e.rotation_deg, 1.0, "deg"),
+                                             ("translation_mm", e.translation_m, 1000.0,
+                                              "mm")):
+                ent = f"pose_error/{name}/{cam}"
+                self.present.add("pose_error")
+                self.rec.log(ent, rr.SeriesLines(names=f"{cam} ({e.source}) [{what}]",
                                                  colors=_COLORS.get(cam, (200, 200, 200))),
                              static=True)
                 self.rec.send_columns(ent, indexes=[rr.TimeColumn("frame", sequence=frames)],
                                       columns=rr.Scalars.columns(
                                           scalars=np.asarray(values, dtype=np.float64) * unit))
 
-    def log_summary(self, text: str) -> None:
+    def log_summary(self, markdown: str) -> None:
         import rerun as rr
-        self.rec.log("summary", rr.TextDocument(f"```\n{text}\n```",
-                                                media_type="text/markdown"), static=True)
+        self.present.add("summary")
+        self.rec.log("summary", rr.TextDocument(markdown, media_type="text/markdown"),
+                     static=True)
+
+    def blueprint(self):
+        return default_blueprint(kind=self.kind, images=self.images, eye=self.eye,
+                                 closeup_eye=self.closeup_eye, present=self.present)
 
     def close(self) -> None:
         if self._closed:
             return
         self._closed = True
+        t0 = time.perf_counter()
         try:
+            self.rec.send_blueprint(self.blueprint(), make_active=True, make_default=True)
             self.rec.flush()
+            self.elapsed_s += time.perf_counter() - t0
+            # the views' framing, for tools that open one view alone (tools/screenshots.py)
+            import json
+            self.path.with_name("recording_view.json").write_text(json.dumps(
+                {"kind": self.kind, "images": self.images, "recording_s": self.elapsed_s,
+                 "eye": self.eye,
+                 "closeup_eye": self.closeup_eye,
+                 "room": None if self.room is None else [v.tolist() for v in self.room]},
+                indent=1))
         finally:
             self.rec.disconnect()
+
+
+def summary_markdown(result) -> str:
+    """The console summary (:func:`simcalib.reports.summary_table`) as markdown: one table
+    row per solver with its errors and log-scale bars (FAILED rows in bold, their reason
+    below; degenerate ones flagged), then the undetermined directions, frames, motion pairs
+    and pose-source errors."""
+    cfg = result.config
+    solvers = list(result.solvers)
+    ok = [s for s in solvers if s.X is not None]
+    alphas = sorted({s.alpha for s in ok if s.alpha is not None})
+    rlo, rhi = _decades([s.rotation_error_deg for s in ok])
+    tlo, thi = _decades([100 * s.translation_error_m for s in ok])
+    out = [f"**{cfg.scenario}** — kind {cfg.kind}, source {cfg.source}, seed {cfg.seed}, "
+           f"{(result.pairing or {}).get('used', '?')} motions, alpha "
+           f"{', '.join(_fmt(a) for a in alphas) or '–'}", "",
+           "| method | rot err [deg] | log | trans err [cm] | log | determined [cm] "
+           "| degenerate |", "|---|---:|:---|---:|:---|---:|:---:|"]
+    notes = []
+    for s in solvers:
+        if s.X is None:
+            reason = (s.error or "no estimate").replace("|", "/")
+            if len(reason) > 160:
+                reason = reason[:157] + "..."
+            out.append(f"| **{s.label}** | **FAILED** | | | | | |")
+            notes.append(f"**{s.label} FAILED**: {reason}")
+            continue
+        det = s.translation_error_determined_m
+        t_cm = 100 * s.translation_error_m
+        out.append(f"| {s.label} | {_fmt(s.rotation_error_deg)} | "
+                   f"{_log_bar(s.rotation_error_deg, rlo, rhi)} | {_fmt(t_cm)} | "
+                   f"{_log_bar(t_cm, tlo, thi)} | {_fmt(None if det is None else 100 * det)} | "
+                   f"{ {True: '**YES**', False: 'no'}.get(s.degenerate, 'unknown')} |")
+    if ok:
+        notes.append(f"log bars: rotation 1e{int(rlo)}–1e{int(rhi)} deg, translation "
+                     f"1e{int(tlo)}–1e{int(thi)} cm")
+    undet = {}
+    for s in result.solvers:
+        if s.degenerate:
+            key = tuple(d["description"] for d in s.undetermined_directions) \
+                or tuple(s.undetermined)
+            undet.setdefault(key, []).append(s.label)
+    for dirs, labels in undet.items():
+        notes.append(f"undetermined by this motion ({', '.join(labels)}): " + "; ".join(dirs)
+                     + " — not a measurement; *determined* = error with it projected out")
+    fr = result.frames or {}
+    if fr.get("rendered"):
+        cams = [f"{c} used {(fr.get(c) or {}).get('used')}, dropped "
+                f"{(fr.get(c) or {}).get('dropped')}" for c in result.camera_names]
+        notes.append(f"frames: {fr['rendered']} per camera; " + "; ".join(cams))
+    p = result.pairing or {}
+    if p.get("candidate_pairs") is not None:
+        notes.append(f"motion pairs: {p.get('used')} used of {p.get('candidate_pairs')} "
+                     f"candidates")
+    for cam, e in (result.pose_errors or {}).items():
+        if getattr(e, "n", 0):
+            sm = e.summary()
+            notes.append(f"pose error {cam} ({e.source}): median "
+                         f"{_fmt(sm['rotation_deg']['median'])} deg / "
+                         f"{_fmt(1000 * sm['translation_m']['median'])} mm")
+    return "\n".join(out + [""] + [f"- {n}" for n in notes])
+
+
+# ---------------------------------------------------------------------------- sweeps
+def _sweep_per_axis(summary: dict) -> dict:
+    per_axis = summary.get("per_axis", summary) if isinstance(summary, dict) else None
+    if not isinstance(per_axis, dict):
+        raise TypeError(f"summary must be a dict (simcalib.sweep.report.summarise output or "
+                        f"its 'per_axis'); received {type(summary).__name__}")
+    return per_axis
+
+
+def record_sweep(path, summary: dict) -> Path:
+    """Write ``path`` (.rrd): a sweep's per-axis, per-solver median and IQR series.
+
+    ``summary``: ``{"per_axis": {axis: {value: {solver: stats}}}}`` (the output of
+    ``simcalib.sweep.report.summarise``) or that ``per_axis`` dict itself; ``stats`` holds
+    ``rot_med``, ``rot_q1``, ``rot_q3`` (deg), ``tr_med``, ``tr_q1``, ``tr_q3`` (m) and
+    optionally ``failed`` (fraction). Timeline ``sweep_index`` = position of the value in
+    the axis (sorted); ``sweep/<axis>/values`` maps indices to values. Errors are plotted
+    as log10 (one plot per axis and quantity: ``sweep/<axis>/log10_rotation_deg/<solver>/
+    median|q1|q3``, ``.../log10_translation_cm/...``), failure rates linearly."""
+    import rerun as rr
+    import rerun.blueprint as rrb
+    per_axis = _sweep_per_axis(summary)
+    path = Path(path)
+    rec = rr.RecordingStream("simcalib_sweep", recording_id=str(uuid.uuid4()),
+                             send_properties=False)
+    if hasattr(rec, "set_log_time_enabled"):
+        rec.set_log_time_enabled(False)
+    rec.save(str(path))
+    views = []
+    try:
+        for axis, by_value in per_axis.items():
+            values = list(by_value)
+            numeric = all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                          for v in values)
+            values = sorted(values) if numeric else sorted(values, key=str)
+            solvers = sorted({s for v in values for s in by_value[v]})
+            a = entity_name(str(axis))
+            rec.log(f"sweep/{a}/values", rr.TextDocument(
+                f"**{axis}** (x axis = index)\n\n| index | value |\n|---:|---|\n" + "\n".join(
+                    f"| {i} | {v} |" for i, v in enumerate(values)),
+                media_type="text/markdown"), static=True)
+            for k, solver in enumerate(solvers):
+                color = _SOLVER_COLORS[k % len(_SOLVER_COLORS)]
+                sname = entity_name(solver)
+                for key, qty, scale in (("rot", "log10_rotation_deg", 1.0),
+                                        ("tr", "log10_translation_cm", 100.0)):
+                    for q, width in (("med", 2.5), ("q1", 0.8), ("q3", 0.8)):
+                        ent = f"sweep/{a}/{qty}/{sname}/{'median' if q == 'med' else q}"
+                        label = f"{solver} {'median' if q == 'med' else q}"
+                        rec.log(ent, rr.SeriesLines(names=label, colors=color, widths=width),
+                                static=True)
+                        for i, v in enumerate(values):
+                            st = by_value[v].get(solver)
+                            x = None if st is None else st.get(f"{key}_{q}")
+                            if x is None or not np.isfinite(x) or x * scale <= 0:
+                                continue
+                            rec.set_time("sweep_index", sequence=i)
+                            rec.log(ent, rr.Scalars([math.log10(x * scale)]))
+                ent = f"sweep/{a}/failed/{sname}"
+                rec.log(ent, rr.SeriesLines(names=f"{solver} failed", colors=color),
+                        static=True)
+                for i, v in enumerate(values):
+                    st = by_value[v].get(solver) or {}
+                    if st.get("failed") is not None and np.isfinite(st["failed"]):
+                        rec.set_time("sweep_index", sequence=i)
+                        rec.log(ent, rr.Scalars([float(st["failed"])]))
+            rec.reset_time()
+            views.append(rrb.Horizontal(
+                rrb.TimeSeriesView(origin=f"sweep/{a}/log10_rotation_deg",
+                                   name=f"{axis}: log10 rotation error [deg] (median, IQR)"),
+                rrb.TimeSeriesView(origin=f"sweep/{a}/log10_translation_cm",
+                                   name=f"{axis}: log10 translation error [cm] (median, IQR)"),
+                rrb.TimeSeriesView(origin=f"sweep/{a}/failed", name=f"{axis}: failure rate"),
+                rrb.TextDocumentView(origin=f"sweep/{a}/values", name=f"{axis} values"),
+                column_shares=[3, 3, 2, 1]))
+        if views:
+            rec.send_blueprint(rrb.Blueprint(rrb.Vertical(*views), rrb.TimePanel(
+                timeline="sweep_index", state="collapsed"), rrb.BlueprintPanel(
+                state="collapsed"), rrb.SelectionPanel(state="collapsed"), auto_views=False))
+        rec.flush()
+    finally:
+        rec.disconnect()
+    return path
+
+
+# ----------------------------------------------------------------------- experiments
+def log_experiment(path, name: str, pngs: dict, documents: dict) -> Path:
+    """Write ``path`` (.rrd): an experiment's figures (PNG, ``figures/<key>``) and markdown
+    tables (``tables/<key>``), laid out as a grid of figures above tabs of tables."""
+    import rerun as rr
+    import rerun.blueprint as rrb
+    path = Path(path)
+    rec = rr.RecordingStream(f"simcalib_experiment_{name}", recording_id=str(uuid.uuid4()),
+                             send_properties=False)
+    if hasattr(rec, "set_log_time_enabled"):
+        rec.set_log_time_enabled(False)
+    rec.save(str(path))
+    try:
+        for key, png in pngs.items():
+            rec.log(f"figures/{entity_name(key)}", rr.EncodedImage(path=str(png)), static=True)
+        for key, text in documents.items():
+            rec.log(f"tables/{entity_name(key)}",
+                    rr.TextDocument(text, media_type="text/markdown"), static=True)
+        figs = [rrb.Spatial2DView(origin=f"figures/{entity_name(k)}", name=k) for k in pngs]
+        docs = [rrb.TextDocumentView(origin=f"tables/{entity_name(k)}", name=k)
+                for k in documents]
+        parts = ([rrb.Grid(*figs)] if figs else []) + ([rrb.Tabs(*docs)] if docs else [])
+        if parts:
+            rec.send_blueprint(rrb.Blueprint(
+                rrb.Vertical(*parts, row_shares=[3, 2][:len(parts)]),
+                rrb.TimePanel(state="hidden"), rrb.BlueprintPanel(state="collapsed"),
+                rrb.SelectionPanel(state="collapsed"), auto_views=False))
+        rec.flush()
+    finally:
+        rec.disconnect()
+    return path
 
 
 def _iter_visual_log(log, rec_cfg):

@@ -142,8 +142,8 @@ def test_failed_solvers_are_never_estimates(tmp_path, monkeypatch, capsys):
     from rerun.chunk import RrdReader
     ents = {str(p) for p in RrdReader(str(out / "recording.rrd")).store().schema()
             .entity_paths()}
-    est = {e for e in ents if e.startswith("/world/cam_a/estimates/")}
-    assert est and all(e.startswith("/world/cam_a/estimates/dqopt") for e in est)
+    est = {e for e in ents if e.startswith(("/closeup/estimates/", "/closeup/offscale/"))}
+    assert est and all(e.startswith("/closeup/estimates/dqopt") for e in est)
 
 
 def test_each_run_gets_its_own_recording_id(tmp_path):
