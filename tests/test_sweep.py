@@ -99,6 +99,7 @@ def test_local_sweep_resumes_and_reports(tmp_path):
     assert len(rows) == 4 * 2 and {r["solver"] for r in rows} == {"dqopt", "daniilidis"}
     assert all(r["rotation_error_deg"] is not None for r in rows)
     assert (out / "results.parquet").is_file() and (out / "report.md").is_file()
+    assert (out / "report.rrd").stat().st_size > 1000
     report = (out / "report.md").read_text()
     assert "daniilidis vs dqopt" in report and "noise.sigma_r_deg" in report
     import pyarrow.parquet as pq

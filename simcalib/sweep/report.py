@@ -1,5 +1,5 @@
-"""The report of a sweep directory: ``report.md`` and PNG plots, rebuilt from the stored
-cells (``simcalib sweep report DIR``), never from memory.
+"""The report of a sweep directory: ``report.md``, PNG plots and ``report.rrd``, rebuilt
+from the stored cells (``simcalib sweep report DIR``), never from memory.
 
 Per swept axis and solver: median and interquartile range of the rotation and translation
 errors, failure rate (no estimate) and degeneracy rate (flagged by the verdict), runtime.
@@ -190,6 +190,10 @@ def write_report(output: str | Path) -> Path:
         lines += [f"- cell {c['index']} (`{c['key']}`): {(c['error'] or {}).get('type')}: "
                   f"{(c['error'] or {}).get('message')}" for c in st["failed_cells"]]
         lines.append("")
+    if rows:
+        from simcalib.rerun_log import record_sweep
+        record_sweep(out / "report.rrd", summ)
+        lines += ["The same plots as a rerun recording: `rerun report.rrd`.", ""]
     path = out / "report.md"
     path.write_text("\n".join(lines))
     return path
