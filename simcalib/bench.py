@@ -260,7 +260,8 @@ def main(argv=None) -> int:
                                     "batch_size": args.throughput_batch,
                                     "n_motions": args.n_motions,
                                     "problems_per_s": rates.tolist()}
-        print(markdown_tables(result))
+        if args.markdown != "-":   # with --markdown - the tables are printed once, below
+            print(markdown_tables(result))
         _write_outputs(result, args)
         return 0
     names = available()
