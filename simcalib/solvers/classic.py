@@ -242,20 +242,26 @@ def _unit_dual_quats_from_spans(v1, v2, use):
     return x[:, :4], x[:, 4:], use
 
 
-def daniilidis_batch(C, H, alphas, prior=None) -> dict:
+def daniilidis_batch(C, H, alphas, prior=None, weights=None) -> dict:
     """Daniilidis on ``B`` validated problems at once: the motions are converted and aligned
     by the compiled kernel, the stacked matrices factored by batched QR + SVD (the same
     LAPACK routines as :func:`daniilidis`, so ``X[b]`` equals the single solve) and the
     closing 2x2 quadratic solved for all problems at once (rare degenerate cases one by
-    one)."""
-    from simcalib.solvers.problem import prepare_batch
-    Q, flips = prepare_batch(C, H, alphas)
+    one). ``C, H`` are float64, C-contiguous and checked for rigidity in the kernel
+    (``batch_validates``: a problem with a non-rigid pose is reported in ``bad`` and
+    ``solve_batch`` raises, naming it); no weights (``supports_weights=False``)."""
+    from simcalib.solvers.kernels.batch import run_batch
+    from simcalib.solvers.kernels.dqcore import DQOPT
+    B = C.shape[0]
+    kernel = run_batch(DQOPT, alphas, C=C, H=H, keep_q=True)
+    Q, flips, bad = kernel["Q"], kernel["nflip"], kernel["bad"]
+    if (bad >= 0).any():
+        return {"X": np.full((B, 4, 4), np.nan), "bad": bad}
     qC, qH = np.swapaxes(Q[:, 0:4], 1, 2), np.swapaxes(Q[:, 4:8], 1, 2)
     qCd, qHd = np.swapaxes(Q[:, 8:12], 1, 2), np.swapaxes(Q[:, 12:16], 1, 2)
     T = _daniilidis_matrices(qC, qCd, qH, qHd, alphas)
     R = np.linalg.qr(T, mode="r") if T.shape[1] >= 8 else T
     _, sv, Vt = np.linalg.svd(R)
-    B = C.shape[0]
     X = np.full((B, 4, 4), np.nan)
     reason = np.full(B, "", dtype=object)
     top = sv[:, :1]
@@ -276,11 +282,11 @@ def daniilidis_batch(C, H, alphas, prior=None) -> dict:
                          "values (a unique X needs exactly 2)")
     from simcalib.solvers.problem import batch_cost
     return {"X": X, "success": ok, "failure_reason": reason, "sign_flips": flips,
-            "cost": batch_cost(Q, X, alphas)}
+            "cost": batch_cost(Q, X, alphas), "bad": bad}
 
 
 @register("daniilidis", family="classic", uses_alpha=True, supports_prior=False,
-          expected_cost_us=1000.0, batch=daniilidis_batch,
+          expected_cost_us=1000.0, batch=daniilidis_batch, batch_validates=True,
           description="Daniilidis 1999 dual-quaternion SVD (translation scaled by alpha)")
 def _daniilidis(problem: MotionProblem, alpha: float, prior, rng) -> SolverOutput:
     if prior is not None:
