@@ -1,6 +1,6 @@
 """simcalib — how well will a hand-eye / eye-to-eye calibration work before you trust it?
 
-Library entry points (heavy dependencies are imported lazily)::
+Library entry points::
 
     import simcalib
     sol = simcalib.solve(C, H, method="dqopt", alpha=1.0)   # C_i X = X H_i, X = T_a_b
@@ -13,25 +13,31 @@ Conventions: ``docs/conventions.md``.
 
 from __future__ import annotations
 
-import importlib
+from simcalib.solvers.api import BatchSolution, Prior, Solution, solve, solve_batch
+from simcalib.timesync import estimate_time_offset
 
 __version__ = "0.1.0"
 
-_LAZY = {
-    "solve": "simcalib.solvers.api",
-    "solve_batch": "simcalib.solvers.api",
-    "Solution": "simcalib.solvers.api",
-    "BatchSolution": "simcalib.solvers.api",
-    "Prior": "simcalib.solvers.api",
-    "run": "simcalib.pipeline",
-    "load_config": "simcalib.config",
-    "estimate_time_offset": "simcalib.timesync",
-}
-
-__all__ = sorted(_LAZY) + ["__version__"]
+__all__ = ["BatchSolution", "Prior", "Solution", "__version__", "estimate_time_offset",
+           "load_config", "run", "solve", "solve_batch"]
 
 
-def __getattr__(name: str):
-    if name in _LAZY:
-        return getattr(importlib.import_module(_LAZY[name]), name)
-    raise AttributeError(f"module 'simcalib' has no attribute {name!r}")
+def load_config(scenario, overrides=()):
+    """Resolve a scenario (name, YAML path, mapping or a config) plus overrides (``"k=v"``
+    strings or a mapping of dotted key -> value) into a validated ``ScenarioConfig``:
+    :func:`simcalib.config.load_config`. The config schema (which imports the world's
+    configs) is imported here, at the first call, so ``import simcalib`` stays light."""
+    from simcalib import config
+    return config.load_config(scenario, overrides)
+
+
+def run(config, overrides=(), *, echo: bool = True):
+    """Run one scenario end to end and write its outputs: :func:`simcalib.pipeline.run`.
+
+    ``config``: a ``ScenarioConfig`` (:func:`load_config`) or a scenario name / YAML path,
+    resolved with ``overrides`` (``["seed=3", ...]``); ``echo`` prints the summary table.
+    Returns a :class:`simcalib.pipeline.RunResult`. The pipeline (world, rendering,
+    recording) is imported here, at the first run, so ``import simcalib`` stays light.
+    """
+    from simcalib import pipeline
+    return pipeline.run(config, overrides, echo=echo)

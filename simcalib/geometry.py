@@ -158,6 +158,13 @@ def transform_from_rotation_translation(R: np.ndarray, t: np.ndarray) -> np.ndar
     return out
 
 
+def transforms_from_flat(mats, positions) -> np.ndarray:
+    """``(N, 4, 4)`` transforms from ``N`` row-major rotation matrices flattened to 9 values
+    (MuJoCo's ``xmat``, as recorded per step) and ``N`` translations."""
+    return transform_from_rotation_translation(
+        np.asarray(mats, dtype=np.float64).reshape(-1, 3, 3), positions)
+
+
 # ------------------------------------------------------------------------ quaternions
 def quat_xyzw_from_wxyz(q_wxyz: np.ndarray) -> np.ndarray:
     """MuJoCo boundary: ``(w, x, y, z)`` -> ``(x, y, z, w)``."""

@@ -87,6 +87,7 @@ def scara_advice():
     return base, advise(base, 3, n_candidates=40)
 
 
+@pytest.mark.slow
 def test_every_proposed_stop_is_feasible(scara_advice):
     import mujoco
     from simcalib.world.layout import visible_markers
@@ -125,6 +126,7 @@ def test_every_proposed_stop_is_feasible(scara_advice):
     assert all((r == "") == f for r, f in zip(cand.reason, cand.feasible))
 
 
+@pytest.mark.slow
 def test_advice_monotone_and_json(scara_advice):
     from simcalib.advise import advice_dict
     base, adv = scara_advice
@@ -140,6 +142,7 @@ def test_advice_monotone_and_json(scara_advice):
     assert len(out["motions"][0]["joint_targets_rad"]) == 6
 
 
+@pytest.mark.slow
 def test_cart_states_what_it_cannot_help():
     from simcalib.advise import advise, baseline
     from simcalib.config import load_config
@@ -158,6 +161,7 @@ def test_cart_states_what_it_cannot_help():
     assert "prior" in h["fix"]
 
 
+@pytest.mark.slow
 def test_small_verification_run(tmp_path, capsys):
     from simcalib.cli import main
     code = main(["advise", "scenario=linear", "world.platform=arm", "k=2", "verify=true",

@@ -70,6 +70,7 @@ def _rig_files(tmp_path, path="3d", offset_s=0.0, seed=1):
     return rs, pa, pb
 
 
+@pytest.mark.slow
 def test_outputs_schema_recording_and_given_offset(tmp_path, capsys):
     rs, pa, pb = _rig_files(tmp_path, offset_s=0.02)
     out = tmp_path / "o"
@@ -95,6 +96,7 @@ def test_outputs_schema_recording_and_given_offset(tmp_path, capsys):
         assert ent in summary, ent
 
 
+@pytest.mark.slow
 def test_degenerate_motion_exits_6_and_still_writes(tmp_path, capsys):
     """Planar path: all rotations about the vertical, X's vertical translation is not
     determined."""
@@ -157,6 +159,7 @@ def test_errors_have_exit_codes(tmp_path, capsys):
         assert code == want and words in err, (args, code, err)
 
 
+@pytest.mark.slow
 def test_irls_calibrates(tmp_path, capsys):
     _, pa, pb = _rig_files(tmp_path)
     code, _, err = _calibrate(capsys, f"a={pa}", f"b={pb}", f"output={tmp_path / 'i'}",
@@ -205,6 +208,7 @@ def test_eth_prime_sense_with_the_command(tmp_path, capsys):
     assert rep["residuals"]["inliers"]["rot_rms_deg"] < rep["plain"]["residuals"]["rot_rms_deg"]
 
 
+@pytest.mark.slow
 def test_two_stream_sample_file_alone(tmp_path, capsys):
     """easy_handeye samples (robot + tracking = target in camera): ``a=`` alone; the
     tracking stream is found inverted; sample index as time, no offset estimated."""

@@ -116,6 +116,7 @@ def _errors(world, streams):
     return np.median(e_t) * 1e3, np.median(e_r)
 
 
+@pytest.mark.slow
 def test_true_calibration_undoes_distortion_a_wrong_one_does_not(world, monkeypatch):
     cfg = VisionConfig(distortion=(-0.25, 0.08, 0.0, 0.0, 0.0), log_every=1)
     st, log = visual_streams(world, cfg, np.random.default_rng(0), workers=1)
@@ -161,6 +162,7 @@ def _render_stack(world, jobs):
     return np.stack([cv2.cvtColor(im, cv2.COLOR_RGB2GRAY) for im in out[0]])
 
 
+@pytest.mark.slow
 def test_motion_blur_edge_width_grows_with_speed(world):
     eff = ce.CameraEffects(exposure_s=0.02, subframes=8)
     off = ce.subframe_offsets_s(eff)
@@ -174,6 +176,7 @@ def test_motion_blur_edge_width_grows_with_speed(world):
     assert widths[2] > 1.8 * widths[0]
 
 
+@pytest.mark.slow
 def test_rolling_shutter_skews_a_fast_pan(world):
     """Rows are exposed later from top to bottom: during a pan, a marker's horizontal
     shift against the global-shutter image grows linearly with its image row, at the
@@ -216,6 +219,7 @@ def test_occlusion_is_counted():
         assert r.occluded("c", pts).tolist() == [True, False, False]
 
 
+@pytest.mark.slow
 def test_realistic_preset_same_seed_same_images_and_counts(world):
     cfg = VisionConfig(preset="realistic", log_every=1)
     s1, l1 = visual_streams(world, cfg, np.random.default_rng(5), workers=1)

@@ -66,6 +66,7 @@ def test_dry_run_prints_resolved_config(capsys):
     assert cfg["world"]["cam_a"]["width"] == 320 and cfg["world"]["cam_b"]["width"] == 320
 
 
+@pytest.mark.slow
 def test_positional_scenario_and_runtime_failure_exit_1(capsys, tmp_path):
     # cam_b's clock 100 s off: no frames match by timestamp, found only at run time
     status = main(["run", "planar", "source=noisy", "world.duration_s=6",

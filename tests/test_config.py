@@ -137,6 +137,7 @@ def test_help_lists_every_leaf_key():
 
 
 # ----------------------------------------------------------------- one engine, many uses
+@pytest.mark.slow
 def test_every_scenario_round_trips_through_yaml():
     import yaml
     for name in list_scenarios():
@@ -183,6 +184,7 @@ def test_load_configs_checks_every_cell_before_returning():
     assert "cell 0" not in msg and "cell 3" not in msg
 
 
+@pytest.mark.slow
 def test_load_configs_is_cheap():
     import time
     from simcalib.config import load_configs

@@ -103,6 +103,7 @@ def table2_result(tmp_path_factory):
                           progress=False, output=str(out))
 
 
+@pytest.mark.slow
 def test_table2_schema_and_files(table2_result):
     res = table2_result
     cols, rows = _read_csv(res.files["csv"])
@@ -146,6 +147,7 @@ def _row(res, scenario, alg, kind):
     return r
 
 
+@pytest.mark.slow
 def test_table2_numbers_reproduce_the_papers_shape(table2_result):
     res = table2_result
     # random 3D motion: everything accurate (paper: 0.052 deg / 0.19 cm)
@@ -169,6 +171,7 @@ def test_table2_numbers_reproduce_the_papers_shape(table2_result):
         assert b["rot_median_deg"] == pytest.approx(a["rot_median_deg"], rel=0.02)
 
 
+@pytest.mark.slow
 def test_table2_is_deterministic_and_parallel_safe(tmp_path):
     kw = dict(samples=6, num_alphas=3, num_motions=150, n=40,
               algorithms=("dqopt", "opencv_tsai"), opencv_samples=3, progress=False)
@@ -179,6 +182,7 @@ def test_table2_is_deterministic_and_parallel_safe(tmp_path):
 
 
 # ------------------------------------------------------------------------------ table1
+@pytest.mark.slow
 def test_table1_optimality_and_timing(tmp_path):
     res = run_experiment(
         "table1", samples=12, n=60, num_motions=300,
@@ -219,6 +223,7 @@ def test_table1_optimality_and_timing(tmp_path):
 
 
 # ----------------------------------------------------------------------------- figure3
+@pytest.mark.slow
 def test_figure3_dqopt_wins_on_degenerate_motion(tmp_path):
     sr = (math.radians(0.1), math.radians(0.57))
     st = (0.002, 0.01)
@@ -246,6 +251,7 @@ def test_figure3_dqopt_wins_on_degenerate_motion(tmp_path):
 
 
 # ----------------------------------------------------------------------------- figure6
+@pytest.mark.slow
 def test_figure6_errors_grow_with_noise(tmp_path):
     res = run_experiment("figure6", samples=12, num_alphas=8, num_motions=300,
                          sigma_r_rad=(math.radians(0.1), math.radians(1.0)),
@@ -271,6 +277,7 @@ def test_figure6_errors_grow_with_noise(tmp_path):
 
 
 # --------------------------------------------------------------------------------- CLI
+@pytest.mark.slow
 def test_cli(tmp_path, capsys):
     assert main(["tabel2"]) == 2
     assert "did you mean 'table2'" in capsys.readouterr().err

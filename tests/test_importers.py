@@ -136,6 +136,7 @@ def _pairs(rig, n=25):
     return rig.T_a[k], rig.T_a[k] @ rig.X      # world_b = world_a here
 
 
+@pytest.mark.slow
 def test_easy_handeye_and_moveit_two_streams(tmp_path, rig):
     Ta, Tb = _pairs(rig)
     T_cam_target = invert_transform(Tb)          # tracking output: target in the camera
@@ -166,6 +167,7 @@ def test_easy_handeye_and_moveit_two_streams(tmp_path, rig):
     assert read_pose_stream(p, stream="effector_wrt_world").name == "effector_wrt_world"
 
 
+@pytest.mark.slow
 def test_conventions_detect_inverse_and_scalar_first(tmp_path):
     rs = rig_streams(offset_s=0.04, duration_s=20.0, rng=np.random.default_rng(4))
     pa = tmp_path / "a.csv"
@@ -217,6 +219,7 @@ def test_eth_data_conventions_and_calibration():
                 <= s["residuals_plain"]["trans_median_mm"] + 0.05)
 
 
+@pytest.mark.slow
 def test_simulation_round_trip_through_files(tmp_path):
     """Export a rig's streams with a clock offset, outlier poses and b written inverted and
     scalar-first; read them back and calibrate: the truth is recovered."""

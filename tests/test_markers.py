@@ -103,6 +103,7 @@ def _wall_marker_pose(yaw_in_plane_deg=0.0):
 
 
 # --------------------------------------------------------------------------- rendering
+@pytest.mark.slow
 @pytest.mark.parametrize("geom", ["plane", "box"])
 def test_marker_frame_convention_matches_rendered_texture(gl, geom):
     """Detected corner k (OpenCV order) is the projection of marker_corners_local[k]
@@ -128,6 +129,7 @@ def test_marker_frame_convention_matches_rendered_texture(gl, geom):
         assert np.rad2deg(g.rotation_error_rad(est.T_world_cam, T_wc)) < 0.3
 
 
+@pytest.mark.slow
 def test_rendered_marker_pnp_matches_ground_truth(gl):
     """Single 10 cm marker at 0.3-0.7 m (face-on and oblique): detected, corners within
     0.2 px of the projected truth, PnP pose within 1 cm and 1 deg (a single small marker
@@ -150,6 +152,7 @@ def test_rendered_marker_pnp_matches_ground_truth(gl):
         assert np.rad2deg(g.rotation_error_rad(est.T_world_cam, T_wc)) < 1.0
 
 
+@pytest.mark.slow
 def test_rendered_board_multi_marker_pnp_is_accurate(gl):
     """3x3 markers (10 cm, pitch 25 cm) at 1.0-1.5 m: joint PnP within 2 mm and 0.1 deg."""
     field = _board()
@@ -163,6 +166,7 @@ def test_rendered_board_multi_marker_pnp_is_accurate(gl):
         assert np.rad2deg(g.rotation_error_rad(est.T_world_cam, T_wc)) < 0.1
 
 
+@pytest.mark.slow
 def test_edge_refinement_removes_corner_shrink_bias(gl):
     """OpenCV subpix corners sit inside the marker (markers look small); the edge-line
     refinement is unbiased. Measured at 1.2 m, 10 cm marker, several views."""

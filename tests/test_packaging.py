@@ -122,6 +122,7 @@ def test_solver_library_imports_no_heavy_module():
     assert "HEAVY: []" in proc.stdout, proc.stdout
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("module", ["simcalib.world", "simcalib.world.scene",
                                     "simcalib.world.simulate", "simcalib.world.ik",
                                     "simcalib.experiments.plots", "simcalib.pipeline",
@@ -138,6 +139,7 @@ def test_no_backend_chosen_at_import(module):
     _run([sys.executable, "-c", code], cwd=REPO, env=_clean_env())
 
 
+@pytest.mark.slow
 def test_experiment_figures_leave_the_matplotlib_backend_alone(tmp_path):
     code = textwrap.dedent(f"""
         import sys

@@ -64,6 +64,7 @@ def _check_common(out, res, scenario):
     assert (out / "config.yaml").is_file()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scenario", ["random", "line", "circle"])
 def test_synthetic_scenarios(tmp_path, scenario):
     out, res = _run(tmp_path, scenario, SOLVERS, "progress=false", "pairing.n_pairs=40",
@@ -89,6 +90,7 @@ def test_random_dqopt_beats_daniilidis(tmp_path):
     assert s["dqopt"]["cost"] <= s["dq2ndord"]["cost"] + 1e-9
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scenario", ["planar", "3d", "linear", "circular", "rotation"])
 def test_sim_scenarios_noisy_source(tmp_path, scenario):
     out, res = _run(tmp_path, scenario, SOLVERS, "source=noisy", *SIM_SHORT)
@@ -119,6 +121,7 @@ def test_sim_scenarios_noisy_source(tmp_path, scenario):
         assert "/errors/dqopt_prior/rotation_deg" in ents
 
 
+@pytest.mark.slow
 def test_ground_truth_source_recovers_X_exactly(tmp_path):
     _, res = _run(tmp_path, "3d", "source=ground_truth", "solvers=[dqopt,daniilidis]",
                   "recording.enabled=false", *SIM_SHORT)

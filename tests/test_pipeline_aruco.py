@@ -39,6 +39,7 @@ def _entities(rrd):
     return {str(p) for p in RrdReader(str(rrd)).store().schema().entity_paths()}
 
 
+@pytest.mark.slow
 def test_3d_arm_aruco_recovers_X_and_records_images(tmp_path):
     out = tmp_path / "3d"
     assert main(["run", "scenario=3d", f"output={out}", *SHORT]) == 0
@@ -71,6 +72,7 @@ def test_3d_arm_aruco_recovers_X_and_records_images(tmp_path):
     assert (out / "recording.rrd").stat().st_size < 100e6
 
 
+@pytest.mark.slow
 def test_planar_aruco_degenerate_prior_and_determinism(tmp_path):
     args = ["run", "scenario=planar", f"output={tmp_path / 'p'}", *SHORT]
     assert main(args) == 0

@@ -50,6 +50,7 @@ def test_registry_lists_the_builtin_sources_and_rejects_unknown_names():
         get_source("aruco", "synthetic")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(available_sources()))
 def test_every_source_builds_and_measures_a_small_world(name):
     cfg = _small_cfg(name)

@@ -54,6 +54,7 @@ def test_residuals_are_the_per_motion_cost_terms():
     assert np.median(np.degrees(rot)) < 2.0 and np.median(tr) < 0.05
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kw", [{}, {"noise": (np.radians(0.57), 0.01)}],
                          ids=["auto-threshold", "noise-threshold"])
 def test_ransac_20_percent(kw):
@@ -71,6 +72,7 @@ def test_ransac_20_percent(kw):
     assert r.solution.method == "dqopt" and r.solution.n_motions == r.n_inliers
 
 
+@pytest.mark.slow
 def test_ransac_40_percent_finds_the_inliers():
     found = 0
     for s in range(RUNS):

@@ -206,6 +206,7 @@ def test_outlier_config_validation():
 
 
 # ----------------------------------------------------------------------------- clocks
+@pytest.mark.slow
 def test_clocks_per_stream_rates_offsets_and_drift():
     from simcalib.sources.corruption import clock_report
     cfg = load_config("planar", ["source=ground_truth", *SMALL_ANY_DURATION, "world.duration_s=3",
@@ -244,6 +245,7 @@ def _run(tmp_path, name, extra=()):
                         echo=False)
 
 
+@pytest.mark.slow
 def test_handeye_runs_small_and_recovers_T_flange_cam(tmp_path):
     r = _run(tmp_path, "handeye", ["solvers=[dqopt,daniilidis]"])
     assert r.status == "complete"
@@ -259,6 +261,7 @@ def test_handeye_runs_small_and_recovers_T_flange_cam(tmp_path):
     assert s.rotation_error_deg < 1.0 and s.translation_error_m < 0.02
 
 
+@pytest.mark.slow
 def test_scara_is_flagged_degenerate_along_the_vertical(tmp_path):
     r = _run(tmp_path, "scara", ["solvers=[dqopt]"])
     s = r.solver("dqopt")
@@ -270,6 +273,7 @@ def test_scara_is_flagged_degenerate_along_the_vertical(tmp_path):
     assert s.translation_error_determined_m < 0.02
 
 
+@pytest.mark.slow
 def test_same_seed_same_results_with_robot_error_outliers_and_clocks(tmp_path):
     extra = ["solvers=[dqopt]", "outliers.fraction=0.15", "world.cam_b.fps=10",
              "pairing.step=1",

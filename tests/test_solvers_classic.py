@@ -109,6 +109,7 @@ def test_dqnlopt_cost_equals_dqopt(noisy_problems, alpha):
         assert nl.cost >= ref.cost * (1 - 1e-12)
 
 
+@pytest.mark.slow
 def test_dqnloptrnd_never_beats_dqopt(noisy_problems):
     for k, (X, C, H) in enumerate(noisy_problems):
         ref = solve(C, H, "dqopt", alpha=1.0)
@@ -315,6 +316,7 @@ def test_opencv_chaining_reproduces_motions_and_products():
     assert np.abs(A @ X - X @ (Hc[4] @ invert_transform(Hc[1]))).max() < 1e-12
 
 
+@pytest.mark.slow
 def test_opencv_noisy_is_reasonable(noisy_problems):
     X, C, H = noisy_problems[0]
     for m in ("opencv_park", "opencv_daniilidis", "opencv_horaud", "opencv_andreff",

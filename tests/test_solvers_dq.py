@@ -44,6 +44,7 @@ def test_noise_free_exact_with_prior_and_alpha(method):
     assert max(_err(sol_p.X, X)) < 0.05
 
 
+@pytest.mark.slow
 def test_dqopt_cost_is_minimum_over_all_methods():
     """Paper Table 1: no method reaches a lower cost (8) than dqopt (to 1e-12 relative)."""
     rng = np.random.default_rng(11)
@@ -70,6 +71,7 @@ def test_optimal_variants_agree_with_dqopt():
         assert abs(simcalib.solve(C, H, method="dqoptpoly").cost - best.cost) <= 1e-12 * best.cost
 
 
+@pytest.mark.slow
 def test_dqopt_matches_brute_force_minimisation():
     """Independent check: scipy minimisation of cost (8) over SE(3) from 20 random starts."""
     from scipy.optimize import minimize

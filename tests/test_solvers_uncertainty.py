@@ -59,6 +59,7 @@ def test_jacobian_matches_finite_differences():
         np.testing.assert_allclose(num, K[:, :, j], atol=1e-7)
 
 
+@pytest.mark.slow
 def test_noise_propagation_matches_sampling():
     rng = np.random.default_rng(2)
     X = tf(matrix_from_rotvec(rng.normal(size=3)), rng.normal(size=3))
@@ -87,6 +88,7 @@ def test_dq_map_reproduces_cost_residual():
 
 
 # --------------------------------------------------------------------------- coverage
+@pytest.mark.slow
 @pytest.mark.parametrize("alpha", [0.3, 1.0, 3.0])
 def test_coverage_random_dqopt(alpha):
     C, H, X = _d2("random", 60, n=60, seed=4)
@@ -167,6 +169,7 @@ def test_prior_fixes_undetermined_direction():
 
 
 # --------------------------------------------------------------------------- verdicts
+@pytest.mark.slow
 @pytest.mark.parametrize("motion,expect", [("line", True), ("circle", True),
                                            ("random", False)])
 def test_d2_flags_invariant_to_alpha(motion, expect):
@@ -308,6 +311,7 @@ def _family(name, rng, N):
     return tf(matrix_from_rotvec(ax * ang[:, None]), t)
 
 
+@pytest.mark.slow
 def test_fuzz_families_methods_alpha():
     """No exception but ValueError/TypeError, no non-finite X with success, unflagged
     errors beyond 5 sigma in <= 1 % of the solved problems."""

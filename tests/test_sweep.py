@@ -77,6 +77,7 @@ def test_unknown_sweep_name_lists_shipped_ones():
         load_sweep("noize")
 
 
+@pytest.mark.slow
 def test_shipped_sweeps_expand_and_validate(tmp_path):
     from simcalib.sweep.cells import resolve_cells
     from simcalib.sweep.spec import list_sweeps
@@ -90,6 +91,7 @@ def test_shipped_sweeps_expand_and_validate(tmp_path):
     assert len(expand(load_sweep("noise"))) == 200
 
 
+@pytest.mark.slow
 def test_local_sweep_resumes_and_reports(tmp_path):
     out = tmp_path / "sw"
     spec = load_sweep(SMALL)
@@ -115,6 +117,7 @@ def test_local_sweep_resumes_and_reports(tmp_path):
     assert _rows(out) == rows
 
 
+@pytest.mark.slow
 def test_failed_cell_is_recorded_and_does_not_sink_the_sweep(tmp_path):
     # 30 pairs from a data set of 20 motions fails inside the run, not in validation
     spec = load_sweep({**SMALL, "seeds": 1, "grid": {"pairing.n_pairs": [10, 30]},
@@ -126,6 +129,7 @@ def test_failed_cell_is_recorded_and_does_not_sink_the_sweep(tmp_path):
     assert "Failed cells" in (tmp_path / "f" / "report.md").read_text()
 
 
+@pytest.mark.slow
 def test_executors_and_worker_counts_give_identical_tables(tmp_path):
     pytest.importorskip("ray", reason="executor=ray needs the [cluster]/[test] extra")
     spec = load_sweep(SMALL)
@@ -136,6 +140,7 @@ def test_executors_and_worker_counts_give_identical_tables(tmp_path):
     assert a == b and len(a) == 8
 
 
+@pytest.mark.slow
 def test_sweep_cli(tmp_path, capsys):
     from simcalib.cli import main
     f = tmp_path / "s.yaml"

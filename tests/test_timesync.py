@@ -25,6 +25,7 @@ def _x_error(rs, offset):
     return float(rotation_error_rad(X, rs.X)), float(translation_error_m(X, rs.X))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", ["3d", "planar"])
 @pytest.mark.parametrize("offset", [0.0, 0.037, 0.250])
 def test_offset_recovered_within_3ms(path, offset):
@@ -48,6 +49,7 @@ def test_unknown_offset_costs_accuracy_without_alignment():
     assert r_none > 10 * r_est
 
 
+@pytest.mark.slow
 def test_large_offset_and_drift():
     rs = rig_streams(offset_s=-18.0, duration_s=60.0, rng=np.random.default_rng(2))
     assert abs(estimate_time_offset(rs.a, rs.b).offset_s + 18.0) < 3e-3

@@ -107,6 +107,7 @@ def run_1(world):
     return visual_streams(world, cfg, np.random.default_rng(7), workers=1)
 
 
+@pytest.mark.slow
 def test_visual_poses_match_ground_truth_and_drop_is_counted(world, run_1):
     streams, log = run_1
     for cam in world.camera_names:
@@ -124,6 +125,7 @@ def test_visual_poses_match_ground_truth_and_drop_is_counted(world, run_1):
         assert st.info["n_markers"].shape == st.frame_index.shape
 
 
+@pytest.mark.slow
 def test_visual_log_is_plain_reviewable_data(world, run_1):
     streams, log = run_1
     rec = log.frames["cam_a"]
@@ -143,6 +145,7 @@ def test_visual_log_is_plain_reviewable_data(world, run_1):
     np.testing.assert_allclose(log.reproj_rmse_px("cam_a"), streams["cam_a"].info["reproj_rmse_px"])
 
 
+@pytest.mark.slow
 def test_same_seed_same_streams_and_seed_matters(world, run_1):
     cfg = VisionConfig(noise_std=3.0, blur_sigma_px=0.6, log_every=4)
     again, _ = visual_streams(world, cfg, np.random.default_rng(7), workers=1)
@@ -153,6 +156,7 @@ def test_same_seed_same_streams_and_seed_matters(world, run_1):
         assert not np.array_equal(other[cam].T_world_cam, run_1[0][cam].T_world_cam)
 
 
+@pytest.mark.slow
 def test_worker_count_does_not_change_results(world, run_1):
     cfg = VisionConfig(noise_std=3.0, blur_sigma_px=0.6, log_every=4)
     par, log = visual_streams(world, cfg, np.random.default_rng(7), workers=2)
@@ -165,6 +169,7 @@ def test_worker_count_does_not_change_results(world, run_1):
         assert log.images_jpeg[cam] == run_1[1].images_jpeg[cam]
 
 
+@pytest.mark.slow
 def test_worker_processes_render_identical_images(world):
     """Spawned worker processes (this process not rendering) give the same pixels."""
     from simcalib.render import FrameJob, RenderSettings, render_map
@@ -178,6 +183,7 @@ def test_worker_processes_render_identical_images(world):
     assert here[0].shape == (H, W, 3) and here[0].dtype == np.uint8
 
 
+@pytest.mark.slow
 def test_coarse_meshes_do_not_move_marker_corners(world):
     from simcalib.markers import detect_markers
     from simcalib.render import CameraRenderer, RenderSettings
@@ -205,6 +211,7 @@ def test_undelivered_frames_are_not_rendered_and_counted(gl):
     assert log.frames["cam_a"][1].status == "frame_dropped" and log.images_jpeg["cam_a"] == {}
 
 
+@pytest.mark.slow
 def test_image_knobs_degrade_but_keep_poses(world):
     """Strong blur and noise: still a pose on every marker frame, larger reprojection error."""
     sharp, _ = visual_streams(world, VisionConfig(log_every=0), np.random.default_rng(1),
@@ -303,6 +310,7 @@ def test_backend_selection_and_error_message():
     assert available_backend(probe_inprocess=lambda: None, probe_subprocess=fail)[1] is True
 
 
+@pytest.mark.slow
 def test_headless_glfw_gives_clear_error_and_workers_fall_back(gl):
     """mujoco imported with a backend that cannot work headless (glfw, no DISPLAY): the
     renderer raises RenderBackendError naming the packages, and render_map still renders
@@ -352,6 +360,7 @@ def test_renderer_does_not_modify_callers_model(world):
 
 
 # ------------------------------------------------------------------------- benchmark
+@pytest.mark.slow
 def test_vision_bench_cli(gl, tmp_path, capsys):
     import json
 
@@ -399,6 +408,7 @@ def _run_py(code, env_update, drop=(), timeout=180):
                           capture_output=True, text=True, timeout=timeout, cwd=root)
 
 
+@pytest.mark.slow
 def test_mujoco_gl_is_decided_by_render_not_at_import():
     """No simcalib module sets MUJOCO_GL at import; import_mujoco decides it (egl)."""
     code = ("import os, simcalib, simcalib.world, simcalib.vision, simcalib.pipeline, "
@@ -443,6 +453,7 @@ class _InterruptAfter:
         return float(img.mean())
 
 
+@pytest.mark.slow
 def test_render_interrupt_keeps_done_frames_and_progress_reports(world):
     from simcalib.render import (FrameJob, LineProgress, RenderInterrupted, RenderSettings,
                                  render_map)
@@ -486,6 +497,7 @@ def test_visual_streams_interrupt_returns_partial_streams(world, monkeypatch):
     assert exc.n_done == 5 and st.n_used >= 4 and st.drop_reasons.get("not_rendered", 0) >= 1
 
 
+@pytest.mark.slow
 def test_ctrl_c_in_worker_pool_prints_no_worker_traceback(gl):
     """SIGINT to the whole process group while worker processes render: the parent stops
     with RenderInterrupted, the workers print nothing."""

@@ -37,6 +37,7 @@ def rigid():
                        np.random.default_rng(3))
 
 
+@pytest.mark.slow
 def test_turns_roll_the_sprung_car_and_not_the_rigid_one(sprung, rigid):
     """Under the turns the sprung car rolls > 0.5 deg (seen by the cameras); the rigid car on
     flat ground stays level (contact compliance only)."""
@@ -53,6 +54,7 @@ def test_turns_roll_the_sprung_car_and_not_the_rigid_one(sprung, rigid):
     assert abs(np.corrcoef(a_lat[turning], tr.roll_rad[turning])[0, 1]) > 0.8
 
 
+@pytest.mark.slow
 def test_ground_truth_is_the_physics_pose_of_the_camera_sites(sprung):
     """Camera poses = the physics' rig-mount pose at the capture time (interpolated) times
     the rig's fixed mount->camera transform; the rig stays rigid (X at every frame)."""
@@ -76,6 +78,7 @@ def test_ground_truth_is_the_physics_pose_of_the_camera_sites(sprung):
     assert sprung.marker_field.ids.size == 0
 
 
+@pytest.mark.slow
 def test_same_seed_same_trajectory_to_1e9_m():
     cfg = WorldConfig(platform="car", path="linear", duration_s=6.0, fps=5.0,
                       path_params={"amp_m": 8.0},
@@ -110,6 +113,7 @@ def test_interpolate_poses_is_linear_and_slerp():
             < 1e-12
 
 
+@pytest.mark.slow
 def test_scenarios_build_and_run_small(tmp_path):
     import simcalib
     res = simcalib.run(load_config("car", [*SMALL_RUN, f"output={tmp_path / 'car'}"]),
@@ -158,6 +162,7 @@ def arm_worlds():
                                                "capture": "stop_and_go"}))}
 
 
+@pytest.mark.slow
 def test_physics_arm_lags_while_moving_and_settles_at_stops(arm_worlds):
     ref = arm_worlds["kinematic"].trajectory.cam_a.T_world_cam
 

@@ -88,6 +88,7 @@ UR5E_LIKE = """<mujoco model="ur5e">
 """
 
 
+@pytest.mark.slow
 def test_menagerie_arm_loads_and_simulates(tmp_path, monkeypatch):
     d = tmp_path / "universal_robots_ur5e"
     (d / "assets").mkdir(parents=True)

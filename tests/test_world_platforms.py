@@ -68,6 +68,7 @@ def _simulated_world(platform, path):
     return world
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("platform,path", COMBOS)
 def test_every_platform_drives_every_supported_path(platform, path):
     if callable(getattr(get_platform(platform), "simulates", None)) and \

@@ -24,6 +24,7 @@ def _renderer(model, h, w):
         pytest.skip(f"no offscreen rendering backend ({os.environ.get('MUJOCO_GL')}): {exc}")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("platform, path, frames", [("cart", "planar", (0, 120)),
                                                      ("arm", "3d", (0, 70))])
 def test_rendered_markers_match_known_map(platform, path, frames):

@@ -40,6 +40,7 @@ def test_every_sensible_pair_is_covered():
     assert ("arm", "scara") in PAIRS and ("cart", "scara") not in PAIRS
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("pair", PAIRS, ids=lambda p: f"{p[0]}-{p[1]}")
 def test_scene_builds_and_ground_truth_is_consistent(worlds, pair):
     w = worlds[pair]
@@ -73,6 +74,7 @@ def test_scene_builds_and_ground_truth_is_consistent(worlds, pair):
     assert travel > 0.1 or turn > 30.0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("pair", PAIRS, ids=lambda p: f"{p[0]}-{p[1]}")
 def test_cameras_stay_in_room_and_see_markers(worlds, pair):
     w = worlds[pair]
@@ -175,6 +177,7 @@ def test_ik_reaches_waypoints_within_joint_limits(worlds, path):
     assert np.abs(achieved - target).max() < 1e-6
 
 
+@pytest.mark.slow
 def test_unreachable_arm_path_is_a_clear_error():
     cfg = WorldConfig(path="linear", platform="arm", path_params={"amp_m": 1.5})
     with pytest.raises(ValueError, match="not reachable by the arm within its joint limits"):

@@ -30,6 +30,7 @@ def _arrays(world):
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("platform, path", [("cart", "planar"), ("arm", "3d")])
 def test_same_seed_same_world_and_streams(platform, path):
     cfg = WorldConfig(platform=platform, path=path, **KNOBS)
@@ -46,6 +47,7 @@ def test_same_seed_same_world_and_streams(platform, path):
     assert not np.allclose(n1.T_world_cam, n3.T_world_cam)
 
 
+@pytest.mark.slow
 def test_time_offset_jitter_and_clock():
     cfg = WorldConfig(platform="cart", path="planar", **KNOBS)
     w = build_world(cfg, np.random.default_rng(0))
@@ -113,6 +115,7 @@ def test_ground_truth_stream_exact_and_plain_frames_supported():
         ground_truth_stream(fr.T_world_cam)
 
 
+@pytest.mark.slow
 def test_noisy_stream_follows_eq38_statistics():
     w = build_world(WorldConfig(path="rotation", duration_s=200.0, fps=10.0),
                     np.random.default_rng(0))

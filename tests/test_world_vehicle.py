@@ -27,6 +27,7 @@ def rigid():
                             np.random.default_rng(1))
 
 
+@pytest.mark.slow
 def test_figure_eight_rolls_the_sprung_car_and_not_the_rigid_one(sprung, rigid):
     assert sprung.stats["roll_peak_deg"] >= 0.5
     assert sprung.stats["pitch_peak_deg"] >= 0.1          # launch and braking
@@ -36,6 +37,7 @@ def test_figure_eight_rolls_the_sprung_car_and_not_the_rigid_one(sprung, rigid):
     assert np.degrees(sprung.roll_rad).max() > 0.4 and np.degrees(sprung.roll_rad).min() < -0.4
 
 
+@pytest.mark.slow
 def test_roll_matches_lateral_acceleration(sprung):
     """Quasi-static roll ≈ gradient × lateral acceleration (one sign, ~0.2-0.8 °/(m/s²))."""
     yaw_rate = np.gradient(sprung.yaw_rad, sprung.time_s)
@@ -46,6 +48,7 @@ def test_roll_matches_lateral_acceleration(sprung):
     assert np.mean(np.sign(grad) == np.sign(np.median(grad))) > 0.9
 
 
+@pytest.mark.slow
 def test_wheel_slip_and_tracking_bounded(sprung, rigid):
     for tr in (sprung, rigid):
         assert tr.wheels == ("fl", "fr", "rl", "rr")
@@ -72,6 +75,7 @@ def test_trajectory_frames(sprung):
     assert np.allclose(T_base_mount[0, :3, 1], [0, 0, -1], atol=1e-9)  # rig y = down
 
 
+@pytest.mark.slow
 def test_uneven_ground_pitches_and_lifts_the_car():
     flat = simulate_vehicle(VehicleConfig(speed_mps=4.0), _straight(), np.random.default_rng(2))
     rough = simulate_vehicle(VehicleConfig(speed_mps=4.0, ground="uneven",
@@ -100,6 +104,7 @@ def test_slope_tilts_the_car_with_the_ground():
     assert np.allclose(np.polyfit(x, z, 1)[0], np.tan(np.radians(4.0)), atol=0.005)
 
 
+@pytest.mark.slow
 def test_differential_drive_follows_the_path():
     tr = simulate_vehicle(VehicleConfig(drive="differential", speed_mps=3.0), PATH,
                           np.random.default_rng(0))
@@ -110,6 +115,7 @@ def test_differential_drive_follows_the_path():
     assert np.all(tr.steer_rad == 0.0)
 
 
+@pytest.mark.slow
 def test_deterministic_to_1e9_and_seed_dependent_ground():
     cfg = VehicleConfig(speed_mps=4.0, ground="uneven", bump_amplitude_m=0.03)
     a = simulate_vehicle(cfg, _straight(25.0), np.random.default_rng(7))

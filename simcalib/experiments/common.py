@@ -107,6 +107,23 @@ def check_scenarios(name: str, scenarios) -> None:
             raise unknown_choice("scenario", s, MOTIONS, key=name)
 
 
+def noise_grid_fields(cfg) -> dict:
+    """Checked values of the fields the noise-grid experiments (figure3, figure6) share:
+    ``samples``/``num_alphas``/``chunk`` >= 1, ``workers`` >= 0, ``n``/``num_motions`` >= 2,
+    ``seed`` >= 0, and the non-negative ``sigma_r_rad``/``sigma_t_m`` grids (as tuples).
+    Pass the result to :func:`simcalib.checks.set_fields`."""
+    fields = {name: check_int(name, getattr(cfg, name), lo=1)
+              for name in ("samples", "num_alphas", "chunk")}
+    fields.update(workers=check_int("workers", cfg.workers, lo=0),
+                  n=check_int("n", cfg.n, lo=2),
+                  num_motions=check_int("num_motions", cfg.num_motions, lo=2),
+                  seed=check_int("seed", cfg.seed, lo=0))
+    for name in ("sigma_r_rad", "sigma_t_m"):
+        fields[name] = tuple(check_positive(f"{name}[{i}]", v, allow_zero=True)
+                             for i, v in enumerate(getattr(cfg, name)))
+    return fields
+
+
 def alpha_grid(num: int = 100, low: float = 1e-2, high: float = 10 ** 1.7) -> np.ndarray:
     """The paper's α grid: ``num`` log-spaced values in ``[low, high]`` (1/m)."""
     check_positive_int("num_alphas", num)

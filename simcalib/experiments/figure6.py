@@ -46,17 +46,8 @@ class Figure6Config:
     output: str = "results/figure6"
 
     def __post_init__(self):
-        from simcalib.checks import check_int, check_positive, check_that, set_fields
-        set_fields(self,
-                   **{name: check_int(name, getattr(self, name), lo=1)
-                      for name in ("samples", "num_alphas", "chunk")},
-                   workers=check_int("workers", self.workers, lo=0),
-                   n=check_int("n", self.n, lo=2),
-                   num_motions=check_int("num_motions", self.num_motions, lo=2),
-                   seed=check_int("seed", self.seed, lo=0),
-                   **{name: tuple(check_positive(f"{name}[{i}]", v, allow_zero=True)
-                                  for i, v in enumerate(getattr(self, name)))
-                      for name in ("sigma_r_rad", "sigma_t_m")},
+        from simcalib.checks import check_positive, check_that, set_fields
+        set_fields(self, **common.noise_grid_fields(self),
                    fixed_sigma_r_rad=check_positive("fixed_sigma_r_rad",
                                                     self.fixed_sigma_r_rad, allow_zero=True),
                    fixed_sigma_t_m=check_positive("fixed_sigma_t_m", self.fixed_sigma_t_m,

@@ -332,6 +332,42 @@ def _project_rigid(M: np.ndarray, label: str, repairs: dict) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------ text helpers
+def first_data_line(text: str, comment: str = "#") -> str:
+    """The first line that is neither blank nor a comment, stripped ("" if none)."""
+    for line in text.splitlines():
+        s = line.strip()
+        if s and not s.startswith(comment):
+            return s
+    return ""
+
+
+def is_pose_row(line: str, sep: str | None) -> bool:
+    """Whether ``line`` is a row of 8 numbers ``t, x, y, z, qx, qy, qz, qw`` split on
+    ``sep`` (``None``: whitespace): what the ETH and TUM sniffers look for."""
+    parts = line.split(sep)
+    if len(parts) != 8:
+        return False
+    try:
+        [float(p) for p in parts]
+    except ValueError:
+        return False
+    return True
+
+
+def read_pose_rows(path, text: str, sep: str | None, fmt: str, layout: str,
+                   options: dict) -> list[RawStream]:
+    """One stream from rows of 8 numbers (time, position, quaternion x y z w) split on
+    ``sep``; ``fmt`` (reader name) and ``layout`` (the columns, for the error) name the
+    format in messages. Such readers take no options."""
+    if options:
+        raise TypeError(f"{fmt} reader takes no options; received {sorted(options)}")
+    rows, _ = numeric_rows(text, sep)
+    if rows.shape[1] != 8:
+        raise ValueError(f"{path}: {fmt.upper()} rows have 8 values ({layout}); "
+                         f"received {rows.shape[1]}")
+    return [RawStream(rows[:, 0], position_m=rows[:, 1:4], quat_xyzw=rows[:, 4:8])]
+
+
 def numeric_rows(text: str, sep: str | None, comment: str = "#") -> tuple[np.ndarray, int]:
     """Parse numeric rows (``sep`` None: whitespace). Returns (array, n_lines_skipped);
     unparsable lines other than blank/comment raise with the line number."""

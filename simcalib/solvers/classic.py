@@ -193,41 +193,100 @@ def _daniilidis_matrices(qC, qCd, qH, qHd, alphas) -> np.ndarray:
     return T.reshape(B, 6 * n, 8)
 
 
-def daniilidis_batch(C, H, alphas, prior=None) -> dict:
+def _unit_dual_quats_from_spans(v1, v2, use):
+    """:func:`unit_dual_quat_from_span` for the rows ``use`` of ``v1, v2 (B, 8)`` at once
+    (the same formulas, as arrays). Returns ``q, q' (B, 4)`` and the mask of rows done;
+    rows it leaves (not in ``use``, no rotation part, ``Qd == 0``, a singular ``Qu``) go
+    through the single-problem function, which also words their failure."""
+    def dot(a, b):
+        return np.einsum("bi,bi->b", a, b)
+    u1, w1, u2, w2 = v1[:, :4], v1[:, 4:], v2[:, :4], v2[:, 4:]
+    p_, r_, s_ = dot(u1, w1), 0.5 * (dot(u1, w2) + dot(u2, w1)), dot(u2, w2)
+    Qu = np.stack([np.stack([dot(u1, u1), dot(u1, u2)], -1),
+                   np.stack([dot(u1, u2), dot(u2, u2)], -1)], -2)
+    m = 0.5 * (p_ + s_)
+    rho = np.hypot(0.5 * (p_ - s_), r_)
+    theta = 0.5 * np.arctan2(2.0 * r_, p_ - s_)
+    has_q = np.maximum(np.linalg.norm(u1, axis=1), np.linalg.norm(u2, axis=1)) >= 1e-8
+    use = use & has_q & ~((rho == 0.0) & (m == 0.0))
+    exact = use & (np.abs(m) <= rho)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        dt = 0.5 * np.arccos(np.clip(-m / np.where(exact, rho, 1.0), -1.0, 1.0))
+    t1, t2 = theta + dt, theta - dt
+    l1 = np.stack([np.cos(t1), np.sin(t1)], -1)
+    l2 = np.stack([np.cos(t2), np.sin(t2)], -1)
+    # no real solution (noise): generalised eigenvector minimising |l^T Qd l| / l^T Qu l
+    inexact = np.flatnonzero(use & ~exact)
+    if inexact.size:
+        Qd = np.stack([np.stack([p_, r_], -1), np.stack([r_, s_], -1)], -2)[inexact]
+        try:
+            ev, V = np.linalg.eig(np.linalg.solve(Qu[inexact], Qd))
+        except np.linalg.LinAlgError:   # some Qu singular: those rows go one by one
+            use = use.copy()
+            use[inexact] = False
+        else:
+            pick = np.argmin(np.abs(ev.real), axis=1)
+            l1[inexact] = np.real(V[np.arange(inexact.size), :, pick])
+            l2[inexact] = l1[inexact]
+    qq1 = np.einsum("bi,bij,bj->b", l1, Qu, l1)
+    qq2 = np.einsum("bi,bij,bj->b", l2, Qu, l2)
+    second = qq2 > qq1          # max() keeps the first of equal candidates
+    best = np.where(second[:, None], l2, l1)
+    qq = np.where(second, qq2, qq1)
+    trace = np.maximum(Qu[:, 0, 0] + Qu[:, 1, 1], 1e-300)
+    use = use & np.isfinite(qq) & (qq > 1e-24 * trace) & (qq > 0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        lam = best / np.sqrt(np.where(use, qq, 1.0))[:, None]
+    x = lam[:, :1] * v1 + lam[:, 1:] * v2
+    x = np.where((x[:, 3] < 0)[:, None], -x, x)
+    return x[:, :4], x[:, 4:], use
+
+
+def daniilidis_batch(C, H, alphas, prior=None, weights=None) -> dict:
     """Daniilidis on ``B`` validated problems at once: the motions are converted and aligned
     by the compiled kernel, the stacked matrices factored by batched QR + SVD (the same
-    LAPACK routines as :func:`daniilidis`, so ``X[b]`` equals the single solve); only the
-    closing 2x2 quadratic runs per problem."""
-    from simcalib.solvers.problem import prepare_batch
-    Q, flips = prepare_batch(C, H, alphas)
+    LAPACK routines as :func:`daniilidis`, so ``X[b]`` equals the single solve) and the
+    closing 2x2 quadratic solved for all problems at once (rare degenerate cases one by
+    one). ``C, H`` are float64, C-contiguous and checked for rigidity in the kernel
+    (``batch_validates``: a problem with a non-rigid pose is reported in ``bad`` and
+    ``solve_batch`` raises, naming it); no weights (``supports_weights=False``)."""
+    from simcalib.solvers.kernels.batch import run_batch
+    from simcalib.solvers.kernels.dqcore import DQOPT
+    B = C.shape[0]
+    kernel = run_batch(DQOPT, alphas, C=C, H=H, keep_q=True)
+    Q, flips, bad = kernel["Q"], kernel["nflip"], kernel["bad"]
+    if (bad >= 0).any():
+        return {"X": np.full((B, 4, 4), np.nan), "bad": bad}
     qC, qH = np.swapaxes(Q[:, 0:4], 1, 2), np.swapaxes(Q[:, 4:8], 1, 2)
     qCd, qHd = np.swapaxes(Q[:, 8:12], 1, 2), np.swapaxes(Q[:, 12:16], 1, 2)
     T = _daniilidis_matrices(qC, qCd, qH, qHd, alphas)
     R = np.linalg.qr(T, mode="r") if T.shape[1] >= 8 else T
     _, sv, Vt = np.linalg.svd(R)
-    B = C.shape[0]
     X = np.full((B, 4, 4), np.nan)
-    ok = np.zeros(B, dtype=bool)
     reason = np.full(B, "", dtype=object)
-    for b in range(B):
-        n_null = int(np.sum(sv[b] <= NULL_TOL * sv[b, 0])) if sv[b, 0] > 0 else 8
+    top = sv[:, :1]
+    n_null = np.where(top[:, 0] > 0, np.sum(sv <= NULL_TOL * top, axis=1), 8)
+    ok = n_null <= 2
+    q, qd, done = _unit_dual_quats_from_spans(Vt[:, -2, :], Vt[:, -1, :], ok)
+    X[done] = transform_from_dual_quat(q[done], qd[done] / alphas[done, None])
+    for b in np.flatnonzero(~done):   # rare: a larger null space or a degenerate span
         try:
-            q, qd_scaled = unit_dual_quat_from_null_space(Vt[b, -max(n_null, 2):])
+            q_b, qd_b = unit_dual_quat_from_null_space(Vt[b, -max(int(n_null[b]), 2):])
         except ValueError as exc:
             reason[b] = f"degenerate motions for Daniilidis: {exc}"
+            ok[b] = False
             continue
-        X[b] = transform_from_dual_quat(q, qd_scaled / alphas[b])
-        ok[b] = n_null <= 2
+        X[b] = transform_from_dual_quat(q_b, qd_b / alphas[b])
         if not ok[b]:
-            reason[b] = (f"degenerate motions for Daniilidis: {n_null} near-zero singular "
+            reason[b] = (f"degenerate motions for Daniilidis: {n_null[b]} near-zero singular "
                          "values (a unique X needs exactly 2)")
     from simcalib.solvers.problem import batch_cost
     return {"X": X, "success": ok, "failure_reason": reason, "sign_flips": flips,
-            "cost": batch_cost(Q, X, alphas)}
+            "cost": batch_cost(Q, X, alphas), "bad": bad}
 
 
 @register("daniilidis", family="classic", uses_alpha=True, supports_prior=False,
-          expected_cost_us=1000.0, batch=daniilidis_batch,
+          expected_cost_us=1000.0, batch=daniilidis_batch, batch_validates=True,
           description="Daniilidis 1999 dual-quaternion SVD (translation scaled by alpha)")
 def _daniilidis(problem: MotionProblem, alpha: float, prior, rng) -> SolverOutput:
     if prior is not None:

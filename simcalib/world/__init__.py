@@ -8,41 +8,26 @@ Public API::
     gt_a = ground_truth_stream(world.trajectory.cam_a)
     noisy_b = noisy_stream(world.trajectory.cam_b, sigma_r_rad=0.01, sigma_t_m=0.01, rng=rng)
 
-MuJoCo is imported lazily (only when a scene is built); configs and paths are light.
+MuJoCo is imported when a scene is built (``simcalib.render.import_mujoco``), not here.
 """
 
 from __future__ import annotations
-
-import importlib
 
 from simcalib.world.config import (PLATFORMS, ArmControlConfig, CameraConfig, IKConfig,
                                    MarkerFieldConfig, PerturbationConfig, RigConfig,
                                    RoomConfig, VehicleConfig, WorldConfig)
 from simcalib.world.paths import PathInfo, available_paths, get_path, sample_path
 from simcalib.world.sensors import delivered_mask, ground_truth_stream, noisy_stream
-
-_LAZY = {
-    "World": "simcalib.world.simulate",
-    "SimCameraFrames": "simcalib.world.simulate",
-    "build_world": "simcalib.world.simulate",
-    "camera_poses_from_state": "simcalib.world.simulate",
-    "Scene": "simcalib.world.scene",
-    "build_scene": "simcalib.world.scene",
-    "build_model": "simcalib.world.scene",
-    "marker_layout": "simcalib.world.layout",
-    "visible_markers": "simcalib.world.layout",
-    "project_points": "simcalib.world.layout",
-    "solve_ik": "simcalib.world.ik",
-    "solve_ik_path": "simcalib.world.ik",
-}
+from simcalib.world.ik import solve_ik, solve_ik_path
+from simcalib.world.layout import marker_layout, project_points, visible_markers
+from simcalib.world.scene import Scene, build_model, build_scene
+from simcalib.world.simulate import SimCameraFrames, World, build_world, camera_poses_from_state
 
 __all__ = sorted(["PLATFORMS", "ArmControlConfig", "VehicleConfig", "CameraConfig", "IKConfig", "MarkerFieldConfig",
                   "PerturbationConfig", "RigConfig", "RoomConfig", "WorldConfig", "PathInfo",
                   "available_paths", "get_path", "sample_path", "delivered_mask",
-                  "ground_truth_stream", "noisy_stream", *_LAZY])
+                  "ground_truth_stream", "noisy_stream", "World", "SimCameraFrames", "build_world",
+                  "camera_poses_from_state", "Scene", "build_scene", "build_model",
+                  "marker_layout", "visible_markers", "project_points", "solve_ik",
+                  "solve_ik_path"])
 
-
-def __getattr__(name: str):
-    if name in _LAZY:
-        return getattr(importlib.import_module(_LAZY[name]), name)
-    raise AttributeError(f"module 'simcalib.world' has no attribute {name!r}")

@@ -400,11 +400,9 @@ def track_joint_path(model, qpos_targets, *, duration_s: float | None = None,
         step += n_ctrl
     t_sim = time.perf_counter() - t0
 
-    from simcalib.geometry import transform_from_rotation_translation
-    T_fl = transform_from_rotation_translation(np.array(rec["mat"]).reshape(-1, 3, 3),
-                                               np.array(rec["pos"]))
-    T_cap = transform_from_rotation_translation(np.array(caps["mat"]).reshape(-1, 3, 3),
-                                                np.array(caps["pos"]))
+    from simcalib.geometry import transforms_from_flat
+    T_fl = transforms_from_flat(rec["mat"], rec["pos"])
+    T_cap = transforms_from_flat(caps["mat"], caps["pos"])
     # target flange poses at the capture path times (forward kinematics of the target)
     dk = mujoco.MjData(m)
     T_tgt = np.zeros_like(T_cap)

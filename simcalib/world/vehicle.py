@@ -793,11 +793,9 @@ def simulate_vehicle(cfg: VehicleConfig, path, rng: np.random.Generator, *,
         step += n
     t_sim = time.perf_counter() - t_sim0
 
-    from simcalib.geometry import transform_from_rotation_translation
-    T_base = transform_from_rotation_translation(np.array(rec["mat"]).reshape(-1, 3, 3),
-                                                 np.array(rec["pos"]))
-    T_mount = transform_from_rotation_translation(np.array(rec["mmat"]).reshape(-1, 3, 3),
-                                                  np.array(rec["mpos"]))
+    from simcalib.geometry import transforms_from_flat
+    T_base = transforms_from_flat(rec["mat"], rec["pos"])
+    T_mount = transforms_from_flat(rec["mmat"], rec["mpos"])
     roll, pitch, yaw = _euler_zyx(T_base[:, :3, :3])
     yaw = np.unwrap(yaw)
     speed = np.array(rec["v"])

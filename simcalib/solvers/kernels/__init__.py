@@ -3,5 +3,8 @@
 ``gram`` (Gram accumulation, (S, W, M) assembly), ``dqcore`` (the methods on (S, W, M)),
 ``batch`` (the fused, parallel per-problem kernel used by solve and solve_batch).
 
+``jit`` holds the ``njit`` they are decorated with: numba itself is imported at the first
+kernel call, not when the kernels (or ``simcalib``) are imported.
+
 Compilation: every kernel is ``cache=True``; see docs/solvers.md ("Start-up").
 """

@@ -22,7 +22,7 @@ lowest dqopt cost is kept.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from simcalib.solvers.kernels.jit import njit, prange
 
 from simcalib.solvers.kernels.dqcore import DQOPT, I_COST, I_STATUS, N_INFO, ST_NONFINITE, \
     _solve_core

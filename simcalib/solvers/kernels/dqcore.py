@@ -11,7 +11,7 @@ dqopt, the minimum over a dense numpy scan of the constraint set.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from simcalib.solvers.kernels.jit import njit
 
 from simcalib.solvers.kernels.linalg import _eigh, _eigh_warm
 

@@ -14,7 +14,7 @@ builds (S, W, M) — the one place that does. Numpy twins: :func:`gram_blocks`,
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from simcalib.solvers.kernels.jit import njit
 
 from simcalib.geometry import dual_quat_from_transform, quat_conjugate, quat_left_matrix, \
     quat_right_matrix

@@ -9,7 +9,7 @@ LAPACK call from numba.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from simcalib.solvers.kernels.jit import njit
 
 __all__ = ["eigh", "eigh_numpy"]
 

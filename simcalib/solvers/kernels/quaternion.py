@@ -8,7 +8,7 @@ Numpy twins live in :mod:`simcalib.geometry` (``dual_quat_from_transform``,
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from simcalib.solvers.kernels.jit import njit
 
 __all__ = ["dual_quat_one", "is_rigid"]
 
