@@ -249,7 +249,9 @@ def _std_dict(s) -> dict:
 class Verification:
     """Actual errors and predicted 1-sigma of dqopt for ``baseline``, ``advised`` and each
     ``random`` seed (dicts of :func:`solve_errors` plus ``stops_measured``), the medians
-    over the random seeds and the ratios advised / median random. ``random_joint*`` /
+    over the random seeds and the ratios **median over seeds of the advised stops** (each
+    seed's measurement noise, ``advised_seeds``, ``advised_median``) / median random
+    (``advised`` is the advised stops measured once, with the scenario's seed). ``random_joint*`` /
     ``ratio_joint``: the same for the joint-jog baseline (arm only: k stops drawn from
     :func:`feasibility.joint_candidates`); ``motion_size``: median rotation (deg) and
     translation (cm) of camera a's stop-to-stop motions for ``advised``, ``random``,
@@ -264,14 +266,19 @@ class Verification:
     random_joint_median: dict = field(default_factory=dict)
     ratio_joint: dict = field(default_factory=dict)
     motion_size: dict = field(default_factory=dict)
+    advised_seeds: list = field(default_factory=list)
+    advised_median: dict = field(default_factory=dict)
 
 
 def verify(base: Baseline, adv: Advice, *, seeds=(0, 1, 2, 3, 4), joint_baseline: bool = True,
-           max_joint_deg: float = 20.0, n_joint: int = 300) -> Verification:
+           max_joint_deg: float = 20.0, n_joint: int = 300, n_random: int = 300
+           ) -> Verification:
     """Execute the advised stops and ``len(seeds)`` sets of ``k`` random feasible stops
     in the simulator; solve with each added. Two random baselines: ``random``, uniform over
-    the planner's feasible candidates (flange rotated 5-40 deg about a uniform axis, moved
-    up to 15 cm; not screened by information), and, for the arm with ``joint_baseline``,
+    ``n_random`` feasible stops drawn by :func:`feasibility.candidates` with its default
+    ranges (arm: flange rotated 5-40 deg about a uniform axis, moved up to 15 cm; cart:
+    yaw +-90 deg, 1 m; the same draw as the planner's candidates when it used the
+    defaults; never screened by information), and, for the arm with ``joint_baseline``,
     ``random_joint``: ``k`` feasible stops of ``n_joint`` joint jogs of +-``max_joint_deg``
     per joint around the reference (:func:`feasibility.joint_candidates`)."""
     t0 = time.perf_counter()
@@ -291,17 +298,31 @@ def verify(base: Baseline, adv: Advice, *, seeds=(0, 1, 2, 3, 4), joint_baseline
 
     if adv.chosen.size:
         res_adv = run(adv.chosen, np.random.default_rng([base.cfg.seed, 101]))
+        # the same advised stops measured with each seed's measurement noise (the random
+        # draws of seed s use the same measurement stream: common random numbers)
+        res_adv_seeds = []
+        for s in seeds:
+            r = run(adv.chosen, np.random.default_rng([int(s), 303]))
+            r["seed"] = int(s)
+            res_adv_seeds.append(r)
     else:                                   # advice: no motion needed
         res_adv = dict(res0, stops_measured=0, stops=[])
-    feas = np.flatnonzero(adv.candidates.feasible)
+        res_adv_seeds = [dict(res0, stops_measured=0, stops=[], seed=int(s)) for s in seeds]
+    adv_med, _ = _summary({}, res_adv_seeds)
+    # the random baseline's own feasible set, drawn with the default ranges (5-40 deg,
+    # 15 cm; cart +-90 deg, 1 m) whatever ranges the planner was given
+    rc = fz.candidates(base.truth.world, n_random,
+                       np.random.default_rng([int(base.cfg.seed), 13]),
+                       aruco_cameras=base.aruco_cameras)
+    feas = np.flatnonzero(rc.feasible)
     res_rand = []
-    for s in seeds:
+    for s in seeds if feas.size else ():
         rng = np.random.default_rng([int(s), 202])
         idx = rng.choice(feas, size=min(adv.k, feas.size), replace=False)
-        r = run(idx, np.random.default_rng([int(s), 303]))
+        r = run(idx, np.random.default_rng([int(s), 303]), rc)
         r["seed"] = int(s)
         res_rand.append(r)
-    med, ratio = _summary(res_adv, res_rand)
+    med, ratio = _summary(adv_med, res_rand)
     res_joint, med_j, ratio_j = [], {}, {}
     if joint_baseline and adv.candidates.platform == "arm" and adv.k > 0:
         jc = fz.joint_candidates(base.truth.world, n_joint,
@@ -314,13 +335,13 @@ def verify(base: Baseline, adv: Advice, *, seeds=(0, 1, 2, 3, 4), joint_baseline
             r = run(idx, np.random.default_rng([int(s), 303]), jc)
             r["seed"] = int(s)
             res_joint.append(r)
-        med_j, ratio_j = _summary(res_adv, res_joint)
+        med_j, ratio_j = _summary(adv_med, res_joint)
     size = {"advised": res_adv.get("motion_size"),
             "random": _median_size([r.get("motion_size") for r in res_rand]),
             "random_joint": _median_size([r.get("motion_size") for r in res_joint])}
     return Verification(res0, res_adv, res_rand, med, ratio,
                         {"verification": time.perf_counter() - t0}, res_joint, med_j,
-                        ratio_j, size)
+                        ratio_j, size, res_adv_seeds, adv_med)
 
 
 def _summary(res_adv, res_rand):
@@ -447,6 +468,8 @@ def advice_dict(base: Baseline, adv: Advice, ver: Verification | None = None) ->
                                "random_joint_median": ver.random_joint_median,
                                "ratio_advised_to_random_joint_median": ver.ratio_joint,
                                "motion_size": ver.motion_size,
+                               "advised_seeds": ver.advised_seeds,
+                               "advised_median": ver.advised_median,
                                "timing_s": ver.timing_s}
     return out
 
