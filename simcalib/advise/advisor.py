@@ -198,7 +198,8 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
                   criterion=g.criterion, noise=(s_r, s_t), tolerance_deg=tolerance_deg,
                   tolerance_m=tolerance_m, cannot_help=cannot, render_check=checked,
                   rejected_by_render=tuple(rejected), F_base=F_base, F_cand=F_cand, X=X,
-                  message=message, noise_scale=scale, timing_s={"information": t1 - t0, "candidates": t2 - t1,
+                  message=message, noise_scale=scale,
+                  timing_s={"information": t1 - t0, "candidates": t2 - t1,
                             "choice_and_render_check": t3 - t2,
                             "total": time.perf_counter() - t0})
 

@@ -101,7 +101,10 @@ render), `cannot_help` (`statement`, `fix`), `message`, `candidates` (drawn, fea
 by reason), `timing_s`, and with `verify=true` `verification` (`baseline`, `advised`,
 `random` per seed: `rotation_error_deg`, `translation_error_cm`, `predicted_std`,
 `verdict`, `max_std_deg`, `max_std_cm`; `random_median`,
-`ratio_advised_to_random_median`). `DIR/advice.rrd`: the marker field, the recorded
+`ratio_advised_to_random_median`; `advised_seeds`, `advised_median` (the advised stops
+measured with each seed's noise), `random_joint`, `random_joint_median`,
+`ratio_advised_to_random_joint_median`, `motion_size`). `DIR/advice.rrd`: the marker
+field, the recorded
 camera trajectories, the reference and each proposed camera pose (axes, labelled
 `stop k`, lines from the reference), and the predicted 1-sigma against the number of
 added stops (`simcalib.rerun_log.record_advice`).
@@ -109,13 +112,17 @@ added stops (`simcalib.rerun_log.record_advice`).
 Python: `simcalib.advise.baseline(cfg)`, `advise(base, k, seed=, n_candidates=,
 when_determined=)`, `verify(base, adv, seeds=)`, `advice_dict(base, adv, ver)`; for
 motions from any source (e.g. imported pose streams) and a world modelling the platform:
-`advise_motions(world, C, H, X, k, rng=, alpha=, aruco_cameras=)`.
+`advise_motions(world, C, H, X, k, rng=, alpha=, aruco_cameras=, view_weighting=True,
+refine=True)`; `verify(..., joint_baseline=True, max_joint_deg=20, n_joint=300,
+n_random=300)`; `feasibility.joint_candidates(world, n, rng, max_joint_deg=)`,
+`feasibility.view_quality(world, T_world_cam, camera)`;
+`planner.greedy_chain(..., noise_scale=, ref_noise_scale=, refine=, max_passes=)`.
 
 ## Measured (k = {k}, {n_seeds} random seeds, {n_cand} candidates, seed 0)
 
 Errors of dqopt against the true X: rotation (deg) and translation (cm); "max sigma" =
-largest predicted 1-sigma over the three axes (inf = undetermined). Ratio = median over seeds of the advised stops /
-median of random (target of issue 13: <= 0.3 on scara, linear-arm, rotation-arm; <= 1.1
+largest predicted 1-sigma over the three axes (inf = undetermined). Ratio = median over seeds of
+the advised stops / median of random (target of issue 13: <= 0.3 on scara, linear-arm, rotation-arm; <= 1.1
 on 3d). Advice time: candidates + choice + render check, excluding the recorded run and
 the verification, on this machine (2 cores shared with other jobs).
 
@@ -126,8 +133,8 @@ not by the independent noise the information model (and so the planner) assumes.
 on current main are also much larger than on the previous version of this page (e.g. `3d`
 recorded run 0.0015 deg / 0.0027 cm then, 0.087 deg / 0.38 cm now; see git history of
 this file); the `vision` (camera effects, default preset `ideal`) and `platforms2` merges
-landed in between, and the cause was not identified here. On `scara` the flange pose comes from the robot's
-nominal kinematics while the true arm deviates by ~1 mm / 1 mrad per DH parameter (a bias
+landed in between, and the cause was not identified here. On `scara` the flange pose
+comes from the robot's nominal kinematics while the true arm deviates by ~1 mm / 1 mrad per DH parameter (a bias
 no choice of motion removes); with ArUco the visual pose errors are viewpoint-dependent.
 The planner lowers
 the *predicted* 1-sigma to about half of random's (second table); the *actual* error, once
@@ -248,12 +255,14 @@ def main(argv=None) -> int:
                        n_cand=a.candidates)
     text += ("\n### Actual errors (rotation deg / translation cm)\n\n"
              "| scenario | recorded motions | feasible candidates | stops advised | baseline "
-             "| advised (median) | random (median) | ratio advised/random | joint-jog random (median) "
+             "| advised (median) | random (median) | ratio advised/random | "
+             "joint-jog random (median) "
              "| ratio advised/joint-jog | advised verdict | "
              "advice time (s) |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n"
              + "\n".join(rows) + "\n")
     text += ("\n### Predicted largest 1-sigma (deg / cm)\n\n"
-             "| scenario | baseline | advised (median) | random (median) | planner: largest 1-sigma in "
+             "| scenario | baseline | advised (median) | random (median) | "
+             "planner: largest 1-sigma in "
              "tolerance units before and after each stop |\n|---|---|---|---|---|\n"
              + "\n".join(sig_rows) + "\n")
     text += ("\n### Size of the added stop-to-stop motions of camera a (median rotation deg / "
