@@ -171,9 +171,52 @@ def test_small_verification_run(tmp_path, capsys):
     out = json.loads((tmp_path / "advice.json").read_text())
     ver = out["verification"]
     assert ver["advised"]["success"] and ver["advised"]["stops_measured"] >= 1
-    assert len(ver["random"]) == 2
+    assert len(ver["random"]) == 2 and len(ver["random_joint"]) == 2
+    assert ver["motion_size"]["random_joint"]["rotation_deg"] > 0
     # the linear path leaves X's translation undetermined; two advised stops determine it
     assert ver["baseline"]["verdict"] != "determined"
     assert ver["advised"]["translation_error_cm"] < ver["baseline"]["translation_error_cm"]
     assert (tmp_path / "advice.rrd").is_file()
-    assert "advised / random median" in capsys.readouterr().out
+    assert "advised median / random median" in capsys.readouterr().out
+
+
+def test_exchange_refinement_never_worse_than_greedy_and_noise_scale_steers():
+    rng = np.random.default_rng(3)
+    X = _X()
+    Cb = _motions(rng, 30, axes=np.tile([0.0, 0.0, 1.0], (30, 1)))
+    Fb = pl.motion_information(Cb, np.linalg.inv(X) @ Cb @ X, X, 0.005, 0.001).sum(0)
+    M = _motions(rng, 60)
+    g0, a0 = pl.greedy_chain(Fb, M, X, 0.005, 0.001, 4, refine=False)
+    g1, a1 = pl.greedy_chain(Fb, M, X, 0.005, 0.001, 4, refine=True)
+    assert g1.criterion[-1] <= g0.criterion[-1] * (1 + 1e-12)
+    assert np.all(np.diff(g1.criterion) <= 1e-12) and len(set(g1.order.tolist())) == 4
+    np.testing.assert_allclose(Fb + a1.sum(0), Fb + a1.sum(0).T)     # symmetric
+    # a stop 100x noisier than every other is never chosen
+    sc = np.ones(60)
+    sc[g1.order[0]] = 100.0
+    g2, _ = pl.greedy_chain(Fb, M, X, 0.005, 0.001, 4, noise_scale=sc)
+    assert g1.order[0] not in g2.order
+    with pytest.raises(ValueError, match="noise_scale"):
+        pl.greedy_chain(Fb, M, X, 0.005, 0.001, 2, noise_scale=np.zeros(60))
+
+
+def test_joint_jog_baseline_stops_are_feasible(scara_advice):
+    from simcalib.advise.feasibility import joint_candidates, view_quality
+    base, adv = scara_advice
+    world = base.truth.world
+    jc = joint_candidates(world, 12, np.random.default_rng(0),
+                          aruco_cameras=base.aruco_cameras, max_joint_deg=15.0)
+    m = world.model
+    lim = m.jnt_limited.astype(bool)
+    d = np.abs(jc.qpos - jc.ref["qpos"][None])
+    assert d.max() <= np.deg2rad(15.0) + 1e-12 and d.max() > 0
+    for j in np.flatnonzero(jc.feasible):
+        q = jc.qpos[j][m.jnt_qposadr]
+        assert (~lim | ((q >= m.jnt_range[:, 0]) & (q <= m.jnt_range[:, 1]))).all()
+    assert all((r == "") == f for r, f in zip(jc.reason, jc.feasible))
+    for c in base.aruco_cameras:
+        q = view_quality(world, jc.T_world_cam[c], c)
+        assert q.shape == (12,) and (q >= 0).all()
+        assert (q[jc.visible[c] == 0] == 0).all()
+    with pytest.raises(ValueError, match="max_joint_deg"):
+        joint_candidates(world, 2, np.random.default_rng(0), max_joint_deg=0)

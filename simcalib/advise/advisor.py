@@ -107,6 +107,7 @@ class Advice:
     X: np.ndarray
     timing_s: dict
     message: str = ""
+    noise_scale: np.ndarray | None = None
 
 
 WHEN_DETERMINED = ("stop", "advise")
@@ -115,7 +116,7 @@ WHEN_DETERMINED = ("stop", "advise")
 def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alpha: float = 1.0,
                    n_candidates: int = 300, aruco_cameras=(), tolerance_deg: float = 1.0,
                    tolerance_m: float = 0.01, render_check=None, when_determined: str = "stop",
-                   **cand_kw) -> Advice:
+                   view_weighting: bool = True, refine: bool = True, **cand_kw) -> Advice:
     """Propose ``k`` stops for a platform modelled by ``world`` given recorded motions
     ``C``, ``H`` (N, 4, 4) and the estimate ``X``. ``render_check(cand, idx) -> {camera:
     PoseStream}`` (optional) renders and detects the chosen stops; those not measured by an
@@ -123,7 +124,12 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
 
     ``when_determined``: ``"stop"`` (default) proposes no motion when the recorded motions
     already determine every direction of X within the tolerance (largest predicted 1-sigma
-    <= 1 tolerance) and says so in ``message``; ``"advise"`` proposes ``k`` anyway."""
+    <= 1 tolerance) and says so in ``message``; ``"advise"`` proposes ``k`` anyway.
+
+    ``view_weighting``: scale each candidate stop's pose-noise variance by how much worse
+    (or better) the ArUco cameras' view of the markers is there than at the reference
+    (:func:`feasibility.view_quality`, factor ``(q_ref / q)**2`` clipped to [1/4, 4], the
+    worst camera); ``refine``: exchange passes after the greedy choice."""
     if when_determined not in WHEN_DETERMINED:
         raise ValueError(f"when_determined must be one of {list(WHEN_DETERMINED)}; received "
                          f"{when_determined!r}")
@@ -140,6 +146,13 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
     feasible = cand.feasible.copy()
     L = u.translation_scale_m
     kw = dict(tolerance_deg=tolerance_deg, tolerance_m=tolerance_m)
+    scale = np.ones(cand.n)
+    if view_weighting and aruco_cameras:
+        for c in aruco_cameras:
+            q_ref = fz.view_quality(world, cand.ref["T_world_cam"][c][None], c)[0]
+            q = fz.view_quality(world, cand.T_world_cam[c], c)
+            f = np.clip((q_ref / np.maximum(q, 1e-9)) ** 2, 0.25, 4.0)
+            scale = np.maximum(scale, f) if c != aruco_cameras[0] else f
     rejected, checked = [], {}
     message = ""
     g0 = pl.greedy(F_base, F_cand, 1, feasible=np.zeros_like(feasible), **kw)
@@ -151,7 +164,8 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
                    "information (use when_determined='advise' / force=true to get k anyway)")
     for _ in range(4):
         g, added = pl.greedy_chain(F_base, cand.motion["cam_a"], X, s_r, s_t, k,
-                                   feasible=feasible, **kw)
+                                   feasible=feasible, noise_scale=scale, refine=refine,
+                                   **kw)
         if render_check is None or not aruco_cameras or g.order.size == 0:
             break
         streams = render_check(cand, g.order)
@@ -184,7 +198,8 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
                   criterion=g.criterion, noise=(s_r, s_t), tolerance_deg=tolerance_deg,
                   tolerance_m=tolerance_m, cannot_help=cannot, render_check=checked,
                   rejected_by_render=tuple(rejected), F_base=F_base, F_cand=F_cand, X=X,
-                  message=message, timing_s={"information": t1 - t0, "candidates": t2 - t1,
+                  message=message, noise_scale=scale,
+                  timing_s={"information": t1 - t0, "candidates": t2 - t1,
                             "choice_and_render_check": t3 - t2,
                             "total": time.perf_counter() - t0})
 
@@ -235,44 +250,102 @@ def _std_dict(s) -> dict:
 class Verification:
     """Actual errors and predicted 1-sigma of dqopt for ``baseline``, ``advised`` and each
     ``random`` seed (dicts of :func:`solve_errors` plus ``stops_measured``), the medians
-    over the random seeds and the ratios advised / median random."""
+    over the random seeds and the ratios **median over seeds of the advised stops** (each
+    seed's measurement noise, ``advised_seeds``, ``advised_median``) / median random
+    (``advised`` is the advised stops measured once, with the scenario's seed). ``random_joint*`` /
+    ``ratio_joint``: the same for the joint-jog baseline (arm only: k stops drawn from
+    :func:`feasibility.joint_candidates`); ``motion_size``: median rotation (deg) and
+    translation (cm) of camera a's stop-to-stop motions for ``advised``, ``random``,
+    ``random_joint``."""
     baseline: dict
     advised: dict
     random: list
     random_median: dict
     ratio: dict
     timing_s: dict
+    random_joint: list = field(default_factory=list)
+    random_joint_median: dict = field(default_factory=dict)
+    ratio_joint: dict = field(default_factory=dict)
+    motion_size: dict = field(default_factory=dict)
+    advised_seeds: list = field(default_factory=list)
+    advised_median: dict = field(default_factory=dict)
 
 
-def verify(base: Baseline, adv: Advice, *, seeds=(0, 1, 2, 3, 4)) -> Verification:
+def verify(base: Baseline, adv: Advice, *, seeds=(0, 1, 2, 3, 4), joint_baseline: bool = True,
+           max_joint_deg: float = 20.0, n_joint: int = 300, n_random: int = 300
+           ) -> Verification:
     """Execute the advised stops and ``len(seeds)`` sets of ``k`` random feasible stops
-    (uniform over the same feasible candidates) in the simulator; solve with each added."""
+    in the simulator; solve with each added. Two random baselines: ``random``, uniform over
+    ``n_random`` feasible stops drawn by :func:`feasibility.candidates` with its default
+    ranges (arm: flange rotated 5-40 deg about a uniform axis, moved up to 15 cm; cart:
+    yaw +-90 deg, 1 m; the same draw as the planner's candidates when it used the
+    defaults; never screened by information), and, for the arm with ``joint_baseline``,
+    ``random_joint``: ``k`` feasible stops of ``n_joint`` joint jogs of +-``max_joint_deg``
+    per joint around the reference (:func:`feasibility.joint_candidates`)."""
     t0 = time.perf_counter()
     X_true = base.truth.X_true
     kw = dict(tolerance_deg=adv.tolerance_deg, tolerance_m=adv.tolerance_m)
     res0 = solve_errors(base.C, base.H, X_true, base.alpha, **kw)
 
-    def run(idx, rng):
-        streams = fz.execute_stops(base.truth, base.cfg, adv.candidates, idx, rng)
+    def run(idx, rng, cand=adv.candidates):
+        streams = fz.execute_stops(base.truth, base.cfg, cand, idx, rng)
         Cs, Hs, got = fz.stop_motions(streams, chain=True)
         r = solve_errors(np.concatenate([base.C, Cs]), np.concatenate([base.H, Hs]), X_true,
                          base.alpha, **kw)
         r["stops_measured"] = int(got.size)
         r["stops"] = [int(i) for i in idx]
+        r["motion_size"] = _motion_size(cand, idx)
         return r
 
     if adv.chosen.size:
         res_adv = run(adv.chosen, np.random.default_rng([base.cfg.seed, 101]))
+        # the same advised stops measured with each seed's measurement noise (the random
+        # draws of seed s use the same measurement stream: common random numbers)
+        res_adv_seeds = []
+        for s in seeds:
+            r = run(adv.chosen, np.random.default_rng([int(s), 303]))
+            r["seed"] = int(s)
+            res_adv_seeds.append(r)
     else:                                   # advice: no motion needed
         res_adv = dict(res0, stops_measured=0, stops=[])
-    feas = np.flatnonzero(adv.candidates.feasible)
+        res_adv_seeds = [dict(res0, stops_measured=0, stops=[], seed=int(s)) for s in seeds]
+    adv_med, _ = _summary({}, res_adv_seeds)
+    # the random baseline's own feasible set, drawn with the default ranges (5-40 deg,
+    # 15 cm; cart +-90 deg, 1 m) whatever ranges the planner was given
+    rc = fz.candidates(base.truth.world, n_random,
+                       np.random.default_rng([int(base.cfg.seed), 13]),
+                       aruco_cameras=base.aruco_cameras)
+    feas = np.flatnonzero(rc.feasible)
     res_rand = []
-    for s in seeds:
+    for s in seeds if feas.size else ():
         rng = np.random.default_rng([int(s), 202])
         idx = rng.choice(feas, size=min(adv.k, feas.size), replace=False)
-        r = run(idx, np.random.default_rng([int(s), 303]))
+        r = run(idx, np.random.default_rng([int(s), 303]), rc)
         r["seed"] = int(s)
         res_rand.append(r)
+    med, ratio = _summary(adv_med, res_rand)
+    res_joint, med_j, ratio_j = [], {}, {}
+    if joint_baseline and adv.candidates.platform == "arm" and adv.k > 0:
+        jc = fz.joint_candidates(base.truth.world, n_joint,
+                                 np.random.default_rng([int(base.cfg.seed), 404]),
+                                 aruco_cameras=base.aruco_cameras, max_joint_deg=max_joint_deg)
+        jfeas = np.flatnonzero(jc.feasible)
+        for s in seeds if jfeas.size else ():
+            rng = np.random.default_rng([int(s), 505])
+            idx = rng.choice(jfeas, size=min(adv.k, jfeas.size), replace=False)
+            r = run(idx, np.random.default_rng([int(s), 303]), jc)
+            r["seed"] = int(s)
+            res_joint.append(r)
+        med_j, ratio_j = _summary(adv_med, res_joint)
+    size = {"advised": res_adv.get("motion_size"),
+            "random": _median_size([r.get("motion_size") for r in res_rand]),
+            "random_joint": _median_size([r.get("motion_size") for r in res_joint])}
+    return Verification(res0, res_adv, res_rand, med, ratio,
+                        {"verification": time.perf_counter() - t0}, res_joint, med_j,
+                        ratio_j, size, res_adv_seeds, adv_med)
+
+
+def _summary(res_adv, res_rand):
     med = {}
     for key in ("rotation_error_deg", "translation_error_cm", "max_std_deg", "max_std_cm"):
         vals = [np.inf if r.get(key) is None else r[key] for r in res_rand
@@ -282,8 +355,28 @@ def verify(base: Baseline, adv: Advice, *, seeds=(0, 1, 2, 3, 4)) -> Verificatio
     for key in ("rotation_error_deg", "translation_error_cm"):
         a, m = res_adv.get(key), med.get(key)
         ratio[key] = None if a is None or not m else float(a / m)
-    return Verification(res0, res_adv, res_rand, med, ratio,
-                        {"verification": time.perf_counter() - t0})
+    return med, ratio
+
+
+def _motion_size(cand, idx) -> dict:
+    """Median rotation (deg) and translation (cm) of camera a's stop-to-stop motions."""
+    from simcalib.geometry import invert_transform, rotvec_from_matrix
+    idx = np.asarray(idx, dtype=np.int64)
+    if idx.size == 0:
+        return {"rotation_deg": None, "translation_cm": None}
+    T = np.concatenate([np.eye(4)[None], cand.motion["cam_a"][idx]])
+    D = invert_transform(T[:-1]) @ T[1:]
+    ang = np.degrees(np.linalg.norm(rotvec_from_matrix(D[:, :3, :3]), axis=1))
+    return {"rotation_deg": float(np.median(ang)),
+            "translation_cm": float(100 * np.median(np.linalg.norm(D[:, :3, 3], axis=1)))}
+
+
+def _median_size(sizes) -> dict:
+    sizes = [s for s in sizes if s and s.get("rotation_deg") is not None]
+    if not sizes:
+        return {"rotation_deg": None, "translation_cm": None}
+    return {k: float(np.median([s[k] for s in sizes]))
+            for k in ("rotation_deg", "translation_cm")}
 
 
 # ---------------------------------------------------------------------------- report
@@ -372,6 +465,12 @@ def advice_dict(base: Baseline, adv: Advice, ver: Verification | None = None) ->
         out["verification"] = {"baseline": ver.baseline, "advised": ver.advised,
                                "random": ver.random, "random_median": ver.random_median,
                                "ratio_advised_to_random_median": ver.ratio,
+                               "random_joint": ver.random_joint,
+                               "random_joint_median": ver.random_joint_median,
+                               "ratio_advised_to_random_joint_median": ver.ratio_joint,
+                               "motion_size": ver.motion_size,
+                               "advised_seeds": ver.advised_seeds,
+                               "advised_median": ver.advised_median,
                                "timing_s": ver.timing_s}
     return out
 

@@ -31,8 +31,8 @@ import numpy as np
 
 from simcalib.geometry import invert_transform, matrix_from_rotvec
 
-__all__ = ["Candidates", "SelfCollision", "candidates", "stop_state", "execute_stops", "reference_index",
-           "ROOM_MARGIN_M"]
+__all__ = ["Candidates", "SelfCollision", "candidates", "joint_candidates", "view_quality",
+           "stop_state", "execute_stops", "reference_index", "ROOM_MARGIN_M"]
 
 ROOM_MARGIN_M = 0.05
 CART_ROOM_MARGIN_M = 0.3
@@ -169,29 +169,11 @@ def _inside_room(cfg, p, margin):
             & (p[..., 2] >= margin) & (p[..., 2] <= size[2] - margin))
 
 
-def candidates(world, n: int, rng: np.random.Generator, *, aruco_cameras=(),
-               max_rotation_deg: float | None = None, max_translation_m: float | None = None,
-               min_rotation_deg: float = 5.0, min_markers: int = 4) -> Candidates:
-    """``n`` random candidate stops around the world's reference pose, with feasibility.
-
-    Arm: rotation about a uniform axis by an angle uniform in ``[min_rotation_deg,
-    max_rotation_deg]`` (default 40) and a translation uniform in a ball of radius
-    ``max_translation_m`` (default 0.15 m). Cart: yaw uniform in +-``max_rotation_deg``
-    (default 90) and a planar translation in a disc of radius ``max_translation_m``
-    (default 1.0 m); roll, pitch and height are not drivable. ``aruco_cameras``: the
-    cameras whose poses come from the marker field (visibility checked)."""
+def _reference(world):
+    """MjData at the reference stop, its state, frame index, target pose and camera poses."""
     import mujoco
-    from simcalib.world.layout import visible_markers
     from simcalib.world.simulate import camera_poses_from_state
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
-        raise ValueError(f"n must be an integer >= 1; received {n!r}")
-    if not isinstance(rng, np.random.Generator):
-        raise TypeError(f"rng must be a numpy.random.Generator; received {type(rng).__name__}")
-    cfg = world.config
-    platform = cfg.platform
-    if platform not in ("arm", "cart"):
-        raise ValueError(f"motion advice supports platforms 'arm' and 'cart'; received "
-                         f"{platform!r}")
+    platform = world.config.platform
     model = world.model
     cams = tuple(world.camera_names)
     fr = world.frames("cam_b")
@@ -216,6 +198,33 @@ def candidates(world, n: int, rng: np.random.Generator, *, aruco_cameras=(),
     cam_ids = _camera_ids(model, cams)
     T_ref_cam = camera_poses_from_state(model, q_ref[None], mp_ref[None], mq_ref[None])[0]
     T_ref_cam = {c: T_ref_cam[i] for c, i in zip(cams, cam_ids)}
+
+    return data, q_ref, mp_ref, mq_ref, k_ref, T_ref_target, T_ref_cam
+
+
+def candidates(world, n: int, rng: np.random.Generator, *, aruco_cameras=(),
+               max_rotation_deg: float | None = None, max_translation_m: float | None = None,
+               min_rotation_deg: float = 5.0, min_markers: int = 4) -> Candidates:
+    """``n`` random candidate stops around the world's reference pose, with feasibility.
+
+    Arm: rotation about a uniform axis by an angle uniform in ``[min_rotation_deg,
+    max_rotation_deg]`` (default 40) and a translation uniform in a ball of radius
+    ``max_translation_m`` (default 0.15 m). Cart: yaw uniform in +-``max_rotation_deg``
+    (default 90) and a planar translation in a disc of radius ``max_translation_m``
+    (default 1.0 m); roll, pitch and height are not drivable. ``aruco_cameras``: the
+    cameras whose poses come from the marker field (visibility checked)."""
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+        raise ValueError(f"n must be an integer >= 1; received {n!r}")
+    if not isinstance(rng, np.random.Generator):
+        raise TypeError(f"rng must be a numpy.random.Generator; received {type(rng).__name__}")
+    cfg = world.config
+    platform = cfg.platform
+    if platform not in ("arm", "cart"):
+        raise ValueError(f"motion advice supports platforms 'arm' and 'cart'; received "
+                         f"{platform!r}")
+    model = world.model
+    data, q_ref, mp_ref, mq_ref, k_ref, T_ref_target, T_ref_cam = _reference(world)
+    site = world.scene.mount_site
 
     # ---- draw the moves
     if platform == "arm":
@@ -273,6 +282,18 @@ def candidates(world, n: int, rng: np.random.Generator, *, aruco_cameras=(),
         from simcalib.world.platforms import get_platform
         mot = get_platform("cart").drive(world.scene, T_t, np.arange(n, dtype=float), cfg)
         qpos, mocap_pos, mocap_quat = mot.qpos, mot.mocap_pos, mot.mocap_quat_wxyz
+    return _finish(world, platform, omega, dp, T_t, qpos, mocap_pos, mocap_quat, ep, er,
+                   reason, aruco_cameras, min_markers, T_ref_cam, q_ref, mp_ref, mq_ref,
+                   T_ref_target, k_ref)
+
+
+def _finish(world, platform, omega, dp, T_t, qpos, mocap_pos, mocap_quat, ep, er, reason,
+            aruco_cameras, min_markers, T_ref_cam, q_ref, mp_ref, mq_ref, T_ref_target, k_ref):
+    """Room and marker checks, camera poses and motions of drawn stops -> Candidates."""
+    from simcalib.world.layout import visible_markers
+    from simcalib.world.simulate import camera_poses_from_state
+    model, cfg, cams = world.model, world.config, tuple(world.camera_names)
+    cam_ids = _camera_ids(model, cams)
     Tc = camera_poses_from_state(model, qpos, mocap_pos, mocap_quat)
     T_world_cam = {c: Tc[:, i] for c, i in zip(cams, cam_ids)}
     margin = ROOM_MARGIN_M if platform == "arm" else CART_ROOM_MARGIN_M
@@ -295,6 +316,77 @@ def candidates(world, n: int, rng: np.random.Generator, *, aruco_cameras=(),
                       mocap_quat_wxyz=mocap_quat, T_world_cam=T_world_cam, motion=motion,
                       ik_pos_error_m=ep, ik_rot_error_rad=er, visible=visible,
                       feasible=feasible, reason=tuple(reason), ref=ref)
+
+
+def joint_candidates(world, n: int, rng: np.random.Generator, *, aruco_cameras=(),
+                     max_joint_deg: float = 20.0, min_markers: int = 4) -> Candidates:
+    """``n`` stops an arm reaches by jogging its joints: every hinge joint moved from the
+    reference by an angle uniform in +-``max_joint_deg`` (what a user adds without advice:
+    random joint perturbations around the current pose), with the same feasibility checks
+    as :func:`candidates` (joint limits, self-collision, room, markers seen). Used as the
+    random baseline of :func:`simcalib.advise.verify`; the cart has no joints to jog
+    (use :func:`candidates`)."""
+    import mujoco
+    from simcalib.geometry import rotvec_from_matrix
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+        raise ValueError(f"n must be an integer >= 1; received {n!r}")
+    if not isinstance(rng, np.random.Generator):
+        raise TypeError(f"rng must be a numpy.random.Generator; received {type(rng).__name__}")
+    if not (isinstance(max_joint_deg, (int, float)) and 0 < max_joint_deg <= 180):
+        raise ValueError(f"max_joint_deg must be in (0, 180]; received {max_joint_deg!r}")
+    cfg = world.config
+    if cfg.platform != "arm":
+        raise ValueError(f"joint_candidates needs platform 'arm'; received {cfg.platform!r}")
+    model = world.model
+    data, q_ref, mp_ref, mq_ref, k_ref, T_ref_target, T_ref_cam = _reference(world)
+    site = world.scene.mount_site
+    hinge = np.zeros(model.nq, bool)
+    for j in range(model.njnt):
+        if int(model.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_HINGE):
+            hinge[int(model.jnt_qposadr[j])] = True
+    qpos = np.repeat(q_ref[None], n, axis=0)
+    qpos[:, hinge] += np.deg2rad(rng.uniform(-max_joint_deg, max_joint_deg,
+                                             (n, int(hinge.sum()))))
+    lim = model.jnt_limited.astype(bool)
+    lo, hi = model.jnt_range[:, 0], model.jnt_range[:, 1]
+    adr = model.jnt_qposadr
+    collide = SelfCollision(model, q_ref)
+    reason = [""] * n
+    T_t = np.zeros((n, 4, 4))
+    for i in range(n):
+        data.qpos[:] = qpos[i]
+        mujoco.mj_kinematics(model, data)
+        T_t[i] = _site_pose(model, data, site)
+        q = qpos[i][adr]
+        if (lim & ((q < lo - 1e-9) | (q > hi + 1e-9))).any():
+            reason[i] = "joint limit"
+            continue
+        hits = collide(qpos[i])
+        if hits:
+            reason[i] = f"self-collision ({hits[0][0]} / {hits[0][1]})"
+    omega = rotvec_from_matrix(T_t[:, :3, :3] @ T_ref_target[:3, :3].T)
+    dp = T_t[:, :3, 3] - T_ref_target[:3, 3]
+    return _finish(world, "arm", omega, dp, T_t, qpos, np.repeat(mp_ref[None], n, axis=0),
+                   np.repeat(mq_ref[None], n, axis=0), np.zeros(n), np.zeros(n), reason,
+                   aruco_cameras, min_markers, T_ref_cam, q_ref, mp_ref, mq_ref,
+                   T_ref_target, k_ref)
+
+
+def view_quality(world, T_world_cam, camera: str) -> np.ndarray:
+    """``(N,)`` quality of camera ``camera``'s view of the marker field at poses
+    ``T_world_cam`` ``(N, 4, 4)``: ``sqrt(sum of squared shortest projected edges, px)`` of
+    the markers fully visible (0 when none). A marker's PnP pose error scales roughly with
+    1 / (its size in pixels), and the errors of several markers average, so the variance
+    of the camera pose scales roughly with ``1 / quality**2``: far, oblique views with few
+    markers are noisier."""
+    from simcalib.world.layout import project_points, visible_markers
+    T = np.asarray(T_world_cam, dtype=np.float64)
+    intr = world.intrinsics[camera]
+    field = world.marker_field
+    vis = visible_markers(field, T, intr)
+    uv, _ = project_points(T, intr, field.corners_world())
+    edges = np.linalg.norm(uv - np.roll(uv, -1, axis=-2), axis=-1).min(axis=-1)
+    return np.sqrt(np.sum(np.where(vis, edges, 0.0) ** 2, axis=1))
 
 
 def stop_state(cand: Candidates, idx) -> tuple:

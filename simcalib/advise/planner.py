@@ -129,39 +129,108 @@ def greedy(F_base, F_cand, k: int, *, feasible=None, tolerance_deg: float = 1.0,
     return GreedyResult(np.array(order, dtype=np.int64), np.array(crit), np.array(mx))
 
 
+def _chain_info(M, T_from, X, s_r, s_t, scale_from, scale_to):
+    """Information of the motions ``T_from -> M`` (batched over ``M`` or ``T_from``) with the
+    variance factor of the two stops' poses averaged (each pose error enters the motion)."""
+    C, H = predicted_motions(invert_transform(T_from) @ M, X)
+    F = motion_information(C, H, X, s_r, s_t)
+    f = 0.5 * (np.asarray(scale_from, dtype=np.float64) + np.asarray(scale_to, np.float64))
+    return F / np.broadcast_to(f, (F.shape[0],))[:, None, None]
+
+
 def greedy_chain(F_base, motion_a, X, sigma_r_rad: float, sigma_t_m: float, k: int, *,
-                 feasible=None, tolerance_deg: float = 1.0, tolerance_m: float = 0.01
-                 ) -> tuple[GreedyResult, np.ndarray]:
-    """Greedy choice of ``k`` stops visited in order (stop and go): the motion each stop adds
-    is the one from the previous stop (the reference for the first), so a stop's pose error
-    enters two consecutive motions instead of one shared reference error entering all.
+                 feasible=None, tolerance_deg: float = 1.0, tolerance_m: float = 0.01,
+                 noise_scale=None, ref_noise_scale: float = 1.0, refine: bool = True,
+                 max_passes: int = 4) -> tuple[GreedyResult, np.ndarray]:
+    """Choice of ``k`` stops visited in order (stop and go): the motion each stop adds is the
+    one from the previous stop (the reference for the first), so a stop's pose error enters
+    two consecutive motions instead of one shared reference error entering all.
     ``motion_a`` ``(N, 4, 4)``: camera a's motion from the reference to each candidate.
-    Returns the :class:`GreedyResult` and the information ``(k, 6, 6)`` each step added."""
+    ``noise_scale`` ``(N,)``: variance factor of each candidate stop's pose error relative
+    to the fitted noise (e.g. a worse marker view; 1 = as fitted), ``ref_noise_scale`` that
+    of the reference stop; a motion's noise variance is scaled by the mean of its two stops'.
+
+    Greedy first (each step adds the stop with the best criterion); then, with ``refine``,
+    exchange passes (Fedorov-style): each chosen stop in turn is replaced by the available
+    candidate that lowers the criterion of the whole chain most, until a pass changes
+    nothing (at most ``max_passes``). Returns the :class:`GreedyResult` (criterion and
+    largest 1-sigma of the final chain after each of its stops) and the information
+    ``(k, 6, 6)`` each stop of the final chain adds."""
     if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
         raise ValueError(f"k must be an integer >= 1; received {k!r}")
     dsc = _scale(tolerance_deg, tolerance_m)
     S = np.outer(dsc, dsc)
     M = np.asarray(motion_a, dtype=np.float64)
-    avail = np.ones(M.shape[0], bool) if feasible is None else np.asarray(feasible, bool).copy()
-    cur_F = np.asarray(F_base, dtype=np.float64)
-    cur_T = np.eye(4)
-    order, added = [], []
-    crit, mx = [float(_criterion(cur_F * S))], [_max_std(cur_F * S)]
+    N = M.shape[0]
+    sc = np.ones(N) if noise_scale is None else np.asarray(noise_scale, dtype=np.float64)
+    if sc.shape != (N,) or not np.all(np.isfinite(sc)) or np.any(sc <= 0):
+        raise ValueError(f"noise_scale must be ({N},) finite and > 0; received shape "
+                         f"{sc.shape}")
+    avail = np.ones(N, bool) if feasible is None else np.asarray(feasible, bool).copy()
+    F0 = np.asarray(F_base, dtype=np.float64)
+    I4 = np.eye(4)
+    s_r, s_t = sigma_r_rad, sigma_t_m
+
+    def pose(j):
+        return I4 if j < 0 else M[j]
+
+    def scale(j):
+        return ref_noise_scale if j < 0 else sc[j]
+
+    cur_F = F0
+    order = []
     for _ in range(int(k)):
         idx = np.flatnonzero(avail)
         if idx.size == 0:
             break
-        C, H = predicted_motions(invert_transform(cur_T) @ M[idx], X)
-        Fc = motion_information(C, H, X, sigma_r_rad, sigma_t_m)
-        c = _criterion((cur_F[None] + Fc) * S)
-        j = int(np.argmin(c))
+        prev = order[-1] if order else -1
+        Fc = _chain_info(M[idx], pose(prev), X, s_r, s_t, scale(prev), sc[idx])
+        j = int(np.argmin(_criterion((cur_F[None] + Fc) * S)))
         order.append(int(idx[j]))
         avail[idx[j]] = False
-        added.append(Fc[j])
         cur_F = cur_F + Fc[j]
-        cur_T = M[idx[j]]
-        crit.append(float(_criterion(cur_F * S)))
-        mx.append(_max_std(cur_F * S))
+
+    def links(order):
+        """Information of each motion of the chain ``order`` (from the reference)."""
+        prevs = [-1] + order[:-1]
+        return [_chain_info(M[[o]], pose(p), X, s_r, s_t, scale(p), sc[o])[0]
+                for p, o in zip(prevs, order)]
+
+    if refine and len(order) > 0:
+        for _ in range(int(max_passes)):
+            changed = False
+            for p in range(len(order)):
+                idx = np.flatnonzero(avail)
+                if idx.size == 0:
+                    break
+                L = links(order)
+                prev = order[p - 1] if p > 0 else -1
+                rest = F0 + sum(L[i] for i in range(len(order)) if i not in (p, p + 1))
+                F_in = _chain_info(M[idx], pose(prev), X, s_r, s_t, scale(prev), sc[idx])
+                tot = rest[None] + F_in
+                if p + 1 < len(order):
+                    nxt = order[p + 1]
+                    C, H = predicted_motions(invert_transform(M[idx]) @ M[nxt], X)
+                    F_out = motion_information(C, H, X, s_r, s_t)
+                    F_out = F_out / (0.5 * (sc[idx] + sc[nxt]))[:, None, None]
+                    tot = tot + F_out
+                c = _criterion(tot * S)
+                best = int(np.argmin(c))
+                now = float(_criterion((F0 + sum(L)) * S))
+                if c[best] < now * (1 - 1e-9):
+                    avail[order[p]] = True
+                    order[p] = int(idx[best])
+                    avail[order[p]] = False
+                    changed = True
+            if not changed:
+                break
+    added = links(order) if order else []
+    cur = F0.copy()
+    crit, mx = [float(_criterion(cur * S))], [_max_std(cur * S)]
+    for Fa in added:
+        cur = cur + Fa
+        crit.append(float(_criterion(cur * S)))
+        mx.append(_max_std(cur * S))
     return (GreedyResult(np.array(order, dtype=np.int64), np.array(crit), np.array(mx)),
             np.array(added).reshape(-1, 6, 6))
 

@@ -104,15 +104,28 @@ def print_table(out: dict) -> None:
                   f"{_n(r['max_std_deg']):>13}{_n(r['max_std_cm']):>14}")
         vr("baseline", ver["baseline"])
         vr("advised", ver["advised"])
+        for r in ver.get("advised_seeds", []):
+            vr(f"advised s{r['seed']}", r)
         for r in ver["random"]:
             vr(f"random s{r['seed']}", r)
         med = ver["random_median"]
         print(f"{'random med':<12}{_n(med['rotation_error_deg']):>10}"
               f"{_n(med['translation_error_cm']):>12}{_n(med['max_std_deg']):>13}"
               f"{_n(med['max_std_cm']):>14}")
+        for r in ver.get("random_joint", []):
+            vr(f"jog s{r['seed']}", r)
+        medj = ver.get("random_joint_median") or {}
+        if medj:
+            print(f"{'jog med':<12}{_n(medj['rotation_error_deg']):>10}"
+                  f"{_n(medj['translation_error_cm']):>12}{_n(medj['max_std_deg']):>13}"
+                  f"{_n(medj['max_std_cm']):>14}")
         rt = ver["ratio_advised_to_random_median"]
-        print(f"advised / random median: rotation {_n(rt['rotation_error_deg'])}, "
+        print(f"advised median / random median: rotation {_n(rt['rotation_error_deg'])}, "
               f"translation {_n(rt['translation_error_cm'])}")
+        rtj = ver.get("ratio_advised_to_random_joint_median") or {}
+        if rtj:
+            print(f"advised median / joint-jog median: rotation {_n(rtj['rotation_error_deg'])}, "
+                  f"translation {_n(rtj['translation_error_cm'])}")
 
 
 def _n(v):
@@ -134,7 +147,8 @@ def main(args: list[str]) -> int:
           if k in opts}
     adv = advise(base, opts["k"], seed=cfg.seed, n_candidates=opts["candidates"],
                  when_determined="advise" if opts.get("force") else "stop", **kw)
-    ver = verify(base, adv, seeds=tuple(range(opts["seeds"]))) if opts["verify"] else None
+    ver = (verify(base, adv, seeds=tuple(range(opts["seeds"])), n_random=opts["candidates"],
+                  n_joint=opts["candidates"]) if opts["verify"] else None)
     out = advice_dict(base, adv, ver)
     path = out_dir / "advice.json"
     path.write_text(json.dumps(out, indent=1, allow_nan=False))
