@@ -54,7 +54,7 @@ __all__ = [
     "render_map",
 ]
 
-#: Debian/Ubuntu packages each backend needs (PLATFORM.md).
+#: Debian/Ubuntu packages each backend needs (docs/platform.md).
 DEBIAN_PACKAGES = {
     "egl": "libegl1 libgl1 libegl-mesa0 libgl1-mesa-dri",
     "osmesa": "libosmesa6",
@@ -437,7 +437,7 @@ class CameraRenderer:
 
     def T_world_cam(self, camera: str) -> np.ndarray:
         """Pose of the camera's OpenCV frame (x right, y down, z forward) in the world,
-        from the current state (PLATFORM.md: ``R_cv = cam_xmat @ diag(1, -1, -1)``)."""
+        from the current state (docs/platform.md: ``R_cv = cam_xmat @ diag(1, -1, -1)``)."""
         i = self.camera_id(camera)
         T = np.eye(4)
         T[:3, :3] = self.data.cam_xmat[i].reshape(3, 3) @ np.diag([1.0, -1.0, -1.0])

@@ -35,7 +35,7 @@ class VisionConfig:
     """Settings of the visual pose stage (defaults: the accuracy/speed of docs/vision.md).
 
     Camera: ``width``/``height``/``fovy_deg`` override the world's camera (``None`` keeps
-    it; intrinsics follow PLATFORM.md). Image realism: ``blur_sigma_px`` (Gaussian defocus
+    it; intrinsics follow docs/platform.md). Image realism: ``blur_sigma_px`` (Gaussian defocus
     blur, pixels; 0 = sharp), ``noise_std`` (Gaussian pixel noise, grey levels of 255;
     0 = none). Rendering: ``msaa_samples`` (0 = fastest; markers are textures, MSAA does
     not change their corners). Detection: ``corner_refinement`` (OpenCV's, one of
@@ -400,7 +400,7 @@ def _check_model_fovy(model, camera: str, fovy_deg: float, base: CameraIntrinsic
         raise ValueError(f"camera {camera!r} is not in world.model; cameras: {names}")
     if np.any(np.asarray(model.cam_sensorsize[cid]) > 0):
         raise ValueError(f"camera {camera!r} uses sensorsize/focal length; simcalib derives "
-                         "intrinsics from fovy only (PLATFORM.md)")
+                         "intrinsics from fovy only (docs/platform.md)")
     model_fovy = float(model.cam_fovy[cid])
     expect = CameraIntrinsics.from_fovy(base.width, base.height, model_fovy)
     if abs(model_fovy - fovy_deg) > 1e-6 or abs(base.cx - expect.cx) > 1e-9 \

@@ -133,7 +133,7 @@ def test_marker_frame_convention_matches_rendered_texture(gl, geom):
 def test_rendered_marker_pnp_matches_ground_truth(gl):
     """Single 10 cm marker at 0.3-0.7 m (face-on and oblique): detected, corners within
     0.2 px of the projected truth, PnP pose within 1 cm and 1 deg (a single small marker
-    is weak: IPPE's rotation/translation coupling near face-on, PLATFORM.md)."""
+    is weak: IPPE's rotation/translation coupling near face-on, docs/platform.md)."""
     side = 0.10
     T_wm = np.eye(4)
     model = build_scene([(3, T_wm)], side=side)

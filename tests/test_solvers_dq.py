@@ -165,7 +165,7 @@ def test_near_180_degree_pairs_are_realigned():
 
 
 def test_prior_terms_reproduce_prior_cost():
-    """Eqs. 26-29 (NOTES errata): quadratic form + b|q^'|^2 = cost + a|vec dq|^2 + b|dq'|^2."""
+    """Eqs. 26-29 (docs/paper-notes.md, misprints): quadratic form + b|q^'|^2 = cost + a|vec dq|^2 + b|dq'|^2."""
     rng = np.random.default_rng(18)
     C, H, X = general_case(rng, n=20, sigma_r=0.02, sigma_t=0.02)
     prior = Prior(X=g.transform_from_rotation_translation(g.random_rotation_matrices(rng),
