@@ -437,12 +437,10 @@ class CameraRenderer:
 
     def T_world_cam(self, camera: str) -> np.ndarray:
         """Pose of the camera's OpenCV frame (x right, y down, z forward) in the world,
-        from the current state (docs/platform.md: ``R_cv = cam_xmat @ diag(1, -1, -1)``)."""
+        from the current state (:func:`simcalib.world.scene.T_world_cv_from_mujoco`)."""
+        from simcalib.world.scene import T_world_cv_from_mujoco  # noqa: PLC0415 (cycle)
         i = self.camera_id(camera)
-        T = np.eye(4)
-        T[:3, :3] = self.data.cam_xmat[i].reshape(3, 3) @ np.diag([1.0, -1.0, -1.0])
-        T[:3, 3] = self.data.cam_xpos[i]
-        return T
+        return T_world_cv_from_mujoco(self.data.cam_xpos[i], self.data.cam_xmat[i])
 
     def render(self, camera: str, qpos=None, mocap_pos=None, mocap_quat_wxyz=None
                ) -> np.ndarray:
