@@ -26,6 +26,7 @@ __all__ = [
     "check_transforms",
     "check_rotation_matrices",
     "invert_transform",
+    "skew_matrix",
     "transform_from_rotation_translation",
     "quat_from_matrix",
     "matrix_from_quat",
@@ -133,6 +134,16 @@ def _first_bad_index(ok: np.ndarray):
 
 
 # ------------------------------------------------------------------------- transforms
+def skew_matrix(v: np.ndarray) -> np.ndarray:
+    """``[v]x`` for ``(..., 3)`` vectors -> ``(..., 3, 3)`` (``[v]x @ w = v x w``)."""
+    v = np.asarray(v, dtype=np.float64)
+    x, y, z = v[..., 0], v[..., 1], v[..., 2]
+    o = np.zeros_like(x)
+    return np.stack([np.stack([o, -z, y], -1),
+                     np.stack([z, o, -x], -1),
+                     np.stack([-y, x, o], -1)], axis=-2)
+
+
 def invert_transform(T: np.ndarray) -> np.ndarray:
     """Inverse of rigid transforms ``(..., 4, 4)`` (uses R^T, no general inverse)."""
     T = np.asarray(T, dtype=np.float64)

@@ -36,15 +36,6 @@ __all__ = ["daniilidis_matrix", "daniilidis", "daniilidis_batch", "unit_dual_qua
 NULL_TOL = 1e-10
 
 
-def _skew(v: np.ndarray) -> np.ndarray:
-    """``[v]x`` for ``(..., 3)`` vectors -> ``(..., 3, 3)``."""
-    x, y, z = v[..., 0], v[..., 1], v[..., 2]
-    o = np.zeros_like(x)
-    return np.stack([np.stack([o, -z, y], -1),
-                     np.stack([z, o, -x], -1),
-                     np.stack([-y, x, o], -1)], axis=-2)
-
-
 def daniilidis_matrix(problem: MotionProblem, alpha: float = 1.0) -> np.ndarray:
     """The stacked ``(6N, 8)`` Daniilidis matrix acting on ``(q, alpha q')``."""
     s = problem.q_C[:, :3] + problem.q_H[:, :3]

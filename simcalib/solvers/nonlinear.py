@@ -38,7 +38,7 @@ import numpy as np
 
 from simcalib.geometry import dual_quat_from_transform, matrix_from_quat, quat_from_matrix, \
     quat_left_matrix, quat_multiply, quat_right_matrix, random_rotation_matrices, \
-    transform_from_rotation_translation
+    skew_matrix, transform_from_rotation_translation
 from simcalib.solvers.kernels.gram import prior_penalty, problem_matrices
 from simcalib.solvers.problem import MotionProblem, SolverOutput, problem_cost
 from simcalib.solvers.registry import register
@@ -53,14 +53,9 @@ _RECENTRE_STEP = 1e-6  # stop re-centring when |d| of a pass is below this (radi
 
 
 # ------------------------------------------------------------------ SO(3) helpers
-def _skew(v):
-    x, y, z = v[..., 0], v[..., 1], v[..., 2]
-    o = np.zeros_like(x)
-    return np.stack([np.stack([o, -z, y], -1), np.stack([z, o, -x], -1),
-                     np.stack([-y, x, o], -1)], axis=-2)
 
 
-_GEN = _skew(np.eye(3))  # (3, 3, 3): [e_k]x
+_GEN = skew_matrix(np.eye(3))  # (3, 3, 3): [e_k]x
 
 
 def _exp_quat(d):
@@ -76,7 +71,7 @@ def _exp_quat(d):
 def _right_jacobian(d):
     """J_r(d): Exp(d + e) = Exp(d) Exp(J_r(d) e) to first order."""
     th = float(np.linalg.norm(d))
-    K = _skew(d)
+    K = skew_matrix(d)
     if th < 1e-6:
         return np.eye(3) - 0.5 * K + K @ K / 6.0
     return (np.eye(3) - (1.0 - np.cos(th)) / th**2 * K
@@ -171,7 +166,7 @@ def _vec_fun_jac_factory(problem, alpha, kind):
             q, R, dq, Jr = _rot_state(q0, d)
             # translation residual and Jacobian
             rt = alpha * (np.einsum("nij,j->ni", RC, T) - T - TH @ R.T + TC)     # (n, 3)
-            Jt_w = alpha * np.einsum("ij,njk->nik", R, _skew(TH))               # (n, 3, 3)
+            Jt_w = alpha * np.einsum("ij,njk->nik", R, skew_matrix(TH))               # (n, 3, 3)
             Jt_d = Jt_w @ Jr
             Jt_T = alpha * (RC - I3)
             if kind == "chvec":
