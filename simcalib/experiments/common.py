@@ -304,10 +304,9 @@ def median(x: np.ndarray) -> float:
 
 # ---------------------------------------------------------------------------- outputs
 def progress(total: int, desc: str, enabled: bool = True):
-    """A tqdm progress bar on stderr (disabled when ``enabled`` is False)."""
-    from tqdm.auto import tqdm
-    return tqdm(total=total, desc=desc, disable=not enabled, file=sys.stderr,
-                unit="solve", unit_scale=True, dynamic_ncols=True, leave=False)
+    """The run's progress bar (:func:`simcalib.reports.progress`) counting solves."""
+    from simcalib.reports import progress as bar
+    return bar(total=total, desc=desc, enabled=enabled, unit="solve", unit_scale=True)
 
 
 def fmt(x, digits: int = 3) -> str:
