@@ -585,10 +585,10 @@ def _describe(u, dsc, reason, sdeg, sm, swd, swm, by_prior) -> Direction:
 
 
 def covariance_batch(C, H, X, alpha=1.0, prior=None, noise=None, *,
-                     tolerance_deg: float = TOLERANCE_DEG, tolerance_m: float = TOLERANCE_M
-                     ) -> tuple:
+                     tolerance_deg: float = TOLERANCE_DEG, tolerance_m: float = TOLERANCE_M,
+                     weights=None) -> tuple:
     """:func:`covariance` per problem of a batch: ``C``, ``H`` (B, N, 4, 4), ``X`` (B, 4, 4),
-    ``alpha`` scalar or (B,). Problems whose ``X`` is not a finite rigid transform (failed
+    ``alpha`` scalar or (B,), ``weights`` None or (B, N). Problems whose ``X`` is not a finite rigid transform (failed
     solves) give None."""
     C = np.asarray(C, dtype=np.float64)
     H = np.asarray(H, dtype=np.float64)
@@ -604,6 +604,7 @@ def covariance_batch(C, H, X, alpha=1.0, prior=None, noise=None, *,
             continue
         try:
             out.append(covariance(C[b], H[b], X[b], float(alphas[b]), prior, noise,
+                                  None if weights is None else weights[b],
                                   tolerance_deg=tolerance_deg, tolerance_m=tolerance_m))
         except ValueError:
             out.append(None)
