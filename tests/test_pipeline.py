@@ -142,8 +142,28 @@ def test_alpha_sweep_reports_every_alpha(tmp_path):
                   "progress=false", "recording.enabled=false", "synthetic.num_motions=200")
     s = res["solvers"]["dqopt"]
     assert [e["alpha"] for e in s["sweep"]] == [0.1, 1.0, 10.0]
-    assert s["rotation_error_deg"] == min(e["rotation_error_deg"] for e in s["sweep"])
-    assert s["alpha"] in (0.1, 1.0, 10.0)
+    orc = s["oracle_alpha"]
+    assert orc["uses_ground_truth"] is True and "GROUND TRUTH" in orc["note"]
+    assert orc["rotation_error_deg"] == min(e["rotation_error_deg"] for e in s["sweep"])
+    assert orc["oracle_alpha"] in (0.1, 1.0, 10.0)
+    assert s["alpha"] == s["alpha_choice"]["alpha"] and s["alpha_choice"]["source"] == "data"
+
+
+def test_headline_alpha_is_chosen_from_the_data_not_the_oracle(tmp_path):
+    """issue 9: with an alpha list containing an alpha that is better against the ground
+    truth, the headline stays the data-chosen alpha (the same estimate as alpha=auto) and
+    the better one is only reported as oracle_alpha."""
+    grid = "[" + ",".join(f"{a:.4g}" for a in np.geomspace(0.01, 50, 15)) + "]"
+    common = ["solvers=[dqopt]", "progress=false", "recording.enabled=false",
+              "synthetic.num_motions=200", "seed=3", "verdict.convergence_points=0"]
+    _, swept = _run(tmp_path, "line", f"alpha={grid}", *common, sub="swept")
+    _, auto = _run(tmp_path, "line", "alpha=auto", *common, sub="auto")
+    s, a = swept["solvers"]["dqopt"], auto["solvers"]["dqopt"]
+    assert s["oracle_alpha"]["rotation_error_deg"] < s["rotation_error_deg"]   # a better one
+    assert s["alpha"] != s["oracle_alpha"]["oracle_alpha"]
+    assert s["alpha"] == a["alpha"] == a["alpha_choice"]["alpha"]
+    assert s["X"] == a["X"] and a["oracle_alpha"] is None
+    assert "truth" not in s["alpha_choice"]["how"].lower()
 
 
 def test_interrupt_leaves_readable_recording_and_partial_results(tmp_path, monkeypatch,

@@ -26,7 +26,11 @@ the rotation noise of ``H_i`` into ``tau_i`` through ``R_Ci' t_X``).
   ``sum e_i^T S_i e_i`` with ``S_i = T_i^T T_i``. Gauss-Newton / first-order perturbation of
   the minimiser: ``Sigma = H^-1 M H^-1`` with ``H = sum K^T S K (+ prior)`` and
   ``M = sum K^T S Q S K (+ prior)``. This is the covariance of the minimiser of the alpha
-  cost; for other estimators (daniilidis, dq2steps, ...) it is used as an approximation.
+  cost; for other estimators (daniilidis, dq2steps, ...) it is used as an approximation,
+  plus their bias: without a prior, the Gauss-Newton step ``s = -H^-1 g`` from ``X`` to the
+  minimiser of the alpha cost (``g = sum K^T S e``, 0 for an exact minimiser) is added as
+  ``s s^T`` (mean squared error; :attr:`Uncertainty.offset`). An estimator far from the
+  optimum of the data (e.g. OpenCV's Daniilidis) is thus never reported tighter than it is.
 * **Information** (alpha-free, for the verdict): ``F = sum K^T Q^-1 K`` (Fisher information
   of the data under the noise model; alpha cancels exactly).
 * **Prior** (paper eqs. 26-29): read as a pseudo-measurement of ``vec(dq)`` with weight ``a``
@@ -300,6 +304,7 @@ class Uncertainty:
     translation_scale_m: float
     n_motions: int
     method: str = "sandwich"
+    offset: np.ndarray | None = None   # Gauss-Newton step from X to the alpha-cost minimiser
 
     @property
     def std(self) -> np.ndarray:
@@ -486,9 +491,20 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
         Sig_b = Hb_inv @ Mb @ Hb_inv
         lb, Vb = np.linalg.eigh(0.5 * (Sig_b + Sig_b.T))
         Sig_b = (Vb * np.clip(lb, 0.0, None)) @ Vb.T        # PSD despite rounding
+        if prior is None:
+            # X need not be the minimiser of the alpha cost (daniilidis, opencv, dq2steps,
+            # an early stop): its Gauss-Newton offset from the minimiser is a bias of X
+            # that the sandwich does not see; added as step step^T (mean squared error).
+            g = np.einsum("n,nki,nkl,nl->i", w, K, S, e) * dsc
+            step = -Hb_inv @ (Bt.T @ g)
+            Sig_b = Sig_b + np.outer(step, step)
+            offset_t = Bt @ step
+        else:
+            offset_t = np.zeros(6)
         cov_t = Bt @ Sig_b @ Bt.T
     else:
         cov_t = np.zeros((6, 6))
+        offset_t = np.zeros(6)
     cov_det = cov_t * np.outer(dsc, dsc)
     cov_det = 0.5 * (cov_det + cov_det.T)
     cov = cov_det.copy()
@@ -550,7 +566,7 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
                        determined_basis=Bp, information=F, prior_covariance=prior_cov,
                        noise=noise_out, alpha=alpha, tolerance_deg=math.degrees(tol_r),
                        tolerance_m=tol_m, directions=tuple(dirs), translation_scale_m=L,
-                       n_motions=N)
+                       n_motions=N, offset=offset_t * dsc)
 
 
 def _sym_inv(A):
