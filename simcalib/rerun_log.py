@@ -22,6 +22,8 @@ Entity layout (timeline ``frame`` = simulated frame index, plus ``sim_time``):
 * ``errors/rotation_deg``, ``errors/translation_cm`` — per-solver bar charts (order in
   ``errors/legend``); ``errors/<solver>/...`` the same as scalars.
 * ``pose_error/<cam>/rotation_deg|translation_mm`` — per-frame pose-source error series.
+* ``convergence/<rotation_deg|translation_cm>/<solver>/<error|sigma>`` — error and
+  predicted 1-sigma against the number of motions used (timeline ``motions``; issue 9).
 * ``summary`` — the console table as text.
 """
 
@@ -112,6 +114,7 @@ class RunRecorder:
                                  logs[0] if logs else None)
         elif stage == "solvers":
             self.log_estimates(st.solvers, truth.X_true, dict(truth.streams))
+            log_convergence(self.rec, st.solvers)
         elif stage == "evaluation":
             self.log_pose_errors(st.pose_errors)
         elif stage == "reports":
@@ -258,6 +261,37 @@ class RunRecorder:
             self.rec.flush()
         finally:
             self.rec.disconnect()
+
+
+def log_convergence(rec, solvers) -> None:
+    """Issue 9: error and predicted 1-sigma against the number of motions used (k), one
+    named series per solver, on the ``motions`` timeline: ``convergence/rotation_deg/
+    <solver>/{error,sigma}`` and ``convergence/translation_cm/<solver>/{error,sigma}``
+    (from ``SolverResult.convergence``; failed or undetermined points are left out)."""
+    import rerun as rr
+    for n, s in enumerate(solvers):
+        pts = [p for p in getattr(s, "convergence", ()) if p.get("success")]
+        if not pts:
+            continue
+        color = _SOLVER_COLORS[n % len(_SOLVER_COLORS)]
+        k = np.array([p["k"] for p in pts], dtype=np.int64)
+        for quantity, key, unit in (("rotation_deg", "rotation", 1.0),
+                                    ("translation_cm", "translation", 100.0)):
+            err = np.array([p[f"{key}_error_{'deg' if unit == 1.0 else 'm'}"] for p in pts],
+                           dtype=np.float64) * unit
+            sig = np.array([np.nan if p[f"sigma_{key}_{'deg' if unit == 1.0 else 'm'}"] is None
+                            else p[f"sigma_{key}_{'deg' if unit == 1.0 else 'm'}"]
+                            for p in pts], dtype=np.float64) * unit
+            for part, vals, width in (("error", err, 2.0), ("sigma", sig, 1.0)):
+                keep = np.isfinite(vals)
+                if not keep.any():
+                    continue
+                ent = f"convergence/{quantity}/{entity_name(s.label)}/{part}"
+                rec.log(ent, rr.SeriesLines(names=f"{s.label} {part}", colors=color,
+                                            widths=width), static=True)
+                rec.send_columns(ent, indexes=[rr.TimeColumn("motions", sequence=k[keep])],
+                                 columns=rr.Scalars.columns(scalars=vals[keep]))
+
 
 
 def _iter_visual_log(log, rec_cfg):

@@ -185,3 +185,25 @@ def test_interrupt_leaves_readable_recording_and_partial_results(tmp_path, monke
     assert res["solvers"] == {} and res["pairing"]["used"] >= 2
     ents = _entities(out / "recording.rrd")
     assert "/world/cam_a" in ents and "/world/markers" in ents
+
+
+def test_convergence_curve_and_uncertainty_fields(tmp_path):
+    """issue 9: error and predicted sigma against the first k motions, per solver, in
+    results.json and as named series in the recording; covariance/std/verdict fields."""
+    out, res = _run(tmp_path, "random", "solvers=[dqopt,daniilidis]", "progress=false",
+                    "verdict.convergence_points=6")
+    s = res["solvers"]["dqopt"]
+    ks = [p["k"] for p in s["convergence"]]
+    assert ks == sorted(set(ks)) and ks[0] == 3 and ks[-1] == res["pairing"]["used"]
+    assert 2 <= len(ks) <= 6
+    last = s["convergence"][-1]
+    assert last["rotation_error_deg"] == pytest.approx(s["rotation_error_deg"])
+    ok = [p for p in s["convergence"] if p["success"] and p["sigma_rotation_deg"]]
+    assert ok[-1]["sigma_rotation_deg"] < ok[0]["sigma_rotation_deg"]   # it converges
+    assert len(s["covariance"]) == 6 and all(len(r) == 6 for r in s["covariance"])
+    assert s["verdict"]["verdict"] == "determined" and s["degenerate"] is False
+    assert len(s["std"]["rotation_deg"]) == 3 and s["alpha_choice"]["source"] == "data"
+    ents = _entities(out / "recording.rrd")
+    for name in ("dqopt", "daniilidis"):
+        assert f"/convergence/rotation_deg/{name}/error" in ents
+        assert f"/convergence/translation_cm/{name}/sigma" in ents
