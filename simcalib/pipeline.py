@@ -486,6 +486,15 @@ def _failed(label, method, prior_info, reason, sweep=(), choice=None, oracle=Non
                         convergence=tuple(convergence))
 
 
+def correlation_lag(st) -> int:
+    """Pairs ``(k, k + step)`` of consecutive datapoints of pose streams share poses up to
+    lag ``step``: the uncertainty corrects for that serial correlation. Relative motions
+    from a source (synthetic) or random pairing: independent (0)."""
+    if st.motions_from_source is not None or st.cfg.pairing.mode != "consecutive":
+        return 0
+    return int(st.cfg.pairing.step)
+
+
 def _solve_at(st, method, alpha, prior, rng, C, H):
     """(solution, errors dict) at ``alpha``, or (solution or None, failure reason)."""
     import simcalib
@@ -493,7 +502,8 @@ def _solve_at(st, method, alpha, prior, rng, C, H):
     sol = simcalib.solve(C, H, method=method, alpha=alpha, prior=prior,
                          rng=np.random.default_rng(rng.bit_generator.seed_seq),
                          tolerance_deg=cfg.verdict.tolerance_deg,
-                         tolerance_m=cfg.verdict.tolerance_m)
+                         tolerance_m=cfg.verdict.tolerance_m,
+                         correlation_lag=correlation_lag(st))
     reason = _failure_reason(sol)
     if reason is not None:
         return sol, reason

@@ -174,6 +174,7 @@ class Solution:
     uncertainty_method: str = "sandwich"   # or "bootstrap" (solve(uncertainty=...))
     bootstrap_rng: np.random.Generator | None = field(default=None, repr=False, compare=False)
     bootstrap_samples: int = 200
+    correlation_lag: int = 0        # motions share poses up to this lag (pairs k, k+step)
 
     # ---- issue 9: uncertainty and the verdict that follows from it
     @cached_property
@@ -187,7 +188,7 @@ class Solution:
         try:
             u = covariance(self.problem.C, self.problem.H, self.X, self.alpha, self.prior,
                            weights=self.problem.weights, tolerance_deg=self.tolerance_deg,
-                           tolerance_m=self.tolerance_m)
+                           tolerance_m=self.tolerance_m, correlation_lag=self.correlation_lag)
         except ValueError:
             return None
         if self.uncertainty_method == "bootstrap":
@@ -450,7 +451,7 @@ def _check_prior_supported(info, prior):
 def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None = None,
           rng: np.random.Generator | None = None, weights=None, *, tolerance_deg: float = 1.0,
           tolerance_m: float = 0.01, uncertainty: str = "sandwich",
-          bootstrap_samples: int = 200) -> Solution:
+          bootstrap_samples: int = 200, correlation_lag: int = 0) -> Solution:
     """Estimate ``X = T_a_b`` from relative motions with ``C_i X = X H_i``.
 
     ``C``, ``H``: array-like ``(N, 4, 4)``, N >= 2. ``method``: a name from
@@ -464,7 +465,9 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
     or "bootstrap" (``bootstrap_samples`` seeded resamplings of the motions, each solved by
     ``method``; the generator is a child of ``rng``, default ``default_rng(0)``; for
     comparison: it costs ``bootstrap_samples`` solves). The verdict comes from the
-    information in both cases.
+    information in both cases. ``correlation_lag``: the motions are in time order and
+    share poses up to this lag (pairs ``(k, k + step)`` of one pose stream: ``step``); the
+    uncertainty then corrects for the serial correlation of their noise (0: independent).
 
     ``runtime_s`` never includes compilation: the compiled kernel is loaded (or compiled,
     once per machine) before the timed region; that time is ``diagnostics["compile_s"]``.
@@ -480,6 +483,8 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
             bootstrap_samples, (int, np.integer)) or bootstrap_samples < 2:
         raise ValueError(f"bootstrap_samples must be an integer >= 2; received "
                          f"{bootstrap_samples!r}")
+    from simcalib.solvers.diagnostics.uncertainty import _check_lag
+    correlation_lag = _check_lag(correlation_lag, 10**9)
     boot_rng = None
     if uncertainty == "bootstrap":
         boot_rng = np.random.default_rng(_check_rng(rng).bit_generator.seed_seq.spawn(1)[0]) \
@@ -513,7 +518,8 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
                     n_motions=problem.n, family=info.family, prior=prior,
                     diagnostics=diag, problem=problem, tolerance_deg=tolerance_deg,
                     tolerance_m=tolerance_m, uncertainty_method=uncertainty,
-                    bootstrap_rng=boot_rng, bootstrap_samples=int(bootstrap_samples))
+                    bootstrap_rng=boot_rng, bootstrap_samples=int(bootstrap_samples),
+                    correlation_lag=correlation_lag)
 
 
 def solve_batch(C, H, method: str = "dqopt", alpha=1.0, prior: Prior | None = None,

@@ -387,7 +387,8 @@ def _fmt_vec3(v):
 
 # -------------------------------------------------------------------------- main entry
 def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None, *,
-               tolerance_deg: float = TOLERANCE_DEG, tolerance_m: float = TOLERANCE_M
+               tolerance_deg: float = TOLERANCE_DEG, tolerance_m: float = TOLERANCE_M,
+               correlation_lag: int = 0
                ) -> Uncertainty:
     """Uncertainty of the estimate ``X`` (= ``T_a_b``) from motions ``C``, ``H`` (N,4,4),
     ``C_i X = X H_i``, for the paper's cost at ``alpha`` (1/m) with an optional
@@ -449,6 +450,30 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
     Hs = np.einsum("n,nki,nkl,nlj->ij", w, K, S, K)
     SQS = S @ Q @ S
     Ms = np.einsum("n,nki,nkl,nlj->ij", w * w, K, SQS, K)
+    lag = _check_lag(correlation_lag, N)
+    if lag:
+        # motions in time order that share poses (pairs (k, k + step) of one pose stream):
+        # their noise is correlated up to lag = step. The model meat is rescaled, per
+        # direction, by the ratio of the empirical meat with the cross terms up to the lag
+        # (truncated kernel) to the one without (serial-correlation, HAC-type correction).
+        gsc = np.einsum("n,nki,nkl,nl->ni", w, K, S, e)
+        M0 = gsc.T @ gsc
+        Mh = M0.copy()
+        for lg in range(1, lag + 1):
+            cross = gsc[:-lg].T @ gsc[lg:]
+            Mh += cross + cross.T
+        Ms = _rescale_meat(Ms, M0, Mh)
+        # the same correction of the alpha-free information (efficient weighting: the
+        # meat is F itself, so the information becomes F Mc^-1 F)
+        gF = np.einsum("n,nki,nkl,nl->ni", w, K, Qinv, e)
+        M0F = gF.T @ gF
+        MhF = M0F.copy()
+        for lg in range(1, lag + 1):
+            cross = gF[:-lg].T @ gF[lg:]
+            MhF += cross + cross.T
+        Fc = _rescale_meat(F, M0F, MhF)
+        F = F @ _sym_inv(Fc) @ F
+        F = 0.5 * (F + F.T)
     F_prior = np.zeros((6, 6))
     prior_cov = None
     if prior is not None:
@@ -567,6 +592,29 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
                        noise=noise_out, alpha=alpha, tolerance_deg=math.degrees(tol_r),
                        tolerance_m=tol_m, directions=tuple(dirs), translation_scale_m=L,
                        n_motions=N, offset=offset_t * dsc)
+
+
+def _check_lag(lag, n) -> int:
+    if isinstance(lag, bool) or not isinstance(lag, (int, np.integer)) or lag < 0:
+        raise ValueError(f"correlation_lag must be an integer >= 0; received {lag!r}")
+    return int(min(lag, max(n - 1, 0)))
+
+
+def _rescale_meat(Ms, M0, Mh):
+    """``Ms`` with its spectrum rescaled, direction by direction (eigenvectors of ``M0``
+    whitened by ``Ms``), by the ratio of the serial-correlated empirical meat ``Mh`` to the
+    uncorrelated one ``M0``; ratios clipped to [0.05, 20]."""
+    lam, V = np.linalg.eigh(0.5 * (Ms + Ms.T))
+    lam = np.maximum(lam, 1e-300)
+    W = V / np.sqrt(lam)                                   # whitening: W^T Ms W = I
+    A0 = W.T @ M0 @ W
+    Ah = W.T @ Mh @ W
+    l0, U0 = np.linalg.eigh(0.5 * (A0 + A0.T))
+    ratio = np.clip(np.einsum("ki,kl,li->i", U0, Ah, U0) / np.maximum(l0, 1e-300), 0.05, 20.0)
+    Wi = V * np.sqrt(lam)                                  # inverse whitening
+    R = U0 @ np.diag(ratio) @ U0.T
+    out = Wi @ R @ Wi.T
+    return 0.5 * (out + out.T)
 
 
 def _sym_inv(A):
