@@ -207,3 +207,18 @@ def test_convergence_curve_and_uncertainty_fields(tmp_path):
     for name in ("dqopt", "daniilidis"):
         assert f"/convergence/rotation_deg/{name}/error" in ents
         assert f"/convergence/translation_cm/{name}/sigma" in ents
+
+
+@pytest.mark.parametrize("scenario, flagged", [("planar", True), ("linear", True),
+                                               ("circular", True), ("rotation", True),
+                                               ("3d", False)])
+def test_cart_scenarios_flagged_3d_not(tmp_path, scenario, flagged):
+    """issue 9: the degenerate cart paths are flagged, the general 3d path is not (small
+    runs: short paths, low pose noise so that 3d is determined within 1 deg / 1 cm)."""
+    _, res = _run(tmp_path, scenario, "source=noisy", "noise.sigma_r_deg=0.05",
+                  "noise.sigma_t_m=0.001", "solvers=[dqopt]", "recording.enabled=false",
+                  "verdict.convergence_points=0", "prior.enabled=false", "pairing.prefilter=false",
+                  *SIM_SHORT)
+    s = res["solvers"]["dqopt"]
+    assert s["degenerate"] is flagged, s["verdict"]
+    assert (s["verdict"]["verdict"] != "determined") is flagged

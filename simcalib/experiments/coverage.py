@@ -283,8 +283,20 @@ def render(cov_rows, flag_rows, alpha_rows, args, runtime_s, sim=None) -> str:
          "-> AlphaChoice(alpha, how, sigma_r_rad, sigma_t_m, ...)`.",
          "- `bootstrap_covariance(C, H, X, solve_fn, n_boot, rng)`; `covariance_batch(C, H, X, "
          "alpha, ...)`.",
-         "- `Solution.uncertainty`, `.covariance`, `.std`, `.verdict`, `.inside_region(X)`; "
-         "`solve(..., tolerance_deg=1, tolerance_m=0.01)`.", "",
+         "- `Solution.uncertainty`, `.covariance`, `.std`, `.verdict`, `.inside_region(X)`, "
+         "and the verdict `.degenerate` / `.undetermined` (directions in words with their "
+         "1-sigma and `determined_by_prior`) / `.message`; `solve(..., tolerance_deg=1, "
+         "tolerance_m=0.01, uncertainty='sandwich' | 'bootstrap', bootstrap_samples=200, "
+         "correlation_lag=0)`; `BatchSolution.uncertainty` / `.covariance` (B, 6, 6) / "
+         "`.std` / `.degenerate` / `.verdict`.",
+         "- Non-optimal estimators (daniilidis, opencv, dq2steps): their Gauss-Newton offset "
+         "from the alpha-cost minimiser is added to the covariance as a bias term "
+         "(`Uncertainty.offset`). Consecutive pairs of pose streams (`pairing.step`) share "
+         "poses: `correlation_lag` rescales the covariance and the information by the "
+         "empirical serial correlation of the scores up to that lag.",
+         "- Runs: `verdict.tolerance_deg`, `verdict.tolerance_m`, "
+         "`verdict.convergence_points`; `alpha: auto` (data-chosen headline), an alpha list "
+         "adds `oracle_alpha` (uses the ground truth) - docs/results-schema.md.", "",
          "## Coverage on `random` (95 % region, chi2 with 6 dof)", "",
          "| method | alpha | prior | trials | coverage | pred/RMS wx wy wz | pred/RMS vx vy vz "
          "| RMS rot (deg) | RMS trans (mm) | flagged |",
