@@ -69,7 +69,7 @@ class SolverResult:
     degenerate: bool | None
     undetermined: tuple[str, ...] = ()
     undetermined_directions: tuple[dict, ...] = ()
-    undetermined_translation_axes: np.ndarray | None = None
+    undetermined_translation_axes: np.ndarray | None = None   # flagged, not fixed by a prior
     singular_values: np.ndarray | None = None
     message: str = ""
     error: str | None = None
@@ -362,7 +362,8 @@ def _stage_pairs(st: RunState) -> None:
 def _verdict(sol) -> dict:
     """The headline verdict fields of a :class:`SolverResult` from ``sol.uncertainty``
     (simcalib.solvers.diagnostics.uncertainty): degenerate, the directions in words, the
-    undetermined translation axes (projected out of ``translation_error_determined_m``),
+    flagged translation axes not fixed by a prior (undetermined or poorly determined:
+    projected out of ``translation_error_determined_m``),
     covariance, std, predicted RMS errors."""
     u = sol.uncertainty
     if u is None:
@@ -376,8 +377,7 @@ def _verdict(sol) -> dict:
                      "translation_dir_a": np.asarray(d.translation_dir_a, float).tolist(),
                      "std_deg": float(d.std_deg), "std_m": float(d.std_m),
                      "determined_by_prior": bool(d.determined_by_prior)})
-        if d.kind == "translation" and d.reason == "undetermined" \
-                and not d.determined_by_prior:
+        if d.kind == "translation" and not d.determined_by_prior:
             axes.append(np.asarray(d.translation_dir_a, dtype=np.float64))
     cov = np.asarray(u.covariance, dtype=np.float64)
     std = np.asarray(u.std, dtype=np.float64)
