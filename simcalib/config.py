@@ -206,6 +206,26 @@ class RecordingConfig:
                    max_images=check_int("max_images", self.max_images, lo=0))
 
 
+@dataclass(frozen=True)
+class VerdictConfig:
+    """When an estimate is trusted (issue 9): a direction of X whose predicted 1-sigma
+    exceeds a tolerance is "poorly determined" (``Solution.verdict``), and the curve of
+    error and predicted sigma against the number of motions used (``convergence``)."""
+    tolerance_deg: float = field(default=1.0, metadata=_doc(
+        "1-sigma rotation tolerance, degrees (above it: poorly determined)"))
+    tolerance_m: float = field(default=0.01, metadata=_doc(
+        "1-sigma translation tolerance, metres (above it: poorly determined)"))
+    convergence_points: int = field(default=10, metadata=_doc(
+        "solve on the first k motions for this many log-spaced k (0: no curve)"))
+
+    def __post_init__(self):
+        set_fields(self,
+                   tolerance_deg=check_positive("tolerance_deg", self.tolerance_deg),
+                   tolerance_m=check_positive("tolerance_m", self.tolerance_m),
+                   convergence_points=check_int("convergence_points",
+                                                self.convergence_points, lo=0, hi=100))
+
+
 SOURCES = ("ground_truth", "noisy", "aruco", "robot_fk")
 KINDS = ("sim", "synthetic")
 
@@ -226,9 +246,11 @@ class ScenarioConfig:
     solvers: tuple[str, ...] = field(default=("dqopt", "dq2ndord", "dqconvrlx", "dq2steps",
                                               "daniilidis"), metadata=_doc(
         "methods to run (python -m simcalib list)"))
-    alpha: float | tuple[float, ...] = field(default=1.0, metadata=_doc(
-        "translation weight alpha, or a list (a sweep: each method reports every alpha "
-        "and, as its headline, the alpha with the lowest rotation error)"))
+    alpha: Literal["auto"] | float | tuple[float, ...] = field(default="auto", metadata=_doc(
+        "translation weight alpha (1/m): auto (chosen from the data: "
+        "simcalib.solvers.diagnostics.uncertainty.choose_alpha), a number, or a list (a "
+        "sweep: every alpha is reported; the headline stays the data-chosen alpha and the "
+        "list's alpha best against the ground truth is reported beside it as oracle_alpha)"))
     workers: int = field(default=2, metadata=_doc("parallel render workers"))
     progress: bool = field(default=True, metadata=_doc("show progress bars"))
     world: WorldConfig = field(default_factory=WorldConfig, metadata=_doc("simulated world"))
@@ -246,6 +268,8 @@ class ScenarioConfig:
         "arm kinematic error and encoders (robot_fk)"))
     outliers: OutliersConfig = field(default_factory=OutliersConfig, metadata=_doc(
         "injected outliers with ground-truth labels"))
+    verdict: VerdictConfig = field(default_factory=VerdictConfig, metadata=_doc(
+        "tolerances of the degeneracy verdict and the convergence curve"))
 
     def __post_init__(self):
         set_fields(self, seed=check_int("seed", self.seed, lo=0),
@@ -266,7 +290,7 @@ class ScenarioConfig:
                        "a number > 0 or a non-empty list of them")
             set_fields(self, alpha=tuple(
                 check_positive(f"alpha[{i}]", a) for i, a in enumerate(self.alpha)))
-        else:
+        elif self.alpha != "auto":
             set_fields(self, alpha=check_positive("alpha", self.alpha))
         _check_solver_names(self.solvers, "solvers")
         if self.prior.enabled:
@@ -317,6 +341,9 @@ class ScenarioConfig:
 
     @property
     def alphas(self) -> tuple[float, ...]:
+        """The alphas given in the config (empty for ``alpha: auto``)."""
+        if self.alpha == "auto":
+            return ()
         return tuple(self.alpha) if isinstance(self.alpha, tuple) else (float(self.alpha),)
 
     @property

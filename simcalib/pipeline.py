@@ -69,11 +69,22 @@ class SolverResult:
     degenerate: bool | None
     undetermined: tuple[str, ...] = ()
     undetermined_directions: tuple[dict, ...] = ()
-    undetermined_translation_axes: np.ndarray | None = None
+    undetermined_translation_axes: np.ndarray | None = None   # flagged, not fixed by a prior
     singular_values: np.ndarray | None = None
     message: str = ""
     error: str | None = None
     sweep: tuple[dict, ...] = ()
+    # issue 9: uncertainty of the headline estimate and how its alpha was chosen
+    covariance: np.ndarray | None = None      # 6x6 (wx,wy,wz,vx,vy,vz) rad/m; inf: undetermined
+    std_deg: tuple[float, ...] | None = None  # 1-sigma rotation about x, y, z (frame a)
+    std_m: tuple[float, ...] | None = None    # 1-sigma translation along x, y, z (frame a)
+    sigma_rotation_deg: float | None = None   # predicted RMS of the rotation error
+    sigma_translation_m: float | None = None  # predicted RMS of the translation error
+    verdict: str = "FAILED"                   # determined / poorly determined / undetermined
+    verdict_directions: tuple[str, ...] = ()  # each flagged direction in words with sigma
+    alpha_choice: dict | None = None          # {"alpha", "how", ...}: never the ground truth
+    oracle: dict | None = None                # alpha of the config list best vs the TRUTH
+    convergence: tuple[dict, ...] = ()        # error and predicted sigma vs motions used
 
 
 @dataclass(frozen=True)
@@ -351,41 +362,42 @@ def _stage_pairs(st: RunState) -> None:
         st.sensing["outliers"]["pairs"] = outlier_pairs(st.pairs, st.sensing["outliers"])
 
 
-def _observability(sol) -> tuple:
-    """(degenerate, words, direction dicts, undetermined translation axes, singular values)
-    from ``sol.observability`` (simcalib.solvers.observability.Observability)."""
-    try:
-        obs = sol.observability
-    except Exception as exc:  # diagnostics unavailable: say so, never pretend
-        return (None, (f"observability unavailable: {type(exc).__name__}: {exc}",), (), None,
-                None)
+def _verdict(sol) -> dict:
+    """The headline verdict fields of a :class:`SolverResult` from ``sol.uncertainty``
+    (simcalib.solvers.diagnostics.uncertainty): degenerate, the directions in words, the
+    flagged translation axes not fixed by a prior (undetermined or poorly determined:
+    projected out of ``translation_error_determined_m``),
+    covariance, std, predicted RMS errors."""
+    u = sol.uncertainty
+    if u is None:
+        return {"degenerate": None, "verdict": "unknown", "undetermined": (
+            "uncertainty unavailable (the residuals of X are not finite)",)}
     words, dirs, axes = [], [], []
-    for d in getattr(obs, "undetermined", ()) or ():
-        if isinstance(d, str):
-            words.append(d)
-            continue
-        status = ("not determined by the motions" if d.reason == "undetermined"
-                  else f"poorly determined (1-sigma {d.std:.3g})")
-        src = "value from the prior" if d.determined_by_prior else "value is not a measurement"
-        words.append(f"{d.description}: {status}; {src}")
-        dirs.append({"kind": d.kind, "reason": d.reason, "dims": int(d.dims),
-                     "description": d.description,
-                     "rotation_axis_a": np.asarray(d.rotation_axis_a, dtype=float).tolist(),
-                     "translation_dir_a": np.asarray(d.translation_dir_a, dtype=float).tolist(),
-                     "std": float(d.std), "determined_by_prior": bool(d.determined_by_prior)})
+    for d in u.directions:
+        words.append(d.summary())
+        dirs.append({"kind": d.kind, "reason": d.reason, "description": d.description,
+                     "rotation_axis_a": np.asarray(d.rotation_axis_a, float).tolist(),
+                     "translation_dir_a": np.asarray(d.translation_dir_a, float).tolist(),
+                     "std_deg": float(d.std_deg), "std_m": float(d.std_m),
+                     "determined_by_prior": bool(d.determined_by_prior)})
         if d.kind == "translation" and not d.determined_by_prior:
-            v = np.asarray(d.translation_dir_a, dtype=np.float64)
-            if d.dims == 1:
-                axes.append(v)
-            elif d.dims == 2:  # the plane perpendicular to v
-                _, _, Vt = np.linalg.svd(v[None, :])
-                axes.extend(Vt[1:])
-            else:
-                axes.extend(np.eye(3))
-    sv = getattr(obs, "singular_values", None)
-    return (bool(getattr(obs, "degenerate", False)), tuple(words), tuple(dirs),
-            np.array(axes).reshape(-1, 3) if axes else None,
-            None if sv is None else np.asarray(sv, dtype=np.float64))
+            axes.append(np.asarray(d.translation_dir_a, dtype=np.float64))
+    cov = np.asarray(u.covariance, dtype=np.float64)
+    std = np.asarray(u.std, dtype=np.float64)
+    return {"degenerate": bool(u.degenerate), "verdict": u.verdict,
+            "undetermined": tuple(words), "undetermined_directions": tuple(dirs),
+            "undetermined_translation_axes": np.array(axes).reshape(-1, 3) if axes else None,
+            "covariance": cov, "std_deg": tuple(float(x) for x in std[:3]),
+            "std_m": tuple(float(x) for x in std[3:]),
+            "sigma_rotation_deg": float(np.degrees(np.sqrt(np.trace(cov[:3, :3])))),
+            "sigma_translation_m": float(np.sqrt(np.trace(cov[3:, 3:])))}
+
+
+def _singular_values(sol):
+    try:
+        return np.asarray(sol.observability.singular_values, dtype=np.float64)
+    except Exception:  # noqa: BLE001 - descriptive only
+        return None
 
 
 def _prior(st: RunState):
@@ -427,11 +439,37 @@ def _stage_solvers(st: RunState) -> None:
         jobs += [(f"{m}+prior", m, True) for m in cfg.prior.methods]
     rng_children = st.rngs["solvers"].spawn(len(jobs))
     C, H = st.pairs.C, st.pairs.H
+    choice = choose_run_alpha(cfg, C, H)
     for (label, method, with_prior), rng in zip(
             reports.progress(jobs, enabled=cfg.progress, desc="solvers", unit="method",
                              position=1), rng_children):
         st.solvers.append(_solve_one(st, label, method, prior if with_prior else None,
-                                     prior_info if with_prior else None, C, H, rng))
+                                     prior_info if with_prior else None, C, H, rng, choice))
+
+
+def choose_run_alpha(cfg, C, H) -> dict:
+    """The alpha of a run's headline estimates, never from the ground truth.
+
+    ``alpha: <number>``: that alpha. ``alpha: auto`` or a list: dqopt at alpha = 1, then
+    :func:`simcalib.solvers.diagnostics.uncertainty.choose_alpha` (``noise_ratio``) from its
+    residuals. Returns ``{"alpha", "how", "source", ...}`` (results.json ``alpha_choice``)."""
+    if cfg.alpha != "auto" and not isinstance(cfg.alpha, tuple):
+        return {"alpha": float(cfg.alpha), "source": "config", "how": "given in the config"}
+    import simcalib
+    from simcalib.solvers.diagnostics.uncertainty import choose_alpha
+    try:
+        sol = simcalib.solve(C, H, method="dqopt", alpha=1.0)
+        if not sol.success or not np.isfinite(sol.X).all():
+            raise ValueError(sol.solver_message or "dqopt failed")
+        ch = choose_alpha(C, H, sol.X, 1.0, tolerance_deg=cfg.verdict.tolerance_deg,
+                          tolerance_m=cfg.verdict.tolerance_m)
+    except Exception as exc:  # noqa: BLE001 - fall back, and say so
+        return {"alpha": 1.0, "source": "fallback",
+                "how": f"alpha = 1: the data-driven choice failed ({type(exc).__name__}: "
+                       f"{exc})"}
+    return {"alpha": float(ch.alpha), "source": "data", "how": ch.how,
+            "initial": "dqopt at alpha = 1", "sigma_r_deg": float(np.degrees(ch.sigma_r_rad)),
+            "sigma_t_m": float(ch.sigma_t_m)}
 
 
 def _failure_reason(sol) -> str | None:
@@ -444,61 +482,137 @@ def _failure_reason(sol) -> str | None:
     return None
 
 
-def _failed(label, method, prior_info, reason, sweep=()) -> SolverResult:
+def _failed(label, method, prior_info, reason, sweep=(), choice=None, oracle=None,
+            convergence=()) -> SolverResult:
     return SolverResult(label=label, method=method, alpha=None, prior=prior_info, X=None,
                         rotation_error_deg=None, translation_error_m=None,
                         translation_error_determined_m=None, cost=None, runtime_s=None,
                         success=False, degenerate=None, error=reason.splitlines()[0],
                         message=f"{method}: FAILED ({reason.splitlines()[0]})",
-                        sweep=tuple(sweep))
+                        sweep=tuple(sweep), alpha_choice=choice, oracle=oracle,
+                        convergence=tuple(convergence))
 
 
-def _solve_one(st, label, method, prior, prior_info, C, H, rng) -> SolverResult:
+def correlation_lag(st) -> int:
+    """Pairs ``(k, k + step)`` of consecutive datapoints of pose streams share poses up to
+    lag ``step``: the uncertainty corrects for that serial correlation. Relative motions
+    from a source (synthetic) or random pairing: independent (0)."""
+    if st.motions_from_source is not None or st.cfg.pairing.mode != "consecutive":
+        return 0
+    return int(st.cfg.pairing.step)
+
+
+def _solve_at(st, method, alpha, prior, rng, C, H):
+    """(solution, errors dict) at ``alpha``, or (solution or None, failure reason)."""
     import simcalib
     cfg = st.cfg
+    sol = simcalib.solve(C, H, method=method, alpha=alpha, prior=prior,
+                         rng=np.random.default_rng(rng.bit_generator.seed_seq),
+                         tolerance_deg=cfg.verdict.tolerance_deg,
+                         tolerance_m=cfg.verdict.tolerance_m,
+                         correlation_lag=correlation_lag(st))
+    reason = _failure_reason(sol)
+    if reason is not None:
+        return sol, reason
+    v = _verdict(sol)
+    axes = v.get("undetermined_translation_axes")
+    return sol, estimate_errors(sol.X, st.X_true, axes if v["degenerate"] else None)
+
+
+def _solve_one(st, label, method, prior, prior_info, C, H, rng, choice) -> SolverResult:
+    """The headline estimate at the data-chosen alpha (``choice``); with an alpha list in
+    the config every alpha is solved too (``sweep``) and the one best against the ground
+    truth is reported as ``oracle`` (it never replaces the headline)."""
+    cfg = st.cfg
     sweep = []
-    best = None
-    reasons = []
+    oracle = None
     try:
-        for alpha in cfg.alphas:
-            sol = simcalib.solve(C, H, method=method, alpha=alpha, prior=prior,
-                                 rng=np.random.default_rng(rng.bit_generator.seed_seq))
-            reason = _failure_reason(sol)
-            if reason is not None:
-                reasons.append(reason)
-                sweep.append({"alpha": float(alpha), "rotation_error_deg": None,
-                              "translation_error_m": None,
-                              "translation_error_determined_m": None, "cost": None,
-                              "runtime_s": float(sol.runtime_s), "success": False,
-                              "error": reason})
-                continue
-            degenerate, und, dirs, axes, sv = _observability(sol)
-            err = estimate_errors(sol.X, st.X_true, axes if degenerate else None)
-            entry = {"alpha": float(alpha), **err, "cost": float(sol.cost),
-                     "runtime_s": float(sol.runtime_s), "success": True, "error": None}
-            sweep.append(entry)
-            if best is None or err["rotation_error_deg"] < best[1]["rotation_error_deg"]:
-                best = (sol, err, degenerate, und, dirs, axes, sv)
+        if isinstance(cfg.alpha, tuple):
+            best = None
+            for alpha in cfg.alphas:
+                sol_a, res = _solve_at(st, method, alpha, prior, rng, C, H)
+                if isinstance(res, str):
+                    sweep.append({"alpha": float(alpha), "rotation_error_deg": None,
+                                  "translation_error_m": None,
+                                  "translation_error_determined_m": None, "cost": None,
+                                  "runtime_s": float(sol_a.runtime_s), "success": False,
+                                  "error": res})
+                    continue
+                sweep.append({"alpha": float(alpha), **res, "cost": float(sol_a.cost),
+                              "runtime_s": float(sol_a.runtime_s), "success": True,
+                              "error": None, "verdict": sol_a.verdict})
+                if best is None or res["rotation_error_deg"] < best["rotation_error_deg"]:
+                    best = {"alpha": float(alpha), **res}
+            if best is not None:
+                oracle = {"uses_ground_truth": True,
+                          "note": "the alpha of the config list with the lowest rotation "
+                                  "error against the GROUND TRUTH (not available with real "
+                                  "data; the headline uses the data-chosen alpha)",
+                          "oracle_alpha": best["alpha"],
+                          "rotation_error_deg": best["rotation_error_deg"],
+                          "translation_error_m": best["translation_error_m"],
+                          "translation_error_determined_m":
+                              best["translation_error_determined_m"]}
+        sol, res = _solve_at(st, method, choice["alpha"], prior, rng, C, H)
+        convergence = convergence_curve(st, method, choice["alpha"], prior, rng, C, H)
     except Exception as exc:  # noqa: BLE001 - one failing method must not sink the run
         return _failed(label, method, prior_info, f"{type(exc).__name__}: {exc}",
-                       sweep if cfg.is_sweep else ())
-    if best is None:
-        return _failed(label, method, prior_info, reasons[0], sweep if cfg.is_sweep else ())
-    sol, err, degenerate, und, dirs, axes, sv = best
+                       sweep, choice, oracle)
+    if isinstance(res, str):
+        return _failed(label, method, prior_info, res, sweep, choice, oracle, convergence)
+    v = _verdict(sol)
     try:
         message = sol.message
     except Exception as exc:  # noqa: BLE001 - a broken diagnostic must not kill the run
         message = f"{sol.solver_message} (message unavailable: {exc})"
+    degenerate = v["degenerate"]
     return SolverResult(
         label=label, method=method, alpha=float(sol.alpha), prior=prior_info,
-        X=np.asarray(sol.X, dtype=np.float64), rotation_error_deg=err["rotation_error_deg"],
-        translation_error_m=err["translation_error_m"],
-        translation_error_determined_m=err["translation_error_determined_m"],
+        X=np.asarray(sol.X, dtype=np.float64), rotation_error_deg=res["rotation_error_deg"],
+        translation_error_m=res["translation_error_m"],
+        translation_error_determined_m=res["translation_error_determined_m"],
         cost=float(sol.cost), runtime_s=float(sol.runtime_s), success=True,
-        degenerate=degenerate, undetermined=und if degenerate or degenerate is None else (),
-        undetermined_directions=dirs,
-        undetermined_translation_axes=axes if degenerate else None, singular_values=sv,
-        message=message, sweep=tuple(sweep) if cfg.is_sweep else ())
+        degenerate=degenerate, undetermined=v["undetermined"] if degenerate is not False
+        else (), undetermined_directions=v.get("undetermined_directions", ()),
+        undetermined_translation_axes=v.get("undetermined_translation_axes"),
+        singular_values=_singular_values(sol), message=message, sweep=tuple(sweep),
+        covariance=v.get("covariance"), std_deg=v.get("std_deg"), std_m=v.get("std_m"),
+        sigma_rotation_deg=v.get("sigma_rotation_deg"),
+        sigma_translation_m=v.get("sigma_translation_m"), verdict=v["verdict"],
+        verdict_directions=v["undetermined"] if degenerate is not False else (),
+        alpha_choice=choice, oracle=oracle, convergence=tuple(convergence))
+
+
+def convergence_points(n: int, points: int, k_min: int = 3) -> tuple[int, ...]:
+    """Up to ``points`` log-spaced motion counts from ``k_min`` to ``n`` (distinct, with n)."""
+    if points <= 0 or n < k_min:
+        return ()
+    ks = np.unique(np.round(np.geomspace(k_min, n, points)).astype(int))
+    return tuple(int(k) for k in ks)
+
+
+def convergence_curve(st, method, alpha, prior, rng, C, H) -> tuple[dict, ...]:
+    """Solve on the first k motions for growing k (``verdict.convergence_points`` log-spaced
+    values): per k the errors against the ground truth, the predicted 1-sigma (RMS of the
+    rotation / translation error; None when undetermined) and the verdict. The curve a user
+    looks at to see when the motion became rich enough."""
+    out = []
+    for k in convergence_points(C.shape[0], st.cfg.verdict.convergence_points):
+        try:
+            sol, res = _solve_at(st, method, alpha, prior, rng, C[:k], H[:k])
+        except ValueError as exc:   # too few usable motions for this method
+            out.append({"k": k, "success": False, "error": str(exc).splitlines()[0]})
+            continue
+        if isinstance(res, str):
+            out.append({"k": k, "success": False, "error": res.splitlines()[0]})
+            continue
+        v = _verdict(sol)
+        out.append({"k": k, "success": True, "rotation_error_deg": res["rotation_error_deg"],
+                    "translation_error_m": res["translation_error_m"],
+                    "sigma_rotation_deg": v.get("sigma_rotation_deg"),
+                    "sigma_translation_m": v.get("sigma_translation_m"),
+                    "verdict": v["verdict"]})
+    return tuple(out)
 
 
 def _stage_evaluation(st: RunState) -> None:

@@ -92,6 +92,17 @@ def solver_entry(s) -> dict:
         "message": s.message,
         "error": s.error,
         "sweep": [dict(e) for e in s.sweep],
+        # issue 9 (docs/results-schema.md): covariance entries that are infinite
+        # (undetermined directions) are written as null, like every non-finite number
+        "covariance": None if s.covariance is None else np.asarray(s.covariance).tolist(),
+        "std": None if s.std_deg is None else {"rotation_deg": list(s.std_deg),
+                                               "translation_m": list(s.std_m)},
+        "sigma_rotation_deg": s.sigma_rotation_deg,
+        "sigma_translation_m": s.sigma_translation_m,
+        "verdict": {"verdict": s.verdict, "directions": list(s.verdict_directions)},
+        "alpha_choice": s.alpha_choice,
+        "oracle_alpha": s.oracle,
+        "convergence": [dict(e) for e in s.convergence],
     }
 
 
@@ -175,26 +186,53 @@ def _fmt(v, scale=1.0, digits=3):
     return f"{v:.{digits}f}"
 
 
+def _pm(err, sigma, scale, digits):
+    """``error ± predicted sigma`` (sigma 'inf' when undetermined)."""
+    e = _fmt(err, scale, digits)
+    if sigma is None:
+        return e
+    sg = "inf" if not math.isfinite(sigma) else _fmt(sigma, scale, digits)
+    return f"{e} ± {sg}"
+
+
+def _verdict_cell(s) -> str:
+    if s.verdict in ("determined", "unknown", "FAILED"):
+        return s.verdict
+    kinds = []
+    for d in s.undetermined_directions:
+        word = d["kind"] if d["kind"] != "coupled" else "rot+trans"
+        ax = d["translation_dir_a"] if d["kind"] == "translation" else d["rotation_axis_a"]
+        i = int(np.argmax(np.abs(ax)))
+        tag = f"{word} {'xyz'[i]}" if abs(ax[i]) > 0.9 else word
+        if tag not in kinds:
+            kinds.append(tag)
+    if len(kinds) > 3:
+        kinds = kinds[:3] + [f"+{len(kinds) - 3}"]
+    return f"{s.verdict}: {', '.join(kinds)}" if kinds else s.verdict
+
+
 def summary_table(result) -> str:
-    """Console summary: one row per solver (errors, cost, runtime, degenerate flag), the
-    undetermined directions beneath, then pose-source errors and pairing counts."""
-    head = ["method", "alpha", "rot err [deg]", "trans err [cm]", "determined [cm]",
-            "cost", "time [ms]", "degenerate"]
+    """Console summary: one row per solver (error ± predicted 1-sigma, runtime, verdict;
+    FAILED rows with the reason), the flagged directions beneath, the data-chosen alpha and
+    the oracle alpha (labelled: it uses the ground truth), then pose-source errors and
+    pairing counts."""
+    head = ["method", "alpha", "rot err ± σ [deg]", "trans err ± σ [cm]", "determined [cm]",
+            "time [ms]", "verdict"]
     rows = []
     for s in result.solvers:
         if s.X is None:
             rows.append([s.label, f"FAILED: {s.error or 'no estimate'}"])
             continue
-        rows.append([s.label, _fmt(s.alpha, digits=3), _fmt(s.rotation_error_deg, digits=3),
-                     _fmt(s.translation_error_m, 100, 2),
+        rows.append([s.label, _fmt(s.alpha, digits=3),
+                     _pm(s.rotation_error_deg, s.sigma_rotation_deg, 1.0, 3),
+                     _pm(s.translation_error_m, s.sigma_translation_m, 100, 2),
                      _fmt(s.translation_error_determined_m, 100, 2),
-                     _fmt(s.cost, digits=4), _fmt(s.runtime_s, 1e3, 2),
-                     {True: "YES", False: "no"}.get(s.degenerate, "unknown")])
+                     _fmt(s.runtime_s, 1e3, 2), _verdict_cell(s)])
     full = [r for r in rows if len(r) == len(head)]
     widths = [max(len(h), *(len(r[i]) for r in full)) if full else len(h)
               for i, h in enumerate(head)]
     widths[0] = max([widths[0]] + [len(r[0]) for r in rows])
-    line = "  ".join(h.ljust(w) if i == 0 else h.rjust(w) for i, (h, w) in
+    line = "  ".join(h.ljust(w) if i in (0, len(head) - 1) else h.rjust(w) for i, (h, w) in
                      enumerate(zip(head, widths)))
     out = [f"scenario {result.config.scenario!r} (source={result.config.source}, "
            f"seed={result.config.seed}, {result.pairing.get('used', '?')} motions)",
@@ -203,23 +241,28 @@ def summary_table(result) -> str:
         if len(r) != len(head):  # a failed solver: its reason instead of numbers
             out.append(f"{r[0].ljust(widths[0])}  {r[1]}")
             continue
-        out.append("  ".join(c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in
-                             enumerate(zip(r, widths))))
+        out.append("  ".join(c.ljust(w) if i in (0, len(head) - 1) else c.rjust(w)
+                             for i, (c, w) in enumerate(zip(r, widths))))
     undet = {}
     for s in result.solvers:
-        if not s.degenerate:
+        if s.X is None or not s.degenerate:
             continue
-        if s.undetermined_directions:
-            key = tuple(f"{d['description']} ({'not determined' if d['reason'] == 'undetermined' else 'poorly determined'})"
-                        for d in s.undetermined_directions)
-        else:
-            key = tuple(s.undetermined)
-        undet.setdefault(key, []).append(s.label)
+        undet.setdefault(tuple(s.verdict_directions or s.undetermined), []).append(s.label)
     for dirs, labels in undet.items():
-        out.append(f"undetermined by this motion [{', '.join(labels)}]: " + "; ".join(dirs))
+        out.append(f"not determined within tolerance [{', '.join(labels)}]: " + "; ".join(dirs))
     if undet:
-        out.append("  -> those values are not measurements ('<method>+prior': taken from the "
-                   "prior); 'determined' = translation error with them projected out")
+        out.append("  -> those values are not measurements unless 'fixed by the prior'; "
+                   "'determined' = translation error with the undetermined axes projected out")
+    choice = next((s.alpha_choice for s in result.solvers if s.alpha_choice), None)
+    if choice:
+        out.append(f"alpha = {_fmt(choice['alpha'], digits=3)} ({choice['source']}: "
+                   f"{choice['how']})")
+    orc = [s for s in result.solvers if s.oracle]
+    if orc:
+        out.append("oracle_alpha (USES THE GROUND TRUTH, for comparison only): " + "; ".join(
+            f"{s.label} alpha {_fmt(s.oracle['oracle_alpha'], digits=3)}: "
+            f"{_fmt(s.oracle['rotation_error_deg'], digits=3)} deg / "
+            f"{_fmt(s.oracle['translation_error_m'], 100, 2)} cm" for s in orc))
     fr = result.frames or {}
     if fr.get("rendered"):
         cams = []

@@ -33,6 +33,8 @@ Entity layout (timeline ``frame`` = simulated frame index, plus ``sim_time``):
   summary shows them as a table with log-scale bars).
 * ``pose_error/rotation_deg/<cam>``, ``pose_error/translation_mm/<cam>`` — per-frame
   pose-source error, one unit per plot, a colour per camera.
+* ``convergence/<rotation_deg|translation_cm>/<solver>/<error|sigma>`` — error and
+  predicted 1-sigma against the number of motions used (timeline ``motions``; issue 9).
 * ``summary`` — the console summary as a markdown document: per-solver errors with
   log-scale bars, FAILED and degenerate rows, undetermined directions, frames, pairs.
 """
@@ -255,6 +257,7 @@ class RunRecorder:
                                  logs[0] if logs else None)
         elif stage == "solvers":
             self.log_estimates(st.solvers, truth.X_true, dict(truth.streams))
+            log_convergence(self.rec, st.solvers)
         elif stage == "evaluation":
             self.log_pose_errors(st.pose_errors)
         elif stage == "reports":
@@ -791,6 +794,37 @@ def log_experiment(path, name: str, pngs: dict, documents: dict) -> Path:
     finally:
         rec.disconnect()
     return path
+
+
+def log_convergence(rec, solvers) -> None:
+    """Issue 9: error and predicted 1-sigma against the number of motions used (k), one
+    named series per solver, on the ``motions`` timeline: ``convergence/rotation_deg/
+    <solver>/{error,sigma}`` and ``convergence/translation_cm/<solver>/{error,sigma}``
+    (from ``SolverResult.convergence``; failed or undetermined points are left out)."""
+    import rerun as rr
+    for n, s in enumerate(solvers):
+        pts = [p for p in getattr(s, "convergence", ()) if p.get("success")]
+        if not pts:
+            continue
+        color = _SOLVER_COLORS[n % len(_SOLVER_COLORS)]
+        k = np.array([p["k"] for p in pts], dtype=np.int64)
+        for quantity, key, unit in (("rotation_deg", "rotation", 1.0),
+                                    ("translation_cm", "translation", 100.0)):
+            err = np.array([p[f"{key}_error_{'deg' if unit == 1.0 else 'm'}"] for p in pts],
+                           dtype=np.float64) * unit
+            sig = np.array([np.nan if p[f"sigma_{key}_{'deg' if unit == 1.0 else 'm'}"] is None
+                            else p[f"sigma_{key}_{'deg' if unit == 1.0 else 'm'}"]
+                            for p in pts], dtype=np.float64) * unit
+            for part, vals, width in (("error", err, 2.0), ("sigma", sig, 1.0)):
+                keep = np.isfinite(vals)
+                if not keep.any():
+                    continue
+                ent = f"convergence/{quantity}/{entity_name(s.label)}/{part}"
+                rec.log(ent, rr.SeriesLines(names=f"{s.label} {part}", colors=color,
+                                            widths=width), static=True)
+                rec.send_columns(ent, indexes=[rr.TimeColumn("motions", sequence=k[keep])],
+                                 columns=rr.Scalars.columns(scalars=vals[keep]))
+
 
 
 def _iter_visual_log(log, rec_cfg):

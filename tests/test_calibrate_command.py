@@ -167,19 +167,17 @@ def test_irls_calibrates(tmp_path, capsys):
     assert code == EXIT_OK, err
 
 
-def test_assess_uses_observability_or_uncertainty():
-    """The one quality function: today's observability, or Solution.uncertainty (issue 9)
-    when present."""
+def test_assess_uses_the_uncertainty():
+    """The one quality function takes the verdict and the sigmas from Solution.uncertainty
+    (issue 9); degenerate motion exits with EXIT_DEGENERATE (6)."""
     import simcalib
     from simcalib.commands.calibrate import assess
     from simcalib.synthetic import synthetic_problem
     p = synthetic_problem("random", n=30, rng=np.random.default_rng(0))
     a = assess(simcalib.solve(p.C, p.H))
     assert a.verdict == "determined" and not a.degenerate and a.exit_code == 0
-    if a.source == "observability":
-        assert a.std_rot_deg is None
-    else:
-        assert len(a.std_rot_deg) == 3 and all(s > 0 for s in a.std_rot_deg)
+    assert a.source.startswith("Solution.uncertainty")
+    assert len(a.std_rot_deg) == 3 and all(s > 0 for s in a.std_rot_deg)
     # every rotation about one axis (z): X's translation along z is not determined
     from simcalib.geometry import matrix_from_rotvec
     r = np.random.default_rng(1)
@@ -188,7 +186,9 @@ def test_assess_uses_observability_or_uncertainty():
         np.column_stack([r.uniform(-1, 1, (20, 2)), np.zeros(20)]))
     H = invert_transform(p.X) @ C @ p.X
     a = assess(simcalib.solve(C, H))
-    assert a.degenerate and a.verdict != "determined" and a.exit_code == EXIT_DEGENERATE
+    assert a.degenerate and a.verdict != "determined" and a.exit_code == EXIT_DEGENERATE == 6
+    assert any("along [+0.000, +0.000, " in d or "along [-0.000, -0.000, " in d
+               for d in a.undetermined), a.undetermined
 
 
 @pytest.mark.slow

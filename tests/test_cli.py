@@ -205,6 +205,6 @@ def test_run_synthetic_end_to_end_via_cli(capsys, tmp_path):
     assert main(["run", "scenario=random", "solvers=[dqopt,daniilidis]", "progress=false",
                  "recording.enabled=false", "seed=4", f"output={out}"]) == 0
     stdout = capsys.readouterr().out
-    assert "dqopt" in stdout and "rot err [deg]" in stdout
+    assert "dqopt" in stdout and "rot err ± σ [deg]" in stdout and "verdict" in stdout
     res = json.loads((out / "results.json").read_text())
     assert res["seed"] == 4 and set(res["solvers"]) == {"dqopt", "daniilidis"}

@@ -148,8 +148,28 @@ def test_alpha_sweep_reports_every_alpha(tmp_path):
                   "progress=false", "recording.enabled=false", "synthetic.num_motions=200")
     s = res["solvers"]["dqopt"]
     assert [e["alpha"] for e in s["sweep"]] == [0.1, 1.0, 10.0]
-    assert s["rotation_error_deg"] == min(e["rotation_error_deg"] for e in s["sweep"])
-    assert s["alpha"] in (0.1, 1.0, 10.0)
+    orc = s["oracle_alpha"]
+    assert orc["uses_ground_truth"] is True and "GROUND TRUTH" in orc["note"]
+    assert orc["rotation_error_deg"] == min(e["rotation_error_deg"] for e in s["sweep"])
+    assert orc["oracle_alpha"] in (0.1, 1.0, 10.0)
+    assert s["alpha"] == s["alpha_choice"]["alpha"] and s["alpha_choice"]["source"] == "data"
+
+
+def test_headline_alpha_is_chosen_from_the_data_not_the_oracle(tmp_path):
+    """issue 9: with an alpha list containing an alpha that is better against the ground
+    truth, the headline stays the data-chosen alpha (the same estimate as alpha=auto) and
+    the better one is only reported as oracle_alpha."""
+    grid = "[" + ",".join(f"{a:.4g}" for a in np.geomspace(0.01, 50, 15)) + "]"
+    common = ["solvers=[dqopt]", "progress=false", "recording.enabled=false",
+              "synthetic.num_motions=200", "seed=3", "verdict.convergence_points=0"]
+    _, swept = _run(tmp_path, "line", f"alpha={grid}", *common, sub="swept")
+    _, auto = _run(tmp_path, "line", "alpha=auto", *common, sub="auto")
+    s, a = swept["solvers"]["dqopt"], auto["solvers"]["dqopt"]
+    assert s["oracle_alpha"]["rotation_error_deg"] < s["rotation_error_deg"]   # a better one
+    assert s["alpha"] != s["oracle_alpha"]["oracle_alpha"]
+    assert s["alpha"] == a["alpha"] == a["alpha_choice"]["alpha"]
+    assert s["X"] == a["X"] and a["oracle_alpha"] is None
+    assert "truth" not in s["alpha_choice"]["how"].lower()
 
 
 def test_interrupt_leaves_readable_recording_and_partial_results(tmp_path, monkeypatch,
@@ -171,3 +191,40 @@ def test_interrupt_leaves_readable_recording_and_partial_results(tmp_path, monke
     assert res["solvers"] == {} and res["pairing"]["used"] >= 2
     ents = _entities(out / "recording.rrd")
     assert "/world/cam_a" in ents and any(e.startswith("/world/markers/") for e in ents)
+
+
+def test_convergence_curve_and_uncertainty_fields(tmp_path):
+    """issue 9: error and predicted sigma against the first k motions, per solver, in
+    results.json and as named series in the recording; covariance/std/verdict fields."""
+    out, res = _run(tmp_path, "random", "solvers=[dqopt,daniilidis]", "progress=false",
+                    "verdict.convergence_points=6")
+    s = res["solvers"]["dqopt"]
+    ks = [p["k"] for p in s["convergence"]]
+    assert ks == sorted(set(ks)) and ks[0] == 3 and ks[-1] == res["pairing"]["used"]
+    assert 2 <= len(ks) <= 6
+    last = s["convergence"][-1]
+    assert last["rotation_error_deg"] == pytest.approx(s["rotation_error_deg"])
+    ok = [p for p in s["convergence"] if p["success"] and p["sigma_rotation_deg"]]
+    assert ok[-1]["sigma_rotation_deg"] < ok[0]["sigma_rotation_deg"]   # it converges
+    assert len(s["covariance"]) == 6 and all(len(r) == 6 for r in s["covariance"])
+    assert s["verdict"]["verdict"] == "determined" and s["degenerate"] is False
+    assert len(s["std"]["rotation_deg"]) == 3 and s["alpha_choice"]["source"] == "data"
+    ents = _entities(out / "recording.rrd")
+    for name in ("dqopt", "daniilidis"):
+        assert f"/convergence/rotation_deg/{name}/error" in ents
+        assert f"/convergence/translation_cm/{name}/sigma" in ents
+
+
+@pytest.mark.parametrize("scenario, flagged", [("planar", True), ("linear", True),
+                                               ("circular", True), ("rotation", True),
+                                               ("3d", False)])
+def test_cart_scenarios_flagged_3d_not(tmp_path, scenario, flagged):
+    """issue 9: the degenerate cart paths are flagged, the general 3d path is not (small
+    runs: short paths, low pose noise so that 3d is determined within 1 deg / 1 cm)."""
+    _, res = _run(tmp_path, scenario, "source=noisy", "noise.sigma_r_deg=0.05",
+                  "noise.sigma_t_m=0.001", "solvers=[dqopt]", "recording.enabled=false",
+                  "verdict.convergence_points=0", "prior.enabled=false", "pairing.prefilter=false",
+                  *SIM_SHORT)
+    s = res["solvers"]["dqopt"]
+    assert s["degenerate"] is flagged, s["verdict"]
+    assert (s["verdict"]["verdict"] != "determined") is flagged

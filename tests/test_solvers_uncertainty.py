@@ -1,4 +1,4 @@
-"""Uncertainty, degeneracy verdict and alpha choice (simcalib.solvers.uncertainty).
+"""Uncertainty, degeneracy verdict and alpha choice (simcalib.solvers.diagnostics.uncertainty).
 
 Small seeded versions of the Monte-Carlo in ``python -m simcalib.experiments.coverage``."""
 
@@ -14,9 +14,11 @@ from simcalib.geometry import (
     perturb_transforms,
     transform_from_rotation_translation as tf,
 )
-from simcalib.solvers import uncertainty as U
+from simcalib.solvers.diagnostics import uncertainty as U
 from simcalib.solvers.api import Prior, solve, solve_batch
 from simcalib.synthetic import SyntheticConfig, generate_dataset
+import simcalib
+from solver_cases import general_case
 
 SIG_R = math.radians(0.57)
 SIG_T = 0.01
@@ -334,15 +336,12 @@ def test_fuzz_families_methods_alpha():
                             continue
                         assert not (s.success and not np.isfinite(s.X).all())
                         if not s.success:
+                            assert s.degenerate and s.verdict == "FAILED"
                             continue
-                        try:
-                            u = U.covariance(C, H, s.X, alpha)
-                        except (ValueError, TypeError):
-                            continue
-                        n += 1
+                        n += 1                       # the Solution's own verdict (issue 9)
                         d = U.pose_error(X, s.X)
-                        sd = np.sqrt(np.diag(u.covariance))
-                        if not u.degenerate and np.any(np.abs(d) > 5 * sd):
+                        sd = np.sqrt(np.diag(s.covariance))
+                        if not s.degenerate and np.any(np.abs(d) > 5 * sd):
                             beyond += 1
     assert n > 300
     assert beyond <= 0.01 * n, (beyond, n)
@@ -391,3 +390,37 @@ def test_weights():
     uw = U.covariance(C, H, sol.X, 1.0, weights=w)
     us = U.covariance(C[:30], H[:30], sol.X, 1.0)
     np.testing.assert_allclose(uw.covariance, us.covariance, rtol=1e-3)
+
+
+def test_bootstrap_option_seeded_and_keeps_verdict():
+    rng = np.random.default_rng(41)
+    C, H, X = general_case(rng, n=40, sigma_r=0.01, sigma_t=0.01)
+    a = simcalib.solve(C, H, uncertainty="bootstrap", rng=np.random.default_rng(2),
+                       bootstrap_samples=60)
+    b = simcalib.solve(C, H, uncertainty="bootstrap", rng=np.random.default_rng(2),
+                       bootstrap_samples=60)
+    s = simcalib.solve(C, H)
+    assert a.uncertainty.method == "bootstrap" and s.uncertainty.method == "sandwich"
+    assert np.array_equal(a.covariance, b.covariance)               # seeded
+    assert a.verdict == s.verdict == "determined"
+    ratio = a.std / s.std
+    assert np.all((ratio > 0.4) & (ratio < 2.5)), ratio
+    with pytest.raises(ValueError, match="sandwich"):
+        simcalib.solve(C, H, uncertainty="jackknife")
+    with pytest.raises(ValueError, match="bootstrap_samples"):
+        simcalib.solve(C, H, uncertainty="bootstrap", bootstrap_samples=1)
+
+
+def test_solve_batch_covariance_per_problem():
+    rng = np.random.default_rng(42)
+    C, H, X = general_case(rng, n=30, sigma_r=0.01, sigma_t=0.01)
+    Cs, Hs = np.stack([C, C]), np.stack([H, H])
+    Hs[1] = np.eye(4)                                   # an identity problem: fails
+    bs = simcalib.solve_batch(Cs, Hs, method="dq2ndord")
+    single = simcalib.solve(C, H, method="dq2ndord")
+    assert np.allclose(bs.covariance[0], single.covariance, rtol=1e-6, atol=1e-14)
+    if bs.success[1]:
+        assert bs.verdict[1] != "determined" and bs.degenerate[1]
+    else:
+        assert bs.verdict[1] == "FAILED" and np.isnan(bs.covariance[1]).all()
+    assert bs.verdict[0] == "determined" and not bs.degenerate[0]

@@ -221,31 +221,23 @@ class Assessment:
 
 
 def assess(solution) -> Assessment:
-    """The verdict on ``solution`` (a :class:`simcalib.Solution`): from its uncertainty
-    (``Solution.uncertainty`` / ``std`` / ``verdict``, issue 9) when this version has it,
-    else from today's observability analysis (``degenerate``, ``undetermined``), which
-    gives the verdict but no standard deviations."""
+    """The verdict on ``solution`` (a :class:`simcalib.Solution`), from its uncertainty
+    (``Solution.uncertainty``: covariance from the residuals, ``std``, ``verdict``; issue 9).
+    A failed solve, or one whose uncertainty cannot be computed, is FAILED."""
     if solution is None or not solution.success or not np.isfinite(solution.X).all():
         why = getattr(solution, "solver_message", "") or "no estimate"
         return Assessment("FAILED", True, f"the solver failed: {why}", "solver")
-    unc = getattr(solution, "uncertainty", None) if hasattr(type(solution), "verdict") \
-        else None
-    if unc is not None:                    # issue 9: covariance, std, verdict
-        std = np.asarray(unc.std, dtype=np.float64)
-        fin = lambda v: tuple(float(x) if math.isfinite(x) else None for x in v)  # noqa
-        return Assessment(unc.verdict, unc.verdict != "determined", unc.summary(),
-                          "Solution.uncertainty (covariance from the residuals)",
-                          fin(std[:3]), fin(std[3:]),
-                          tuple(fin(r) for r in np.asarray(unc.covariance)),
-                          tuple(d.summary() for d in unc.directions))
-    obs = solution.observability            # today: observability only
-    dirs = tuple(obs.undetermined)
-    verdict = ("undetermined" if any(d.reason == "undetermined" for d in dirs) else
-               "poorly determined" if dirs else "determined")
-    return Assessment(verdict, bool(obs.degenerate),
-                      obs.summary() + "; standard deviations: not available in this "
-                      "version (Solution has no covariance)", "observability",
-                      undetermined=tuple(d.description for d in dirs))
+    unc = solution.uncertainty
+    if unc is None:
+        return Assessment("FAILED", True, "the residuals of the estimate are not finite; "
+                          "no uncertainty", "solver")
+    std = np.asarray(unc.std, dtype=np.float64)
+    fin = lambda v: tuple(float(x) if math.isfinite(x) else None for x in v)  # noqa
+    return Assessment(unc.verdict, bool(unc.degenerate), unc.summary(),
+                      "Solution.uncertainty (covariance from the residuals)",
+                      fin(std[:3]), fin(std[3:]),
+                      tuple(fin(r) for r in np.asarray(unc.covariance)),
+                      tuple(d.summary() for d in unc.directions))
 
 
 # ---------------------------------------------------------------------- the calibration

@@ -148,14 +148,13 @@ class Solution:
     terms (equal to ``cost`` without a prior). ``runtime_s``: time from the ``(N, 4, 4)``
     arrays to ``X`` (validation + conversion + solver). ``success``/``message``.
 
-    Diagnostics, computed on first access:
-    ``observability`` (:class:`simcalib.solvers.observability.Observability`: singular
-    values, ``degenerate``, ``undetermined`` directions in words, camera-a frame);
-    ``certificate`` (:class:`simcalib.solvers.observability.Certificate`, DQ methods only,
-    else None). ``degenerate`` and ``undetermined`` are shortcuts; ``message`` combines
-    everything. When ``degenerate`` is True, the components of ``X`` along the
-    ``undetermined`` directions are not measurements (they come from the prior if one is
-    given, else they are arbitrary).
+    Diagnostics, computed on first access (simcalib.solvers.diagnostics):
+    ``uncertainty`` (covariance of the error, the verdict), ``certificate`` (DQ methods
+    only, else None), ``observability`` (motion geometry, descriptive). ``degenerate``,
+    ``undetermined``, ``verdict``, ``covariance``, ``std`` follow from ``uncertainty``
+    (issue 9); ``message`` combines everything. When ``degenerate`` is True, the components
+    of ``X`` along the ``undetermined`` directions are not measurements (from the prior if
+    ``determined_by_prior``, else fitted noise or arbitrary).
     """
     X: np.ndarray
     cost: float
@@ -172,6 +171,10 @@ class Solution:
     problem: MotionProblem | None = field(default=None, repr=False, compare=False)
     tolerance_deg: float = 1.0      # issue 9: verdict tolerances (1-sigma), see uncertainty.py
     tolerance_m: float = 0.01
+    uncertainty_method: str = "sandwich"   # or "bootstrap" (solve(uncertainty=...))
+    bootstrap_rng: np.random.Generator | None = field(default=None, repr=False, compare=False)
+    bootstrap_samples: int = 200
+    correlation_lag: int = 0        # motions share poses up to this lag (pairs k, k+step)
 
     # ---- issue 9: uncertainty and the verdict that follows from it
     @cached_property
@@ -181,13 +184,42 @@ class Solution:
         residuals, verdict with ``tolerance_deg`` / ``tolerance_m``."""
         if not self.success or not np.isfinite(self.X).all():
             return None
-        from simcalib.solvers.uncertainty import covariance
+        from simcalib.solvers.diagnostics.uncertainty import covariance
         try:
-            return covariance(self.problem.C, self.problem.H, self.X, self.alpha, self.prior,
-                              weights=self.problem.weights, tolerance_deg=self.tolerance_deg,
-                              tolerance_m=self.tolerance_m)
+            u = covariance(self.problem.C, self.problem.H, self.X, self.alpha, self.prior,
+                           weights=self.problem.weights, tolerance_deg=self.tolerance_deg,
+                           tolerance_m=self.tolerance_m, correlation_lag=self.correlation_lag)
         except ValueError:
             return None
+        if self.uncertainty_method == "bootstrap":
+            u = self._bootstrap(u)
+        return u
+
+    def _bootstrap(self, u):
+        """``u`` with its covariance replaced by the bootstrap one (seeded resampling of the
+        motions, each resample solved by the same method); the verdict (from the
+        information) is kept, and undetermined axes stay inf."""
+        import dataclasses as _dc
+        from simcalib.solvers.diagnostics.uncertainty import bootstrap_covariance
+        rng = self.bootstrap_rng if self.bootstrap_rng is not None \
+            else np.random.default_rng(0)
+        solver_rng = np.random.default_rng(rng.integers(2**63))
+
+        def solve_fn(Cb, Hb):
+            return solve_batch(Cb, Hb, method=self.method, alpha=self.alpha,
+                               prior=self.prior, rng=solver_rng).X
+        try:
+            boot = bootstrap_covariance(self.problem.C, self.problem.H, self.X, solve_fn,
+                                        self.bootstrap_samples, rng)
+        except ValueError:
+            return None
+        inf_axes = ~np.isfinite(np.diag(u.covariance))
+        cov = boot.copy()
+        cov[inf_axes, :] = 0.0
+        cov[:, inf_axes] = 0.0
+        cov[inf_axes, inf_axes] = np.inf
+        return _dc.replace(u, covariance=cov, covariance_determined=np.where(
+            np.isfinite(cov), cov, 0.0), method="bootstrap")
 
     @property
     def covariance(self) -> np.ndarray:
@@ -216,24 +248,37 @@ class Solution:
 
     @cached_property
     def observability(self):
-        from simcalib.solvers.observability import analyse
+        """Geometry of the motions (:class:`simcalib.solvers.diagnostics.observability.
+        Observability`: singular values of the linearised equations, ``motion`` in words).
+        Descriptive only: the verdict (``degenerate``, ``undetermined``) comes from
+        :attr:`uncertainty`."""
+        from simcalib.solvers.diagnostics.observability import analyse
         return analyse(self.problem, self.X, self.alpha, self.prior, self.cost)
 
     @cached_property
     def certificate(self):
         if self.family != "dq" or not self.success:
             return None
-        from simcalib.solvers.observability import certify
+        from simcalib.solvers.diagnostics.certificate import certify
         q, qd = dual_quat_from_transform(self.X)
         return certify(self.problem, self.alpha, self.prior, q, qd)
 
     @property
     def degenerate(self) -> bool:
-        return self.observability.degenerate
+        """True when any direction of ``X`` is undetermined or poorly determined (1-sigma
+        above ``tolerance_deg`` / ``tolerance_m``), from :attr:`uncertainty`; also True for
+        a failed solve (there is no estimate to trust)."""
+        u = self.uncertainty
+        return True if u is None else u.degenerate
 
     @property
     def undetermined(self) -> tuple:
-        return self.observability.undetermined
+        """The directions the motions do not determine within the tolerances
+        (:class:`~simcalib.solvers.diagnostics.uncertainty.Direction`: ``description`` in
+        words, camera-a frame, ``reason`` "undetermined" / "poorly determined", 1-sigma
+        ``std_deg`` / ``std_m``, ``determined_by_prior``); empty when determined."""
+        u = self.uncertainty
+        return () if u is None else tuple(u.directions)
 
     @property
     def certified(self) -> bool:
@@ -245,35 +290,40 @@ class Solution:
                  + (f" ({self.solver_message})" if self.solver_message else "")]
         if self.certificate is not None:
             parts.append(self.certificate.summary())
-        parts.append(self.observability.summary())
+        u = self.uncertainty
+        if u is not None:
+            parts.append(u.summary())
+        elif self.success:
+            parts.append("uncertainty unavailable (residuals not finite)")
         return "; ".join(parts)
 
     def to_dict(self) -> dict:
         """JSON-ready summary (plain floats/lists/strings) for results files."""
-        obs = self.observability
         cert = self.certificate
+        u = self.uncertainty
+        try:
+            obs = self.observability if self.success else None
+        except Exception:  # noqa: BLE001 - descriptive only, never blocks the result
+            obs = None
         return {
             "method": self.method, "alpha": self.alpha, "success": self.success,
-            "X": np.asarray(self.X).tolist(), "cost": _num(self.cost),
+            "X": np.asarray(self.X).tolist() if self.success else None,
+            "cost": _num(self.cost),
             "objective": _num(self.objective), "runtime_s": self.runtime_s,
             "n_motions": self.n_motions, "message": self.message,
             "prior": None if self.prior is None else {
                 "X": self.prior.X.tolist(), "a": self.prior.a, "b": self.prior.b},
-            "degenerate": obs.degenerate,
-            "undetermined": [{"kind": d.kind, "reason": d.reason, "dims": d.dims,
-                              "description": d.description,
-                              "rotation_axis_a": d.rotation_axis_a.tolist(),
-                              "translation_dir_a": d.translation_dir_a.tolist(),
-                              "std": _num(d.std), "determined_by_prior": d.determined_by_prior}
-                             for d in obs.undetermined],
-            "singular_values": obs.singular_values.tolist(),
-            "residual_rms": _num(obs.residual_rms),
+            "degenerate": self.degenerate,
+            "verdict": self.verdict,
+            "undetermined": [d.summary() for d in self.undetermined],
+            "singular_values": None if obs is None else obs.singular_values.tolist(),
+            "residual_rms": None if obs is None else _num(obs.residual_rms),
             "certificate": None if cert is None else {
                 "certified": cert.certified, "route": cert.route, "mu": cert.mu,
                 "relative_gap": _num(cert.relative_gap), "kkt_residual": _num(cert.kkt_residual),
                 "summary": cert.summary()},
             "sign_flips": int(self.diagnostics.get("sign_flips", 0)),
-            "uncertainty": _uncertainty_dict(self.uncertainty),
+            "uncertainty": _uncertainty_dict(u),
         }
 
     def __str__(self) -> str:
@@ -289,7 +339,13 @@ class Solution:
 class BatchSolution:
     """Result of :func:`solve_batch`: ``X`` (B, 4, 4), ``cost`` (B,), ``objective`` (B,),
     ``success`` (B,), ``alpha`` (B,), ``method``, ``runtime_s`` (whole batch),
-    ``diagnostics`` (dict of (B,) arrays, method-specific)."""
+    ``diagnostics`` (dict of (B,) arrays, method-specific).
+
+    Per-problem uncertainty (issue 9, computed on first access): ``uncertainty`` (tuple of
+    :class:`~simcalib.solvers.diagnostics.uncertainty.Uncertainty`, None for a failed
+    problem), ``covariance`` (B, 6, 6; NaN for a failed problem, inf on undetermined
+    axes), ``std`` (B, 6; deg, m), ``degenerate`` (B,; True for a failed problem),
+    ``verdict`` (B strings)."""
     X: np.ndarray
     cost: np.ndarray
     objective: np.ndarray
@@ -299,9 +355,42 @@ class BatchSolution:
     runtime_s: float
     prior: Prior | None = None
     diagnostics: dict = field(default_factory=dict)
+    C: np.ndarray | None = field(default=None, repr=False)
+    H: np.ndarray | None = field(default=None, repr=False)
+    weights: np.ndarray | None = field(default=None, repr=False)
+    tolerance_deg: float = 1.0
+    tolerance_m: float = 0.01
 
     def __len__(self):
         return self.X.shape[0]
+
+    @cached_property
+    def uncertainty(self) -> tuple:
+        if self.C is None:
+            raise ValueError("this BatchSolution holds no motions (built by hand); use "
+                             "simcalib.solve_batch")
+        from simcalib.solvers.diagnostics.uncertainty import covariance_batch
+        X = np.where(self.success[:, None, None], self.X, np.nan)
+        return covariance_batch(self.C, self.H, X, self.alpha, self.prior,
+                                tolerance_deg=self.tolerance_deg,
+                                tolerance_m=self.tolerance_m, weights=self.weights)
+
+    @property
+    def covariance(self) -> np.ndarray:
+        return np.stack([np.full((6, 6), np.nan) if u is None else u.covariance
+                         for u in self.uncertainty])
+
+    @property
+    def std(self) -> np.ndarray:
+        return np.stack([np.full(6, np.nan) if u is None else u.std for u in self.uncertainty])
+
+    @property
+    def degenerate(self) -> np.ndarray:
+        return np.array([True if u is None else u.degenerate for u in self.uncertainty])
+
+    @property
+    def verdict(self) -> tuple:
+        return tuple("FAILED" if u is None else u.verdict for u in self.uncertainty)
 
 
 def _uncertainty_dict(u) -> dict | None:
@@ -361,7 +450,8 @@ def _check_prior_supported(info, prior):
 
 def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None = None,
           rng: np.random.Generator | None = None, weights=None, *, tolerance_deg: float = 1.0,
-          tolerance_m: float = 0.01) -> Solution:
+          tolerance_m: float = 0.01, uncertainty: str = "sandwich",
+          bootstrap_samples: int = 200, correlation_lag: int = 0) -> Solution:
     """Estimate ``X = T_a_b`` from relative motions with ``C_i X = X H_i``.
 
     ``C``, ``H``: array-like ``(N, 4, 4)``, N >= 2. ``method``: a name from
@@ -371,14 +461,34 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
     per-motion weights ``(N,)`` (finite, >= 0, not all 0) of the cost; methods with
     ``SolverInfo.supports_weights`` only. ``tolerance_deg`` / ``tolerance_m``: 1-sigma
     above which a direction is "poorly determined" (``Solution.verdict``).
+    ``uncertainty``: "sandwich" (default: linearised covariance, noise from the residuals)
+    or "bootstrap" (``bootstrap_samples`` seeded resamplings of the motions, each solved by
+    ``method``; the generator is a child of ``rng``, default ``default_rng(0)``; for
+    comparison: it costs ``bootstrap_samples`` solves). The verdict comes from the
+    information in both cases. ``correlation_lag``: the motions are in time order and
+    share poses up to this lag (pairs ``(k, k + step)`` of one pose stream: ``step``); the
+    uncertainty then corrects for the serial correlation of their noise (0: independent).
 
     ``runtime_s`` never includes compilation: the compiled kernel is loaded (or compiled,
     once per machine) before the timed region; that time is ``diagnostics["compile_s"]``.
     """
     info = registry.get(method)
     alpha = check_alpha(alpha)
-    from simcalib.solvers.uncertainty import check_tolerances
+    from simcalib.solvers.diagnostics.uncertainty import check_tolerances
     tolerance_deg, tolerance_m = check_tolerances(tolerance_deg, tolerance_m)
+    if uncertainty not in ("sandwich", "bootstrap"):
+        raise ValueError(f"uncertainty must be 'sandwich' or 'bootstrap'; received "
+                         f"{uncertainty!r}")
+    if isinstance(bootstrap_samples, bool) or not isinstance(
+            bootstrap_samples, (int, np.integer)) or bootstrap_samples < 2:
+        raise ValueError(f"bootstrap_samples must be an integer >= 2; received "
+                         f"{bootstrap_samples!r}")
+    from simcalib.solvers.diagnostics.uncertainty import _check_lag
+    correlation_lag = _check_lag(correlation_lag, 10**9)
+    boot_rng = None
+    if uncertainty == "bootstrap":
+        boot_rng = np.random.default_rng(_check_rng(rng).bit_generator.seed_seq.spawn(1)[0]) \
+            if rng is not None else np.random.default_rng(0)
     prior = _check_prior(prior)
     _check_prior_supported(info, prior)
     _check_weights_supported(info, weights)
@@ -407,11 +517,14 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
                     runtime_s=runtime, success=success, solver_message=message,
                     n_motions=problem.n, family=info.family, prior=prior,
                     diagnostics=diag, problem=problem, tolerance_deg=tolerance_deg,
-                    tolerance_m=tolerance_m)
+                    tolerance_m=tolerance_m, uncertainty_method=uncertainty,
+                    bootstrap_rng=boot_rng, bootstrap_samples=int(bootstrap_samples),
+                    correlation_lag=correlation_lag)
 
 
 def solve_batch(C, H, method: str = "dqopt", alpha=1.0, prior: Prior | None = None,
-                rng: np.random.Generator | None = None, weights=None) -> BatchSolution:
+                rng: np.random.Generator | None = None, weights=None, *,
+                tolerance_deg: float = 1.0, tolerance_m: float = 0.01) -> BatchSolution:
     """Solve ``B`` problems at once: ``C``, ``H`` of shape ``(B, N, 4, 4)``; ``alpha`` a
     scalar or ``(B,)``; one optional ``prior`` for all; ``weights`` optional ``(B, N)``
     per-motion weights. Methods with a registered batch function run vectorised (DQ
@@ -421,6 +534,8 @@ def solve_batch(C, H, method: str = "dqopt", alpha=1.0, prior: Prior | None = No
     ``diagnostics["failure_reason"][b]``).
     """
     info = registry.get(method)
+    from simcalib.solvers.diagnostics.uncertainty import check_tolerances
+    tolerance_deg, tolerance_m = check_tolerances(tolerance_deg, tolerance_m)
     prior = _check_prior(prior)
     _check_prior_supported(info, prior)
     _check_weights_supported(info, weights)
@@ -481,7 +596,8 @@ def solve_batch(C, H, method: str = "dqopt", alpha=1.0, prior: Prior | None = No
     diagnostics["compile_s"] = compile_s
     return BatchSolution(X=X, cost=cost, objective=objective, success=success, alpha=alphas,
                          method=method, runtime_s=runtime, prior=prior,
-                         diagnostics=diagnostics)
+                         diagnostics=diagnostics, C=C, H=H, weights=w,
+                         tolerance_deg=tolerance_deg, tolerance_m=tolerance_m)
 
 
 def _loop(info, C, H, alphas, prior, rng, w) -> dict:

@@ -5,7 +5,7 @@ and pitch determine, and what a prior recovers.
 figure-eight at three speeds on three grounds (rigid car on flat ground; sprung car on
 uneven ground with 1 cm and 4 cm bumps), five seeds each, and prints for each cell the
 actual error of dqopt's translation of X along the car's vertical (median / max over the
-seeds), dqopt's observability 1-sigma along it, the error of dqopt with the prior, and the
+seeds), dqopt's predicted 1-sigma (Solution.uncertainty) along it, the error of dqopt with the prior, and the
 prior's (nominal X's) own vertical error. The capture window of each run covers the whole
 drive at that speed.
 """
@@ -40,7 +40,7 @@ def vertical_error_table(speeds_mps=(3.0, 4.5, 6.0), bumps_m=(0.01, 0.04),
     sprung car on uneven ground of each bump height) and speed, runs of ``scenario`` with
     those settings, one per seed: |error of X's translation along the car's vertical| of
     dqopt and of dqopt with the prior (median and max over the seeds), the nominal
-    (prior) X's own vertical error, dqopt's observability 1-sigma along the vertical.
+    (prior) X's own vertical error, dqopt's predicted 1-sigma (Solution.uncertainty) along the vertical.
     Run directories go to ``out_dir`` (default: a temporary directory, removed)."""
     import tempfile
     if out_dir is None:
@@ -81,7 +81,7 @@ def vertical_error_table(speeds_mps=(3.0, 4.5, 6.0), bumps_m=(0.01, 0.04),
                 s = res.solver("dqopt")
                 flagged += int(bool(s.degenerate))
                 n_motions = int(res.pairing.get("used", 0))
-                stds = [d["std"] for d in s.undetermined_directions
+                stds = [d["std_m"] for d in s.undetermined_directions
                         if d["kind"] == "translation" and abs(np.dot(
                             d["translation_dir_a"], up)) > 0.9]
                 obs_std.append(stds[0] if stds else 0.0)
@@ -101,7 +101,7 @@ def vertical_error_table(speeds_mps=(3.0, 4.5, 6.0), bumps_m=(0.01, 0.04),
 
 def format_vertical_table(rows) -> str:
     head = ("| car, ground | speed m/s | motions | dqopt vertical error median / max cm "
-            "| observability 1-sigma (median) cm | dqopt+prior vertical error median / max "
+            "| predicted 1-sigma (median) cm | dqopt+prior vertical error median / max "
             "cm | nominal X vertical error median cm | run s |")
     lines = [head, "|" + "---|" * 8]
     for r in rows:

@@ -26,7 +26,11 @@ the rotation noise of ``H_i`` into ``tau_i`` through ``R_Ci' t_X``).
   ``sum e_i^T S_i e_i`` with ``S_i = T_i^T T_i``. Gauss-Newton / first-order perturbation of
   the minimiser: ``Sigma = H^-1 M H^-1`` with ``H = sum K^T S K (+ prior)`` and
   ``M = sum K^T S Q S K (+ prior)``. This is the covariance of the minimiser of the alpha
-  cost; for other estimators (daniilidis, dq2steps, ...) it is used as an approximation.
+  cost; for other estimators (daniilidis, dq2steps, ...) it is used as an approximation,
+  plus their bias: without a prior, the Gauss-Newton step ``s = -H^-1 g`` from ``X`` to the
+  minimiser of the alpha cost (``g = sum K^T S e``, 0 for an exact minimiser) is added as
+  ``s s^T`` (mean squared error; :attr:`Uncertainty.offset`). An estimator far from the
+  optimum of the data (e.g. OpenCV's Daniilidis) is thus never reported tighter than it is.
 * **Information** (alpha-free, for the verdict): ``F = sum K^T Q^-1 K`` (Fisher information
   of the data under the noise model; alpha cancels exactly).
 * **Prior** (paper eqs. 26-29): read as a pseudo-measurement of ``vec(dq)`` with weight ``a``
@@ -300,6 +304,7 @@ class Uncertainty:
     translation_scale_m: float
     n_motions: int
     method: str = "sandwich"
+    offset: np.ndarray | None = None   # Gauss-Newton step from X to the alpha-cost minimiser
 
     @property
     def std(self) -> np.ndarray:
@@ -382,7 +387,8 @@ def _fmt_vec3(v):
 
 # -------------------------------------------------------------------------- main entry
 def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None, *,
-               tolerance_deg: float = TOLERANCE_DEG, tolerance_m: float = TOLERANCE_M
+               tolerance_deg: float = TOLERANCE_DEG, tolerance_m: float = TOLERANCE_M,
+               correlation_lag: int = 0
                ) -> Uncertainty:
     """Uncertainty of the estimate ``X`` (= ``T_a_b``) from motions ``C``, ``H`` (N,4,4),
     ``C_i X = X H_i``, for the paper's cost at ``alpha`` (1/m) with an optional
@@ -444,6 +450,30 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
     Hs = np.einsum("n,nki,nkl,nlj->ij", w, K, S, K)
     SQS = S @ Q @ S
     Ms = np.einsum("n,nki,nkl,nlj->ij", w * w, K, SQS, K)
+    lag = _check_lag(correlation_lag, N)
+    if lag:
+        # motions in time order that share poses (pairs (k, k + step) of one pose stream):
+        # their noise is correlated up to lag = step. The model meat is rescaled, per
+        # direction, by the ratio of the empirical meat with the cross terms up to the lag
+        # (truncated kernel) to the one without (serial-correlation, HAC-type correction).
+        gsc = np.einsum("n,nki,nkl,nl->ni", w, K, S, e)
+        M0 = gsc.T @ gsc
+        Mh = M0.copy()
+        for lg in range(1, lag + 1):
+            cross = gsc[:-lg].T @ gsc[lg:]
+            Mh += cross + cross.T
+        Ms = _rescale_meat(Ms, M0, Mh)
+        # the same correction of the alpha-free information (efficient weighting: the
+        # meat is F itself, so the information becomes F Mc^-1 F)
+        gF = np.einsum("n,nki,nkl,nl->ni", w, K, Qinv, e)
+        M0F = gF.T @ gF
+        MhF = M0F.copy()
+        for lg in range(1, lag + 1):
+            cross = gF[:-lg].T @ gF[lg:]
+            MhF += cross + cross.T
+        Fc = _rescale_meat(F, M0F, MhF)
+        F = F @ _sym_inv(Fc) @ F
+        F = 0.5 * (F + F.T)
     F_prior = np.zeros((6, 6))
     prior_cov = None
     if prior is not None:
@@ -486,9 +516,20 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
         Sig_b = Hb_inv @ Mb @ Hb_inv
         lb, Vb = np.linalg.eigh(0.5 * (Sig_b + Sig_b.T))
         Sig_b = (Vb * np.clip(lb, 0.0, None)) @ Vb.T        # PSD despite rounding
+        if prior is None:
+            # X need not be the minimiser of the alpha cost (daniilidis, opencv, dq2steps,
+            # an early stop): its Gauss-Newton offset from the minimiser is a bias of X
+            # that the sandwich does not see; added as step step^T (mean squared error).
+            g = np.einsum("n,nki,nkl,nl->i", w, K, S, e) * dsc
+            step = -Hb_inv @ (Bt.T @ g)
+            Sig_b = Sig_b + np.outer(step, step)
+            offset_t = Bt @ step
+        else:
+            offset_t = np.zeros(6)
         cov_t = Bt @ Sig_b @ Bt.T
     else:
         cov_t = np.zeros((6, 6))
+        offset_t = np.zeros(6)
     cov_det = cov_t * np.outer(dsc, dsc)
     cov_det = 0.5 * (cov_det + cov_det.T)
     cov = cov_det.copy()
@@ -550,7 +591,30 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
                        determined_basis=Bp, information=F, prior_covariance=prior_cov,
                        noise=noise_out, alpha=alpha, tolerance_deg=math.degrees(tol_r),
                        tolerance_m=tol_m, directions=tuple(dirs), translation_scale_m=L,
-                       n_motions=N)
+                       n_motions=N, offset=offset_t * dsc)
+
+
+def _check_lag(lag, n) -> int:
+    if isinstance(lag, bool) or not isinstance(lag, (int, np.integer)) or lag < 0:
+        raise ValueError(f"correlation_lag must be an integer >= 0; received {lag!r}")
+    return int(min(lag, max(n - 1, 0)))
+
+
+def _rescale_meat(Ms, M0, Mh):
+    """``Ms`` with its spectrum rescaled, direction by direction (eigenvectors of ``M0``
+    whitened by ``Ms``), by the ratio of the serial-correlated empirical meat ``Mh`` to the
+    uncorrelated one ``M0``; ratios clipped to [0.05, 20]."""
+    lam, V = np.linalg.eigh(0.5 * (Ms + Ms.T))
+    lam = np.maximum(lam, 1e-300)
+    W = V / np.sqrt(lam)                                   # whitening: W^T Ms W = I
+    A0 = W.T @ M0 @ W
+    Ah = W.T @ Mh @ W
+    l0, U0 = np.linalg.eigh(0.5 * (A0 + A0.T))
+    ratio = np.clip(np.einsum("ki,kl,li->i", U0, Ah, U0) / np.maximum(l0, 1e-300), 0.05, 20.0)
+    Wi = V * np.sqrt(lam)                                  # inverse whitening
+    R = U0 @ np.diag(ratio) @ U0.T
+    out = Wi @ R @ Wi.T
+    return 0.5 * (out + out.T)
 
 
 def _sym_inv(A):
@@ -585,10 +649,10 @@ def _describe(u, dsc, reason, sdeg, sm, swd, swm, by_prior) -> Direction:
 
 
 def covariance_batch(C, H, X, alpha=1.0, prior=None, noise=None, *,
-                     tolerance_deg: float = TOLERANCE_DEG, tolerance_m: float = TOLERANCE_M
-                     ) -> tuple:
+                     tolerance_deg: float = TOLERANCE_DEG, tolerance_m: float = TOLERANCE_M,
+                     weights=None) -> tuple:
     """:func:`covariance` per problem of a batch: ``C``, ``H`` (B, N, 4, 4), ``X`` (B, 4, 4),
-    ``alpha`` scalar or (B,). Problems whose ``X`` is not a finite rigid transform (failed
+    ``alpha`` scalar or (B,), ``weights`` None or (B, N). Problems whose ``X`` is not a finite rigid transform (failed
     solves) give None."""
     C = np.asarray(C, dtype=np.float64)
     H = np.asarray(H, dtype=np.float64)
@@ -604,6 +668,7 @@ def covariance_batch(C, H, X, alpha=1.0, prior=None, noise=None, *,
             continue
         try:
             out.append(covariance(C[b], H[b], X[b], float(alphas[b]), prior, noise,
+                                  None if weights is None else weights[b],
                                   tolerance_deg=tolerance_deg, tolerance_m=tolerance_m))
         except ValueError:
             out.append(None)
