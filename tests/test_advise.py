@@ -33,7 +33,7 @@ def _X():
 
 
 def test_information_adds_up_to_the_uncertainty_models():
-    from simcalib.solvers.uncertainty import NoiseModel, covariance
+    from simcalib.solvers.diagnostics.uncertainty import NoiseModel, covariance
     rng = np.random.default_rng(0)
     X = _X()
     C = _motions(rng, 30)

@@ -51,13 +51,13 @@ def test_jacobian_matches_finite_differences():
     rng = np.random.default_rng(1)
     X = tf(matrix_from_rotvec(rng.normal(size=3)), rng.normal(size=3))
     C, H = _general(rng, 5, X, sr=0, st=0)
-    _, K, _, _ = U._linear_model(C, H, X)
+    _, K, _, _ = U.linear_model(C, H, X)
     h = 1e-6
     for j in range(6):
         d = np.zeros(6)
         d[j] = h
-        num = (U._linear_model(C, H, _perturb(X, d))[0]
-               - U._linear_model(C, H, _perturb(X, -d))[0]) / (2 * h)
+        num = (U.linear_model(C, H, _perturb(X, d))[0]
+               - U.linear_model(C, H, _perturb(X, -d))[0]) / (2 * h)
         np.testing.assert_allclose(num, K[:, :, j], atol=1e-7)
 
 
@@ -67,11 +67,11 @@ def test_noise_propagation_matches_sampling():
     X = tf(matrix_from_rotvec(rng.normal(size=3)), rng.normal(size=3))
     H = tf(matrix_from_rotvec(rng.normal(size=(2, 3))), rng.normal(size=(2, 3)))
     C = X @ H @ invert_transform(X)
-    _, _, Qr, Qt = U._linear_model(C, H, X)
+    _, _, Qr, Qt = U.linear_model(C, H, X)
     sr, st, M = 0.003, 0.002, 4000
     Cs = perturb_transforms(np.broadcast_to(C, (M, 2, 4, 4)), sr, st, rng)
     Hs = perturb_transforms(np.broadcast_to(H, (M, 2, 4, 4)), sr, st, rng)
-    e = np.stack([U._linear_model(Cs[m], Hs[m], X)[0] for m in range(M)])
+    e = np.stack([U.linear_model(Cs[m], Hs[m], X)[0] for m in range(M)])
     emp = np.einsum("mni,mnj->nij", e, e) / M
     pred = sr**2 * Qr + st**2 * Qt
     assert np.abs(emp - pred).max() < 0.1 * np.abs(pred).max()
@@ -82,7 +82,7 @@ def test_dq_map_reproduces_cost_residual():
     rng = np.random.default_rng(3)
     X = tf(matrix_from_rotvec(rng.normal(size=3)), rng.normal(size=3) * 0.3)
     C, H = _general(rng, 20, X, sr=1e-4, st=1e-4)
-    e, _, _, _ = U._linear_model(C, H, X)
+    e, _, _, _ = U.linear_model(C, H, X)
     for alpha in (0.1, 3.0):
         T = U._dq_map(C, X, alpha)
         lin = float(np.sum(np.einsum("nij,nj->ni", T, e) ** 2))

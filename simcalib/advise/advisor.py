@@ -46,7 +46,7 @@ class Baseline:
 
 def baseline(cfg) -> Baseline:
     """Run the stages ``world``, ``streams``, ``pairs`` of ``cfg`` (a ScenarioConfig) and
-    solve dqopt at ``cfg.alpha`` (plus its prior when ``cfg.prior.enabled``)."""
+    solve dqopt at the run's alpha (``pipeline.choose_run_alpha``) (plus its prior when ``cfg.prior.enabled``)."""
     import simcalib
     from simcalib import pipeline
     from simcalib.sources import camera_sources
@@ -61,7 +61,7 @@ def baseline(cfg) -> Baseline:
     pipeline._stage_streams(st)
     pipeline._stage_pairs(st)
     C, H = st.pairs.C, st.pairs.H
-    alpha = float(cfg.alpha)
+    alpha = pipeline.choose_run_alpha(cfg, C, H)["alpha"]   # as the run's headline: no truth
     sol = simcalib.solve(C, H, method="dqopt", alpha=alpha)
     X0 = np.asarray(sol.X, dtype=np.float64)
     X = X0
@@ -133,7 +133,7 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
     if when_determined not in WHEN_DETERMINED:
         raise ValueError(f"when_determined must be one of {list(WHEN_DETERMINED)}; received "
                          f"{when_determined!r}")
-    from simcalib.solvers.uncertainty import covariance
+    from simcalib.solvers.diagnostics.uncertainty import covariance
     t0 = time.perf_counter()
     u = covariance(C, H, X, alpha, tolerance_deg=tolerance_deg, tolerance_m=tolerance_m)
     s_r, s_t = u.noise.sigma_r_rad, u.noise.sigma_t_m

@@ -1,6 +1,6 @@
 """Motion advice: which stops to add so that X becomes best determined (pure numpy).
 
-Information model (the one of :mod:`simcalib.solvers.uncertainty`): each motion ``i``
+Information model (the one of :mod:`simcalib.solvers.diagnostics.uncertainty`): each motion ``i``
 carries the Fisher information ``F_i = K_i^T Q_i^-1 K_i`` on the error
 ``delta = (omega, v)`` of X (rad, m; camera-a frame), with ``K_i`` the Jacobian of the
 residual of ``C_i X = X H_i`` and ``Q_i`` the eq. 38 noise (``sigma_r``, ``sigma_t``) of
@@ -41,7 +41,7 @@ def _scale(tolerance_deg, tolerance_m) -> np.ndarray:
 
 def motion_information(C, H, X, sigma_r_rad: float, sigma_t_m: float) -> np.ndarray:
     """``(N, 6, 6)`` Fisher information of each motion on ``delta`` (rad, m) at ``X``."""
-    from simcalib.solvers.uncertainty import _linear_model
+    from simcalib.solvers.diagnostics.uncertainty import linear_model
     C = np.asarray(C, dtype=np.float64)
     H = np.asarray(H, dtype=np.float64)
     if C.ndim != 3 or C.shape[1:] != (4, 4) or H.shape != C.shape:
@@ -49,7 +49,7 @@ def motion_information(C, H, X, sigma_r_rad: float, sigma_t_m: float) -> np.ndar
                          f"{H.shape}")
     if C.shape[0] == 0:
         return np.zeros((0, 6, 6))
-    _, K, Qr, Qt = _linear_model(C, H, np.asarray(X, dtype=np.float64))
+    _, K, Qr, Qt = linear_model(C, H, np.asarray(X, dtype=np.float64))
     L = max(float(np.linalg.norm(X[:3, 3])), 1e-3)
     Q = ((sigma_r_rad ** 2 + _FLOOR_R ** 2) * Qr
          + (sigma_t_m ** 2 + (1e-9 * L) ** 2) * Qt)

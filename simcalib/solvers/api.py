@@ -179,7 +179,7 @@ class Solution:
     # ---- issue 9: uncertainty and the verdict that follows from it
     @cached_property
     def uncertainty(self):
-        """:class:`simcalib.solvers.uncertainty.Uncertainty` of ``X`` (None if the solve
+        """:class:`simcalib.solvers.diagnostics.uncertainty.Uncertainty` of ``X`` (None if the solve
         failed): covariance of ``delta = (omega, v)`` (frame a), noise estimated from the
         residuals, verdict with ``tolerance_deg`` / ``tolerance_m``."""
         if not self.success or not np.isfinite(self.X).all():

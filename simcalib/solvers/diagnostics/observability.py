@@ -32,7 +32,7 @@ import numpy as np
 
 from simcalib.geometry import rotvec_from_matrix
 
-__all__ = ["Direction", "Observability", "Certificate", "analyse", "certify",
+__all__ = ["Direction", "Observability", "analyse",
            "UNDETERMINED_REL", "WEAK_STD", "WEAK_REL"]
 
 UNDETERMINED_REL = 1e-6

@@ -81,9 +81,10 @@ from simcalib.geometry import (
     quat_left_matrix,
     quat_right_matrix,
     rotvec_from_matrix,
+    skew_matrix,
 )
 
-__all__ = ["NoiseModel", "Direction", "Uncertainty", "AlphaChoice", "covariance",
+__all__ = ["linear_model", "NoiseModel", "Direction", "Uncertainty", "AlphaChoice", "covariance",
            "covariance_batch",
            "choose_alpha", "bootstrap_covariance", "pose_error", "check_tolerances", "TOLERANCE_DEG",
            "TOLERANCE_M", "ROTATION_FLOOR_RAD", "TRANSLATION_FLOOR_REL"]
@@ -160,12 +161,6 @@ def _check_weights(weights, n) -> np.ndarray:
     return w
 
 
-def _skew(v):
-    S = np.zeros(v.shape[:-1] + (3, 3))
-    S[..., 0, 1], S[..., 0, 2] = -v[..., 2], v[..., 1]
-    S[..., 1, 0], S[..., 1, 2] = v[..., 2], -v[..., 0]
-    S[..., 2, 0], S[..., 2, 1] = -v[..., 1], v[..., 0]
-    return S
 
 
 def pose_error(X_true, X_est) -> np.ndarray:
@@ -178,7 +173,7 @@ def pose_error(X_true, X_est) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------ linear model
-def _linear_model(C, H, X):
+def linear_model(C, H, X):
     """Residuals e (N,6), Jacobians K (N,6,6) w.r.t. delta, and the two noise-covariance
     parts Qr, Qt (N,6,6) with Cov(e_i) = sigma_r^2 Qr_i + sigma_t^2 Qt_i."""
     N = C.shape[0]
@@ -192,7 +187,7 @@ def _linear_model(C, H, X):
     I3 = np.eye(3)
     K = np.zeros((N, 6, 6))
     K[:, :3, :3] = RCp - I3
-    K[:, 3:, :3] = _skew(tCp) - _skew(np.broadcast_to(tX, (N, 3))) + RCp @ _skew(tX)
+    K[:, 3:, :3] = skew_matrix(tCp) - skew_matrix(np.broadcast_to(tX, (N, 3))) + RCp @ skew_matrix(tX)
     K[:, 3:, 3:] = RCp - I3
     # noise Jacobians (eq. 38 right-multiplied noise on C_i and H_i)
     u_map = RX @ H[:, :3, :3]                              # eps_h -> u = R_X R_H eps_h
@@ -202,7 +197,7 @@ def _linear_model(C, H, X):
     G_nc[:, 3:] = RC
     G_eh = np.zeros((N, 6, 3))
     G_eh[:, :3] = -u_map
-    G_eh[:, 3:] = -_skew(RCp @ tX) @ u_map
+    G_eh[:, 3:] = -skew_matrix(RCp @ tX) @ u_map
     G_nh = np.zeros((N, 6, 3))
     G_nh[:, 3:] = -u_map
     Qr = (G_ec @ np.swapaxes(G_ec, -1, -2) + G_eh @ np.swapaxes(G_eh, -1, -2)) / 3.0
@@ -410,7 +405,7 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
                         f"{type(prior).__name__}")
     N = C.shape[0]
     w = _check_weights(weights, N)
-    e, K, Qr, Qt = _linear_model(C, H, X)
+    e, K, Qr, Qt = linear_model(C, H, X)
 
     # translation scale of the data (units follow the input)
     L = float(max(np.sqrt(np.mean(np.sum(C[:, :3, 3] ** 2, axis=1))),
@@ -713,7 +708,7 @@ def choose_alpha(C, H, X, alpha_initial: float = 1.0, how: str = "noise_ratio", 
     C = np.asarray(C, dtype=np.float64)
     H = np.asarray(H, dtype=np.float64)
     X = np.asarray(X, dtype=np.float64)
-    e, K, Qr, Qt = _linear_model(C, H, X)
+    e, K, Qr, Qt = linear_model(C, H, X)
     L = u.translation_scale_m
     Q = ((u.noise.sigma_r_rad ** 2 + ROTATION_FLOOR_RAD ** 2) * Qr
          + (u.noise.sigma_t_m ** 2 + (TRANSLATION_FLOOR_REL * L) ** 2) * Qt)
