@@ -114,3 +114,25 @@ def test_irls_20_percent():
             assert rotation_error_rad(r.X, p.X) <= 1.5 * clean + 1e-4
             sc = inlier_scores(r.inlier_mask, good)
             assert sc["precision"] > 0.95 and sc["recall"] > 0.9
+
+
+@pytest.mark.parametrize("robust", ["ransac", "irls"])
+def test_solve_robust_reports_inliers_and_weights(robust):
+    """simcalib.solve(..., robust=...) is the robust method's final solve, with its inlier
+    mask and weights; it recovers X under 20 % outlier motions where the plain solve fails."""
+    rng = np.random.default_rng(3)
+    p = synthetic_problem("random", n=100, rng=rng)
+    C, good = _contaminate(p.C, 0.2, rng)
+    plain = simcalib.solve(C, p.H)
+    sol = simcalib.solve(C, p.H, robust=robust, rng=np.random.default_rng(0))
+    clean = rotation_error_rad(simcalib.solve(p.C, p.H).X, p.X)
+    assert rotation_error_rad(sol.X, p.X) <= 1.5 * clean + 1e-4
+    assert rotation_error_rad(plain.X, p.X) > 10 * clean
+    mask = sol.diagnostics["inlier_mask"]
+    assert mask.shape == (100,) and sol.diagnostics["weights"].shape == (100,)
+    sc = inlier_scores(mask, good)
+    assert sc["precision"] > 0.95 and sc["recall"] > 0.9
+    with pytest.raises(ValueError, match="unknown robust method 'ransc'"):
+        simcalib.solve(C, p.H, robust="ransc")
+    with pytest.raises(ValueError, match="needs a method that takes weights"):
+        simcalib.solve(C, p.H, method="daniilidis", robust=robust)

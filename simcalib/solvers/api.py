@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
@@ -448,10 +448,46 @@ def _check_prior_supported(info, prior):
                          f"prior: {', '.join(with_prior)}")
 
 
+def _solve_robust(C, H, method, alpha, robust, threshold, rng, *, tolerance_deg,
+                  tolerance_m, weights, prior) -> Solution:
+    """``solve(..., robust=...)``: the robust method's final solve, with its inlier mask and
+    weights in ``diagnostics``."""
+    from simcalib.solvers.robust import ROBUST_METHODS, robust_solve
+    from simcalib.errors import unknown_choice
+    if robust not in ROBUST_METHODS:
+        raise unknown_choice("robust method", robust, ROBUST_METHODS, key="robust")
+    if weights is not None or prior is not None:
+        raise ValueError(f"robust={robust!r} sets the motions' weights itself and takes no "
+                         f"prior; received weights={weights is not None}, "
+                         f"prior={prior is not None}")
+    if not registry.get(method).supports_weights:
+        able = [i.name for i in registry.infos() if i.supports_weights]
+        raise ValueError(f"robust={robust!r} needs a method that takes weights; received "
+                         f"{method!r}; methods: {', '.join(able)}")
+    options = {"alpha": alpha, "rng": rng}
+    if robust == "ransac":
+        options.update(final_method=method, threshold=threshold)
+    elif robust == "irls":
+        options.update(method=method)
+        if threshold is not None:
+            raise ValueError("robust_threshold applies to robust='ransac'; IRLS scales its "
+                             f"weights from the residuals; received {threshold!r}")
+    rs = robust_solve(C, H, robust, **options)
+    sol = rs.solution
+    sol = replace(sol, tolerance_deg=tolerance_deg, tolerance_m=tolerance_m,
+                  diagnostics={**sol.diagnostics, "robust": robust,
+                               "inlier_mask": np.asarray(rs.inlier_mask),
+                               "weights": np.asarray(rs.weights),
+                               "robust_threshold": float(rs.threshold),
+                               "robust_message": rs.message})
+    return sol
+
+
 def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None = None,
           rng: np.random.Generator | None = None, weights=None, *, tolerance_deg: float = 1.0,
           tolerance_m: float = 0.01, uncertainty: str = "sandwich",
-          bootstrap_samples: int = 200, correlation_lag: int = 0) -> Solution:
+          bootstrap_samples: int = 200, correlation_lag: int = 0, robust: str = "none",
+          robust_threshold: float | None = None) -> Solution:
     """Estimate ``X = T_a_b`` from relative motions with ``C_i X = X H_i``.
 
     ``C``, ``H``: array-like ``(N, 4, 4)``, N >= 2. ``method``: a name from
@@ -469,11 +505,22 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
     share poses up to this lag (pairs ``(k, k + step)`` of one pose stream: ``step``); the
     uncertainty then corrects for the serial correlation of their noise (0: independent).
 
+    ``robust``: ``"none"`` (default), ``"ransac"`` (hypotheses from minimal sets of motions,
+    consensus by the per-motion screw residual — threshold ``robust_threshold`` or
+    automatic — then ``method`` on the inliers) or ``"irls"`` (iteratively re-weighted
+    ``method`` with Cauchy weights): :mod:`simcalib.solvers.robust`. The returned solution
+    is the final solve; ``diagnostics["inlier_mask"]`` (N,) and ``diagnostics["weights"]``
+    (N,) say which motions it kept and how much each counted.
+
     ``runtime_s`` never includes compilation: the compiled kernel is loaded (or compiled,
     once per machine) before the timed region; that time is ``diagnostics["compile_s"]``.
     """
     info = registry.get(method)
     alpha = check_alpha(alpha)
+    if robust != "none":
+        return _solve_robust(C, H, method, alpha, robust, robust_threshold, rng,
+                             tolerance_deg=tolerance_deg, tolerance_m=tolerance_m,
+                             weights=weights, prior=prior)
     from simcalib.solvers.diagnostics.uncertainty import check_tolerances
     tolerance_deg, tolerance_m = check_tolerances(tolerance_deg, tolerance_m)
     if uncertainty not in ("sandwich", "bootstrap"):
