@@ -8,7 +8,7 @@ from simcalib.errors import UsageError
 USAGE = """usage: python -m simcalib list
 
 Lists the scenarios (scenarios/*.yaml or $SIMCALIB_SCENARIOS, with their one-line
-description) and the registered solvers.
+description), the sweep files (scenarios/sweeps/) and the registered solvers.
 """
 
 
@@ -26,6 +26,13 @@ def main(args: list[str]) -> int:
     for name, desc in scen.items():
         print(f"  {name:<{width}}  {desc}")
     if not scen:
+        print("  (none)")
+    from simcalib.sweep.spec import list_sweeps, sweep_dir
+    sweeps = list_sweeps()
+    print(f"\nsweeps ({sweep_dir()}; simcalib sweep NAME output=DIR):")
+    for name, desc in sweeps.items():
+        print(f"  {name:<{width}}  {desc}")
+    if not sweeps:
         print("  (none)")
     print("\nsolvers:")
     infos = registry.infos()
