@@ -100,6 +100,7 @@ def test_local_sweep_resumes_and_reports(tmp_path):
     rows = _rows(out)
     assert len(rows) == 4 * 2 and {r["solver"] for r in rows} == {"dqopt", "daniilidis"}
     assert all(r["rotation_error_deg"] is not None for r in rows)
+    assert all(r["sigma_rotation_deg"] > 0 and r["verdict"] == "determined" for r in rows)
     assert (out / "results.parquet").is_file() and (out / "report.md").is_file()
     assert (out / "report.rrd").stat().st_size > 1000
     report = (out / "report.md").read_text()

@@ -75,14 +75,13 @@ def rows_from_results(results: Mapping) -> list[dict]:
     for label, s in (results.get("solvers") or {}).items():
         row = {"solver": label, "method": s.get("method")}
         row.update({f: s.get(f) for f in ROW_FIELDS})
-        unc = s.get("uncertainty") or {}
-        std = unc.get("std_deg_m") or unc.get("std")
-        if isinstance(std, (list, tuple)) and len(std) == 6:
-            row["sigma_rotation_max_deg"] = max(std[:3])
-            row["sigma_translation_max_m"] = max(std[3:])
-        if s.get("verdict") is not None:
-            row["verdict"] = s.get("verdict") if isinstance(s.get("verdict"), str) else \
-                str((s.get("verdict") or {}).get("status", s.get("verdict")))
+        # predicted uncertainty and verdict (results.json, issue 9)
+        row["sigma_rotation_deg"] = s.get("sigma_rotation_deg")
+        row["sigma_translation_m"] = s.get("sigma_translation_m")
+        verdict = s.get("verdict")
+        row["verdict"] = verdict.get("verdict") if isinstance(verdict, dict) else verdict
+        oracle = s.get("oracle_alpha") or {}
+        row["oracle_alpha"] = oracle.get("alpha") if isinstance(oracle, dict) else None
         row.update(common)
         rows.append(row)
     return rows

@@ -46,7 +46,9 @@ def _stats(rs: list[dict]) -> dict[str, float]:
             "degenerate": float(np.mean([bool(d) for d in deg])) if rs else math.nan,
             "rot_med": q(rot, 50), "rot_q1": q(rot, 25), "rot_q3": q(rot, 75),
             "tr_med": q(tr, 50), "tr_q1": q(tr, 25), "tr_q3": q(tr, 75),
-            "runtime_med": q(np.array([_num(r.get("runtime_s")) for r in rs]), 50)}
+            "runtime_med": q(np.array([_num(r.get("runtime_s")) for r in rs]), 50),
+            "sig_rot_med": q(np.array([_num(r.get("sigma_rotation_deg")) for r in rs]), 50),
+            "sig_tr_med": q(np.array([_num(r.get("sigma_translation_m")) for r in rs]), 50)}
 
 
 def summarise(rows: list[dict], axes: list[str]) -> dict:
@@ -169,8 +171,9 @@ def write_report(output: str | Path) -> Path:
     for axis, table in summ["per_axis"].items():
         lines += [f"## Against `{axis}`", "",
                   f"| {axis} | solver | n | rotation error [deg] median (IQR) | translation "
-                  f"error [cm] median (IQR) | failed | degenerate | runtime [ms] |",
-                  "|---|---|---|---|---|---|---|---|"]
+                  f"error [cm] median (IQR) | predicted σ [deg / cm] median | failed | "
+                  f"degenerate | runtime [ms] |",
+                  "|---|---|---|---|---|---|---|---|---|"]
         keyf = (lambda v: (0, v)) if all(isinstance(v, (int, float)) for v in table) else (
             lambda v: (1, str(v)))
         for val in sorted(table, key=keyf):
@@ -179,6 +182,7 @@ def write_report(output: str | Path) -> Path:
                     f"| {_fmt(val)} | {s} | {x['n']} | {_fmt(x['rot_med'])} "
                     f"({_fmt(x['rot_q1'])}–{_fmt(x['rot_q3'])}) | {_fmt(x['tr_med'] * 100)} "
                     f"({_fmt(x['tr_q1'] * 100)}–{_fmt(x['tr_q3'] * 100)}) | "
+                    f"{_fmt(x['sig_rot_med'])} / {_fmt(x['sig_tr_med'] * 100)} | "
                     f"{x['failed']:.0%} | {x['degenerate']:.0%} | "
                     f"{_fmt(x['runtime_med'] * 1000)} |")
         png = _plot(summ["per_axis"], axis, out) if rows else None
