@@ -271,8 +271,6 @@ def calibrate(opts: CalibrateOptions):
                               scalar_first_b=opts.scalar_first_b, drift=opts.drift,
                               robust_options=robust_options, method=opts.method,
                               prior=prior, seed=opts.seed)
-    except NotImplementedError as exc:          # IRLS before solve(weights=) exists
-        raise SolverError(str(exc)) from None
     except (DataError, SolverError):
         raise
     except ValueError as exc:                   # too few motions, no overlap ...
