@@ -42,10 +42,11 @@ def _quiet_init(initializer: Callable | None, initargs: Sequence[Any]) -> None:
 
 
 def terminate_pool(pool) -> None:
-    """Cancel pending tasks and let the workers exit after their current task, without
-    waiting here. (Killing a worker while it writes its result would leave the pool's
-    reader thread blocked on a half-written message and hang the interpreter at exit.)"""
-    pool.shutdown(wait=False, cancel_futures=True)
+    """Cancel pending tasks and wait for the workers to finish their current task and exit
+    (tasks are short chunks). Not waiting here let Python 3.11's exit handler wait forever
+    for the pool's manager thread in about one run in three after a Ctrl-C; killing a
+    worker instead could leave the pool's reader blocked on a half-written message."""
+    pool.shutdown(wait=True, cancel_futures=True)
 
 
 class _Deferred:
@@ -84,6 +85,24 @@ def deferred_interrupt() -> Iterator[_Deferred]:
         raise KeyboardInterrupt
 
 
+def _spawn_ignoring_sigint(pool, workers: int) -> None:
+    """Start the pool's processes now, with SIGINT ignored in this process meanwhile: an
+    ignored signal stays ignored across exec, so a Ctrl-C that arrives while a worker is
+    still starting up (importing mujoco, before :func:`_quiet_init` runs) cannot kill it
+    half-way — which could leave the pool waiting for it forever. (A pool spawns one
+    process per submitted task until it has ``workers``; ``int()`` is a no-op task.) In a
+    thread other than the main one the processes start on demand as usual."""
+    import threading  # noqa: PLC0415
+    if threading.current_thread() is not threading.main_thread():
+        return
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        for _ in range(workers):
+            pool.submit(int)
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
 @contextlib.contextmanager
 def worker_pool(workers: int, initializer: Callable | None = None,
                 initargs: Sequence[Any] = (), wait: bool = True) -> Iterator:
@@ -100,6 +119,7 @@ def worker_pool(workers: int, initializer: Callable | None = None,
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn"),
                                initializer=_quiet_init, initargs=(initializer, tuple(initargs)))
     try:
+        _spawn_ignoring_sigint(pool, workers)
         yield pool
     except BaseException:
         terminate_pool(pool)
