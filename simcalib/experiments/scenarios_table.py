@@ -37,9 +37,9 @@ def _verdict(s: dict | None) -> str:
         return "–"
     v = s.get("verdict") or {}
     word = v.get("verdict", "?") if isinstance(v, dict) else str(v)
-    dirs = [d.get("description", "") for d in (v.get("directions") or [])] \
-        if isinstance(v, dict) else []
-    return word + (f": {len(dirs)} direction(s)" if dirs else "")
+    dirs = list(v.get("directions") or []) if isinstance(v, dict) else []
+    return word + (f": {'; '.join(str(d).split(' (camera-a frame)')[0] for d in dirs[:2])}"
+                   + (f" (+{len(dirs) - 2})" if len(dirs) > 2 else "") if dirs else "")
 
 
 def rows(names) -> list[dict]:
