@@ -11,7 +11,6 @@ the platform.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
@@ -46,7 +45,8 @@ class Baseline:
 
 def baseline(cfg) -> Baseline:
     """Run the stages ``world``, ``streams``, ``pairs`` of ``cfg`` (a ScenarioConfig) and
-    solve dqopt at the run's alpha (``pipeline.choose_run_alpha``) (plus its prior when ``cfg.prior.enabled``)."""
+    solve dqopt at the run's alpha (``pipeline.choose_run_alpha``), plus its prior when
+    ``cfg.prior.enabled``."""
     import simcalib
     from simcalib import pipeline
     from simcalib.sources import camera_sources
@@ -315,27 +315,26 @@ def verify(base: Baseline, adv: Advice, *, seeds=(0, 1, 2, 3, 4), joint_baseline
     rc = fz.candidates(base.truth.world, n_random,
                        np.random.default_rng([int(base.cfg.seed), 13]),
                        aruco_cameras=base.aruco_cameras)
-    feas = np.flatnonzero(rc.feasible)
-    res_rand = []
-    for s in seeds if feas.size else ():
-        rng = np.random.default_rng([int(s), 202])
-        idx = rng.choice(feas, size=min(adv.k, feas.size), replace=False)
-        r = run(idx, np.random.default_rng([int(s), 303]), rc)
-        r["seed"] = int(s)
-        res_rand.append(r)
+    def random_runs(cands, salt: int) -> list[dict]:
+        """k random feasible stops of ``cands`` per seed (choice drawn with ``salt``)."""
+        feas = np.flatnonzero(cands.feasible)
+        out = []
+        for s in seeds if feas.size else ():
+            rng = np.random.default_rng([int(s), salt])
+            idx = rng.choice(feas, size=min(adv.k, feas.size), replace=False)
+            r = run(idx, np.random.default_rng([int(s), 303]), cands)
+            r["seed"] = int(s)
+            out.append(r)
+        return out
+
+    res_rand = random_runs(rc, 202)
     med, ratio = _summary(adv_med, res_rand)
     res_joint, med_j, ratio_j = [], {}, {}
     if joint_baseline and adv.candidates.platform == "arm" and adv.k > 0:
         jc = fz.joint_candidates(base.truth.world, n_joint,
                                  np.random.default_rng([int(base.cfg.seed), 404]),
                                  aruco_cameras=base.aruco_cameras, max_joint_deg=max_joint_deg)
-        jfeas = np.flatnonzero(jc.feasible)
-        for s in seeds if jfeas.size else ():
-            rng = np.random.default_rng([int(s), 505])
-            idx = rng.choice(jfeas, size=min(adv.k, jfeas.size), replace=False)
-            r = run(idx, np.random.default_rng([int(s), 303]), jc)
-            r["seed"] = int(s)
-            res_joint.append(r)
+        res_joint = random_runs(jc, 505)
         med_j, ratio_j = _summary(adv_med, res_joint)
     size = {"advised": res_adv.get("motion_size"),
             "random": _median_size([r.get("motion_size") for r in res_rand]),
