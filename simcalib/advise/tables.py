@@ -129,11 +129,11 @@ the verification, on this machine (2 cores shared with other jobs).
 Reading it: on these runs the actual errors after 5 added stops are far above the
 predicted 1-sigma (compare the two tables): about 5-16x for the advised stops and 2-6x for
 random stops (scara, linear-arm, rotation-arm). They are set by systematic pose errors,
-not by the independent noise the information model (and so the planner) assumes. Errors
-on current main are also much larger than on the previous version of this page (e.g. `3d`
-recorded run 0.0015 deg / 0.0027 cm then, 0.087 deg / 0.38 cm now; see git history of
-this file); the `vision` (camera effects, default preset `ideal`) and `platforms2` merges
-landed in between, and the cause was not identified here. On `scara` the flange pose
+not by the independent noise the information model (and so the planner) assumes. The
+ArUco scenarios render with `vision.preset: realistic` (lens distortion undistorted with a
+perturbed calibration, blur, rolling shutter, sensor noise, JPEG): that is what makes the
+`3d` recorded run 0.087 deg / 0.38 cm; with `vision.preset=ideal` the same run gives
+0.001 deg / 0.0027 cm (`python -m simcalib run scenario=3d vision.preset=ideal`). On `scara` the flange pose
 comes from the robot's nominal kinematics while the true arm deviates by ~1 mm / 1 mrad per DH parameter (a bias
 no choice of motion removes); with ArUco the visual pose errors are viewpoint-dependent.
 The planner lowers
