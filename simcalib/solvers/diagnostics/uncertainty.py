@@ -233,16 +233,16 @@ class _NullTest:
     ratio: np.ndarray          # (6,) generalised eigenvalues of (F, F_noise), ascending
     directions: np.ndarray     # (6, 6) unit columns, tolerance coordinates
     dof: np.ndarray            # (6,) effective chi-square degrees of freedom
-    threshold: np.ndarray      # (6,) chi2.ppf(1 - NULL_LEVEL, dof) / dof
+    threshold: np.ndarray      # (6,) F(dof, dof_noise) quantile 1 - NULL_LEVEL
     undetermined: np.ndarray   # (6,) bool: ratio <= threshold
 
 
-def _noise_null_test(Kw, Bw, dsc, lag) -> _NullTest:
+def _noise_null_test(Kw, Bw, dsc, lag, dof_noise) -> _NullTest:
     """Generalised eigenproblem ``F g = r F_noise g`` (whitened stacks ``Kw`` (N,6,6) and
     ``Bw`` (N,6,6,6), tolerance scaling ``dsc``), computed from the stacked rows (QR of the
     noise rows, SVD of the data rows): small ratios keep their accuracy even when ``F``
     spans 30 orders of magnitude (noise-free data at the floors)."""
-    from scipy.stats import chi2
+    from scipy.stats import chi2, f as f_dist
     A = Kw.reshape(-1, 6) * dsc
     B = Bw.reshape(-1, 6) * dsc
     R = np.linalg.qr(B, mode="r")
@@ -258,7 +258,10 @@ def _noise_null_test(Kw, Bw, dsc, lag) -> _NullTest:
     mean = np.einsum("gnjj->g", gram)
     dof = mean ** 2 / np.maximum(np.einsum("gnjl,gnjl->g", gram, gram), 1e-300)
     dof = np.maximum(dof / (1.0 + lag), 1.0)
-    thr = chi2.ppf(1.0 - NULL_LEVEL, dof) / dof
+    if math.isfinite(dof_noise):
+        thr = f_dist.ppf(1.0 - NULL_LEVEL, dof, max(dof_noise / (1.0 + lag), 1.0))
+    else:
+        thr = chi2.ppf(1.0 - NULL_LEVEL, dof) / dof
     G = G / np.linalg.norm(G, axis=0)
     return _NullTest(r, G, dof, thr, r <= thr)
 
@@ -494,8 +497,10 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
                   np.linalg.norm(X[:3, 3]), tol_m))
 
     # ---- noise level
+    n_eff = float(w.sum() ** 2 / np.sum(w * w))
+    # degrees of freedom of the fitted rotation noise (3 residual components per motion)
+    dof_noise = math.inf if noise is not None else max(3.0 * (n_eff - 1.0), 1.0)
     if noise is None:
-        n_eff = float(w.sum() ** 2 / np.sum(w * w))
         dof = n_eff / max(n_eff - 1.0, 1.0)
         wn = w / w.sum()
         rot2 = np.sum(wn * np.sum(e[:, :3] ** 2, axis=1)) * dof
@@ -592,7 +597,7 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
         return lam, U, sig, range_ratio(U, sig)
 
     # ---- undetermined by the data: information not above what the noise alone makes
-    null = _noise_null_test(Kw, Bw, dsc, lag)
+    null = _noise_null_test(Kw, Bw, dsc, lag, dof_noise)
     lam_d, U_d, sig_d, rr_d = modes(Ft)
     Ud = _span([null.directions[:, null.undetermined], U_d[:, rr_d > 1.0]])
     Bd = _complement(Ud)
