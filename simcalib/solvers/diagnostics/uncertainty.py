@@ -44,22 +44,62 @@ the rotation noise of ``H_i`` into ``tau_i`` through ``R_Ci' t_X``).
 
 Verdict
 -------
-Coordinates are scaled by the tolerances (``omega / tolerance_deg``, ``v / tolerance_m``)
-and the eigen-directions of the scaled information are examined (so the result does not
-depend on units when ``tolerance_m`` follows them, nor on alpha). A direction with 1-sigma
-``s`` (in tolerance units) is
+Coordinates are scaled by the tolerances (``omega / tolerance_deg``, ``v / tolerance_m``).
+Every rank decision is relative to the noise, never to the largest singular value.
 
-* **undetermined** when its 1-sigma exceeds the range of the quantity: more than 1 rad of
-  rotation or more than ``L`` of translation (``L`` = largest of the RMS translation of the
-  motions, ``|t_X|`` and ``tolerance_m``) - the data, relative to their noise, say nothing
-  about it. Exactly singular directions (noise-free planar motion ...) fall here;
-* **poorly determined** when ``s > 1`` (1-sigma above the tolerance).
+**Noise-made information (issues 9, 14).** ``F`` is evaluated at the *measured* motions.
+When the true motion is exactly degenerate along a direction ``g`` (planar: ``K_i g = 0``
+for the vertical translation), the noise of ``H_i`` tilts the measured rotation axes and
+``g^T F g`` is not 0 but a quadratic form in that noise: with ``dK_ij = dK_i/dxi_j``
+(:func:`noise_jacobians`, exact since ``K_i`` is affine in ``C_i' = X H_i X^-1``) and the
+fitted variances ``v_j`` (``sigma_r^2/3`` per rotation component, ``sigma_t^2`` per
+translation component, floors included), its expectation is ``g^T F_noise g`` with
+
+    F_noise = sum_i w_i sum_j v_j dK_ij^T Q_i^-1 dK_ij
+
+(the second-order term of ``E[F]`` in the noise; :attr:`Uncertainty.noise_information`).
+For an informative direction ``g^T F g / g^T F_noise g ~ 1 / sigma_r^2`` (thousands and
+more); for a degenerate one it is ~1. The generalised eigenproblem ``F g = r F_noise g``
+(:attr:`Uncertainty.information_ratio`, ascending; invariant to any linear change of
+coordinates, hence to units, and alpha-free) gives the directions. A direction is
+**undetermined** when ``r`` is not significantly above 1: under the null (no information),
+``g^T F g`` is a Gaussian quadratic form with per-motion Gram matrices ``M_i = [b_ij .
+b_il]`` (``b_ij = sqrt(w_i v_j) Q_i^-1/2 dK_ij g``), i.e. ``~ chi2(nu1) / nu1`` times its mean with
+Satterthwaite's ``nu1 = (sum tr M_i)^2 / sum tr M_i^2`` (``2N`` for planar motion: two
+tilt components per motion); and ``F_noise`` uses a fitted ``sigma_r^2`` with ``nu2 =
+3 (N_eff - 1)`` degrees of freedom (``inf`` when the noise is given). So ``r ~
+F(nu1, nu2)`` and the threshold is its ``1 - NULL_LEVEL`` quantile (0.999;
+:attr:`Uncertainty.ratio_threshold`). Motions sharing poses (``correlation_lag`` > 0)
+divide both by ``1 + lag`` (conservative: consecutive pairs of one stream correlate
+with at most two others at -1/2, a variance factor 1.5). The smallest ratio over
+directions is biased low under the null, which only errs towards "undetermined".
+Noise-free data: the measured tilts are rounding (1e-16) against the floor ``sqrt(eps)``
+of ``sigma_r``, so ``r ~ 1e-16``: undetermined for every estimator (the floor stands for
+what DQ solvers, which square the motion matrices, cannot resolve). Ratios are computed
+from the stacked whitened rows (QR of the noise rows, SVD of the data rows), not from
+``eigh(F)``, whose rounding ``eps * |F|`` would swamp them when ``F`` spans 30 orders of
+magnitude. The fitted noise includes model misfit; a noise model that overstates the
+noise makes this test call more directions undetermined (conservative).
+
+A direction is also **undetermined** when its 1-sigma from ``F`` exceeds the range of the
+quantity: more than 1 rad of rotation or more than ``L`` of translation (``L`` = largest
+of the RMS translation of the motions, ``|t_X|`` and ``tolerance_m``). The undetermined
+subspace ``U_d`` of the data is the span of both kinds (directions within ~3 deg of it
+count once). Outside it (orthogonal complement ``B_d``, tolerance coordinates) the
+eigen-directions of ``B_d^T F B_d`` with 1-sigma ``s > 1`` (above the tolerance) are
+**poorly determined**, reported with that ``s``; the undetermined ones get an infinite
+1-sigma. With a prior: within ``U_d`` only the prior informs (the data information there
+is noise-made); a direction stays undetermined in total when the prior's 1-sigma along it
+also exceeds the range; ``determined_by_prior`` / ``std_with_prior`` use the data
+information outside ``U_d`` plus the prior.
 
 Covariance with undetermined directions: along the undetermined subspace ``U`` (of the total
 information, data plus prior) the variance is infinite. The finite part is the sandwich
 restricted to the determined subspace ``B`` (error along ``U`` held fixed). In
-:attr:`Uncertainty.covariance` every axis with a component in ``U`` gets ``inf`` variance and
-its off-diagonal entries are set to 0; the other entries are those of the finite part.
+:attr:`Uncertainty.covariance` every axis with a component above 5 % in ``U`` (orthonormal
+basis, tolerance coordinates; a noise-tilted undetermined direction has ~1e-5 components on
+the other axes) gets ``inf`` variance and its off-diagonal entries are set to 0; the other
+entries are those of the finite part.
 :attr:`Uncertainty.covariance_determined` holds the finite part alone (0 along ``U``), and
 :meth:`Uncertainty.mahalanobis2` / :meth:`Uncertainty.inside_region` use it with a
 chi-square of ``k`` = number of determined directions degrees of freedom.
