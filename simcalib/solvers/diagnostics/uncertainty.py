@@ -285,7 +285,11 @@ def _noise_null_test(Kw, Bw, dsc, lag, dof_noise) -> _NullTest:
     from scipy.stats import chi2, f as f_dist
     A = Kw.reshape(-1, 6) * dsc
     B = Bw.reshape(-1, 6) * dsc
-    R = np.linalg.qr(B, mode="r")
+    Fn = B.T @ B
+    try:
+        R = np.linalg.cholesky(0.5 * (Fn + Fn.T)).T       # Fn = R^T R
+    except np.linalg.LinAlgError:
+        R = np.linalg.qr(B, mode="r")
     M = np.linalg.solve(R.T, A.T).T                        # A R^-1
     _, s, Vt = np.linalg.svd(M, full_matrices=False)
     order = np.argsort(s)
@@ -293,10 +297,11 @@ def _noise_null_test(Kw, Bw, dsc, lag, dof_noise) -> _NullTest:
     G = np.linalg.solve(R, Vt[order].T)                    # g = R^-1 v (F_noise-normalised)
     # Satterthwaite: g^T F g = sum_i |sum_j xi_ij b_ij|^2 under the null, a quadratic form
     # in Gaussian noise with per-motion Gram matrices M_i = [b_ij . b_il]
-    b = np.einsum("njkc,cg->gnjk", Bw * dsc, G)             # (6, N, 6 noise, 6 rows)
-    gram = np.einsum("gnjk,gnlk->gnjl", b, b)
-    mean = np.einsum("gnjj->g", gram)
-    dof = mean ** 2 / np.maximum(np.einsum("gnjl,gnjl->g", gram, gram), 1e-300)
+    b = (B @ G).reshape(Bw.shape[0], 6, 6, 6)              # (N, 6 noise, 6 rows, 6 dirs)
+    b = np.moveaxis(b, 3, 0)                               # (6 dirs, N, 6 noise, 6 rows)
+    gram = b @ np.swapaxes(b, -1, -2)                      # (6, N, 6, 6)
+    mean = np.trace(gram, axis1=2, axis2=3).sum(axis=1)
+    dof = mean ** 2 / np.maximum(np.sum(gram * gram, axis=(1, 2, 3)), 1e-300)
     dof = np.maximum(dof / (1.0 + lag), 1.0)
     if math.isfinite(dof_noise):
         thr = f_dist.ppf(1.0 - NULL_LEVEL, dof, max(dof_noise / (1.0 + lag), 1.0))
@@ -564,17 +569,18 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
     Q = s_r2 * Qr + s_t2 * Qt                              # (N,6,6), full rank (floors)
 
     # ---- information (alpha-free) and the alpha-cost sandwich
-    Qinv = np.linalg.inv(Q)
     # whitened rows: Kw_i = sqrt(w_i) L_i^-1 K_i (Q_i = L_i L_i^T), F = sum Kw^T Kw; Bw: the
     # same for the derivatives of K_i w.r.t. the noise of H_i, scaled by its std (the null)
-    Lq = np.linalg.cholesky(0.5 * (Q + np.swapaxes(Q, -1, -2)))
+    Linv = np.linalg.inv(np.linalg.cholesky(0.5 * (Q + np.swapaxes(Q, -1, -2))))
+    Qinv = np.swapaxes(Linv, -1, -2) @ Linv
     sw = np.sqrt(w)
-    Kw = np.linalg.solve(Lq, K) * sw[:, None, None]
+    Kw = (Linv @ K) * sw[:, None, None]
     std_xi = np.sqrt(np.array([s_r2 / 3.0] * 3 + [s_t2] * 3))
-    Bw = (np.linalg.solve(Lq[:, None], noise_jacobians(H, X))
+    Bw = ((Linv[:, None] @ noise_jacobians(H, X))
           * (sw[:, None, None, None] * std_xi[None, :, None, None]))
-    F = np.einsum("nki,nkj->ij", Kw, Kw)
-    F_noise = np.einsum("njki,njkl->il", Bw, Bw)
+    Kf, Bf = Kw.reshape(-1, 6), Bw.reshape(-1, 6)
+    F = Kf.T @ Kf
+    F_noise = Bf.T @ Bf
     T = _dq_map(C, X, alpha)
     S = np.einsum("nki,nkj->nij", T, T)                    # (N,6,6)
     Hs = np.einsum("n,nki,nkl,nlj->ij", w, K, S, K)
