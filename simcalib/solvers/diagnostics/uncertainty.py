@@ -76,7 +76,7 @@ directions is biased low under the null, which only errs towards "undetermined".
 Noise-free data: the measured tilts are rounding (1e-16) against the floor ``sqrt(eps)``
 of ``sigma_r``, so ``r ~ 1e-16``: undetermined for every estimator (the floor stands for
 what DQ solvers, which square the motion matrices, cannot resolve). Ratios are computed
-from the stacked whitened rows (QR of the noise rows, SVD of the data rows), not from
+from the stacked whitened data rows (SVD, after whitening by ``F_noise``), not from
 ``eigh(F)``, whose rounding ``eps * |F|`` would swamp them when ``F`` spans 30 orders of
 magnitude. The fitted noise includes model misfit; a noise model that overstates the
 noise makes this test call more directions undetermined (conservative).
@@ -279,9 +279,10 @@ class _NullTest:
 
 def _noise_null_test(Kw, Bw, dsc, lag, dof_noise) -> _NullTest:
     """Generalised eigenproblem ``F g = r F_noise g`` (whitened stacks ``Kw`` (N,6,6) and
-    ``Bw`` (N,6,6,6), tolerance scaling ``dsc``), computed from the stacked rows (QR of the
-    noise rows, SVD of the data rows): small ratios keep their accuracy even when ``F``
-    spans 30 orders of magnitude (noise-free data at the floors)."""
+    ``Bw`` (N,6,6,6), tolerance scaling ``dsc``) as the SVD of the stacked data rows times
+    ``R^-1`` (``F_noise = R^T R``; ``F_noise`` is well conditioned, noise over noise): small
+    ratios keep their accuracy even when ``F`` spans 30 orders of magnitude (noise-free data
+    at the floors), which ``eigh(F)`` would not."""
     from scipy.stats import chi2, f as f_dist
     A = Kw.reshape(-1, 6) * dsc
     B = Bw.reshape(-1, 6) * dsc
@@ -702,8 +703,8 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
         """1-sigma (tol units) along u from the information that counts; inf if in Ut."""
         if Ut.shape[1] and np.linalg.norm(Ut.T @ u) > _PURE:
             return math.inf
-        Bw = W.T @ Bt
-        Sb = Bw @ _sym_inv(Bw.T @ Blk @ Bw) @ Bw.T
+        Bb = W.T @ Bt
+        Sb = Bb @ _sym_inv(Bb.T @ Blk @ Bb) @ Bb.T
         ew = W.T @ u
         return math.sqrt(max(float(ew @ Sb @ ew), 0.0))
 
