@@ -251,6 +251,8 @@ def car_case(label: str, data: list) -> list:
         rows.append({"label": label, "seed": i, "verdict": u.verdict, "alpha": a,
                      "sigma_vertical_m": sig, "error_vertical_m": abs(float(d[3:] @ nrm)),
                      "translation_error_m": float(np.linalg.norm(d[3:])),
+                     "information_ratio": float(u.information_ratio[0]),
+                     "ratio_threshold": float(u.ratio_threshold[0]),
                      "directions": [dd.summary() for dd in u.directions]})
     return rows
 
@@ -370,13 +372,17 @@ def _render_sim(sim, args) -> list:
     L += ["", "Target: `planar`, `linear`, `circular`, `rotation` flagged, `3d` not.", "",
           "### `car` vs `car-flat` (dqopt, no prior)", "",
           "The vertical = normal of camera a's motion plane (smallest singular direction of "
-          "its rotation vectors); sigma = predicted 1-sigma of the translation along it.", "",
-          "| scenario | seed | verdict | alpha | sigma vertical (cm) | actual vertical error "
-          "(cm) | sigma / error |", "|---|---|---|---|---|---|---|"]
+          "its rotation vectors); sigma = predicted 1-sigma of the translation along it. "
+          "r = smallest ratio of the data information to the information the fitted noise "
+          "alone would make (`Uncertainty.information_ratio`; undetermined when r <= the "
+          "threshold, an F-distribution quantile).", "",
+          "| scenario | seed | verdict | alpha | r / threshold | sigma vertical (cm) | actual "
+          "vertical error (cm) | sigma / error |", "|---|---|---|---|---|---|---|---|"]
     for r in sim["car"]:
         ratio = r["sigma_vertical_m"] / r["error_vertical_m"] if r["error_vertical_m"] else \
             math.inf
         L.append(f"| {r['label']} | {r['seed']} | {r['verdict']} | {r['alpha']:.3g} | "
+                 f"{r['information_ratio']:.3g} / {r['ratio_threshold']:.3g} | "
                  f"{100 * r['sigma_vertical_m']:.3g} | {100 * r['error_vertical_m']:.3g} | "
                  f"{ratio:.2f} |")
     L += ["", "Target: car's vertical translation poorly determined with sigma within 2x of "

@@ -44,22 +44,62 @@ the rotation noise of ``H_i`` into ``tau_i`` through ``R_Ci' t_X``).
 
 Verdict
 -------
-Coordinates are scaled by the tolerances (``omega / tolerance_deg``, ``v / tolerance_m``)
-and the eigen-directions of the scaled information are examined (so the result does not
-depend on units when ``tolerance_m`` follows them, nor on alpha). A direction with 1-sigma
-``s`` (in tolerance units) is
+Coordinates are scaled by the tolerances (``omega / tolerance_deg``, ``v / tolerance_m``).
+Every rank decision is relative to the noise, never to the largest singular value.
 
-* **undetermined** when its 1-sigma exceeds the range of the quantity: more than 1 rad of
-  rotation or more than ``L`` of translation (``L`` = largest of the RMS translation of the
-  motions, ``|t_X|`` and ``tolerance_m``) - the data, relative to their noise, say nothing
-  about it. Exactly singular directions (noise-free planar motion ...) fall here;
-* **poorly determined** when ``s > 1`` (1-sigma above the tolerance).
+**Noise-made information (issues 9, 14).** ``F`` is evaluated at the *measured* motions.
+When the true motion is exactly degenerate along a direction ``g`` (planar: ``K_i g = 0``
+for the vertical translation), the noise of ``H_i`` tilts the measured rotation axes and
+``g^T F g`` is not 0 but a quadratic form in that noise: with ``dK_ij = dK_i/dxi_j``
+(:func:`noise_jacobians`, exact since ``K_i`` is affine in ``C_i' = X H_i X^-1``) and the
+fitted variances ``v_j`` (``sigma_r^2/3`` per rotation component, ``sigma_t^2`` per
+translation component, floors included), its expectation is ``g^T F_noise g`` with
+
+    F_noise = sum_i w_i sum_j v_j dK_ij^T Q_i^-1 dK_ij
+
+(the second-order term of ``E[F]`` in the noise; :attr:`Uncertainty.noise_information`).
+For an informative direction ``g^T F g / g^T F_noise g ~ 1 / sigma_r^2`` (thousands and
+more); for a degenerate one it is ~1. The generalised eigenproblem ``F g = r F_noise g``
+(:attr:`Uncertainty.information_ratio`, ascending; invariant to any linear change of
+coordinates, hence to units, and alpha-free) gives the directions. A direction is
+**undetermined** when ``r`` is not significantly above 1: under the null (no information),
+``g^T F g`` is a Gaussian quadratic form with per-motion Gram matrices ``M_i = [b_ij .
+b_il]`` (``b_ij = sqrt(w_i v_j) Q_i^-1/2 dK_ij g``), i.e. ``~ chi2(nu1) / nu1`` times its mean with
+Satterthwaite's ``nu1 = (sum tr M_i)^2 / sum tr M_i^2`` (``2N`` for planar motion: two
+tilt components per motion); and ``F_noise`` uses a fitted ``sigma_r^2`` with ``nu2 =
+3 (N_eff - 1)`` degrees of freedom (``inf`` when the noise is given). So ``r ~
+F(nu1, nu2)`` and the threshold is its ``1 - NULL_LEVEL`` quantile (0.999;
+:attr:`Uncertainty.ratio_threshold`). Motions sharing poses (``correlation_lag`` > 0)
+divide both by ``1 + lag`` (conservative: consecutive pairs of one stream correlate
+with at most two others at -1/2, a variance factor 1.5). The smallest ratio over
+directions is biased low under the null, which only errs towards "undetermined".
+Noise-free data: the measured tilts are rounding (1e-16) against the floor ``sqrt(eps)``
+of ``sigma_r``, so ``r ~ 1e-16``: undetermined for every estimator (the floor stands for
+what DQ solvers, which square the motion matrices, cannot resolve). Ratios are computed
+from the stacked whitened data rows (SVD, after whitening by ``F_noise``), not from
+``eigh(F)``, whose rounding ``eps * |F|`` would swamp them when ``F`` spans 30 orders of
+magnitude. The fitted noise includes model misfit; a noise model that overstates the
+noise makes this test call more directions undetermined (conservative).
+
+A direction is also **undetermined** when its 1-sigma from ``F`` exceeds the range of the
+quantity: more than 1 rad of rotation or more than ``L`` of translation (``L`` = largest
+of the RMS translation of the motions, ``|t_X|`` and ``tolerance_m``). The undetermined
+subspace ``U_d`` of the data is the span of both kinds (directions within ~3 deg of it
+count once). Outside it (orthogonal complement ``B_d``, tolerance coordinates) the
+eigen-directions of ``B_d^T F B_d`` with 1-sigma ``s > 1`` (above the tolerance) are
+**poorly determined**, reported with that ``s``; the undetermined ones get an infinite
+1-sigma. With a prior: within ``U_d`` only the prior informs (the data information there
+is noise-made); a direction stays undetermined in total when the prior's 1-sigma along it
+also exceeds the range; ``determined_by_prior`` / ``std_with_prior`` use the data
+information outside ``U_d`` plus the prior.
 
 Covariance with undetermined directions: along the undetermined subspace ``U`` (of the total
 information, data plus prior) the variance is infinite. The finite part is the sandwich
 restricted to the determined subspace ``B`` (error along ``U`` held fixed). In
-:attr:`Uncertainty.covariance` every axis with a component in ``U`` gets ``inf`` variance and
-its off-diagonal entries are set to 0; the other entries are those of the finite part.
+:attr:`Uncertainty.covariance` every axis with a component above 5 % in ``U`` (orthonormal
+basis, tolerance coordinates; a noise-tilted undetermined direction has ~1e-5 components on
+the other axes) gets ``inf`` variance and its off-diagonal entries are set to 0; the other
+entries are those of the finite part.
 :attr:`Uncertainty.covariance_determined` holds the finite part alone (0 along ``U``), and
 :meth:`Uncertainty.mahalanobis2` / :meth:`Uncertainty.inside_region` use it with a
 chi-square of ``k`` = number of determined directions degrees of freedom.
@@ -87,13 +127,15 @@ from simcalib.geometry import (
 __all__ = ["linear_model", "NoiseModel", "Direction", "Uncertainty", "AlphaChoice", "covariance",
            "covariance_batch",
            "choose_alpha", "bootstrap_covariance", "pose_error", "check_tolerances", "TOLERANCE_DEG",
-           "TOLERANCE_M", "ROTATION_FLOOR_RAD", "TRANSLATION_FLOOR_REL"]
+           "TOLERANCE_M", "ROTATION_FLOOR_RAD", "TRANSLATION_FLOOR_REL", "NULL_LEVEL",
+           "noise_jacobians"]
 
 TOLERANCE_DEG = 1.0
 TOLERANCE_M = 0.01
 ROTATION_FLOOR_RAD = math.sqrt(np.finfo(float).eps)
 TRANSLATION_FLOOR_REL = 1e-9
 _UNDETERMINED_ROT_RAD = 1.0
+NULL_LEVEL = 1e-3
 _PURE = 0.05
 
 
@@ -205,6 +247,89 @@ def linear_model(C, H, X):
     return e, K, Qr, Qt
 
 
+def noise_jacobians(H, X) -> np.ndarray:
+    """``dK_i / dxi_j`` (N, 6, 6, 6): derivative of the Jacobian ``K_i`` of
+    :func:`linear_model` w.r.t. the six noise components ``xi = (u, m)`` of ``H_i`` (eq. 38
+    noise right-multiplied on ``H_i``, expressed in frame a: ``u = R_X R_Hi eps``,
+    ``m = R_X R_Hi n``; isotropic, per-component variance ``sigma_r^2 / 3`` and
+    ``sigma_t^2``). ``K_i`` depends on ``H_i`` only through ``C_i' = X H_i X^-1``:
+    ``dR_Ci' = [u]x R_Ci'``, ``dt_Ci' = m - [u]x R_Ci' t_X``; ``K`` is affine in both, so
+    the derivative is exact."""
+    N = H.shape[0]
+    RX, tX = X[:3, :3], X[:3, 3]
+    RCp = RX @ H[:, :3, :3] @ RX.T
+    E = skew_matrix(np.eye(3))                             # E[j] = [e_j]x
+    a = E[None] @ RCp[:, None]                             # (N, 3, 3, 3): [e_j]x R_Ci'
+    dK = np.zeros((N, 6, 6, 6))
+    dK[:, :3, :3, :3] = a
+    dK[:, :3, 3:, 3:] = a
+    dK[:, :3, 3:, :3] = skew_matrix(-(a @ tX)) + a @ skew_matrix(tX)
+    dK[:, 3:, 3:, :3] = E[None]
+    return dK
+
+
+@dataclass(frozen=True)
+class _NullTest:
+    ratio: np.ndarray          # (6,) generalised eigenvalues of (F, F_noise), ascending
+    directions: np.ndarray     # (6, 6) unit columns, tolerance coordinates
+    dof: np.ndarray            # (6,) effective chi-square degrees of freedom
+    threshold: np.ndarray      # (6,) F(dof, dof_noise) quantile 1 - NULL_LEVEL
+    undetermined: np.ndarray   # (6,) bool: ratio <= threshold
+
+
+def _noise_null_test(Kw, Bw, dsc, lag, dof_noise) -> _NullTest:
+    """Generalised eigenproblem ``F g = r F_noise g`` (whitened stacks ``Kw`` (N,6,6) and
+    ``Bw`` (N,6,6,6), tolerance scaling ``dsc``) as the SVD of the stacked data rows times
+    ``R^-1`` (``F_noise = R^T R``; ``F_noise`` is well conditioned, noise over noise): small
+    ratios keep their accuracy even when ``F`` spans 30 orders of magnitude (noise-free data
+    at the floors), which ``eigh(F)`` would not."""
+    from scipy.stats import chi2, f as f_dist
+    A = Kw.reshape(-1, 6) * dsc
+    B = Bw.reshape(-1, 6) * dsc
+    Fn = B.T @ B
+    try:
+        R = np.linalg.cholesky(0.5 * (Fn + Fn.T)).T       # Fn = R^T R
+    except np.linalg.LinAlgError:
+        R = np.linalg.qr(B, mode="r")
+    M = np.linalg.solve(R.T, A.T).T                        # A R^-1
+    _, s, Vt = np.linalg.svd(M, full_matrices=False)
+    order = np.argsort(s)
+    r = s[order] ** 2
+    G = np.linalg.solve(R, Vt[order].T)                    # g = R^-1 v (F_noise-normalised)
+    # Satterthwaite: g^T F g = sum_i |sum_j xi_ij b_ij|^2 under the null, a quadratic form
+    # in Gaussian noise with per-motion Gram matrices M_i = [b_ij . b_il]
+    b = (B @ G).reshape(Bw.shape[0], 6, 6, 6)              # (N, 6 noise, 6 rows, 6 dirs)
+    b = np.moveaxis(b, 3, 0)                               # (6 dirs, N, 6 noise, 6 rows)
+    gram = b @ np.swapaxes(b, -1, -2)                      # (6, N, 6, 6)
+    mean = np.trace(gram, axis1=2, axis2=3).sum(axis=1)
+    dof = mean ** 2 / np.maximum(np.sum(gram * gram, axis=(1, 2, 3)), 1e-300)
+    dof = np.maximum(dof / (1.0 + lag), 1.0)
+    if math.isfinite(dof_noise):
+        thr = f_dist.ppf(1.0 - NULL_LEVEL, dof, max(dof_noise / (1.0 + lag), 1.0))
+    else:
+        thr = chi2.ppf(1.0 - NULL_LEVEL, dof) / dof
+    G = G / np.linalg.norm(G, axis=0)
+    return _NullTest(r, G, dof, thr, r <= thr)
+
+
+def _span(blocks, tol: float = _PURE) -> np.ndarray:
+    """Orthonormal basis (6, k) of the span of the columns of ``blocks`` (normalised first;
+    singular values below ``tol`` dropped: nearly parallel columns count once)."""
+    V = np.concatenate([np.zeros((6, 0)), *blocks], axis=1)
+    if V.shape[1] == 0:
+        return np.zeros((6, 0))
+    V = V / np.linalg.norm(V, axis=0)
+    U, s, _ = np.linalg.svd(V, full_matrices=False)
+    return U[:, s > tol]
+
+
+def _complement(U) -> np.ndarray:
+    """Orthonormal basis of the orthogonal complement of the orthonormal columns ``U``."""
+    if U.shape[1] == 0:
+        return np.eye(6)
+    Q, _ = np.linalg.qr(np.concatenate([U, np.eye(6)], axis=1))
+    return Q[:, U.shape[1]:6]
+
 def _dq_map(C, X, alpha):
     """T_i (N,8,6): DQ residual of cost (8), [A q; alpha (B q + A q')], as a linear function
     of the geometric residual e_i (sign of the DQ pair irrelevant: only T^T T is used)."""
@@ -300,6 +425,11 @@ class Uncertainty:
     n_motions: int
     method: str = "sandwich"
     offset: np.ndarray | None = None   # Gauss-Newton step from X to the alpha-cost minimiser
+    # the noise-only information (verdict null, 6x6 like ``information``), the generalised
+    # eigenvalues of (information, noise_information) ascending, and their thresholds
+    noise_information: np.ndarray | None = None
+    information_ratio: np.ndarray | None = None
+    ratio_threshold: np.ndarray | None = None
 
     @property
     def std(self) -> np.ndarray:
@@ -413,8 +543,10 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
                   np.linalg.norm(X[:3, 3]), tol_m))
 
     # ---- noise level
+    n_eff = float(w.sum() ** 2 / np.sum(w * w))
+    # degrees of freedom of the fitted rotation noise (3 residual components per motion)
+    dof_noise = math.inf if noise is not None else max(3.0 * (n_eff - 1.0), 1.0)
     if noise is None:
-        n_eff = float(w.sum() ** 2 / np.sum(w * w))
         dof = n_eff / max(n_eff - 1.0, 1.0)
         wn = w / w.sum()
         rot2 = np.sum(wn * np.sum(e[:, :3] ** 2, axis=1)) * dof
@@ -438,8 +570,18 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
     Q = s_r2 * Qr + s_t2 * Qt                              # (N,6,6), full rank (floors)
 
     # ---- information (alpha-free) and the alpha-cost sandwich
-    Qinv = np.linalg.inv(Q)
-    F = np.einsum("n,nki,nkl,nlj->ij", w, K, Qinv, K)
+    # whitened rows: Kw_i = sqrt(w_i) L_i^-1 K_i (Q_i = L_i L_i^T), F = sum Kw^T Kw; Bw: the
+    # same for the derivatives of K_i w.r.t. the noise of H_i, scaled by its std (the null)
+    Linv = np.linalg.inv(np.linalg.cholesky(0.5 * (Q + np.swapaxes(Q, -1, -2))))
+    Qinv = np.swapaxes(Linv, -1, -2) @ Linv
+    sw = np.sqrt(w)
+    Kw = (Linv @ K) * sw[:, None, None]
+    std_xi = np.sqrt(np.array([s_r2 / 3.0] * 3 + [s_t2] * 3))
+    Bw = ((Linv[:, None] @ noise_jacobians(H, X))
+          * (sw[:, None, None, None] * std_xi[None, :, None, None]))
+    Kf, Bf = Kw.reshape(-1, 6), Bw.reshape(-1, 6)
+    F = Kf.T @ Kf
+    F_noise = Bf.T @ Bf
     T = _dq_map(C, X, alpha)
     S = np.einsum("nki,nkj->nij", T, T)                    # (N,6,6)
     Hs = np.einsum("n,nki,nkl,nlj->ij", w, K, S, K)
@@ -486,24 +628,42 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
     # ---- tolerance-scaled coordinates
     dsc = np.array([tol_r] * 3 + [tol_m] * 3)              # delta = dsc * delta_tilde
     Ft = F * np.outer(dsc, dsc)
-    Ftot = (F + F_prior) * np.outer(dsc, dsc)
+    Fp_t = F_prior * np.outer(dsc, dsc)
+    Ftot = Ft + Fp_t
     Ht = Hs * np.outer(dsc, dsc)
     Mt = Ms * np.outer(dsc, dsc)
     range_sc = np.array([_UNDETERMINED_ROT_RAD] * 3 + [L] * 3) / dsc   # range in tol units
 
+    def range_ratio(U, sig):
+        """1-sigma along the columns of U relative to the range of rotation/translation."""
+        return sig * np.sqrt(np.sum((U / range_sc[:, None]) ** 2, axis=0))
+
     def modes(Fm):
         lam, U = np.linalg.eigh(0.5 * (Fm + Fm.T))
         sig = np.where(lam > 0, 1.0 / np.sqrt(np.maximum(lam, 1e-300)), np.inf)
-        # range criterion: 1-sigma larger than the range of rotation/translation
-        rng_ratio = sig * np.sqrt(np.sum((U / range_sc[:, None]) ** 2, axis=0))
-        return lam, U, sig, rng_ratio
+        return lam, U, sig, range_ratio(U, sig)
 
+    # ---- undetermined by the data: information not above what the noise alone makes
+    null = _noise_null_test(Kw, Bw, dsc, lag, dof_noise)
     lam_d, U_d, sig_d, rr_d = modes(Ft)
-    lam_t, U_t, sig_t, rr_t = modes(Ftot)
-    undet_tot = rr_t > 1.0
-    # axes rotated so that |u|=1 in tol coords; range ratio uses the physical ranges
-    Bt = U_t[:, ~undet_tot]                                # determined basis, tol coords
-    Ut = U_t[:, undet_tot]
+    Ud = _span([null.directions[:, null.undetermined], U_d[:, rr_d > 1.0]])
+    Bd = _complement(Ud)
+    # ---- undetermined in total: within Ud only the prior informs; the range rule on all
+    if Ud.shape[1]:
+        lam_p, V_p = np.linalg.eigh(0.5 * (Ud.T @ Fp_t @ Ud + (Ud.T @ Fp_t @ Ud).T))
+        sig_p = np.where(lam_p > 0, 1.0 / np.sqrt(np.maximum(lam_p, 1e-300)), np.inf)
+        Up = Ud @ V_p
+        still = Up[:, range_ratio(Up, sig_p) > 1.0]
+    else:
+        still = np.zeros((6, 0))
+    _, U_tt, _, rr_t = modes(Ftot)
+    Ut = _span([still, U_tt[:, rr_t > 1.0]])
+    Bt = _complement(Ut)
+    # information that counts, in the basis W = [Bd, Ud]: data (outside Ud) plus prior
+    W = np.concatenate([Bd, Ud], axis=1)
+    kb = Bd.shape[1]
+    Blk = W.T @ Fp_t @ W
+    Blk[:kb, :kb] += Bd.T @ Ft @ Bd
     if Bt.shape[1]:
         Hb = Bt.T @ Ht @ Bt
         Mb = Bt.T @ Mt @ Bt
@@ -529,7 +689,7 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
     cov_det = 0.5 * (cov_det + cov_det.T)
     cov = cov_det.copy()
     if Ut.shape[1]:
-        touched = np.linalg.norm(Ut, axis=1) > 1e-9
+        touched = np.linalg.norm(Ut, axis=1) > _PURE
         cov[touched, :] = 0.0
         cov[:, touched] = 0.0
         cov[touched, touched] = np.inf
@@ -539,34 +699,54 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
     else:
         Bp = np.zeros((6, 0))
 
+    def with_prior(u):
+        """1-sigma (tol units) along u from the information that counts; inf if in Ut."""
+        if Ut.shape[1] and np.linalg.norm(Ut.T @ u) > _PURE:
+            return math.inf
+        Bb = W.T @ Bt
+        Sb = Bb @ _sym_inv(Bb.T @ Blk @ Bb) @ Bb.T
+        ew = W.T @ u
+        return math.sqrt(max(float(ew @ Sb @ ew), 0.0))
+
     # ---- directions from the data information
-    Ftot_inv = _pinv_cov(Ftot) if Ut.shape[1] == 0 else None
     dirs = []
-    for k in range(6):
-        if sig_d[k] <= 1.0:
-            continue
-        reason = "undetermined" if rr_d[k] > 1.0 else "poorly determined"
-        u = U_d[:, k]
-        sdeg = math.degrees(sig_d[k] * tol_r * np.linalg.norm(u[:3])) if np.isfinite(sig_d[k]) \
-            else (math.inf if np.linalg.norm(u[:3]) > 1e-9 else 0.0)
-        sm = sig_d[k] * tol_m * np.linalg.norm(u[3:]) if np.isfinite(sig_d[k]) \
-            else (math.inf if np.linalg.norm(u[3:]) > 1e-9 else 0.0)
+    flagged = []
+    if Ud.shape[1]:                                       # undetermined: basis of Ud
+        lu, Vu = np.linalg.eigh(0.5 * (Ud.T @ Ft @ Ud + (Ud.T @ Ft @ Ud).T))
+        for u in (Ud @ Vu).T:
+            dirs.append((u, "undetermined", math.inf))
+    if kb:                                                # poorly determined: outside Ud
+        lb_, Vb_ = np.linalg.eigh(0.5 * (Bd.T @ Ft @ Bd + (Bd.T @ Ft @ Bd).T))
+        for k in range(kb):
+            s = 1.0 / math.sqrt(lb_[k]) if lb_[k] > 0 else math.inf
+            if s > 1.0:
+                dirs.append((Bd @ Vb_[:, k], "poorly determined", s))
+    out = []
+    for u, reason, s in dirs:
+        flagged.append(u)
+        nw, nt = np.linalg.norm(u[:3]), np.linalg.norm(u[3:])
+        tot = math.hypot(nw, nt)
+        if math.isfinite(s):
+            sdeg, sm = math.degrees(s * tol_r * nw), s * tol_m * nt
+        else:
+            sdeg = math.inf if nw > _PURE * tot else 0.0
+            sm = math.inf if nt > _PURE * tot else 0.0
         if prior is not None:
-            if Ftot_inv is not None:
-                st = math.sqrt(max(float(u @ Ftot_inv @ u), 0.0))
-            else:
-                st = math.sqrt(max(float(u @ _pinv_cov(Ftot) @ u), 0.0)) \
-                    if np.linalg.norm(Ut.T @ u) < 1e-6 else math.inf
+            st = with_prior(u)
             by_prior = st <= 1.0
-            swd = math.degrees(st * tol_r * np.linalg.norm(u[:3]))
-            swm = st * tol_m * np.linalg.norm(u[3:])
+            if math.isfinite(st):
+                swd, swm = math.degrees(st * tol_r * nw), st * tol_m * nt
+            else:
+                swd = math.inf if nw > _PURE * tot else 0.0
+                swm = math.inf if nt > _PURE * tot else 0.0
         else:
             by_prior, swd, swm = False, sdeg, sm
-        dirs.append(_describe(u, dsc, reason, sdeg, sm, swd, swm, by_prior))
+        out.append(_describe(u, dsc, reason, sdeg, sm, swd, swm, by_prior))
+    dirs = out
     # directions this estimate (covariance of the alpha-cost minimiser) leaves beyond the
     # tolerance although the information would allow better (a poorly chosen alpha or an
     # estimator that ignores part of the data)
-    flagged = np.array([U_d[:, k] for k in range(6) if sig_d[k] > 1.0]).reshape(-1, 6).T
+    flagged = np.array(flagged).reshape(-1, 6).T
     le, Ve = np.linalg.eigh(0.5 * (cov_t + cov_t.T))
     for k in range(6):
         if not le[k] > 1.0:
@@ -586,7 +766,8 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
                        determined_basis=Bp, information=F, prior_covariance=prior_cov,
                        noise=noise_out, alpha=alpha, tolerance_deg=math.degrees(tol_r),
                        tolerance_m=tol_m, directions=tuple(dirs), translation_scale_m=L,
-                       n_motions=N, offset=offset_t * dsc)
+                       n_motions=N, offset=offset_t * dsc, noise_information=F_noise,
+                       information_ratio=null.ratio, ratio_threshold=null.threshold)
 
 
 def _check_lag(lag, n) -> int:
