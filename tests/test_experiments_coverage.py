@@ -1,4 +1,5 @@
-"""The determined-direction error of the alpha comparison (python -m simcalib.experiments.coverage)."""
+"""The determined-direction error of the alpha comparison
+(``python -m simcalib.experiments.coverage``)."""
 
 import numpy as np
 import pytest

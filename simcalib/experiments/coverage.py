@@ -219,7 +219,8 @@ def alpha_compare(label: str, data: list, grid, exact_bases=None) -> dict:
     out = {"motion": label, "trials": len(data)}
     for i, k in enumerate(kinds):
         j = int(np.nanargmin(med[:, 2 * i]))
-        out.update({f"{k}oracle_alpha": float(grid[j]), f"{k}oracle_rot_deg": float(med[j, 2 * i]),
+        out.update({f"{k}oracle_alpha": float(grid[j]),
+                    f"{k}oracle_rot_deg": float(med[j, 2 * i]),
                     f"{k}oracle_trans_m": float(med[j, 2 * i + 1])})
         if k:
             out[f"{k}dof_median"] = float(np.median(dofs[k]))
@@ -526,7 +527,7 @@ def _render_alpha(alpha_rows, args, noise_free) -> list:
 
 
 def _render_sim(sim, args) -> list:
-    L = ["",          "## Simulated scenarios (pipeline data: world, streams, pairs of `simcalib run`)", "",
+    L = ["", "## Simulated scenarios (pipeline data: world, streams, pairs of `simcalib run`)", "",
          "Each trial is the motion pairs of one seed of the scenario; the estimate is dqopt at "
          "the data-chosen alpha (as `alpha: auto` in a run), with the serial-correlation "
          "correction of consecutive pairs (`correlation_lag` = `pairing.step`).", "",
