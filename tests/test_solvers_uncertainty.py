@@ -260,6 +260,45 @@ def test_choose_alpha():
     assert chk.alpha == pytest.approx(ch.alpha / 1000, rel=1e-3)
     with pytest.raises(ValueError, match="noise_ratio"):
         U.choose_alpha(C[0], H[0], sol.X, how="oracle")
+    # min_predicted_error: unit invariant when tolerance_m follows the unit too
+    chk2 = U.choose_alpha(Ck, Hk, Xk, 1e-3, how="min_predicted_error", num=9,
+                          alpha_range=(1e-5, 10 ** 1.7 / 1000), tolerance_m=10.0)
+    ch3 = U.choose_alpha(C[0], H[0], sol.X, 1.0, how="min_predicted_error", num=9,
+                         alpha_range=(1e-2, 10 ** 1.7))
+    assert chk2.alpha == pytest.approx(ch3.alpha / 1000, rel=1e-6)
+    with pytest.raises(ValueError, match="num"):
+        U.choose_alpha(C[0], H[0], sol.X, how="min_predicted_error", num=1)
+    with pytest.raises(ValueError, match="alpha_range"):
+        U.choose_alpha(C[0], H[0], sol.X, alpha_range=(2.0, 1.0))
+
+
+def test_choose_alpha_min_predicted_error_is_the_determined_sandwich():
+    """The predicted error of every candidate is the trace (tolerance units) of the
+    determined-subspace covariance of :func:`covariance` at that alpha with the fitted noise,
+    without its offset term; planar motions (rotations about one axis) leave the translation
+    of X along it to the noise, and only the determined directions count."""
+    rng = np.random.default_rng(5)
+    X = tf(matrix_from_rotvec(np.array([0.3, -0.2, 0.5])), np.array([0.1, 0.2, -0.05]))
+    N = 60
+    rv = np.zeros((N, 3))
+    rv[:, 2] = rng.uniform(-1, 1, N)
+    t = np.zeros((N, 3))
+    t[:, :2] = rng.uniform(-0.5, 0.5, (N, 2))
+    H = tf(matrix_from_rotvec(rv), t)
+    C = perturb_transforms(X @ H @ invert_transform(X), 1e-3, 1e-3, rng)
+    H = perturb_transforms(H, 1e-3, 1e-3, rng)
+    Xs = solve(C, H, alpha=1.0).X
+    ch = U.choose_alpha(C, H, Xs, 1.0, how="min_predicted_error", num=7)
+    u = U.covariance(C, H, Xs, 1.0)
+    assert f"the {u.dof} determined directions" in ch.how
+    assert ch.alpha == ch.candidates[np.argmin(ch.predicted)]
+    dsc = np.array([np.radians(1.0)] * 3 + [0.01] * 3)
+    noise = U.NoiseModel(ch.sigma_r_rad, ch.sigma_t_m)
+    for j in (0, 3, 6):
+        uj = U.covariance(C, H, Xs, ch.candidates[j], noise=noise)
+        ref = np.trace((uj.covariance_determined - np.outer(uj.offset, uj.offset))
+                       / np.outer(dsc, dsc))
+        assert ch.predicted[j] == pytest.approx(ref, rel=1e-6)
 
 
 def test_input_errors():

@@ -866,57 +866,98 @@ class AlphaChoice:
 
 
 ALPHA_RANGE = (1e-2, 10 ** 1.7)
+ALPHA_CHOICES = ("noise_ratio", "min_predicted_error")
+
+
+def _predicted_errors(C, H, X, Q, grid, dsc, basis):
+    """Predicted squared error ``tr(Sigma_B(alpha))`` (tolerance units) of the alpha-cost
+    minimiser for every alpha of ``grid``, restricted to the subspace spanned by ``basis``
+    (6 x k, tolerance coordinates, orthonormal; the error along its complement held fixed,
+    as in :func:`covariance`). ``S(alpha) = S_r + alpha^2 S_d``, so ``H`` and ``M`` are
+    polynomials in ``alpha^2``: one pass over the motions for the whole grid."""
+    _, K, _, _ = linear_model(C, H, X)
+    T1 = _dq_map(C, X, 1.0)
+    Kt = K * dsc                                           # d e / d delta_tilde
+    Tr, Td = T1[:, :4], T1[:, 4:]
+    Sr = np.einsum("nki,nkj->nij", Tr, Tr)
+    Sd = np.einsum("nki,nkj->nij", Td, Td)
+    Kb = Kt @ basis                                        # (N, 6, k)
+    Hr = np.einsum("nki,nkl,nlj->ij", Kb, Sr, Kb)
+    Hd = np.einsum("nki,nkl,nlj->ij", Kb, Sd, Kb)
+    Mrr = np.einsum("nki,nkl,nlj->ij", Kb, Sr @ Q @ Sr, Kb)
+    Mrd = np.einsum("nki,nkl,nlj->ij", Kb, Sr @ Q @ Sd, Kb)
+    Mdd = np.einsum("nki,nkl,nlj->ij", Kb, Sd @ Q @ Sd, Kb)
+    a2 = np.asarray(grid, dtype=np.float64)[:, None, None] ** 2
+    Hs = Hr + a2 * Hd
+    Ms = Mrr + a2 * (Mrd + np.swapaxes(Mrd, -1, -2)) + a2 ** 2 * Mdd
+    pred = np.empty(len(grid))
+    for j in range(len(grid)):
+        Hi = _sym_inv(Hs[j])
+        pred[j] = np.trace(Hi @ Ms[j] @ Hi)
+    return pred
 
 
 def choose_alpha(C, H, X, alpha_initial: float = 1.0, how: str = "noise_ratio", *,
                  tolerance_deg: float = TOLERANCE_DEG, tolerance_m: float = TOLERANCE_M,
                  alpha_range=ALPHA_RANGE, num: int = 41) -> AlphaChoice:
     """Choose alpha from the residuals of an initial estimate ``X`` (e.g. dqopt at
-    ``alpha_initial``).
+    ``alpha_initial``), never from a ground truth.
 
     ``how="noise_ratio"`` (default): inverse-variance weighting of the cost (8). Its rotation
     residual has per-component variance ``var_r`` and its dual residual ``var_d``; equal
     weights per unit noise need ``alpha^2 = var_r / var_d``, computed from the noise model
-    fitted to the residuals (:func:`covariance`). ``how="min_predicted_error"``: the alpha of
-    a log grid over ``alpha_range`` minimising the predicted error trace
-    ``tr(D Sigma(alpha) D)`` in tolerance units. Clipped to ``alpha_range`` (the paper's grid).
+    fitted to the residuals (:func:`covariance`).
+    ``how="min_predicted_error"``: the alpha of a log grid of ``num`` values over
+    ``alpha_range`` minimising the predicted mean squared error of the estimate over the
+    **determined** directions, in tolerance units: ``tr(Sigma_B(alpha))``, ``Sigma_B`` the
+    sandwich covariance of the alpha-cost minimiser restricted to the determined subspace
+    ``B`` of the alpha-free information (as :attr:`Uncertainty.covariance_determined`,
+    without the offset term), with the noise fitted to the residuals of ``X``. Undetermined
+    directions are left out: their error is arbitrary at every alpha and their predicted
+    variance (numerical floor) would otherwise decide the choice. With no determined
+    direction it falls back to ``noise_ratio`` (and says so in ``how``).
+    Both measure alike against the ground-truth oracle (docs/uncertainty.md, "alpha from the
+    data"). The result is clipped to ``alpha_range`` (default: the paper's grid); the choice
+    does not depend on the length unit when ``alpha_range`` and ``tolerance_m`` follow it.
     """
-    if how not in ("noise_ratio", "min_predicted_error"):
-        raise ValueError(f"unknown alpha choice {how!r}; allowed: noise_ratio, "
-                         "min_predicted_error")
+    if how not in ALPHA_CHOICES:
+        raise ValueError(f"unknown alpha choice {how!r}; allowed: {', '.join(ALPHA_CHOICES)}")
+    if isinstance(num, bool) or not isinstance(num, (int, np.integer)) or num < 2:
+        raise ValueError(f"num must be an integer >= 2; received {num!r}")
     u = covariance(C, H, X, alpha_initial, tolerance_deg=tolerance_deg, tolerance_m=tolerance_m)
     lo, hi = (_real("alpha_range[0]", alpha_range[0]), _real("alpha_range[1]", alpha_range[1]))
+    if not lo < hi:
+        raise ValueError(f"alpha_range must be (low, high) with low < high; received "
+                         f"{tuple(alpha_range)!r}")
     C = np.asarray(C, dtype=np.float64)
     H = np.asarray(H, dtype=np.float64)
     X = np.asarray(X, dtype=np.float64)
-    e, K, Qr, Qt = linear_model(C, H, X)
+    _, _, Qr, Qt = linear_model(C, H, X)
     L = u.translation_scale_m
     Q = ((u.noise.sigma_r_rad ** 2 + ROTATION_FLOOR_RAD ** 2) * Qr
          + (u.noise.sigma_t_m ** 2 + (TRANSLATION_FLOOR_REL * L) ** 2) * Qt)
-    if how == "noise_ratio":
+    dsc = np.array([math.radians(u.tolerance_deg)] * 3 + [u.tolerance_m] * 3)
+    Bp = u.determined_basis
+    basis = np.linalg.qr(Bp / dsc[:, None])[0] if Bp.shape[1] else np.zeros((6, 0))
+    if how == "noise_ratio" or basis.shape[1] == 0:
         T1 = _dq_map(C, X, 1.0)
         TQT = T1 @ Q @ np.swapaxes(T1, -1, -2)
         var_r = float(np.mean(np.trace(TQT[:, :4, :4], axis1=1, axis2=2)))
         var_d = float(np.mean(np.trace(TQT[:, 4:, 4:], axis1=1, axis2=2)))
         a = math.sqrt(var_r / var_d) if var_d > 0 else hi
         a = float(np.clip(a, lo, hi))
+        why = "" if how == "noise_ratio" else (" (min_predicted_error fell back to it: no "
+                                                "direction is determined)")
         return AlphaChoice(a, "noise_ratio: alpha = sqrt(var(rotation residual) / "
-                           "var(dual residual)) of the noise fitted at alpha_initial",
+                           "var(dual residual)) of the noise fitted at alpha_initial" + why,
                            u.noise.sigma_r_rad, u.noise.sigma_t_m, float(alpha_initial))
     grid = np.logspace(math.log10(lo), math.log10(hi), int(num))
-    dsc = np.array([math.radians(tolerance_deg)] * 3 + [tolerance_m] * 3)
-    pred = np.empty(grid.size)
-    for j, a in enumerate(grid):
-        T = _dq_map(C, X, a)
-        S = np.einsum("nki,nkj->nij", T, T)
-        Hs = np.einsum("nki,nkl,nlj->ij", K, S, K)
-        Ms = np.einsum("nki,nkl,nlj->ij", K, S @ Q @ S, K)
-        Hi = _sym_inv(Hs * np.outer(dsc, dsc))
-        pred[j] = np.trace(Hi @ (Ms * np.outer(dsc, dsc)) @ Hi)
+    pred = _predicted_errors(C, H, X, Q, grid, dsc, basis)
     j = int(np.argmin(pred))
-    return AlphaChoice(float(grid[j]), "min_predicted_error: argmin over a log grid of the "
-                       "predicted error trace in tolerance units", u.noise.sigma_r_rad,
-                       u.noise.sigma_t_m, float(alpha_initial), grid, pred)
+    return AlphaChoice(float(grid[j]), f"min_predicted_error: argmin over a log grid of the "
+                       f"predicted squared error of the {basis.shape[1]} determined directions "
+                       "in tolerance units (noise fitted at alpha_initial)",
+                       u.noise.sigma_r_rad, u.noise.sigma_t_m, float(alpha_initial), grid, pred)
 
 
 # --------------------------------------------------------------------------- bootstrap
