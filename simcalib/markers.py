@@ -21,14 +21,17 @@ __all__ = [
     "CameraPoseEstimate",
     "DetectorSettings",
     "Detections",
+    "INTRINSICS_PARAMETERS",
     "MarkerField",
     "PnPSettings",
     "detect_markers",
     "estimate_camera_pose",
+    "intrinsics_pose_sensitivity",
     "make_detector",
     "marker_corners_local",
     "marker_image",
     "marker_png",
+    "perturbed_intrinsics",
     "refine_corners_edges",
 ]
 
@@ -556,3 +559,90 @@ def _inv(T: np.ndarray) -> np.ndarray:
 def _angle(Ra: np.ndarray, Rb: np.ndarray) -> float:
     c = (np.trace(Ra.T @ Rb) - 1.0) / 2.0
     return float(np.arccos(np.clip(c, -1.0, 1.0)))
+
+
+#: Parameters of :func:`intrinsics_pose_sensitivity`, in its column order: focal length
+#: (relative, fx and fy together), principal point cx, cy (px), distortion k1, k2, p1, p2, k3.
+INTRINSICS_PARAMETERS = ("focal_fraction", "cx_px", "cy_px", "k1", "k2", "p1", "p2", "k3")
+
+
+def perturbed_intrinsics(K, dist, step) -> tuple[np.ndarray, np.ndarray]:
+    """``(K', dist')``: ``K``, ``dist`` moved by ``step`` (8,) in the parameters of
+    :data:`INTRINSICS_PARAMETERS` (focal scaled by ``1 + step[0]``, the others added)."""
+    step = np.asarray(step, dtype=np.float64)
+    K2 = np.array(K, dtype=np.float64, copy=True)
+    K2[0, 0] *= 1.0 + step[0]
+    K2[1, 1] *= 1.0 + step[0]
+    K2[0, 2] += step[1]
+    K2[1, 2] += step[2]
+    return K2, np.asarray(dist, dtype=np.float64) + step[3:8]
+
+
+def intrinsics_pose_sensitivity(points_world, T_world_cam, K, dist, sigmas) -> np.ndarray:
+    """How an error of the camera calibration moves the PnP camera poses: ``J`` (6, 8).
+
+    ``points_world``: per frame the ``(P_f, 3)`` world points seen (marker corners, >= 4);
+    ``T_world_cam``: ``(F, 4, 4)`` the camera's true poses; ``K``, ``dist`` (5,): the true
+    calibration; ``sigmas`` (8,): the 1-sigma of each parameter of
+    :data:`INTRINSICS_PARAMETERS` (0: skipped, column 0). The points are projected with the
+    true calibration (no image is rendered), undistorted with a calibration moved by
+    ``+-sigma`` of one parameter (as the pipeline undistorts with its believed calibration)
+    and the pose is re-estimated (``solvePnPRefineLM`` from the true pose, pinhole ``K'``).
+    Column ``j`` is the central difference ``(xi(+s_j) - xi(-s_j)) / 2`` averaged over the
+    frames, ``xi = (rotvec, t)`` of ``T_true^-1 T_est`` (right-multiplied, camera frame): the
+    pose error per 1-sigma of parameter ``j`` that is common to the frames (a calibration
+    error is constant over a run). The pose error covariance is ``J J^T`` (independent
+    parameters)."""
+    cv2 = _cv2()
+    from .camera_effects import undistort_points  # noqa: PLC0415
+    from .geometry import rotvec_from_matrix  # noqa: PLC0415
+    T = np.asarray(T_world_cam, dtype=np.float64)
+    if T.ndim != 3 or T.shape[1:] != (4, 4) or T.shape[0] == 0 or not np.isfinite(T).all():
+        raise ValueError(f"T_world_cam must be (F, 4, 4) finite poses, F >= 1; received "
+                         f"shape {T.shape}")
+    if len(points_world) != T.shape[0]:
+        raise ValueError(f"points_world must hold one (P, 3) array per pose ({T.shape[0]}); "
+                         f"received {len(points_world)}")
+    K = np.asarray(K, dtype=np.float64)
+    dist = np.asarray(dist, dtype=np.float64).ravel()
+    sig = np.asarray(sigmas, dtype=np.float64).ravel()
+    if K.shape != (3, 3) or not np.isfinite(K).all() or dist.shape != (5,) \
+            or not np.isfinite(dist).all():
+        raise ValueError(f"K must be finite (3, 3) and dist 5 finite coefficients; received "
+                         f"shapes {K.shape}, {dist.shape}")
+    if sig.shape != (8,) or not np.isfinite(sig).all() or (sig < 0).any():
+        raise ValueError(f"sigmas must be 8 finite numbers >= 0 "
+                         f"({', '.join(INTRINSICS_PARAMETERS)}); received {sigmas!r}")
+    zero = np.zeros(5)
+    crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, 100, 1e-14)
+    J = np.zeros((6, 8))
+    n_used = 0
+    for f in range(T.shape[0]):
+        Pw = np.asarray(points_world[f], dtype=np.float64).reshape(-1, 3)
+        if Pw.shape[0] < 4:
+            continue
+        T_cw = _inv(T[f])
+        rvec0, _ = cv2.Rodrigues(T_cw[:3, :3])
+        tvec0 = T_cw[:3, 3].reshape(3, 1)
+        img, _ = cv2.projectPoints(Pw, rvec0, tvec0, K, dist)
+        img = img.reshape(-1, 2)
+        col = np.zeros((6, 8))
+        for j in np.flatnonzero(sig > 0):
+            xi = []
+            for s in (1.0, -1.0):
+                step = np.zeros(8)
+                step[j] = s * sig[j]
+                K2, d2 = perturbed_intrinsics(K, dist, step)
+                uv = undistort_points(img, K2, d2)
+                rvec, tvec = cv2.solvePnPRefineLM(Pw, uv, K2, zero, rvec0.copy(), tvec0.copy(),
+                                                  criteria=crit)
+                T_est = _inv(_rvec_t_to_T(rvec, tvec))
+                E = _inv(T[f]) @ T_est
+                xi.append(np.concatenate([rotvec_from_matrix(E[:3, :3]), E[:3, 3]]))
+            col[:, j] = 0.5 * (xi[0] - xi[1])
+        J += col
+        n_used += 1
+    if n_used == 0:
+        raise ValueError("no pose sees 4 or more points; the calibration sensitivity is "
+                         "undefined")
+    return J / n_used

@@ -85,6 +85,8 @@ class SolverResult:
     alpha_choice: dict | None = None          # {"alpha", "how", ...}: never the ground truth
     oracle: dict | None = None                # alpha of the config list best vs the TRUTH
     convergence: tuple[dict, ...] = ()        # error and predicted sigma vs motions used
+    covariance_calibration: np.ndarray | None = None   # part of covariance from the cameras'
+    #                                                  calibration uncertainty (6x6), or None
 
 
 @dataclass(frozen=True)
@@ -163,6 +165,7 @@ class RunState:
     summary: str = ""
     error: dict | None = None
     sensing: dict = field(default_factory=dict)   # stream_sources, robot, clocks, outliers
+    pose_bias: object = None    # uncertainty.PoseBias: calibration uncertainty of the cameras
 
     @property
     def X_true(self):
@@ -439,6 +442,7 @@ def _stage_solvers(st: RunState) -> None:
         jobs += [(f"{m}+prior", m, True) for m in cfg.prior.methods]
     rng_children = st.rngs["solvers"].spawn(len(jobs))
     C, H = st.pairs.C, st.pairs.H
+    st.pose_bias, st.sensing["calibration_bias"] = calibration_bias(st)
     choice = choose_run_alpha(cfg, C, H)
     for (label, method, with_prior), rng in zip(
             reports.progress(jobs, enabled=cfg.progress, desc="solvers", unit="method",
@@ -493,6 +497,34 @@ def _failed(label, method, prior_info, reason, sweep=(), choice=None, oracle=Non
                         convergence=tuple(convergence))
 
 
+def calibration_bias(st) -> tuple:
+    """The known calibration uncertainty of the run's cameras, an input of the covariance
+    (``solve(..., pose_bias=...)``): ``(PoseBias or None, report)``. A camera measured by
+    the ``aruco`` source gets the covariance of the run-constant pose error that
+    ``vision.intrinsics_error`` (read as the 1-sigma of the calibration the estimator has)
+    causes (:func:`simcalib.vision.calibration_pose_bias`, no rendering); other sources
+    have no calibration term. ``report`` (results.json ``calibration_bias``):
+    ``included`` and per camera its 1-sigma (deg, m) and inputs."""
+    from simcalib.solvers.diagnostics.uncertainty import PoseBias
+    truth = st.truth
+    cams = [c for c in CAMERAS if st.camera_sources.get(c) == "aruco"]
+    report = {"included": False, "source": "vision.intrinsics_error (1-sigma of the "
+              "calibration) through PnP of the marker corners seen from the true poses",
+              "cameras": {}}
+    if not cams or truth is None or truth.world is None:
+        return None, report
+    from simcalib.vision import calibration_pose_bias
+    world = truth.world
+    cams = [c for c in cams if c in world.camera_names]
+    bias = calibration_pose_bias(world, st.cfg.vision, cameras=cams) if cams else {}
+    if not bias:
+        return None, report
+    report["included"] = True
+    report["cameras"] = {c: b.report() for c, b in bias.items()}
+    covs = [bias[c].covariance if c in bias else None for c in CAMERAS]
+    return PoseBias(*covs), report
+
+
 def correlation_lag(st) -> int:
     """Pairs ``(k, k + step)`` of consecutive datapoints of pose streams share poses up to
     lag ``step``: the uncertainty corrects for that serial correlation. Relative motions
@@ -510,7 +542,7 @@ def _solve_at(st, method, alpha, prior, rng, C, H):
                          rng=np.random.default_rng(rng.bit_generator.seed_seq),
                          tolerance_deg=cfg.verdict.tolerance_deg,
                          tolerance_m=cfg.verdict.tolerance_m,
-                         correlation_lag=correlation_lag(st))
+                         correlation_lag=correlation_lag(st), pose_bias=st.pose_bias)
     reason = _failure_reason(sol)
     if reason is not None:
         return sol, reason
@@ -580,7 +612,9 @@ def _solve_one(st, label, method, prior, prior_info, C, H, rng, choice) -> Solve
         sigma_rotation_deg=v.get("sigma_rotation_deg"),
         sigma_translation_m=v.get("sigma_translation_m"), verdict=v["verdict"],
         verdict_directions=v["undetermined"] if degenerate is not False else (),
-        alpha_choice=choice, oracle=oracle, convergence=tuple(convergence))
+        alpha_choice=choice, oracle=oracle, convergence=tuple(convergence),
+        covariance_calibration=None if sol.uncertainty is None
+        else sol.uncertainty.bias_covariance)
 
 
 def convergence_points(n: int, points: int, k_min: int = 3) -> tuple[int, ...]:

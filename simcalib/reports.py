@@ -103,7 +103,20 @@ def solver_entry(s) -> dict:
         "alpha_choice": s.alpha_choice,
         "oracle_alpha": s.oracle,
         "convergence": [dict(e) for e in s.convergence],
+        # the part of "covariance" that the cameras' calibration uncertainty contributes
+        # (results.json calibration_bias); null when none is included
+        "covariance_calibration": _calibration_entry(getattr(s, "covariance_calibration",
+                                                             None)),
     }
+
+
+def _calibration_entry(cov):
+    if cov is None:
+        return None
+    cov = np.asarray(cov, dtype=np.float64)
+    s = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    return {"covariance": cov.tolist(), "std": {"rotation_deg": np.degrees(s[:3]).tolist(),
+                                                "translation_m": s[3:].tolist()}}
 
 
 def results_dict(result) -> dict:
@@ -131,7 +144,7 @@ def results_dict(result) -> dict:
         "solvers": {s.label: solver_entry(s) for s in result.solvers},
         "timing_s": dict(result.timing_s),
         **{key: _plain(getattr(result, "sensing", {}).get(key))
-           for key in ("stream_sources", "robot", "clocks", "outliers")},
+           for key in ("stream_sources", "robot", "clocks", "outliers", "calibration_bias")},
     }
 
 

@@ -27,7 +27,7 @@ from .markers import (DROP_REASONS, DetectorSettings, MarkerField, PnPSettings,
 from .streams import CameraIntrinsics, PoseStream
 
 __all__ = ["VisionConfig", "VisualFrame", "VisualLog", "VisualStreamsInterrupted", "visual_streams",
-           "FrameProcessor"]
+           "FrameProcessor", "CalibrationBias", "calibration_sigmas", "calibration_pose_bias"]
 
 
 @dataclass(frozen=True)
@@ -638,6 +638,83 @@ def _camera_optics(cameras, intr: dict, eff, entropy: int) -> dict:
                                 render_margin_px(K, eff.distortion, intr[cam].width,
                                                  intr[cam].height),
                                 float(rng.uniform(0, 2 * np.pi)))
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class CalibrationBias:
+    """The run-constant pose error of one camera that its calibration error causes
+    (:func:`calibration_pose_bias`): ``covariance`` (6x6, of ``(rotvec rad, translation
+    m)`` right-multiplied in the camera frame: ``T_world_cam measured = T_world_cam N``),
+    ``jacobian`` (6, 8) the pose error per 1-sigma of each parameter of
+    :data:`simcalib.markers.INTRINSICS_PARAMETERS`, ``sigmas`` (8,) those 1-sigmas,
+    ``n_frames`` the poses averaged over."""
+    camera: str
+    covariance: np.ndarray
+    jacobian: np.ndarray
+    sigmas: np.ndarray
+    n_frames: int
+
+    def report(self) -> dict:
+        """Plain numbers for results.json: 1-sigma per axis (deg, m) and the inputs."""
+        from .markers import INTRINSICS_PARAMETERS  # noqa: PLC0415
+        s = np.sqrt(np.clip(np.diag(self.covariance), 0.0, None))
+        return {"std_deg": [float(x) for x in np.degrees(s[:3])],
+                "std_m": [float(x) for x in s[3:]],
+                "covariance": np.asarray(self.covariance).tolist(),
+                "parameter_sigmas": {n: float(v) for n, v in zip(INTRINSICS_PARAMETERS,
+                                                                  self.sigmas)},
+                "n_frames": int(self.n_frames)}
+
+
+def calibration_sigmas(eff) -> np.ndarray:
+    """1-sigma (8,) of the calibration parameters (:data:`simcalib.markers.
+    INTRINSICS_PARAMETERS`) a configuration's ``intrinsics_error`` ``(e_f, e_c, e_k)``
+    stands for: focal ``e_f`` (relative, fx and fy together), principal point moved ``e_c``
+    px in an unknown direction (RMS displacement ``e_c``: ``e_c / sqrt(2)`` per axis),
+    each distortion coefficient ``e_k |k_j|``."""
+    ef, ec, ek = eff.intrinsics_error
+    d = np.abs(np.asarray(eff.distortion, dtype=np.float64))
+    return np.concatenate([[ef, ec / np.sqrt(2.0), ec / np.sqrt(2.0)], ek * d])
+
+
+def calibration_pose_bias(world, cfg: "VisionConfig | None" = None, cameras=None,
+                          max_frames: int = 30) -> dict:
+    """Per camera of ``world`` (or of ``cameras``): the :class:`CalibrationBias` the
+    calibration error ``cfg.effects().intrinsics_error`` (read as the 1-sigma of the
+    calibration the estimator has, :func:`calibration_sigmas`) causes in the ArUco poses.
+    Nothing is rendered: the marker corners the layout makes visible
+    (:func:`simcalib.world.layout.visible_markers`) from up to ``max_frames`` of the
+    camera's true poses (evenly spaced over the delivered frames) go through
+    :func:`simcalib.markers.intrinsics_pose_sensitivity`; ``covariance = J J^T``.
+    Empty when the configuration has no calibration error."""
+    from .markers import intrinsics_pose_sensitivity  # noqa: PLC0415
+    from .world.layout import visible_markers  # noqa: PLC0415
+    cfg = VisionConfig() if cfg is None else cfg
+    if not isinstance(cfg, VisionConfig):
+        raise TypeError(f"cfg must be a VisionConfig; received {type(cfg).__name__}")
+    if isinstance(max_frames, bool) or not isinstance(max_frames, (int, np.integer)) \
+            or max_frames < 1:
+        raise ValueError(f"max_frames must be an integer >= 1; received {max_frames!r}")
+    eff = cfg.effects()
+    sig = calibration_sigmas(eff)
+    if not np.any(sig > 0):
+        return {}
+    cameras = tuple(world.camera_names) if cameras is None else tuple(cameras)
+    out = {}
+    for cam in cameras:
+        intr, _ = _camera_intrinsics(world, cam, cfg)
+        fr = _camera_frames(world, cam)
+        idx = np.flatnonzero(_delivered(fr))
+        if idx.size > max_frames:
+            idx = idx[np.round(np.linspace(0, idx.size - 1, max_frames)).astype(int)]
+        T = np.asarray(fr.T_world_cam, dtype=np.float64)[idx]
+        vis = visible_markers(world.marker_field, T, intr)
+        corners = world.marker_field.corners_world()
+        pts = [corners[v].reshape(-1, 3) for v in vis]
+        J = intrinsics_pose_sensitivity(pts, T, intr.K, eff.distortion, sig)
+        n = int(sum(p.shape[0] >= 4 for p in pts))
+        out[cam] = CalibrationBias(cam, J @ J.T, J, sig, n)
     return out
 
 

@@ -56,6 +56,9 @@ def test_3d_arm_aruco_recovers_X_and_records_images(tmp_path):
         assert rows.shape == (fr["used"], 8)
     dq = res["solvers"]["dqopt"]
     assert dq["degenerate"] is False and dq["undetermined"] == []
+    # the ideal camera has no calibration error: no calibration term in the covariance
+    assert res["calibration_bias"]["included"] is False
+    assert dq["covariance_calibration"] is None
     assert dq["rotation_error_deg"] < 0.1 and dq["translation_error_m"] < 0.005
     ents = _entities(out / "recording.rrd")
     assert any(e.startswith("/world/markers/") for e in ents)

@@ -175,6 +175,7 @@ class Solution:
     bootstrap_rng: np.random.Generator | None = field(default=None, repr=False, compare=False)
     bootstrap_samples: int = 200
     correlation_lag: int = 0        # motions share poses up to this lag (pairs k, k+step)
+    pose_bias: object = field(default=None, repr=False, compare=False)  # uncertainty.PoseBias
 
     # ---- issue 9: uncertainty and the verdict that follows from it
     @cached_property
@@ -188,7 +189,8 @@ class Solution:
         try:
             u = covariance(self.problem.C, self.problem.H, self.X, self.alpha, self.prior,
                            weights=self.problem.weights, tolerance_deg=self.tolerance_deg,
-                           tolerance_m=self.tolerance_m, correlation_lag=self.correlation_lag)
+                           tolerance_m=self.tolerance_m, correlation_lag=self.correlation_lag,
+                           pose_bias=self.pose_bias)
         except ValueError:
             return None
         if self.uncertainty_method == "bootstrap":
@@ -215,6 +217,8 @@ class Solution:
             return None
         inf_axes = ~np.isfinite(np.diag(u.covariance))
         cov = boot.copy()
+        if u.bias_covariance is not None:   # a calibration bias no resampling can see
+            cov = cov + u.bias_covariance
         cov[inf_axes, :] = 0.0
         cov[:, inf_axes] = 0.0
         cov[inf_axes, inf_axes] = np.inf
@@ -487,7 +491,7 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
           rng: np.random.Generator | None = None, weights=None, *, tolerance_deg: float = 1.0,
           tolerance_m: float = 0.01, uncertainty: str = "sandwich",
           bootstrap_samples: int = 200, correlation_lag: int = 0, robust: str = "none",
-          robust_threshold: float | None = None) -> Solution:
+          robust_threshold: float | None = None, pose_bias=None) -> Solution:
     """Estimate ``X = T_a_b`` from relative motions with ``C_i X = X H_i``.
 
     ``C``, ``H``: array-like ``(N, 4, 4)``, N >= 2. ``method``: a name from
@@ -504,6 +508,10 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
     information in both cases. ``correlation_lag``: the motions are in time order and
     share poses up to this lag (pairs ``(k, k + step)`` of one pose stream: ``step``); the
     uncertainty then corrects for the serial correlation of their noise (0: independent).
+    ``pose_bias``: the known calibration uncertainty of the cameras, a
+    :class:`simcalib.solvers.diagnostics.uncertainty.PoseBias` or ``(cov_a, cov_b)``
+    (6x6 covariances of each camera's run-constant pose error, camera frame, rotvec rad and
+    translation m; None for none): added to the covariance, std and verdict.
 
     ``robust``: ``"none"`` (default), ``"ransac"`` (hypotheses from minimal sets of motions,
     consensus by the per-motion screw residual — threshold ``robust_threshold`` or
@@ -517,10 +525,13 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
     """
     info = registry.get(method)
     alpha = check_alpha(alpha)
+    from simcalib.solvers.diagnostics.uncertainty import _check_pose_bias
+    pose_bias = _check_pose_bias(pose_bias)
     if robust != "none":
-        return _solve_robust(C, H, method, alpha, robust, robust_threshold, rng,
-                             tolerance_deg=tolerance_deg, tolerance_m=tolerance_m,
-                             weights=weights, prior=prior)
+        sol = _solve_robust(C, H, method, alpha, robust, robust_threshold, rng,
+                            tolerance_deg=tolerance_deg, tolerance_m=tolerance_m,
+                            weights=weights, prior=prior)
+        return replace(sol, pose_bias=pose_bias)
     from simcalib.solvers.diagnostics.uncertainty import check_tolerances
     tolerance_deg, tolerance_m = check_tolerances(tolerance_deg, tolerance_m)
     if uncertainty not in ("sandwich", "bootstrap"):
@@ -566,7 +577,7 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
                     diagnostics=diag, problem=problem, tolerance_deg=tolerance_deg,
                     tolerance_m=tolerance_m, uncertainty_method=uncertainty,
                     bootstrap_rng=boot_rng, bootstrap_samples=int(bootstrap_samples),
-                    correlation_lag=correlation_lag)
+                    correlation_lag=correlation_lag, pose_bias=pose_bias)
 
 
 def solve_batch(C, H, method: str = "dqopt", alpha=1.0, prior: Prior | None = None,

@@ -21,6 +21,20 @@ the rotation noise of ``H_i`` into ``tau_i`` through ``R_Ci' t_X``).
   ``sqrt(eps)`` rad and ``1e-9 L`` m (``L`` the translation scale of the data): DQ solvers
   square the motion matrices, so relative rotations below ~1e-8 rad carry no usable
   information even on noise-free data.
+* **Calibration bias (a known input, ``pose_bias``)**: a pose error that is *constant*
+  over the run (e.g. from an error of the camera intrinsics) is exactly a change of ``X``
+  (``X' = N_a^-1 X N_b``) and leaves no trace in the residuals; no residual-based term can
+  include it. The user states how well the cameras are calibrated instead: a
+  :class:`PoseBias` holds the covariance ``P_c`` (6x6) of each camera's run-constant pose
+  error ``N_c = exp(n_c)``, right-multiplied (``T_world_cam measured = T_world_cam N_c``,
+  camera frame, ``n_c = (rotvec rad, translation m)``). To first order the error of ``X``
+  it causes is ``delta = Ja n_a + Jb n_b`` with ``Ja = [[I, 0], [-[t_X], I]]``,
+  ``Jb = -diag(R_X, R_X)`` (:func:`pose_bias_covariance`), so the estimator's error gets
+  ``Sigma_bias = Ja P_a Ja^T + Jb P_b Jb^T``: added to the meat as ``H_d Sigma_bias H_d``
+  (``H_d`` the data part of the bread: the data pull the estimate to ``X'``, a prior holds
+  it back), and to the verdict's information as ``(F^-1 + Sigma_bias)^-1`` (Woodbury form,
+  valid for singular ``F``). The pipeline derives ``P_c`` for ArUco streams from
+  ``vision.intrinsics_error`` (:func:`simcalib.vision.calibration_pose_bias`).
 * **Covariance of the estimate** (the sandwich of the paper's cost at ``alpha``): the DQ
   residual of cost (8) is ``r_i ~= T_i e_i`` (8x6, with alpha on the dual rows), so the cost is
   ``sum e_i^T S_i e_i`` with ``S_i = T_i^T T_i``. Gauss-Newton / first-order perturbation of
@@ -124,7 +138,7 @@ from simcalib.geometry import (
     skew_matrix,
 )
 
-__all__ = ["linear_model", "NoiseModel", "Direction", "Uncertainty", "AlphaChoice", "covariance",
+__all__ = ["linear_model", "NoiseModel", "PoseBias", "pose_bias_jacobians", "pose_bias_covariance", "Direction", "Uncertainty", "AlphaChoice", "covariance",
            "covariance_batch",
            "choose_alpha", "bootstrap_covariance", "pose_error", "check_tolerances", "TOLERANCE_DEG",
            "TOLERANCE_M", "ROTATION_FLOOR_RAD", "TRANSLATION_FLOOR_REL", "NULL_LEVEL",
@@ -180,6 +194,94 @@ def _check_noise(noise) -> NoiseModel | None:
         return NoiseModel(noise[0], noise[1])
     raise TypeError(f"noise must be a NoiseModel, a (sigma_r_rad, sigma_t_m) pair or None; "
                     f"received {type(noise).__name__}")
+
+
+def _check_cov6(name, P) -> np.ndarray:
+    if P is None:
+        return np.zeros((6, 6))
+    try:
+        A = np.array(P, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} must be a 6x6 covariance matrix (array of numbers) or None; "
+                        f"received {type(P).__name__}") from None
+    if A.shape != (6, 6):
+        raise ValueError(f"{name} must be a 6x6 covariance (rotvec rad, translation m); "
+                         f"received shape {A.shape}")
+    if not np.isfinite(A).all():
+        raise ValueError(f"{name} must be finite; received non-finite entries")
+    scale = float(np.max(np.abs(A)))
+    if np.max(np.abs(A - A.T)) > 1e-9 * scale:
+        raise ValueError(f"{name} must be symmetric; max |P - P^T| = "
+                         f"{np.max(np.abs(A - A.T)):.3g} (max |P| = {scale:.3g})")
+    A = 0.5 * (A + A.T)
+    lam = np.linalg.eigvalsh(A) if scale > 0 else np.zeros(6)
+    if lam[0] < -1e-9 * max(lam[-1], 0.0) or (lam[-1] <= 0 and lam[0] < 0):
+        raise ValueError(f"{name} must be positive semi-definite; smallest eigenvalue "
+                         f"{lam[0]:.3g}")
+    A.setflags(write=False)
+    return A
+
+
+@dataclass(frozen=True, eq=False)
+class PoseBias:
+    """Known covariance of each camera's pose error that is constant over the run (a
+    calibration error of the camera, e.g. its intrinsics): ``cov_a``, ``cov_b`` (6x6, or
+    None for none), of ``n_c = (rotvec rad, translation m)`` with
+    ``T_world_cam measured = T_world_cam true @ exp(n_c)`` (right-multiplied, camera frame,
+    the order of the error ``delta``). Symmetric, positive semi-definite, finite."""
+    cov_a: np.ndarray | None = None
+    cov_b: np.ndarray | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "cov_a", _check_cov6("pose_bias cov_a", self.cov_a))
+        object.__setattr__(self, "cov_b", _check_cov6("pose_bias cov_b", self.cov_b))
+
+    @property
+    def is_zero(self) -> bool:
+        return not (np.any(self.cov_a) or np.any(self.cov_b))
+
+
+def _check_pose_bias(pose_bias) -> PoseBias | None:
+    if pose_bias is None or isinstance(pose_bias, PoseBias):
+        return pose_bias
+    if isinstance(pose_bias, (tuple, list)) and len(pose_bias) == 2:
+        return PoseBias(pose_bias[0], pose_bias[1])
+    raise TypeError(f"pose_bias must be a PoseBias, a (cov_a, cov_b) pair of 6x6 covariances "
+                    f"or None; received {type(pose_bias).__name__}")
+
+
+def pose_bias_jacobians(X) -> tuple[np.ndarray, np.ndarray]:
+    """``(Ja, Jb)`` (6x6 each): first-order error ``delta`` of ``X`` (convention of
+    :func:`pose_error`, vs the true ``X``) when the estimate converges to
+    ``X' = exp(n_a)^-1 X exp(n_b)`` (run-constant pose errors ``n_a``, ``n_b`` of the
+    cameras, right-multiplied): ``delta = Ja n_a + Jb n_b``."""
+    X = _check_X(X)
+    R, t = X[:3, :3], X[:3, 3]
+    Ja = np.eye(6)
+    Ja[3:, :3] = -skew_matrix(t)
+    Jb = np.zeros((6, 6))
+    Jb[:3, :3] = -R
+    Jb[3:, 3:] = -R
+    return Ja, Jb
+
+
+def pose_bias_covariance(X, cov_a, cov_b) -> np.ndarray:
+    """Covariance (6x6) of the error ``delta`` of ``X`` caused by run-constant camera pose
+    errors with covariances ``cov_a``, ``cov_b`` (see :class:`PoseBias`)."""
+    pb = PoseBias(cov_a, cov_b)
+    Ja, Jb = pose_bias_jacobians(X)
+    S = Ja @ pb.cov_a @ Ja.T + Jb @ pb.cov_b @ Jb.T
+    return 0.5 * (S + S.T)
+
+
+def _woodbury_information(F, Sig):
+    """``(F^-1 + Sig)^-1`` for PSD ``F`` (possibly singular) and PSD ``Sig``:
+    ``F - F G (I + G^T F G)^-1 G^T F`` with ``Sig = G G^T``."""
+    lam, V = np.linalg.eigh(0.5 * (Sig + Sig.T))
+    G = V * np.sqrt(np.clip(lam, 0.0, None))
+    FG = F @ G
+    out = F - FG @ np.linalg.solve(np.eye(G.shape[1]) + G.T @ FG, FG.T)
+    return 0.5 * (out + out.T)
 
 
 def _check_X(X, name="X") -> np.ndarray:
@@ -425,6 +527,7 @@ class Uncertainty:
     n_motions: int
     method: str = "sandwich"
     offset: np.ndarray | None = None   # Gauss-Newton step from X to the alpha-cost minimiser
+    bias_covariance: np.ndarray | None = None   # part of covariance from pose_bias (6x6)
     # the noise-only information (verdict null, 6x6 like ``information``), the generalised
     # eigenvalues of (information, noise_information) ascending, and their thresholds
     noise_information: np.ndarray | None = None
@@ -513,13 +616,16 @@ def _fmt_vec3(v):
 # -------------------------------------------------------------------------- main entry
 def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None, *,
                tolerance_deg: float = TOLERANCE_DEG, tolerance_m: float = TOLERANCE_M,
-               correlation_lag: int = 0
+               correlation_lag: int = 0, pose_bias=None
                ) -> Uncertainty:
     """Uncertainty of the estimate ``X`` (= ``T_a_b``) from motions ``C``, ``H`` (N,4,4),
     ``C_i X = X H_i``, for the paper's cost at ``alpha`` (1/m) with an optional
     :class:`simcalib.solvers.api.Prior`. ``noise``: a :class:`NoiseModel` or
     ``(sigma_r_rad, sigma_t_m)``; default estimated from the residuals. ``weights``: optional
-    (N,) non-negative per-motion weights of the cost. See the module doc."""
+    (N,) non-negative per-motion weights of the cost. ``pose_bias``: a :class:`PoseBias`
+    or ``(cov_a, cov_b)``, the known covariance of each camera's run-constant pose error
+    (calibration), added to the covariance and the verdict's information. See the module
+    doc."""
     C = check_transforms(C, "C", min_count=2)
     H = check_transforms(H, "H", min_count=2)
     if C.shape != H.shape:
@@ -530,6 +636,7 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
     tol_r = math.radians(_real("tolerance_deg", tolerance_deg))
     tol_m = _real("tolerance_m", tolerance_m)
     noise = _check_noise(noise)
+    bias = _check_pose_bias(pose_bias)
     if prior is not None and not all(hasattr(prior, k) for k in ("X", "a", "b")):
         raise TypeError(f"prior must be a simcalib.Prior or None; received "
                         f"{type(prior).__name__}")
@@ -611,6 +718,11 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
         Fc = _rescale_meat(F, M0F, MhF)
         F = F @ _sym_inv(Fc) @ F
         F = 0.5 * (F + F.T)
+    Sig_bias = None
+    if bias is not None and not bias.is_zero:
+        Sig_bias = pose_bias_covariance(X, bias.cov_a, bias.cov_b)
+        Ms = Ms + Hs @ Sig_bias @ Hs
+        F = _woodbury_information(F, Sig_bias)
     F_prior = np.zeros((6, 6))
     prior_cov = None
     if prior is not None:
@@ -766,7 +878,7 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
                        determined_basis=Bp, information=F, prior_covariance=prior_cov,
                        noise=noise_out, alpha=alpha, tolerance_deg=math.degrees(tol_r),
                        tolerance_m=tol_m, directions=tuple(dirs), translation_scale_m=L,
-                       n_motions=N, offset=offset_t * dsc, noise_information=F_noise,
+                       n_motions=N, offset=offset_t * dsc, bias_covariance=Sig_bias, noise_information=F_noise,
                        information_ratio=null.ratio, ratio_threshold=null.threshold)
 
 
@@ -826,7 +938,7 @@ def _describe(u, dsc, reason, sdeg, sm, swd, swm, by_prior) -> Direction:
 
 def covariance_batch(C, H, X, alpha=1.0, prior=None, noise=None, *,
                      tolerance_deg: float = TOLERANCE_DEG, tolerance_m: float = TOLERANCE_M,
-                     weights=None) -> tuple:
+                     weights=None, pose_bias=None) -> tuple:
     """:func:`covariance` per problem of a batch: ``C``, ``H`` (B, N, 4, 4), ``X`` (B, 4, 4),
     ``alpha`` scalar or (B,), ``weights`` None or (B, N). Problems whose ``X`` is not a finite rigid transform (failed
     solves) give None."""
@@ -845,7 +957,8 @@ def covariance_batch(C, H, X, alpha=1.0, prior=None, noise=None, *,
         try:
             out.append(covariance(C[b], H[b], X[b], float(alphas[b]), prior, noise,
                                   None if weights is None else weights[b],
-                                  tolerance_deg=tolerance_deg, tolerance_m=tolerance_m))
+                                  tolerance_deg=tolerance_deg, tolerance_m=tolerance_m,
+                                  pose_bias=pose_bias))
         except ValueError:
             out.append(None)
     return tuple(out)

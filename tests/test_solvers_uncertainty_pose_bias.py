@@ -1,0 +1,254 @@
+"""Calibration (run-constant camera pose) bias as a known input of the covariance (issue 9):
+propagation to the error of X, the sandwich / verdict terms, input checks, and the ArUco
+calibration sensitivity the pipeline derives it from."""
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from simcalib import geometry as g
+from simcalib.solvers.api import Prior, solve
+from simcalib.solvers.diagnostics import uncertainty as U
+
+
+def _exp6(x):
+    T = np.eye(4)
+    T[:3, :3] = g.matrix_from_rotvec(x[:3])
+    T[:3, 3] = x[3:]
+    return T
+
+
+def _problem(n=40, seed=0, sr=0.01, st=0.002):
+    rng = np.random.default_rng(seed)
+    X = _exp6(np.r_[rng.normal(size=3), 0.3 * rng.normal(size=3)])
+    C = np.stack([_exp6(np.r_[rng.normal(size=3), 0.5 * rng.normal(size=3)]) for _ in range(n)])
+    H = g.invert_transform(X) @ C @ X
+    Cn = C @ np.stack([_exp6(np.r_[sr * rng.normal(size=3), st * rng.normal(size=3)])
+                       for _ in range(n)])
+    Hn = H @ np.stack([_exp6(np.r_[sr * rng.normal(size=3), st * rng.normal(size=3)])
+                       for _ in range(n)])
+    return Cn, Hn, X
+
+
+def _random_psd(rng, scale=1e-4):
+    A = scale * rng.normal(size=(6, 6))
+    return A @ A.T
+
+
+def test_jacobians_match_finite_differences():
+    rng = np.random.default_rng(3)
+    X = _exp6(np.r_[rng.normal(size=3), 0.5 * rng.normal(size=3)])
+    Ja, Jb = U.pose_bias_jacobians(X)
+    h = 1e-6
+    for k in range(6):
+        n = np.zeros(6)
+        n[k] = h
+        da = (U.pose_error(X, g.invert_transform(_exp6(n)) @ X)
+              - U.pose_error(X, g.invert_transform(_exp6(-n)) @ X)) / (2 * h)
+        db = (U.pose_error(X, X @ _exp6(n)) - U.pose_error(X, X @ _exp6(-n))) / (2 * h)
+        np.testing.assert_allclose(da, Ja[:, k], atol=1e-8)
+        np.testing.assert_allclose(db, Jb[:, k], atol=1e-8)
+
+
+def test_covariance_propagation_matches_sampled_biases():
+    rng = np.random.default_rng(4)
+    X = _exp6(np.r_[rng.normal(size=3), 0.5 * rng.normal(size=3)])
+    Pa, Pb = _random_psd(rng, 1e-3), _random_psd(rng, 1e-3)
+    na = rng.multivariate_normal(np.zeros(6), Pa, size=4000)
+    nb = rng.multivariate_normal(np.zeros(6), Pb, size=4000)
+    Xp = np.stack([g.invert_transform(_exp6(a)) @ X @ _exp6(b) for a, b in zip(na, nb)])
+    d = U.pose_error(np.broadcast_to(X, Xp.shape), Xp)
+    emp = d.T @ d / d.shape[0]
+    S = U.pose_bias_covariance(X, Pa, Pb)
+    np.testing.assert_allclose(np.sqrt(np.diag(emp)), np.sqrt(np.diag(S)), rtol=0.05)
+
+
+def test_noise_free_solver_converges_to_the_biased_X():
+    """The full chain: constant pose errors N_a, N_b on noise-free poses -> dqopt finds
+    X' = N_a^-1 X N_b, whose error is Ja n_a + Jb n_b to first order."""
+    rng = np.random.default_rng(5)
+    X = _exp6(np.r_[rng.normal(size=3), 0.3 * rng.normal(size=3)])
+    Ta = np.stack([_exp6(np.r_[rng.normal(size=3), rng.normal(size=3)]) for _ in range(30)])
+    Tb = Ta @ X
+    na, nb = 1e-4 * rng.normal(size=6), 1e-4 * rng.normal(size=6)
+    Ma, Mb = Ta @ _exp6(na), Tb @ _exp6(nb)
+    C = g.invert_transform(Ma[:-1]) @ Ma[1:]
+    H = g.invert_transform(Mb[:-1]) @ Mb[1:]
+    sol = solve(C, H, method="dqopt", alpha=1.0)
+    Ja, Jb = U.pose_bias_jacobians(X)
+    np.testing.assert_allclose(U.pose_error(X, sol.X), Ja @ na + Jb @ nb, atol=1e-7)
+
+
+def test_bias_adds_exactly_to_the_covariance_and_zero_bias_is_identity():
+    C, H, X = _problem()
+    X_est = solve(C, H, method="dqopt", alpha=1.0).X
+    u0 = U.covariance(C, H, X_est, 1.0)
+    for zero in (None, (None, None), (np.zeros((6, 6)), None), U.PoseBias()):
+        uz = U.covariance(C, H, X_est, 1.0, pose_bias=zero)
+        np.testing.assert_array_equal(uz.covariance, u0.covariance)
+        np.testing.assert_array_equal(uz.information, u0.information)
+        assert uz.bias_covariance is None and uz.verdict == u0.verdict
+    rng = np.random.default_rng(6)
+    Pa, Pb = _random_psd(rng), _random_psd(rng)
+    u = U.covariance(C, H, X_est, 1.0, pose_bias=(Pa, Pb))
+    S = U.pose_bias_covariance(X_est, Pa, Pb)
+    np.testing.assert_allclose(u.bias_covariance, S)
+    np.testing.assert_allclose(u.covariance, u0.covariance + S, rtol=1e-7,
+                               atol=1e-12 * np.abs(S).max())
+    # the verdict's information is that of the total covariance
+    F_tot = np.linalg.inv(np.linalg.inv(u0.information) + S)
+    np.testing.assert_allclose(u.information, F_tot, rtol=1e-6, atol=1e-9 * np.abs(F_tot).max())
+    # the same through solve / Solution, and added to the bootstrap covariance
+    sol = solve(C, H, method="dqopt", alpha=1.0, pose_bias=U.PoseBias(Pa, Pb))
+    np.testing.assert_allclose(sol.covariance, u.covariance, rtol=1e-9, atol=1e-15)
+    assert np.all(sol.std >= solve(C, H, method="dqopt", alpha=1.0).std)
+    sb = solve(C, H, method="dqopt", alpha=1.0, uncertainty="bootstrap", bootstrap_samples=20,
+               pose_bias=(Pa, Pb))
+    sb0 = solve(C, H, method="dqopt", alpha=1.0, uncertainty="bootstrap", bootstrap_samples=20)
+    np.testing.assert_allclose(sb.covariance, sb0.covariance + u.bias_covariance, rtol=1e-9)
+
+
+def test_large_bias_makes_the_verdict_poorly_determined():
+    C, H, X = _problem()
+    X_est = solve(C, H, method="dqopt", alpha=1.0).X
+    assert U.covariance(C, H, X_est, 1.0).verdict == "determined"
+    P = np.diag([1e-6] * 3 + [0.03 ** 2] * 3)      # 3 cm of run-constant camera error
+    u = U.covariance(C, H, X_est, 1.0, pose_bias=(P, None))
+    assert u.verdict == "poorly determined"
+    assert all(d.kind == "translation" for d in u.directions)
+
+
+def test_prior_holds_back_the_bias():
+    C, H, X = _problem()
+    P = np.diag([1e-6] * 3 + [1e-4] * 3)
+    free = U.covariance(C, H, X, 1.0, pose_bias=(P, P))
+    held = U.covariance(C, H, X, 1.0, prior=Prior(X, 1e6, 1e6), pose_bias=(P, P))
+    assert np.all(np.diag(held.covariance) < 0.1 * np.diag(free.covariance))
+
+
+def test_singular_information_stays_undetermined():
+    rng = np.random.default_rng(8)
+    F = np.diag([1e6, 1e6, 1e6, 1e4, 1e4, 0.0])
+    S = _random_psd(rng, 1e-2)
+    Fe = U._woodbury_information(F, S)
+    assert abs(Fe[5, 5]) < 1e-12 and np.abs(Fe[5]).max() < 1e-9
+    B = np.linalg.inv(np.linalg.inv(F[:5, :5]) + S[:5, :5])
+    np.testing.assert_allclose(Fe[:5, :5], B, rtol=1e-6)
+
+
+@pytest.mark.parametrize("bad, err, match", [
+    (np.eye(5), ValueError, "6x6"),
+    (np.full((6, 6), np.nan), ValueError, "finite"),
+    (np.triu(np.ones((6, 6))), ValueError, "symmetric"),
+    (-np.eye(6), ValueError, "positive semi-definite"),
+    (np.diag([1.0, 1, 1, 1, 1, -0.1]), ValueError, "positive semi-definite"),
+    ("abc", ValueError, "6x6|could not|must be"),
+])
+def test_pose_bias_input_errors(bad, err, match):
+    with pytest.raises((ValueError, TypeError), match=match):
+        U.PoseBias(bad, None)
+    C, H, X = _problem(n=10)
+    with pytest.raises((ValueError, TypeError), match=match):
+        U.covariance(C, H, X, 1.0, pose_bias=(None, bad))
+
+
+def test_pose_bias_type_errors():
+    C, H, X = _problem(n=10)
+    with pytest.raises(TypeError, match="pose_bias must be a PoseBias"):
+        U.covariance(C, H, X, 1.0, pose_bias=np.eye(6))
+    with pytest.raises(TypeError, match="pose_bias must be a PoseBias"):
+        solve(C, H, pose_bias="none")
+
+
+# ------------------------------------------------------------- ArUco calibration sensitivity
+def _wall_world(n_frames=6):
+    """No rendering: a 3x4 wall of 10 cm markers at z=0 seen by two cameras ~1 m above."""
+    from simcalib.markers import MarkerField
+    from simcalib.streams import CameraFrames, CameraIntrinsics, Trajectory
+    Ts = []
+    for i in range(3):
+        for j in range(4):
+            T = np.eye(4)
+            T[:3, 3] = [0.3 * (j - 1.5), 0.3 * (i - 1), 0.0]
+            Ts.append(T)
+    field = MarkerField("DICT_4X4_250", np.arange(12), 0.1, np.stack(Ts))
+    t = np.arange(n_frames) / 10.0
+    down = np.diag([1.0, -1.0, -1.0])                        # camera z towards the wall
+    X = _exp6(np.r_[0.0, 0.1, 0.0, 0.1, 0.0, 0.0])
+    Ta = np.stack([g.transform_from_rotation_translation(
+        down @ g.matrix_from_rotvec([0.1 * np.sin(k), 0.1 * np.cos(k), 0.2 * k]),
+        [0.1 * np.sin(k), 0.1 * np.cos(k), 1.0]) for k in range(n_frames)])
+    fr = {c: CameraFrames(c, t.copy(), T, np.zeros((n_frames, 0)), np.zeros((n_frames, 1, 3)),
+                          np.tile([1.0, 0, 0, 0], (n_frames, 1, 1)))
+          for c, T in (("cam_a", Ta), ("cam_b", Ta @ X))}
+    return SimpleNamespace(camera_names=("cam_a", "cam_b"),
+                           intrinsics={c: CameraIntrinsics.from_fovy(640, 480, 60.0)
+                                       for c in fr},
+                           marker_field=field,
+                           trajectory=Trajectory(fr["cam_a"], fr["cam_b"], X))
+
+
+def test_intrinsics_sensitivity_matches_pinhole_geometry():
+    from simcalib.markers import intrinsics_pose_sensitivity
+    w = _wall_world(1)
+    intr = w.intrinsics["cam_a"]
+    T = w.trajectory.cam_a.T_world_cam
+    pts = [w.marker_field.corners_world().reshape(-1, 3)]
+    sig = np.array([1e-3, 1.0, 0.0, 0, 0, 0, 0, 0])
+    J = intrinsics_pose_sensitivity(pts, T, intr.K, np.zeros(5), sig)
+    assert np.all(J[:, 2:] == 0)
+    depth = float(np.mean((g.invert_transform(T[0])[:3, :3] @ pts[0].T)[2]
+                          + g.invert_transform(T[0])[2, 3]))
+    # focal +0.1 %: the camera seems 0.1 % further from the wall (along its optical axis)
+    assert J[5, 0] == pytest.approx(-1e-3 * depth, rel=0.15)
+    # principal point +1 px in x, flat wall seen head-on: the image shifts by 1 px, which
+    # PnP explains by moving the camera depth / f along its x (a rotation would foreshorten)
+    assert abs(J[3, 1]) == pytest.approx(depth / intr.fx, rel=0.2)
+    assert abs(J[1, 1]) < 0.1 / intr.fx
+    # linear: a step of half a sigma moves the pose half as much
+    J2 = intrinsics_pose_sensitivity(pts, T, intr.K, np.zeros(5), sig / 2)
+    np.testing.assert_allclose(J2, J / 2, rtol=1e-3, atol=1e-9)
+
+
+def _state(preset, sources=("aruco", "aruco"), **vision):
+    from simcalib.sources.base import GroundTruth
+    from simcalib.vision import VisionConfig
+    w = _wall_world()
+    truth = GroundTruth(kind="sim", X_true=w.trajectory.T_a_b if hasattr(w.trajectory, "T_a_b")
+                        else np.eye(4), streams={}, world=w, marker_field=w.marker_field)
+    return SimpleNamespace(cfg=SimpleNamespace(vision=VisionConfig(preset=preset, **vision)),
+                           truth=truth, camera_sources=dict(zip(("cam_a", "cam_b"), sources)))
+
+
+def test_pipeline_sets_the_calibration_term_for_aruco_with_realistic_only():
+    from simcalib.pipeline import calibration_bias
+    pb, rep = calibration_bias(_state("realistic"))
+    assert isinstance(pb, U.PoseBias) and rep["included"]
+    assert set(rep["cameras"]) == {"cam_a", "cam_b"}
+    for cam, cov in (("cam_a", pb.cov_a), ("cam_b", pb.cov_b)):
+        s = rep["cameras"][cam]
+        assert 0 < max(s["std_deg"]) < 1 and 0 < max(s["std_m"]) < 0.05
+        np.testing.assert_allclose(np.asarray(s["covariance"]), cov)
+    for st in (_state("ideal"), _state("realistic", ("noisy", "noisy")),
+               _state("realistic", intrinsics_error=(0.0, 0.0, 0.0))):
+        pb, rep = calibration_bias(st)
+        assert pb is None and rep["included"] is False and rep["cameras"] == {}
+    # one ArUco stream: only that camera has a calibration term
+    pb, rep = calibration_bias(_state("realistic", ("robot_fk", "aruco")))
+    assert not np.any(pb.cov_a) and np.any(pb.cov_b) and set(rep["cameras"]) == {"cam_b"}
+    # larger intrinsics error, larger term (harsh)
+    big, _ = calibration_bias(_state("harsh"))
+    small, _ = calibration_bias(_state("realistic"))
+    assert np.trace(big.cov_a) > np.trace(small.cov_a)
+
+
+def test_coverage_tool_row_with_the_calibration_term():
+    from simcalib.experiments.coverage import scenario_coverage
+    P = np.diag([1e-8] * 3 + [1e-6] * 3)
+    data = [(*_problem(n=20, seed=s)[:2], _problem(n=20, seed=s)[2], 0, None, U.PoseBias(P, P))
+            for s in range(3)]
+    r0 = scenario_coverage("x", data)
+    r1 = scenario_coverage("x", data, calibration=True)
+    assert r0["solved"] == r1["solved"] == 3
+    assert np.all(r1["pred"] > r0["pred"]) and np.allclose(r1["rms"], r0["rms"])
