@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 __all__ = [
+    "map_pose_covariance",
     "CORNER_REFINEMENTS",
     "DICTIONARY",
     "DROP_REASONS",
@@ -646,3 +647,78 @@ def intrinsics_pose_sensitivity(points_world, T_world_cam, K, dist, sigmas) -> n
         raise ValueError("no pose sees 4 or more points; the calibration sensitivity is "
                          "undefined")
     return J / n_used
+
+
+def map_pose_covariance(field: "MarkerField", visible: np.ndarray, T_world_cam, K,
+                        position_std_m: float, rotation_std_rad: float) -> np.ndarray:
+    """Covariance (6, 6) of the part of a camera's PnP pose error that a marker-map error
+    makes common to its frames (constant over a run: the map is surveyed once).
+
+    The estimator's map holds each marker at ``T_world_marker @ [dR | dt]`` (marker frame,
+    ``dt ~ N(0, position_std_m^2 I)``, ``dR`` by an angle ``~ N(0, rotation_std_rad^2)``
+    about a uniform axis, independent per marker), so a corner ``c`` (marker frame) is
+    believed at ``P + R_wm (dt - [c]x omega)``. First order, per frame ``f`` seeing the
+    markers ``visible[f]`` (multi-marker PnP on undistorted pinhole points, ``K``): the pose
+    error ``xi = (rotvec, t)`` of ``T_true^-1 T_est`` (right-multiplied, camera frame) is
+    ``-A_f^+ B_f eta`` with ``A_f`` the Jacobian of the corners' pixels w.r.t. ``xi`` and
+    ``B_f`` w.r.t. the map errors ``eta``. Averaged over the frames (a marker not seen in a
+    frame contributes 0 there): ``J_m`` (6, 6) per marker; the covariance is
+    ``sum_m J_m D J_m^T``, ``D = diag(rotation_std^2 / 3 (x3), position_std^2 (x3))``.
+    Frames seeing fewer than one full marker are skipped. Cross-covariance between two
+    cameras seeing the same markers is not returned."""
+    T = np.asarray(T_world_cam, dtype=np.float64)
+    vis = np.asarray(visible, dtype=bool)
+    if T.ndim != 3 or T.shape[1:] != (4, 4) or not np.isfinite(T).all():
+        raise ValueError(f"T_world_cam must be (F, 4, 4) finite poses; received shape {T.shape}")
+    M = field.T_world_marker.shape[0]
+    if vis.shape != (T.shape[0], M):
+        raise ValueError(f"visible must be (F, M) = ({T.shape[0]}, {M}) booleans; received "
+                         f"shape {vis.shape}")
+    K = np.asarray(K, dtype=np.float64)
+    if K.shape != (3, 3) or not np.isfinite(K).all():
+        raise ValueError(f"K must be a finite (3, 3) matrix; received shape {K.shape}")
+    for name, v in (("position_std_m", position_std_m), ("rotation_std_rad", rotation_std_rad)):
+        if isinstance(v, bool) or not np.isfinite(v) or v < 0:
+            raise ValueError(f"{name} must be a finite number >= 0; received {v!r}")
+    D = np.array([rotation_std_rad ** 2 / 3.0] * 3 + [position_std_m ** 2] * 3)
+    if not D.any():
+        return np.zeros((6, 6))
+    local = marker_corners_local(field.side_m)                  # (4, 3)
+    Pw = field.corners_world()                                  # (M, 4, 3)
+    R_wm = field.T_world_marker[:, :3, :3]
+    # d P_w / d eta per marker corner: (M, 4, 3, 6) = R_wm [ -[c]x , I ]
+    skew_c = np.zeros((4, 3, 3))
+    skew_c[:, 0, 1], skew_c[:, 0, 2] = -local[:, 2], local[:, 1]
+    skew_c[:, 1, 0], skew_c[:, 1, 2] = local[:, 2], -local[:, 0]
+    skew_c[:, 2, 0], skew_c[:, 2, 1] = -local[:, 1], local[:, 0]
+    dP_deta = np.concatenate([np.einsum("mij,cjk->mcik", R_wm, -skew_c),
+                              np.broadcast_to(R_wm[:, None], (M, 4, 3, 3))], axis=-1)
+    J = np.zeros((M, 6, 6))
+    n_used = 0
+    for f in np.flatnonzero(vis.any(axis=1)):
+        ms = np.flatnonzero(vis[f])
+        T_cw = _inv(T[f])
+        pc = np.einsum("ij,mcj->mci", T_cw[:3, :3], Pw[ms]) + T_cw[:3, 3]      # (m, 4, 3)
+        x, y, z = pc[..., 0], pc[..., 1], pc[..., 2]
+        duv_dpc = np.zeros(pc.shape[:2] + (2, 3))
+        duv_dpc[..., 0, 0] = K[0, 0] / z
+        duv_dpc[..., 0, 2] = -K[0, 0] * x / z ** 2
+        duv_dpc[..., 1, 1] = K[1, 1] / z
+        duv_dpc[..., 1, 2] = -K[1, 1] * y / z ** 2
+        dpc_dxi = np.zeros(pc.shape[:2] + (3, 6))
+        dpc_dxi[..., 0, 1], dpc_dxi[..., 0, 2] = -z, y          # [p]x
+        dpc_dxi[..., 1, 0], dpc_dxi[..., 1, 2] = z, -x
+        dpc_dxi[..., 2, 0], dpc_dxi[..., 2, 1] = -y, x
+        dpc_dxi[..., :, 3:] = -np.eye(3)
+        A = (duv_dpc @ dpc_dxi).reshape(-1, 6)                              # (2P, 6)
+        B = duv_dpc @ T_cw[:3, :3] @ dP_deta[ms]                           # (m, 4, 2, 6)
+        Apinv = np.linalg.pinv(A)                                           # (6, 2P)
+        Bm = B.reshape(len(ms), -1, 6)                                      # (m, 8, 6)
+        Ap = Apinv.reshape(6, len(ms), 8).transpose(1, 0, 2)                # (m, 6, 8)
+        J[ms] -= Ap @ Bm
+        n_used += 1
+    if n_used == 0:
+        raise ValueError("no pose sees a marker; the map-error sensitivity is undefined")
+    J /= n_used
+    S = np.einsum("mij,j,mkj->ik", J, D, J)
+    return 0.5 * (S + S.T)

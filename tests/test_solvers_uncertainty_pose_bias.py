@@ -252,3 +252,53 @@ def test_coverage_tool_row_with_the_calibration_term():
     r1 = scenario_coverage("x", data, calibration=True)
     assert r0["solved"] == r1["solved"] == 3
     assert np.all(r1["pred"] > r0["pred"]) and np.allclose(r1["rms"], r0["rms"])
+
+
+def test_map_error_covariance_matches_pnp_monte_carlo():
+    """The first-order map-error covariance against PnP on perturbed maps (cv2, no render)."""
+    import cv2
+
+    from simcalib.geometry import perturb_transforms, rotvec_from_matrix
+    from simcalib.markers import MarkerField, map_pose_covariance
+    w = _wall_world(3)
+    field = w.marker_field
+    intr = w.intrinsics["cam_a"]
+    T = np.asarray(w.trajectory.cam_a.T_world_cam)
+    vis = np.ones((T.shape[0], field.T_world_marker.shape[0]), dtype=bool)
+    pos_std, rot_std = 0.002, np.radians(0.5)
+    S = map_pose_covariance(field, vis, T, intr.K, pos_std, rot_std)
+    rng = np.random.default_rng(0)
+    true_pts = field.corners_world().reshape(-1, 3)
+    xis = []
+    for _ in range(300):
+        Tm = perturb_transforms(field.T_world_marker, rot_std, pos_std, rng)
+        believed = MarkerField(field.dictionary, field.ids, field.side_m, Tm)
+        P = believed.corners_world().reshape(-1, 3)
+        xi = np.zeros(6)
+        for f in range(T.shape[0]):
+            T_cw = np.linalg.inv(T[f])
+            rv, _ = cv2.Rodrigues(T_cw[:3, :3])
+            uv, _ = cv2.projectPoints(true_pts, rv, T_cw[:3, 3], intr.K, np.zeros(5))
+            ok, r2, t2 = cv2.solvePnP(P, uv, intr.K, np.zeros(5), rv.copy(),
+                                      T_cw[:3, 3].reshape(3, 1).copy(), True,
+                                      cv2.SOLVEPNP_ITERATIVE)
+            R2, _ = cv2.Rodrigues(r2)
+            T_est = np.linalg.inv(np.block([[R2, t2.reshape(3, 1)], [np.zeros((1, 3)), 1]]))
+            E = np.linalg.inv(T[f]) @ T_est
+            xi += np.r_[rotvec_from_matrix(E[:3, :3]), E[:3, 3]]
+        xis.append(xi / T.shape[0])
+    emp = np.cov(np.array(xis).T)
+    ratio = np.sqrt(np.diag(S) / np.diag(emp))
+    assert np.all((ratio > 0.8) & (ratio < 1.25)), ratio
+
+
+def test_map_error_covariance_checks_inputs():
+    from simcalib.markers import map_pose_covariance
+    w = _wall_world(2)
+    T = np.asarray(w.trajectory.cam_a.T_world_cam)
+    K = w.intrinsics["cam_a"].K
+    with pytest.raises(ValueError, match="visible must be"):
+        map_pose_covariance(w.marker_field, np.ones((2, 3), bool), T, K, 0.001, 0.001)
+    with pytest.raises(ValueError, match="position_std_m"):
+        map_pose_covariance(w.marker_field, np.ones((2, 12), bool), T, K, -1.0, 0.001)
+    assert not map_pose_covariance(w.marker_field, np.ones((2, 12), bool), T, K, 0, 0).any()
