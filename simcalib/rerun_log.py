@@ -196,6 +196,116 @@ def _eye(bbox_min, bbox_max, direction, up, inside=None, min_dist=0.0) -> dict:
     return {"position": pos.tolist(), "look_target": c.tolist(), "eye_up": list(up)}
 
 
+def _fmt_len_m(x_m: float) -> str:
+    return f"{100 * x_m:.2g} cm" if x_m < 1.0 else f"{x_m:.2g} m"
+
+
+def _axis_name(v) -> str:
+    """``x``/``y``/``z`` for a direction (nearly) along a camera-a axis, else the vector."""
+    v = np.asarray(v, dtype=np.float64)
+    i = int(np.argmax(np.abs(v)))
+    if abs(v[i]) > 0.95:
+        return "xyz"[i]
+    return "(" + ", ".join(f"{x:+.2f}" for x in v) + ")"
+
+
+def _wrap(text: str, width: int = 34) -> list[str]:
+    """``text`` (comma-separated names) wrapped after commas into lines of ~``width``."""
+    lines, cur = [], ""
+    for part in text.split(", "):
+        if cur and len(cur) + 2 + len(part) > width:
+            lines.append(cur + ",")
+            cur = part
+        else:
+            cur = f"{cur}, {part}" if cur else part
+    return lines + [cur]
+
+
+#: the close-up's label layout, in tangent units of the viewer's 3D eye (vertical field of
+#: view 55°: the view is 2 tan(27.5°) = 1.04 high), sized for the smallest close-up pane of
+#: the default layouts (about 480 x 440 logical px: 15 px per text line, 6 px per char)
+_FOV_TAN = math.tan(math.radians(55.0) / 2)
+_LINE_H = 0.045
+_CHAR_W = 0.0145
+_PAD = 0.012
+_PANE_ASPECT = 1.05
+
+
+def _screen_basis(eye: dict):
+    pos = np.asarray(eye["position"], dtype=np.float64)
+    f = np.asarray(eye["look_target"], dtype=np.float64) - pos
+    f /= np.linalg.norm(f)
+    r = np.cross(f, np.asarray(eye["eye_up"], dtype=np.float64))
+    r /= np.linalg.norm(r)
+    return pos, f, r, np.cross(r, f)
+
+
+def _place_labels(eye: dict, items, max_norm: float) -> list[np.ndarray]:
+    """3D positions for labels so that none overlaps another on the screen of ``eye``.
+
+    ``items``: ``(anchor (3,), lines)``. Each label is a box (its text's size in the
+    viewer: lines x width in characters, ``_LINE_H``/``_CHAR_W``) that the viewer centres
+    horizontally just below its point. Boxes are placed greedily (tallest stacks first
+    would not help; anchors top to bottom): as close above the anchor as the boxes placed
+    before allow, trying offsets up and down the screen, inside the pane. Every box also
+    avoids the anchors (the dots it labels). The point is put on the anchor's viewing
+    depth, or nearer the eye if that would leave the sphere of radius ``max_norm``."""
+    pos, f, r, u = _screen_basis(eye)
+    half_h = _FOV_TAN
+    half_w = _FOV_TAN * _PANE_ASPECT
+
+    def project(p):
+        d = np.asarray(p, dtype=np.float64) - pos
+        z = max(float(d @ f), 1e-6)
+        return np.array([d @ r / z, -(d @ u) / z]), z
+
+    anchors = [project(a) for a, _ in items]
+    sizes = [(max(len(x) for x in lines) * _CHAR_W + 2 * _PAD, len(lines) * _LINE_H + _PAD)
+             for _, lines in items]
+    boxes: list[tuple[float, float, float, float]] = []   # x0, y0, x1, y1 (y down)
+    dots = [(xy[0] - 0.012, xy[1] - 0.012, xy[0] + 0.012, xy[1] + 0.012) for xy, _ in anchors]
+
+    def free(b, own):
+        return not any(b[0] < o[2] and o[0] < b[2] and b[1] < o[3] and o[1] < b[3]
+                       for o in boxes + [d for k, d in enumerate(dots) if k != own])
+
+    order = sorted(range(len(items)), key=lambda i: anchors[i][0][1])
+    screen = [None] * len(items)
+    for i in order:
+        (ax, ay), _ = anchors[i]
+        w, h = sizes[i]
+        x = float(np.clip(ax, -half_w + 0.5 * w, half_w - 0.5 * w)) if w < 2 * half_w else 0.0
+        above, below = ay - 0.012 - h, ay + 0.012
+        best = None
+        for k in range(90):   # above the anchor, below it, then farther up and down
+            for top in (above - k * _LINE_H / 3, below + k * _LINE_H / 3):
+                top = float(np.clip(top, -half_h + 0.02, half_h - h - 0.02))
+                b = (x - 0.5 * w, top, x + 0.5 * w, top + h)
+                if free(b, i):
+                    best = b
+                    break
+            if best is not None:
+                break
+        if best is None:   # a crowded pane: below everything placed
+            top = max([o[3] for o in boxes], default=ay) + 0.005
+            best = (x - 0.5 * w, top, x + 0.5 * w, top + h)
+        boxes.append(best)
+        screen[i] = (x, best[1] - 0.005)   # the viewer draws the text just below its point
+    out = []
+    for (a, _), (xy, z), (sx, sy) in zip(items, anchors, screen):
+        ray = f + sx * r - sy * u
+        p = pos + z * ray
+        if np.linalg.norm(p) > max_norm:   # nearer the eye, same place on the screen
+            aa, bb, cc = float(ray @ ray), float(pos @ ray), float(pos @ pos) - max_norm ** 2
+            disc = bb * bb - aa * cc
+            roots = [] if disc < 0 else [(-bb - math.sqrt(disc)) / aa,
+                                         (-bb + math.sqrt(disc)) / aa]
+            roots = [x for x in roots if 0 < x <= z]
+            p = pos + (max(roots) if roots else max(-bb / aa, 1e-3)) * ray
+        out.append(p)
+    return out
+
+
 # ------------------------------------------------------------------------------ run
 class RunRecorder:
     """Writes one run's recording; every ``log_*`` method is safe to call once per stage.
@@ -449,7 +559,14 @@ class RunRecorder:
 
     # ------------------------------------------------------------- estimates
     def log_estimates(self, solvers, X_true, gt: dict | None = None) -> None:
-        """The extrinsic close-up (camera a frame) and the per-solver error table."""
+        """The extrinsic close-up (camera a frame) and the per-solver error table.
+
+        Estimates that agree within ``0.3 L`` (L: the axis length) share one label listing
+        their names; every label is placed on the screen of the close-up's eye
+        (:func:`_place_labels`) so that no two labels overlap, each joined to what it
+        names by a leader line. Estimates beyond :func:`closeup_bound_m` are drawn at the
+        bound (off-scale); uncertainty ellipsoids are bounded the same way
+        (:meth:`_log_ellipsoid`)."""
         import rerun as rr
         X_true = np.asarray(X_true, dtype=np.float64)
         t_true = X_true[:3, 3]
@@ -458,20 +575,15 @@ class RunRecorder:
         L = float(np.clip(0.3 * np.linalg.norm(t_true), 0.02, 0.15))   # axis length
         ok = [s for s in solvers if s.X is not None and np.isfinite(s.X).all()]
         failed = [s for s in solvers if s not in ok]
-        cam_label = "cam a (origin)"
-        if failed:
-            cam_label += "; FAILED, not drawn: " + ", ".join(s.label for s in failed)
         self.rec.log("closeup/cam_a", rr.TransformAxes3D(L), rr.Points3D(
             [[0.0, 0.0, 0.0]], radii=0.1 * L, colors=_COLORS["cam_a"]), static=True)
-        self.rec.log("closeup/labels/cam_a", rr.Points3D(
-            [[0.0, 0.5 * L, 0.0]], radii=0.05 * L, colors=_LABEL_COLOR, labels=[cam_label]),
-            static=True)
         self._log_pose("closeup/true_cam_b", X_true, static=True)
         self.rec.log("closeup/true_cam_b", rr.TransformAxes3D(1.3 * L), rr.Points3D(
             [[0.0, 0.0, 0.0]], radii=0.12 * L, colors=_TRUE_COLOR), static=True)
         extent = [np.zeros(3), t_true]
         groups: list[list] = []          # estimates on top of each other share one label
         offscale: list[list] = []        # so do off-scale markers at the same place
+        notes: dict[str, list[str]] = {}  # off-scale uncertainty, per solver
         for k, s in enumerate(ok):
             t = np.asarray(s.X)[:3, 3]
             color = _SOLVER_COLORS[k % len(_SOLVER_COLORS)]
@@ -498,67 +610,109 @@ class RunRecorder:
                 groups.append([(s, t, color)])
             cov = getattr(s, "covariance", None)
             if cov is not None:
-                self._log_ellipsoid(f"closeup/uncertainty/{name}", np.asarray(cov), t, bound,
-                                    color, s.label)
-        # labels stacked above (-y) their estimates, with a leader line; the true camera
-        # b's label below it, so no two labels are drawn over each other
-        for j, grp in enumerate(groups):
-            p0 = grp[0][1]
-            p1 = p0 + np.array([0.0, -(0.6 + 0.45 * j) * L, 0.0])
-            self.rec.log(f"closeup/labels/{j}", rr.Points3D(
-                [p1], radii=0.05 * L, colors=_LABEL_COLOR,
-                labels=[", ".join(s.label for s, _, _ in grp)]), rr.LineStrips3D(
-                [[p0, p1]], colors=grp[0][2], radii=0.01 * L), static=True)
-            extent.append(p1)
-        # one label for every off-scale estimate (at the first marker): no overdrawn text
-        lines = []
+                notes[s.label] = self._log_ellipsoid(
+                    f"closeup/uncertainty/{name}", np.asarray(cov), t, bound, L, color,
+                    s.label)
         for j, grp in enumerate(offscale):
             p = grp[0][1]
             self.rec.log(f"closeup/offscale/{j}", rr.Points3D(
                 [p], radii=0.2 * L, colors=_OFFSCALE_COLOR), rr.Arrows3D(
                 origins=[0.85 * p], vectors=[0.15 * p], colors=_OFFSCALE_COLOR), static=True)
-            lines += [f"{s.label}: {_fmt(s.rotation_error_deg)}° / "
-                      f"{_fmt_len_cm(s.translation_error_m)}" for s, _ in grp]
             extent.append(p)
-        if offscale:
-            self.rec.log("closeup/offscale/0/label", rr.Points3D(
-                [offscale[0][0][1]], radii=0.01 * L, colors=_LABEL_COLOR,
-                labels=[f"OFF-SCALE (drawn at {bound:g} m), real error:\n" + "\n".join(lines)]),
-                static=True)
-        self.rec.log("closeup/labels/true_cam_b", rr.Points3D(
-            [t_true + np.array([0.0, 0.5 * L, 0.0])], radii=0.05 * L, colors=_LABEL_COLOR,
-            labels=["true cam b"]), static=True)
         self.closeup_extent = np.array(extent)
         lo, hi = self.closeup_extent.min(0) - L, self.closeup_extent.max(0) + L
         self.closeup_eye = _eye(lo, hi, (-0.35, -0.5, -1.0), (0, -1, 0))
+
+        # the labels: (entity, anchor, text lines, leader colour)
+        cam_lines = ["cam a (origin)"]
+        if failed:
+            cam_lines.append("FAILED, not drawn: " + ", ".join(s.label for s in failed))
+        labels = [("cam_a", np.zeros(3), cam_lines, _COLORS["cam_a"]),
+                  ("true_cam_b", t_true, ["true cam b"], _TRUE_COLOR)]
+        for j, grp in enumerate(groups):
+            names = [s.label for s, _, _ in grp]
+            lines = _wrap(", ".join(names))
+            for n in names:
+                lines += [f"{n}: {x}" if len(grp) > 1 else x for x in notes.get(n, [])]
+            labels.append((f"{j}", grp[0][1], lines, grp[0][2]))
+        for j, grp in enumerate(offscale):   # the real errors of what is drawn at the bound
+            labels.append((f"offscale_{j}", grp[0][1],
+                           [f"OFF-SCALE (drawn at {bound:g} m), real error:"]
+                           + [f"{s.label}: {_fmt(s.rotation_error_deg)}° / "
+                              f"{_fmt_len_cm(s.translation_error_m)}" for s, _ in grp],
+                           _OFFSCALE_COLOR))
+        placed = _place_labels(self.closeup_eye, [(a, lines) for _, a, lines, _ in labels],
+                               max_norm=1.4 * bound)
+        for (key, anchor, lines, color), p in zip(labels, placed):
+            leader = None
+            if np.linalg.norm(p - anchor) > 0.2 * L:
+                leader = rr.LineStrips3D([[anchor, p]], colors=color, radii=0.006 * L)
+            self.rec.log(f"closeup/labels/{key}", *[a for a in (rr.Points3D(
+                [p], radii=0.02 * L, colors=_LABEL_COLOR, labels=["\n".join(lines)]), leader)
+                if a is not None], static=True)
         for s in ok:
             self.rec.log(f"errors/{entity_name(s.label)}/rotation_deg",
                          rr.Scalars([s.rotation_error_deg]), static=True)
             self.rec.log(f"errors/{entity_name(s.label)}/translation_cm",
                          rr.Scalars([100.0 * s.translation_error_m]), static=True)
 
-    def _log_ellipsoid(self, ent, cov, center, bound, color, label) -> None:
-        """3-sigma ellipsoid of the translation block (rows/cols 3..5 of the 6x6 covariance
-        of (omega, v) in frame a); infinite or huge axes are clipped at the bound."""
+    def _log_ellipsoid(self, ent, cov, center, bound, L, color, label) -> list[str]:
+        """The 3-sigma ellipsoid of the translation block (rows/cols 3..5 of the 6x6
+        covariance of (omega, v) in frame a), bounded like the estimates: a half-axis is
+        clipped so the ellipsoid stays inside the close-up's bound (a red arrow at each
+        clipped end marks it off-scale); an undetermined (infinite) axis is no part of the
+        ellipsoid but a red double arrow through the estimate. Returns the label notes
+        (e.g. ``3σ 1.4 m along y: off-scale``, ``σ = ∞ along x, y, z``)."""
         import rerun as rr
         C = np.asarray(cov, dtype=np.float64)
         if C.shape != (6, 6):
-            return
-        Ct = C[3:, 3:]
-        if not np.isfinite(Ct).all():
-            Ct = np.where(np.isfinite(Ct), Ct, 0.0) + np.diag(
-                np.where(np.isfinite(np.diag(C[3:, 3:])), 0.0, bound ** 2 / 9.0))
-        w, V = np.linalg.eigh(0.5 * (Ct + Ct.T))
-        half = np.minimum(3.0 * np.sqrt(np.clip(w, 0.0, None)), bound)
+            return []
+        Ct = 0.5 * (C[3:, 3:] + C[3:, 3:].T)
+        inf_axes = ~np.isfinite(np.diag(Ct)) | (np.diag(Ct) > 1e12)
+        Ct = np.where(np.isfinite(Ct), Ct, 0.0)
+        Ct[inf_axes, :] = 0.0
+        Ct[:, inf_axes] = 0.0
+        w, V = np.linalg.eigh(Ct)
         if np.linalg.det(V) < 0:
             V[:, 0] = -V[:, 0]
+        # the eigenvectors spanning the undetermined coordinate axes have eigenvalue 0
+        undetermined = np.zeros(3, dtype=bool)
+        if inf_axes.any():
+            E = np.eye(3)[:, inf_axes]
+            undetermined = np.linalg.norm(V.T @ E, axis=1) > 0.7
+        half_real = 3.0 * np.sqrt(np.clip(w, 0.0, None))
+        cap = max(bound - float(np.linalg.norm(center)), 0.25 * bound)
+        clipped = ~undetermined & (half_real > cap)
+        half = np.where(undetermined, 0.0, np.minimum(half_real, cap))
+        notes, arrows_o, arrows_v = [], [], []
+        for i in np.flatnonzero(clipped):
+            notes.append(f"3σ {_fmt_len_m(half_real[i])} along {_axis_name(V[:, i])}: "
+                         f"off-scale (drawn {_fmt_len_m(cap)})")
+            for sgn in (1.0, -1.0):
+                arrows_o.append(center + sgn * cap * V[:, i])
+                arrows_v.append(sgn * 0.6 * L * V[:, i])
+        if undetermined.any():
+            notes.append("σ = ∞ along " + ", ".join(_axis_name(V[:, i])
+                                                     for i in np.flatnonzero(undetermined)))
+            for i in np.flatnonzero(undetermined):
+                for sgn in (1.0, -1.0):
+                    arrows_o.append(center + sgn * 0.3 * L * V[:, i])
+                    arrows_v.append(sgn * 1.2 * L * V[:, i])
         sigma = np.sqrt(np.clip(np.diag(Ct), 0, None))
-        self.rec.log(ent, rr.Ellipsoids3D(
-            centers=[center], half_sizes=[np.maximum(half, 1e-4)],
-            quaternions=[quat_from_matrix(V)], colors=[(*color, 90)],
-            fill_mode="transparentfillmajorwireframe",
-            labels=[f"{label} 3σ: σ = " + ", ".join(f"{100 * v:.2g}" for v in sigma)
-                    + " cm"], show_labels=False), static=True)
+        text = (f"{label} 3σ: σ = " + ", ".join("∞" if u else f"{100 * v:.2g}"
+                                                 for u, v in zip(inf_axes, sigma)) + " cm")
+        if not undetermined.all():
+            self.rec.log(ent, rr.Ellipsoids3D(
+                centers=[center], half_sizes=[np.maximum(half, 1e-4)],
+                quaternions=[quat_from_matrix(V)], colors=[(*color, 90)],
+                fill_mode="transparentfillmajorwireframe", labels=[text], show_labels=False),
+                static=True)
+        if arrows_o:
+            self.rec.log(f"{ent}/offscale", rr.Arrows3D(
+                origins=arrows_o, vectors=arrows_v, colors=_OFFSCALE_COLOR,
+                radii=0.02 * L, labels=[text] * len(arrows_o), show_labels=False),
+                static=True)
+        return notes
 
     def _log_pose(self, entity: str, T: np.ndarray, static: bool = False) -> None:
         import rerun as rr
