@@ -231,7 +231,8 @@ def run(config, overrides=(), *, echo: bool = True) -> RunResult:
     recorder = None
     if cfg.recording.enabled:
         from simcalib.rerun_log import RunRecorder
-        recorder = RunRecorder(out / "recording.rrd", cfg)
+        recorder = RunRecorder(out / "recording.rrd", cfg,
+                               background=cfg.recording.background)
     rec_path = None if recorder is None else recorder.path
     from simcalib.solvers.kernels.batch import start_background_compile
     st.compile_job = start_background_compile()   # first run on a machine: overlap with the world

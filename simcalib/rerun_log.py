@@ -114,7 +114,7 @@ def _decades(values) -> tuple[float, float]:
 # -------------------------------------------------------------------------- blueprints
 def default_blueprint(kind: str = "sim", images: bool = True, cameras=("cam_a", "cam_b"),
                       eye: dict | None = None, closeup_eye: dict | None = None,
-                      present: set | None = None):
+                      present: set | None = None, rrb=None):
     """The layout a run recording opens on, per scenario kind.
 
     Left: the scene (room, platform, cameras, trajectories) and, when images were logged
@@ -124,8 +124,10 @@ def default_blueprint(kind: str = "sim", images: bool = True, cameras=("cam_a", 
     scene less room and the tables more. ``eye`` / ``closeup_eye``: ``{"position",
     "look_target", "eye_up"}`` of the two 3D views. ``present``: the views that have data
     (``"scene"``, ``"closeup"``, ``"pose_error"``, ``"summary"``); the others are left out
-    (no pane says "No data available"); ``None`` keeps all."""
-    import rerun.blueprint as rrb
+    (no pane says "No data available"); ``None`` keeps all. ``rrb``: ``rerun.blueprint``
+    (default) or the recorder's stand-in for it."""
+    if rrb is None:
+        import rerun.blueprint as rrb
 
     def eye_controls(e):
         return None if e is None else rrb.EyeControls3D(
@@ -245,10 +247,10 @@ def _place_labels(eye: dict, items, max_norm: float) -> list[np.ndarray]:
 
     ``items``: ``(anchor (3,), lines)``. Each label is a box (its text's size in the
     viewer: lines x width in characters, ``_LINE_H``/``_CHAR_W``) that the viewer centres
-    horizontally just below its point. Boxes are placed greedily (tallest stacks first
-    would not help; anchors top to bottom): as close above the anchor as the boxes placed
-    before allow, trying offsets up and down the screen, inside the pane. Every box also
-    avoids the anchors (the dots it labels). The point is put on the anchor's viewing
+    horizontally just below its point. Boxes are placed greedily, anchors top to bottom,
+    inside the pane: just above the anchor, else below it, else beside it, else ever
+    farther up, down or beside, the first place that overlaps neither a box placed before
+    nor any anchor (the dots the labels name). The point is put on the anchor's viewing
     depth, or nearer the eye if that would leave the sphere of radius ``max_norm``."""
     pos, f, r, u = _screen_basis(eye)
     half_h = _FOV_TAN
@@ -274,13 +276,20 @@ def _place_labels(eye: dict, items, max_norm: float) -> list[np.ndarray]:
     for i in order:
         (ax, ay), _ = anchors[i]
         w, h = sizes[i]
-        x = float(np.clip(ax, -half_w + 0.5 * w, half_w - 0.5 * w)) if w < 2 * half_w else 0.0
-        above, below = ay - 0.012 - h, ay + 0.012
+
+        def box(cx, top):
+            cx = float(np.clip(cx, -half_w + 0.5 * w, half_w - 0.5 * w)) if w < 2 * half_w \
+                else 0.0
+            top = float(np.clip(top, -half_h + 0.02, half_h - h - 0.02))
+            return (cx - 0.5 * w, top, cx + 0.5 * w, top + h)
+
+        above, below, mid = ay - 0.012 - h, ay + 0.012, ay - 0.5 * h
+        right, left = ax + 0.02 + 0.5 * w, ax - 0.02 - 0.5 * w
         best = None
-        for k in range(90):   # above the anchor, below it, then farther up and down
-            for top in (above - k * _LINE_H / 3, below + k * _LINE_H / 3):
-                top = float(np.clip(top, -half_h + 0.02, half_h - h - 0.02))
-                b = (x - 0.5 * w, top, x + 0.5 * w, top + h)
+        for k in range(90):   # above the anchor, below, beside it; then farther away
+            d = k * _LINE_H / 3
+            for b in (box(ax, above - d), box(ax, below + d), box(right, mid - d),
+                      box(right, mid + d), box(left, mid - d), box(left, mid + d)):
                 if free(b, i):
                     best = b
                     break
@@ -288,9 +297,10 @@ def _place_labels(eye: dict, items, max_norm: float) -> list[np.ndarray]:
                 break
         if best is None:   # a crowded pane: below everything placed
             top = max([o[3] for o in boxes], default=ay) + 0.005
-            best = (x - 0.5 * w, top, x + 0.5 * w, top + h)
+            best = (ax - 0.5 * w, top, ax + 0.5 * w, top + h)
         boxes.append(best)
-        screen[i] = (x, best[1] - 0.005)   # the viewer draws the text just below its point
+        # the viewer draws the text centred just below its point
+        screen[i] = (0.5 * (best[0] + best[2]), best[1] - 0.005)
     out = []
     for (a, _), (xy, z), (sx, sy) in zip(items, anchors, screen):
         ray = f + sx * r - sy * u
@@ -306,6 +316,138 @@ def _place_labels(eye: dict, items, max_norm: float) -> list[np.ndarray]:
     return out
 
 
+# ------------------------------------------------------------- recording worker
+class _RRProxy:
+    """Stands for ``rerun`` (or one of its attributes) in the run's process: attribute
+    access and calls build the encoded objects :mod:`simcalib._rerun_replay` rebuilds in
+    the recording worker. Children are cached, so ``rrb.Vertical is rrb.Vertical``."""
+
+    def __init__(self, path=()):
+        self._path = tuple(path)
+        self._children: dict[str, _RRProxy] = {}
+
+    def __getattr__(self, name):
+        if name.startswith("__"):
+            raise AttributeError(name)
+        child = self._children.get(name)
+        if child is None:
+            child = self._children[name] = _RRProxy(self._path + (name,))
+        return child
+
+    def __call__(self, *args, **kwargs):
+        return _RRObject((_TAG, "new", self._path, _encode(args), _encode(kwargs)))
+
+    def _encoded(self):
+        return (_TAG, "ref", self._path)
+
+
+class _RRObject:
+    """A rerun object built in the worker (``rr.Image(x)``); method calls chain
+    (``.compress(jpeg_quality=70)``)."""
+
+    def __init__(self, spec):
+        self._spec = spec
+
+    def __getattr__(self, name):
+        if name.startswith("__"):
+            raise AttributeError(name)
+        return lambda *args, **kwargs: _RRObject(
+            (_TAG, "meth", self._spec, name, _encode(args), _encode(kwargs)))
+
+    def _encoded(self):
+        return self._spec
+
+
+def _encode(x):
+    if isinstance(x, (_RRProxy, _RRObject)):
+        return x._encoded()
+    if isinstance(x, tuple):
+        return tuple(_encode(v) for v in x)
+    if isinstance(x, list):
+        return [_encode(v) for v in x]
+    if isinstance(x, dict):
+        return {k: _encode(v) for k, v in x.items()}
+    return x
+
+
+class _WorkerStream:
+    """A :class:`rerun.RecordingStream` living in the recording worker process
+    (:mod:`simcalib._rerun_replay`): every method call is pickled and appended to a spool
+    file the worker follows (appending never blocks the run, also while the worker still
+    imports rerun; no thread). :meth:`finish` closes the stream and waits for the file;
+    it raises when the worker reported an error."""
+
+    def __init__(self, path: Path, **stream_kwargs):
+        import os
+        import subprocess
+        import sys
+        import tempfile
+        script = Path(__file__).with_name("_rerun_replay.py")
+        fd, spool = tempfile.mkstemp(prefix="simcalib-rec-", suffix=".spool")
+        self._spool_path = Path(spool)
+        self._spool = os.fdopen(fd, "wb")
+        self._status = self._spool_path.with_suffix(".json")
+        self._stderr = tempfile.TemporaryFile()
+        env = dict(os.environ, RERUN_ANALYTICS=os.environ.get("RERUN_ANALYTICS", "0"))
+        self._proc = subprocess.Popen(
+            [sys.executable, "-P", str(script), str(self._spool_path), str(self._status),
+             str(os.getpid())], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+            stderr=self._stderr, env=env)
+        self.status: dict = {}
+        self._send(("init", stream_kwargs, str(path)))
+
+    def _send(self, msg):
+        import pickle
+        data = pickle.dumps(msg, protocol=pickle.HIGHEST_PROTOCOL)
+        self._spool.write(_HEADER.pack(len(data)) + data)
+        self._spool.flush()
+
+    def __getattr__(self, method):
+        if method.startswith("_"):
+            raise AttributeError(method)
+        return lambda *args, **kwargs: self._send(("rec", method, _encode(args),
+                                                   _encode(kwargs)))
+
+    def finish(self) -> None:
+        """Close the recording, wait for the worker to write it, report its errors."""
+        import json
+        try:
+            self._send(("close",))
+            self._spool.close()
+            code = self._proc.wait()
+        finally:
+            if self._proc.poll() is None:   # interrupted while waiting
+                self._proc.kill()
+                self._proc.wait()
+            self._spool_path.unlink(missing_ok=True)
+        try:
+            self.status = json.loads(self._status.read_text() or "{}")
+        except (OSError, ValueError):
+            self.status = {}
+        finally:
+            self._status.unlink(missing_ok=True)
+        self._stderr.seek(0)
+        err = self._stderr.read().decode(errors="replace").strip()
+        self._stderr.close()
+        if code != 0:
+            raise RuntimeError(f"the recording worker failed (exit {code}): "
+                               + "\n".join(err.splitlines()[-12:]))
+        if err:   # rerun's warnings, as they would have appeared in-process
+            import sys
+            print(err, file=sys.stderr)
+
+
+_TAG = "\x00simcalib-rr"    # == simcalib._rerun_replay._TAG
+
+
+def _header():
+    import struct
+    return struct.Struct("<Q")
+
+
+_HEADER = _header()
+
+
 # ------------------------------------------------------------------------------ run
 class RunRecorder:
     """Writes one run's recording; every ``log_*`` method is safe to call once per stage.
@@ -314,17 +456,27 @@ class RunRecorder:
     (also after an interrupt, so the partial recording stays readable).
     """
 
-    def __init__(self, path: Path, cfg):
+    def __init__(self, path: Path, cfg, background: bool = True):
+        """``background``: rerun runs in a worker process (:class:`_WorkerStream`), so the
+        run neither imports rerun nor waits for the file until :meth:`close`; ``False``
+        logs in this process."""
         t_init = time.perf_counter()
-        import rerun as rr
         self.path = Path(path)
         self.cfg = cfg
         self.recording_id = str(uuid.uuid4())   # unique per run; the application id is shared
-        self.rec = rr.RecordingStream("simcalib", recording_id=self.recording_id,
-                                      send_properties=False)
-        if hasattr(self.rec, "set_log_time_enabled"):
+        stream = dict(application_id="simcalib", recording_id=self.recording_id,
+                      send_properties=False)
+        self.background = bool(background)
+        if self.background:
+            self.rr = _RRProxy()
+            self.rec = _WorkerStream(self.path, **stream)
+        else:
+            import rerun as rr
+            self.rr = rr
+            self.rec = rr.RecordingStream(**stream)
             self.rec.set_log_time_enabled(False)
-        self.rec.save(str(self.path))
+            self.rec.save(str(self.path))
+        rr = self.rr
         self._closed = False
         self.kind = getattr(cfg, "kind", "sim")
         self.images = False
@@ -367,7 +519,7 @@ class RunRecorder:
                                  logs[0] if logs else None)
         elif stage == "solvers":
             self.log_estimates(st.solvers, truth.X_true, dict(truth.streams))
-            log_convergence(self.rec, st.solvers)
+            log_convergence(self.rec, st.solvers, rr=self.rr)
         elif stage == "evaluation":
             self.log_pose_errors(st.pose_errors)
         elif stage == "reports":
@@ -377,7 +529,7 @@ class RunRecorder:
     def log_room_and_platform(self, world) -> None:
         """The room (floor solid, walls/ceiling as outlines) and the platform: every moving
         body's geoms logged once in the body frame, the body posed per simulated frame."""
-        import rerun as rr
+        rr = self.rr
         from simcalib.world.visual import scene_geometry
         frames = world.frames(world.camera_names[0])
         geo = scene_geometry(world.model, frames.qpos, frames.mocap_pos, frames.mocap_quat_wxyz)
@@ -403,14 +555,15 @@ class RunRecorder:
             ent = f"world/platform/{entity_name(body.name)}"
             T = body.T_world_body
             self.rec.send_columns(ent, indexes=[rr.TimeColumn("frame", sequence=frame_idx)],
-                                  columns=rr.Transform3D.columns(translation=T[:, :3, 3],
-                                                                 mat3x3=T[:, :3, :3]))
+                                  columns=rr.Transform3D.columns(   # quaternions: vectorised
+                                      translation=T[:, :3, 3],
+                                      quaternion=quat_from_matrix(T[:, :3, :3])))
             self._log_geoms(f"{ent}/geoms", body.geoms)
             self._workspace.append(T[:, :3, 3])
         self._update_eye()
 
     def _log_geoms(self, ent: str, geoms) -> None:
-        import rerun as rr
+        rr = self.rr
         by_kind: dict[str, list] = {}
         for g in geoms:
             by_kind.setdefault(g.kind, []).append(g)
@@ -450,7 +603,7 @@ class RunRecorder:
 
     def log_world(self, marker_field) -> None:
         """The marker field as textured quads (the ArUco pattern with its quiet zone)."""
-        import rerun as rr
+        rr = self.rr
         if marker_field is None or len(getattr(marker_field, "ids", ())) == 0:
             return
         from simcalib.markers import marker_image
@@ -470,7 +623,7 @@ class RunRecorder:
 
     # ----------------------------------------------------------- trajectories
     def log_trajectories(self, gt: dict, source: dict, X_true) -> None:
-        import rerun as rr
+        rr = self.rr
         scale = 0.08
         pts = [np.asarray(s.T_world_cam)[:, :3, 3] for s in gt.values()]
         if pts:
@@ -492,7 +645,7 @@ class RunRecorder:
                          rr.TimeColumn("sim_time", duration=np.asarray(s.timestamp_s,
                                                                         dtype=np.float64))],
                 columns=rr.Transform3D.columns(translation=T[:, :3, 3],
-                                               mat3x3=T[:, :3, :3]))
+                                               quaternion=quat_from_matrix(T[:, :3, :3])))
             self.rec.log(f"world/{cam}/axes", rr.TransformAxes3D(1.5 * scale), static=True)
         for cam, s in source.items():
             color = tuple(int(0.55 * c) for c in _COLORS.get(cam, (200, 200, 200)))
@@ -522,7 +675,7 @@ class RunRecorder:
     # ---------------------------------------------------------------- cameras
     def log_cameras(self, intrinsics: dict, gt: dict, visual_log) -> None:
         """Pinholes of both cameras, and (aruco source) the logged images and corners."""
-        import rerun as rr
+        rr = self.rr
         intrinsics = dict(getattr(visual_log, "intrinsics", None) or intrinsics or {})
         for cam, K in intrinsics.items():
             self.rec.log(f"world/{cam}/image",
@@ -567,7 +720,7 @@ class RunRecorder:
         names by a leader line. Estimates beyond :func:`closeup_bound_m` are drawn at the
         bound (off-scale); uncertainty ellipsoids are bounded the same way
         (:meth:`_log_ellipsoid`)."""
-        import rerun as rr
+        rr = self.rr
         X_true = np.asarray(X_true, dtype=np.float64)
         t_true = X_true[:3, 3]
         self.present.add("closeup")
@@ -632,8 +785,9 @@ class RunRecorder:
         for j, grp in enumerate(groups):
             names = [s.label for s, _, _ in grp]
             lines = _wrap(", ".join(names))
-            for n in names:
-                lines += [f"{n}: {x}" if len(grp) > 1 else x for x in notes.get(n, [])]
+            same = len({tuple(notes.get(n, [])) for n in names}) == 1
+            for n in names[:1] if same else names:   # the same notes once for the group
+                lines += [x if same else f"{n}: {x}" for x in notes.get(n, [])]
             labels.append((f"{j}", grp[0][1], lines, grp[0][2]))
         for j, grp in enumerate(offscale):   # the real errors of what is drawn at the bound
             labels.append((f"offscale_{j}", grp[0][1],
@@ -663,7 +817,7 @@ class RunRecorder:
         clipped end marks it off-scale); an undetermined (infinite) axis is no part of the
         ellipsoid but a red double arrow through the estimate. Returns the label notes
         (e.g. ``3σ 1.4 m along y: off-scale``, ``σ = ∞ along x, y, z``)."""
-        import rerun as rr
+        rr = self.rr
         C = np.asarray(cov, dtype=np.float64)
         if C.shape != (6, 6):
             return []
@@ -687,7 +841,7 @@ class RunRecorder:
         notes, arrows_o, arrows_v = [], [], []
         for i in np.flatnonzero(clipped):
             notes.append(f"3σ {_fmt_len_m(half_real[i])} along {_axis_name(V[:, i])}: "
-                         f"off-scale (drawn {_fmt_len_m(cap)})")
+                         f"off-scale (drawn at {_fmt_len_m(cap)})")
             for sgn in (1.0, -1.0):
                 arrows_o.append(center + sgn * cap * V[:, i])
                 arrows_v.append(sgn * 0.6 * L * V[:, i])
@@ -715,7 +869,7 @@ class RunRecorder:
         return notes
 
     def _log_pose(self, entity: str, T: np.ndarray, static: bool = False) -> None:
-        import rerun as rr
+        rr = self.rr
         self.rec.log(entity, rr.Transform3D(translation=T[:3, 3], mat3x3=T[:3, :3]),
                      static=static)
 
@@ -723,7 +877,7 @@ class RunRecorder:
     def log_pose_errors(self, pose_errors: dict) -> None:
         """One plot per unit (``pose_error/rotation_deg``, ``pose_error/translation_mm``),
         one named series per camera in the camera's colour."""
-        import rerun as rr
+        rr = self.rr
         for cam, e in pose_errors.items():
             if e.n == 0:
                 continue
@@ -741,34 +895,47 @@ class RunRecorder:
                                           scalars=np.asarray(values, dtype=np.float64) * unit))
 
     def log_summary(self, markdown: str) -> None:
-        import rerun as rr
+        rr = self.rr
         self.present.add("summary")
         self.rec.log("summary", rr.TextDocument(markdown, media_type="text/markdown"),
                      static=True)
 
     def blueprint(self):
         return default_blueprint(kind=self.kind, images=self.images, eye=self.eye,
-                                 closeup_eye=self.closeup_eye, present=self.present)
+                                 closeup_eye=self.closeup_eye, present=self.present,
+                                 rrb=self.rr.blueprint if self.background else None)
 
     def close(self) -> None:
+        """Write the blueprint, finish the file (waiting for the recording worker) and
+        ``recording_view.json`` beside it."""
         if self._closed:
             return
         self._closed = True
         t0 = time.perf_counter()
         try:
             self.rec.send_blueprint(self.blueprint(), make_active=True, make_default=True)
-            self.rec.flush()
-            self.elapsed_s += time.perf_counter() - t0
-            # the views' framing, for tools that open one view alone (tools/screenshots.py)
-            import json
-            self.path.with_name("recording_view.json").write_text(json.dumps(
-                {"kind": self.kind, "images": self.images, "recording_s": self.elapsed_s,
-                 "eye": self.eye,
-                 "closeup_eye": self.closeup_eye,
-                 "room": None if self.room is None else [v.tolist() for v in self.room]},
-                indent=1))
         finally:
-            self.rec.disconnect()
+            try:
+                if self.background:
+                    self.rec.finish()    # raises when the worker reported an error
+                else:
+                    self.rec.flush()
+                    self.rec.disconnect()
+            finally:
+                self.elapsed_s += time.perf_counter() - t0
+        # the views' framing, for tools that open one view alone (tools/screenshots.py),
+        # and the cost: recording_s = wall time the run spent recording (with the worker:
+        # handing it the data, and waiting at the end); worker = the worker's own times
+        import json
+        worker = getattr(self.rec, "status", None) if self.background else None
+        self.path.with_name("recording_view.json").write_text(json.dumps(
+            {"kind": self.kind, "images": self.images, "recording_s": self.elapsed_s,
+             "worker": None if worker is None else {k: worker.get(k) for k in (
+                 "import_s", "log_s", "calls")},
+             "eye": self.eye,
+             "closeup_eye": self.closeup_eye,
+             "room": None if self.room is None else [v.tolist() for v in self.room]},
+            indent=1))
 
 
 def summary_markdown(result) -> str:
@@ -950,12 +1117,14 @@ def log_experiment(path, name: str, pngs: dict, documents: dict) -> Path:
     return path
 
 
-def log_convergence(rec, solvers) -> None:
+def log_convergence(rec, solvers, rr=None) -> None:
     """Issue 9: error and predicted 1-sigma against the number of motions used (k), one
     named series per solver, on the ``motions`` timeline: ``convergence/rotation_deg/
     <solver>/{error,sigma}`` and ``convergence/translation_cm/<solver>/{error,sigma}``
-    (from ``SolverResult.convergence``; failed or undetermined points are left out)."""
-    import rerun as rr
+    (from ``SolverResult.convergence``; failed or undetermined points are left out).
+    ``rr``: the rerun module (or the recorder's stand-in for it)."""
+    if rr is None:
+        import rerun as rr
     for n, s in enumerate(solvers):
         pts = [p for p in getattr(s, "convergence", ()) if p.get("success")]
         if not pts:
