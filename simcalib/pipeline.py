@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import dataclasses
 import datetime as _dt
+import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -229,6 +230,8 @@ def run(config, overrides=(), *, echo: bool = True) -> RunResult:
     t_start = time.perf_counter()
     st = RunState(cfg=cfg, out=out, rngs=rngs, t_start=t_start)
     recorder = None
+    if not cfg.recording.enabled and "simcalib.rerun_log" in sys.modules:
+        sys.modules["simcalib.rerun_log"].cancel_prestarted_worker()   # started for nothing
     if cfg.recording.enabled:
         from simcalib.rerun_log import RunRecorder
         recorder = RunRecorder(out / "recording.rrd", cfg,

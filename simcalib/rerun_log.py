@@ -377,7 +377,9 @@ class _WorkerStream:
     imports rerun; no thread). :meth:`finish` closes the stream and waits for the file;
     it raises when the worker reported an error."""
 
-    def __init__(self, path: Path, **stream_kwargs):
+    def __init__(self, path: Path | None = None, **stream_kwargs):
+        """Start the worker; with ``path``, open the recording there (else :meth:`open`
+        does later: a worker started before the run is known, :func:`prestart_worker`)."""
         import os
         import subprocess
         import sys
@@ -394,7 +396,25 @@ class _WorkerStream:
              str(os.getpid())], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
             stderr=self._stderr, env=env)
         self.status: dict = {}
+        if path is not None:
+            self.open(path, **stream_kwargs)
+
+    def open(self, path: Path, **stream_kwargs) -> None:
         self._send(("init", stream_kwargs, str(path)))
+
+    def alive(self) -> bool:
+        return self._proc.poll() is None and not self._spool.closed
+
+    def cancel(self) -> None:
+        """Stop an unused worker (no recording written)."""
+        if not self._spool.closed:
+            self._spool.close()
+        if self._proc.poll() is None:
+            self._proc.kill()
+            self._proc.wait()
+        self._stderr.close()
+        for p in (self._spool_path, self._status):
+            p.unlink(missing_ok=True)
 
     def _send(self, msg):
         import pickle
@@ -438,6 +458,38 @@ class _WorkerStream:
 
 
 _TAG = "\x00simcalib-rr"    # == simcalib._rerun_replay._TAG
+_PRESTARTED: list = []       # a worker started ahead of the run (prestart_worker)
+
+
+def prestart_worker() -> None:
+    """Start the recording worker now, before the run's configuration is even loaded, so
+    that rerun's import overlaps that too; the next :class:`RunRecorder` adopts it (an
+    unused one is stopped at exit). Used by ``simcalib run``."""
+    if _PRESTARTED:
+        return
+    try:
+        w = _WorkerStream()
+    except OSError:   # no worker: the recorder starts one, or logs in-process
+        return
+    _PRESTARTED.append(w)
+    import atexit
+    atexit.register(cancel_prestarted_worker)
+
+
+def cancel_prestarted_worker() -> None:
+    """Stop a worker :func:`prestart_worker` started when the run records nothing."""
+    while _PRESTARTED:
+        _PRESTARTED.pop().cancel()
+
+
+def _worker_stream(path: Path, **stream_kwargs) -> _WorkerStream:
+    while _PRESTARTED:
+        w = _PRESTARTED.pop()
+        if w.alive():
+            w.open(path, **stream_kwargs)
+            return w
+        w.cancel()
+    return _WorkerStream(path, **stream_kwargs)
 
 
 def _header():
@@ -469,7 +521,7 @@ class RunRecorder:
         self.background = bool(background)
         if self.background:
             self.rr = _RRProxy()
-            self.rec = _WorkerStream(self.path, **stream)
+            self.rec = _worker_stream(self.path, **stream)
         else:
             import rerun as rr
             self.rr = rr

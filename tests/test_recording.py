@@ -295,6 +295,8 @@ def test_ocr_match_tolerates_one_misread_letter():
     assert text_contains("x dgopt+prior y", "dqopt+prior")
     assert text_contains("opencv_daniilidis: 0.3", "opencv_daniilidis")
     assert not text_contains("dq2steps daniilidis", "dqconvrlx")
+    assert text_contains("dqopt, dq2ndord, dqconvr|x", "dqconvrlx")   # "l" read as "|"
+    assert not text_contains("dqconvr x", "dqconvrlx")
     assert not text_contains("", "dqopt")
 
 

@@ -114,7 +114,8 @@ def ocr_text(png: Path, bright_text: bool = False) -> str:
 
 
 def _norm(text: str) -> str:
-    return re.sub(r"[^a-z0-9]", "", text.lower())
+    # tesseract reads a thin "l" as "|" (e.g. "dqconvr|x"): that is the letter, not a gap
+    return re.sub(r"[^a-z0-9]", "", text.replace("|", "l").lower())
 
 
 def text_contains(text: str, label: str) -> bool:
