@@ -234,8 +234,9 @@ def run(config, overrides=(), *, echo: bool = True) -> RunResult:
         sys.modules["simcalib.rerun_log"].cancel_prestarted_worker()   # started for nothing
     if cfg.recording.enabled:
         from simcalib.rerun_log import RunRecorder
-        recorder = RunRecorder(out / "recording.rrd", cfg,
-                               background=cfg.recording.background)
+        # the worker hides rerun's import: a process that imported it already logs itself
+        recorder = RunRecorder(out / "recording.rrd", cfg, background=(
+            cfg.recording.background and "rerun" not in sys.modules))
     rec_path = None if recorder is None else recorder.path
     from simcalib.solvers.kernels.batch import start_background_compile
     st.compile_job = start_background_compile()   # first run on a machine: overlap with the world

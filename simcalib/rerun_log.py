@@ -5,6 +5,13 @@ Headless: a :class:`rerun.RecordingStream` saved straight to a file (no viewer),
 log time disabled; application id ``simcalib``, a fresh recording id per run (two runs
 opened together stay apart). Open it with ``rerun recording.rrd``.
 
+A run's recording is written by a worker process (``recording.background``, default on;
+:mod:`simcalib._rerun_replay`): the run never imports rerun (0.4-1 s, more than a
+synthetic run's solving); :class:`RunRecorder` logs through stand-ins (:class:`_RRProxy`)
+whose calls are pickled into a spool file the worker replays with the real rerun, so
+importing rerun and writing the file happen beside the run. ``simcalib run`` starts the
+worker before it loads the configuration (:func:`prestart_worker`).
+
 The pipeline's stages never call rerun: after each stage the run loop hands the state to
 :meth:`RunRecorder.record_stage`, the ONE place that decides what a stage's results look
 like in the recording (``world``: room, markers, the platform's geoms posed per frame;
@@ -27,8 +34,10 @@ Entity layout (timeline ``frame`` = simulated frame index, plus ``sim_time``):
   the close-up bound (:func:`closeup_bound_m`) are drawn at the bound as
   ``closeup/offscale/<k>`` (one marker per place) with the real errors in the label;
   ``closeup/uncertainty/<solver>`` the 3-sigma translation ellipsoid when the solver
-  result carries a ``covariance``; failed solvers are only named in ``closeup/cam_a``'s
-  label.
+  result carries a ``covariance`` (clipped inside the bound; ``.../offscale`` arrows
+  mark clipped and undetermined axes); failed solvers are only named in camera a's label.
+  ``closeup/labels/*``: one label per group of agreeing estimates, laid out on the
+  close-up's screen so that none overlaps another (:func:`_place_labels`).
 * ``errors/<solver>/rotation_deg|translation_cm`` — per-solver errors as scalars (the
   summary shows them as a table with log-scale bars).
 * ``pose_error/rotation_deg/<cam>``, ``pose_error/translation_mm/<cam>`` — per-frame
@@ -465,7 +474,8 @@ def prestart_worker() -> None:
     """Start the recording worker now, before the run's configuration is even loaded, so
     that rerun's import overlaps that too; the next :class:`RunRecorder` adopts it (an
     unused one is stopped at exit). Used by ``simcalib run``."""
-    if _PRESTARTED:
+    import sys
+    if _PRESTARTED or "rerun" in sys.modules:   # imported already: nothing to hide
         return
     try:
         w = _WorkerStream()
