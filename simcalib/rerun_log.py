@@ -58,6 +58,7 @@ from pathlib import Path
 
 import numpy as np
 
+from simcalib._rerun_replay import _HEADER, _TAG   # the worker's wire format (stdlib only)
 from simcalib.geometry import quat_from_matrix
 
 __all__ = ["RunRecorder", "default_blueprint", "entity_name", "closeup_bound_m",
@@ -367,13 +368,18 @@ class _RRObject:
         return self._spec
 
 
+_NESTED = (_RRProxy, _RRObject, tuple, list, dict)
+
+
 def _encode(x):
+    """``x`` with the stand-ins replaced by their encodings (containers of plain values,
+    e.g. colours or vertex lists, are passed through as they are)."""
     if isinstance(x, (_RRProxy, _RRObject)):
         return x._encoded()
-    if isinstance(x, tuple):
-        return tuple(_encode(v) for v in x)
-    if isinstance(x, list):
-        return [_encode(v) for v in x]
+    if isinstance(x, (tuple, list)):
+        if not any(isinstance(v, _NESTED) for v in x):
+            return x
+        return type(x)(_encode(v) for v in x)
     if isinstance(x, dict):
         return {k: _encode(v) for k, v in x.items()}
     return x
@@ -396,20 +402,20 @@ class _WorkerStream:
         script = Path(__file__).with_name("_rerun_replay.py")
         fd, spool = tempfile.mkstemp(prefix="simcalib-rec-", suffix=".spool")
         self._spool_path = Path(spool)
-        self._spool = os.fdopen(fd, "wb")
+        self._spool = os.fdopen(fd, "wb", buffering=1 << 20)   # handed over per stage
         self._status = self._spool_path.with_suffix(".json")
         self._stderr = tempfile.TemporaryFile()
-        env = dict(os.environ, RERUN_ANALYTICS=os.environ.get("RERUN_ANALYTICS", "0"))
         self._proc = subprocess.Popen(
             [sys.executable, "-P", str(script), str(self._spool_path), str(self._status),
              str(os.getpid())], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-            stderr=self._stderr, env=env)
+            stderr=self._stderr)
         self.status: dict = {}
         if path is not None:
             self.open(path, **stream_kwargs)
 
     def open(self, path: Path, **stream_kwargs) -> None:
         self._send(("init", stream_kwargs, str(path)))
+        self.handoff()
 
     def alive(self) -> bool:
         return self._proc.poll() is None and not self._spool.closed
@@ -428,7 +434,11 @@ class _WorkerStream:
     def _send(self, msg):
         import pickle
         data = pickle.dumps(msg, protocol=pickle.HIGHEST_PROTOCOL)
-        self._spool.write(_HEADER.pack(len(data)) + data)
+        self._spool.write(_HEADER.pack(len(data)))
+        self._spool.write(data)
+
+    def handoff(self) -> None:
+        """Make what was logged so far visible to the worker (after each stage)."""
         self._spool.flush()
 
     def __getattr__(self, method):
@@ -466,7 +476,6 @@ class _WorkerStream:
             print(err, file=sys.stderr)
 
 
-_TAG = "\x00simcalib-rr"    # == simcalib._rerun_replay._TAG
 _PRESTARTED: list = []       # a worker started ahead of the run (prestart_worker)
 
 
@@ -502,12 +511,6 @@ def _worker_stream(path: Path, **stream_kwargs) -> _WorkerStream:
     return _WorkerStream(path, **stream_kwargs)
 
 
-def _header():
-    import struct
-    return struct.Struct("<Q")
-
-
-_HEADER = _header()
 
 
 # ------------------------------------------------------------------------------ run
@@ -547,10 +550,11 @@ class RunRecorder:
         self.room = None                 # (min, max) corners of the room, sim runs
         self._workspace = []             # points the scene view frames
         self.elapsed_s = 0.0             # wall time spent recording (recording_view.json)
+        self.stage_s: dict[str, float] = {}   # ... per stage ("init", "close" included)
         self.present: set[str] = set()   # views with data (the blueprint shows only those)
         self.rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         self.rec.log("closeup", rr.ViewCoordinates.RDF, static=True)
-        self.elapsed_s = time.perf_counter() - t_init
+        self.elapsed_s = self.stage_s["init"] = time.perf_counter() - t_init
 
     # ------------------------------------------------------------- dispatch
     def record_stage(self, stage: str, st) -> None:
@@ -559,7 +563,11 @@ class RunRecorder:
         try:
             self._record_stage(stage, st)
         finally:
-            self.elapsed_s += time.perf_counter() - t0
+            if self.background:
+                self.rec.handoff()
+            dt = time.perf_counter() - t0
+            self.elapsed_s += dt
+            self.stage_s[stage] = self.stage_s.get(stage, 0.0) + dt
 
     def _record_stage(self, stage: str, st) -> None:
         truth = st.truth
@@ -984,7 +992,8 @@ class RunRecorder:
                     self.rec.flush()
                     self.rec.disconnect()
             finally:
-                self.elapsed_s += time.perf_counter() - t0
+                self.stage_s["close"] = time.perf_counter() - t0
+                self.elapsed_s += self.stage_s["close"]
         # the views' framing, for tools that open one view alone (tools/screenshots.py),
         # and the cost: recording_s = wall time the run spent recording (with the worker:
         # handing it the data, and waiting at the end); worker = the worker's own times
@@ -992,6 +1001,7 @@ class RunRecorder:
         worker = getattr(self.rec, "status", None) if self.background else None
         self.path.with_name("recording_view.json").write_text(json.dumps(
             {"kind": self.kind, "images": self.images, "recording_s": self.elapsed_s,
+             "recording_stage_s": self.stage_s,
              "worker": None if worker is None else {k: worker.get(k) for k in (
                  "import_s", "log_s", "calls")},
              "eye": self.eye,

@@ -249,10 +249,15 @@ def main(argv=None) -> int:
         run_dir = _run_scenario(name, out / name, args.override)
         rep = check_recording(run_dir, out / "shots", name)
         size_mb = (run_dir / "recording.rrd").stat().st_size / 1e6
-        rec_s = json.loads((run_dir / "recording_view.json").read_text())["recording_s"]
+        view = json.loads((run_dir / "recording_view.json").read_text())
+        rec_s = view["recording_s"]
         total_s = json.loads((run_dir / "results.json").read_text())["timing_s"]["total"]
+        worker = view.get("worker") or {}
+        beside = (f" (worker process beside the run: rerun import {worker['import_s']:.2f} s, "
+                  f"logging {worker['log_s']:.2f} s)" if worker.get("import_s") is not None
+                  else "")
         print(f"{name}: recording {size_mb:.1f} MB, {rec_s:.2f} s of the run's {total_s:.1f} s "
-              f"({100 * rec_s / total_s:.1f} %); scene fill {rep.scene_fill:.0%}; "
+              f"({100 * rec_s / total_s:.1f} %){beside}; scene fill {rep.scene_fill:.0%}; "
               + ("OK" if rep.ok else "PROBLEMS: " + "; ".join(rep.problems)), flush=True)
         failed += not rep.ok
         if args.docs:
