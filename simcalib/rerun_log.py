@@ -533,9 +533,12 @@ class RunRecorder:
                       send_properties=False)
         self.background = bool(background)
         if self.background:
-            self.rr = _RRProxy()
-            self.rec = _worker_stream(self.path, **stream)
-        else:
+            try:
+                self.rec = _worker_stream(self.path, **stream)
+                self.rr = _RRProxy()
+            except OSError:   # no process can be started here: log in-process
+                self.background = False
+        if not self.background:
             import rerun as rr
             self.rr = rr
             self.rec = rr.RecordingStream(**stream)

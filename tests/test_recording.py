@@ -386,3 +386,12 @@ def test_prestarted_worker_is_adopted_or_stopped(tmp_path):
     w = R._PRESTARTED[0]
     R.cancel_prestarted_worker()
     assert w._proc.poll() is not None and not w._spool_path.exists() and not R._PRESTARTED
+
+
+def test_recording_cost_tool_rejects_unknown_variants(tmp_path, capsys):
+    from simcalib.tools import recording_cost
+    with pytest.raises(SystemExit) as e:
+        recording_cost.main(["--variants", "worker,nope", "--output", str(tmp_path)])
+    assert e.value.code == 2 and "nope" in capsys.readouterr().err
+    with pytest.raises(ValueError, match="unknown variant 'x'"):
+        recording_cost.run_once("line", "x", tmp_path)

@@ -86,7 +86,9 @@ def screenshot(rrd: Path, png: Path, *, blueprint: Path | None = None,
     cmd = ["xvfb-run", "-a", "-s", f"-screen 0 {4 * w}x{4 * h}x24", _rerun_exe(), str(rrd)]
     if blueprint is not None:
         cmd.append(str(blueprint))
-    cmd += ["--screenshot-to", str(png), "--window-size", f"{w}x{h}"]
+    # --port auto: always a viewer of its own (another one listening on the default port
+    # would otherwise receive the file and this command would exit with no screenshot)
+    cmd += ["--port", "auto", "--screenshot-to", str(png), "--window-size", f"{w}x{h}"]
     env = dict(os.environ, RERUN_ANALYTICS="0", XDG_RUNTIME_DIR=tempfile.gettempdir())
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout_s, env=env)
     if proc.returncode != 0 or not png.exists():
