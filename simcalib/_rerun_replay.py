@@ -66,10 +66,12 @@ def _read(spool, parent_pid: int):
     buf = b""
     need = _HEADER.size
     header_done = False
+    nap = 0.002   # waits grow to 50 ms while the run appends nothing (a stage computing)
     while True:
         chunk = spool.read(need - len(buf))
         if chunk:
             buf += chunk
+            nap = 0.002
         if len(buf) == need:
             if header_done:
                 return pickle.loads(buf)
@@ -79,7 +81,8 @@ def _read(spool, parent_pid: int):
         if not chunk:
             if os.getppid() != parent_pid:
                 return None
-            time.sleep(0.005)
+            time.sleep(nap)
+            nap = min(0.05, 1.5 * nap)
 
 
 def main(argv) -> int:
