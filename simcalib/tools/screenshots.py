@@ -5,8 +5,8 @@
     python -m simcalib.tools.screenshots --scenario planar --override world.duration_s=6
 
 Each scenario is run (``python -m simcalib run``), its ``recording.rrd`` opened with
-``rerun FILE --screenshot-to PNG --window-size 1600x1000`` under Xvfb (Mesa's software
-Vulkan, llvmpipe) three times: the default layout, the extrinsic close-up alone and the
+``rerun FILE --port auto --screenshot-to PNG --window-size 1600x1000`` under Xvfb (Mesa's
+software Vulkan, llvmpipe) three times: the default layout, the extrinsic close-up alone and the
 scene alone (blueprint files ``.rbl`` that maximise one view). Checks, each failure a line
 of the report:
 
