@@ -896,17 +896,17 @@ class RunRecorder:
             return []
         Ct = 0.5 * (C[3:, 3:] + C[3:, 3:].T)
         inf_axes = ~np.isfinite(np.diag(Ct)) | (np.diag(Ct) > 1e12)
-        Ct = np.where(np.isfinite(Ct), Ct, 0.0)
-        Ct[inf_axes, :] = 0.0
-        Ct[:, inf_axes] = 0.0
-        w, V = np.linalg.eigh(Ct)
+        # principal axes of the determined coordinates; the undetermined ones as they are
+        fin = np.flatnonzero(~inf_axes)
+        sub = np.where(np.isfinite(Ct), Ct, 0.0)[np.ix_(fin, fin)]
+        w_f, V_f = np.linalg.eigh(sub) if fin.size else (np.zeros(0), np.zeros((0, 0)))
+        w, V = np.zeros(3), np.zeros((3, 3))
+        w[:fin.size] = w_f
+        V[np.ix_(fin, np.arange(fin.size))] = V_f
+        V[np.flatnonzero(inf_axes), np.arange(fin.size, 3)] = 1.0
+        undetermined = np.arange(3) >= fin.size
         if np.linalg.det(V) < 0:
             V[:, 0] = -V[:, 0]
-        # the eigenvectors spanning the undetermined coordinate axes have eigenvalue 0
-        undetermined = np.zeros(3, dtype=bool)
-        if inf_axes.any():
-            E = np.eye(3)[:, inf_axes]
-            undetermined = np.linalg.norm(V.T @ E, axis=1) > 0.7
         half_real = 3.0 * np.sqrt(np.clip(w, 0.0, None))
         cap = max(bound - float(np.linalg.norm(center)), 0.25 * bound)
         clipped = ~undetermined & (half_real > cap)
