@@ -200,6 +200,9 @@ class RecordingConfig:
     jpeg_quality: int = field(default=70, metadata=_doc("JPEG quality of logged images"))
     max_images: int = field(default=150, metadata=_doc(
         "at most this many images per camera are logged (evenly subsampled)"))
+    background: bool = field(default=True, metadata=_doc(
+        "write it from a worker process, so rerun's import and the logging overlap the run "
+        "(a process that has imported rerun already logs in-process)"))
 
     def __post_init__(self):
         set_fields(self, jpeg_quality=check_int("jpeg_quality", self.jpeg_quality, lo=1, hi=100),

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import dataclasses
 import datetime as _dt
+import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -232,9 +233,14 @@ def run(config, overrides=(), *, echo: bool = True) -> RunResult:
     t_start = time.perf_counter()
     st = RunState(cfg=cfg, out=out, rngs=rngs, t_start=t_start)
     recorder = None
+    # the worker hides rerun's import: a process that imported it already logs itself
+    background = cfg.recording.background and "rerun" not in sys.modules
+    if not (cfg.recording.enabled and background) and "simcalib.rerun_log" in sys.modules:
+        # a worker `simcalib run` started ahead would only compete for the CPU
+        sys.modules["simcalib.rerun_log"].cancel_prestarted_worker()
     if cfg.recording.enabled:
         from simcalib.rerun_log import RunRecorder
-        recorder = RunRecorder(out / "recording.rrd", cfg)
+        recorder = RunRecorder(out / "recording.rrd", cfg, background=background)
     rec_path = None if recorder is None else recorder.path
     from simcalib.solvers.kernels.batch import start_background_compile
     st.compile_job = start_background_compile()   # first run on a machine: overlap with the world

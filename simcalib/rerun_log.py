@@ -5,6 +5,13 @@ Headless: a :class:`rerun.RecordingStream` saved straight to a file (no viewer),
 log time disabled; application id ``simcalib``, a fresh recording id per run (two runs
 opened together stay apart). Open it with ``rerun recording.rrd``.
 
+A run's recording is written by a worker process (``recording.background``, default on;
+:mod:`simcalib._rerun_replay`): the run never imports rerun (0.4-1 s, more than a
+synthetic run's solving); :class:`RunRecorder` logs through stand-ins (:class:`_RRProxy`)
+whose calls are pickled into a spool file the worker replays with the real rerun, so
+importing rerun and writing the file happen beside the run. ``simcalib run`` starts the
+worker before it loads the configuration (:func:`prestart_worker`).
+
 The pipeline's stages never call rerun: after each stage the run loop hands the state to
 :meth:`RunRecorder.record_stage`, the ONE place that decides what a stage's results look
 like in the recording (``world``: room, markers, the platform's geoms posed per frame;
@@ -27,8 +34,10 @@ Entity layout (timeline ``frame`` = simulated frame index, plus ``sim_time``):
   the close-up bound (:func:`closeup_bound_m`) are drawn at the bound as
   ``closeup/offscale/<k>`` (one marker per place) with the real errors in the label;
   ``closeup/uncertainty/<solver>`` the 3-sigma translation ellipsoid when the solver
-  result carries a ``covariance``; failed solvers are only named in ``closeup/cam_a``'s
-  label.
+  result carries a ``covariance`` (clipped inside the bound; ``.../offscale`` arrows
+  mark clipped and undetermined axes); failed solvers are only named in camera a's label.
+  ``closeup/labels/*``: one label per group of agreeing estimates, laid out on the
+  close-up's screen so that none overlaps another (:func:`_place_labels`).
 * ``errors/<solver>/rotation_deg|translation_cm`` — per-solver errors as scalars (the
   summary shows them as a table with log-scale bars).
 * ``pose_error/rotation_deg/<cam>``, ``pose_error/translation_mm/<cam>`` — per-frame
@@ -49,6 +58,7 @@ from pathlib import Path
 
 import numpy as np
 
+from simcalib._rerun_replay import _HEADER, _TAG   # the worker's wire format (stdlib only)
 from simcalib.geometry import quat_from_matrix
 
 __all__ = ["RunRecorder", "default_blueprint", "entity_name", "closeup_bound_m",
@@ -114,7 +124,7 @@ def _decades(values) -> tuple[float, float]:
 # -------------------------------------------------------------------------- blueprints
 def default_blueprint(kind: str = "sim", images: bool = True, cameras=("cam_a", "cam_b"),
                       eye: dict | None = None, closeup_eye: dict | None = None,
-                      present: set | None = None):
+                      present: set | None = None, rrb=None):
     """The layout a run recording opens on, per scenario kind.
 
     Left: the scene (room, platform, cameras, trajectories) and, when images were logged
@@ -124,8 +134,10 @@ def default_blueprint(kind: str = "sim", images: bool = True, cameras=("cam_a", 
     scene less room and the tables more. ``eye`` / ``closeup_eye``: ``{"position",
     "look_target", "eye_up"}`` of the two 3D views. ``present``: the views that have data
     (``"scene"``, ``"closeup"``, ``"pose_error"``, ``"summary"``); the others are left out
-    (no pane says "No data available"); ``None`` keeps all."""
-    import rerun.blueprint as rrb
+    (no pane says "No data available"); ``None`` keeps all. ``rrb``: ``rerun.blueprint``
+    (default) or the recorder's stand-in for it."""
+    if rrb is None:
+        import rerun.blueprint as rrb
 
     def eye_controls(e):
         return None if e is None else rrb.EyeControls3D(
@@ -196,6 +208,311 @@ def _eye(bbox_min, bbox_max, direction, up, inside=None, min_dist=0.0) -> dict:
     return {"position": pos.tolist(), "look_target": c.tolist(), "eye_up": list(up)}
 
 
+def _fmt_len_m(x_m: float) -> str:
+    return f"{100 * x_m:.2g} cm" if x_m < 1.0 else f"{x_m:.2g} m"
+
+
+def _axis_name(v) -> str:
+    """``x``/``y``/``z`` for a direction (nearly) along a camera-a axis, else the vector."""
+    v = np.asarray(v, dtype=np.float64)
+    i = int(np.argmax(np.abs(v)))
+    if abs(v[i]) > 0.95:
+        return "xyz"[i]
+    return "(" + ", ".join(f"{x:+.2f}" for x in v) + ")"
+
+
+def _wrap(text: str, width: int = 34) -> list[str]:
+    """``text`` (comma-separated names) wrapped after commas into lines of ~``width``."""
+    lines, cur = [], ""
+    for part in text.split(", "):
+        if cur and len(cur) + 2 + len(part) > width:
+            lines.append(cur + ",")
+            cur = part
+        else:
+            cur = f"{cur}, {part}" if cur else part
+    return lines + [cur]
+
+
+#: the close-up's label layout, in tangent units of the viewer's 3D eye (vertical field of
+#: view 55°: the view is 2 tan(27.5°) = 1.04 high), sized for the smallest close-up pane of
+#: the default layouts (about 480 x 440 logical px: 15 px per text line, 6 px per char)
+_FOV_TAN = math.tan(math.radians(55.0) / 2)
+_LINE_H = 0.045
+_CHAR_W = 0.0145
+_PAD = 0.012
+_PANE_ASPECT = 1.05
+
+
+def _screen_basis(eye: dict):
+    pos = np.asarray(eye["position"], dtype=np.float64)
+    f = np.asarray(eye["look_target"], dtype=np.float64) - pos
+    f /= np.linalg.norm(f)
+    r = np.cross(f, np.asarray(eye["eye_up"], dtype=np.float64))
+    r /= np.linalg.norm(r)
+    return pos, f, r, np.cross(r, f)
+
+
+def _place_labels(eye: dict, items, max_norm: float) -> list[np.ndarray]:
+    """3D positions for labels so that none overlaps another on the screen of ``eye``.
+
+    ``items``: ``(anchor (3,), lines)``. Each label is a box (its text's size in the
+    viewer: lines x width in characters, ``_LINE_H``/``_CHAR_W``) that the viewer centres
+    horizontally just below its point. Boxes are placed greedily, anchors top to bottom,
+    inside the pane: just above the anchor, else below it, else beside it, else ever
+    farther up, down or beside, the first place that overlaps neither a box placed before
+    nor any anchor (the dots the labels name). The point is put on the anchor's viewing
+    depth, or nearer the eye if that would leave the sphere of radius ``max_norm``."""
+    pos, f, r, u = _screen_basis(eye)
+    half_h = _FOV_TAN
+    half_w = _FOV_TAN * _PANE_ASPECT
+
+    def project(p):
+        d = np.asarray(p, dtype=np.float64) - pos
+        z = max(float(d @ f), 1e-6)
+        return np.array([d @ r / z, -(d @ u) / z]), z
+
+    anchors = [project(a) for a, _ in items]
+    sizes = [(max(len(x) for x in lines) * _CHAR_W + 2 * _PAD, len(lines) * _LINE_H + _PAD)
+             for _, lines in items]
+    boxes: list[tuple[float, float, float, float]] = []   # x0, y0, x1, y1 (y down)
+    dots = [(xy[0] - 0.012, xy[1] - 0.012, xy[0] + 0.012, xy[1] + 0.012) for xy, _ in anchors]
+
+    def free(b, own):
+        return not any(b[0] < o[2] and o[0] < b[2] and b[1] < o[3] and o[1] < b[3]
+                       for o in boxes + [d for k, d in enumerate(dots) if k != own])
+
+    order = sorted(range(len(items)), key=lambda i: anchors[i][0][1])
+    screen = [None] * len(items)
+    for i in order:
+        (ax, ay), _ = anchors[i]
+        w, h = sizes[i]
+
+        def box(cx, top):
+            cx = float(np.clip(cx, -half_w + 0.5 * w, half_w - 0.5 * w)) if w < 2 * half_w \
+                else 0.0
+            top = float(np.clip(top, -half_h + 0.02, half_h - h - 0.02))
+            return (cx - 0.5 * w, top, cx + 0.5 * w, top + h)
+
+        above, below, mid = ay - 0.012 - h, ay + 0.012, ay - 0.5 * h
+        right, left = ax + 0.02 + 0.5 * w, ax - 0.02 - 0.5 * w
+        best = None
+        for k in range(90):   # above the anchor, below, beside it; then farther away
+            d = k * _LINE_H / 3
+            for b in (box(ax, above - d), box(ax, below + d), box(right, mid - d),
+                      box(right, mid + d), box(left, mid - d), box(left, mid + d)):
+                if free(b, i):
+                    best = b
+                    break
+            if best is not None:
+                break
+        if best is None:   # a crowded pane: below everything placed
+            top = max([o[3] for o in boxes], default=ay) + 0.005
+            best = (ax - 0.5 * w, top, ax + 0.5 * w, top + h)
+        boxes.append(best)
+        # the viewer draws the text centred just below its point
+        screen[i] = (0.5 * (best[0] + best[2]), best[1] - 0.005)
+    out = []
+    for (a, _), (xy, z), (sx, sy) in zip(items, anchors, screen):
+        ray = f + sx * r - sy * u
+        p = pos + z * ray
+        if np.linalg.norm(p) > max_norm:   # nearer the eye, same place on the screen
+            aa, bb, cc = float(ray @ ray), float(pos @ ray), float(pos @ pos) - max_norm ** 2
+            disc = bb * bb - aa * cc
+            roots = [] if disc < 0 else [(-bb - math.sqrt(disc)) / aa,
+                                         (-bb + math.sqrt(disc)) / aa]
+            roots = [x for x in roots if 0 < x <= z]
+            p = pos + (max(roots) if roots else max(-bb / aa, 1e-3)) * ray
+        out.append(p)
+    return out
+
+
+# ------------------------------------------------------------- recording worker
+class _RRProxy:
+    """Stands for ``rerun`` (or one of its attributes) in the run's process: attribute
+    access and calls build the encoded objects :mod:`simcalib._rerun_replay` rebuilds in
+    the recording worker. Children are cached, so ``rrb.Vertical is rrb.Vertical``."""
+
+    def __init__(self, path=()):
+        self._path = tuple(path)
+        self._children: dict[str, _RRProxy] = {}
+
+    def __getattr__(self, name):
+        if name.startswith("__"):
+            raise AttributeError(name)
+        child = self._children.get(name)
+        if child is None:
+            child = self._children[name] = _RRProxy(self._path + (name,))
+        return child
+
+    def __call__(self, *args, **kwargs):
+        return _RRObject((_TAG, "new", self._path, _encode(args), _encode(kwargs)))
+
+    def _encoded(self):
+        return (_TAG, "ref", self._path)
+
+
+class _RRObject:
+    """A rerun object built in the worker (``rr.Image(x)``); method calls chain
+    (``.compress(jpeg_quality=70)``)."""
+
+    def __init__(self, spec):
+        self._spec = spec
+
+    def __getattr__(self, name):
+        if name.startswith("__"):
+            raise AttributeError(name)
+        return lambda *args, **kwargs: _RRObject(
+            (_TAG, "meth", self._spec, name, _encode(args), _encode(kwargs)))
+
+    def _encoded(self):
+        return self._spec
+
+
+_NESTED = (_RRProxy, _RRObject, tuple, list, dict)
+
+
+def _encode(x):
+    """``x`` with the stand-ins replaced by their encodings (containers of plain values,
+    e.g. colours or vertex lists, are passed through as they are)."""
+    if isinstance(x, (_RRProxy, _RRObject)):
+        return x._encoded()
+    if isinstance(x, (tuple, list)):
+        if not any(isinstance(v, _NESTED) for v in x):
+            return x
+        return type(x)(_encode(v) for v in x)
+    if isinstance(x, dict):
+        return {k: _encode(v) for k, v in x.items()}
+    return x
+
+
+class _WorkerStream:
+    """A :class:`rerun.RecordingStream` living in the recording worker process
+    (:mod:`simcalib._rerun_replay`): every method call is pickled and appended to a spool
+    file the worker follows (appending never blocks the run, also while the worker still
+    imports rerun; no thread). :meth:`finish` closes the stream and waits for the file;
+    it raises when the worker reported an error."""
+
+    def __init__(self, path: Path | None = None, **stream_kwargs):
+        """Start the worker; with ``path``, open the recording there (else :meth:`open`
+        does later: a worker started before the run is known, :func:`prestart_worker`)."""
+        import os
+        import subprocess
+        import sys
+        import tempfile
+        script = Path(__file__).with_name("_rerun_replay.py")
+        fd, spool = tempfile.mkstemp(prefix="simcalib-rec-", suffix=".spool")
+        self._spool_path = Path(spool)
+        self._spool = os.fdopen(fd, "wb", buffering=1 << 20)   # handed over per stage
+        self._status = self._spool_path.with_suffix(".json")
+        self._stderr = tempfile.TemporaryFile()
+        self._proc = subprocess.Popen(
+            [sys.executable, "-P", str(script), str(self._spool_path), str(self._status),
+             str(os.getpid())], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+            stderr=self._stderr)
+        self.status: dict = {}
+        if path is not None:
+            self.open(path, **stream_kwargs)
+
+    def open(self, path: Path, **stream_kwargs) -> None:
+        self._send(("init", stream_kwargs, str(path)))
+        self.handoff()
+
+    def alive(self) -> bool:
+        return self._proc.poll() is None and not self._spool.closed
+
+    def cancel(self) -> None:
+        """Stop an unused worker (no recording written)."""
+        if not self._spool.closed:
+            self._spool.close()
+        if self._proc.poll() is None:
+            self._proc.kill()
+            self._proc.wait()
+        self._stderr.close()
+        for p in (self._spool_path, self._status):
+            p.unlink(missing_ok=True)
+
+    def _send(self, msg):
+        import pickle
+        data = pickle.dumps(msg, protocol=pickle.HIGHEST_PROTOCOL)
+        self._spool.write(_HEADER.pack(len(data)))
+        self._spool.write(data)
+
+    def handoff(self) -> None:
+        """Make what was logged so far visible to the worker (after each stage)."""
+        self._spool.flush()
+
+    def __getattr__(self, method):
+        if method.startswith("_"):
+            raise AttributeError(method)
+        return lambda *args, **kwargs: self._send(("rec", method, _encode(args),
+                                                   _encode(kwargs)))
+
+    def finish(self) -> None:
+        """Close the recording, wait for the worker to write it, report its errors."""
+        import json
+        try:
+            self._send(("close",))
+            self._spool.close()
+            code = self._proc.wait()
+        finally:
+            if self._proc.poll() is None:   # interrupted while waiting
+                self._proc.kill()
+                self._proc.wait()
+            self._spool_path.unlink(missing_ok=True)
+        try:
+            self.status = json.loads(self._status.read_text() or "{}")
+        except (OSError, ValueError):
+            self.status = {}
+        finally:
+            self._status.unlink(missing_ok=True)
+        self._stderr.seek(0)
+        err = self._stderr.read().decode(errors="replace").strip()
+        self._stderr.close()
+        if code != 0:
+            raise RuntimeError(f"the recording worker failed (exit {code}): "
+                               + "\n".join(err.splitlines()[-12:]))
+        if err:   # rerun's warnings, as they would have appeared in-process
+            import sys
+            print(err, file=sys.stderr)
+
+
+_PRESTARTED: list = []       # a worker started ahead of the run (prestart_worker)
+
+
+def prestart_worker() -> None:
+    """Start the recording worker now, before the run's configuration is even loaded, so
+    that rerun's import overlaps that too; the next :class:`RunRecorder` adopts it (an
+    unused one is stopped at exit). Used by ``simcalib run``."""
+    import sys
+    if _PRESTARTED or "rerun" in sys.modules:   # imported already: nothing to hide
+        return
+    try:
+        w = _WorkerStream()
+    except OSError:   # no worker: the recorder starts one, or logs in-process
+        return
+    _PRESTARTED.append(w)
+    import atexit
+    atexit.register(cancel_prestarted_worker)
+
+
+def cancel_prestarted_worker() -> None:
+    """Stop a worker :func:`prestart_worker` started when the run records nothing."""
+    while _PRESTARTED:
+        _PRESTARTED.pop().cancel()
+
+
+def _worker_stream(path: Path, **stream_kwargs) -> _WorkerStream:
+    while _PRESTARTED:
+        w = _PRESTARTED.pop()
+        if w.alive():
+            w.open(path, **stream_kwargs)
+            return w
+        w.cancel()
+    return _WorkerStream(path, **stream_kwargs)
+
+
+
+
 # ------------------------------------------------------------------------------ run
 class RunRecorder:
     """Writes one run's recording; every ``log_*`` method is safe to call once per stage.
@@ -204,17 +521,30 @@ class RunRecorder:
     (also after an interrupt, so the partial recording stays readable).
     """
 
-    def __init__(self, path: Path, cfg):
+    def __init__(self, path: Path, cfg, background: bool = True):
+        """``background``: rerun runs in a worker process (:class:`_WorkerStream`), so the
+        run neither imports rerun nor waits for the file until :meth:`close`; ``False``
+        logs in this process."""
         t_init = time.perf_counter()
-        import rerun as rr
         self.path = Path(path)
         self.cfg = cfg
         self.recording_id = str(uuid.uuid4())   # unique per run; the application id is shared
-        self.rec = rr.RecordingStream("simcalib", recording_id=self.recording_id,
-                                      send_properties=False)
-        if hasattr(self.rec, "set_log_time_enabled"):
+        stream = dict(application_id="simcalib", recording_id=self.recording_id,
+                      send_properties=False)
+        self.background = bool(background)
+        if self.background:
+            try:
+                self.rec = _worker_stream(self.path, **stream)
+                self.rr = _RRProxy()
+            except OSError:   # no process can be started here: log in-process
+                self.background = False
+        if not self.background:
+            import rerun as rr
+            self.rr = rr
+            self.rec = rr.RecordingStream(**stream)
             self.rec.set_log_time_enabled(False)
-        self.rec.save(str(self.path))
+            self.rec.save(str(self.path))
+        rr = self.rr
         self._closed = False
         self.kind = getattr(cfg, "kind", "sim")
         self.images = False
@@ -223,10 +553,11 @@ class RunRecorder:
         self.room = None                 # (min, max) corners of the room, sim runs
         self._workspace = []             # points the scene view frames
         self.elapsed_s = 0.0             # wall time spent recording (recording_view.json)
+        self.stage_s: dict[str, float] = {}   # ... per stage ("init", "close" included)
         self.present: set[str] = set()   # views with data (the blueprint shows only those)
         self.rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         self.rec.log("closeup", rr.ViewCoordinates.RDF, static=True)
-        self.elapsed_s = time.perf_counter() - t_init
+        self.elapsed_s = self.stage_s["init"] = time.perf_counter() - t_init
 
     # ------------------------------------------------------------- dispatch
     def record_stage(self, stage: str, st) -> None:
@@ -235,7 +566,11 @@ class RunRecorder:
         try:
             self._record_stage(stage, st)
         finally:
-            self.elapsed_s += time.perf_counter() - t0
+            if self.background:
+                self.rec.handoff()
+            dt = time.perf_counter() - t0
+            self.elapsed_s += dt
+            self.stage_s[stage] = self.stage_s.get(stage, 0.0) + dt
 
     def _record_stage(self, stage: str, st) -> None:
         truth = st.truth
@@ -257,7 +592,7 @@ class RunRecorder:
                                  logs[0] if logs else None)
         elif stage == "solvers":
             self.log_estimates(st.solvers, truth.X_true, dict(truth.streams))
-            log_convergence(self.rec, st.solvers)
+            log_convergence(self.rec, st.solvers, rr=self.rr)
         elif stage == "evaluation":
             self.log_pose_errors(st.pose_errors)
         elif stage == "reports":
@@ -267,7 +602,7 @@ class RunRecorder:
     def log_room_and_platform(self, world) -> None:
         """The room (floor solid, walls/ceiling as outlines) and the platform: every moving
         body's geoms logged once in the body frame, the body posed per simulated frame."""
-        import rerun as rr
+        rr = self.rr
         from simcalib.world.visual import scene_geometry
         frames = world.frames(world.camera_names[0])
         geo = scene_geometry(world.model, frames.qpos, frames.mocap_pos, frames.mocap_quat_wxyz)
@@ -293,14 +628,15 @@ class RunRecorder:
             ent = f"world/platform/{entity_name(body.name)}"
             T = body.T_world_body
             self.rec.send_columns(ent, indexes=[rr.TimeColumn("frame", sequence=frame_idx)],
-                                  columns=rr.Transform3D.columns(translation=T[:, :3, 3],
-                                                                 mat3x3=T[:, :3, :3]))
+                                  columns=rr.Transform3D.columns(   # quaternions: vectorised
+                                      translation=T[:, :3, 3],
+                                      quaternion=quat_from_matrix(T[:, :3, :3])))
             self._log_geoms(f"{ent}/geoms", body.geoms)
             self._workspace.append(T[:, :3, 3])
         self._update_eye()
 
     def _log_geoms(self, ent: str, geoms) -> None:
-        import rerun as rr
+        rr = self.rr
         by_kind: dict[str, list] = {}
         for g in geoms:
             by_kind.setdefault(g.kind, []).append(g)
@@ -340,7 +676,7 @@ class RunRecorder:
 
     def log_world(self, marker_field) -> None:
         """The marker field as textured quads (the ArUco pattern with its quiet zone)."""
-        import rerun as rr
+        rr = self.rr
         if marker_field is None or len(getattr(marker_field, "ids", ())) == 0:
             return
         from simcalib.markers import marker_image
@@ -360,7 +696,7 @@ class RunRecorder:
 
     # ----------------------------------------------------------- trajectories
     def log_trajectories(self, gt: dict, source: dict, X_true) -> None:
-        import rerun as rr
+        rr = self.rr
         scale = 0.08
         pts = [np.asarray(s.T_world_cam)[:, :3, 3] for s in gt.values()]
         if pts:
@@ -382,7 +718,7 @@ class RunRecorder:
                          rr.TimeColumn("sim_time", duration=np.asarray(s.timestamp_s,
                                                                         dtype=np.float64))],
                 columns=rr.Transform3D.columns(translation=T[:, :3, 3],
-                                               mat3x3=T[:, :3, :3]))
+                                               quaternion=quat_from_matrix(T[:, :3, :3])))
             self.rec.log(f"world/{cam}/axes", rr.TransformAxes3D(1.5 * scale), static=True)
         for cam, s in source.items():
             color = tuple(int(0.55 * c) for c in _COLORS.get(cam, (200, 200, 200)))
@@ -412,7 +748,7 @@ class RunRecorder:
     # ---------------------------------------------------------------- cameras
     def log_cameras(self, intrinsics: dict, gt: dict, visual_log) -> None:
         """Pinholes of both cameras, and (aruco source) the logged images and corners."""
-        import rerun as rr
+        rr = self.rr
         intrinsics = dict(getattr(visual_log, "intrinsics", None) or intrinsics or {})
         for cam, K in intrinsics.items():
             self.rec.log(f"world/{cam}/image",
@@ -449,8 +785,15 @@ class RunRecorder:
 
     # ------------------------------------------------------------- estimates
     def log_estimates(self, solvers, X_true, gt: dict | None = None) -> None:
-        """The extrinsic close-up (camera a frame) and the per-solver error table."""
-        import rerun as rr
+        """The extrinsic close-up (camera a frame) and the per-solver error table.
+
+        Estimates that agree within ``0.3 L`` (L: the axis length) share one label listing
+        their names; every label is placed on the screen of the close-up's eye
+        (:func:`_place_labels`) so that no two labels overlap, each joined to what it
+        names by a leader line. Estimates beyond :func:`closeup_bound_m` are drawn at the
+        bound (off-scale); uncertainty ellipsoids are bounded the same way
+        (:meth:`_log_ellipsoid`)."""
+        rr = self.rr
         X_true = np.asarray(X_true, dtype=np.float64)
         t_true = X_true[:3, 3]
         self.present.add("closeup")
@@ -458,20 +801,15 @@ class RunRecorder:
         L = float(np.clip(0.3 * np.linalg.norm(t_true), 0.02, 0.15))   # axis length
         ok = [s for s in solvers if s.X is not None and np.isfinite(s.X).all()]
         failed = [s for s in solvers if s not in ok]
-        cam_label = "cam a (origin)"
-        if failed:
-            cam_label += "; FAILED, not drawn: " + ", ".join(s.label for s in failed)
         self.rec.log("closeup/cam_a", rr.TransformAxes3D(L), rr.Points3D(
             [[0.0, 0.0, 0.0]], radii=0.1 * L, colors=_COLORS["cam_a"]), static=True)
-        self.rec.log("closeup/labels/cam_a", rr.Points3D(
-            [[0.0, 0.5 * L, 0.0]], radii=0.05 * L, colors=_LABEL_COLOR, labels=[cam_label]),
-            static=True)
         self._log_pose("closeup/true_cam_b", X_true, static=True)
         self.rec.log("closeup/true_cam_b", rr.TransformAxes3D(1.3 * L), rr.Points3D(
             [[0.0, 0.0, 0.0]], radii=0.12 * L, colors=_TRUE_COLOR), static=True)
         extent = [np.zeros(3), t_true]
         groups: list[list] = []          # estimates on top of each other share one label
         offscale: list[list] = []        # so do off-scale markers at the same place
+        notes: dict[str, list[str]] = {}  # off-scale uncertainty, per solver
         for k, s in enumerate(ok):
             t = np.asarray(s.X)[:3, 3]
             color = _SOLVER_COLORS[k % len(_SOLVER_COLORS)]
@@ -498,70 +836,113 @@ class RunRecorder:
                 groups.append([(s, t, color)])
             cov = getattr(s, "covariance", None)
             if cov is not None:
-                self._log_ellipsoid(f"closeup/uncertainty/{name}", np.asarray(cov), t, bound,
-                                    color, s.label)
-        # labels stacked above (-y) their estimates, with a leader line; the true camera
-        # b's label below it, so no two labels are drawn over each other
-        for j, grp in enumerate(groups):
-            p0 = grp[0][1]
-            p1 = p0 + np.array([0.0, -(0.6 + 0.45 * j) * L, 0.0])
-            self.rec.log(f"closeup/labels/{j}", rr.Points3D(
-                [p1], radii=0.05 * L, colors=_LABEL_COLOR,
-                labels=[", ".join(s.label for s, _, _ in grp)]), rr.LineStrips3D(
-                [[p0, p1]], colors=grp[0][2], radii=0.01 * L), static=True)
-            extent.append(p1)
-        # one label for every off-scale estimate (at the first marker): no overdrawn text
-        lines = []
+                notes[s.label] = self._log_ellipsoid(
+                    f"closeup/uncertainty/{name}", np.asarray(cov), t, bound, L, color,
+                    s.label)
         for j, grp in enumerate(offscale):
             p = grp[0][1]
             self.rec.log(f"closeup/offscale/{j}", rr.Points3D(
                 [p], radii=0.2 * L, colors=_OFFSCALE_COLOR), rr.Arrows3D(
                 origins=[0.85 * p], vectors=[0.15 * p], colors=_OFFSCALE_COLOR), static=True)
-            lines += [f"{s.label}: {_fmt(s.rotation_error_deg)}° / "
-                      f"{_fmt_len_cm(s.translation_error_m)}" for s, _ in grp]
             extent.append(p)
-        if offscale:
-            self.rec.log("closeup/offscale/0/label", rr.Points3D(
-                [offscale[0][0][1]], radii=0.01 * L, colors=_LABEL_COLOR,
-                labels=[f"OFF-SCALE (drawn at {bound:g} m), real error:\n" + "\n".join(lines)]),
-                static=True)
-        self.rec.log("closeup/labels/true_cam_b", rr.Points3D(
-            [t_true + np.array([0.0, 0.5 * L, 0.0])], radii=0.05 * L, colors=_LABEL_COLOR,
-            labels=["true cam b"]), static=True)
         self.closeup_extent = np.array(extent)
         lo, hi = self.closeup_extent.min(0) - L, self.closeup_extent.max(0) + L
         self.closeup_eye = _eye(lo, hi, (-0.35, -0.5, -1.0), (0, -1, 0))
+
+        # the labels: (entity, anchor, text lines, leader colour)
+        cam_lines = ["cam a (origin)"]
+        if failed:
+            cam_lines.append("FAILED, not drawn: " + ", ".join(s.label for s in failed))
+        labels = [("cam_a", np.zeros(3), cam_lines, _COLORS["cam_a"]),
+                  ("true_cam_b", t_true, ["true cam b"], _TRUE_COLOR)]
+        for j, grp in enumerate(groups):
+            names = [s.label for s, _, _ in grp]
+            lines = _wrap(", ".join(names))
+            same = len({tuple(notes.get(n, [])) for n in names}) == 1
+            for n in names[:1] if same else names:   # the same notes once for the group
+                lines += [x if same else f"{n}: {x}" for x in notes.get(n, [])]
+            labels.append((f"{j}", grp[0][1], lines, grp[0][2]))
+        for j, grp in enumerate(offscale):   # the real errors of what is drawn at the bound
+            labels.append((f"offscale_{j}", grp[0][1],
+                           [f"OFF-SCALE (drawn at {bound:g} m), real error:"]
+                           + [f"{s.label}: {_fmt(s.rotation_error_deg)}° / "
+                              f"{_fmt_len_cm(s.translation_error_m)}" for s, _ in grp],
+                           _OFFSCALE_COLOR))
+        placed = _place_labels(self.closeup_eye, [(a, lines) for _, a, lines, _ in labels],
+                               max_norm=1.4 * bound)
+        for (key, anchor, lines, color), p in zip(labels, placed):
+            leader = None
+            if np.linalg.norm(p - anchor) > 0.2 * L:
+                leader = rr.LineStrips3D([[anchor, p]], colors=color, radii=0.006 * L)
+            self.rec.log(f"closeup/labels/{key}", *[a for a in (rr.Points3D(
+                [p], radii=0.02 * L, colors=_LABEL_COLOR, labels=["\n".join(lines)]), leader)
+                if a is not None], static=True)
         for s in ok:
             self.rec.log(f"errors/{entity_name(s.label)}/rotation_deg",
                          rr.Scalars([s.rotation_error_deg]), static=True)
             self.rec.log(f"errors/{entity_name(s.label)}/translation_cm",
                          rr.Scalars([100.0 * s.translation_error_m]), static=True)
 
-    def _log_ellipsoid(self, ent, cov, center, bound, color, label) -> None:
-        """3-sigma ellipsoid of the translation block (rows/cols 3..5 of the 6x6 covariance
-        of (omega, v) in frame a); infinite or huge axes are clipped at the bound."""
-        import rerun as rr
+    def _log_ellipsoid(self, ent, cov, center, bound, L, color, label) -> list[str]:
+        """The 3-sigma ellipsoid of the translation block (rows/cols 3..5 of the 6x6
+        covariance of (omega, v) in frame a), bounded like the estimates: a half-axis is
+        clipped so the ellipsoid stays inside the close-up's bound (a red arrow at each
+        clipped end marks it off-scale); an undetermined (infinite) axis is no part of the
+        ellipsoid but a red double arrow through the estimate. Returns the label notes
+        (e.g. ``3σ 1.4 m along y: off-scale``, ``σ = ∞ along x, y, z``)."""
+        rr = self.rr
         C = np.asarray(cov, dtype=np.float64)
         if C.shape != (6, 6):
-            return
-        Ct = C[3:, 3:]
-        if not np.isfinite(Ct).all():
-            Ct = np.where(np.isfinite(Ct), Ct, 0.0) + np.diag(
-                np.where(np.isfinite(np.diag(C[3:, 3:])), 0.0, bound ** 2 / 9.0))
-        w, V = np.linalg.eigh(0.5 * (Ct + Ct.T))
-        half = np.minimum(3.0 * np.sqrt(np.clip(w, 0.0, None)), bound)
+            return []
+        Ct = 0.5 * (C[3:, 3:] + C[3:, 3:].T)
+        inf_axes = ~np.isfinite(np.diag(Ct)) | (np.diag(Ct) > 1e12)
+        # principal axes of the determined coordinates; the undetermined ones as they are
+        fin = np.flatnonzero(~inf_axes)
+        sub = np.where(np.isfinite(Ct), Ct, 0.0)[np.ix_(fin, fin)]
+        w_f, V_f = np.linalg.eigh(sub) if fin.size else (np.zeros(0), np.zeros((0, 0)))
+        w, V = np.zeros(3), np.zeros((3, 3))
+        w[:fin.size] = w_f
+        V[np.ix_(fin, np.arange(fin.size))] = V_f
+        V[np.flatnonzero(inf_axes), np.arange(fin.size, 3)] = 1.0
+        undetermined = np.arange(3) >= fin.size
         if np.linalg.det(V) < 0:
             V[:, 0] = -V[:, 0]
+        half_real = 3.0 * np.sqrt(np.clip(w, 0.0, None))
+        cap = max(bound - float(np.linalg.norm(center)), 0.25 * bound)
+        clipped = ~undetermined & (half_real > cap)
+        half = np.where(undetermined, 0.0, np.minimum(half_real, cap))
+        notes, arrows_o, arrows_v = [], [], []
+        for i in np.flatnonzero(clipped):
+            notes.append(f"3σ {_fmt_len_m(half_real[i])} along {_axis_name(V[:, i])}: "
+                         f"off-scale (drawn at {_fmt_len_m(cap)})")
+            for sgn in (1.0, -1.0):
+                arrows_o.append(center + sgn * cap * V[:, i])
+                arrows_v.append(sgn * 0.6 * L * V[:, i])
+        if undetermined.any():
+            notes.append("σ = ∞ along " + ", ".join(_axis_name(V[:, i])
+                                                     for i in np.flatnonzero(undetermined)))
+            for i in np.flatnonzero(undetermined):
+                for sgn in (1.0, -1.0):
+                    arrows_o.append(center + sgn * 0.3 * L * V[:, i])
+                    arrows_v.append(sgn * 1.2 * L * V[:, i])
         sigma = np.sqrt(np.clip(np.diag(Ct), 0, None))
-        self.rec.log(ent, rr.Ellipsoids3D(
-            centers=[center], half_sizes=[np.maximum(half, 1e-4)],
-            quaternions=[quat_from_matrix(V)], colors=[(*color, 90)],
-            fill_mode="transparentfillmajorwireframe",
-            labels=[f"{label} 3σ: σ = " + ", ".join(f"{100 * v:.2g}" for v in sigma)
-                    + " cm"], show_labels=False), static=True)
+        text = (f"{label} 3σ: σ = " + ", ".join("∞" if u else f"{100 * v:.2g}"
+                                                 for u, v in zip(inf_axes, sigma)) + " cm")
+        if not undetermined.all():
+            self.rec.log(ent, rr.Ellipsoids3D(
+                centers=[center], half_sizes=[np.maximum(half, 1e-4)],
+                quaternions=[quat_from_matrix(V)], colors=[(*color, 90)],
+                fill_mode="transparentfillmajorwireframe", labels=[text], show_labels=False),
+                static=True)
+        if arrows_o:
+            self.rec.log(f"{ent}/offscale", rr.Arrows3D(
+                origins=arrows_o, vectors=arrows_v, colors=_OFFSCALE_COLOR,
+                radii=0.02 * L, labels=[text] * len(arrows_o), show_labels=False),
+                static=True)
+        return notes
 
     def _log_pose(self, entity: str, T: np.ndarray, static: bool = False) -> None:
-        import rerun as rr
+        rr = self.rr
         self.rec.log(entity, rr.Transform3D(translation=T[:3, 3], mat3x3=T[:3, :3]),
                      static=static)
 
@@ -569,7 +950,7 @@ class RunRecorder:
     def log_pose_errors(self, pose_errors: dict) -> None:
         """One plot per unit (``pose_error/rotation_deg``, ``pose_error/translation_mm``),
         one named series per camera in the camera's colour."""
-        import rerun as rr
+        rr = self.rr
         for cam, e in pose_errors.items():
             if e.n == 0:
                 continue
@@ -587,34 +968,49 @@ class RunRecorder:
                                           scalars=np.asarray(values, dtype=np.float64) * unit))
 
     def log_summary(self, markdown: str) -> None:
-        import rerun as rr
+        rr = self.rr
         self.present.add("summary")
         self.rec.log("summary", rr.TextDocument(markdown, media_type="text/markdown"),
                      static=True)
 
     def blueprint(self):
         return default_blueprint(kind=self.kind, images=self.images, eye=self.eye,
-                                 closeup_eye=self.closeup_eye, present=self.present)
+                                 closeup_eye=self.closeup_eye, present=self.present,
+                                 rrb=self.rr.blueprint if self.background else None)
 
     def close(self) -> None:
+        """Write the blueprint, finish the file (waiting for the recording worker) and
+        ``recording_view.json`` beside it."""
         if self._closed:
             return
         self._closed = True
         t0 = time.perf_counter()
         try:
             self.rec.send_blueprint(self.blueprint(), make_active=True, make_default=True)
-            self.rec.flush()
-            self.elapsed_s += time.perf_counter() - t0
-            # the views' framing, for tools that open one view alone (tools/screenshots.py)
-            import json
-            self.path.with_name("recording_view.json").write_text(json.dumps(
-                {"kind": self.kind, "images": self.images, "recording_s": self.elapsed_s,
-                 "eye": self.eye,
-                 "closeup_eye": self.closeup_eye,
-                 "room": None if self.room is None else [v.tolist() for v in self.room]},
-                indent=1))
         finally:
-            self.rec.disconnect()
+            try:
+                if self.background:
+                    self.rec.finish()    # raises when the worker reported an error
+                else:
+                    self.rec.flush()
+                    self.rec.disconnect()
+            finally:
+                self.stage_s["close"] = time.perf_counter() - t0
+                self.elapsed_s += self.stage_s["close"]
+        # the views' framing, for tools that open one view alone (tools/screenshots.py),
+        # and the cost: recording_s = wall time the run spent recording (with the worker:
+        # handing it the data, and waiting at the end); worker = the worker's own times
+        import json
+        worker = getattr(self.rec, "status", None) if self.background else None
+        self.path.with_name("recording_view.json").write_text(json.dumps(
+            {"kind": self.kind, "images": self.images, "recording_s": self.elapsed_s,
+             "recording_stage_s": self.stage_s,
+             "worker": None if worker is None else {k: worker.get(k) for k in (
+                 "import_s", "log_s", "calls")},
+             "eye": self.eye,
+             "closeup_eye": self.closeup_eye,
+             "room": None if self.room is None else [v.tolist() for v in self.room]},
+            indent=1))
 
 
 def summary_markdown(result) -> str:
@@ -796,12 +1192,14 @@ def log_experiment(path, name: str, pngs: dict, documents: dict) -> Path:
     return path
 
 
-def log_convergence(rec, solvers) -> None:
+def log_convergence(rec, solvers, rr=None) -> None:
     """Issue 9: error and predicted 1-sigma against the number of motions used (k), one
     named series per solver, on the ``motions`` timeline: ``convergence/rotation_deg/
     <solver>/{error,sigma}`` and ``convergence/translation_cm/<solver>/{error,sigma}``
-    (from ``SolverResult.convergence``; failed or undetermined points are left out)."""
-    import rerun as rr
+    (from ``SolverResult.convergence``; failed or undetermined points are left out).
+    ``rr``: the rerun module (or the recorder's stand-in for it)."""
+    if rr is None:
+        import rerun as rr
     for n, s in enumerate(solvers):
         pts = [p for p in getattr(s, "convergence", ()) if p.get("success")]
         if not pts:

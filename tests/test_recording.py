@@ -169,13 +169,70 @@ def test_closeup_offscale_failed_and_uncertainty(tmp_path):
     off = [c for e, c in ents.items() if e.startswith("/closeup/offscale/")]
     pos = np.concatenate([_points(c["Points3D:positions"]) for c in off])
     np.testing.assert_allclose(np.linalg.norm(pos, axis=1), bound, rtol=1e-6)
-    labels = " ".join(str(c.get("Points3D:labels")) for c in off)
+    labels = " ".join(str(c.get("Points3D:labels")) for e, c in ents.items()
+                      if e.startswith("/closeup/labels/offscale"))
     assert "wild" in labels and "1.7e+07 cm" in labels
     cam_label = str(ents["/closeup/labels/cam_a"]["Points3D:labels"])
     assert "FAILED" in cam_label and "broken" in cam_label
     half = np.sort(_points(ents["/closeup/uncertainty/good"]["Ellipsoids3D:half_sizes"])[0])
-    # 3 sigma of 1 cm and 2 cm; the undetermined (infinite) axis clipped at the bound
-    np.testing.assert_allclose(half, [0.03, 0.06, bound], rtol=1e-6)
+    # 3 sigma of 1 cm and 2 cm; the undetermined (infinite) axis is no part of the ellipsoid
+    np.testing.assert_allclose(half, [1e-4, 0.03, 0.06], rtol=1e-6)
+    # ... but an off-scale marker: red arrows along z through the estimate, and a label note
+    arrows = ents["/closeup/uncertainty/good/offscale"]
+    v = _points(arrows["Arrows3D:vectors"])
+    assert len(v) == 2 and np.allclose(np.abs(v[:, :2]), 0.0) and (np.abs(v[:, 2]) > 0).all()
+    o = _points(arrows["Arrows3D:origins"])
+    assert (np.linalg.norm(o + v, axis=1) <= bound).all()
+    assert any("σ = ∞ along z" in str(c.get("Points3D:labels")) for e, c in ents.items()
+               if e.startswith("/closeup/labels/"))
+
+
+def test_closeup_clips_huge_ellipsoids_inside_the_bound(tmp_path):
+    from simcalib.rerun_log import RunRecorder
+    cfg = SimpleNamespace(kind="synthetic", recording=SimpleNamespace(max_images=0,
+                                                                      jpeg_quality=70))
+    X = np.eye(4)
+    X[:3, 3] = [0.0, 0.2, 0.0]
+    # sigma_y = 0.5 m: the 3 sigma half-axis (1.5 m) exceeds the 1 m close-up bound
+    cov = np.diag([1e-6, 1e-6, 1e-6, 1e-4, 0.25, 1e-4])
+    allinf = np.full((6, 6), np.inf)
+    rec = RunRecorder(tmp_path / "r.rrd", cfg)
+    rec.log_estimates([_solver("wide", X, cov=cov), _solver("nothing", X, cov=allinf)], X)
+    rec.close()
+    ents = _chunks(tmp_path / "r.rrd")
+    bound = closeup_bound_m(0.2)
+    half = _points(ents["/closeup/uncertainty/wide"]["Ellipsoids3D:half_sizes"])[0]
+    assert np.isclose(half.max(), bound - 0.2) and np.isclose(np.sort(half)[0], 0.03)
+    assert "/closeup/uncertainty/wide/offscale" in ents
+    # all axes undetermined: no ellipsoid at all, only the off-scale marker
+    assert "Ellipsoids3D:half_sizes" not in ents.get("/closeup/uncertainty/nothing", {})
+    assert len(_points(ents["/closeup/uncertainty/nothing/offscale"]["Arrows3D:vectors"])) == 6
+    text = " ".join(str(c.get("Points3D:labels")) for e, c in ents.items()
+                    if e.startswith("/closeup/labels/"))
+    assert "3σ 1.5 m along y: off-scale" in text and "σ = ∞ along" in text
+    # one label for the two estimates on top of each other
+    assert text.count("wide") == 2 and "wide, nothing" in text
+
+
+def test_closeup_labels_do_not_overlap_on_screen():
+    from simcalib.rerun_log import _place_labels, _screen_basis, _LINE_H, _CHAR_W
+    eye = {"position": [-0.7, -0.8, -2.0], "look_target": [0.0, 0.2, 0.0],
+           "eye_up": [0, -1, 0]}
+    rng = np.random.default_rng(0)
+    items = [(np.array([0.0, 0.28, 0.0]) + 0.01 * rng.standard_normal(3), [f"label {k}"])
+             for k in range(6)] + [(np.zeros(3), ["cam a (origin)", "FAILED: x"])]
+    pts = _place_labels(eye, items, max_norm=1.4)
+    pos, f, r, u = _screen_basis(eye)
+    boxes = []
+    for p, (_, lines) in zip(pts, items):
+        d = p - pos
+        x, y = d @ r / (d @ f), -(d @ u) / (d @ f)
+        w, h = max(map(len, lines)) * _CHAR_W, len(lines) * _LINE_H
+        boxes.append((x - w / 2, y, x + w / 2, y + h))
+        assert np.linalg.norm(p) <= 1.4 + 1e-9
+    for i, a in enumerate(boxes):
+        for b in boxes[:i]:
+            assert not (a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3])
 
 
 def test_summary_markdown_rows():
@@ -238,6 +295,8 @@ def test_ocr_match_tolerates_one_misread_letter():
     assert text_contains("x dgopt+prior y", "dqopt+prior")
     assert text_contains("opencv_daniilidis: 0.3", "opencv_daniilidis")
     assert not text_contains("dq2steps daniilidis", "dqconvrlx")
+    assert text_contains("dqopt, dq2ndord, dqconvr|x", "dqconvrlx")   # "l" read as "|"
+    assert not text_contains("dqconvr x", "dqconvrlx")
     assert not text_contains("", "dqopt")
 
 
@@ -280,3 +339,59 @@ def test_blueprint_per_kind_shows_only_views_with_data():
     partial = _view_origins(default_blueprint("sim", images=True, present={"scene"}))
     assert "closeup" not in partial and "summary" not in partial
     assert not any(o.startswith("pose_error") for o in partial)
+
+
+def test_worker_and_in_process_recordings_match(tmp_path):
+    """The recording worker (rerun imported and the file written in another process)
+    writes what logging in-process writes; its errors surface at close."""
+    from simcalib.rerun_log import RunRecorder
+    cfg = SimpleNamespace(kind="synthetic", recording=SimpleNamespace(max_images=0,
+                                                                      jpeg_quality=70))
+    X = np.eye(4)
+    X[:3, 3] = [0.0, 0.2, 0.0]
+    cov = np.diag([1e-6, 1e-6, 1e-6, 4e-4, 1e-4, 1e-4])
+    got = {}
+    for background in (True, False):
+        rec = RunRecorder(tmp_path / f"{background}.rrd", cfg, background=background)
+        assert rec.background is background
+        rec.log_estimates([_solver("good", X, cov=cov), _solver("broken", None)], X)
+        rec.log_summary("**hello**")
+        rec.close()
+        got[background] = _chunks(tmp_path / f"{background}.rrd")
+        view = json.loads((tmp_path / "recording_view.json").read_text())
+        assert (view["worker"] is not None) is background
+    assert set(got[True]) == set(got[False])
+    for ent in ("/closeup/labels/0", "/closeup/uncertainty/good", "/summary"):
+        assert got[True][ent] == got[False][ent]
+    from rerun.chunk import RrdReader
+    assert RrdReader(str(tmp_path / "True.rrd")).blueprints()
+    bad = RunRecorder(tmp_path / "bad.rrd", cfg, background=True)
+    bad.rec.log("x", bad.rr.NoSuchArchetype([1.0]))
+    with pytest.raises(RuntimeError, match="(?s)recording worker failed.*NoSuchArchetype"):
+        bad.close()
+
+
+def test_prestarted_worker_is_adopted_or_stopped(tmp_path):
+    import simcalib.rerun_log as R
+    R.cancel_prestarted_worker()
+    R._PRESTARTED.append(R._WorkerStream())       # what prestart_worker() does
+    w = R._PRESTARTED[0]
+    cfg = SimpleNamespace(kind="synthetic", recording=SimpleNamespace(max_images=0,
+                                                                      jpeg_quality=70))
+    rec = R.RunRecorder(tmp_path / "r.rrd", cfg, background=True)
+    assert rec.rec is w and not R._PRESTARTED
+    rec.close()
+    assert "/closeup" in _chunks(tmp_path / "r.rrd")
+    R._PRESTARTED.append(R._WorkerStream())
+    w = R._PRESTARTED[0]
+    R.cancel_prestarted_worker()
+    assert w._proc.poll() is not None and not w._spool_path.exists() and not R._PRESTARTED
+
+
+def test_recording_cost_tool_rejects_unknown_variants(tmp_path, capsys):
+    from simcalib.tools import recording_cost
+    with pytest.raises(SystemExit) as e:
+        recording_cost.main(["--variants", "worker,nope", "--output", str(tmp_path)])
+    assert e.value.code == 2 and "nope" in capsys.readouterr().err
+    with pytest.raises(ValueError, match="unknown variant 'x'"):
+        recording_cost.run_once("line", "x", tmp_path)

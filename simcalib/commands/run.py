@@ -77,6 +77,9 @@ def main(args: list[str]) -> int:
         print(help_text(), end="")
         return 0
     scenario, overrides, flags = parse_args(args)
+    if "--dry-run" not in flags:   # rerun's import overlaps loading the configuration too
+        from simcalib.rerun_log import prestart_worker
+        prestart_worker()
     from simcalib.config import load_config, to_dict
     cfg = load_config(scenario, overrides)        # ConfigError -> exit 2, nothing done
     if "--dry-run" in flags:

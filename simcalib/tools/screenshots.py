@@ -5,8 +5,8 @@
     python -m simcalib.tools.screenshots --scenario planar --override world.duration_s=6
 
 Each scenario is run (``python -m simcalib run``), its ``recording.rrd`` opened with
-``rerun FILE --screenshot-to PNG --window-size 1600x1000`` under Xvfb (Mesa's software
-Vulkan, llvmpipe) three times: the default layout, the extrinsic close-up alone and the
+``rerun FILE --port auto --screenshot-to PNG --window-size 1600x1000`` under Xvfb (Mesa's
+software Vulkan, llvmpipe) three times: the default layout, the extrinsic close-up alone and the
 scene alone (blueprint files ``.rbl`` that maximise one view). Checks, each failure a line
 of the report:
 
@@ -86,7 +86,9 @@ def screenshot(rrd: Path, png: Path, *, blueprint: Path | None = None,
     cmd = ["xvfb-run", "-a", "-s", f"-screen 0 {4 * w}x{4 * h}x24", _rerun_exe(), str(rrd)]
     if blueprint is not None:
         cmd.append(str(blueprint))
-    cmd += ["--screenshot-to", str(png), "--window-size", f"{w}x{h}"]
+    # --port auto: always a viewer of its own (another one listening on the default port
+    # would otherwise receive the file and this command would exit with no screenshot)
+    cmd += ["--port", "auto", "--screenshot-to", str(png), "--window-size", f"{w}x{h}"]
     env = dict(os.environ, RERUN_ANALYTICS="0", XDG_RUNTIME_DIR=tempfile.gettempdir())
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout_s, env=env)
     if proc.returncode != 0 or not png.exists():
@@ -114,7 +116,8 @@ def ocr_text(png: Path, bright_text: bool = False) -> str:
 
 
 def _norm(text: str) -> str:
-    return re.sub(r"[^a-z0-9]", "", text.lower())
+    # tesseract reads a thin "l" as "|" (e.g. "dqconvr|x"): that is the letter, not a gap
+    return re.sub(r"[^a-z0-9]", "", text.replace("|", "l").lower())
 
 
 def text_contains(text: str, label: str) -> bool:
@@ -248,10 +251,15 @@ def main(argv=None) -> int:
         run_dir = _run_scenario(name, out / name, args.override)
         rep = check_recording(run_dir, out / "shots", name)
         size_mb = (run_dir / "recording.rrd").stat().st_size / 1e6
-        rec_s = json.loads((run_dir / "recording_view.json").read_text())["recording_s"]
+        view = json.loads((run_dir / "recording_view.json").read_text())
+        rec_s = view["recording_s"]
         total_s = json.loads((run_dir / "results.json").read_text())["timing_s"]["total"]
+        worker = view.get("worker") or {}
+        beside = (f" (worker process beside the run: rerun import {worker['import_s']:.2f} s, "
+                  f"logging {worker['log_s']:.2f} s)" if worker.get("import_s") is not None
+                  else "")
         print(f"{name}: recording {size_mb:.1f} MB, {rec_s:.2f} s of the run's {total_s:.1f} s "
-              f"({100 * rec_s / total_s:.1f} %); scene fill {rep.scene_fill:.0%}; "
+              f"({100 * rec_s / total_s:.1f} %){beside}; scene fill {rep.scene_fill:.0%}; "
               + ("OK" if rep.ok else "PROBLEMS: " + "; ".join(rep.problems)), flush=True)
         failed += not rep.ok
         if args.docs:
