@@ -47,10 +47,12 @@ class VisionConfig:
     Camera effects (:mod:`simcalib.camera_effects`): ``preset`` (``ideal`` — every effect
     off — ``realistic`` or ``harsh``) and per-effect overrides, ``None`` keeping the
     preset's value: ``distortion`` (k1, k2, p1, p2, k3), ``intrinsics_error`` (focal
-    fraction, principal point px, distortion fraction: std of the estimator's calibration
+    fraction, principal point px, distortion fraction: sizes of the estimator's calibration
     error), ``read_noise_dn``, ``shot_noise_dn``, ``gain_log_std``, ``compression_quality``
     (camera JPEG, 0 = none), ``exposure_s`` (motion blur), ``readout_s`` (rolling shutter),
-    ``subframes`` (renders per frame for both), ``light_variation``, ``light_motion_deg``.
+    ``subframes`` (renders per frame for both), ``light_variation``, ``light_motion_deg``,
+    ``map_position_std_m`` / ``map_rotation_std_deg`` (error of the marker map the
+    estimator uses; the renderer keeps the true markers).
     ``count_occlusion``: count markers in view whose line of sight is blocked (robot,
     cart) per frame.
     """
@@ -81,6 +83,8 @@ class VisionConfig:
     subframes: int | None = None
     light_variation: float | None = None
     light_motion_deg: float | None = None
+    map_position_std_m: float | None = None
+    map_rotation_std_deg: float | None = None
     count_occlusion: bool = True
 
     def __post_init__(self):
@@ -111,7 +115,9 @@ class VisionConfig:
                      "gain_log_std": "gain_log_std", "compression_quality": "jpeg_quality",
                      "exposure_s": "exposure_s", "readout_s": "readout_s",
                      "subframes": "subframes", "light_variation": "light_variation",
-                     "light_motion_deg": "light_motion_deg"}
+                     "light_motion_deg": "light_motion_deg",
+                     "map_position_std_m": "map_position_std_m",
+                     "map_rotation_std_deg": "map_rotation_std_deg"}
 
     def effects(self):
         """The camera effects in force: :attr:`preset` with the fields set here replacing
@@ -500,7 +506,8 @@ def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Genera
     frames = {cam: _camera_frames(world, cam) for cam in cameras}
     eff = cfg.effects()
     optics = _camera_optics(cameras, intr, eff, entropy)
-    proc = FrameProcessor(world.marker_field, {c: intr[c].K for c in cameras},
+    proc = FrameProcessor(_estimator_map(world.marker_field, eff, entropy),
+                          {c: intr[c].K for c in cameras},
                           {c: i for i, c in enumerate(cameras)}, cfg, entropy, optics)
     light_phase = float(np.random.default_rng(np.random.SeedSequence(
         entropy, spawn_key=(10**6,))).uniform(0, 2 * np.pi))
@@ -639,6 +646,18 @@ def _camera_optics(cameras, intr: dict, eff, entropy: int) -> dict:
                                                  intr[cam].height),
                                 float(rng.uniform(0, 2 * np.pi)))
     return out
+
+
+def _estimator_map(field: MarkerField, eff, entropy: int) -> MarkerField:
+    """The marker map the estimator uses: the true ``field`` or, with a map error, one
+    draw of :func:`simcalib.camera_effects.perturbed_map` for the run (both cameras)."""
+    if not eff.has_map_error:
+        return field
+    from dataclasses import replace  # noqa: PLC0415
+
+    from .camera_effects import perturbed_map  # noqa: PLC0415
+    rng = np.random.default_rng(np.random.SeedSequence(entropy, spawn_key=(10**6 + 500,)))
+    return replace(field, T_world_marker=perturbed_map(field.T_world_marker, eff, rng))
 
 
 def _subframe_offsets(eff):

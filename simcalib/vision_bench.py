@@ -127,6 +127,8 @@ def effect_rows() -> list[tuple[str, str, dict]]:
         ("rolling shutter", "ideal", {"readout_s": r.readout_s, "subframes": r.subframes}),
         ("moving/changing light", "ideal", {"light_variation": r.light_variation,
                                             "light_motion_deg": r.light_motion_deg}),
+        ("marker map error", "ideal", {"map_position_std_m": r.map_position_std_m,
+                                       "map_rotation_std_deg": r.map_rotation_std_deg}),
         ("preset realistic", "realistic", {}),
         ("preset harsh", "harsh", {}),
     ]
