@@ -127,7 +127,7 @@ PRESETS: dict[str, CameraEffects] = {
         distortion=(-0.28, 0.12, 1e-3, -8e-4, -0.02), intrinsics_error=(0.004, 3.0, 0.08),
         read_noise_dn=4.0, shot_noise_dn=8.0, gain_log_std=0.2, jpeg_quality=60,
         exposure_s=0.02, readout_s=0.033, subframes=5, light_variation=0.5,
-        light_motion_deg=60.0, map_position_std_m=0.003, map_rotation_std_deg=0.8),
+        light_motion_deg=60.0, map_position_std_m=0.0015, map_rotation_std_deg=0.4),
 }
 
 
