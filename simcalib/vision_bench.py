@@ -250,6 +250,11 @@ def main(argv=None) -> int:
                        vision_cfg=cfg, seed=args.seed, workers=args.workers)
         results.append(r)
         print(_table([r]), flush=True)
+        cams = r["cameras"].values()
+        pooled_mm = _q(np.concatenate([c["_err_mm"] for c in cams]), 50)
+        pooled_deg = _q(np.concatenate([c["_err_deg"] for c in cams]), 50)
+        print(f"{'':<9} both cameras pooled: median {_fmt(pooled_mm)} mm / "
+              f"{_fmt(pooled_deg, '.3f')} deg", flush=True)
     total_frames = sum(r["timing"]["camera_frames"] for r in results)
     total_wall = sum(r["timing"]["wall_s"] for r in results)
     cpu_ms = sum(r["timing"]["cpu_ms_per_frame"] * r["timing"]["camera_frames"]
