@@ -95,7 +95,8 @@ def test_perturbed_map_sizes_and_seed():
     assert np.array_equal(ce.perturbed_map(T, ce.CameraEffects(), np.random.default_rng(1)), T)
     with pytest.raises(ValueError, match="map_position_std_m"):
         ce.CameraEffects(map_position_std_m=-0.001)
-    assert VisionConfig(preset="realistic", map_position_std_m=0.0).effects().map_position_std_m == 0
+    eff0 = VisionConfig(preset="realistic", map_position_std_m=0.0).effects()
+    assert eff0.map_position_std_m == 0 and eff0.map_rotation_std_deg > 0
 
 
 def test_perturbed_calibration_sizes():
