@@ -16,6 +16,13 @@ Models and units (the fields of :class:`CameraEffects`):
   hand-eye bias): ``f_est = f (1 +- e_f)``, principal point moved ``e_c`` px in a random
   direction, ``k_est = k (1 +- e_k)`` per coefficient; directions/signs drawn once per
   camera and run (:func:`perturbed_calibration`).
+- ``map_position_std_m``, ``map_rotation_std_deg``: error of the marker map the estimator
+  uses (a surveyed room is never exactly where the map says): every marker's mapped pose
+  is its true pose composed with a random ``[dR | dt]`` in the marker's own frame, ``dt ~
+  N(0, map_position_std_m^2 I)`` (in-plane placement and out-of-plane wall unevenness) and
+  ``dR`` about a uniform random axis by an angle ``~ N(0, map_rotation_std_deg^2)`` (in-plane
+  rotation and tilt of the printed sheet), drawn once per run and shared by the cameras
+  (:func:`perturbed_map`). The renderer keeps the true markers.
 - ``read_noise_dn`` (grey levels of 255, Gaussian), ``shot_noise_dn`` (noise std at full
   white; std grows as the square root of the signal: ``shot_noise_dn * sqrt(I / 255)``).
 - ``gain_log_std``: per-frame exposure/gain change, ``I *= exp(N(0, gain_log_std))``,
@@ -45,7 +52,8 @@ import numpy as np
 
 __all__ = ["CameraEffects", "PRESETS", "preset", "distortion_maps", "render_margin_px",
            "subframe_offsets_s", "row_weights", "combine_subframes", "apply_sensor",
-           "jpeg_roundtrip", "perturbed_calibration", "light_state", "undistort_points"]
+           "jpeg_roundtrip", "perturbed_calibration", "perturbed_map", "light_state",
+           "undistort_points"]
 
 
 @dataclass(frozen=True)
@@ -62,6 +70,8 @@ class CameraEffects:
     subframes: int = 1
     light_variation: float = 0.0
     light_motion_deg: float = 0.0
+    map_position_std_m: float = 0.0
+    map_rotation_std_deg: float = 0.0
 
     def __post_init__(self):
         d = tuple(float(v) for v in np.ravel(np.asarray(self.distortion, dtype=np.float64)))
@@ -80,7 +90,8 @@ class CameraEffects:
         object.__setattr__(self, "intrinsics_error", e)
         for name, hi in (("read_noise_dn", 255.0), ("shot_noise_dn", 255.0),
                          ("gain_log_std", 2.0), ("exposure_s", 1.0), ("readout_s", 1.0),
-                         ("light_variation", 0.9), ("light_motion_deg", 180.0)):
+                         ("light_variation", 0.9), ("light_motion_deg", 180.0),
+                         ("map_position_std_m", 0.1), ("map_rotation_std_deg", 10.0)):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float, np.floating)) \
                     or not np.isfinite(v) or not 0.0 <= v <= hi:
@@ -95,6 +106,10 @@ class CameraEffects:
         return any(v != 0.0 for v in self.distortion)
 
     @property
+    def has_map_error(self) -> bool:
+        return self.map_position_std_m > 0 or self.map_rotation_std_deg > 0
+
+    @property
     def timed(self) -> bool:
         """Whether frames need sub-frame renders (motion blur or rolling shutter)."""
         return self.subframes > 1 and (self.exposure_s > 0 or self.readout_s > 0)
@@ -104,15 +119,15 @@ class CameraEffects:
 PRESETS: dict[str, CameraEffects] = {
     "ideal": CameraEffects(),
     "realistic": CameraEffects(
-        distortion=(-0.12, 0.06, 4e-4, -3e-4, 0.0), intrinsics_error=(0.0005, 1.0, 0.01),
+        distortion=(-0.12, 0.06, 4e-4, -3e-4, 0.0), intrinsics_error=(0.0005, 0.5, 0.01),
         read_noise_dn=2.0, shot_noise_dn=4.0, gain_log_std=0.08, jpeg_quality=85,
         exposure_s=0.008, readout_s=0.005, subframes=3, light_variation=0.25,
-        light_motion_deg=30.0),
+        light_motion_deg=30.0, map_position_std_m=0.0015, map_rotation_std_deg=0.4),
     "harsh": CameraEffects(
         distortion=(-0.28, 0.12, 1e-3, -8e-4, -0.02), intrinsics_error=(0.004, 3.0, 0.08),
         read_noise_dn=4.0, shot_noise_dn=8.0, gain_log_std=0.2, jpeg_quality=60,
         exposure_s=0.02, readout_s=0.033, subframes=5, light_variation=0.5,
-        light_motion_deg=60.0),
+        light_motion_deg=60.0, map_position_std_m=0.0015, map_rotation_std_deg=0.4),
 }
 
 
@@ -271,6 +286,21 @@ def perturbed_calibration(K: np.ndarray, dist, eff: CameraEffects,
     K_est[1, 2] += ec * np.sin(phi)
     d_est = np.asarray(dist, dtype=np.float64) * (1.0 + ek * sign[1:6])
     return K_est, d_est
+
+
+def perturbed_map(T_world_marker: np.ndarray, eff: CameraEffects,
+                  rng: np.random.Generator) -> np.ndarray:
+    """The marker poses the estimator's map holds, ``(M, 4, 4)``: each true
+    ``T_world_marker`` composed with ``[dR | dt]`` in the marker's frame (paper eq. 38,
+    :func:`simcalib.geometry.perturb_transforms`): ``dt ~ N(0, map_position_std_m^2 I)``,
+    ``dR`` by an angle ``~ N(0, map_rotation_std_deg^2)`` about a uniform axis. Unchanged
+    (a copy) when both are 0."""
+    from .geometry import perturb_transforms  # noqa: PLC0415
+    T = np.array(T_world_marker, dtype=np.float64, copy=True)
+    if not eff.has_map_error or T.shape[0] == 0:
+        return T
+    return perturb_transforms(T, float(np.deg2rad(eff.map_rotation_std_deg)),
+                              float(eff.map_position_std_m), rng)
 
 
 def light_state(time_s: float, eff: CameraEffects, phase: float, flicker: float

@@ -508,14 +508,17 @@ def calibration_bias(st) -> tuple:
     (``solve(..., pose_bias=...)``): ``(PoseBias or None, report)``. A camera measured by
     the ``aruco`` source gets the covariance of the run-constant pose error that
     ``vision.intrinsics_error`` (read as the 1-sigma of the calibration the estimator has)
-    causes (:func:`simcalib.vision.calibration_pose_bias`, no rendering); other sources
+    and the marker map's error (``vision.map_position_std_m`` / ``map_rotation_std_deg``,
+    the survey's accuracy) cause (:func:`simcalib.vision.calibration_pose_bias`, no
+    rendering); other sources
     have no calibration term. ``report`` (results.json ``calibration_bias``):
     ``included`` and per camera its 1-sigma (deg, m) and inputs."""
     from simcalib.solvers.diagnostics.uncertainty import PoseBias
     truth = st.truth
     cams = [c for c in CAMERAS if st.camera_sources.get(c) == "aruco"]
     report = {"included": False, "source": "vision.intrinsics_error (1-sigma of the "
-              "calibration) through PnP of the marker corners seen from the true poses",
+              "calibration) and vision.map_position_std_m / map_rotation_std_deg (marker "
+              "map) through PnP of the marker corners seen from the true poses",
               "cameras": {}}
     if not cams or truth is None or truth.world is None:
         return None, report

@@ -47,10 +47,12 @@ class VisionConfig:
     Camera effects (:mod:`simcalib.camera_effects`): ``preset`` (``ideal`` — every effect
     off — ``realistic`` or ``harsh``) and per-effect overrides, ``None`` keeping the
     preset's value: ``distortion`` (k1, k2, p1, p2, k3), ``intrinsics_error`` (focal
-    fraction, principal point px, distortion fraction: std of the estimator's calibration
+    fraction, principal point px, distortion fraction: sizes of the estimator's calibration
     error), ``read_noise_dn``, ``shot_noise_dn``, ``gain_log_std``, ``compression_quality``
     (camera JPEG, 0 = none), ``exposure_s`` (motion blur), ``readout_s`` (rolling shutter),
-    ``subframes`` (renders per frame for both), ``light_variation``, ``light_motion_deg``.
+    ``subframes`` (renders per frame for both), ``light_variation``, ``light_motion_deg``,
+    ``map_position_std_m`` / ``map_rotation_std_deg`` (error of the marker map the
+    estimator uses; the renderer keeps the true markers).
     ``count_occlusion``: count markers in view whose line of sight is blocked (robot,
     cart) per frame.
     """
@@ -81,6 +83,8 @@ class VisionConfig:
     subframes: int | None = None
     light_variation: float | None = None
     light_motion_deg: float | None = None
+    map_position_std_m: float | None = None
+    map_rotation_std_deg: float | None = None
     count_occlusion: bool = True
 
     def __post_init__(self):
@@ -111,7 +115,9 @@ class VisionConfig:
                      "gain_log_std": "gain_log_std", "compression_quality": "jpeg_quality",
                      "exposure_s": "exposure_s", "readout_s": "readout_s",
                      "subframes": "subframes", "light_variation": "light_variation",
-                     "light_motion_deg": "light_motion_deg"}
+                     "light_motion_deg": "light_motion_deg",
+                     "map_position_std_m": "map_position_std_m",
+                     "map_rotation_std_deg": "map_rotation_std_deg"}
 
     def effects(self):
         """The camera effects in force: :attr:`preset` with the fields set here replacing
@@ -500,7 +506,8 @@ def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Genera
     frames = {cam: _camera_frames(world, cam) for cam in cameras}
     eff = cfg.effects()
     optics = _camera_optics(cameras, intr, eff, entropy)
-    proc = FrameProcessor(world.marker_field, {c: intr[c].K for c in cameras},
+    proc = FrameProcessor(_estimator_map(world.marker_field, eff, entropy),
+                          {c: intr[c].K for c in cameras},
                           {c: i for i, c in enumerate(cameras)}, cfg, entropy, optics)
     light_phase = float(np.random.default_rng(np.random.SeedSequence(
         entropy, spawn_key=(10**6,))).uniform(0, 2 * np.pi))
@@ -648,23 +655,29 @@ class CalibrationBias:
     m)`` right-multiplied in the camera frame: ``T_world_cam measured = T_world_cam N``),
     ``jacobian`` (6, 8) the pose error per 1-sigma of each parameter of
     :data:`simcalib.markers.INTRINSICS_PARAMETERS`, ``sigmas`` (8,) those 1-sigmas,
-    ``n_frames`` the poses averaged over."""
+    ``n_frames`` the poses averaged over; ``map_covariance`` the part of ``covariance``
+    from the marker map's error (zeros without one)."""
     camera: str
     covariance: np.ndarray
     jacobian: np.ndarray
     sigmas: np.ndarray
     n_frames: int
+    map_covariance: np.ndarray | None = None
 
     def report(self) -> dict:
         """Plain numbers for results.json: 1-sigma per axis (deg, m) and the inputs."""
         from .markers import INTRINSICS_PARAMETERS  # noqa: PLC0415
         s = np.sqrt(np.clip(np.diag(self.covariance), 0.0, None))
+        Sm = np.zeros((6, 6)) if self.map_covariance is None else self.map_covariance
+        sm = np.sqrt(np.clip(np.diag(Sm), 0.0, None))
         return {"std_deg": [float(x) for x in np.degrees(s[:3])],
                 "std_m": [float(x) for x in s[3:]],
                 "covariance": np.asarray(self.covariance).tolist(),
                 "parameter_sigmas": {n: float(v) for n, v in zip(INTRINSICS_PARAMETERS,
                                                                   self.sigmas)},
-                "n_frames": int(self.n_frames)}
+                "n_frames": int(self.n_frames),
+                "map_std_deg": [float(x) for x in np.degrees(sm[:3])],
+                "map_std_m": [float(x) for x in sm[3:]]}
 
 
 def calibration_sigmas(eff) -> np.ndarray:
@@ -686,9 +699,12 @@ def calibration_pose_bias(world, cfg: "VisionConfig | None" = None, cameras=None
     Nothing is rendered: the marker corners the layout makes visible
     (:func:`simcalib.world.layout.visible_markers`) from up to ``max_frames`` of the
     camera's true poses (evenly spaced over the delivered frames) go through
-    :func:`simcalib.markers.intrinsics_pose_sensitivity`; ``covariance = J J^T``.
-    Empty when the configuration has no calibration error."""
-    from .markers import intrinsics_pose_sensitivity  # noqa: PLC0415
+    :func:`simcalib.markers.intrinsics_pose_sensitivity`; ``covariance = J J^T`` plus the
+    marker-map term (``vision.map_position_std_m`` / ``map_rotation_std_deg``, the map's
+    survey accuracy: :func:`simcalib.markers.map_pose_covariance`). The two cameras' map
+    terms are correlated where they see the same markers; that cross term is not kept.
+    Empty when the configuration has neither a calibration nor a map error."""
+    from .markers import intrinsics_pose_sensitivity, map_pose_covariance  # noqa: PLC0415
     from .world.layout import visible_markers  # noqa: PLC0415
     cfg = VisionConfig() if cfg is None else cfg
     if not isinstance(cfg, VisionConfig):
@@ -698,7 +714,7 @@ def calibration_pose_bias(world, cfg: "VisionConfig | None" = None, cameras=None
         raise ValueError(f"max_frames must be an integer >= 1; received {max_frames!r}")
     eff = cfg.effects()
     sig = calibration_sigmas(eff)
-    if not np.any(sig > 0):
+    if not np.any(sig > 0) and not eff.has_map_error:
         return {}
     cameras = tuple(world.camera_names) if cameras is None else tuple(cameras)
     out = {}
@@ -712,10 +728,28 @@ def calibration_pose_bias(world, cfg: "VisionConfig | None" = None, cameras=None
         vis = visible_markers(world.marker_field, T, intr)
         corners = world.marker_field.corners_world()
         pts = [corners[v].reshape(-1, 3) for v in vis]
-        J = intrinsics_pose_sensitivity(pts, T, intr.K, eff.distortion, sig)
+        if np.any(sig > 0):
+            J = intrinsics_pose_sensitivity(pts, T, intr.K, eff.distortion, sig)
+        else:
+            J = np.zeros((6, sig.size))
+        S_map = map_pose_covariance(world.marker_field, vis, T, intr.K,
+                                    eff.map_position_std_m,
+                                    float(np.radians(eff.map_rotation_std_deg)))
         n = int(sum(p.shape[0] >= 4 for p in pts))
-        out[cam] = CalibrationBias(cam, J @ J.T, J, sig, n)
+        out[cam] = CalibrationBias(cam, J @ J.T + S_map, J, sig, n, S_map)
     return out
+
+
+def _estimator_map(field: MarkerField, eff, entropy: int) -> MarkerField:
+    """The marker map the estimator uses: the true ``field`` or, with a map error, one
+    draw of :func:`simcalib.camera_effects.perturbed_map` for the run (both cameras)."""
+    if not eff.has_map_error:
+        return field
+    from dataclasses import replace  # noqa: PLC0415
+
+    from .camera_effects import perturbed_map  # noqa: PLC0415
+    rng = np.random.default_rng(np.random.SeedSequence(entropy, spawn_key=(10**6 + 500,)))
+    return replace(field, T_world_marker=perturbed_map(field.T_world_marker, eff, rng))
 
 
 def _subframe_offsets(eff):
