@@ -231,9 +231,14 @@ def test_pipeline_sets_the_calibration_term_for_aruco_with_realistic_only():
         assert 0 < max(s["std_deg"]) < 1 and 0 < max(s["std_m"]) < 0.05
         np.testing.assert_allclose(np.asarray(s["covariance"]), cov)
     for st in (_state("ideal"), _state("realistic", ("noisy", "noisy")),
-               _state("realistic", intrinsics_error=(0.0, 0.0, 0.0))):
+               _state("realistic", intrinsics_error=(0.0, 0.0, 0.0), map_position_std_m=0.0,
+                      map_rotation_std_deg=0.0)):
         pb, rep = calibration_bias(st)
         assert pb is None and rep["included"] is False and rep["cameras"] == {}
+    # the marker map's survey error alone is a term too
+    pb, rep = calibration_bias(_state("realistic", intrinsics_error=(0.0, 0.0, 0.0)))
+    assert rep["included"] and np.any(pb.cov_a) and np.any(pb.cov_b)
+    assert all(max(rep["cameras"][c]["map_std_m"]) > 0 for c in ("cam_a", "cam_b"))
     # one ArUco stream: only that camera has a calibration term
     pb, rep = calibration_bias(_state("realistic", ("robot_fk", "aruco")))
     assert not np.any(pb.cov_a) and np.any(pb.cov_b) and set(rep["cameras"]) == {"cam_b"}

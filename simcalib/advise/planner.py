@@ -244,17 +244,21 @@ def undeterminable(F_base, F_cand, *, feasible=None, tolerance_deg: float = 1.0,
                    tolerance_m: float = 0.01, range_rad: float = 1.0,
                    range_m: float = 1.0) -> list[dict]:
     """Directions of X that no feasible candidate motion can determine: undetermined (1-sigma
-    beyond the range) even with every feasible candidate added 100 times. Each is a dict:
+    beyond the range) by the feasible candidates alone, each added 100 times, and not
+    determined within the tolerance by the recorded motions (``F_base``). The candidates
+    are judged alone because the recorded motions' information along such a direction may
+    be made by their errors (a systematic tilt of the measured poses looks like the
+    rotation that would determine it) and adding candidates cannot change that. Each is a
+    dict:
     ``kind`` (rotation / translation / coupled), ``rotation_axis_a``, ``translation_dir_a``
     (unit, camera-a frame, zeros when that part is < 5 %), ``description``, ``fix`` (the
     prior or extra measurement that would determine it)."""
     dsc = _scale(tolerance_deg, tolerance_m)
-    F = np.asarray(F_base, dtype=np.float64).copy()
+    Fb = np.asarray(F_base, dtype=np.float64) * np.outer(dsc, dsc)
     Fc = np.asarray(F_cand, dtype=np.float64)
     if feasible is not None:
         Fc = Fc[np.asarray(feasible, bool)]
-    F = F + 100.0 * Fc.sum(axis=0)
-    Ft = F * np.outer(dsc, dsc)
+    Ft = 100.0 * Fc.sum(axis=0) * np.outer(dsc, dsc)
     lam, U = np.linalg.eigh(0.5 * (Ft + Ft.T))
     sig = np.where(lam > 0, 1.0 / np.sqrt(np.maximum(lam, 1e-300)), np.inf)
     rng_sc = np.array([range_rad] * 3 + [range_m] * 3) / dsc
@@ -262,6 +266,8 @@ def undeterminable(F_base, F_cand, *, feasible=None, tolerance_deg: float = 1.0,
     for k in range(6):
         u = U[:, k]
         if not sig[k] * math.sqrt(float(np.sum((u / rng_sc) ** 2))) > 1.0:
+            continue
+        if float(u @ Fb @ u) >= 1.0:      # the recorded motions determine it (1-sigma <= tol)
             continue
         w, t = u[:3], u[3:]
         nw, nt = np.linalg.norm(w), np.linalg.norm(t)
