@@ -62,7 +62,7 @@ def test_determined_error_ignores_the_undetermined_family():
 def test_alpha_compare_small():
     cfg = SyntheticConfig(motion="random", num_motions=30)
     ds = [generate_dataset(cfg, r) for r in np.random.default_rng(3).spawn(3)]
-    r = alpha_compare("random", [(d.C, d.H, d.X, 0) for d in ds], np.logspace(-2, 1.7, 5))
+    r = alpha_compare("random", [(d.C, d.H, d.X, 0, None, None) for d in ds], np.logspace(-2, 1.7, 5))
     assert r["dof_median"] == 6 and r["det_rot_deg"] == pytest.approx(r["rot_deg"])
     assert r["oracle_rot_deg"] <= r["rot_deg"] * 1.5 and 0.01 <= r["oracle_alpha"] <= 50.2
     assert 0.01 <= r["mpe_alpha_median"] <= 50.2

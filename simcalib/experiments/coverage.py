@@ -190,7 +190,7 @@ def alpha_compare(label: str, data: list, grid, exact_bases=None) -> dict:
     kinds = ("", "det_") + (("ex_",) if exact_bases is not None else ())
     chosen = {h: [] for h in ALPHA_HOWS}
     on_grid, dofs = [], {k: [] for k in kinds}
-    for i, (C, H, X, lag) in enumerate(data):
+    for i, (C, H, X, lag, *_) in enumerate(data):
         bases = {"det_": U.covariance(C, H, X, 1.0, correlation_lag=lag).determined_basis}
         if exact_bases is not None:
             bases["ex_"] = exact_bases[i]
