@@ -127,23 +127,24 @@ on 3d). Advice time: candidates + choice + render check, excluding the recorded 
 the verification, on this machine (2 cores shared with other jobs).
 
 Reading it: on these runs the actual errors after 5 added stops are far above the
-predicted 1-sigma (compare the two tables): about 5-16x for the advised stops and 2-6x for
-random stops (scara, linear-arm, rotation-arm). They are set by systematic pose errors,
+predicted 1-sigma (compare the two tables): {over_advised} for the advised stops and
+{over_random} for random stops (scara, linear-arm, rotation-arm; rotation and translation). They are set by systematic pose errors,
 not by the independent noise the information model (and so the planner) assumes. The
 ArUco scenarios render with `vision.preset: realistic` (lens distortion undistorted with a
-perturbed calibration, blur, rolling shutter, sensor noise, JPEG): that is what makes the
-`3d` recorded run 0.087 deg / 0.38 cm; with `vision.preset=ideal` the same run gives
-0.001 deg / 0.0027 cm (`python -m simcalib run scenario=3d vision.preset=ideal`). On `scara` the flange pose
+perturbed calibration, a marker map surveyed to 1.5 mm / 0.4 deg, blur, rolling shutter,
+sensor noise, JPEG): that is what makes the `3d` recorded run {base3d}; with
+`vision.preset=ideal` the same run gives 0.001 deg / 0.0027 cm (`python -m simcalib run
+scenario=3d vision.preset=ideal`). On `scara` the flange pose
 comes from the robot's nominal kinematics while the true arm deviates by ~1 mm / 1 mrad per DH parameter (a bias
 no choice of motion removes); with ArUco the visual pose errors are viewpoint-dependent.
 The planner lowers
-the *predicted* 1-sigma to about half of random's (second table); the *actual* error, once
+the *predicted* largest 1-sigma to {pred_ratio} of random's (second table); the *actual* error, once
 any reasonable set of rotations about different axes fixes the degenerate directions, is
 dominated by those systematic errors, so random stops that are already rich in rotation
 reach the same floor or a lower one: the planner, trusting an independent-noise model,
 concentrates on few stops whose biases it cannot see. Making the planner robust to such
 biases (a bias term in the noise model, or spreading stops over viewpoints) is not done.
-Exploratory runs (not in the tables; advised stops measured once,
+Exploratory runs (not in the tables; before the marker map error; advised stops measured once,
 against the same random median) with larger planner rotations did not help consistently:
 linear-arm ratio rotation / translation 0.23 / 0.88 with the previous planner, 0.23 / 0.50
 with rotations up to 70 deg, 0.77 / 1.47 up to 90 deg; rotation-arm 0.62 / 1.09 and scara
@@ -153,6 +154,14 @@ tolerance, so no motion is advised (`3d force`: what k forced stops do). The `pl
 cannot determine X's translation along the vertical with any drivable motion: see the
 statement below.
 """
+
+
+def _span(vals, unit="") -> str:
+    """``"a-b<unit>"`` over finite values (2 significant digits), or ``"n/a"``."""
+    v = [x for x in vals if x is not None and np.isfinite(x)]
+    if not v:
+        return "n/a"
+    return f"{min(v):.2g}-{max(v):.2g}{unit}"
 
 
 def _fmt(v, d=3):
@@ -212,6 +221,7 @@ def main(argv=None) -> int:
     os.environ.setdefault("MUJOCO_GL", "egl")
     t0 = time.perf_counter()
     rows, sig_rows, notes, checks, size_rows = [], [], [], [], []
+    prose = {"advised": [], "random": [], "pred": [], "base3d": "n/a"}
     for name, ov in CASES:
         cfg, base, adv, ver, t_adv = run_case(name, ov, a.k, tuple(range(a.seeds)),
                                               a.candidates)
@@ -248,11 +258,26 @@ def main(argv=None) -> int:
         if adv.message:
             notes.append(f"- {label}: {adv.message}.")
         checks.append((label, name, "force" in ov, rt, ad, t_adv, rtj))
+        if name == "3d" and not ov:
+            prose["base3d"] = (f"{_fmt(b.get('rotation_error_deg'))} deg / "
+                               f"{_fmt(b.get('translation_error_cm'))} cm")
+        if name in ("scara", "linear", "rotation"):
+            for key, v in (("advised", am), ("random", med)):
+                for e, sd in (("rotation_error_deg", "max_std_deg"),
+                              ("translation_error_cm", "max_std_cm")):
+                    if v.get(e) is not None and v.get(sd):
+                        prose[key].append(v[e] / v[sd])
+            for sd in ("max_std_deg", "max_std_cm"):
+                if am.get(sd) is not None and med.get(sd):
+                    prose["pred"].append(am[sd] / med[sd])
         print(rows[-1], flush=True)
     text = HEAD.format(command=f"python -m simcalib.advise.tables --out {a.out} --k {a.k} "
                                f"--seeds {a.seeds} --candidates {a.candidates}",
                        seconds=time.perf_counter() - t0, k=a.k, n_seeds=a.seeds,
-                       n_cand=a.candidates)
+                       n_cand=a.candidates, base3d=prose["base3d"],
+                       over_advised=_span(prose["advised"], "x"),
+                       over_random=_span(prose["random"], "x"),
+                       pred_ratio=_span(prose["pred"], "x"))
     text += ("\n### Actual errors (rotation deg / translation cm)\n\n"
              "| scenario | recorded motions | feasible candidates | stops advised | baseline "
              "| advised (median) | random (median) | ratio advised/random | "
