@@ -187,13 +187,19 @@ class NoiseModel:
         object.__setattr__(self, "sigma_t_m", _real("sigma_t_m", self.sigma_t_m, allow_zero=True))
 
 
+def _coerce_pair(value, cls, name: str, pair: str):
+    """``value`` as a ``cls``: None and ``cls`` pass, a 2-sequence builds one, else
+    TypeError naming what ``name`` allows."""
+    if value is None or isinstance(value, cls):
+        return value
+    if isinstance(value, (tuple, list)) and len(value) == 2:
+        return cls(value[0], value[1])
+    raise TypeError(f"{name} must be a {cls.__name__}, a {pair} pair or None; "
+                    f"received {type(value).__name__}")
+
+
 def _check_noise(noise) -> NoiseModel | None:
-    if noise is None or isinstance(noise, NoiseModel):
-        return noise
-    if isinstance(noise, (tuple, list)) and len(noise) == 2:
-        return NoiseModel(noise[0], noise[1])
-    raise TypeError(f"noise must be a NoiseModel, a (sigma_r_rad, sigma_t_m) pair or None; "
-                    f"received {type(noise).__name__}")
+    return _coerce_pair(noise, NoiseModel, "noise", "(sigma_r_rad, sigma_t_m)")
 
 
 def _check_cov6(name, P) -> np.ndarray:
@@ -242,12 +248,7 @@ class PoseBias:
 
 
 def _check_pose_bias(pose_bias) -> PoseBias | None:
-    if pose_bias is None or isinstance(pose_bias, PoseBias):
-        return pose_bias
-    if isinstance(pose_bias, (tuple, list)) and len(pose_bias) == 2:
-        return PoseBias(pose_bias[0], pose_bias[1])
-    raise TypeError(f"pose_bias must be a PoseBias, a (cov_a, cov_b) pair of 6x6 covariances "
-                    f"or None; received {type(pose_bias).__name__}")
+    return _coerce_pair(pose_bias, PoseBias, "pose_bias", "(cov_a, cov_b) of 6x6 covariances")
 
 
 def pose_bias_jacobians(X) -> tuple[np.ndarray, np.ndarray]:
