@@ -323,18 +323,6 @@ def _batch_kernel(method, opt, T, C, H, Qin, use_q, align, alphas, wts, weighted
              S_add, W_add, M_add, X, cost, info, bad, nflip, Qout, keep_q)
 
 
-@njit(cache=True, error_model="numpy")
-def _serial_kernel(method, opt, T, C, H, Qin, use_q, align, alphas, wts, weighted, tol,
-                   has_prior, S_add, W_add, M_add, X, cost, info, bad, nflip, Qout, keep_q):
-    """As :func:`_batch_kernel`, on the calling thread: single solves use it, so a process
-    that never batches never compiles the parallel kernel (the costlier compile), and no
-    worker threads are woken for one problem (up to a scheduler time slice, ~20 ms, on a
-    loaded machine)."""
-    for b in range(alphas.shape[0]):
-        _one(b, method, opt, T, C, H, Qin, use_q, align, alphas, wts, weighted, tol, has_prior,
-             S_add, W_add, M_add, X, cost, info, bad, nflip, Qout, keep_q)
-
-
 _ZERO4 = np.zeros((4, 4))
 _DUMMY4 = np.zeros((1, 1, 4, 4))
 _DUMMYQ = np.zeros((1, 16, 1))
@@ -369,10 +357,13 @@ def run_batch(method_code: int, alphas, *, C=None, H=None, Q=None, weights=None,
     bad = np.full(nb, -1, dtype=np.int64)
     nflip = np.zeros(nb, dtype=np.int64)
     Qout = np.empty((nb, 16, n)) if keep_q else _DUMMYQ
-    kernel = _serial_kernel if nb == 1 else _batch_kernel
-    kernel(int(method_code), DQOPT, _T, C, H, Qin, use_q, bool(align), alphas, wts, weighted,
-           RIGID_TOL, prior_adds is not None, S_add, W_add, M_add, X, cost, info, bad, nflip,
-           Qout, keep_q)
+    args = (int(method_code), DQOPT, _T, C, H, Qin, use_q, bool(align), alphas, wts, weighted,
+            RIGID_TOL, prior_adds is not None, S_add, W_add, M_add, X, cost, info, bad, nflip,
+            Qout, keep_q)
+    if nb == 1:   # single solves: the per-problem function itself, on the calling thread
+        _one(0, *args)
+    else:
+        _batch_kernel(*args)
     out = {"X": X, "cost": cost, "info": info, "bad": bad, "nflip": nflip}
     if keep_q:
         out["Q"] = Qout
