@@ -93,26 +93,33 @@ def _save_state(best, q, qd, info, AtA, BtB, BtA):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _fit_dot(Q, i, q):
-    a = _qmul(Q[0, i], Q[1, i], Q[2, i], Q[3, i], q[0], q[1], q[2], q[3])
-    b = _qmul(q[0], q[1], q[2], q[3], Q[4, i], Q[5, i], Q[6, i], Q[7, i])
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
+def _fit_dots(Q, n, q, dots):
+    """dots[i] = (q_Ci q) . (q q_Hi) for every motion (one branch-free loop: vectorised)."""
+    x, y, z, w = q[0], q[1], q[2], q[3]
+    for i in range(n):
+        a = _qmul(Q[0, i], Q[1, i], Q[2, i], Q[3, i], x, y, z, w)
+        b = _qmul(x, y, z, w, Q[4, i], Q[5, i], Q[6, i], Q[7, i])
+        dots[i] = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _refine(opt, T, Q, par, wts, weighted, n, amb, namb, a2, Z0, q, qd, info, P, nrm, AtA, BtB, BtA, S, W,
-            M):
+def _refine(opt, T, Q, par, wts, weighted, n, amb, namb, a2, Z0, q, qd, info, P, nrm, AtA, BtB,
+            BtA, S, W, M, dots):
     """Flip ambiguous pairs that the dqopt rotation fits with the other sign; re-solve until
     stable (<= 4 flip rounds). Returns the smallest |fit dot| over ambiguous motions.
     (One call site of the solver: the compiled code holds one copy of it.)"""
+    fresh = False   # dots hold the fit of the current q
     for rnd in range(5):
         _solve_gram(opt, T, Q, wts, weighted, n, a2, Z0, q, qd, info, P, nrm, AtA, BtB, BtA, S,
                     W, M)
-        if rnd == 4:
+        fresh = False
+        if rnd == 4 or namb == 0:
             break
+        _fit_dots(Q, n, q, dots)
+        fresh = True
         nflip = 0
         for i in range(n):
-            if amb[i] > 0.0 and _fit_dot(Q, i, q) < 0.0:
+            if amb[i] > 0.0 and dots[i] < 0.0:
                 _flip(Q, par, i)
                 nflip += 1
         if nflip == 0:
@@ -120,9 +127,11 @@ def _refine(opt, T, Q, par, wts, weighted, n, amb, namb, a2, Z0, q, qd, info, P,
     worst = 1.0
     if namb == 0:
         return worst
+    if not fresh:
+        _fit_dots(Q, n, q, dots)
     for i in range(n):
         if amb[i] > 0.0:
-            d = abs(_fit_dot(Q, i, q))
+            d = abs(dots[i])
             if d < worst:
                 worst = d
     return worst
@@ -179,6 +188,7 @@ def _align(opt, T, Q, wts, weighted, n, a2, q, qd, info, AtA, BtB, BtA):
     M = np.empty((4, 4))
     Z0 = np.zeros((4, 4))
     amb = np.zeros(n)   # 1.0: ambiguous motion
+    dots = np.empty(n)
     namb = 0
     for i in range(n):
         if abs(Q[3, i]) <= AMBIGUOUS_W or abs(Q[7, i]) <= AMBIGUOUS_W:
@@ -201,7 +211,7 @@ def _align(opt, T, Q, wts, weighted, n, a2, q, qd, info, AtA, BtB, BtA):
                 if s != par[i]:
                     _flip(Q, par, i)
         worst = _refine(opt, T, Q, par, wts, weighted, n, amb, namb, a2, Z0, q, qd, info, P,
-                        nrm, AtA, BtB, BtA, S, W, M)
+                        nrm, AtA, BtB, BtA, S, W, M, dots)
         if start == 0 and namb > 0 and worst < _FIT_DOT:
             n_starts = 3
             sgn = np.empty(n)

@@ -72,13 +72,26 @@ def _outer_from_soa(Q, wts, weighted, n, P, nrm):
     nrm[1] = s1
 
 
+@njit(cache=True, error_model="numpy", fastmath={"reassoc"})
+def _sum_flat(F):
+    """Sum of a contiguous 1-D array (reassociated: vectorised, reads memory in order)."""
+    s = 0.0
+    for j in range(F.shape[0]):
+        s += F[j]
+    return s
+
+
 @njit(cache=True, error_model="numpy")
 def _quats_soa(C, H, tol, Q):
     """Validate + convert motions into Q (16, N) (sign-aligned: the scalar parts of a pair
-    get the same sign); returns the first bad index or -1. Three loops over the motions
-    (check, convert C, convert H) that LLVM vectorises."""
+    get the same sign); returns the first bad index or -1. Loops over the motions that LLVM
+    vectorises: a sequential pass over C and H first (their sum: it brings the problem's
+    25 kB into the cache in memory order, ~2 us less per problem in a large batch than
+    the strided first touch by the checks; a non-finite sum sends every motion through the
+    exact check below), then check, convert C, convert H."""
     n = C.shape[0]
-    nbad = 0
+    total = _sum_flat(C.reshape(-1)) + _sum_flat(H.reshape(-1))
+    nbad = 0 if np.isfinite(total) else 1
     for i in range(n):
         nbad += not (_rigid_ok_at(C, i, tol) & _rigid_ok_at(H, i, tol))
     if nbad > 0:
