@@ -110,13 +110,15 @@ def _quats_soa(C, H, tol, Q):
 
 @njit(cache=True, error_model="numpy")
 def _contract(T, k, P, sign, out):
+    """out += sum_jl sign P[j, l] T[k, j, l] where T = _nz_table(): each T[k, j, l] is a
+    signed permutation (4 entries +-1, listed as rows (a, b, s)), so only those 4 are
+    added (the same sums, in the same order, as with the dense 4x4 tensor)."""
     for j in range(4):
         for l in range(4):
             p = sign * P[j, l]
             if p != 0.0:
-                for a in range(4):
-                    for b in range(4):
-                        out[a, b] += p * T[k, j, l, a, b]
+                for t in range(4):
+                    out[T[k, j, l, t, 0], T[k, j, l, t, 1]] += p * T[k, j, l, t, 2]
 
 
 @njit(cache=True, error_model="numpy")
@@ -141,7 +143,21 @@ def _grams_from_outer(T, P, nrm, AtA, BtB, BtA):
     _contract(T, np.int64(3), P[5], 1.0, BtA)     # + R(h')^T R(h)
 
 
-_T = _lr_tensors()   # (4 [LR, LL, RL, RR], 4, 4, 4, 4)
+def _nz_table(T):
+    """The non-zero entries of each T[k, j, l] (a signed permutation matrix) as
+    (a, b, value) rows: (4, 4, 4, 4, 3) int64."""
+    out = np.zeros(T.shape[:3] + (4, 3), dtype=np.int64)
+    for k in range(T.shape[0]):
+        for j in range(4):
+            for l in range(4):
+                a, b = np.nonzero(T[k, j, l])
+                if len(a) != 4 or not np.all(np.abs(T[k, j, l][a, b]) == 1.0):
+                    raise RuntimeError("L/R tensor is not a signed permutation")
+                out[k, j, l] = np.stack([a, b, T[k, j, l][a, b].astype(np.int64)], axis=1)
+    return out
+
+
+_T = _nz_table(_lr_tensors())   # (4 [LR, LL, RL, RR], 4, 4, 4 non-zeros, (a, b, +-1))
 
 
 @njit(cache=True, error_model="numpy")
