@@ -1,10 +1,11 @@
-"""The fused, parallel DQ kernel used by ``simcalib.solve`` (B = 1) and ``solve_batch``.
+"""The fused DQ kernel used by ``simcalib.solve`` (B = 1) and ``solve_batch`` (on threads).
 
 Per problem: validate and convert the motions (``gram._quats_soa``), choose the sign of
 each motion pair (:func:`_align`), accumulate the weighted Gram blocks, assemble (S, W, M)
 once (``gram._assemble``), run the method (``dqcore._solve_core``), write X and the data
-cost. The same per-problem code serves single solves (``_serial_kernel``, B = 1) and batches
-(``_batch_kernel``, parallel over problems), so ``solve`` equals ``solve_batch`` bit for bit.
+cost. One compiled entry, ``_one(b0, b1, ...)``, serves single solves (problems 0..1) and
+batches (chunks of problems on a few Python threads; the kernel releases the GIL), so
+``solve`` equals ``solve_batch`` bit for bit.
 
 Sign alignment (one rule for every DQ method). A motion's dual quaternions are defined up
 to sign; the pair (q_C, q_H) must be taken with the signs that make ``q_C q = q q_H``.
@@ -22,7 +23,7 @@ lowest dqopt cost is kept.
 from __future__ import annotations
 
 import numpy as np
-from simcalib.solvers.kernels.jit import njit, prange
+from simcalib.solvers.kernels.jit import njit
 
 from simcalib.solvers.kernels.dqcore import DQOPT, I_COST, I_STATUS, N_INFO, ST_NONFINITE, \
     _solve_core
@@ -303,39 +304,63 @@ def _solve_problem(method, opt, T, Cb, Hb, Qin, use_q, align, alpha, wts, weight
     return -1, nflip, cst
 
 
-@njit(cache=True, error_model="numpy")
-def _one(b, method, opt, T, C, H, Qin, use_q, align, alphas, wts, weighted, tol, has_prior,
-         S_add, W_add, M_add, X, cost, info, bad, nflip, Qout, keep_q):
-    """Problem b of a batch (shared body of the serial and the parallel kernel)."""
+@njit(cache=True, error_model="numpy", nogil=True)
+def _one(b0, b1, method, opt, T, C, H, Qin, use_q, align, alphas, wts, weighted, tol,
+         has_prior, S_add, W_add, M_add, X, cost, info, bad, nflip, Qout, keep_q):
+    """Problems b0 <= b < b1 of a batch, on the calling thread, without the GIL: single
+    solves run (0, 1), :func:`run_batch` runs chunks of a batch on a few Python threads.
+    The only compiled entry of the solve path (no separate parallel kernel: its compile
+    re-optimised the whole solver once more, ~1/3 of the cold start)."""
     n = Qin.shape[2] if use_q else C.shape[1]
     Q = np.empty((16, n))
-    r = _solve_problem(method, opt, T, C[b] if not use_q else C[0],
-                       H[b] if not use_q else H[0], Qin[b] if use_q else Qin[0], use_q, align,
-                       alphas[b], wts[b] if weighted else wts[0], weighted, tol, has_prior,
-                       S_add, W_add, M_add, X[b], info[b], Q)
-    bad[b] = r[0]
-    nflip[b] = r[1]
-    cost[b] = r[2]
-    if keep_q:
-        Qout[b, :, :] = Q
-
-
-@njit(cache=True, error_model="numpy", parallel=True)
-def _batch_kernel(method, opt, T, C, H, Qin, use_q, align, alphas, wts, weighted, tol,
-                  has_prior, S_add, W_add, M_add, X, cost, info, bad, nflip, Qout, keep_q):
-    """B problems in parallel (see :func:`_solve_problem`). With ``use_q`` the motions come
-    from Qin (B, 16, N) (already converted) instead of C, H; with ``keep_q`` the aligned
-    motions are written to Qout (B, 16, N)."""
-    for b in prange(alphas.shape[0]):
-        # prange's index is unsigned: cast, or _one (and everything inlined into it) would
-        # be compiled a second time for a uint64 index
-        _one(np.int64(b), method, opt, T, C, H, Qin, use_q, align, alphas, wts, weighted, tol, has_prior,
-             S_add, W_add, M_add, X, cost, info, bad, nflip, Qout, keep_q)
+    for b in range(b0, b1):
+        r = _solve_problem(method, opt, T, C[b] if not use_q else C[0],
+                           H[b] if not use_q else H[0], Qin[b] if use_q else Qin[0], use_q,
+                           align, alphas[b], wts[b] if weighted else wts[0], weighted, tol,
+                           has_prior, S_add, W_add, M_add, X[b], info[b], Q)
+        bad[b] = r[0]
+        nflip[b] = r[1]
+        cost[b] = r[2]
+        if keep_q:
+            Qout[b, :, :] = Q
 
 
 _ZERO4 = np.zeros((4, 4))
 _DUMMY4 = np.zeros((1, 1, 4, 4))
 _DUMMYQ = np.zeros((1, 16, 1))
+#: a batch is cut into about 4 chunks per thread (at least _CHUNK problems each), taken by
+#: the threads in turn: both cores stay busy when one is shared with another process
+_CHUNK = 64
+_POOL = None   # (threads, ThreadPoolExecutor), made at the first batch that uses threads
+
+
+def _threads() -> int:
+    """Threads for a batch: numba's thread count (``NUMBA_NUM_THREADS``, or
+    ``numba.set_num_threads``; experiment and sweep workers set it to 1)."""
+    import numba
+    return int(numba.get_num_threads())
+
+
+def _run_chunks(nb: int, args: tuple) -> None:
+    """Run problems 0..nb-1 of ``args`` on the calling thread or, for larger batches, in
+    chunks on ``_threads()`` threads (``_one`` releases the GIL)."""
+    global _POOL
+    nthreads = min(_threads(), -(-nb // _CHUNK))
+    if nthreads <= 1:
+        _one(0, nb, *args)
+        return
+    if _POOL is None or _POOL[0] != nthreads:
+        from concurrent.futures import ThreadPoolExecutor
+        if _POOL is not None:
+            _POOL[1].shutdown(wait=False)
+        _POOL = (nthreads, ThreadPoolExecutor(nthreads, thread_name_prefix="simcalib-batch"))
+    chunk = max(_CHUNK, -(-nb // (4 * nthreads)))
+    futures = [_POOL[1].submit(_one, b0, min(b0 + chunk, nb), *args)
+               for b0 in range(0, nb, chunk)]
+    for f in futures:
+        f.result()
+
+
 
 
 def run_batch(method_code: int, alphas, *, C=None, H=None, Q=None, weights=None,
@@ -370,10 +395,7 @@ def run_batch(method_code: int, alphas, *, C=None, H=None, Q=None, weights=None,
     args = (int(method_code), DQOPT, _T, C, H, Qin, use_q, bool(align), alphas, wts, weighted,
             RIGID_TOL, prior_adds is not None, S_add, W_add, M_add, X, cost, info, bad, nflip,
             Qout, keep_q)
-    if nb == 1:   # single solves: the per-problem function itself, on the calling thread
-        _one(0, *args)
-    else:
-        _batch_kernel(*args)
+    _run_chunks(nb, args)
     out = {"X": X, "cost": cost, "info": info, "bad": bad, "nflip": nflip}
     if keep_q:
         out["Q"] = Qout
@@ -381,22 +403,21 @@ def run_batch(method_code: int, alphas, *, C=None, H=None, Q=None, weights=None,
 
 
 def warm_up(parallel: bool = False) -> float:
-    """Compile (or load from the cache) the serial kernel, and with ``parallel`` the parallel
-    one; returns the seconds it took (0 when ready). ``simcalib.solve``/``solve_batch`` call
-    it before their timed region, so ``runtime_s`` never includes compilation."""
+    """Compile (or load from the cache) the solve kernel (``parallel`` is accepted for
+    compatibility: batches use the same kernel on threads); returns the seconds it took (0
+    when ready). ``simcalib.solve``/``solve_batch`` call it before their timed region, so
+    ``runtime_s`` never includes compilation."""
     import time
-    need = [k for k, ready in ((1, _READY[1]), (2, _READY[2] if parallel else True)) if not ready]
-    if not need:
+    if _READY[1]:
         return 0.0
     t0 = time.perf_counter()
-    for nb in need:   # nb = 1: serial kernel, nb = 2: parallel kernel
-        C = np.ascontiguousarray(np.broadcast_to(np.eye(4), (nb, 2, 4, 4)))
-        run_batch(DQOPT, np.ones(nb), C=C, H=C.copy())
-        _READY[nb] = True
+    C = np.ascontiguousarray(np.broadcast_to(np.eye(4), (1, 2, 4, 4)))
+    run_batch(DQOPT, np.ones(1), C=C, H=C.copy())
+    _READY[1] = True
     return time.perf_counter() - t0
 
 
-_READY = {1: False, 2: False}
+_READY = {1: False}
 
 
 # ----------------------------------------------------------------- compile in the background
