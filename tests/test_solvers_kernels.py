@@ -269,6 +269,31 @@ def test_threaded_batch_equals_serial_and_single_solves(monkeypatch):
         np.testing.assert_array_equal(s.X, out[3].X[b])
 
 
+def _batch_in_child(C, H, X_parent, conn):
+    conn.send(bool(np.array_equal(simcalib.solve_batch(C, H).X, X_parent)))
+
+
+def test_threaded_batch_in_a_forked_child(monkeypatch):
+    """A child forked after a threaded batch (it inherits the pool object, not its
+    threads) still solves batches on threads."""
+    import multiprocessing
+    from simcalib.solvers.kernels import batch as kb
+    monkeypatch.setattr(kb, "_threads", lambda: 2)
+    rng = np.random.default_rng(23)
+    C, H, _ = general_case(rng, n=6)
+    C = np.repeat(C[None], 130, axis=0)
+    H = np.repeat(H[None], 130, axis=0)
+    X = simcalib.solve_batch(C, H).X          # the pool exists now
+    ctx = multiprocessing.get_context("fork")
+    parent, child = ctx.Pipe()
+    p = ctx.Process(target=_batch_in_child, args=(C, H, X, child))
+    p.start()
+    assert parent.poll(120), "the forked child's batch did not finish"
+    assert parent.recv() is True
+    p.join(30)
+    assert p.exitcode == 0
+
+
 @pytest.mark.parametrize("where", [(0, 0), (1, 2), (2, 3), (3, 1), (3, 3)])
 @pytest.mark.parametrize("value", [np.nan, np.inf, -np.inf])
 def test_non_finite_entries_are_not_rigid(where, value):

@@ -331,7 +331,7 @@ _DUMMYQ = np.zeros((1, 16, 1))
 #: a batch is cut into about 4 chunks per thread (at least _CHUNK problems each), taken by
 #: the threads in turn: both cores stay busy when one is shared with another process
 _CHUNK = 64
-_POOL = None   # (threads, ThreadPoolExecutor), made at the first batch that uses threads
+_POOL = None   # (threads, pid, ThreadPoolExecutor), made at the first batch that uses threads
 
 
 def _threads() -> int:
@@ -349,18 +349,19 @@ def _run_chunks(nb: int, args: tuple) -> None:
     if nthreads <= 1:
         _one(0, nb, *args)
         return
-    if _POOL is None or _POOL[0] != nthreads:
+    import os
+    if _POOL is None or _POOL[:2] != (nthreads, os.getpid()):
+        # (a forked child inherits the pool object but not its threads: make a new one)
         from concurrent.futures import ThreadPoolExecutor
-        if _POOL is not None:
-            _POOL[1].shutdown(wait=False)
-        _POOL = (nthreads, ThreadPoolExecutor(nthreads, thread_name_prefix="simcalib-batch"))
+        if _POOL is not None and _POOL[1] == os.getpid():
+            _POOL[2].shutdown(wait=False)
+        _POOL = (nthreads, os.getpid(),
+                 ThreadPoolExecutor(nthreads, thread_name_prefix="simcalib-batch"))
     chunk = max(_CHUNK, -(-nb // (4 * nthreads)))
-    futures = [_POOL[1].submit(_one, b0, min(b0 + chunk, nb), *args)
+    futures = [_POOL[2].submit(_one, b0, min(b0 + chunk, nb), *args)
                for b0 in range(0, nb, chunk)]
     for f in futures:
         f.result()
-
-
 
 
 def run_batch(method_code: int, alphas, *, C=None, H=None, Q=None, weights=None,
