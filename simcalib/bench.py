@@ -121,7 +121,7 @@ def startup_times(batch: bool = True) -> dict:
     """Start-up cost measured in fresh interpreters: ``cold`` with an empty numba cache
     (first use after installation), then ``warm`` (cache filled). Seconds: import,
     first ``solve`` (wall), its ``runtime_s``, its ``compile_s``, certificate/observability
-    (``message``), first ``solve_batch`` (compiles the parallel kernel), process CPU."""
+    (``message``), first ``solve_batch`` (the same kernel on threads: nothing more to compile), process CPU."""
     import subprocess
     import tempfile
     code = _STARTUP_CODE.format(batch="simcalib.solve_batch(C[None].repeat(2, 0), "

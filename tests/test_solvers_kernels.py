@@ -245,3 +245,70 @@ def test_problem_cost_weighted_matches_definition():
            for i in range(7)]
     # the pair-problems may align a motion differently only near 180 deg; these are generic
     np.testing.assert_allclose(problem_cost(p, q, qd, 1.3), np.dot(w, per), rtol=1e-12)
+
+
+def test_threaded_batch_equals_serial_and_single_solves(monkeypatch):
+    """solve_batch runs chunks of the batch on threads: same bits as one thread and as
+    single solves, whatever the number of threads and chunks."""
+    from simcalib.solvers.kernels import batch as kb
+    rng = np.random.default_rng(21)
+    B, n = 200, 8
+    C = g.transform_from_rotation_translation(g.random_rotation_matrices(rng, (B, n)),
+                                              rng.normal(size=(B, n, 3)))
+    X = random_X(rng)
+    H = g.perturb_transforms(g.invert_transform(X) @ C @ X, 0.01, 0.01, rng)
+    alphas = rng.uniform(0.5, 2.0, B)
+    out = {}
+    for threads in (1, 3):
+        monkeypatch.setattr(kb, "_threads", lambda t=threads: t)
+        out[threads] = simcalib.solve_batch(C, H, alpha=alphas)
+    np.testing.assert_array_equal(out[1].X, out[3].X)
+    np.testing.assert_array_equal(out[1].cost, out[3].cost)
+    for b in (0, 63, 64, 199):   # chunk boundaries
+        s = simcalib.solve(C[b], H[b], alpha=float(alphas[b]))
+        np.testing.assert_array_equal(s.X, out[3].X[b])
+
+
+def _batch_in_child(C, H, X_parent, conn):
+    conn.send(bool(np.array_equal(simcalib.solve_batch(C, H).X, X_parent)))
+
+
+def test_threaded_batch_in_a_forked_child(monkeypatch):
+    """A child forked after a threaded batch (it inherits the pool object, not its
+    threads) still solves batches on threads."""
+    import multiprocessing
+    from simcalib.solvers.kernels import batch as kb
+    monkeypatch.setattr(kb, "_threads", lambda: 2)
+    rng = np.random.default_rng(23)
+    C, H, _ = general_case(rng, n=6)
+    C = np.repeat(C[None], 130, axis=0)
+    H = np.repeat(H[None], 130, axis=0)
+    X = simcalib.solve_batch(C, H).X          # the pool exists now
+    ctx = multiprocessing.get_context("fork")
+    parent, child = ctx.Pipe()
+    p = ctx.Process(target=_batch_in_child, args=(C, H, X, child))
+    p.start()
+    assert parent.poll(120), "the forked child's batch did not finish"
+    assert parent.recv() is True
+    p.join(30)
+    assert p.exitcode == 0
+
+
+@pytest.mark.parametrize("where", [(0, 0), (1, 2), (2, 3), (3, 1), (3, 3)])
+@pytest.mark.parametrize("value", [np.nan, np.inf, -np.inf])
+def test_non_finite_entries_are_not_rigid(where, value):
+    """The branch-free rigidity test rejects a NaN or infinite entry anywhere (rotation,
+    translation, last row), alone and inside a batch (the first bad motion is named)."""
+    rng = np.random.default_rng(22)
+    C, H, _ = general_case(rng, n=6)
+    bad = H[4].copy()
+    bad[where] = value
+    assert not quaternion.is_rigid(bad)
+    H2 = H.copy()
+    H2[4] = bad
+    from simcalib.solvers.kernels.batch import run_batch
+    r = run_batch(0, np.ones(2), C=np.ascontiguousarray(np.stack([C, C])),
+                  H=np.ascontiguousarray(np.stack([H, H2])))
+    assert list(r["bad"]) == [-1, 4]
+    with pytest.raises(ValueError, match=r"H\[1\] contains NaN or inf \(first at index 4\)"):
+        simcalib.solve_batch(np.stack([C, C]), np.stack([H, H2]))

@@ -70,9 +70,12 @@ def _make_batch(method: str):
                                      prior_adds=_prior_adds(prior))
         info = out["info"]
         status = info[:, dqcore.I_STATUS].astype(np.int64)
-        failed = np.isin(status, dqcore.FAILED_STATUSES) | (out["bad"] >= 0)
-        reason = np.array([dqcore.STATUS_TEXT.get(int(s), "") if f else ""
-                           for s, f in zip(status, failed)], dtype=object)
+        failed = out["bad"] >= 0
+        for st in dqcore.FAILED_STATUSES:
+            failed |= status == st
+        reason = np.full(len(status), "", dtype=object)
+        for b in np.flatnonzero(failed):   # text only for the (few) failed problems
+            reason[b] = dqcore.STATUS_TEXT.get(int(status[b]), "")
         return {"X": out["X"], "cost": out["cost"], "bad": out["bad"],
                 "success": ~failed, "failure_reason": reason, "mu": info[:, dqcore.I_MU],
                 "iterations": info[:, dqcore.I_ITERS].astype(np.int64),

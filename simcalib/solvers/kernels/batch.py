@@ -1,10 +1,11 @@
-"""The fused, parallel DQ kernel used by ``simcalib.solve`` (B = 1) and ``solve_batch``.
+"""The fused DQ kernel used by ``simcalib.solve`` (B = 1) and ``solve_batch`` (on threads).
 
 Per problem: validate and convert the motions (``gram._quats_soa``), choose the sign of
 each motion pair (:func:`_align`), accumulate the weighted Gram blocks, assemble (S, W, M)
 once (``gram._assemble``), run the method (``dqcore._solve_core``), write X and the data
-cost. The same per-problem code serves single solves (``_serial_kernel``, B = 1) and batches
-(``_batch_kernel``, parallel over problems), so ``solve`` equals ``solve_batch`` bit for bit.
+cost. One compiled entry, ``_one(b0, b1, ...)``, serves single solves (problems 0..1) and
+batches (chunks of problems on a few Python threads; the kernel releases the GIL), so
+``solve`` equals ``solve_batch`` bit for bit.
 
 Sign alignment (one rule for every DQ method). A motion's dual quaternions are defined up
 to sign; the pair (q_C, q_H) must be taken with the signs that make ``q_C q = q q_H``.
@@ -22,7 +23,7 @@ lowest dqopt cost is kept.
 from __future__ import annotations
 
 import numpy as np
-from simcalib.solvers.kernels.jit import njit, prange
+from simcalib.solvers.kernels.jit import njit
 
 from simcalib.solvers.kernels.dqcore import DQOPT, I_COST, I_STATUS, N_INFO, ST_NONFINITE, \
     _solve_core
@@ -93,26 +94,33 @@ def _save_state(best, q, qd, info, AtA, BtB, BtA):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _fit_dot(Q, i, q):
-    a = _qmul(Q[0, i], Q[1, i], Q[2, i], Q[3, i], q[0], q[1], q[2], q[3])
-    b = _qmul(q[0], q[1], q[2], q[3], Q[4, i], Q[5, i], Q[6, i], Q[7, i])
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
+def _fit_dots(Q, n, q, dots):
+    """dots[i] = (q_Ci q) . (q q_Hi) for every motion (one branch-free loop: vectorised)."""
+    x, y, z, w = q[0], q[1], q[2], q[3]
+    for i in range(n):
+        a = _qmul(Q[0, i], Q[1, i], Q[2, i], Q[3, i], x, y, z, w)
+        b = _qmul(x, y, z, w, Q[4, i], Q[5, i], Q[6, i], Q[7, i])
+        dots[i] = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _refine(opt, T, Q, par, wts, weighted, n, amb, namb, a2, Z0, q, qd, info, P, nrm, AtA, BtB, BtA, S, W,
-            M):
+def _refine(opt, T, Q, par, wts, weighted, n, amb, namb, a2, Z0, q, qd, info, P, nrm, AtA, BtB,
+            BtA, S, W, M, dots):
     """Flip ambiguous pairs that the dqopt rotation fits with the other sign; re-solve until
     stable (<= 4 flip rounds). Returns the smallest |fit dot| over ambiguous motions.
     (One call site of the solver: the compiled code holds one copy of it.)"""
+    fresh = False   # dots hold the fit of the current q
     for rnd in range(5):
         _solve_gram(opt, T, Q, wts, weighted, n, a2, Z0, q, qd, info, P, nrm, AtA, BtB, BtA, S,
                     W, M)
-        if rnd == 4:
+        fresh = False
+        if rnd == 4 or namb == 0:
             break
+        _fit_dots(Q, n, q, dots)
+        fresh = True
         nflip = 0
         for i in range(n):
-            if amb[i] > 0.0 and _fit_dot(Q, i, q) < 0.0:
+            if amb[i] > 0.0 and dots[i] < 0.0:
                 _flip(Q, par, i)
                 nflip += 1
         if nflip == 0:
@@ -120,9 +128,11 @@ def _refine(opt, T, Q, par, wts, weighted, n, amb, namb, a2, Z0, q, qd, info, P,
     worst = 1.0
     if namb == 0:
         return worst
+    if not fresh:
+        _fit_dots(Q, n, q, dots)
     for i in range(n):
         if amb[i] > 0.0:
-            d = abs(_fit_dot(Q, i, q))
+            d = abs(dots[i])
             if d < worst:
                 worst = d
     return worst
@@ -179,6 +189,7 @@ def _align(opt, T, Q, wts, weighted, n, a2, q, qd, info, AtA, BtB, BtA):
     M = np.empty((4, 4))
     Z0 = np.zeros((4, 4))
     amb = np.zeros(n)   # 1.0: ambiguous motion
+    dots = np.empty(n)
     namb = 0
     for i in range(n):
         if abs(Q[3, i]) <= AMBIGUOUS_W or abs(Q[7, i]) <= AMBIGUOUS_W:
@@ -201,7 +212,7 @@ def _align(opt, T, Q, wts, weighted, n, a2, q, qd, info, AtA, BtB, BtA):
                 if s != par[i]:
                     _flip(Q, par, i)
         worst = _refine(opt, T, Q, par, wts, weighted, n, amb, namb, a2, Z0, q, qd, info, P,
-                        nrm, AtA, BtB, BtA, S, W, M)
+                        nrm, AtA, BtB, BtA, S, W, M, dots)
         if start == 0 and namb > 0 and worst < _FIT_DOT:
             n_starts = 3
             sgn = np.empty(n)
@@ -293,51 +304,64 @@ def _solve_problem(method, opt, T, Cb, Hb, Qin, use_q, align, alpha, wts, weight
     return -1, nflip, cst
 
 
-@njit(cache=True, error_model="numpy")
-def _one(b, method, opt, T, C, H, Qin, use_q, align, alphas, wts, weighted, tol, has_prior,
-         S_add, W_add, M_add, X, cost, info, bad, nflip, Qout, keep_q):
-    """Problem b of a batch (shared body of the serial and the parallel kernel)."""
+@njit(cache=True, error_model="numpy", nogil=True)
+def _one(b0, b1, method, opt, T, C, H, Qin, use_q, align, alphas, wts, weighted, tol,
+         has_prior, S_add, W_add, M_add, X, cost, info, bad, nflip, Qout, keep_q):
+    """Problems b0 <= b < b1 of a batch, on the calling thread, without the GIL: single
+    solves run (0, 1), :func:`run_batch` runs chunks of a batch on a few Python threads.
+    The only compiled entry of the solve path (no separate parallel kernel: its compile
+    re-optimised the whole solver once more, ~1/3 of the cold start)."""
     n = Qin.shape[2] if use_q else C.shape[1]
     Q = np.empty((16, n))
-    r = _solve_problem(method, opt, T, C[b] if not use_q else C[0],
-                       H[b] if not use_q else H[0], Qin[b] if use_q else Qin[0], use_q, align,
-                       alphas[b], wts[b] if weighted else wts[0], weighted, tol, has_prior,
-                       S_add, W_add, M_add, X[b], info[b], Q)
-    bad[b] = r[0]
-    nflip[b] = r[1]
-    cost[b] = r[2]
-    if keep_q:
-        Qout[b, :, :] = Q
-
-
-@njit(cache=True, error_model="numpy", parallel=True)
-def _batch_kernel(method, opt, T, C, H, Qin, use_q, align, alphas, wts, weighted, tol,
-                  has_prior, S_add, W_add, M_add, X, cost, info, bad, nflip, Qout, keep_q):
-    """B problems in parallel (see :func:`_solve_problem`). With ``use_q`` the motions come
-    from Qin (B, 16, N) (already converted) instead of C, H; with ``keep_q`` the aligned
-    motions are written to Qout (B, 16, N)."""
-    for b in prange(alphas.shape[0]):
-        # prange's index is unsigned: cast, or _one (and everything inlined into it) would
-        # be compiled a second time for a uint64 index
-        _one(np.int64(b), method, opt, T, C, H, Qin, use_q, align, alphas, wts, weighted, tol, has_prior,
-             S_add, W_add, M_add, X, cost, info, bad, nflip, Qout, keep_q)
-
-
-@njit(cache=True, error_model="numpy")
-def _serial_kernel(method, opt, T, C, H, Qin, use_q, align, alphas, wts, weighted, tol,
-                   has_prior, S_add, W_add, M_add, X, cost, info, bad, nflip, Qout, keep_q):
-    """As :func:`_batch_kernel`, on the calling thread: single solves use it, so a process
-    that never batches never compiles the parallel kernel (the costlier compile), and no
-    worker threads are woken for one problem (up to a scheduler time slice, ~20 ms, on a
-    loaded machine)."""
-    for b in range(alphas.shape[0]):
-        _one(b, method, opt, T, C, H, Qin, use_q, align, alphas, wts, weighted, tol, has_prior,
-             S_add, W_add, M_add, X, cost, info, bad, nflip, Qout, keep_q)
+    for b in range(b0, b1):
+        r = _solve_problem(method, opt, T, C[b] if not use_q else C[0],
+                           H[b] if not use_q else H[0], Qin[b] if use_q else Qin[0], use_q,
+                           align, alphas[b], wts[b] if weighted else wts[0], weighted, tol,
+                           has_prior, S_add, W_add, M_add, X[b], info[b], Q)
+        bad[b] = r[0]
+        nflip[b] = r[1]
+        cost[b] = r[2]
+        if keep_q:
+            Qout[b, :, :] = Q
 
 
 _ZERO4 = np.zeros((4, 4))
 _DUMMY4 = np.zeros((1, 1, 4, 4))
 _DUMMYQ = np.zeros((1, 16, 1))
+#: a batch is cut into about 4 chunks per thread (at least _CHUNK problems each), taken by
+#: the threads in turn: both cores stay busy when one is shared with another process
+_CHUNK = 64
+_POOL = None   # (threads, pid, ThreadPoolExecutor), made at the first batch that uses threads
+
+
+def _threads() -> int:
+    """Threads for a batch: numba's thread count (``NUMBA_NUM_THREADS``, or
+    ``numba.set_num_threads``; experiment and sweep workers set it to 1)."""
+    import numba
+    return int(numba.get_num_threads())
+
+
+def _run_chunks(nb: int, args: tuple) -> None:
+    """Run problems 0..nb-1 of ``args`` on the calling thread or, for larger batches, in
+    chunks on ``_threads()`` threads (``_one`` releases the GIL)."""
+    global _POOL
+    nthreads = min(_threads(), -(-nb // _CHUNK))
+    if nthreads <= 1:
+        _one(0, nb, *args)
+        return
+    import os
+    if _POOL is None or _POOL[:2] != (nthreads, os.getpid()):
+        # (a forked child inherits the pool object but not its threads: make a new one)
+        from concurrent.futures import ThreadPoolExecutor
+        if _POOL is not None and _POOL[1] == os.getpid():
+            _POOL[2].shutdown(wait=False)
+        _POOL = (nthreads, os.getpid(),
+                 ThreadPoolExecutor(nthreads, thread_name_prefix="simcalib-batch"))
+    chunk = max(_CHUNK, -(-nb // (4 * nthreads)))
+    futures = [_POOL[2].submit(_one, b0, min(b0 + chunk, nb), *args)
+               for b0 in range(0, nb, chunk)]
+    for f in futures:
+        f.result()
 
 
 def run_batch(method_code: int, alphas, *, C=None, H=None, Q=None, weights=None,
@@ -369,10 +393,10 @@ def run_batch(method_code: int, alphas, *, C=None, H=None, Q=None, weights=None,
     bad = np.full(nb, -1, dtype=np.int64)
     nflip = np.zeros(nb, dtype=np.int64)
     Qout = np.empty((nb, 16, n)) if keep_q else _DUMMYQ
-    kernel = _serial_kernel if nb == 1 else _batch_kernel
-    kernel(int(method_code), DQOPT, _T, C, H, Qin, use_q, bool(align), alphas, wts, weighted,
-           RIGID_TOL, prior_adds is not None, S_add, W_add, M_add, X, cost, info, bad, nflip,
-           Qout, keep_q)
+    args = (int(method_code), DQOPT, _T, C, H, Qin, use_q, bool(align), alphas, wts, weighted,
+            RIGID_TOL, prior_adds is not None, S_add, W_add, M_add, X, cost, info, bad, nflip,
+            Qout, keep_q)
+    _run_chunks(nb, args)
     out = {"X": X, "cost": cost, "info": info, "bad": bad, "nflip": nflip}
     if keep_q:
         out["Q"] = Qout
@@ -380,22 +404,21 @@ def run_batch(method_code: int, alphas, *, C=None, H=None, Q=None, weights=None,
 
 
 def warm_up(parallel: bool = False) -> float:
-    """Compile (or load from the cache) the serial kernel, and with ``parallel`` the parallel
-    one; returns the seconds it took (0 when ready). ``simcalib.solve``/``solve_batch`` call
-    it before their timed region, so ``runtime_s`` never includes compilation."""
+    """Compile (or load from the cache) the solve kernel (``parallel`` is accepted for
+    compatibility: batches use the same kernel on threads); returns the seconds it took (0
+    when ready). ``simcalib.solve``/``solve_batch`` call it before their timed region, so
+    ``runtime_s`` never includes compilation."""
     import time
-    need = [k for k, ready in ((1, _READY[1]), (2, _READY[2] if parallel else True)) if not ready]
-    if not need:
+    if _READY[1]:
         return 0.0
     t0 = time.perf_counter()
-    for nb in need:   # nb = 1: serial kernel, nb = 2: parallel kernel
-        C = np.ascontiguousarray(np.broadcast_to(np.eye(4), (nb, 2, 4, 4)))
-        run_batch(DQOPT, np.ones(nb), C=C, H=C.copy())
-        _READY[nb] = True
+    C = np.ascontiguousarray(np.broadcast_to(np.eye(4), (1, 2, 4, 4)))
+    run_batch(DQOPT, np.ones(1), C=C, H=C.copy())
+    _READY[1] = True
     return time.perf_counter() - t0
 
 
-_READY = {1: False, 2: False}
+_READY = {1: False}
 
 
 # ----------------------------------------------------------------- compile in the background

@@ -88,7 +88,7 @@ def _proj(E, col, WV, V, mu, pv, pu):
 @njit(cache=True, error_model="numpy")
 def _f_df(E, lam, WV, V, xi, mu, pv, pu, pva, pua):
     """f(mu) = q0 . q0' (eq. 18) and its derivative (first-order perturbation of q0)."""
-    _proj(E, 0, WV, V, mu, pv, pu)
+    _proj(E, np.int64(0), WV, V, mu, pv, pu)   # np.int64: no Literal[0] specialisation
     f = 0.0
     qz2q = 0.0
     for k in range(4):
