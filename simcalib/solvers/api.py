@@ -525,8 +525,8 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
     """
     info = registry.get(method)
     alpha = check_alpha(alpha)
-    from simcalib.solvers.diagnostics.uncertainty import _check_pose_bias
-    pose_bias = _check_pose_bias(pose_bias)
+    from simcalib.solvers.diagnostics.uncertainty import check_pose_bias
+    pose_bias = check_pose_bias(pose_bias)
     if robust != "none":
         sol = _solve_robust(C, H, method, alpha, robust, robust_threshold, rng,
                             tolerance_deg=tolerance_deg, tolerance_m=tolerance_m,

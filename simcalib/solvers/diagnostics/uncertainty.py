@@ -34,7 +34,8 @@ the rotation noise of ``H_i`` into ``tau_i`` through ``R_Ci' t_X``).
   (``H_d`` the data part of the bread: the data pull the estimate to ``X'``, a prior holds
   it back), and to the verdict's information as ``(F^-1 + Sigma_bias)^-1`` (Woodbury form,
   valid for singular ``F``). The pipeline derives ``P_c`` for ArUco streams from
-  ``vision.intrinsics_error`` (:func:`simcalib.vision.calibration_pose_bias`).
+  ``vision.intrinsics_error`` and the marker map's survey error
+  (:func:`simcalib.vision.calibration_pose_bias`).
 * **Covariance of the estimate** (the sandwich of the paper's cost at ``alpha``): the DQ
   residual of cost (8) is ``r_i ~= T_i e_i`` (8x6, with alpha on the dual rows), so the cost is
   ``sum e_i^T S_i e_i`` with ``S_i = T_i^T T_i``. Gauss-Newton / first-order perturbation of
@@ -140,7 +141,7 @@ from simcalib.geometry import (
 
 __all__ = ["linear_model", "NoiseModel", "PoseBias", "pose_bias_jacobians", "pose_bias_covariance", "Direction", "Uncertainty", "AlphaChoice", "covariance",
            "covariance_batch",
-           "choose_alpha", "bootstrap_covariance", "pose_error", "check_tolerances", "TOLERANCE_DEG",
+           "choose_alpha", "bootstrap_covariance", "pose_error", "check_tolerances", "check_pose_bias", "TOLERANCE_DEG",
            "TOLERANCE_M", "ROTATION_FLOOR_RAD", "TRANSLATION_FLOOR_REL", "NULL_LEVEL",
            "noise_jacobians"]
 
@@ -247,7 +248,8 @@ class PoseBias:
         return not (np.any(self.cov_a) or np.any(self.cov_b))
 
 
-def _check_pose_bias(pose_bias) -> PoseBias | None:
+def check_pose_bias(pose_bias) -> PoseBias | None:
+    """``pose_bias`` as a :class:`PoseBias` (None, a PoseBias or ``(cov_a, cov_b)``)."""
     return _coerce_pair(pose_bias, PoseBias, "pose_bias", "(cov_a, cov_b) of 6x6 covariances")
 
 
@@ -637,7 +639,7 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
     tol_r = math.radians(_real("tolerance_deg", tolerance_deg))
     tol_m = _real("tolerance_m", tolerance_m)
     noise = _check_noise(noise)
-    bias = _check_pose_bias(pose_bias)
+    bias = check_pose_bias(pose_bias)
     if prior is not None and not all(hasattr(prior, k) for k in ("X", "a", "b")):
         raise TypeError(f"prior must be a simcalib.Prior or None; received "
                         f"{type(prior).__name__}")
