@@ -1083,6 +1083,17 @@ def _sweep_per_axis(summary: dict) -> dict:
     return per_axis
 
 
+
+def _open_recording(rr, application_id: str, path, **save_kwargs):
+    """A new recording stream (unique recording id, no log-time timeline) saving to
+    ``path``: how every self-contained recording of this module is opened."""
+    rec = rr.RecordingStream(application_id, recording_id=str(uuid.uuid4()),
+                             send_properties=False)
+    if hasattr(rec, "set_log_time_enabled"):
+        rec.set_log_time_enabled(False)
+    rec.save(str(path), **save_kwargs)
+    return rec
+
 def record_sweep(path, summary: dict) -> Path:
     """Write ``path`` (.rrd): a sweep's per-axis, per-solver median and IQR series.
 
@@ -1097,11 +1108,7 @@ def record_sweep(path, summary: dict) -> Path:
     import rerun.blueprint as rrb
     per_axis = _sweep_per_axis(summary)
     path = Path(path)
-    rec = rr.RecordingStream("simcalib_sweep", recording_id=str(uuid.uuid4()),
-                             send_properties=False)
-    if hasattr(rec, "set_log_time_enabled"):
-        rec.set_log_time_enabled(False)
-    rec.save(str(path))
+    rec = _open_recording(rr, "simcalib_sweep", path)
     views = []
     try:
         for axis, by_value in per_axis.items():
@@ -1166,11 +1173,7 @@ def log_experiment(path, name: str, pngs: dict, documents: dict) -> Path:
     import rerun as rr
     import rerun.blueprint as rrb
     path = Path(path)
-    rec = rr.RecordingStream(f"simcalib_experiment_{name}", recording_id=str(uuid.uuid4()),
-                             send_properties=False)
-    if hasattr(rec, "set_log_time_enabled"):
-        rec.set_log_time_enabled(False)
-    rec.save(str(path))
+    rec = _open_recording(rr, f"simcalib_experiment_{name}", path)
     try:
         for key, png in pngs.items():
             rec.log(f"figures/{entity_name(key)}", rr.EncodedImage(path=str(png)), static=True)
@@ -1282,9 +1285,6 @@ def record_calibration(path, *, time_s, T_world_a, T_world_b, X, T_wa_wb, motion
     import rerun as rr
     import rerun.blueprint as rrb
     path = Path(path)
-    rec = rr.RecordingStream("simcalib", recording_id=str(uuid.uuid4()), send_properties=False)
-    if hasattr(rec, "set_log_time_enabled"):
-        rec.set_log_time_enabled(False)
     blueprint = rrb.Blueprint(
         rrb.Horizontal(
             rrb.Spatial3DView(origin="world", name="trajectories (frame of a's world)"),
@@ -1296,7 +1296,7 @@ def record_calibration(path, *, time_s, T_world_a, T_world_b, X, T_wa_wb, motion
                 row_shares=[2, 2, 3]),
             column_shares=[3, 2]),
         rrb.TimePanel(timeline="time"), collapse_panels=True)
-    rec.save(str(path), default_blueprint=blueprint)
+    rec = _open_recording(rr, "simcalib", path, default_blueprint=blueprint)
     try:
         rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         Ta = np.asarray(T_world_a, dtype=np.float64)
@@ -1350,11 +1350,7 @@ def record_advice(path, base, adv) -> Path:
     :class:`simcalib.advise.Baseline` / :class:`simcalib.advise.Advice`. Self-contained."""
     import rerun as rr
     path = Path(path)
-    rec = rr.RecordingStream("simcalib-advice", recording_id=str(uuid.uuid4()),
-                             send_properties=False)
-    if hasattr(rec, "set_log_time_enabled"):
-        rec.set_log_time_enabled(False)
-    rec.save(str(path))
+    rec = _open_recording(rr, "simcalib-advice", path)
     rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
     mf = base.truth.marker_field
     if mf is not None and len(getattr(mf, "ids", ())):

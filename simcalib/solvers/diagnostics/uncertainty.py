@@ -139,11 +139,12 @@ from simcalib.geometry import (
     skew_matrix,
 )
 
-__all__ = ["linear_model", "NoiseModel", "PoseBias", "pose_bias_jacobians", "pose_bias_covariance", "Direction", "Uncertainty", "AlphaChoice", "covariance",
-           "covariance_batch",
-           "choose_alpha", "bootstrap_covariance", "pose_error", "check_tolerances", "check_pose_bias", "TOLERANCE_DEG",
-           "TOLERANCE_M", "ROTATION_FLOOR_RAD", "TRANSLATION_FLOOR_REL", "NULL_LEVEL",
-           "noise_jacobians"]
+__all__ = [
+    "linear_model", "NoiseModel", "PoseBias", "pose_bias_jacobians", "pose_bias_covariance",
+    "Direction", "Uncertainty", "AlphaChoice", "covariance", "covariance_batch",
+    "choose_alpha", "bootstrap_covariance", "pose_error", "check_tolerances",
+    "check_pose_bias", "TOLERANCE_DEG", "TOLERANCE_M", "ROTATION_FLOOR_RAD",
+    "TRANSLATION_FLOOR_REL", "NULL_LEVEL", "noise_jacobians"]
 
 TOLERANCE_DEG = 1.0
 TOLERANCE_M = 0.01
@@ -704,22 +705,10 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
         # their noise is correlated up to lag = step. The model meat is rescaled, per
         # direction, by the ratio of the empirical meat with the cross terms up to the lag
         # (truncated kernel) to the one without (serial-correlation, HAC-type correction).
-        gsc = np.einsum("n,nki,nkl,nl->ni", w, K, S, e)
-        M0 = gsc.T @ gsc
-        Mh = M0.copy()
-        for lg in range(1, lag + 1):
-            cross = gsc[:-lg].T @ gsc[lg:]
-            Mh += cross + cross.T
-        Ms = _rescale_meat(Ms, M0, Mh)
+        Ms = _rescale_meat(Ms, *_score_meats(np.einsum("n,nki,nkl,nl->ni", w, K, S, e), lag))
         # the same correction of the alpha-free information (efficient weighting: the
         # meat is F itself, so the information becomes F Mc^-1 F)
-        gF = np.einsum("n,nki,nkl,nl->ni", w, K, Qinv, e)
-        M0F = gF.T @ gF
-        MhF = M0F.copy()
-        for lg in range(1, lag + 1):
-            cross = gF[:-lg].T @ gF[lg:]
-            MhF += cross + cross.T
-        Fc = _rescale_meat(F, M0F, MhF)
+        Fc = _rescale_meat(F, *_score_meats(np.einsum("n,nki,nkl,nl->ni", w, K, Qinv, e), lag))
         F = F @ _sym_inv(Fc) @ F
         F = 0.5 * (F + F.T)
     Sig_bias = None
@@ -891,6 +880,17 @@ def _check_lag(lag, n) -> int:
         raise ValueError(f"correlation_lag must be an integer >= 0; received {lag!r}")
     return int(min(lag, max(n - 1, 0)))
 
+
+
+def _score_meats(g, lag):
+    """``(M0, Mh)`` of the per-motion scores ``g`` (N, 6): the meat without and with the
+    cross terms up to ``lag`` (truncated kernel)."""
+    M0 = g.T @ g
+    Mh = M0.copy()
+    for lg in range(1, lag + 1):
+        cross = g[:-lg].T @ g[lg:]
+        Mh += cross + cross.T
+    return M0, Mh
 
 def _rescale_meat(Ms, M0, Mh):
     """``Ms`` with its spectrum rescaled, direction by direction (eigenvectors of ``M0``
