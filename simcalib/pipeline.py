@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import dataclasses
 import datetime as _dt
+import os
 import sys
 import time
 from dataclasses import dataclass, field
@@ -108,6 +109,9 @@ class RunResult:
     recording_path: Path | None = None
     error: dict | None = None
     sensing: dict = field(default_factory=dict)
+    #: ``"compiled"`` (numba) or ``"interpreted"`` (first run on an installation: the
+    #: kernels' Python functions; see :func:`simcalib.solvers.kernels.jit.interpreted`)
+    solver_kernels: str = "compiled"
 
     @property
     def status(self) -> str:
@@ -148,7 +152,8 @@ class RunState:
     out: Path
     rngs: dict
     t_start: float = 0.0
-    compile_job: object = None   # child compiling the solver kernels (first run on a machine)
+    solver_kernels: str = "compiled"   # or "interpreted" (the first run on an installation)
+    kernel_loader: object = None       # thread loading the compiled kernels from the cache
     timing: dict = field(default_factory=dict)
     done: list = field(default_factory=list)
     truth: GroundTruth | None = None
@@ -183,7 +188,8 @@ class RunState:
                          solvers=tuple(self.solvers), timing_s=dict(self.timing),
                          completed_stages=tuple(self.done), interrupted=interrupted,
                          results_path=results_path, recording_path=recording_path,
-                         error=self.error, sensing=dict(self.sensing))
+                         error=self.error, sensing=dict(self.sensing),
+                         solver_kernels=self.solver_kernels)
 
 
 def _output_dir(cfg: ScenarioConfig) -> Path:
@@ -242,8 +248,7 @@ def run(config, overrides=(), *, echo: bool = True) -> RunResult:
         from simcalib.rerun_log import RunRecorder
         recorder = RunRecorder(out / "recording.rrd", cfg, background=background)
     rec_path = None if recorder is None else recorder.path
-    from simcalib.solvers.kernels.batch import start_background_compile
-    st.compile_job = start_background_compile()   # first run on a machine: overlap with the world
+    kernels = _prepare_kernels(st)
     bar = reports.progress(total=len(STAGES), enabled=cfg.progress, desc="stages",
                            unit="stage", position=0)
     where = None   # the stage running (or whose results are being recorded)
@@ -252,7 +257,8 @@ def run(config, overrides=(), *, echo: bool = True) -> RunResult:
             where = stage
             bar.set_description(stage)
             t0 = time.perf_counter()
-            fn(st)
+            with kernels():
+                fn(st)
             st.timing[stage] = time.perf_counter() - t0
             st.done.append(stage)
             reports.progress_line(f"{stage} done in {st.timing[stage]:.1f} s "
@@ -295,6 +301,57 @@ def run(config, overrides=(), *, echo: bool = True) -> RunResult:
         except Exception:  # noqa: BLE001 - the stage's exception is the one to report
             pass
         raise
+
+
+#: environment variable choosing how a run's solves execute (values: KERNEL_MODES)
+KERNELS_ENV = "SIMCALIB_KERNELS"
+KERNEL_MODES = {
+    "auto": "interpreted when numba's cache of the kernels is cold, else compiled",
+    "compiled": "always numba (the first run on an installation compiles, ~25 s)",
+    "interpreted": "always the kernels' Python functions (unless this process loaded numba)",
+}
+
+
+def _prepare_kernels(st: RunState):
+    """How this run's solves execute (``$SIMCALIB_KERNELS``, default ``auto``); returns the
+    context every stage runs in.
+
+    Cache filled (the usual case): the compiled kernels are loaded from numba's cache on a
+    thread while the world is built and rendered (the render workers are processes; this
+    process mostly waits). Cache cold (the first run on an installation): the stages run
+    with interpreted kernels (same code, ~1-2 s for a run's solves instead of ~25 s of
+    compilation) and a low-priority child fills the cache for the next runs
+    (:func:`simcalib.solvers.kernels.jit.start_cache_fill`)."""
+    import contextlib
+    import threading
+    from simcalib.solvers.kernels import jit
+    mode = os.environ.get(KERNELS_ENV, "auto")
+    if mode not in KERNEL_MODES:
+        from simcalib.errors import ConfigError
+        raise ConfigError(f"{KERNELS_ENV}={mode!r} is not a kernel mode; allowed: "
+                          f"{', '.join(KERNEL_MODES)} ({KERNEL_MODES['auto']})")
+    if mode == "interpreted" and not jit.loaded():
+        st.solver_kernels = "interpreted"
+        return jit.interpreted
+    if jit.loaded() or mode == "compiled" or jit.kernels_cached():
+        if not jit.loaded():
+            st.kernel_loader = threading.Thread(target=_load_kernels, daemon=True,
+                                                name="simcalib-kernel-load")
+            st.kernel_loader.start()
+        return contextlib.nullcontext
+    st.solver_kernels = "interpreted"
+    jit.start_cache_fill()
+    return jit.interpreted
+
+
+def _load_kernels() -> None:
+    """Load every kernel a run uses (one small solve and its diagnostics)."""
+    import simcalib
+    from simcalib.solvers.kernels.batch import random_motions_for_warm_up
+    try:
+        simcalib.solve(*random_motions_for_warm_up()).message
+    except Exception:  # noqa: BLE001 - the run's own first solve reports any problem
+        pass
 
 
 # ----------------------------------------------------------------------------- stages
@@ -436,11 +493,12 @@ def _prior(st: RunState):
 
 def _stage_solvers(st: RunState) -> None:
     from simcalib import reports
-    from simcalib.solvers.kernels.batch import finish_background_compile
     cfg = st.cfg
-    if st.compile_job is not None:
-        st.timing["waited_for_compile"] = finish_background_compile(st.compile_job)
-        st.compile_job = None
+    if st.kernel_loader is not None:
+        t0 = time.perf_counter()
+        st.kernel_loader.join()
+        st.kernel_loader = None
+        st.timing["waited_for_kernels"] = time.perf_counter() - t0
     jobs = [(m, m, False) for m in cfg.solvers]
     prior = prior_info = None
     if cfg.prior.enabled:

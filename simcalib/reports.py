@@ -143,6 +143,7 @@ def results_dict(result) -> dict:
                        for cam, e in result.pose_errors.items()},
         "solvers": {s.label: solver_entry(s) for s in result.solvers},
         "timing_s": dict(result.timing_s),
+        "solver_kernels": getattr(result, "solver_kernels", "compiled"),
         **{key: _plain(getattr(result, "sensing", {}).get(key))
            for key in ("stream_sources", "robot", "clocks", "outliers", "calibration_bias")},
     }
@@ -276,6 +277,10 @@ def summary_table(result) -> str:
             f"{s.label} alpha {_fmt(s.oracle['oracle_alpha'], digits=3)}: "
             f"{_fmt(s.oracle['rotation_error_deg'], digits=3)} deg / "
             f"{_fmt(s.oracle['translation_error_m'], 100, 2)} cm" for s in orc))
+    if getattr(result, "solver_kernels", "compiled") == "interpreted":
+        out.append("solver kernels: interpreted (first run on this installation; a "
+                   "low-priority process compiles them for the next runs): the times are "
+                   "~100x the compiled ones, the numbers the same to rounding")
     fr = result.frames or {}
     if fr.get("rendered"):
         cams = []

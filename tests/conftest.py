@@ -3,6 +3,9 @@
 import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")
+# Runs in the suite use the compiled kernels whatever the cache holds, so runs compare bit
+# for bit; the first-run interpreted path has its own tests (test_solvers_kernels_jit.py).
+os.environ.setdefault("SIMCALIB_KERNELS", "compiled")
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402

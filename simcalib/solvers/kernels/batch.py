@@ -23,6 +23,7 @@ lowest dqopt cost is kept.
 from __future__ import annotations
 
 import numpy as np
+from simcalib.solvers.kernels import jit
 from simcalib.solvers.kernels.jit import njit
 
 from simcalib.solvers.kernels.dqcore import DQOPT, I_COST, I_STATUS, N_INFO, ST_NONFINITE, \
@@ -336,7 +337,10 @@ _POOL = None   # (threads, pid, ThreadPoolExecutor), made at the first batch tha
 
 def _threads() -> int:
     """Threads for a batch: numba's thread count (``NUMBA_NUM_THREADS``, or
-    ``numba.set_num_threads``; experiment and sweep workers set it to 1)."""
+    ``numba.set_num_threads``; experiment and sweep workers set it to 1); 1 for
+    interpreted kernels (they hold the GIL)."""
+    if jit.interpreting():
+        return 1
     import numba
     return int(numba.get_num_threads())
 
@@ -409,7 +413,7 @@ def warm_up(parallel: bool = False) -> float:
     when ready). ``simcalib.solve``/``solve_batch`` call it before their timed region, so
     ``runtime_s`` never includes compilation."""
     import time
-    if _READY[1]:
+    if _READY[1] or jit.interpreting():   # interpreted kernels compile nothing
         return 0.0
     t0 = time.perf_counter()
     C = np.ascontiguousarray(np.broadcast_to(np.eye(4), (1, 2, 4, 4)))
@@ -419,16 +423,6 @@ def warm_up(parallel: bool = False) -> float:
 
 
 _READY = {1: False}
-
-
-# ----------------------------------------------------------------- compile in the background
-_PREFETCH_CODE = (
-    "import numpy as np, simcalib\n"
-    "from simcalib.solvers.kernels.batch import random_motions_for_warm_up as m\n"
-    "C, H = m()\n"
-    "sol = simcalib.solve(C, H)\n"
-    "sol.message\n"
-)
 
 
 def random_motions_for_warm_up():
@@ -445,36 +439,3 @@ def random_motions_for_warm_up():
     C[:, :3, 3] = np.stack([np.cos(k), np.sin(2 * k), 0.3 * k / 8], axis=1)
     H = invert_transform(X) @ C @ X
     return C, H
-
-
-def start_background_compile():
-    """Compile the solver kernels into numba's cache in a child process, so a run can build
-    its world and render (which do not need them) meanwhile; ``None`` when this process has
-    the kernels already. Wait with :func:`finish_background_compile` before solving (a
-    warm cache makes the child's work ~1 s; a cold one is the ~25 s of compilation that the
-    first run after an installation would otherwise spend after rendering)."""
-    if _READY[1]:
-        return None
-    import subprocess
-    import sys
-    try:
-        return subprocess.Popen([sys.executable, "-c", _PREFETCH_CODE],
-                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                                stdin=subprocess.DEVNULL)
-    except OSError:   # cannot start a process: the first solve compiles as usual
-        return None
-
-
-def finish_background_compile(proc) -> float:
-    """Wait for :func:`start_background_compile`'s child; returns the seconds waited. A
-    child that failed is ignored (the first solve then compiles in this process)."""
-    if proc is None:
-        return 0.0
-    import time
-    t0 = time.perf_counter()
-    try:
-        proc.wait()
-    except BaseException:
-        proc.kill()
-        raise
-    return time.perf_counter() - t0
