@@ -89,6 +89,8 @@ class SolverResult:
     convergence: tuple[dict, ...] = ()        # error and predicted sigma vs motions used
     covariance_calibration: np.ndarray | None = None   # part of covariance from the cameras'
     #                                                  calibration uncertainty (6x6), or None
+    uncertainty_model: dict | None = None     # how the covariance was computed (method,
+    #                                           pose-noise test, simulated bias)
 
 
 @dataclass(frozen=True)
@@ -601,15 +603,26 @@ def correlation_lag(st) -> int:
     return int(st.cfg.pairing.step)
 
 
-def _solve_at(st, method, alpha, prior, rng, C, H):
-    """(solution, errors dict) at ``alpha``, or (solution or None, failure reason)."""
+def pose_pairs(st):
+    """``(N, 2)`` datapoint indices (start, end) of the run's motions when they are pairs of
+    consecutive datapoints of the pose streams (they then share poses: the uncertainty tests
+    the pose noise for whiteness and, if white, simulates with that structure); else None."""
+    if correlation_lag(st) == 0 or st.pairs is None:
+        return None
+    return np.stack([np.asarray(st.pairs.start), np.asarray(st.pairs.end)], axis=1)
+
+
+def _solve_at(st, method, alpha, prior, rng, C, H, pairs=None):
+    """(solution, errors dict) at ``alpha``, or (solution or None, failure reason).
+    ``pairs``: the motions' datapoint pairs (:func:`pose_pairs`), for the headline."""
     import simcalib
     cfg = st.cfg
     sol = simcalib.solve(C, H, method=method, alpha=alpha, prior=prior,
                          rng=np.random.default_rng(rng.bit_generator.seed_seq),
                          tolerance_deg=cfg.verdict.tolerance_deg,
                          tolerance_m=cfg.verdict.tolerance_m,
-                         correlation_lag=correlation_lag(st), pose_bias=st.pose_bias)
+                         correlation_lag=correlation_lag(st), pose_bias=st.pose_bias,
+                         pose_pairs=pairs)
     reason = _failure_reason(sol)
     if reason is not None:
         return sol, reason
@@ -652,8 +665,9 @@ def _solve_one(st, label, method, prior, prior_info, C, H, rng, choice) -> Solve
                           "translation_error_m": best["translation_error_m"],
                           "translation_error_determined_m":
                               best["translation_error_determined_m"]}
-        sol, res = _solve_at(st, method, choice["alpha"], prior, rng, C, H)
-        convergence = convergence_curve(st, method, choice["alpha"], prior, rng, C, H)
+        sol, res = _solve_at(st, method, choice["alpha"], prior, rng, C, H, pose_pairs(st))
+        convergence = convergence_curve(st, method, choice["alpha"], prior, rng, C, H,
+                                        last=(sol, res))
     except Exception as exc:  # noqa: BLE001 - one failing method must not sink the run
         return _failed(label, method, prior_info, f"{type(exc).__name__}: {exc}",
                        sweep, choice, oracle)
@@ -681,7 +695,26 @@ def _solve_one(st, label, method, prior, prior_info, C, H, rng, choice) -> Solve
         verdict_directions=v["undetermined"] if degenerate is not False else (),
         alpha_choice=choice, oracle=oracle, convergence=tuple(convergence),
         covariance_calibration=None if sol.uncertainty is None
-        else sol.uncertainty.bias_covariance)
+        else sol.uncertainty.bias_covariance, uncertainty_model=_uncertainty_model(sol))
+
+
+def _uncertainty_model(sol) -> dict | None:
+    """results.json ``uncertainty_model``: the covariance's method ("sandwich" or
+    "pose_simulation"), the white pose-noise test of motions sharing poses, the simulated
+    bias (deg, m)."""
+    u = sol.uncertainty
+    if u is None:
+        return None
+    t = u.pose_noise_test
+    b = u.simulated_bias
+    return {"method": u.method,
+            "pose_noise_test": None if t is None else {
+                "white": bool(t.accepted), "statistic": float(t.statistic),
+                "threshold": float(t.threshold),
+                "autocorrelation": [round(float(x), 4) for x in t.autocorrelation],
+                "expected": [round(float(x), 4) for x in t.expected]},
+            "simulated_bias_deg": None if b is None else [float(x) for x in np.degrees(b[:3])],
+            "simulated_bias_m": None if b is None else [float(x) for x in b[3:]]}
 
 
 def convergence_points(n: int, points: int, k_min: int = 3) -> tuple[int, ...]:
@@ -692,15 +725,20 @@ def convergence_points(n: int, points: int, k_min: int = 3) -> tuple[int, ...]:
     return tuple(int(k) for k in ks)
 
 
-def convergence_curve(st, method, alpha, prior, rng, C, H) -> tuple[dict, ...]:
+def convergence_curve(st, method, alpha, prior, rng, C, H, last=None) -> tuple[dict, ...]:
     """Solve on the first k motions for growing k (``verdict.convergence_points`` log-spaced
     values): per k the errors against the ground truth, the predicted 1-sigma (RMS of the
     rotation / translation error; None when undetermined) and the verdict. The curve a user
-    looks at to see when the motion became rich enough."""
+    looks at to see when the motion became rich enough. ``last``: the headline's
+    ``(solution, errors)``, used for k = all motions (the points before it use the
+    first-order uncertainty; only the headline runs the pose-noise simulation)."""
     out = []
     for k in convergence_points(C.shape[0], st.cfg.verdict.convergence_points):
         try:
-            sol, res = _solve_at(st, method, alpha, prior, rng, C[:k], H[:k])
+            if last is not None and k == C.shape[0]:
+                sol, res = last
+            else:
+                sol, res = _solve_at(st, method, alpha, prior, rng, C[:k], H[:k])
         except ValueError as exc:   # too few usable motions for this method
             out.append({"k": k, "success": False, "error": str(exc).splitlines()[0]})
             continue

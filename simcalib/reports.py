@@ -107,6 +107,9 @@ def solver_entry(s) -> dict:
         # (results.json calibration_bias); null when none is included
         "covariance_calibration": _calibration_entry(getattr(s, "covariance_calibration",
                                                              None)),
+        # how the covariance was computed: "sandwich" (first order) or "pose_simulation"
+        # (motions sharing poses with white pose noise: simulated, with the bias)
+        "uncertainty_model": getattr(s, "uncertainty_model", None),
     }
 
 

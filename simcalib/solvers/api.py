@@ -176,6 +176,7 @@ class Solution:
     bootstrap_samples: int = 200
     correlation_lag: int = 0        # motions share poses up to this lag (pairs k, k+step)
     pose_bias: object = field(default=None, repr=False, compare=False)  # uncertainty.PoseBias
+    pose_pairs: np.ndarray | None = field(default=None, repr=False, compare=False)  # (N, 2)
 
     # ---- issue 9: uncertainty and the verdict that follows from it
     @cached_property
@@ -190,7 +191,7 @@ class Solution:
             u = covariance(self.problem.C, self.problem.H, self.X, self.alpha, self.prior,
                            weights=self.problem.weights, tolerance_deg=self.tolerance_deg,
                            tolerance_m=self.tolerance_m, correlation_lag=self.correlation_lag,
-                           pose_bias=self.pose_bias)
+                           pose_bias=self.pose_bias, pose_pairs=self.pose_pairs)
         except ValueError:
             return None
         if self.uncertainty_method == "bootstrap":
@@ -406,6 +407,15 @@ def _uncertainty_dict(u) -> dict | None:
             "noise": {"sigma_r_rad": u.noise.sigma_r_rad, "sigma_t_m": u.noise.sigma_t_m,
                       "estimated": u.noise.estimated},
             "tolerance_deg": u.tolerance_deg, "tolerance_m": u.tolerance_m,
+            "method": u.method,
+            "pose_noise": None if u.pose_noise_test is None else {
+                "white": u.pose_noise_test.accepted,
+                "autocorrelation": [float(x) for x in u.pose_noise_test.autocorrelation],
+                "expected": [float(x) for x in u.pose_noise_test.expected],
+                "statistic": _num(u.pose_noise_test.statistic),
+                "threshold": float(u.pose_noise_test.threshold)},
+            "simulated_bias": None if u.simulated_bias is None
+            else [float(x) for x in u.simulated_bias],
             "directions": [{"reason": d.reason, "kind": d.kind, "description": d.description,
                             "rotation_axis_a": d.rotation_axis_a.tolist(),
                             "translation_dir_a": d.translation_dir_a.tolist(),
@@ -491,7 +501,7 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
           rng: np.random.Generator | None = None, weights=None, *, tolerance_deg: float = 1.0,
           tolerance_m: float = 0.01, uncertainty: str = "sandwich",
           bootstrap_samples: int = 200, correlation_lag: int = 0, robust: str = "none",
-          robust_threshold: float | None = None, pose_bias=None) -> Solution:
+          robust_threshold: float | None = None, pose_bias=None, pose_pairs=None) -> Solution:
     """Estimate ``X = T_a_b`` from relative motions with ``C_i X = X H_i``.
 
     ``C``, ``H``: array-like ``(N, 4, 4)``, N >= 2. ``method``: a name from
@@ -512,6 +522,12 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
     :class:`simcalib.solvers.diagnostics.uncertainty.PoseBias` or ``(cov_a, cov_b)``
     (6x6 covariances of each camera's run-constant pose error, camera frame, rotvec rad and
     translation m; None for none): added to the covariance, std and verdict.
+    ``pose_pairs``: ``(N, 2)`` datapoint indices (start, end) of each motion when the motions
+    come from two pose streams (motion ``k`` = the poses of datapoints ``start_k`` ->
+    ``end_k``), so motions sharing a datapoint share its pose noise: when the residuals
+    pass the white pose-noise test, the covariance is simulated with that structure,
+    including the estimator's bias (:mod:`simcalib.solvers.diagnostics.pose_noise`;
+    ``Solution.uncertainty.method == "pose_simulation"``; not with a prior or ``robust``).
 
     ``robust``: ``"none"`` (default), ``"ransac"`` (hypotheses from minimal sets of motions,
     consensus by the per-motion screw residual — threshold ``robust_threshold`` or
@@ -527,6 +543,11 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
     alpha = check_alpha(alpha)
     from simcalib.solvers.diagnostics.uncertainty import check_pose_bias
     pose_bias = check_pose_bias(pose_bias)
+    if pose_pairs is not None:
+        if robust != "none":
+            raise ValueError("pose_pairs cannot be combined with robust=" + repr(robust) +
+                             ": the motions it rejects break the pose structure; pass "
+                             "pose_pairs=None")
     if robust != "none":
         sol = _solve_robust(C, H, method, alpha, robust, robust_threshold, rng,
                             tolerance_deg=tolerance_deg, tolerance_m=tolerance_m,
@@ -555,6 +576,9 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
     compile_s = warm_up()
     t0 = time.perf_counter()
     problem = prepare_problem(C, H, alpha, weights)
+    if pose_pairs is not None:
+        from simcalib.solvers.diagnostics.pose_noise import check_pose_pairs
+        pose_pairs = check_pose_pairs(pose_pairs, problem.n)
     try:
         out = info.fn(problem, alpha, prior, rng)
     except Exception as exc:  # noqa: BLE001 - a solver failing on valid input is reported
@@ -577,7 +601,8 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
                     diagnostics=diag, problem=problem, tolerance_deg=tolerance_deg,
                     tolerance_m=tolerance_m, uncertainty_method=uncertainty,
                     bootstrap_rng=boot_rng, bootstrap_samples=int(bootstrap_samples),
-                    correlation_lag=correlation_lag, pose_bias=pose_bias)
+                    correlation_lag=correlation_lag, pose_bias=pose_bias,
+                    pose_pairs=pose_pairs)
 
 
 def solve_batch(C, H, method: str = "dqopt", alpha=1.0, prior: Prior | None = None,

@@ -538,6 +538,11 @@ class Uncertainty:
     noise_information: np.ndarray | None = None
     information_ratio: np.ndarray | None = None
     ratio_threshold: np.ndarray | None = None
+    # motions from pose streams (``pose_pairs``): the white pose-noise test and, when it
+    # passed, the simulated bias of the alpha-cost minimiser (delta coordinates, estimate
+    # minus truth; its outer product is part of ``covariance``)
+    pose_noise_test: object = None
+    simulated_bias: np.ndarray | None = None
 
     @property
     def std(self) -> np.ndarray:
@@ -621,7 +626,8 @@ def _fmt_vec3(v):
 # -------------------------------------------------------------------------- main entry
 def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None, *,
                tolerance_deg: float = TOLERANCE_DEG, tolerance_m: float = TOLERANCE_M,
-               correlation_lag: int = 0, pose_bias=None
+               correlation_lag: int = 0, pose_bias=None, pose_pairs=None,
+               simulation_rng: np.random.Generator | None = None
                ) -> Uncertainty:
     """Uncertainty of the estimate ``X`` (= ``T_a_b``) from motions ``C``, ``H`` (N,4,4),
     ``C_i X = X H_i``, for the paper's cost at ``alpha`` (1/m) with an optional
@@ -629,8 +635,11 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
     ``(sigma_r_rad, sigma_t_m)``; default estimated from the residuals. ``weights``: optional
     (N,) non-negative per-motion weights of the cost. ``pose_bias``: a :class:`PoseBias`
     or ``(cov_a, cov_b)``, the known covariance of each camera's run-constant pose error
-    (calibration), added to the covariance and the verdict's information. See the module
-    doc."""
+    (calibration), added to the covariance and the verdict's information. ``pose_pairs``:
+    ``(N, 2)`` datapoint indices (start, end) of each motion when the motions were formed
+    from pose streams; if the residuals pass the white pose-noise test the covariance (no
+    prior) is the simulated one of :mod:`simcalib.solvers.diagnostics.pose_noise`
+    (``simulation_rng``: its generator, default ``default_rng(0)``). See the module doc."""
     C = check_transforms(C, "C", min_count=2)
     H = check_transforms(H, "H", min_count=2)
     if C.shape != H.shape:
@@ -711,6 +720,10 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
         Fc = _rescale_meat(F, *_score_meats(np.einsum("n,nki,nkl,nl->ni", w, K, Qinv, e), lag))
         F = F @ _sym_inv(Fc) @ F
         F = 0.5 * (F + F.T)
+    pose_test = sim_bias = None
+    if pose_pairs is not None:
+        Ms, pose_test, sim_bias = _pose_simulation(C, X, alpha, pose_pairs, Linv, e, Hs, Ms,
+                                                   s_r2, s_t2, w, prior, simulation_rng)
     Sig_bias = None
     if bias is not None and not bias.is_zero:
         Sig_bias = pose_bias_covariance(X, bias.cov_a, bias.cov_b)
@@ -780,8 +793,13 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
             # X need not be the minimiser of the alpha cost (daniilidis, opencv, dq2steps,
             # an early stop): its Gauss-Newton offset from the minimiser is a bias of X
             # that the sandwich does not see; added as step step^T (mean squared error).
-            g = np.einsum("n,nki,nkl,nl->i", w, K, S, e) * dsc
-            step = -Hb_inv @ (Bt.T @ g)
+            if sim_bias is not None:   # the exact offset (the linearised one errs by
+                # terms of second order in the noise, here as large as the bias itself)
+                from simcalib.solvers.diagnostics.pose_noise import minimiser_offset
+                step = Bt.T @ (minimiser_offset(C, H, X, alpha, w) / dsc)
+            else:
+                g = np.einsum("n,nki,nkl,nl->i", w, K, S, e) * dsc
+                step = -Hb_inv @ (Bt.T @ g)
             Sig_b = Sig_b + np.outer(step, step)
             offset_t = Bt @ step
         else:
@@ -871,8 +889,30 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
                        determined_basis=Bp, information=F, prior_covariance=prior_cov,
                        noise=noise_out, alpha=alpha, tolerance_deg=math.degrees(tol_r),
                        tolerance_m=tol_m, directions=tuple(dirs), translation_scale_m=L,
-                       n_motions=N, offset=offset_t * dsc, bias_covariance=Sig_bias, noise_information=F_noise,
-                       information_ratio=null.ratio, ratio_threshold=null.threshold)
+                       n_motions=N, offset=offset_t * dsc, bias_covariance=Sig_bias,
+                       noise_information=F_noise, information_ratio=null.ratio,
+                       ratio_threshold=null.threshold, pose_noise_test=pose_test,
+                       simulated_bias=sim_bias,
+                       method="pose_simulation" if sim_bias is not None else "sandwich")
+
+
+def _pose_simulation(C, X, alpha, pose_pairs, Linv, e, Hs, Ms, s_r2, s_t2, w, prior, rng):
+    """``(Ms, test, bias)``: the meat replaced by ``Hs (S + b b^T) Hs`` from the white
+    pose-noise simulation when the test accepts (and there is no prior, whose cost the
+    simulation does not model); otherwise ``Ms`` unchanged and bias ``None``."""
+    from simcalib.solvers.diagnostics.pose_noise import (check_pose_pairs, simulate_error,
+                                                          white_noise_test)
+    P = check_pose_pairs(pose_pairs, C.shape[0])
+    test = white_noise_test(np.einsum("nij,nj->ni", Linv, e), P)
+    if not test.accepted or prior is not None:
+        return Ms, test, None
+    out = simulate_error(C, X, alpha, P, math.sqrt(s_r2 / 2.0), math.sqrt(s_t2 / 2.0),
+                         weights=w, rng=rng)
+    if out is None:
+        return Ms, test, None
+    b, S = out
+    Ms = Hs @ (S + np.outer(b, b)) @ Hs
+    return 0.5 * (Ms + Ms.T), test, b
 
 
 def _check_lag(lag, n) -> int:
