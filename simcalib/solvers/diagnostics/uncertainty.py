@@ -46,6 +46,16 @@ the rotation noise of ``H_i`` into ``tau_i`` through ``R_Ci' t_X``).
   minimiser of the alpha cost (``g = sum K^T S e``, 0 for an exact minimiser) is added as
   ``s s^T`` (mean squared error; :attr:`Uncertainty.offset`). An estimator far from the
   optimum of the data (e.g. OpenCV's Daniilidis) is thus never reported tighter than it is.
+* **Motions sharing poses** (``pose_pairs``, the datapoint pairs of motions formed from
+  pose streams): the whitened residuals' autocorrelation is tested against white pose
+  noise (:func:`simcalib.solvers.diagnostics.pose_noise.white_noise_test`); when it
+  passes and there is no prior, the meat becomes ``H (S + b b^T) H`` with ``S``, ``b`` the
+  covariance and bias of the alpha-cost minimiser simulated with that noise structure
+  (:func:`~simcalib.solvers.diagnostics.pose_noise.simulate_error`), and the offset of a
+  non-optimal estimator is the exact one (``minimiser_offset``) instead of the Gauss-Newton
+  step of the linearised cost, which errs by second-order terms as large as that bias.
+  ``Uncertainty.method`` is then ``"pose_simulation"``. The verdict's information ``F`` is
+  unchanged.
 * **Information** (alpha-free, for the verdict): ``F = sum K^T Q^-1 K`` (Fisher information
   of the data under the noise model; alpha cancels exactly).
 * **Prior** (paper eqs. 26-29): read as a pseudo-measurement of ``vec(dq)`` with weight ``a``
