@@ -23,6 +23,7 @@ def _python(code: str, env: dict, timeout: float = 120) -> str:
     return out.stdout
 
 
+@pytest.mark.slow
 def test_interpreted_solve_matches_compiled_and_imports_no_numba():
     C, H = random_motions_for_warm_up()
     rng = np.random.default_rng(3)
@@ -66,7 +67,7 @@ def test_cache_fill_child_runs_idle_once_and_writes_the_stamp(tmp_path, monkeypa
     monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
     # the child's work replaced by a fast one that records its CPU scheduling policy
     code = ("import os, time\nfrom simcalib.solvers.kernels import jit\n"
-            "time.sleep(1.0)\n"
+            "time.sleep(0.3)\n"
             f"open({str(tmp_path / 'policy')!r}, 'w').write("
             "f'{os.sched_getscheduler(0)} {int(os.getpgrp() == os.getpid())}')\n"
             "jit.mark_cached()\n"
@@ -87,6 +88,7 @@ def test_cache_fill_child_runs_idle_once_and_writes_the_stamp(tmp_path, monkeypa
     assert jit.start_cache_fill() is None          # filled: nothing to do
 
 
+@pytest.mark.slow
 def test_run_interpreted_equals_compiled_run(tmp_path):
     overrides = ["synthetic.num_motions=60", "pairing.n_pairs=30", "solvers=[dqopt,dq2steps]",
                  "recording.enabled=false", "progress=false"]

@@ -131,6 +131,7 @@ def test_simulation_needs_noise_and_is_deterministic():
     assert np.all(np.linalg.eigvalsh(a[1]) > 0)
 
 
+@pytest.mark.slow
 def test_solve_with_pose_pairs_is_calibrated_on_white_pose_noise():
     """Monte-Carlo: 30 data sets of one smooth path with white pose noise; the simulated
     covariance covers the true X in about 95 % of them and its sigma matches the RMS
