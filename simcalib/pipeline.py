@@ -707,14 +707,18 @@ def _uncertainty_model(sol) -> dict | None:
         return None
     t = u.pose_noise_test
     b = u.simulated_bias
+    if b is not None:   # a bias along an undetermined axis means nothing: null there
+        b = np.where(np.isfinite(np.diag(u.covariance)), b, np.nan)
     return {"method": u.method,
             "pose_noise_test": None if t is None else {
                 "white": bool(t.accepted), "statistic": float(t.statistic),
                 "threshold": float(t.threshold),
                 "autocorrelation": [round(float(x), 4) for x in t.autocorrelation],
                 "expected": [round(float(x), 4) for x in t.expected]},
-            "simulated_bias_deg": None if b is None else [float(x) for x in np.degrees(b[:3])],
-            "simulated_bias_m": None if b is None else [float(x) for x in b[3:]]}
+            "simulated_bias_deg": None if b is None else [
+                float(x) if np.isfinite(x) else None for x in np.degrees(b[:3])],
+            "simulated_bias_m": None if b is None else [
+                float(x) if np.isfinite(x) else None for x in b[3:]]}
 
 
 def convergence_points(n: int, points: int, k_min: int = 3) -> tuple[int, ...]:

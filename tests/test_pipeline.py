@@ -228,3 +228,9 @@ def test_cart_scenarios_flagged_3d_not(tmp_path, scenario, flagged):
     s = res["solvers"]["dqopt"]
     assert s["degenerate"] is flagged, s["verdict"]
     assert (s["verdict"]["verdict"] != "determined") is flagged
+    # consecutive pairs of the noisy source's poses: white pose noise shared by the
+    # motions, so the headline's covariance is the shared-pose simulation
+    m = s["uncertainty_model"]
+    assert m["pose_noise_test"]["white"] is True, m
+    assert m["method"] == "pose_simulation"
+    assert len(m["simulated_bias_m"]) == 3

@@ -414,8 +414,9 @@ def _uncertainty_dict(u) -> dict | None:
                 "expected": [float(x) for x in u.pose_noise_test.expected],
                 "statistic": _num(u.pose_noise_test.statistic),
                 "threshold": float(u.pose_noise_test.threshold)},
-            "simulated_bias": None if u.simulated_bias is None
-            else [float(x) for x in u.simulated_bias],
+            "simulated_bias": None if u.simulated_bias is None   # null along undetermined axes
+            else [_num(x) if math.isfinite(u.covariance[i, i]) else None
+                  for i, x in enumerate(u.simulated_bias)],
             "directions": [{"reason": d.reason, "kind": d.kind, "description": d.description,
                             "rotation_axis_a": d.rotation_axis_a.tolist(),
                             "translation_dir_a": d.translation_dir_a.tolist(),
