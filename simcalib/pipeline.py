@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import dataclasses
 import datetime as _dt
-import os
 import sys
 import time
 from dataclasses import dataclass, field
@@ -305,55 +304,14 @@ def run(config, overrides=(), *, echo: bool = True) -> RunResult:
         raise
 
 
-#: environment variable choosing how a run's solves execute (values: KERNEL_MODES)
-KERNELS_ENV = "SIMCALIB_KERNELS"
-KERNEL_MODES = {
-    "auto": "interpreted when numba's cache of the kernels is cold, else compiled",
-    "compiled": "always numba (the first run on an installation compiles, ~25 s)",
-    "interpreted": "always the kernels' Python functions (unless this process loaded numba)",
-}
-
-
 def _prepare_kernels(st: RunState):
-    """How this run's solves execute (``$SIMCALIB_KERNELS``, default ``auto``); returns the
-    context every stage runs in.
-
-    Cache filled (the usual case): the compiled kernels are loaded from numba's cache on a
-    thread while the world is built and rendered (the render workers are processes; this
-    process mostly waits). Cache cold (the first run on an installation): the stages run
-    with interpreted kernels (same code, ~1-2 s for a run's solves instead of ~25 s of
-    compilation) and a low-priority child fills the cache for the next runs
-    (:func:`simcalib.solvers.kernels.jit.start_cache_fill`)."""
-    import contextlib
-    import threading
-    from simcalib.solvers.kernels import jit
-    mode = os.environ.get(KERNELS_ENV, "auto")
-    if mode not in KERNEL_MODES:
-        from simcalib.errors import ConfigError
-        raise ConfigError(f"{KERNELS_ENV}={mode!r} is not a kernel mode; allowed: "
-                          f"{', '.join(KERNEL_MODES)} ({KERNEL_MODES['auto']})")
-    if mode == "interpreted" and not jit.loaded():
-        st.solver_kernels = "interpreted"
-        return jit.interpreted
-    if jit.loaded() or mode == "compiled" or jit.kernels_cached():
-        if not jit.loaded():
-            st.kernel_loader = threading.Thread(target=_load_kernels, daemon=True,
-                                                name="simcalib-kernel-load")
-            st.kernel_loader.start()
-        return contextlib.nullcontext
-    st.solver_kernels = "interpreted"
-    jit.start_cache_fill()
-    return jit.interpreted
-
-
-def _load_kernels() -> None:
-    """Load every kernel a run uses (one small solve and its diagnostics)."""
-    import simcalib
-    from simcalib.solvers.kernels.batch import random_motions_for_warm_up
-    try:
-        simcalib.solve(*random_motions_for_warm_up()).message
-    except Exception:  # noqa: BLE001 - the run's own first solve reports any problem
-        pass
+    """How this run's solves execute (:func:`simcalib.kernel_mode.prepare_kernels`,
+    ``$SIMCALIB_KERNELS``); returns the context every stage runs in."""
+    from simcalib.kernel_mode import prepare_kernels
+    plan = prepare_kernels()
+    st.solver_kernels = plan.mode
+    st.kernel_loader = plan.loader
+    return plan.context
 
 
 # ----------------------------------------------------------------------------- stages

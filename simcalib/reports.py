@@ -281,9 +281,8 @@ def summary_table(result) -> str:
             f"{_fmt(s.oracle['rotation_error_deg'], digits=3)} deg / "
             f"{_fmt(s.oracle['translation_error_m'], 100, 2)} cm" for s in orc))
     if getattr(result, "solver_kernels", "compiled") == "interpreted":
-        out.append("solver kernels: interpreted (first run on this installation; a "
-                   "low-priority process compiles them for the next runs): the times are "
-                   "~100x the compiled ones, the numbers the same to rounding")
+        from simcalib.kernel_mode import INTERPRETED_NOTE
+        out.append(INTERPRETED_NOTE)
     fr = result.frames or {}
     if fr.get("rendered"):
         cams = []

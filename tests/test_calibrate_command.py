@@ -233,3 +233,27 @@ def test_two_stream_sample_file_alone(tmp_path, capsys):
     assert rep["conventions"]["invert_b"] and rep["streams"]["a"]["sample_index_as_time"]
     assert rep["time_offset"]["offset_s"] == 0.0
     assert np.degrees(rotation_error_rad(np.array(rep["X"]["T_a_b"]), rs.X)) < 0.2
+
+
+@pytest.mark.slow
+def test_first_use_calibrates_with_interpreted_kernels(tmp_path, capsys):
+    """The first calibrate on an installation (cold numba cache) solves with the kernels'
+    Python functions (simcalib.kernel_mode): same X to rounding, and the report says so."""
+    import subprocess
+    import sys
+    rs, pa, pb = _rig_files(tmp_path)
+    args = [f"a={pa}", f"b={pb}", "time_offset=0", "robust=none", "step_s=0.5",
+            "recording=false"]
+    code, _, err = _calibrate(capsys, *args, f"output={tmp_path / 'c'}")
+    assert code == EXIT_OK, err
+    env = dict(os.environ, SIMCALIB_KERNELS="interpreted")
+    proc = subprocess.run([sys.executable, "-m", "simcalib", "calibrate", *args,
+                           f"output={tmp_path / 'i'}"], env=env, capture_output=True,
+                          text=True, timeout=300)
+    assert proc.returncode == EXIT_OK, proc.stderr
+    assert "solver kernels: interpreted" in proc.stdout
+    c = json.loads((tmp_path / "c" / "calibration.json").read_text())
+    i = json.loads((tmp_path / "i" / "calibration.json").read_text())
+    assert c["solver_kernels"] == "compiled" and i["solver_kernels"] == "interpreted"
+    np.testing.assert_allclose(np.array(i["X"]["T_a_b"]), np.array(c["X"]["T_a_b"]),
+                               atol=1e-10)

@@ -300,7 +300,8 @@ def _stream(s) -> dict:
             "sample_index_as_time": s.synthetic_time, "repairs": dict(s.repairs)}
 
 
-def report_dict(opts: CalibrateOptions, r, a: Assessment) -> dict:
+def report_dict(opts: CalibrateOptions, r, a: Assessment,
+                solver_kernels: str = "compiled") -> dict:
     """The content of ``calibration.json`` (schema :data:`SCHEMA`, docs/calibrate.md)."""
     from simcalib.config import to_dict
     off, conv, rob, s = r.time_offset, r.conventions, r.robust, r.summary
@@ -309,6 +310,7 @@ def report_dict(opts: CalibrateOptions, r, a: Assessment) -> dict:
     return {
         "schema": SCHEMA,
         "status": status,
+        "solver_kernels": solver_kernels,
         "exit_code": a.exit_code,
         "X": _pose(r.X),
         "frames": "X = T_a_b: pose of sensor b in sensor a (p_a = X p_b); metres, "
@@ -353,12 +355,13 @@ def report_dict(opts: CalibrateOptions, r, a: Assessment) -> dict:
     }
 
 
-def write_outputs(opts: CalibrateOptions, r, a: Assessment) -> dict:
+def write_outputs(opts: CalibrateOptions, r, a: Assessment,
+                  solver_kernels: str = "compiled") -> dict:
     """Write calibration.json, motions.npz and recording.rrd into ``opts.output``."""
     from simcalib.solvers.robust import constraint_errors
     out = Path(opts.output)
     out.mkdir(parents=True, exist_ok=True)
-    report = report_dict(opts, r, a)
+    report = report_dict(opts, r, a, solver_kernels)
     (out / "calibration.json").write_text(json.dumps(report, indent=2) + "\n")
     rot, trans = constraint_errors(r.C, r.H, r.X)
     i, j = r.motion_index
@@ -483,9 +486,15 @@ def main(args: list[str]) -> int:
     if not args:
         raise UsageError("calibrate needs a=PATH b=PATH output=DIR (see calibrate --help)")
     opts = parse_options(args)
-    r, a = calibrate(opts)
-    report = write_outputs(opts, r, a)
-    print(format_report(report))
+    from simcalib.kernel_mode import INTERPRETED_NOTE, prepare_kernels
+    plan = prepare_kernels()        # the first use on an installation: interpreted kernels
+    with plan.context():            # (the report's diagnostics may solve too)
+        r, a = calibrate(opts)
+        report = write_outputs(opts, r, a, solver_kernels=plan.mode)
+        text = format_report(report)
+    print(text)
+    if plan.mode == "interpreted":
+        print(INTERPRETED_NOTE)
     print(f"written: {Path(opts.output) / 'calibration.json'}, motions.npz"
           + (", recording.rrd" if opts.recording else ""))
     return a.exit_code
