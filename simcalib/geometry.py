@@ -232,28 +232,25 @@ def matrix_from_quat(q: np.ndarray) -> np.ndarray:
     return R.reshape(q.shape[:-1] + (3, 3))
 
 
+#: sign and component of each entry of L(q) (q ⊗ p = L(q) p) and R(p) (q ⊗ p = R(p) q),
+#: components indexed (x, y, z, w) = (0, 1, 2, 3)
+_L_INDEX = np.array([[3, 2, 1, 0], [2, 3, 0, 1], [1, 0, 3, 2], [0, 1, 2, 3]])
+_L_SIGN = np.array([[1.0, -1.0, 1.0, 1.0], [1.0, 1.0, -1.0, 1.0],
+                    [-1.0, 1.0, 1.0, 1.0], [-1.0, -1.0, -1.0, 1.0]])
+_R_SIGN = np.array([[1.0, 1.0, -1.0, 1.0], [-1.0, 1.0, 1.0, 1.0],
+                    [1.0, -1.0, 1.0, 1.0], [-1.0, -1.0, -1.0, 1.0]])
+
+
 def quat_left_matrix(q: np.ndarray) -> np.ndarray:
     """``L(q)`` with ``q ⊗ p = L(q) p``; shape ``(..., 4, 4)``."""
     q = np.asarray(q, dtype=np.float64)
-    x, y, z, w = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    return np.stack([
-        np.stack([w, -z, y, x], -1),
-        np.stack([z, w, -x, y], -1),
-        np.stack([-y, x, w, z], -1),
-        np.stack([-x, -y, -z, w], -1),
-    ], axis=-2)
+    return q[..., _L_INDEX] * _L_SIGN
 
 
 def quat_right_matrix(p: np.ndarray) -> np.ndarray:
     """``R(p)`` with ``q ⊗ p = R(p) q``; shape ``(..., 4, 4)``."""
     p = np.asarray(p, dtype=np.float64)
-    x, y, z, w = p[..., 0], p[..., 1], p[..., 2], p[..., 3]
-    return np.stack([
-        np.stack([w, z, -y, x], -1),
-        np.stack([-z, w, x, y], -1),
-        np.stack([y, -x, w, z], -1),
-        np.stack([-x, -y, -z, w], -1),
-    ], axis=-2)
+    return p[..., _L_INDEX] * _R_SIGN
 
 
 def quat_multiply(q: np.ndarray, p: np.ndarray) -> np.ndarray:

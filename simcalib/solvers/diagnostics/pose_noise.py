@@ -53,7 +53,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from simcalib.geometry import (dual_quat_from_transform, matrix_from_rotvec, quat_conjugate,
-                               quat_left_matrix, quat_right_matrix,
+                               quat_left_matrix, quat_multiply, quat_right_matrix,
                                rotvec_from_matrix)
 
 __all__ = ["WhiteNoiseTest", "check_pose_pairs", "expected_autocorrelation",
@@ -145,31 +145,8 @@ def white_noise_test(residuals_whitened: np.ndarray, pose_pairs: np.ndarray,
 
 
 # ----------------------------------------------------------------------------- simulation
-def _qmul(a, b):
-    """Hamilton product of (x, y, z, w) quaternions, by components (…, 4)."""
-    ax, ay, az, aw = np.moveaxis(a, -1, 0)
-    bx, by, bz, bw = np.moveaxis(b, -1, 0)
-    return np.stack([aw * bx + ax * bw + ay * bz - az * by,
-                     aw * by - ax * bz + ay * bw + az * bx,
-                     aw * bz + ax * by - ay * bx + az * bw,
-                     aw * bw - ax * bx - ay * by - az * bz], axis=-1)
-
-
 def _dq_mul(a, ad, b, bd):
-    return _qmul(a, b), _qmul(a, bd) + _qmul(ad, b)
-
-
-def _left_minus_right(q, p):
-    """``L(q) - R(p)`` (…, 4, 4): ``q (x) x - x (x) p = (L(q) - R(p)) x``."""
-    qx, qy, qz, qw = np.moveaxis(q, -1, 0)
-    px, py, pz, pw = np.moveaxis(p, -1, 0)
-    dw = qw - pw
-    M = np.empty(q.shape[:-1] + (4, 4))
-    M[..., 0, 0], M[..., 0, 1], M[..., 0, 2], M[..., 0, 3] = dw, -(qz + pz), qy + py, qx - px
-    M[..., 1, 0], M[..., 1, 1], M[..., 1, 2], M[..., 1, 3] = qz + pz, dw, -(qx + px), qy - py
-    M[..., 2, 0], M[..., 2, 1], M[..., 2, 2], M[..., 2, 3] = -(qy + py), qx + px, dw, qz - pz
-    M[..., 3, 0], M[..., 3, 1], M[..., 3, 2], M[..., 3, 3] = -(qx - px), -(qy - py), -(qz - pz), dw
-    return M
+    return quat_multiply(a, b), quat_multiply(a, bd) + quat_multiply(ad, b)
 
 
 def _pose_noise(shape, sigma_r, sigma_t, rng):
@@ -180,7 +157,7 @@ def _pose_noise(shape, sigma_r, sigma_t, rng):
     half = 0.5 * rng.normal(0.0, sigma_r, size=shape)
     q = np.concatenate([axis * np.sin(half)[..., None], np.cos(half)[..., None]], axis=-1)
     t = rng.normal(0.0, sigma_t, size=shape + (3,))
-    qd = 0.5 * _qmul(np.concatenate([t, np.zeros(shape + (1,))], axis=-1), q)
+    qd = 0.5 * quat_multiply(np.concatenate([t, np.zeros(shape + (1,))], axis=-1), q)
     return q, qd
 
 
@@ -195,8 +172,8 @@ def _perturb(qm, qmd, P, noise):
 
 def _gram(qC, qCd, qH, qHd, alpha, sw):
     """``(..., 8, 8)`` matrix ``G`` of the alpha cost ``sum w |M Q|^2 = Q^T G Q``."""
-    A = _left_minus_right(qC, qH) * sw[:, None, None]
-    Bm = _left_minus_right(qCd, qHd) * sw[:, None, None]
+    A = (quat_left_matrix(qC) - quat_right_matrix(qH)) * sw[:, None, None]
+    Bm = (quat_left_matrix(qCd) - quat_right_matrix(qHd)) * sw[:, None, None]
     sh = A.shape[:-3] + (-1, 4)
     Af, Bf = A.reshape(sh), Bm.reshape(sh)
     AtA = np.swapaxes(Af, -1, -2) @ Af
@@ -246,15 +223,21 @@ def _deviation(Xs, X):
     return np.concatenate([w, Xs[..., :3, 3] - X[:3, 3]], -1)
 
 
-def _simulated(qC, qCd, X, alpha, P, noise_a, noise_b, sw):
-    """Deviations (B, 6) of the minimisers from ``X`` for truths ``(qC, qCd)`` ((B,) N, 4)
-    and ``H* = X^-1 C X``, with pose noise draws ``noise_a``, ``noise_b`` (B, n_pose)."""
+def _consistent_h(qC, qCd, X):
+    """``H* = X^-1 C X`` as dual quaternions (…, 4) each: the motions of camera b that fit
+    ``X`` exactly, for truths ``(qC, qCd)``."""
     qX, qXd = dual_quat_from_transform(X)
     cX, cXd = quat_conjugate(qX), quat_conjugate(qXd)
     a, ad = _dq_mul(np.broadcast_to(cX, qC.shape), np.broadcast_to(cXd, qC.shape), qC, qCd)
-    qH, qHd = _dq_mul(a, ad, np.broadcast_to(qX, qC.shape), np.broadcast_to(qXd, qC.shape))
-    Cb = _perturb(qC, qCd, P, noise_a)
-    Hb = _perturb(qH, qHd, P, noise_b)
+    return _dq_mul(a, ad, np.broadcast_to(qX, qC.shape), np.broadcast_to(qXd, qC.shape))
+
+
+def _simulated(truth_c, truth_h, X, alpha, P, noise_a, noise_b, sw):
+    """Deviations (B, 6) of the minimisers from ``X`` for truths ``truth_c`` and
+    ``truth_h = H*`` (dual-quaternion pairs, (B,) N, 4) with pose noise draws ``noise_a``,
+    ``noise_b`` (B, n_pose)."""
+    Cb = _perturb(*truth_c, P, noise_a)
+    Hb = _perturb(*truth_h, P, noise_b)
     return _deviation(_minimise(_gram(*Cb, *Hb, alpha, sw), X), X)
 
 
@@ -280,10 +263,12 @@ def simulate_error(C, X, alpha: float, pose_pairs, sigma_r_rad: float, sigma_t_m
     noise_a = _pose_noise((n_sim, n_pose), sigma_r_rad, sigma_t_m, rng)
     noise_b = _pose_noise((n_sim, n_pose), sigma_r_rad, sigma_t_m, rng)
     qC, qCd = dual_quat_from_transform(C)
-    D1 = _simulated(qC, qCd, X, alpha, P, noise_a, noise_b, sw)
-    truths = _perturb(qC, qCd, P, _pose_noise((n_truths, n_pose), sigma_r_rad, sigma_t_m, rng))
+    D1 = _simulated((qC, qCd), _consistent_h(qC, qCd, X), X, alpha, P, noise_a, noise_b, sw)
+    tC = _perturb(qC, qCd, P, _pose_noise((n_truths, n_pose), sigma_r_rad, sigma_t_m, rng))
+    tH = _consistent_h(*tC, X)                     # once per truth, then taken in turns
     pick = np.arange(n_sim) % n_truths
-    D2 = _simulated(truths[0][pick], truths[1][pick], X, alpha, P, noise_a, noise_b, sw)
+    D2 = _simulated((tC[0][pick], tC[1][pick]), (tH[0][pick], tH[1][pick]), X, alpha, P,
+                    noise_a, noise_b, sw)
     if not (np.all(np.isfinite(D1)) and np.all(np.isfinite(D2))):
         return None
     b1, S1 = D1.mean(0), np.cov(D1.T)
@@ -310,8 +295,8 @@ def minimiser_offset(C, H, X, alpha: float, weights=None) -> np.ndarray:
     qC, qCd = dual_quat_from_transform(C)
     qH, qHd = dual_quat_from_transform(H)
     qX, _ = dual_quat_from_transform(X)
-    fit = np.sum(_qmul(qC, np.broadcast_to(qX, qC.shape))
-                 * _qmul(np.broadcast_to(qX, qH.shape), qH), axis=-1)
+    fit = np.sum(quat_multiply(qC, np.broadcast_to(qX, qC.shape))
+                 * quat_multiply(np.broadcast_to(qX, qH.shape), qH), axis=-1)
     sgn = np.where(fit < 0, -1.0, 1.0)[:, None]
     G = _gram(qC, qCd, qH * sgn, qHd * sgn, alpha, np.sqrt(w))
     return _deviation(_minimise(G, X, steps=5), X)

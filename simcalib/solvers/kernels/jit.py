@@ -23,6 +23,7 @@ ones reassociate a few sums).
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 import sys
@@ -146,9 +147,10 @@ def interpreted():
 
 
 # ------------------------------------------------------------------- the cache's stamp
+@functools.lru_cache(maxsize=1)
 def _cache_key() -> str:
     """What numba's cache of these kernels depends on: their sources, numba, Python, the
-    machine."""
+    machine (computed once per process)."""
     from importlib.metadata import PackageNotFoundError, version
     import platform
     h = hashlib.sha256()
