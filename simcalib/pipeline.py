@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import dataclasses
 import datetime as _dt
+import math
 import sys
 import time
 from dataclasses import dataclass, field
@@ -173,6 +174,7 @@ class RunState:
     error: dict | None = None
     sensing: dict = field(default_factory=dict)   # stream_sources, robot, clocks, outliers
     pose_bias: object = None    # uncertainty.PoseBias: calibration uncertainty of the cameras
+    pose_error_basis: tuple | None = None   # (Ba, Bb): systematic pose errors per datapoint
 
     @property
     def X_true(self):
@@ -467,6 +469,7 @@ def _stage_solvers(st: RunState) -> None:
     rng_children = st.rngs["solvers"].spawn(len(jobs))
     C, H = st.pairs.C, st.pairs.H
     st.pose_bias, st.sensing["calibration_bias"] = calibration_bias(st)
+    st.pose_error_basis = pose_error_basis(st)
     choice = choose_run_alpha(cfg, C, H)
     for (label, method, with_prior), rng in zip(
             reports.progress(jobs, enabled=cfg.progress, desc="solvers", unit="method",
@@ -561,6 +564,65 @@ def correlation_lag(st) -> int:
     return int(st.cfg.pairing.step)
 
 
+def pose_error_basis(st):
+    """The known systematic pose errors of the run's datapoints, an input of the
+    covariance (``solve(..., pose_error_basis=...)``; with :func:`pose_pairs`): ``(Ba, Bb)``
+    ``(D, 6, P)`` for the ``D`` matched datapoints, or None. A camera measured by the
+    ``aruco`` source gets :func:`simcalib.vision.pose_error_basis` at its measured poses:
+    columns ``[map (6 M) | calibration of cam_a (8) | calibration of cam_b (8)]`` (the map is
+    shared, each calibration is its camera's); other sources have zero columns."""
+    if pose_pairs(st) is None:
+        return None
+    cams = [c for c in CAMERAS if st.camera_sources.get(c) == "aruco"]
+    truth = st.truth
+    if not cams or truth is None or truth.world is None:
+        return None
+    from simcalib.vision import pose_error_basis as vision_basis
+    world = truth.world
+    frames = {"cam_a": np.asarray(st.pairs.frame_a), "cam_b": np.asarray(st.pairs.frame_b)}
+    parts = {}
+    for cam in cams:
+        if cam not in world.camera_names or cam not in st.measured:
+            continue
+        m = st.measured[cam]
+        pos = {int(f): k for k, f in enumerate(np.asarray(m.frame_index))}
+        if not all(int(f) in pos for f in frames[cam]):
+            return None
+        T = np.asarray(m.T_world_cam)[[pos[int(f)] for f in frames[cam]]]
+        parts[cam] = vision_basis(world, cam, T, st.cfg.vision,
+                                  visible=_markers_used(st, world, cam, frames[cam]))
+    if not parts:
+        return None
+    D = frames["cam_a"].shape[0]
+    n_map = next(iter(parts.values())).shape[2] - 8
+    out = []
+    for k, cam in enumerate(CAMERAS):
+        B = np.zeros((D, 6, n_map + 16))
+        if cam in parts:
+            B[:, :, :n_map] = parts[cam][:, :, :n_map]
+            B[:, :, n_map + 8 * k:n_map + 8 * (k + 1)] = parts[cam][:, :, n_map:]
+        out.append(B)
+    used = np.any(out[0] != 0, axis=(0, 1)) | np.any(out[1] != 0, axis=(0, 1))
+    if not used.any():
+        return None
+    return tuple(B[:, :, used] for B in out)     # markers never seen carry nothing
+
+
+def _markers_used(st, world, cam, frame_index):
+    """``(F, M)`` bool: the map markers the PnP of ``cam`` rested on at each frame (the
+    visual log's ``ids_used``), or None without a visual log for the camera."""
+    log = st.source_logs.get("aruco")
+    frames = getattr(log, "frames", {}).get(cam) if log is not None else None
+    if not frames:
+        return None
+    field = world.marker_field
+    vis = np.zeros((len(frame_index), field.T_world_marker.shape[0]), dtype=bool)
+    for k, f in enumerate(frame_index):
+        rows = field.index_of(np.asarray(frames[int(f)].ids_used))
+        vis[k, rows[rows >= 0]] = True
+    return vis
+
+
 def pose_pairs(st):
     """``(N, 2)`` datapoint indices (start, end) of the run's motions when they are pairs of
     consecutive datapoints of the pose streams (they then share poses: the uncertainty tests
@@ -580,7 +642,8 @@ def _solve_at(st, method, alpha, prior, rng, C, H, pairs=None):
                          tolerance_deg=cfg.verdict.tolerance_deg,
                          tolerance_m=cfg.verdict.tolerance_m,
                          correlation_lag=correlation_lag(st), pose_bias=st.pose_bias,
-                         pose_pairs=pairs)
+                         pose_pairs=pairs,
+                         pose_error_basis=st.pose_error_basis if pairs is not None else None)
     reason = _failure_reason(sol)
     if reason is not None:
         return sol, reason
@@ -667,7 +730,11 @@ def _uncertainty_model(sol) -> dict | None:
     b = u.simulated_bias
     if b is not None:   # a bias along an undetermined axis means nothing: null there
         b = np.where(np.isfinite(np.diag(u.covariance)), b, np.nan)
+    wn = u.white_pose_noise
     return {"method": u.method,
+            "systematic_parameters": int(u.systematic_parameters),
+            "white_pose_noise": None if wn is None else {
+                "sigma_r_deg": math.degrees(wn[0]), "sigma_t_m": float(wn[1])},
             "pose_noise_test": None if t is None else {
                 "white": bool(t.accepted), "statistic": float(t.statistic),
                 "threshold": float(t.threshold),

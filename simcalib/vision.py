@@ -740,6 +740,51 @@ def calibration_pose_bias(world, cfg: "VisionConfig | None" = None, cameras=None
     return out
 
 
+def pose_error_basis(world, camera: str, T_world_cam, cfg: "VisionConfig | None" = None,
+                     visible: np.ndarray | None = None) -> np.ndarray:
+    """How the calibration's and the marker map's errors move each of ``camera``'s ArUco
+    poses ``T_world_cam`` (F, 4, 4): ``(F, 6, 6 M + 8)`` — the pose error ``xi = (rotvec,
+    t)`` (right-multiplied, camera frame) per unit of standard-normal parameters: the ``6 M``
+    map errors of the field's markers (``vision.map_position_std_m`` /
+    ``map_rotation_std_deg``, the survey's accuracy; :func:`simcalib.markers.
+    map_pose_jacobians`), then the 8 calibration parameters (``vision.intrinsics_error`` as
+    1-sigma, :func:`calibration_sigmas`; :func:`simcalib.markers.intrinsics_pose_jacobians`).
+    The map columns are the same parameters for every camera of the world (their errors
+    are shared where the cameras see the same markers); each camera's calibration is its
+    own. First order, linearised at the given poses with the markers each pose rests on:
+    ``visible`` (F, M) bool (e.g. the ids the PnP used, :attr:`VisualFrame.ids_used`), by
+    default those the layout makes fully visible there
+    (:func:`simcalib.world.layout.visible_markers`). Nothing is rendered."""
+    from .markers import (intrinsics_pose_jacobians, map_error_variances,  # noqa: PLC0415
+                          map_pose_jacobians)
+    from .world.layout import visible_markers  # noqa: PLC0415
+    cfg = VisionConfig() if cfg is None else cfg
+    if not isinstance(cfg, VisionConfig):
+        raise TypeError(f"cfg must be a VisionConfig; received {type(cfg).__name__}")
+    T = np.asarray(T_world_cam, dtype=np.float64)
+    if T.ndim != 3 or T.shape[1:] != (4, 4) or not np.isfinite(T).all():
+        raise ValueError(f"T_world_cam must be (F, 4, 4) finite poses; received shape {T.shape}")
+    eff = cfg.effects()
+    intr, _ = _camera_intrinsics(world, camera, cfg)
+    field = world.marker_field
+    if visible is None:
+        vis = visible_markers(field, T, intr)
+    else:
+        vis = np.asarray(visible)
+        if vis.shape != (T.shape[0], field.T_world_marker.shape[0]) or vis.dtype != bool:
+            raise ValueError(f"visible must be ({T.shape[0]}, {field.T_world_marker.shape[0]}) "
+                             f"booleans (pose x marker); received shape {vis.shape}, dtype "
+                             f"{vis.dtype}")
+    D = map_error_variances(eff.map_position_std_m, float(np.radians(eff.map_rotation_std_deg)))
+    Jm = map_pose_jacobians(field, vis, T, intr.K) * np.sqrt(D)          # (F, M, 6, 6)
+    corners = field.corners_world()
+    sig = calibration_sigmas(eff)
+    Ji = intrinsics_pose_jacobians([corners[v].reshape(-1, 3) for v in vis], T, intr.K,
+                                   eff.distortion, sig)
+    F, M = Jm.shape[:2]
+    return np.concatenate([Jm.transpose(0, 2, 1, 3).reshape(F, 6, 6 * M), Ji], axis=2)
+
+
 def _estimator_map(field: MarkerField, eff, entropy: int) -> MarkerField:
     """The marker map the estimator uses: the true ``field`` or, with a map error, one
     draw of :func:`simcalib.camera_effects.perturbed_map` for the run (both cameras)."""

@@ -59,6 +59,7 @@ def test_3d_arm_aruco_recovers_X_and_records_images(tmp_path):
     # the ideal camera has no calibration error: no calibration term in the covariance
     assert res["calibration_bias"]["included"] is False
     assert dq["covariance_calibration"] is None
+    assert dq["uncertainty_model"]["systematic_parameters"] == 0
     assert dq["rotation_error_deg"] < 0.1 and dq["translation_error_m"] < 0.005
     ents = _entities(out / "recording.rrd")
     assert any(e.startswith("/world/markers/") for e in ents)
@@ -73,6 +74,23 @@ def test_3d_arm_aruco_recovers_X_and_records_images(tmp_path):
     cols = " ".join(str(c) for c in schema.column_names())
     assert "EncodedImage:blob" in cols and "Pinhole:image_from_camera" in cols
     assert (out / "recording.rrd").stat().st_size < 100e6
+
+
+@pytest.mark.slow
+def test_realistic_aruco_simulates_the_map_and_calibration_errors(tmp_path):
+    """issue 9: with a surveyed map and a calibration error (realistic preset) the headline's
+    covariance simulates those shared pose errors with the white noise left beyond them."""
+    out = tmp_path / "3d"
+    args = [a for a in SHORT if not a.startswith("vision.preset")]
+    assert main(["run", "scenario=3d", f"output={out}", *args, "vision.preset=realistic",
+                 "recording.enabled=false", "verdict.convergence_points=0"]) == 0
+    dq = json.loads((out / "results.json").read_text())["solvers"]["dqopt"]
+    m = dq["uncertainty_model"]
+    assert m["method"] == "pose_simulation" and m["systematic_parameters"] > 16
+    w = m["white_pose_noise"]
+    assert 0 < w["sigma_r_deg"] < 0.5 and 0 < w["sigma_t_m"] < 0.01
+    sd = np.asarray(dq["std"]["rotation_deg"] + dq["std"]["translation_m"], dtype=float)
+    assert np.all(np.isfinite(sd)) and np.all(sd > 0)
 
 
 @pytest.mark.slow

@@ -307,3 +307,169 @@ def test_map_error_covariance_checks_inputs():
     with pytest.raises(ValueError, match="position_std_m"):
         map_pose_covariance(w.marker_field, np.ones((2, 12), bool), T, K, -1.0, 0.001)
     assert not map_pose_covariance(w.marker_field, np.ones((2, 12), bool), T, K, 0, 0).any()
+
+
+# ------------------------------------------- per-pose sensitivities (systematic pose errors)
+def _pnp_pose_error(T_true, K, dist_true, pts_true, pts_believed, K_est, dist_est):
+    """Exact: the pose PnP gives from the true projections (true lens) of ``pts_true``,
+    undistorted with the believed calibration, against the believed points."""
+    import cv2
+
+    from simcalib.camera_effects import undistort_points
+    T_cw = np.linalg.inv(T_true)
+    rv, _ = cv2.Rodrigues(T_cw[:3, :3])
+    img, _ = cv2.projectPoints(pts_true, rv, T_cw[:3, 3], K, dist_true)
+    uv = undistort_points(img.reshape(-1, 2), K_est, dist_est)
+    _, r2, t2 = cv2.solvePnP(pts_believed, uv, K_est, np.zeros(5), rv.copy(),
+                             T_cw[:3, 3].reshape(3, 1).copy(), True, cv2.SOLVEPNP_ITERATIVE)
+    R2, _ = cv2.Rodrigues(r2)
+    T_est = np.linalg.inv(np.block([[R2, t2.reshape(3, 1)], [np.zeros((1, 3)), 1]]))
+    E = np.linalg.inv(T_true) @ T_est
+    return np.r_[g.rotvec_from_matrix(E[:3, :3]), E[:3, 3]]
+
+
+def test_map_pose_jacobians_match_exact_pnp_per_pose():
+    from simcalib.markers import MarkerField, map_pose_covariance, map_pose_jacobians
+    w = _wall_world(4)
+    field = w.marker_field
+    K = w.intrinsics["cam_a"].K
+    T = np.asarray(w.trajectory.cam_a.T_world_cam)
+    vis = np.ones((T.shape[0], 12), dtype=bool)
+    vis[1, :5] = False                                   # a pose that misses five markers
+    J = map_pose_jacobians(field, vis, T, K)
+    assert J.shape == (4, 12, 6, 6) and not J[1, :5].any()
+    eta = np.random.default_rng(0).normal(size=(12, 6)) * np.r_[[0.004] * 3, [0.0015] * 3]
+    Tm = field.T_world_marker @ _exp6s(eta)
+    believed = MarkerField(field.dictionary, field.ids, field.side_m, Tm)
+    for f in range(4):
+        m = vis[f]
+        exact = _pnp_pose_error(T[f], K, np.zeros(5), field.corners_world()[m].reshape(-1, 3),
+                                believed.corners_world()[m].reshape(-1, 3), K, np.zeros(5))
+        lin = np.einsum("mij,mj->i", J[f], eta)
+        assert np.linalg.norm(lin - exact) < 0.03 * np.linalg.norm(exact)
+    # the run-constant covariance is the frame average of the same Jacobians
+    D = np.r_[[np.radians(0.5) ** 2 / 3] * 3, [0.002 ** 2] * 3]
+    Jm = J.sum(0) / 4
+    np.testing.assert_allclose(map_pose_covariance(field, vis, T, K, 0.002, np.radians(0.5)),
+                               np.einsum("mij,j,mkj->ik", Jm, D, Jm), rtol=1e-12, atol=1e-20)
+
+
+def _exp6s(x):
+    return np.stack([_exp6(v) for v in x])
+
+
+def test_intrinsics_pose_jacobians_match_exact_pnp_and_the_averaged_sensitivity():
+    from simcalib.markers import (intrinsics_pose_jacobians, intrinsics_pose_sensitivity,
+                                  perturbed_intrinsics)
+    w = _wall_world(4)
+    K = w.intrinsics["cam_a"].K
+    T = np.asarray(w.trajectory.cam_a.T_world_cam)
+    dist = np.array([-0.2, 0.05, 0.001, -0.001, 0.0])
+    pts = [w.marker_field.corners_world().reshape(-1, 3)] * 4
+    sig = np.array([5e-4, 0.35, 0.35, 0.002, 0.0005, 1e-5, 1e-5, 0.0])
+    J = intrinsics_pose_jacobians(pts, T, K, dist, sig)
+    assert J.shape == (4, 6, 8) and not J[:, :, 7].any()
+    # per pose: the linear error of a calibration off by a random step, against exact PnP
+    step = np.random.default_rng(1).normal(size=8) * sig
+    K2, d2 = perturbed_intrinsics(K, dist, step)
+    for f in range(4):
+        exact = _pnp_pose_error(T[f], K, dist, pts[f], pts[f], K2, d2)
+        lin = J[f] @ (step / np.where(sig > 0, sig, 1.0))
+        assert np.linalg.norm(lin - exact) < 0.05 * np.linalg.norm(exact)
+    # averaged over the poses: the PnP-based run-constant sensitivity
+    np.testing.assert_allclose(J.mean(0), intrinsics_pose_sensitivity(pts, T, K, dist, sig),
+                               rtol=0.05, atol=1e-3 * np.abs(J).max())
+    with pytest.raises(ValueError, match="one \\(P, 3\\) array per pose"):
+        intrinsics_pose_jacobians(pts[:2], T, K, dist, sig)
+    with pytest.raises(ValueError, match="sigmas must be 8"):
+        intrinsics_pose_jacobians(pts, T, K, dist, sig[:5])
+
+
+def test_vision_pose_error_basis_and_the_pipeline_basis():
+    from simcalib.pipeline import pose_error_basis
+    from simcalib.vision import VisionConfig
+    from simcalib.vision import pose_error_basis as vision_basis
+    w = _wall_world(6)
+    cfg = VisionConfig(preset="realistic")
+    T = np.asarray(w.trajectory.cam_a.T_world_cam)
+    B = vision_basis(w, "cam_a", T, cfg)
+    assert B.shape == (6, 6, 6 * 12 + 8) and np.all(np.isfinite(B))
+    # the basis of the map columns gives the map-error covariance (frame average)
+    from simcalib.markers import map_pose_covariance
+    from simcalib.world.layout import visible_markers
+    eff = cfg.effects()
+    vis = visible_markers(w.marker_field, T, w.intrinsics["cam_a"])
+    Bm = B[:, :, :72].mean(0)
+    np.testing.assert_allclose(
+        Bm @ Bm.T, map_pose_covariance(w.marker_field, vis, T, w.intrinsics["cam_a"].K,
+                                       eff.map_position_std_m,
+                                       np.radians(eff.map_rotation_std_deg)),
+        rtol=1e-9, atol=1e-22)
+    # the markers a pose rests on can be given (e.g. the PnP's ids_used)
+    only = np.zeros((6, 12), dtype=bool)
+    only[:, :4] = True
+    B4 = vision_basis(w, "cam_a", T, cfg, visible=only)
+    assert not B4[:, :, 24:72].any() and B4[:, :, :24].any()
+    with pytest.raises(ValueError, match=r"visible must be \(6, 12\) booleans"):
+        vision_basis(w, "cam_a", T, cfg, visible=np.ones((6, 3), bool))
+    with pytest.raises(ValueError, match="T_world_cam must be"):
+        vision_basis(w, "cam_a", T[0], cfg)
+    # the pipeline: shared map columns, each camera's own calibration columns, unused
+    # markers dropped; None without consecutive pairs or ArUco cameras
+    st = _state("realistic")
+    n = 6
+    st.pairs = SimpleNamespace(start=np.arange(n - 2), end=np.arange(2, n),
+                               frame_a=np.arange(n), frame_b=np.arange(n), C=None, H=None)
+    st.cfg.pairing = SimpleNamespace(mode="consecutive", step=2)
+    st.source_logs = {}
+    st.measured = {c: SimpleNamespace(frame_index=np.arange(n),
+                                      T_world_cam=np.asarray(getattr(w.trajectory, c).T_world_cam))
+                   for c in ("cam_a", "cam_b")}
+    import simcalib.pipeline as P
+    lag = P.correlation_lag
+    try:
+        P.correlation_lag = lambda s: 2
+        Ba, Bb = pose_error_basis(st)
+        st.camera_sources = {"cam_a": "robot_fk", "cam_b": "aruco"}
+        Ba1, Bb1 = pose_error_basis(st)
+        st.camera_sources = {"cam_a": "noisy", "cam_b": "noisy"}
+        assert pose_error_basis(st) is None
+        P.correlation_lag = lambda s: 0
+        st.camera_sources = {"cam_a": "aruco", "cam_b": "aruco"}
+        assert pose_error_basis(st) is None
+    finally:
+        P.correlation_lag = lag
+    assert Ba.shape == Bb.shape and Ba.shape[:2] == (n, 6)
+    ua, ub = Ba.any(axis=(0, 1)), Bb.any(axis=(0, 1))
+    assert np.all(ua | ub)                       # columns no pose uses are dropped
+    # per pose the same covariance as each camera's own basis, and a cross-covariance
+    # between the cameras from the shared map only (each calibration is its camera's)
+    Va = vision_basis(w, "cam_a", st.measured["cam_a"].T_world_cam, cfg)
+    Vb = vision_basis(w, "cam_b", st.measured["cam_b"].T_world_cam, cfg)
+    for B, V in ((Ba, Va), (Bb, Vb)):
+        np.testing.assert_allclose(B @ np.swapaxes(B, 1, 2), V @ np.swapaxes(V, 1, 2),
+                                   rtol=1e-9, atol=1e-24)
+    np.testing.assert_allclose(Ba @ np.swapaxes(Bb, 1, 2),
+                               Va[:, :, :72] @ np.swapaxes(Vb[:, :, :72], 1, 2),
+                               rtol=1e-9, atol=1e-24)
+    assert np.abs(Ba @ np.swapaxes(Bb, 1, 2)).max() > 0
+    assert not Ba1.any() and Bb1.any()           # a robot_fk camera: no systematic part
+
+
+@pytest.mark.slow
+def test_coverage_tool_aruco_trial_records():
+    """The docs command's ArUco trial (a short 3d run): the run's model simulates the
+    systematic pose errors; the first-order model beside it; records aggregate to rows."""
+    import os
+    os.environ.setdefault("MUJOCO_GL", "egl")
+    from simcalib.experiments.coverage import aruco_trial, coverage_row
+    t = aruco_trial(0, keep_data=True, overrides=["world.duration_s=6", "pairing.step=1"])
+    assert t["run"]["simulated"]
+    assert not np.allclose(t["run"]["pred"], t["first_order"]["pred"])
+    assert len(t["data"]) == 7 and t["data"][6] is not None
+    for key in ("run", "observable", "first_order"):
+        r = t[key]
+        assert np.isfinite(r["d2"]) and r["err"].shape == (6,) and np.all(r["pred"] > 0)
+    row = coverage_row("x", [t["run"], None], 2)
+    assert row["solved"] == 1 and row["trials"] == 2 and row["simulated"] == 1
+    assert row["coverage"] in (0.0, 1.0) and np.all(row["ratio"] > 0)

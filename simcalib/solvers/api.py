@@ -177,6 +177,7 @@ class Solution:
     correlation_lag: int = 0        # motions share poses up to this lag (pairs k, k+step)
     pose_bias: object = field(default=None, repr=False, compare=False)  # uncertainty.PoseBias
     pose_pairs: np.ndarray | None = field(default=None, repr=False, compare=False)  # (N, 2)
+    pose_error_basis: tuple | None = field(default=None, repr=False, compare=False)  # (Ba, Bb)
 
     # ---- issue 9: uncertainty and the verdict that follows from it
     @cached_property
@@ -191,7 +192,8 @@ class Solution:
             u = covariance(self.problem.C, self.problem.H, self.X, self.alpha, self.prior,
                            weights=self.problem.weights, tolerance_deg=self.tolerance_deg,
                            tolerance_m=self.tolerance_m, correlation_lag=self.correlation_lag,
-                           pose_bias=self.pose_bias, pose_pairs=self.pose_pairs)
+                           pose_bias=self.pose_bias, pose_pairs=self.pose_pairs,
+                           pose_error_basis=self.pose_error_basis)
         except ValueError:
             return None
         if self.uncertainty_method == "bootstrap":
@@ -502,7 +504,8 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
           rng: np.random.Generator | None = None, weights=None, *, tolerance_deg: float = 1.0,
           tolerance_m: float = 0.01, uncertainty: str = "sandwich",
           bootstrap_samples: int = 200, correlation_lag: int = 0, robust: str = "none",
-          robust_threshold: float | None = None, pose_bias=None, pose_pairs=None) -> Solution:
+          robust_threshold: float | None = None, pose_bias=None, pose_pairs=None,
+          pose_error_basis=None) -> Solution:
     """Estimate ``X = T_a_b`` from relative motions with ``C_i X = X H_i``.
 
     ``C``, ``H``: array-like ``(N, 4, 4)``, N >= 2. ``method``: a name from
@@ -529,6 +532,13 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
     pass the white pose-noise test, the covariance is simulated with that structure,
     including the estimator's bias (:mod:`simcalib.solvers.diagnostics.pose_noise`;
     ``Solution.uncertainty.method == "pose_simulation"``; not with a prior or ``robust``).
+    ``pose_error_basis``: with ``pose_pairs``, the known systematic pose errors of the
+    datapoints, ``(Ba, Bb)`` of shape ``(n_datapoints, 6, P)`` (each camera's pose error,
+    rotvec rad and translation m right-multiplied in the camera frame, per unit of ``P``
+    shared standard-normal parameters: a marker map's and a lens calibration's errors,
+    :func:`simcalib.vision.pose_error_basis`); the simulation then draws them with the
+    white pose noise the residuals leave beyond them (whether or not the white-noise test
+    passes; without a prior).
 
     ``robust``: ``"none"`` (default), ``"ransac"`` (hypotheses from minimal sets of motions,
     consensus by the per-motion screw residual — threshold ``robust_threshold`` or
@@ -544,6 +554,9 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
     alpha = check_alpha(alpha)
     from simcalib.solvers.diagnostics.uncertainty import check_pose_bias
     pose_bias = check_pose_bias(pose_bias)
+    if pose_error_basis is not None and pose_pairs is None:
+        raise ValueError("pose_error_basis needs pose_pairs (the datapoints of each motion); "
+                         "received pose_pairs=None")
     if pose_pairs is not None:
         if robust != "none":
             raise ValueError("pose_pairs cannot be combined with robust=" + repr(robust) +
@@ -580,6 +593,9 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
     if pose_pairs is not None:
         from simcalib.solvers.diagnostics.pose_noise import check_pose_pairs
         pose_pairs = check_pose_pairs(pose_pairs, problem.n)
+        if pose_error_basis is not None:
+            from simcalib.solvers.diagnostics.pose_noise import check_systematic
+            pose_error_basis = check_systematic(pose_error_basis, int(pose_pairs.max()) + 1)
     try:
         out = info.fn(problem, alpha, prior, rng)
     except Exception as exc:  # noqa: BLE001 - a solver failing on valid input is reported
@@ -603,7 +619,7 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
                     tolerance_m=tolerance_m, uncertainty_method=uncertainty,
                     bootstrap_rng=boot_rng, bootstrap_samples=int(bootstrap_samples),
                     correlation_lag=correlation_lag, pose_bias=pose_bias,
-                    pose_pairs=pose_pairs)
+                    pose_pairs=pose_pairs, pose_error_basis=pose_error_basis)
 
 
 def solve_batch(C, H, method: str = "dqopt", alpha=1.0, prior: Prior | None = None,

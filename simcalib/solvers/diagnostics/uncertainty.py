@@ -56,6 +56,19 @@ the rotation noise of ``H_i`` into ``tau_i`` through ``R_Ci' t_X``).
   step of the linearised cost, which errs by second-order terms as large as that bias.
   ``Uncertainty.method`` is then ``"pose_simulation"``. The verdict's information ``F`` is
   unchanged.
+* **Systematic pose errors (a known input, ``pose_error_basis``)**: pose errors shared by
+  the poses through common parameters — a marker map's survey error and the lens
+  calibrations' errors move every ArUco pose by an amount that depends on the markers it
+  rests on and where they fall in the image — are constant over the run in part (a change
+  of X, invisible) and drift with the viewpoint in part (serially correlated residuals,
+  whose low frequencies no residual-based correction can reach). With their per-pose
+  sensitivities ``(Ba, Bb)`` (``xi = B eta``, ``eta ~ N(0, I)`` shared by both cameras)
+  the simulation draws them beside white pose noise, whether or not the white-noise test
+  passes (no prior); the white level is the fitted one less the residual share the
+  systematic errors explain at the re-estimated X
+  (``pose_noise.systematic_residual_power``; at least ``WHITE_SHARE_FLOOR`` of it), and
+  ``pose_bias`` (whose run-constant errors the basis holds) is not added. The pipeline
+  derives the basis for ArUco cameras (:func:`simcalib.pipeline.pose_error_basis`).
 * **Information** (alpha-free, for the verdict): ``F = sum K^T Q^-1 K`` (Fisher information
   of the data under the noise model; alpha cancels exactly).
 * **Prior** (paper eqs. 26-29): read as a pseudo-measurement of ``vec(dq)`` with weight ``a``
@@ -553,6 +566,10 @@ class Uncertainty:
     # minus truth; its outer product is part of ``covariance``)
     pose_noise_test: object = None
     simulated_bias: np.ndarray | None = None
+    # with ``pose_error_basis``: the number of systematic parameters the simulation drew
+    # (0: none) and the white pose noise it added beyond them (per pose: rad, m)
+    systematic_parameters: int = 0
+    white_pose_noise: tuple | None = None
 
     @property
     def std(self) -> np.ndarray:
@@ -637,7 +654,7 @@ def _fmt_vec3(v):
 def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None, *,
                tolerance_deg: float = TOLERANCE_DEG, tolerance_m: float = TOLERANCE_M,
                correlation_lag: int = 0, pose_bias=None, pose_pairs=None,
-               simulation_rng: np.random.Generator | None = None
+               simulation_rng: np.random.Generator | None = None, pose_error_basis=None
                ) -> Uncertainty:
     """Uncertainty of the estimate ``X`` (= ``T_a_b``) from motions ``C``, ``H`` (N,4,4),
     ``C_i X = X H_i``, for the paper's cost at ``alpha`` (1/m) with an optional
@@ -649,7 +666,13 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
     ``(N, 2)`` datapoint indices (start, end) of each motion when the motions were formed
     from pose streams; if the residuals pass the white pose-noise test the covariance (no
     prior) is the simulated one of :mod:`simcalib.solvers.diagnostics.pose_noise`
-    (``simulation_rng``: its generator, default ``default_rng(0)``). See the module doc."""
+    (``simulation_rng``: its generator, default ``default_rng(0)``). ``pose_error_basis``:
+    with ``pose_pairs``, the known systematic pose errors of the datapoints ``(Ba, Bb)``
+    (``(n_pose, 6, P)`` each, per unit of ``P`` shared standard-normal parameters such as
+    the marker map's and the lens calibration's errors; ``pose_noise.check_systematic``):
+    without a prior the covariance is then always simulated, with these errors plus white
+    pose noise at the level the residuals leave beyond them, and ``pose_bias`` (whose
+    run-constant errors the basis already holds) is not added. See the module doc."""
     C = check_transforms(C, "C", min_count=2)
     H = check_transforms(H, "H", min_count=2)
     if C.shape != H.shape:
@@ -731,11 +754,22 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
         F = F @ _sym_inv(Fc) @ F
         F = 0.5 * (F + F.T)
     pose_test = sim_bias = None
+    systematic = None
+    if pose_error_basis is not None:
+        if pose_pairs is None:
+            raise ValueError("pose_error_basis needs pose_pairs (the datapoints of each "
+                             "motion); received pose_pairs=None")
+        from simcalib.solvers.diagnostics.pose_noise import check_pose_pairs, check_systematic
+        systematic = check_systematic(
+            pose_error_basis, int(check_pose_pairs(pose_pairs, N).max()) + 1)
     if pose_pairs is not None:
-        Ms, pose_test, sim_bias = _pose_simulation(C, X, alpha, pose_pairs, Linv, e, Hs, Ms,
-                                                   s_r2, s_t2, w, prior, simulation_rng)
+        fit = (qr_rot, qr_tr, qt_tr) if noise is None else None
+        Ms, pose_test, sim_bias, white = _pose_simulation(
+            C, X, alpha, pose_pairs, Linv, e, Hs, Ms, s_r2, s_t2, w, prior, simulation_rng,
+            systematic, fit)
     Sig_bias = None
-    if bias is not None and not bias.is_zero:
+    if bias is not None and not bias.is_zero and not (systematic is not None
+                                                      and sim_bias is not None):
         Sig_bias = pose_bias_covariance(X, bias.cov_a, bias.cov_b)
         Ms = Ms + Hs @ Sig_bias @ Hs
         F = _woodbury_information(F, Sig_bias)
@@ -903,26 +937,47 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
                        noise_information=F_noise, information_ratio=null.ratio,
                        ratio_threshold=null.threshold, pose_noise_test=pose_test,
                        simulated_bias=sim_bias,
+                       systematic_parameters=0 if systematic is None or sim_bias is None
+                       else int(systematic[0].shape[2]),
+                       white_pose_noise=white if sim_bias is not None else None,
                        method="pose_simulation" if sim_bias is not None else "sandwich")
 
 
-def _pose_simulation(C, X, alpha, pose_pairs, Linv, e, Hs, Ms, s_r2, s_t2, w, prior, rng):
-    """``(Ms, test, bias)``: the meat replaced by ``Hs (S + b b^T) Hs`` from the white
-    pose-noise simulation when the test accepts (and there is no prior, whose cost the
-    simulation does not model); otherwise ``Ms`` unchanged and bias ``None``."""
+def _pose_simulation(C, X, alpha, pose_pairs, Linv, e, Hs, Ms, s_r2, s_t2, w, prior, rng,
+                     systematic=None, fit=None):
+    """``(Ms, test, bias, white)``: the meat replaced by ``Hs (S + b b^T) Hs`` from the pose-noise
+    simulation when the test accepts white pose noise or a systematic basis explains the
+    correlation (and there is no prior, whose cost the simulation does not model);
+    otherwise ``Ms`` unchanged and bias ``None``. ``white``: the white pose noise per pose
+    ``(sigma_r_rad, sigma_t_m)`` simulated. With ``systematic`` the white level is
+    what the residuals leave beyond the systematic errors' expected share (``fit``: the
+    noise fit's ``(qr_rot, qr_tr, qt_tr)``; None when the noise was given)."""
     from simcalib.solvers.diagnostics.pose_noise import (check_pose_pairs, simulate_error,
+                                                          systematic_residual_power,
                                                           white_noise_test)
     P = check_pose_pairs(pose_pairs, C.shape[0])
     test = white_noise_test(np.einsum("nij,nj->ni", Linv, e), P)
-    if not test.accepted or prior is not None:
-        return Ms, test, None
-    out = simulate_error(C, X, alpha, P, math.sqrt(s_r2 / 2.0), math.sqrt(s_t2 / 2.0),
-                         weights=w, rng=rng)
+    if prior is not None or not (test.accepted or systematic is not None):
+        return Ms, test, None, None
+    if systematic is not None and fit is not None:
+        qr_rot, qr_tr, qt_tr = fit
+        rot2_s, tr2_s = systematic_residual_power(C, X, alpha, P, systematic, weights=w)
+        sr2_s = rot2_s / qr_rot
+        st2_s = max(tr2_s - sr2_s * qr_tr, 0.0) / qt_tr
+        s_r2 = max(s_r2 - sr2_s, WHITE_SHARE_FLOOR * s_r2)
+        s_t2 = max(s_t2 - st2_s, WHITE_SHARE_FLOOR * s_t2)
+    white = (math.sqrt(s_r2 / 2.0), math.sqrt(s_t2 / 2.0))
+    out = simulate_error(C, X, alpha, P, *white, weights=w, rng=rng, systematic=systematic)
     if out is None:
-        return Ms, test, None
+        return Ms, test, None, None
     b, S = out
     Ms = Hs @ (S + np.outer(b, b)) @ Hs
-    return 0.5 * (Ms + Ms.T), test, b
+    return 0.5 * (Ms + Ms.T), test, b, white
+
+
+#: with a systematic pose-error basis, the white pose noise keeps at least this share of the
+#: fitted noise variance (the basis never explains all of the residuals)
+WHITE_SHARE_FLOOR = 0.05
 
 
 def _check_lag(lag, n) -> int:
