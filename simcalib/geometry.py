@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = [
+    "adjoint_from_transform",
     "as_real_array",
     "project_points",
     "check_transforms",
@@ -134,6 +135,18 @@ def _first_bad_index(ok: np.ndarray):
 
 
 # ------------------------------------------------------------------------- transforms
+def adjoint_from_transform(T: np.ndarray) -> np.ndarray:
+    """``(..., 6, 6)`` adjoint of ``T`` ``(..., 4, 4)`` for twists ``xi = (omega, v)``:
+    ``T exp(xi) T^-1 = exp(Ad_T xi)``, ``Ad_T = [[R, 0], [[p]x R, R]]``."""
+    T = np.asarray(T, dtype=np.float64)
+    R, p = T[..., :3, :3], T[..., :3, 3]
+    A = np.zeros(T.shape[:-2] + (6, 6))
+    A[..., :3, :3] = R
+    A[..., 3:, 3:] = R
+    A[..., 3:, :3] = skew_matrix(p) @ R
+    return A
+
+
 def skew_matrix(v: np.ndarray) -> np.ndarray:
     """``[v]x`` for ``(..., 3)`` vectors -> ``(..., 3, 3)`` (``[v]x @ w = v x w``)."""
     v = np.asarray(v, dtype=np.float64)

@@ -564,47 +564,88 @@ def correlation_lag(st) -> int:
     return int(st.cfg.pairing.step)
 
 
-def pose_error_basis(st):
+def basis_layout(world) -> dict:
+    """Columns of the systematic pose-error basis of a world (:func:`pose_error_basis`):
+    ``map`` (6 per marker of the field: the survey error), ``cal_a`` / ``cal_b`` (8 each:
+    the cameras' calibrations), ``dh`` (24: the arm's DH table, 4 per joint), ``P`` the
+    total."""
+    M = world.marker_field.T_world_marker.shape[0] if world.marker_field is not None else 0
+    n = 6 * M
+    return {"map": slice(0, n), "cal_a": slice(n, n + 8), "cal_b": slice(n + 8, n + 16),
+            "dh": slice(n + 16, n + 40), "P": n + 40}
+
+
+def stop_error_basis(world, cfg, cam: str, source: str, T_world_cam, qpos=None,
+                     visible=None) -> np.ndarray | None:
+    """``(F, 6, P)`` (:func:`basis_layout`) systematic pose errors of camera ``cam``
+    measured by ``source`` at the poses ``T_world_cam`` (F, 4, 4): ``aruco`` — the marker
+    map's and the camera's calibration errors (:func:`simcalib.vision.pose_error_basis`;
+    ``visible`` the markers each pose rests on, default the layout's); ``robot_fk`` — the
+    arm's DH deviation (``robot.kinematic_error``, :func:`simcalib.world.robot_error.
+    fk_pose_error_basis`; ``qpos`` (F, nq) the MuJoCo joint state at each pose). None for
+    other sources or when the configuration has no such error."""
+    lay = basis_layout(world)
+    T = np.asarray(T_world_cam, dtype=np.float64)
+    if source == "aruco" and world.marker_field is not None:
+        from simcalib.vision import pose_error_basis as vision_basis
+        V = vision_basis(world, cam, T, cfg.vision, visible=visible)
+        if not V.any():
+            return None
+        B = np.zeros((T.shape[0], 6, lay["P"]))
+        B[:, :, lay["map"]] = V[:, :, :lay["map"].stop]
+        B[:, :, lay["cal_a" if cam == "cam_a" else "cal_b"]] = V[:, :, lay["map"].stop:]
+        return B
+    if source == "robot_fk" and qpos is not None and cfg.robot.kinematic_error.active:
+        from simcalib.sources.robot_fk import arm_state
+        from simcalib.world.robot_error import fk_pose_error_basis
+        adr, _ = arm_state(world)
+        rig = world.config.rig
+        T_fc = rig.T_rig_cam_a() if cam == "cam_a" else rig.T_rig_cam_a() @ rig.T_a_b()
+        B = np.zeros((T.shape[0], 6, lay["P"]))
+        B[:, :, lay["dh"]] = fk_pose_error_basis(np.asarray(qpos)[:, adr], T_fc,
+                                                 cfg.robot.kinematic_error.sigmas)
+        return B
+    return None
+
+
+def pose_error_basis(st, compress: bool = True):
     """The known systematic pose errors of the run's datapoints, an input of the
     covariance (``solve(..., pose_error_basis=...)``; with :func:`pose_pairs`): ``(Ba, Bb)``
-    ``(D, 6, P)`` for the ``D`` matched datapoints, or None. A camera measured by the
-    ``aruco`` source gets :func:`simcalib.vision.pose_error_basis` at its measured poses:
-    columns ``[map (6 M) | calibration of cam_a (8) | calibration of cam_b (8)]`` (the map is
-    shared, each calibration is its camera's); other sources have zero columns."""
-    if pose_pairs(st) is None:
-        return None
-    cams = [c for c in CAMERAS if st.camera_sources.get(c) == "aruco"]
+    ``(D, 6, P)`` for the ``D`` matched datapoints, or None. Per camera
+    :func:`stop_error_basis` of its source at its measured poses (ArUco: with the markers
+    the PnP used; robot_fk: the joint state of each frame), in the columns of
+    :func:`basis_layout` (the map and the DH table are shared, each calibration is its
+    camera's); other sources have zero columns. ``compress``: drop the columns no
+    datapoint uses (markers never seen); False keeps the full layout (e.g. to add stops'
+    bases in the same columns)."""
     truth = st.truth
-    if not cams or truth is None or truth.world is None:
+    if pose_pairs(st) is None or truth is None or truth.world is None:
         return None
-    from simcalib.vision import pose_error_basis as vision_basis
     world = truth.world
     frames = {"cam_a": np.asarray(st.pairs.frame_a), "cam_b": np.asarray(st.pairs.frame_b)}
-    parts = {}
-    for cam in cams:
-        if cam not in world.camera_names or cam not in st.measured:
-            continue
-        m = st.measured[cam]
-        pos = {int(f): k for k, f in enumerate(np.asarray(m.frame_index))}
-        if not all(int(f) in pos for f in frames[cam]):
-            return None
-        T = np.asarray(m.T_world_cam)[[pos[int(f)] for f in frames[cam]]]
-        parts[cam] = vision_basis(world, cam, T, st.cfg.vision,
-                                  visible=_markers_used(st, world, cam, frames[cam]))
-    if not parts:
-        return None
     D = frames["cam_a"].shape[0]
-    n_map = next(iter(parts.values())).shape[2] - 8
     out = []
-    for k, cam in enumerate(CAMERAS):
-        B = np.zeros((D, 6, n_map + 16))
-        if cam in parts:
-            B[:, :, :n_map] = parts[cam][:, :, :n_map]
-            B[:, :, n_map + 8 * k:n_map + 8 * (k + 1)] = parts[cam][:, :, n_map:]
-        out.append(B)
+    for cam in CAMERAS:
+        src = st.camera_sources.get(cam)
+        B = None
+        if src in ("aruco", "robot_fk") and cam in world.camera_names and cam in st.measured:
+            m = st.measured[cam]
+            pos = {int(f): k for k, f in enumerate(np.asarray(m.frame_index))}
+            if not all(int(f) in pos for f in frames[cam]):
+                return None
+            T = np.asarray(m.T_world_cam)[[pos[int(f)] for f in frames[cam]]]
+            if src == "aruco":
+                B = stop_error_basis(world, st.cfg, cam, src, T,
+                                     visible=_markers_used(st, world, cam, frames[cam]))
+            else:
+                qpos = np.asarray(world.frames(cam).qpos)[frames[cam]]
+                B = stop_error_basis(world, st.cfg, cam, src, T, qpos=qpos)
+        out.append(np.zeros((D, 6, basis_layout(world)["P"])) if B is None else B)
     used = np.any(out[0] != 0, axis=(0, 1)) | np.any(out[1] != 0, axis=(0, 1))
     if not used.any():
         return None
+    if not compress:
+        return tuple(out)
     return tuple(B[:, :, used] for B in out)     # markers never seen carry nothing
 
 

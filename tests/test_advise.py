@@ -137,6 +137,10 @@ def test_advice_monotone_and_json(scara_advice):
     assert not np.isfinite(adv.std_before).all()           # scara: vertical undetermined
     assert np.isfinite(adv.std_after[-1]).all()
     out = json.loads(json.dumps(advice_dict(base, adv), allow_nan=False))
+    # scara: the arm's DH error (robot_fk flange) and the map / calibration of the ArUco
+    # wrist camera are weighed in the choice and in the predicted sigma
+    assert out["systematic_parameters"] > 24 and "G G^T" in out["criterion"]
+    assert base.pose_error_basis is not None and base.sources["cam_a"] == "robot_fk"
     assert len(out["motions"]) == 3
     assert set(out["motions"][0]["camera_motions"]) == {"cam_a", "cam_b"}
     assert len(out["motions"][0]["joint_targets_rad"]) == 6

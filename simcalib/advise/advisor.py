@@ -30,7 +30,8 @@ AXES = ("wx_deg", "wy_deg", "wz_deg", "vx_m", "vy_m", "vz_m")
 class Baseline:
     """The recorded run: ``cfg``, ``truth`` (GroundTruth), ``C``, ``H`` (its motions),
     ``X`` (the estimate advice linearises at: dqopt, with the prior when the config has
-    one), ``X_noprior`` (dqopt alone), ``alpha``, ``aruco_cameras``, ``timing_s``."""
+    one), ``X_noprior`` (dqopt alone), ``alpha``, ``aruco_cameras``, ``timing_s``,
+    ``pose_error_basis``."""
     cfg: object
     truth: object
     C: np.ndarray
@@ -41,6 +42,11 @@ class Baseline:
     aruco_cameras: tuple
     prior: object = None
     timing_s: dict = field(default_factory=dict)
+    #: ``(Ba, Bb, pose_pairs)``: the systematic pose errors of the recorded datapoints
+    #: (:func:`simcalib.pipeline.pose_error_basis`, full layout) and the motions' datapoint
+    #: pairs; None without ArUco cameras with a map or calibration error
+    pose_error_basis: tuple | None = None
+    sources: dict = field(default_factory=dict)   # camera -> pose source name
 
 
 def baseline(cfg) -> Baseline:
@@ -76,8 +82,11 @@ def baseline(cfg) -> Baseline:
                          f"{sol.solver_message}")
     srcs = camera_sources(cfg, st.truth.kind)
     aruco = tuple(c for c, s in srcs.items() if s == "aruco")
+    basis = pipeline.pose_error_basis(st, compress=False)
+    pairs = pipeline.pose_pairs(st)
     return Baseline(cfg, st.truth, C, H, X, X0, alpha, aruco, prior,
-                    {"baseline": time.perf_counter() - t0})
+                    {"baseline": time.perf_counter() - t0},
+                    None if basis is None or pairs is None else (*basis, pairs), dict(srcs))
 
 
 @dataclass(frozen=True)
@@ -108,6 +117,7 @@ class Advice:
     timing_s: dict
     message: str = ""
     noise_scale: np.ndarray | None = None
+    systematic_parameters: int = 0     # shared pose-error parameters the choice weighed
 
 
 WHEN_DETERMINED = ("stop", "advise")
@@ -116,7 +126,8 @@ WHEN_DETERMINED = ("stop", "advise")
 def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alpha: float = 1.0,
                    n_candidates: int = 300, aruco_cameras=(), tolerance_deg: float = 1.0,
                    tolerance_m: float = 0.01, render_check=None, when_determined: str = "stop",
-                   view_weighting: bool = True, refine: bool = True, **cand_kw) -> Advice:
+                   view_weighting: bool = True, refine: bool = True, pose_error_basis=None,
+                   run_cfg=None, sources=None, **cand_kw) -> Advice:
     """Propose ``k`` stops for a platform modelled by ``world`` given recorded motions
     ``C``, ``H`` (N, 4, 4) and the estimate ``X``. ``render_check(cand, idx) -> {camera:
     PoseStream}`` (optional) renders and detects the chosen stops; those not measured by an
@@ -129,7 +140,16 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
     ``view_weighting``: scale each candidate stop's pose-noise variance by how much worse
     (or better) the ArUco cameras' view of the markers is there than at the reference
     (:func:`feasibility.view_quality`, factor ``(q_ref / q)**2`` clipped to [1/4, 4], the
-    worst camera); ``refine``: exchange passes after the greedy choice."""
+    worst camera); ``refine``: exchange passes after the greedy choice.
+
+    ``pose_error_basis``: ``(Ba, Bb, pose_pairs)`` of the recorded datapoints (full layout of
+    :func:`simcalib.pipeline.pose_error_basis`, ``compress=False``) with ``run_cfg`` (the
+    run's ScenarioConfig) and ``sources`` (camera -> source name): the systematic pose
+    errors (marker map and calibrations for ArUco cameras, the arm's DH table for
+    ``robot_fk``) are then part of the choice — each candidate stop's error basis
+    (:func:`simcalib.pipeline.stop_error_basis`, the markers the layout shows there), and
+    the criterion that of the covariance with those shared errors
+    (:func:`planner.greedy_chain`, ``systematic``); the predicted 1-sigma include them."""
     if when_determined not in WHEN_DETERMINED:
         raise ValueError(f"when_determined must be one of {list(WHEN_DETERMINED)}; received "
                          f"{when_determined!r}")
@@ -153,6 +173,10 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
             q = fz.view_quality(world, cand.T_world_cam[c], c)
             f = np.clip((q_ref / np.maximum(q, 1e-9)) ** 2, 0.25, 4.0)
             scale = np.maximum(scale, f) if c != aruco_cameras[0] else f
+    sysm = None
+    if pose_error_basis is not None and run_cfg is not None and sources:
+        sysm = _systematic(world, cand, C, H, X, s_r, s_t, pose_error_basis, dict(sources),
+                           run_cfg)
     rejected, checked = [], {}
     message = ""
     g0 = pl.greedy(F_base, F_cand, 1, feasible=np.zeros_like(feasible), **kw)
@@ -163,9 +187,9 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
                    "motion proposed: more motions add measurement bias as well as "
                    "information (use when_determined='advise' / force=true to get k anyway)")
     for _ in range(4):
-        g, added = pl.greedy_chain(F_base, cand.motion["cam_a"], X, s_r, s_t, k,
-                                   feasible=feasible, noise_scale=scale, refine=refine,
-                                   **kw)
+        g, added, added_g = pl.greedy_chain_systematic(
+            F_base, cand.motion["cam_a"], X, s_r, s_t, k, feasible=feasible,
+            noise_scale=scale, refine=refine, systematic=sysm, **kw)
         if render_check is None or not aruco_cameras or g.order.size == 0:
             break
         streams = render_check(cand, g.order)
@@ -186,28 +210,62 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
         rejected += sorted(set(bad))
         feasible[np.array(sorted(set(bad)))] = False
     t3 = time.perf_counter()
+    def std(F, G):
+        if sysm is None:
+            return pl.predicted_std(F, range_m=L, **kw)
+        return pl.systematic_std(F, G, range_m=L, **kw)
+
     F = F_base.copy()
+    G = sysm[0].copy() if sysm is not None else None
     after = []
-    for Fa in added:
+    for j, Fa in enumerate(added):
         F = F + Fa
-        after.append(pl.predicted_std(F, range_m=L, **kw))
+        G = G + added_g[j] if G is not None else None
+        after.append(std(F, G))
     cannot = pl.undeterminable(F_base, F_cand, feasible=cand.feasible, range_m=L, **kw)
     return Advice(k=int(k), candidates=cand, chosen=g.order,
-                  std_before=pl.predicted_std(F_base, range_m=L, **kw),
+                  std_before=std(F_base, None if sysm is None else sysm[0]),
                   std_after=np.array(after).reshape(-1, 6), max_std_tol=g.max_std_tol,
                   criterion=g.criterion, noise=(s_r, s_t), tolerance_deg=tolerance_deg,
                   tolerance_m=tolerance_m, cannot_help=cannot, render_check=checked,
                   rejected_by_render=tuple(rejected), F_base=F_base, F_cand=F_cand, X=X,
                   message=message, noise_scale=scale,
+                  systematic_parameters=0 if sysm is None else int(sysm[0].shape[1]),
                   timing_s={"information": t1 - t0, "candidates": t2 - t1,
                             "choice_and_render_check": t3 - t2,
                             "total": time.perf_counter() - t0})
 
 
+def _systematic(world, cand, C, H, X, s_r, s_t, recorded, sources, cfg):
+    """``(G_base, B_ref, B_cand)`` for :func:`planner.greedy_chain`: the recorded motions'
+    summed systematic score and the error bases of the reference and candidate stops
+    (:func:`simcalib.pipeline.stop_error_basis` of each camera's source), in the columns of
+    the recorded basis, columns no pose uses dropped."""
+    from simcalib.pipeline import stop_error_basis
+    Ba, Bb, pairs = recorded
+    Ba, Bb = np.asarray(Ba, dtype=np.float64), np.asarray(Bb, dtype=np.float64)
+    P = Ba.shape[2]
+    B_ref = np.zeros((2, 6, P))
+    B_cand = np.zeros((2, cand.n, 6, P))
+    for k, cam in enumerate(("cam_a", "cam_b")):
+        src = sources.get(cam)
+        T = np.concatenate([cand.ref["T_world_cam"][cam][None], cand.T_world_cam[cam]])
+        q = np.concatenate([np.asarray(cand.ref["qpos"])[None], np.asarray(cand.qpos)])
+        B = stop_error_basis(world, cfg, cam, src, T, qpos=q) if src else None
+        if B is not None:
+            B_ref[k], B_cand[k] = B[0], B[1:]
+    G_base = pl.systematic_scores(C, H, X, s_r, s_t, Ba[pairs[:, 0]], Ba[pairs[:, 1]],
+                                  Bb[pairs[:, 0]], Bb[pairs[:, 1]]).sum(axis=0)
+    used = (np.any(Ba != 0, axis=(0, 1)) | np.any(Bb != 0, axis=(0, 1))
+            | np.any(B_ref != 0, axis=(0, 1)) | np.any(B_cand != 0, axis=(0, 1, 2)))
+    return G_base[:, used], B_ref[:, :, used], B_cand[:, :, :, used]
+
+
 def advise(base: Baseline, k: int = 5, *, seed: int = 0, n_candidates: int = 300,
            tolerance_deg: float = 1.0, tolerance_m: float = 0.01, render: bool = True,
-           when_determined: str = "stop", **cand_kw) -> Advice:
-    """Advice for a :class:`Baseline` (candidates drawn from ``seed``)."""
+           when_determined: str = "stop", systematic: bool = True, **cand_kw) -> Advice:
+    """Advice for a :class:`Baseline` (candidates drawn from ``seed``); ``systematic``: weigh
+    the recorded run's systematic pose errors (``base.pose_error_basis``) in the choice."""
     rng = np.random.default_rng([int(seed), 13])
     rc_rng = np.random.default_rng([int(seed), 17])
 
@@ -218,7 +276,9 @@ def advise(base: Baseline, k: int = 5, *, seed: int = 0, n_candidates: int = 300
                           alpha=base.alpha, n_candidates=n_candidates,
                           aruco_cameras=base.aruco_cameras, tolerance_deg=tolerance_deg,
                           tolerance_m=tolerance_m, render_check=check if render else None,
-                          when_determined=when_determined, **cand_kw)
+                          when_determined=when_determined,
+                          pose_error_basis=base.pose_error_basis if systematic else None,
+                          run_cfg=base.cfg, sources=base.sources, **cand_kw)
 
 
 def solve_errors(C, H, X_true, alpha, *, tolerance_deg=1.0, tolerance_m=0.01) -> dict:
@@ -439,9 +499,15 @@ def advice_dict(base: Baseline, adv: Advice, ver: Verification | None = None) ->
         reasons[key] = reasons.get(key, 0) + 1
     out = {"scenario": base.cfg.scenario, "platform": cand.platform,
            "path": base.cfg.world.path, "seed": base.cfg.seed, "k": adv.k,
-           "criterion": "greedy along the stop-and-go chain: minimise max + mean of "
-                        "1/(lambda + 1e-6) of the information in tolerance units "
-                        "(lambda_min = 1/largest sigma^2)",
+           "criterion": ("greedy along the stop-and-go chain, then exchange passes: "
+                         "minimise max + mean eigenvalue of the covariance in tolerance "
+                         "units, (F + 1e-6 I)^-1 + (F + 1e-6 I)^-1 G G^T (F + 1e-6 I)^-1 "
+                         "with the systematic pose errors' score G (marker map, "
+                         "calibrations)" if adv.systematic_parameters else
+                         "greedy along the stop-and-go chain, then exchange passes: "
+                         "minimise max + mean of 1/(lambda + 1e-6) of the information in "
+                         "tolerance units (lambda_min = 1/largest sigma^2)"),
+           "systematic_parameters": int(adv.systematic_parameters),
            "tolerance": {"deg": adv.tolerance_deg, "m": adv.tolerance_m},
            "noise_fitted": {"sigma_r_deg": math.degrees(adv.noise[0]),
                             "sigma_t_m": adv.noise[1]},

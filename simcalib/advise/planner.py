@@ -29,7 +29,8 @@ import numpy as np
 from simcalib.geometry import invert_transform
 
 __all__ = ["motion_information", "predicted_std", "greedy", "greedy_chain", "GreedyResult",
-           "undeterminable", "EPS"]
+           "undeterminable", "EPS", "systematic_scores", "systematic_std",
+           "greedy_chain_systematic", "check_chain_systematic"]
 
 EPS = 1e-6
 _FLOOR_R = math.sqrt(np.finfo(float).eps)
@@ -129,6 +130,78 @@ def greedy(F_base, F_cand, k: int, *, feasible=None, tolerance_deg: float = 1.0,
     return GreedyResult(np.array(order, dtype=np.int64), np.array(crit), np.array(mx))
 
 
+def _adinv(T):
+    """``Ad(T^-1)`` (…, 6, 6): ``exp(-xi) T = T exp(-Ad(T^-1) xi)``."""
+    from simcalib.geometry import adjoint_from_transform
+    return adjoint_from_transform(invert_transform(T))
+
+
+def systematic_scores(C, H, X, sigma_r_rad: float, sigma_t_m: float, B_start_a, B_end_a,
+                      B_start_b, B_end_b) -> np.ndarray:
+    """``(N, 6, P)``: how systematic pose errors move each motion's information-weighted
+    score ``K_i^T Q_i^-1 e_i`` (the estimate's error is ``F^-1 sum_i`` of it): the poses
+    at each motion's start and end carry the errors ``xi = B @ eta`` (``B_*`` ``(N, 6, P)``
+    per camera, ``eta ~ N(0, I)`` shared), the motion the error ``xi_end - Ad(M^-1)
+    xi_start`` (right-multiplied), the residual its first-order response (the eq. 38
+    noise Jacobians of :func:`simcalib.solvers.diagnostics.uncertainty.linear_model`)."""
+    from simcalib.geometry import skew_matrix
+    from simcalib.solvers.diagnostics.uncertainty import linear_model
+    C = np.asarray(C, dtype=np.float64)
+    H = np.asarray(H, dtype=np.float64)
+    X = np.asarray(X, dtype=np.float64)
+    _, K, Qr, Qt = linear_model(C, H, X)
+    L = max(float(np.linalg.norm(X[:3, 3])), 1e-3)
+    Q = ((sigma_r_rad ** 2 + _FLOOR_R ** 2) * Qr + (sigma_t_m ** 2 + (1e-9 * L) ** 2) * Qt)
+    KQ = np.swapaxes(K, -1, -2) @ np.linalg.inv(Q)
+    RX, tX = X[:3, :3], X[:3, 3]
+    RCp = (X @ H @ invert_transform(X))[:, :3, :3]
+    u_map = RX @ H[:, :3, :3]
+    Jc = np.zeros(C.shape[:1] + (6, 6))
+    Jc[:, :3, :3] = C[:, :3, :3]
+    Jc[:, 3:, 3:] = C[:, :3, :3]
+    Jh = np.zeros_like(Jc)
+    Jh[:, :3, :3] = -u_map
+    Jh[:, 3:, :3] = -skew_matrix(RCp @ tX) @ u_map
+    Jh[:, 3:, 3:] = -u_map
+    dA = np.asarray(B_end_a) - _adinv(C) @ np.asarray(B_start_a)
+    dB = np.asarray(B_end_b) - _adinv(H) @ np.asarray(B_start_b)
+    return KQ @ (Jc @ dA + Jh @ dB)
+
+
+def systematic_std(F, G, *, tolerance_deg: float = 1.0, tolerance_m: float = 0.01,
+                   range_rad: float = 1.0, range_m: float = 1.0) -> np.ndarray:
+    """:func:`predicted_std` with the systematic pose errors: over the determined
+    directions the covariance ``F^-1 + F^-1 G G^T F^-1`` (``G`` ``(6, P)``, the summed
+    :func:`systematic_scores`); ``inf`` where ``F`` leaves a direction undetermined."""
+    white = predicted_std(F, tolerance_deg=tolerance_deg, tolerance_m=tolerance_m,
+                          range_rad=range_rad, range_m=range_m)
+    dsc = _scale(tolerance_deg, tolerance_m)
+    Ft = np.asarray(F) * np.outer(dsc, dsc)
+    lam, U = np.linalg.eigh(0.5 * (Ft + Ft.T))
+    rng_sc = np.array([range_rad] * 3 + [range_m] * 3) / dsc
+    sig = np.where(lam > 0, 1.0 / np.sqrt(np.maximum(lam, 1e-300)), np.inf)
+    det = sig * np.sqrt(np.sum((U / rng_sc[:, None]) ** 2, axis=0)) <= 1.0
+    B = U[:, det]
+    Fi = (B / lam[det]) @ B.T if B.shape[1] else np.zeros((6, 6))
+    Gt = np.asarray(G) * dsc[:, None]
+    S = Fi + Fi @ Gt @ Gt.T @ Fi
+    s = np.sqrt(np.clip(np.diag(S), 0, None)) * dsc
+    s = np.concatenate([np.degrees(s[:3]), s[3:]])
+    return np.where(np.isfinite(white), s, np.inf)
+
+
+def _criterion_systematic(Ft, Gt) -> np.ndarray:
+    """Batched criterion with systematic errors (tolerance units; ``Ft`` ``(..., 6, 6)``,
+    ``Gt`` ``(..., 6, P)``): max + mean eigenvalue of ``Fe^-1 + Fe^-1 G G^T Fe^-1`` with
+    ``Fe = F + EPS I`` — :func:`_criterion` exactly when ``G = 0``."""
+    Fe = 0.5 * (Ft + np.swapaxes(Ft, -1, -2)) + EPS * np.eye(6)
+    Fi = np.linalg.inv(Fe)
+    FG = Fi @ Gt
+    S = Fi + FG @ np.swapaxes(FG, -1, -2)
+    lam = np.linalg.eigvalsh(0.5 * (S + np.swapaxes(S, -1, -2)))
+    return lam.max(axis=-1) + lam.mean(axis=-1)
+
+
 def _chain_info(M, T_from, X, s_r, s_t, scale_from, scale_to):
     """Information of the motions ``T_from -> M`` (batched over ``M`` or ``T_from``) with the
     variance factor of the two stops' poses averaged (each pose error enters the motion)."""
@@ -138,10 +211,29 @@ def _chain_info(M, T_from, X, s_r, s_t, scale_from, scale_to):
     return F / np.broadcast_to(f, (F.shape[0],))[:, None, None]
 
 
+def check_chain_systematic(systematic, n: int):
+    """``(G_base (6, P), B_ref (2, 6, P), B_cand (2, n, 6, P))`` or None: the systematic
+    pose errors of :func:`greedy_chain` (score of the recorded motions; per camera a / b the
+    error basis of the reference stop and of each candidate stop)."""
+    if systematic is None:
+        return None
+    try:
+        G0, Br, Bc = (np.asarray(x, dtype=np.float64) for x in systematic)
+    except (TypeError, ValueError):
+        raise ValueError("systematic must be (G_base, B_ref, B_cand); received "
+                         f"{type(systematic).__name__}") from None
+    P = G0.shape[-1] if G0.ndim == 2 else -1
+    if G0.shape != (6, P) or Br.shape != (2, 6, P) or Bc.shape != (2, n, 6, P) \
+            or not (np.isfinite(G0).all() and np.isfinite(Br).all() and np.isfinite(Bc).all()):
+        raise ValueError(f"systematic must be finite G_base (6, P), B_ref (2, 6, P), B_cand "
+                         f"(2, {n}, 6, P); received shapes {G0.shape}, {Br.shape}, {Bc.shape}")
+    return G0, Br, Bc
+
+
 def greedy_chain(F_base, motion_a, X, sigma_r_rad: float, sigma_t_m: float, k: int, *,
                  feasible=None, tolerance_deg: float = 1.0, tolerance_m: float = 0.01,
                  noise_scale=None, ref_noise_scale: float = 1.0, refine: bool = True,
-                 max_passes: int = 4) -> tuple[GreedyResult, np.ndarray]:
+                 max_passes: int = 4, systematic=None) -> tuple[GreedyResult, np.ndarray]:
     """Choice of ``k`` stops visited in order (stop and go): the motion each stop adds is the
     one from the previous stop (the reference for the first), so a stop's pose error enters
     two consecutive motions instead of one shared reference error entering all.
@@ -149,13 +241,39 @@ def greedy_chain(F_base, motion_a, X, sigma_r_rad: float, sigma_t_m: float, k: i
     ``noise_scale`` ``(N,)``: variance factor of each candidate stop's pose error relative
     to the fitted noise (e.g. a worse marker view; 1 = as fitted), ``ref_noise_scale`` that
     of the reference stop; a motion's noise variance is scaled by the mean of its two stops'.
+    ``systematic``: optional ``(G_base, B_ref, B_cand)`` (:func:`check_chain_systematic`):
+    pose errors shared by the stops and the recorded poses (a marker map, calibrations);
+    the criterion is then that of the covariance ``F^-1 + F^-1 G G^T F^-1`` with ``G`` the
+    summed :func:`systematic_scores` of the recorded motions and the chain's links
+    (:func:`_criterion_systematic`), so the choice weighs what a stop's view adds in
+    systematic error against the information it brings.
 
     Greedy first (each step adds the stop with the best criterion); then, with ``refine``,
     exchange passes (Fedorov-style): each chosen stop in turn is replaced by the available
     candidate that lowers the criterion of the whole chain most, until a pass changes
-    nothing (at most ``max_passes``). Returns the :class:`GreedyResult` (criterion and
+    nothing (at most ``max_passes``). With ``systematic`` every stop must lower the
+    criterion: the greedy stops early when none does (fewer than ``k`` stops: more would
+    add more systematic error than information) and an exchange that would make a step
+    raise it is not taken. Returns the :class:`GreedyResult` (criterion and
     largest 1-sigma of the final chain after each of its stops) and the information
     ``(k, 6, 6)`` each stop of the final chain adds."""
+    res, added, _ = _greedy_chain(F_base, motion_a, X, sigma_r_rad, sigma_t_m, k,
+                                  feasible=feasible, tolerance_deg=tolerance_deg,
+                                  tolerance_m=tolerance_m, noise_scale=noise_scale,
+                                  ref_noise_scale=ref_noise_scale, refine=refine,
+                                  max_passes=max_passes, systematic=systematic)
+    return res, added
+
+
+def greedy_chain_systematic(*args, **kw) -> tuple[GreedyResult, np.ndarray, np.ndarray]:
+    """:func:`greedy_chain` returning also the systematic score ``(k, 6, P)`` each stop of
+    the final chain adds."""
+    return _greedy_chain(*args, **kw)
+
+
+def _greedy_chain(F_base, motion_a, X, sigma_r_rad, sigma_t_m, k, *, feasible=None,
+                  tolerance_deg=1.0, tolerance_m=0.01, noise_scale=None,
+                  ref_noise_scale=1.0, refine=True, max_passes=4, systematic=None):
     if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
         raise ValueError(f"k must be an integer >= 1; received {k!r}")
     dsc = _scale(tolerance_deg, tolerance_m)
@@ -166,8 +284,10 @@ def greedy_chain(F_base, motion_a, X, sigma_r_rad: float, sigma_t_m: float, k: i
     if sc.shape != (N,) or not np.all(np.isfinite(sc)) or np.any(sc <= 0):
         raise ValueError(f"noise_scale must be ({N},) finite and > 0; received shape "
                          f"{sc.shape}")
+    sysm = check_chain_systematic(systematic, N)
     avail = np.ones(N, bool) if feasible is None else np.asarray(feasible, bool).copy()
     F0 = np.asarray(F_base, dtype=np.float64)
+    G0 = sysm[0] if sysm is not None else np.zeros((6, 0))
     I4 = np.eye(4)
     s_r, s_t = sigma_r_rad, sigma_t_m
 
@@ -177,24 +297,67 @@ def greedy_chain(F_base, motion_a, X, sigma_r_rad: float, sigma_t_m: float, k: i
     def scale(j):
         return ref_noise_scale if j < 0 else sc[j]
 
-    cur_F = F0
+    def basis(j):
+        """(2, 6, P) error basis of stop j (-1: the reference) for cameras a and b."""
+        return sysm[1] if j < 0 else sysm[2][:, j]
+
+    def link(prev, idx, nxt=None):
+        """(F, G) of the motions prev -> idx (idx an array), or idx -> nxt when nxt given."""
+        if nxt is None:
+            F = _chain_info(M[idx], pose(prev), X, s_r, s_t, scale(prev), sc[idx])
+        else:
+            C, H = predicted_motions(invert_transform(M[idx]) @ M[nxt], X)
+            F = motion_information(C, H, X, s_r, s_t) / (0.5 * (sc[idx] + sc[nxt]))[:, None,
+                                                                                     None]
+        if sysm is None:
+            return F, np.zeros((F.shape[0], 6, 0))
+        if nxt is None:
+            C, H = predicted_motions(invert_transform(pose(prev)) @ M[idx], X)
+            Bs = np.broadcast_to(basis(prev)[:, None], (2, len(idx)) + G0.shape)
+            Be = sysm[2][:, idx]
+        else:
+            Bs = sysm[2][:, idx]
+            Be = np.broadcast_to(basis(nxt)[:, None], (2, len(idx)) + G0.shape)
+        return F, systematic_scores(C, H, X, s_r, s_t, Bs[0], Be[0], Bs[1], Be[1])
+
+    def crit(F, G):
+        if sysm is None:
+            return _criterion(F * S)
+        return _criterion_systematic(F * S, G * dsc[:, None])
+
+    cur_F, cur_G = F0, G0
     order = []
     for _ in range(int(k)):
         idx = np.flatnonzero(avail)
         if idx.size == 0:
             break
         prev = order[-1] if order else -1
-        Fc = _chain_info(M[idx], pose(prev), X, s_r, s_t, scale(prev), sc[idx])
-        j = int(np.argmin(_criterion((cur_F[None] + Fc) * S)))
+        Fc, Gc = link(prev, idx)
+        c = crit(cur_F[None] + Fc, cur_G[None] + Gc)
+        j = int(np.argmin(c))
+        if sysm is not None and not c[j] < float(crit(cur_F, cur_G)):
+            break          # every stop would add more systematic error than information
         order.append(int(idx[j]))
         avail[idx[j]] = False
-        cur_F = cur_F + Fc[j]
+        cur_F, cur_G = cur_F + Fc[j], cur_G + Gc[j]
 
     def links(order):
-        """Information of each motion of the chain ``order`` (from the reference)."""
+        """(F, G) of each motion of the chain ``order`` (from the reference)."""
         prevs = [-1] + order[:-1]
-        return [_chain_info(M[[o]], pose(p), X, s_r, s_t, scale(p), sc[o])[0]
-                for p, o in zip(prevs, order)]
+        out = [link(p, np.array([o])) for p, o in zip(prevs, order)]
+        return [f[0] for f, _ in out], [g[0] for _, g in out]
+
+    def _monotone(order):
+        LF, LG = links(order)
+        F, G = F0, G0
+        prev_c = float(crit(F, G))
+        for Fa, Ga in zip(LF, LG):
+            F, G = F + Fa, G + Ga
+            c = float(crit(F, G))
+            if c > prev_c:
+                return False
+            prev_c = c
+        return True
 
     if refine and len(order) > 0:
         for _ in range(int(max_passes)):
@@ -203,36 +366,57 @@ def greedy_chain(F_base, motion_a, X, sigma_r_rad: float, sigma_t_m: float, k: i
                 idx = np.flatnonzero(avail)
                 if idx.size == 0:
                     break
-                L = links(order)
+                LF, LG = links(order)
                 prev = order[p - 1] if p > 0 else -1
-                rest = F0 + sum(L[i] for i in range(len(order)) if i not in (p, p + 1))
-                F_in = _chain_info(M[idx], pose(prev), X, s_r, s_t, scale(prev), sc[idx])
-                tot = rest[None] + F_in
+                keep = [i for i in range(len(order)) if i not in (p, p + 1)]
+                rest_F = F0 + sum((LF[i] for i in keep), np.zeros((6, 6)))
+                rest_G = G0 + sum((LG[i] for i in keep), np.zeros_like(G0))
+                F_in, G_in = link(prev, idx)
+                tot_F, tot_G = rest_F[None] + F_in, rest_G[None] + G_in
                 if p + 1 < len(order):
-                    nxt = order[p + 1]
-                    C, H = predicted_motions(invert_transform(M[idx]) @ M[nxt], X)
-                    F_out = motion_information(C, H, X, s_r, s_t)
-                    F_out = F_out / (0.5 * (sc[idx] + sc[nxt]))[:, None, None]
-                    tot = tot + F_out
-                c = _criterion(tot * S)
-                best = int(np.argmin(c))
-                now = float(_criterion((F0 + sum(L)) * S))
-                if c[best] < now * (1 - 1e-9):
+                    F_out, G_out = link(None, idx, order[p + 1])
+                    tot_F, tot_G = tot_F + F_out, tot_G + G_out
+                c = crit(tot_F, tot_G)
+                now = float(crit(F0 + sum(LF), G0 + sum(LG, np.zeros_like(G0))))
+                for best in np.argsort(c, kind="stable")[:10]:
+                    if not c[best] < now * (1 - 1e-9):
+                        break
+                    trial = order[:p] + [int(idx[best])] + order[p + 1:]
+                    if sysm is not None and not _monotone(trial):
+                        continue   # each stop must lower the predicted uncertainty
                     avail[order[p]] = True
                     order[p] = int(idx[best])
                     avail[order[p]] = False
                     changed = True
+                    break
             if not changed:
                 break
-    added = links(order) if order else []
-    cur = F0.copy()
-    crit, mx = [float(_criterion(cur * S))], [_max_std(cur * S)]
-    for Fa in added:
-        cur = cur + Fa
-        crit.append(float(_criterion(cur * S)))
-        mx.append(_max_std(cur * S))
-    return (GreedyResult(np.array(order, dtype=np.int64), np.array(crit), np.array(mx)),
-            np.array(added).reshape(-1, 6, 6))
+    LF, LG = links(order) if order else ([], [])
+    cur_F, cur_G = F0.copy(), G0.copy()
+    crits, mx = [float(crit(cur_F, cur_G))], [_max_std_sys(cur_F, cur_G, dsc)]
+    for Fa, Ga in zip(LF, LG):
+        cur_F, cur_G = cur_F + Fa, cur_G + Ga
+        crits.append(float(crit(cur_F, cur_G)))
+        mx.append(_max_std_sys(cur_F, cur_G, dsc))
+    return (GreedyResult(np.array(order, dtype=np.int64), np.array(crits), np.array(mx)),
+            np.array(LF).reshape(-1, 6, 6),
+            np.array(LG).reshape((len(LF), 6, G0.shape[1])) if LG else
+            np.zeros((0, 6, G0.shape[1])))
+
+
+def _max_std_sys(F, G, dsc) -> float:
+    """Largest 1-sigma in tolerance units: of the information alone without systematic
+    errors (:func:`_max_std`), else of ``Fe^-1 + Fe^-1 G G^T Fe^-1``."""
+    Ft = F * np.outer(dsc, dsc)
+    if G.shape[-1] == 0:
+        return _max_std(Ft)
+    w = _max_std(Ft)
+    if not math.isfinite(w):
+        return math.inf
+    Fi = np.linalg.inv(0.5 * (Ft + Ft.T))
+    FG = Fi @ (G * dsc[:, None])
+    lam = np.linalg.eigvalsh(Fi + FG @ FG.T)[-1]
+    return float(math.sqrt(max(lam, 0.0)))
 
 
 def _max_std(Ft) -> float:

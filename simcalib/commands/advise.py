@@ -22,13 +22,15 @@ prints the predicted 1-sigma per axis before and after each motion.
 
 Advice options: k, verify, seeds, candidates, max_rotation_deg, max_translation_m,
 min_markers, recording (true|false), force (true: propose k motions even when the
-recorded motions already determine X within the tolerance; default false: none then). Every other key=value is a scenario override
+recorded motions already determine X within the tolerance; default false: none then),
+systematic (true|false, default true: weigh the marker map's and the calibrations' errors
+the ArUco poses share, see docs/advice.md). Every other key=value is a scenario override
 (see `run --help`), e.g. world.platform=arm.
 """
 
 ADVICE_KEYS = {"k": int, "verify": bool, "seeds": int, "candidates": int,
                "max_rotation_deg": float, "max_translation_m": float, "min_markers": int,
-               "recording": bool, "force": bool}
+               "recording": bool, "force": bool, "systematic": bool}
 
 
 def _value(key, text):
@@ -146,7 +148,8 @@ def main(args: list[str]) -> int:
     kw = {k: opts[k] for k in ("max_rotation_deg", "max_translation_m", "min_markers")
           if k in opts}
     adv = advise(base, opts["k"], seed=cfg.seed, n_candidates=opts["candidates"],
-                 when_determined="advise" if opts.get("force") else "stop", **kw)
+                 when_determined="advise" if opts.get("force") else "stop",
+                 systematic=opts.get("systematic", True), **kw)
     ver = (verify(base, adv, seeds=tuple(range(opts["seeds"])), n_random=opts["candidates"],
                   n_joint=opts["candidates"]) if opts["verify"] else None)
     out = advice_dict(base, adv, ver)

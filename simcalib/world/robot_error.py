@@ -29,6 +29,7 @@ from simcalib.checks import check_int, check_range, set_fields
 
 __all__ = ["UR5E_DH", "DH_COLUMNS", "KinematicErrorConfig", "EncoderConfig", "RobotConfig",
            "dh_fk", "draw_dh_error", "true_dh", "check_dh_error", "apply_dh_to_spec",
+           "fk_pose_error_basis",
            "encoder_readings", "robot_report", "ARM_LINK_BODIES", "ARM_FLANGE_SITE",
            "ARM_BASE_BODY"]
 
@@ -149,6 +150,44 @@ def dh_fk(q, dh=UR5E_DH) -> np.ndarray:
     for i in range(1, dh.shape[0]):
         T = T @ L[..., i, :, :]
     return T
+
+
+def fk_pose_error_basis(q, T_flange_cam, sigmas, dh=UR5E_DH) -> np.ndarray:
+    """How the true arm's DH deviation moves the poses a controller reports through the
+    nominal table ``dh``: ``(N, 6, J * 4)`` — the pose error ``xi = (rotvec, t)`` of the
+    camera mounted at ``T_flange_cam`` (``T_reported = T_true exp(xi)``, camera frame) at
+    joint angles ``q`` ``(N, J)`` per 1-sigma ``sigmas`` ``(4,)`` (theta, d, a, alpha, the
+    same for every joint) of each table entry, joint-major. Central differences of the
+    flange pose (exact to second order); a sigma of 0 gives a zero column."""
+    from simcalib.geometry import adjoint_from_transform, invert_transform, rotvec_from_matrix
+    dh = _check_dh(dh)
+    q = np.atleast_2d(np.asarray(q, dtype=np.float64))
+    sig = np.asarray(sigmas, dtype=np.float64).ravel()
+    if q.shape[-1] != dh.shape[0] or not np.isfinite(q).all():
+        raise ValueError(f"q must be (N, {dh.shape[0]}) finite joint angles; received shape "
+                         f"{q.shape}")
+    if sig.shape != (4,) or not np.isfinite(sig).all() or (sig < 0).any():
+        raise ValueError(f"sigmas must be 4 finite numbers >= 0 {DH_COLUMNS}; received "
+                         f"{sigmas!r}")
+    T_fc = np.asarray(T_flange_cam, dtype=np.float64)
+    if T_fc.shape != (4, 4) or not np.isfinite(T_fc).all():
+        raise ValueError(f"T_flange_cam must be a finite 4x4 transform; received shape "
+                         f"{T_fc.shape}")
+    F0i = invert_transform(dh_fk(q, dh))
+    J = np.zeros(q.shape[:1] + (6, dh.size))
+    for j in range(dh.shape[0]):
+        for c in range(4):
+            if sig[c] == 0:
+                continue
+            xi = []
+            for s in (1.0, -1.0):
+                d2 = dh.copy()
+                d2[j, c] += s * sig[c]
+                E = F0i @ dh_fk(q, d2)             # FK_nominal^-1 FK_true
+                xi.append(np.concatenate([rotvec_from_matrix(E[:, :3, :3]), E[:, :3, 3]], -1))
+            J[:, :, 4 * j + c] = 0.5 * (xi[0] - xi[1])
+    # reported = true exp(xi): flange error -E, moved to the camera frame
+    return -adjoint_from_transform(invert_transform(T_fc)) @ J
 
 
 def check_dh_error(value) -> tuple | None:

@@ -1,0 +1,146 @@
+"""Motion advice with systematic pose errors (issue 13): the adjoint, the arm's DH-error
+basis, the systematic score of a motion, the covariance criterion and the chain choice
+that weighs them (simcalib.advise.planner, simcalib.world.robot_error)."""
+
+import numpy as np
+import pytest
+
+from simcalib import geometry as g
+from simcalib.advise import planner as pl
+from simcalib.solvers.diagnostics.uncertainty import linear_model
+
+
+def _exp6(xi):
+    xi = np.asarray(xi, dtype=np.float64)
+    T = np.zeros(xi.shape[:-1] + (4, 4))
+    T[..., :3, :3] = g.matrix_from_rotvec(xi[..., :3])
+    T[..., :3, 3] = xi[..., 3:]
+    T[..., 3, 3] = 1.0
+    return T
+
+
+def _log6(T):
+    return np.concatenate([g.rotvec_from_matrix(T[..., :3, :3]), T[..., :3, 3]], -1)
+
+
+def _X():
+    return _exp6([0.1, -0.2, 0.3, 0.05, -0.09, 0.06])
+
+
+def _motions(rng, n, max_angle=0.6, trans=0.2):
+    ax = rng.standard_normal((n, 3))
+    ax /= np.linalg.norm(ax, axis=1, keepdims=True)
+    return _exp6(np.concatenate([ax * rng.uniform(0.5 * max_angle, max_angle, (n, 1)),
+                                 rng.normal(0, trans, (n, 3))], 1))
+
+
+def test_adjoint_moves_a_twist_through_a_transform():
+    rng = np.random.default_rng(0)
+    T = _motions(rng, 4)
+    xi = rng.normal(0, 1e-5, (4, 6))
+    lhs = _log6(T @ _exp6(xi) @ g.invert_transform(T))
+    rhs = np.einsum("nij,nj->ni", g.adjoint_from_transform(T), xi)
+    # first order (this exp is [exp(omega) | v], not the screw exponential)
+    np.testing.assert_allclose(lhs, rhs, atol=1e-9)
+
+
+def test_dh_error_basis_matches_the_reported_pose_error():
+    from simcalib.world.robot_error import UR5E_DH, dh_fk, fk_pose_error_basis
+    rng = np.random.default_rng(1)
+    q = rng.uniform(-2, 2, (5, 6))
+    T_fc = _exp6([0.1, -0.05, 0.2, 0.0, -0.09, 0.06])
+    sig = np.array([1e-3, 1e-3, 1e-3, 1e-3])
+    B = fk_pose_error_basis(q, T_fc, sig)
+    assert B.shape == (5, 6, 24)
+    delta = rng.standard_normal((6, 4)) * sig
+    T_rep = dh_fk(q, UR5E_DH) @ T_fc               # what the controller reports
+    T_true = dh_fk(q, UR5E_DH + delta) @ T_fc      # where the camera is
+    exact = _log6(g.invert_transform(T_true) @ T_rep)
+    lin = B @ (delta / sig).ravel()
+    assert np.abs(lin - exact).max() < 0.02 * np.abs(exact).max()
+    assert not fk_pose_error_basis(q, T_fc, [0.0, 0.0, 1e-3, 0.0])[:, :, 0::4].any()
+    with pytest.raises(ValueError, match="sigmas must be 4"):
+        fk_pose_error_basis(q, T_fc, sig[:3])
+    with pytest.raises(ValueError, match=r"q must be \(N, 6\)"):
+        fk_pose_error_basis(q[:, :5], T_fc, sig)
+
+
+def test_systematic_scores_match_finite_differences_of_the_score():
+    """The score K^T Q^-1 e of a motion whose two stops carry errors B eta, against
+    recomputing it on the perturbed motions."""
+    rng = np.random.default_rng(2)
+    X = _X()
+    Ta = _motions(rng, 6)                      # poses of camera a at 6 stops
+    Tb = Ta @ X
+    k = np.arange(5)
+    P = 7
+    Ba = rng.normal(0, 1, (6, 6, P))
+    Bb = rng.normal(0, 1, (6, 6, P))
+    C = g.invert_transform(Ta[k]) @ Ta[k + 1]
+    H = g.invert_transform(Tb[k]) @ Tb[k + 1]
+    s_r, s_t = 0.01, 0.002
+    G = pl.systematic_scores(C, H, X, s_r, s_t, Ba[k], Ba[k + 1], Bb[k], Bb[k + 1])
+    assert G.shape == (5, 6, P)
+
+    def score(eta):
+        Pa = Ta @ _exp6(Ba @ eta)
+        Pb = Tb @ _exp6(Bb @ eta)
+        Cp = g.invert_transform(Pa[k]) @ Pa[k + 1]
+        Hp = g.invert_transform(Pb[k]) @ Pb[k + 1]
+        e, K, Qr, Qt = linear_model(Cp, Hp, X)
+        _, K0, Qr0, Qt0 = linear_model(C, H, X)    # weights at the unperturbed motions
+        Q = (s_r ** 2 + pl._FLOOR_R ** 2) * Qr0 + (s_t ** 2 + (1e-9 * 0.1) ** 2) * Qt0
+        return np.einsum("nki,nkl,nl->ni", K0, np.linalg.inv(Q), e)
+
+    h = 1e-6
+    for p in range(P):
+        eta = np.zeros(P)
+        eta[p] = h
+        fd = (score(eta) - score(-eta)) / (2 * h)
+        np.testing.assert_allclose(G[:, :, p], fd, rtol=2e-4, atol=1e-6 * np.abs(fd).max())
+
+
+def test_criterion_and_std_reduce_to_the_information_ones_without_systematic_errors():
+    rng = np.random.default_rng(3)
+    X = _X()
+    C = _motions(rng, 20)
+    F = pl.motion_information(C, g.invert_transform(X) @ C @ X, X, 0.005, 0.001).sum(0)
+    dsc = pl._scale(1.0, 0.01)
+    Ft = F * np.outer(dsc, dsc)
+    assert pl._criterion_systematic(Ft, np.zeros((6, 3))) == pytest.approx(
+        float(pl._criterion(Ft)), rel=1e-9)
+    np.testing.assert_allclose(pl.systematic_std(F, np.zeros((6, 3))), pl.predicted_std(F),
+                               rtol=1e-9)
+    Gs = rng.normal(0, 10.0, (6, 3))
+    assert np.all(pl.systematic_std(F, Gs) >= pl.predicted_std(F) * (1 - 1e-12))
+
+
+def test_chain_choice_weighs_systematic_errors_and_never_raises_the_criterion():
+    rng = np.random.default_rng(4)
+    X = _X()
+    Cb = _motions(rng, 30, max_angle=0.05)                   # nearly degenerate record
+    Fb = pl.motion_information(Cb, g.invert_transform(X) @ Cb @ X, X, 0.005, 0.001).sum(0)
+    M = _motions(rng, 40)
+    P = 5
+    zero = (np.zeros((6, P)), np.zeros((2, 6, P)), np.zeros((2, 40, 6, P)))
+    g0, a0 = pl.greedy_chain(Fb, M, X, 0.005, 0.001, 4)
+    g1, a1 = pl.greedy_chain(Fb, M, X, 0.005, 0.001, 4, systematic=zero)
+    assert g1.order.tolist() == g0.order.tolist()          # no systematic error: the same
+    np.testing.assert_allclose(g1.criterion, g0.criterion, rtol=1e-6)
+    # the stop the plain choice likes best carries a huge systematic error: avoided
+    Bc = np.zeros((2, 40, 6, P))
+    Bc[:, g0.order[0]] = rng.normal(0, 0.05, (2, 6, P))
+    g2, _ = pl.greedy_chain(Fb, M, X, 0.005, 0.001, 4,
+                            systematic=(np.zeros((6, P)), np.zeros((2, 6, P)), Bc))
+    assert g0.order[0] not in g2.order
+    assert np.all(np.diff(g2.criterion) <= 1e-12)
+    # every candidate carries more systematic error than it brings: fewer stops
+    Bbad = rng.normal(0, 0.5, (2, 40, 6, P))
+    g3, a3, G3 = pl.greedy_chain_systematic(
+        Fb + np.eye(6) * 1e8, M, X, 0.005, 0.001, 4,
+        systematic=(np.zeros((6, P)), np.zeros((2, 6, P)), Bbad))
+    assert g3.order.size < 4 and np.all(np.diff(g3.criterion) <= 1e-12)
+    assert G3.shape == (g3.order.size, 6, P)
+    with pytest.raises(ValueError, match="systematic must be"):
+        pl.greedy_chain(Fb, M, X, 0.005, 0.001, 2,
+                        systematic=(np.zeros((6, P)), np.zeros((2, 6, P)), Bc[:, :10]))
