@@ -175,6 +175,7 @@ class RunState:
     sensing: dict = field(default_factory=dict)   # stream_sources, robot, clocks, outliers
     pose_bias: object = None    # uncertainty.PoseBias: calibration uncertainty of the cameras
     pose_error_basis: tuple | None = None   # (Ba, Bb): systematic pose errors per datapoint
+    pose_simulation: object = None   # the headline's pose_noise.SimulatedError, shared
 
     @property
     def X_true(self):
@@ -637,7 +638,7 @@ def pose_error_basis(st, compress: bool = True):
             if src == "aruco":
                 B = stop_error_basis(world, st.cfg, cam, src, T,
                                      visible=_markers_used(st, world, cam, frames[cam]))
-            else:
+            elif st.cfg.robot.kinematic_error.active:
                 qpos = np.asarray(world.frames(cam).qpos)[frames[cam]]
                 B = stop_error_basis(world, st.cfg, cam, src, T, qpos=qpos)
         out.append(np.zeros((D, 6, basis_layout(world)["P"])) if B is None else B)
@@ -684,8 +685,15 @@ def _solve_at(st, method, alpha, prior, rng, C, H, pairs=None):
                          tolerance_m=cfg.verdict.tolerance_m,
                          correlation_lag=correlation_lag(st), pose_bias=st.pose_bias,
                          pose_pairs=pairs,
-                         pose_error_basis=st.pose_error_basis if pairs is not None else None)
+                         pose_error_basis=st.pose_error_basis if pairs is not None else None,
+                         pose_simulation=st.pose_simulation if pairs is not None and
+                         prior is None else None)
     reason = _failure_reason(sol)
+    if pairs is not None and prior is None and st.pose_simulation is None \
+            and sol.uncertainty is not None and sol.uncertainty.simulation is not None:
+        # one simulation per run: the covariance of the alpha-cost minimiser near X serves
+        # every solver's headline (each adds its own offset from the minimiser)
+        st.pose_simulation = sol.uncertainty.simulation
     if reason is not None:
         return sol, reason
     v = _verdict(sol)

@@ -141,6 +141,10 @@ def test_advice_monotone_and_json(scara_advice):
     # wrist camera are weighed in the choice and in the predicted sigma
     assert out["systematic_parameters"] > 24 and "G G^T" in out["criterion"]
     assert base.pose_error_basis is not None and base.sources["cam_a"] == "robot_fk"
+    Ba = base.pose_error_basis[0]                # the flange: the DH columns only
+    from simcalib.pipeline import basis_layout
+    lay = basis_layout(base.truth.world)
+    assert np.any(Ba[:, :, lay["dh"]]) and not np.any(np.delete(Ba, np.r_[lay["dh"]], 2))
     assert len(out["motions"]) == 3
     assert set(out["motions"][0]["camera_motions"]) == {"cam_a", "cam_b"}
     assert len(out["motions"][0]["joint_targets_rad"]) == 6

@@ -191,3 +191,38 @@ def test_covariance_and_solve_with_a_pose_error_basis():
     pri = simcalib.Prior(X=sol.X, a=1e-4, b=1e-2)
     assert simcalib.solve(C, H, alpha=1.0, prior=pri, pose_pairs=P,
                           pose_error_basis=(Ba, Bb)).uncertainty.method == "sandwich"
+
+
+def test_a_simulation_is_reused_for_another_estimate_of_the_same_motions():
+    rng = np.random.default_rng(6)
+    X = _X()
+    Pa = _path()
+    Ba, Bb = _drifting_basis(Pa.shape[0], rng)
+    eta = rng.standard_normal(Ba.shape[2])
+    C, H, P = _motions(Pa @ _exp6(Ba @ eta), Pa @ X @ _exp6(Bb @ eta))
+    first = simcalib.solve(C, H, alpha=1.0, pose_pairs=P, pose_error_basis=(Ba, Bb))
+    sim = first.uncertainty.simulation
+    assert isinstance(sim, PN.SimulatedError) and sim.alpha == 1.0
+    other = simcalib.solve(C, H, method="daniilidis", alpha=1.0, pose_pairs=P,
+                           pose_error_basis=(Ba, Bb), pose_simulation=sim)
+    u = other.uncertainty
+    assert u.simulation is sim and u.method == "pose_simulation"
+    np.testing.assert_array_equal(u.simulated_bias, sim.bias)
+    # its own offset from the minimiser is still added: not tighter than the minimiser's
+    assert np.all(np.diag(u.covariance) >= np.diag(first.uncertainty.covariance) * 0.999)
+    with pytest.raises(ValueError, match="simulated at alpha = 1"):
+        U.covariance(C, H, other.X, 2.0, pose_pairs=P, pose_simulation=sim)
+    with pytest.raises(ValueError, match="needs pose_pairs"):
+        U.covariance(C, H, other.X, 1.0, pose_simulation=sim)
+    with pytest.raises(TypeError, match="SimulatedError"):
+        U.covariance(C, H, other.X, 1.0, pose_pairs=P, pose_error_basis=(Ba, Bb),
+                     pose_simulation=(1, 2))
+
+
+def test_solve_checks_a_reused_simulation():
+    C, H, P = _motions(_path(30), _path(30) @ _X())
+    with pytest.raises(TypeError, match="SimulatedError"):
+        simcalib.solve(C, H, pose_pairs=P, pose_simulation="sim")
+    sim = PN.SimulatedError(np.zeros(6), np.eye(6) * 1e-8, 1.0, (1e-3, 1e-3))
+    with pytest.raises(ValueError, match="needs pose_pairs"):
+        simcalib.solve(C, H, pose_simulation=sim)

@@ -421,6 +421,8 @@ def test_vision_pose_error_basis_and_the_pipeline_basis():
     st.pairs = SimpleNamespace(start=np.arange(n - 2), end=np.arange(2, n),
                                frame_a=np.arange(n), frame_b=np.arange(n), C=None, H=None)
     st.cfg.pairing = SimpleNamespace(mode="consecutive", step=2)
+    from simcalib.world.robot_error import RobotConfig
+    st.cfg.robot = RobotConfig()       # an ideal arm: a robot_fk stream has no DH term
     st.source_logs = {}
     st.measured = {c: SimpleNamespace(frame_index=np.arange(n),
                                       T_world_cam=np.asarray(getattr(w.trajectory, c).T_world_cam))

@@ -44,7 +44,7 @@ class Baseline:
     timing_s: dict = field(default_factory=dict)
     #: ``(Ba, Bb, pose_pairs)``: the systematic pose errors of the recorded datapoints
     #: (:func:`simcalib.pipeline.pose_error_basis`, full layout) and the motions' datapoint
-    #: pairs; None without ArUco cameras with a map or calibration error
+    #: pairs; None without such errors (ArUco: map / calibration; robot_fk: DH table)
     pose_error_basis: tuple | None = None
     sources: dict = field(default_factory=dict)   # camera -> pose source name
 
@@ -210,6 +210,7 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
         rejected += sorted(set(bad))
         feasible[np.array(sorted(set(bad)))] = False
     t3 = time.perf_counter()
+
     def std(F, G):
         if sysm is None:
             return pl.predicted_std(F, range_m=L, **kw)
@@ -503,7 +504,8 @@ def advice_dict(base: Baseline, adv: Advice, ver: Verification | None = None) ->
                          "minimise max + mean eigenvalue of the covariance in tolerance "
                          "units, (F + 1e-6 I)^-1 + (F + 1e-6 I)^-1 G G^T (F + 1e-6 I)^-1 "
                          "with the systematic pose errors' score G (marker map, "
-                         "calibrations)" if adv.systematic_parameters else
+                         "calibrations, the arm's DH table)" if adv.systematic_parameters
+                         else
                          "greedy along the stop-and-go chain, then exchange passes: "
                          "minimise max + mean of 1/(lambda + 1e-6) of the information in "
                          "tolerance units (lambda_min = 1/largest sigma^2)"),

@@ -178,6 +178,7 @@ class Solution:
     pose_bias: object = field(default=None, repr=False, compare=False)  # uncertainty.PoseBias
     pose_pairs: np.ndarray | None = field(default=None, repr=False, compare=False)  # (N, 2)
     pose_error_basis: tuple | None = field(default=None, repr=False, compare=False)  # (Ba, Bb)
+    pose_simulation: object = field(default=None, repr=False, compare=False)  # SimulatedError
 
     # ---- issue 9: uncertainty and the verdict that follows from it
     @cached_property
@@ -193,7 +194,8 @@ class Solution:
                            weights=self.problem.weights, tolerance_deg=self.tolerance_deg,
                            tolerance_m=self.tolerance_m, correlation_lag=self.correlation_lag,
                            pose_bias=self.pose_bias, pose_pairs=self.pose_pairs,
-                           pose_error_basis=self.pose_error_basis)
+                           pose_error_basis=self.pose_error_basis,
+                           pose_simulation=self.pose_simulation)
         except ValueError:
             return None
         if self.uncertainty_method == "bootstrap":
@@ -505,7 +507,7 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
           tolerance_m: float = 0.01, uncertainty: str = "sandwich",
           bootstrap_samples: int = 200, correlation_lag: int = 0, robust: str = "none",
           robust_threshold: float | None = None, pose_bias=None, pose_pairs=None,
-          pose_error_basis=None) -> Solution:
+          pose_error_basis=None, pose_simulation=None) -> Solution:
     """Estimate ``X = T_a_b`` from relative motions with ``C_i X = X H_i``.
 
     ``C``, ``H``: array-like ``(N, 4, 4)``, N >= 2. ``method``: a name from
@@ -538,7 +540,9 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
     shared standard-normal parameters: a marker map's and a lens calibration's errors,
     :func:`simcalib.vision.pose_error_basis`); the simulation then draws them with the
     white pose noise the residuals leave beyond them (whether or not the white-noise test
-    passes; without a prior).
+    passes; without a prior). ``pose_simulation``: ``Solution.uncertainty.simulation`` of
+    another estimate of the same motions at the same alpha, reused instead of simulating
+    again (a run simulates once for all its solvers).
 
     ``robust``: ``"none"`` (default), ``"ransac"`` (hypotheses from minimal sets of motions,
     consensus by the per-motion screw residual — threshold ``robust_threshold`` or
@@ -554,6 +558,14 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
     alpha = check_alpha(alpha)
     from simcalib.solvers.diagnostics.uncertainty import check_pose_bias
     pose_bias = check_pose_bias(pose_bias)
+    if pose_simulation is not None:
+        from simcalib.solvers.diagnostics.pose_noise import SimulatedError
+        if not isinstance(pose_simulation, SimulatedError):
+            raise TypeError(f"pose_simulation must be a SimulatedError (Solution.uncertainty."
+                            f"simulation); received {type(pose_simulation).__name__}")
+        if pose_pairs is None:
+            raise ValueError("pose_simulation needs pose_pairs (the datapoints of each "
+                             "motion); received pose_pairs=None")
     if pose_error_basis is not None and pose_pairs is None:
         raise ValueError("pose_error_basis needs pose_pairs (the datapoints of each motion); "
                          "received pose_pairs=None")
@@ -619,7 +631,8 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
                     tolerance_m=tolerance_m, uncertainty_method=uncertainty,
                     bootstrap_rng=boot_rng, bootstrap_samples=int(bootstrap_samples),
                     correlation_lag=correlation_lag, pose_bias=pose_bias,
-                    pose_pairs=pose_pairs, pose_error_basis=pose_error_basis)
+                    pose_pairs=pose_pairs, pose_error_basis=pose_error_basis,
+                    pose_simulation=pose_simulation)
 
 
 def solve_batch(C, H, method: str = "dqopt", alpha=1.0, prior: Prior | None = None,

@@ -61,7 +61,8 @@ from simcalib.geometry import (dual_quat_from_transform, matrix_from_rotvec, qua
                                rotvec_from_matrix)
 
 __all__ = ["WhiteNoiseTest", "check_pose_pairs", "expected_autocorrelation",
-           "white_noise_test", "simulate_error", "check_systematic", "systematic_residual_power", "minimiser_offset", "N_SIM", "N_TRUTHS", "WHITE_LEVEL"]
+           "white_noise_test", "simulate_error", "check_systematic", "systematic_residual_power",
+           "SimulatedError", "minimiser_offset", "N_SIM", "N_TRUTHS", "WHITE_LEVEL"]
 
 #: simulated data sets at the first noise level, and truths (one more draw each) at the second
 N_SIM = 256
@@ -69,6 +70,22 @@ N_TRUTHS = 8
 #: false-rejection rate of the white-noise test
 WHITE_LEVEL = 1e-3
 _MAX_LAG = 20
+
+
+@dataclass(frozen=True, eq=False)
+class SimulatedError:
+    """What the simulation of :func:`simcalib.solvers.diagnostics.uncertainty.covariance`
+    found for one data set: ``bias`` (6,) and ``covariance`` (6, 6) of the alpha-cost
+    minimiser (delta coordinates), at ``alpha``, with the white pose noise ``white``
+    ``(sigma_r_rad, sigma_t_m)`` per pose and ``systematic_parameters`` shared ones. Other
+    estimates of the same motions at the same alpha may reuse it (``pose_simulation=``):
+    it describes the minimiser near X, not one estimate (each estimate's own offset from
+    the minimiser is added separately)."""
+    bias: np.ndarray
+    covariance: np.ndarray
+    alpha: float
+    white: tuple
+    systematic_parameters: int = 0
 
 
 def check_pose_pairs(pose_pairs, n: int) -> np.ndarray:
@@ -289,9 +306,16 @@ def _draw_noise(shape, sigma_r, sigma_t, rng, basis):
     eta = rng.standard_normal((shape[0], Ba.shape[2]))
     out = []
     for (q, qd), B in ((na, Ba), (nb, Bb)):
-        s, sd = _dq_from_xi(np.einsum("kip,bp->bki", B[:shape[1]], eta))
+        s, sd = _dq_from_xi(_systematic_draw(B[:shape[1]], eta))
         out.append(_dq_mul(q, qd, s, sd))
     return tuple(out)
+
+
+def _systematic_draw(B, eta):
+    """``(n_draw, n_pose, 6)`` pose errors ``B @ eta`` for bases ``B`` (n_pose, 6, P) and
+    draws ``eta`` (n_draw, P) (one matrix product)."""
+    n, _, P = B.shape
+    return (eta @ B.reshape(n * 6, P).T).reshape(eta.shape[0], n, 6)
 
 
 def systematic_residual_power(C, X, alpha: float, pose_pairs, systematic, weights=None,
@@ -320,8 +344,8 @@ def systematic_residual_power(C, X, alpha: float, pose_pairs, systematic, weight
         return T
 
     eta = rng.standard_normal((n_draws, Ba.shape[2]))
-    Ea = exp6(np.einsum("kip,bp->bki", Ba, eta))
-    Eb = exp6(np.einsum("kip,bp->bki", Bb, eta))
+    Ea = exp6(_systematic_draw(Ba, eta))
+    Eb = exp6(_systematic_draw(Bb, eta))
     Cs = invert_transform(Ea[:, P[:, 0]]) @ C @ Ea[:, P[:, 1]]
     Hs = invert_transform(Eb[:, P[:, 0]]) @ (invert_transform(X) @ C @ X) @ Eb[:, P[:, 1]]
     qC, qCd = dual_quat_from_transform(Cs)

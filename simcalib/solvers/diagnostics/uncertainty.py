@@ -570,6 +570,9 @@ class Uncertainty:
     # (0: none) and the white pose noise it added beyond them (per pose: rad, m)
     systematic_parameters: int = 0
     white_pose_noise: tuple | None = None
+    # the simulation itself (pose_noise.SimulatedError), to reuse for other estimates of
+    # the same motions (``covariance(..., pose_simulation=...)``)
+    simulation: object = None
 
     @property
     def std(self) -> np.ndarray:
@@ -654,8 +657,8 @@ def _fmt_vec3(v):
 def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None, *,
                tolerance_deg: float = TOLERANCE_DEG, tolerance_m: float = TOLERANCE_M,
                correlation_lag: int = 0, pose_bias=None, pose_pairs=None,
-               simulation_rng: np.random.Generator | None = None, pose_error_basis=None
-               ) -> Uncertainty:
+               simulation_rng: np.random.Generator | None = None, pose_error_basis=None,
+               pose_simulation=None) -> Uncertainty:
     """Uncertainty of the estimate ``X`` (= ``T_a_b``) from motions ``C``, ``H`` (N,4,4),
     ``C_i X = X H_i``, for the paper's cost at ``alpha`` (1/m) with an optional
     :class:`simcalib.solvers.api.Prior`. ``noise``: a :class:`NoiseModel` or
@@ -672,7 +675,10 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
     the marker map's and the lens calibration's errors; ``pose_noise.check_systematic``):
     without a prior the covariance is then always simulated, with these errors plus white
     pose noise at the level the residuals leave beyond them, and ``pose_bias`` (whose
-    run-constant errors the basis already holds) is not added. See the module doc."""
+    run-constant errors the basis already holds) is not added. ``pose_simulation``: a
+    :class:`~simcalib.solvers.diagnostics.pose_noise.SimulatedError` of the same motions at
+    the same ``alpha`` (``Uncertainty.simulation`` of another estimate) used instead of
+    simulating again (one simulation serves every solver of a run). See the module doc."""
     C = check_transforms(C, "C", min_count=2)
     H = check_transforms(H, "H", min_count=2)
     if C.shape != H.shape:
@@ -753,8 +759,11 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
         Fc = _rescale_meat(F, *_score_meats(np.einsum("n,nki,nkl,nl->ni", w, K, Qinv, e), lag))
         F = F @ _sym_inv(Fc) @ F
         F = 0.5 * (F + F.T)
-    pose_test = sim_bias = None
+    pose_test = sim_bias = sim = None
     systematic = None
+    if pose_simulation is not None and pose_pairs is None:
+        raise ValueError("pose_simulation needs pose_pairs (the datapoints of each motion); "
+                         "received pose_pairs=None")
     if pose_error_basis is not None:
         if pose_pairs is None:
             raise ValueError("pose_error_basis needs pose_pairs (the datapoints of each "
@@ -764,9 +773,10 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
             pose_error_basis, int(check_pose_pairs(pose_pairs, N).max()) + 1)
     if pose_pairs is not None:
         fit = (qr_rot, qr_tr, qt_tr) if noise is None else None
-        Ms, pose_test, sim_bias, white = _pose_simulation(
+        Ms, pose_test, sim = _pose_simulation(
             C, X, alpha, pose_pairs, Linv, e, Hs, Ms, s_r2, s_t2, w, prior, simulation_rng,
-            systematic, fit)
+            systematic, fit, pose_simulation)
+        sim_bias = None if sim is None else sim.bias
     Sig_bias = None
     if bias is not None and not bias.is_zero and not (systematic is not None
                                                       and sim_bias is not None):
@@ -937,42 +947,55 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
                        noise_information=F_noise, information_ratio=null.ratio,
                        ratio_threshold=null.threshold, pose_noise_test=pose_test,
                        simulated_bias=sim_bias,
-                       systematic_parameters=0 if systematic is None or sim_bias is None
-                       else int(systematic[0].shape[2]),
-                       white_pose_noise=white if sim_bias is not None else None,
+                       systematic_parameters=0 if sim is None else sim.systematic_parameters,
+                       white_pose_noise=None if sim is None else sim.white, simulation=sim,
                        method="pose_simulation" if sim_bias is not None else "sandwich")
 
 
 def _pose_simulation(C, X, alpha, pose_pairs, Linv, e, Hs, Ms, s_r2, s_t2, w, prior, rng,
-                     systematic=None, fit=None):
-    """``(Ms, test, bias, white)``: the meat replaced by ``Hs (S + b b^T) Hs`` from the pose-noise
-    simulation when the test accepts white pose noise or a systematic basis explains the
-    correlation (and there is no prior, whose cost the simulation does not model);
-    otherwise ``Ms`` unchanged and bias ``None``. ``white``: the white pose noise per pose
-    ``(sigma_r_rad, sigma_t_m)`` simulated. With ``systematic`` the white level is
-    what the residuals leave beyond the systematic errors' expected share (``fit``: the
-    noise fit's ``(qr_rot, qr_tr, qt_tr)``; None when the noise was given)."""
-    from simcalib.solvers.diagnostics.pose_noise import (check_pose_pairs, simulate_error,
+                     systematic=None, fit=None, shared=None):
+    """``(Ms, test, sim)``: the meat replaced by ``Hs (S + b b^T) Hs`` from the pose-noise
+    simulation (``sim``, a ``pose_noise.SimulatedError``) when the test accepts white pose
+    noise or a systematic basis explains the correlation (and there is no prior, whose cost
+    the simulation does not model); otherwise ``Ms`` unchanged and ``sim`` None. With
+    ``systematic`` the white level is what the residuals leave beyond the systematic
+    errors' expected share (``fit``: the noise fit's ``(qr_rot, qr_tr, qt_tr)``; None when
+    the noise was given). ``shared``: a SimulatedError of the same motions at the same
+    alpha, used instead of simulating."""
+    from simcalib.solvers.diagnostics.pose_noise import (SimulatedError, check_pose_pairs,
+                                                          simulate_error,
                                                           systematic_residual_power,
                                                           white_noise_test)
+    if shared is not None:
+        if not isinstance(shared, SimulatedError):
+            raise TypeError(f"pose_simulation must be a SimulatedError (Uncertainty."
+                            f"simulation); received {type(shared).__name__}")
+        if shared.alpha != alpha:
+            raise ValueError(f"pose_simulation was simulated at alpha = {shared.alpha:g}; "
+                             f"this estimate is at alpha = {alpha:g}")
     P = check_pose_pairs(pose_pairs, C.shape[0])
     test = white_noise_test(np.einsum("nij,nj->ni", Linv, e), P)
-    if prior is not None or not (test.accepted or systematic is not None):
-        return Ms, test, None, None
-    if systematic is not None and fit is not None:
-        qr_rot, qr_tr, qt_tr = fit
-        rot2_s, tr2_s = systematic_residual_power(C, X, alpha, P, systematic, weights=w)
-        sr2_s = rot2_s / qr_rot
-        st2_s = max(tr2_s - sr2_s * qr_tr, 0.0) / qt_tr
-        s_r2 = max(s_r2 - sr2_s, WHITE_SHARE_FLOOR * s_r2)
-        s_t2 = max(s_t2 - st2_s, WHITE_SHARE_FLOOR * s_t2)
-    white = (math.sqrt(s_r2 / 2.0), math.sqrt(s_t2 / 2.0))
-    out = simulate_error(C, X, alpha, P, *white, weights=w, rng=rng, systematic=systematic)
-    if out is None:
-        return Ms, test, None, None
-    b, S = out
-    Ms = Hs @ (S + np.outer(b, b)) @ Hs
-    return 0.5 * (Ms + Ms.T), test, b, white
+    if prior is not None or not (test.accepted or systematic is not None
+                                 or shared is not None):
+        return Ms, test, None
+    if shared is not None:
+        sim = shared
+    else:
+        if systematic is not None and fit is not None:
+            qr_rot, qr_tr, qt_tr = fit
+            rot2_s, tr2_s = systematic_residual_power(C, X, alpha, P, systematic, weights=w)
+            sr2_s = rot2_s / qr_rot
+            st2_s = max(tr2_s - sr2_s * qr_tr, 0.0) / qt_tr
+            s_r2 = max(s_r2 - sr2_s, WHITE_SHARE_FLOOR * s_r2)
+            s_t2 = max(s_t2 - st2_s, WHITE_SHARE_FLOOR * s_t2)
+        white = (math.sqrt(s_r2 / 2.0), math.sqrt(s_t2 / 2.0))
+        out = simulate_error(C, X, alpha, P, *white, weights=w, rng=rng, systematic=systematic)
+        if out is None:
+            return Ms, test, None
+        sim = SimulatedError(out[0], out[1], float(alpha), white,
+                             0 if systematic is None else int(systematic[0].shape[2]))
+    Ms = Hs @ (sim.covariance + np.outer(sim.bias, sim.bias)) @ Hs
+    return 0.5 * (Ms + Ms.T), test, sim
 
 
 #: with a systematic pose-error basis, the white pose noise keeps at least this share of the
