@@ -122,10 +122,12 @@ camera trajectories, the reference and each proposed camera pose (axes, labelled
 added stops (`simcalib.rerun_log.record_advice`).
 
 Python: `simcalib.advise.baseline(cfg)`, `advise(base, k, seed=, n_candidates=,
-when_determined=, systematic=True)`, `verify(base, adv, seeds=)`, `advice_dict(base, adv, ver)`; for
+when_determined=, systematic=True)`, `verify(base, adv, seeds=)`,
+`advice_dict(base, adv, ver)`; for
 motions from any source (e.g. imported pose streams) and a world modelling the platform:
 `advise_motions(world, C, H, X, k, rng=, alpha=, aruco_cameras=, view_weighting=True,
-refine=True, pose_error_basis=, run_cfg=, sources=)`; `verify(..., joint_baseline=True, max_joint_deg=20, n_joint=300,
+refine=True, pose_error_basis=, run_cfg=, sources=)`;
+`verify(..., joint_baseline=True, max_joint_deg=20, n_joint=300,
 n_random=300)`; `feasibility.joint_candidates(world, n, rng, max_joint_deg=)`,
 `feasibility.view_quality(world, T_world_cam, camera)`;
 `planner.greedy_chain(..., noise_scale=, ref_noise_scale=, refine=, max_passes=,

@@ -40,11 +40,12 @@ from truths one more noise draw away and the bias and covariance are extrapolate
 noise (SIMEX, Cook & Stefanski 1994: ``b = 2 b_1 - b_2``; covariance ``2 S_1 - S_2`` taken
 in the metric of ``S_1``, its eigenvalue ratios clipped to [0.2, 1]). The Monte-Carlo uses
 its own generator (default ``default_rng(0)``: a numerical integration, fixed so the same
-data give the same covariance). Systematic pose errors (``simulate_error(..., systematic=(Ba, Bb))``): errors shared by
-the poses through common standard-normal parameters (``xi_pose = B[pose] @ eta``; a marker
-map, lens calibrations), drawn once per simulated data set for both cameras and composed
-with the white draw (:func:`check_systematic`, :func:`systematic_residual_power` for the
-share of the residuals they explain). Measured on ``3d`` with ``source=noisy`` (100 data sets):
+data give the same covariance). Systematic pose errors
+(``simulate_error(..., systematic=(Ba, Bb))``): errors shared by the poses through common
+standard-normal parameters (``xi_pose = B[pose] @ eta``; a marker map, lens calibrations,
+an arm's DH table), drawn once per simulated data set for both cameras and composed with
+the white draw (:func:`check_systematic`; :func:`systematic_residual_power` for the share
+of the residuals they explain). Measured on ``3d`` with ``source=noisy`` (100 data sets):
 coverage of the 95 % region 0.92-0.95 and predicted sigma / RMS 1.05-1.31 (the first-order
 model with the serial-correlation correction: 0.89 and up to 1.95).
 """
@@ -369,9 +370,9 @@ def simulate_error(C, X, alpha: float, pose_pairs, sigma_r_rad: float, sigma_t_m
     both cameras), shared through ``pose_pairs``; SIMEX-extrapolated to noise-free truths
     (module doc). ``systematic``: optional ``(Ba, Bb)`` (:func:`check_systematic`), pose
     errors shared by the poses through common parameters (marker map, lens calibration),
-    drawn afresh with each white draw. The two noise levels use the same ``n_sim`` pose-noise draws (common
-    random numbers: their difference, which the extrapolation needs, is then far less noisy
-    than either); the second level's truths (``n_truths``, one more draw each) take turns
+    drawn afresh with each white draw. The two noise levels use the same ``n_sim`` pose-noise
+    draws (common random numbers: their difference, which the extrapolation needs, is then
+    far less noisy than either); the second level's truths (``n_truths``, one more draw each) take turns
     over the draws. ``None`` when the simulation is unusable (non-finite results or a
     singular covariance)."""
     C = np.asarray(C, dtype=np.float64)

@@ -68,7 +68,11 @@ the rotation noise of ``H_i`` into ``tau_i`` through ``R_Ci' t_X``).
   systematic errors explain at the re-estimated X
   (``pose_noise.systematic_residual_power``; at least ``WHITE_SHARE_FLOOR`` of it), and
   ``pose_bias`` (whose run-constant errors the basis holds) is not added. The pipeline
-  derives the basis for ArUco cameras (:func:`simcalib.pipeline.pose_error_basis`).
+  derives the basis for ArUco cameras (marker map, calibrations) and ``robot_fk`` streams
+  (the arm's DH table, ``robot.kinematic_error``) (:func:`simcalib.pipeline.
+  pose_error_basis`) and simulates once per run: the other solvers' headlines reuse the
+  simulation (``pose_simulation=``, ``Uncertainty.simulation``), each adding its own
+  offset from the minimiser.
 * **Information** (alpha-free, for the verdict): ``F = sum K^T Q^-1 K`` (Fisher information
   of the data under the noise model; alpha cancels exactly).
 * **Prior** (paper eqs. 26-29): read as a pseudo-measurement of ``vec(dq)`` with weight ``a``
