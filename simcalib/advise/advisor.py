@@ -282,12 +282,44 @@ def advise(base: Baseline, k: int = 5, *, seed: int = 0, n_candidates: int = 300
                           run_cfg=base.cfg, sources=base.sources, **cand_kw)
 
 
-def solve_errors(C, H, X_true, alpha, *, tolerance_deg=1.0, tolerance_m=0.01) -> dict:
-    """dqopt on ``C``, ``H``: actual errors against ``X_true`` and the predicted 1-sigma."""
+def _systematic_inputs(base: Baseline, cand, idx, streams, got) -> dict:
+    """``pose_pairs`` / ``pose_error_basis`` of the recorded motions followed by the chain of
+    measured stops (datapoints ``D + s`` for stop ``s``, 0 the reference), so that the
+    verification's covariance includes the systematic pose errors as a run's does; ``{}``
+    without a recorded basis."""
+    if base.pose_error_basis is None or not np.asarray(got).size:
+        return {}
+    from simcalib.pipeline import stop_error_basis
+    Ba, Bb, pairs = base.pose_error_basis
+    D = Ba.shape[0]
+    got = np.asarray(got, dtype=np.int64)
+    qpos = fz.stop_state(cand, idx)[0]
+    stops = []
+    for cam, B in (("cam_a", Ba), ("cam_b", Bb)):
+        st = streams[cam]
+        pos = {int(f): k for k, f in enumerate(np.asarray(st.frame_index))}
+        frames = np.concatenate([[0], got])
+        T = np.asarray(st.T_world_cam)[[pos[int(f)] for f in frames]]
+        S = stop_error_basis(base.truth.world, base.cfg, cam, base.sources.get(cam), T,
+                             qpos=qpos[frames])
+        stops.append(np.zeros((frames.size, 6, B.shape[2])) if S is None else S)
+    start = np.concatenate([[0], got[:-1]])
+    chain = np.stack([D + start, D + got], axis=1)
+    return {"pose_pairs": np.concatenate([pairs, chain]),
+            "pose_error_basis": (np.concatenate([Ba, stops[0]]),
+                                 np.concatenate([Bb, stops[1]]))}
+
+
+def solve_errors(C, H, X_true, alpha, *, tolerance_deg=1.0, tolerance_m=0.01,
+                 pose_pairs=None, pose_error_basis=None) -> dict:
+    """dqopt on ``C``, ``H``: actual errors against ``X_true`` and the predicted 1-sigma
+    (with ``pose_pairs`` / ``pose_error_basis``: the systematic pose errors included, as in
+    a run)."""
     import simcalib
     from simcalib.geometry import rotation_error_rad
     sol = simcalib.solve(C, H, method="dqopt", alpha=alpha, tolerance_deg=tolerance_deg,
-                         tolerance_m=tolerance_m)
+                         tolerance_m=tolerance_m, pose_pairs=pose_pairs,
+                         pose_error_basis=pose_error_basis)
     X = np.asarray(sol.X, dtype=np.float64)
     if not sol.success or not np.isfinite(X).all():
         return {"success": False, "error": sol.solver_message, "n_motions": int(C.shape[0])}
@@ -346,13 +378,16 @@ def verify(base: Baseline, adv: Advice, *, seeds=(0, 1, 2, 3, 4), joint_baseline
     t0 = time.perf_counter()
     X_true = base.truth.X_true
     kw = dict(tolerance_deg=adv.tolerance_deg, tolerance_m=adv.tolerance_m)
-    res0 = solve_errors(base.C, base.H, X_true, base.alpha, **kw)
+    rec = {} if base.pose_error_basis is None else {
+        "pose_pairs": base.pose_error_basis[2], "pose_error_basis": base.pose_error_basis[:2]}
+    res0 = solve_errors(base.C, base.H, X_true, base.alpha, **kw, **rec)
 
     def run(idx, rng, cand=adv.candidates):
         streams = fz.execute_stops(base.truth, base.cfg, cand, idx, rng)
         Cs, Hs, got = fz.stop_motions(streams, chain=True)
         r = solve_errors(np.concatenate([base.C, Cs]), np.concatenate([base.H, Hs]), X_true,
-                         base.alpha, **kw)
+                         base.alpha, **kw,
+                         **_systematic_inputs(base, cand, idx, streams, got))
         r["stops_measured"] = int(got.size)
         r["stops"] = [int(i) for i in idx]
         r["motion_size"] = _motion_size(cand, idx)
