@@ -144,3 +144,28 @@ def test_chain_choice_weighs_systematic_errors_and_never_raises_the_criterion():
     with pytest.raises(ValueError, match="systematic must be"):
         pl.greedy_chain(Fb, M, X, 0.005, 0.001, 2,
                         systematic=(np.zeros((6, P)), np.zeros((2, 6, P)), Bc[:, :10]))
+
+
+def test_verification_chain_indices_follow_the_measured_stops():
+    """A stop that was not measured is skipped: the chain links the measured ones and
+    every datapoint index has a row in the combined basis."""
+    from types import SimpleNamespace
+
+    from simcalib.advise.advisor import _systematic_inputs
+    D, P = 7, 3
+    Ba, Bb = np.zeros((D, 6, P)), np.zeros((D, 6, P))
+    pairs = np.stack([np.arange(D - 1), np.arange(1, D)], 1)
+    base = SimpleNamespace(pose_error_basis=(Ba, Bb, pairs), truth=SimpleNamespace(world=None),
+                           cfg=None, sources={})
+    cand = SimpleNamespace(ref={"qpos": np.zeros(2), "mocap_pos": np.zeros((1, 3)),
+                                "mocap_quat_wxyz": np.zeros((1, 4))},
+                           qpos=np.zeros((5, 2)), mocap_pos=np.zeros((5, 1, 3)),
+                           mocap_quat_wxyz=np.zeros((5, 1, 4)))
+    frames = np.array([0, 1, 2, 4])              # stop 3 of 4 not measured
+    st = SimpleNamespace(frame_index=frames, T_world_cam=np.tile(np.eye(4), (4, 1, 1)))
+    out = _systematic_inputs(base, cand, np.arange(4), {"cam_a": st, "cam_b": st},
+                             np.array([1, 2, 4]))
+    pp = out["pose_pairs"]
+    assert pp.shape == (D - 1 + 3, 2)
+    np.testing.assert_array_equal(pp[D - 1:], [[D, D + 1], [D + 1, D + 2], [D + 2, D + 3]])
+    assert out["pose_error_basis"][0].shape == (D + 4, 6, P) and pp.max() < D + 4

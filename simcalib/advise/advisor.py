@@ -284,7 +284,8 @@ def advise(base: Baseline, k: int = 5, *, seed: int = 0, n_candidates: int = 300
 
 def _systematic_inputs(base: Baseline, cand, idx, streams, got) -> dict:
     """``pose_pairs`` / ``pose_error_basis`` of the recorded motions followed by the chain of
-    measured stops (datapoints ``D + s`` for stop ``s``, 0 the reference), so that the
+    measured stops (datapoint ``D`` the reference, ``D + j + 1`` the ``j``-th measured
+    stop; :func:`feasibility.stop_motions` chains the measured ones), so that the
     verification's covariance includes the systematic pose errors as a run's does; ``{}``
     without a recorded basis."""
     if base.pose_error_basis is None or not np.asarray(got).size:
@@ -300,11 +301,12 @@ def _systematic_inputs(base: Baseline, cand, idx, streams, got) -> dict:
         pos = {int(f): k for k, f in enumerate(np.asarray(st.frame_index))}
         frames = np.concatenate([[0], got])
         T = np.asarray(st.T_world_cam)[[pos[int(f)] for f in frames]]
-        S = stop_error_basis(base.truth.world, base.cfg, cam, base.sources.get(cam), T,
-                             qpos=qpos[frames])
+        src = base.sources.get(cam)
+        S = stop_error_basis(base.truth.world, base.cfg, cam, src, T, qpos=qpos[frames]) \
+            if src in ("aruco", "robot_fk") else None
         stops.append(np.zeros((frames.size, 6, B.shape[2])) if S is None else S)
-    start = np.concatenate([[0], got[:-1]])
-    chain = np.stack([D + start, D + got], axis=1)
+    row = np.arange(1, got.size + 1)              # stop got[j] is row j + 1 (0: reference)
+    chain = np.stack([D + row - 1, D + row], axis=1)
     return {"pose_pairs": np.concatenate([pairs, chain]),
             "pose_error_basis": (np.concatenate([Ba, stops[0]]),
                                  np.concatenate([Bb, stops[1]]))}

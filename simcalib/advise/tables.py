@@ -159,11 +159,15 @@ rotation-arm; rotation and translation); the planner's own prediction (column "p
 after the stops"): {over_planner} for the advised stops. What the model leaves out — the
 detector's own viewpoint-dependent errors (blur, rolling shutter, corner refinement) and
 the encoders' backlash — is why the actual errors can stay above it.
-Weighing the systematic errors moved the ratios (this table, against the previous
-information-only planner: scara 0.48 / 1.2, linear-arm 0.35 / 0.38, rotation-arm
-0.75 / 1.2), but not to the target's 0.3 everywhere: once rotations about different axes
-fix the degenerate directions, random stops that are rich in rotation reach an error
-floor that the advised stops lower by the factor the tables show, not by 3x.
+Against the previous information-only planner (same command at commit 174d94d: scara
+0.48 / 1.2, linear-arm 0.35 / 0.38, rotation-arm 0.75 / 1.2, `3d force` 1.1 / 1.3),
+weighing the systematic errors lowered the ratios on rotation-arm and `3d force`, the
+rotation ratio on linear-arm (0.27, within the target) and the predicted-to-actual gap
+(was 2.4-8.2x); on scara the rotation ratio rose (its errors are set most by what the
+model leaves out: the flange's encoder backlash and the wrist camera's detector errors).
+The target's 0.3 is met only for linear-arm's rotation: once rotations about different
+axes fix the degenerate directions, random stops rich in rotation reach an error floor
+that the advised stops lower by the factors in the table, not by 3x.
 On `3d` the recorded motion already determines X within the
 tolerance, so no motion is advised (`3d force`: what k forced stops do). The `planar` cart
 cannot determine X's translation along the vertical with any drivable motion: see the
