@@ -582,6 +582,31 @@ def perturbed_intrinsics(K, dist, step) -> tuple[np.ndarray, np.ndarray]:
     return K2, np.asarray(dist, dtype=np.float64) + step[3:8]
 
 
+def _check_intrinsics_inputs(points_world, T_world_cam, K, dist, sigmas,
+                             nonempty: bool = False) -> tuple:
+    """``(T, K, dist, sigmas)`` as float arrays for the calibration sensitivities, or a
+    ValueError naming what was received (``nonempty``: at least one pose)."""
+    T = np.asarray(T_world_cam, dtype=np.float64)
+    if T.ndim != 3 or T.shape[1:] != (4, 4) or (nonempty and T.shape[0] == 0) \
+            or not np.isfinite(T).all():
+        raise ValueError(f"T_world_cam must be (F, 4, 4) finite poses"
+                         f"{', F >= 1' if nonempty else ''}; received shape {T.shape}")
+    if len(points_world) != T.shape[0]:
+        raise ValueError(f"points_world must hold one (P, 3) array per pose ({T.shape[0]}); "
+                         f"received {len(points_world)}")
+    K = np.asarray(K, dtype=np.float64)
+    dist = np.asarray(dist, dtype=np.float64).ravel()
+    sig = np.asarray(sigmas, dtype=np.float64).ravel()
+    if K.shape != (3, 3) or not np.isfinite(K).all() or dist.shape != (5,) \
+            or not np.isfinite(dist).all():
+        raise ValueError(f"K must be finite (3, 3) and dist 5 finite coefficients; received "
+                         f"shapes {K.shape}, {dist.shape}")
+    if sig.shape != (8,) or not np.isfinite(sig).all() or (sig < 0).any():
+        raise ValueError(f"sigmas must be 8 finite numbers >= 0 "
+                         f"({', '.join(INTRINSICS_PARAMETERS)}); received {sigmas!r}")
+    return T, K, dist, sig
+
+
 def intrinsics_pose_sensitivity(points_world, T_world_cam, K, dist, sigmas) -> np.ndarray:
     """How an error of the camera calibration moves the PnP camera poses: ``J`` (6, 8).
 
@@ -600,23 +625,8 @@ def intrinsics_pose_sensitivity(points_world, T_world_cam, K, dist, sigmas) -> n
     cv2 = _cv2()
     from .camera_effects import undistort_points  # noqa: PLC0415
     from .geometry import rotvec_from_matrix  # noqa: PLC0415
-    T = np.asarray(T_world_cam, dtype=np.float64)
-    if T.ndim != 3 or T.shape[1:] != (4, 4) or T.shape[0] == 0 or not np.isfinite(T).all():
-        raise ValueError(f"T_world_cam must be (F, 4, 4) finite poses, F >= 1; received "
-                         f"shape {T.shape}")
-    if len(points_world) != T.shape[0]:
-        raise ValueError(f"points_world must hold one (P, 3) array per pose ({T.shape[0]}); "
-                         f"received {len(points_world)}")
-    K = np.asarray(K, dtype=np.float64)
-    dist = np.asarray(dist, dtype=np.float64).ravel()
-    sig = np.asarray(sigmas, dtype=np.float64).ravel()
-    if K.shape != (3, 3) or not np.isfinite(K).all() or dist.shape != (5,) \
-            or not np.isfinite(dist).all():
-        raise ValueError(f"K must be finite (3, 3) and dist 5 finite coefficients; received "
-                         f"shapes {K.shape}, {dist.shape}")
-    if sig.shape != (8,) or not np.isfinite(sig).all() or (sig < 0).any():
-        raise ValueError(f"sigmas must be 8 finite numbers >= 0 "
-                         f"({', '.join(INTRINSICS_PARAMETERS)}); received {sigmas!r}")
+    T, K, dist, sig = _check_intrinsics_inputs(points_world, T_world_cam, K, dist, sigmas,
+                                               nonempty=True)
     zero = np.zeros(5)
     crit = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, 100, 1e-14)
     J = np.zeros((6, 8))
@@ -768,22 +778,7 @@ def intrinsics_pose_jacobians(points_world, T_world_cam, K, dist, sigmas) -> np.
     No PnP iteration (the linear counterpart of :func:`intrinsics_pose_sensitivity`)."""
     cv2 = _cv2()
     from .camera_effects import undistort_points  # noqa: PLC0415
-    T = np.asarray(T_world_cam, dtype=np.float64)
-    if T.ndim != 3 or T.shape[1:] != (4, 4) or not np.isfinite(T).all():
-        raise ValueError(f"T_world_cam must be (F, 4, 4) finite poses; received shape {T.shape}")
-    if len(points_world) != T.shape[0]:
-        raise ValueError(f"points_world must hold one (P, 3) array per pose ({T.shape[0]}); "
-                         f"received {len(points_world)}")
-    K = np.asarray(K, dtype=np.float64)
-    dist = np.asarray(dist, dtype=np.float64).ravel()
-    sig = np.asarray(sigmas, dtype=np.float64).ravel()
-    if K.shape != (3, 3) or not np.isfinite(K).all() or dist.shape != (5,) \
-            or not np.isfinite(dist).all():
-        raise ValueError(f"K must be finite (3, 3) and dist 5 finite coefficients; received "
-                         f"shapes {K.shape}, {dist.shape}")
-    if sig.shape != (8,) or not np.isfinite(sig).all() or (sig < 0).any():
-        raise ValueError(f"sigmas must be 8 finite numbers >= 0 "
-                         f"({', '.join(INTRINSICS_PARAMETERS)}); received {sigmas!r}")
+    T, K, dist, sig = _check_intrinsics_inputs(points_world, T_world_cam, K, dist, sigmas)
     K_norm = np.eye(3)
     J = np.zeros((T.shape[0], 6, 8))
     for f in range(T.shape[0]):

@@ -42,7 +42,7 @@ if TYPE_CHECKING:  # types of the state only; the stages import lazily
     from simcalib.streams import PoseStream
 
 __all__ = ["RunResult", "RunState", "SolverResult", "RunInterrupted", "run", "STAGES",
-           "RNG_STREAMS"]
+           "RNG_STREAMS", "run_rngs", "state_through_pairs"]
 
 STAGES = ("world", "streams", "pairs", "solvers", "evaluation", "reports")
 CAMERAS = ("cam_a", "cam_b")
@@ -210,6 +210,26 @@ def _stages():
             ("reports", _stage_reports))
 
 
+def run_rngs(seed: int) -> dict:
+    """One generator per stage (:data:`RNG_STREAMS`), children of ``SeedSequence(seed)``."""
+    children = np.random.SeedSequence(seed).spawn(len(RNG_STREAMS))
+    return {name: np.random.default_rng(s) for name, s in zip(RNG_STREAMS, children)}
+
+
+def state_through_pairs(cfg, truth=None) -> "RunState":
+    """The stages world, streams and pairs of a run of ``cfg`` (no output directory, no
+    solvers, no recording): the same data a run solves. ``truth``: a world already built
+    (e.g. one path for a Monte-Carlo over the measurement) used instead of the world stage."""
+    st = RunState(cfg=cfg, out=None, rngs=run_rngs(cfg.seed))
+    if truth is None:
+        _stage_world(st)
+    else:
+        st.truth = truth
+    _stage_streams(st)
+    _stage_pairs(st)
+    return st
+
+
 def run(config, overrides=(), *, echo: bool = True) -> RunResult:
     """Run one scenario end to end and write its outputs; see the module docstring.
 
@@ -238,10 +258,8 @@ def run(config, overrides=(), *, echo: bool = True) -> RunResult:
     out = _output_dir(cfg)
     out.mkdir(parents=True, exist_ok=True)
     (out / "config.yaml").write_text(yaml.safe_dump(to_dict(cfg), sort_keys=False))
-    children = np.random.SeedSequence(cfg.seed).spawn(len(RNG_STREAMS))
-    rngs = {name: np.random.default_rng(s) for name, s in zip(RNG_STREAMS, children)}
     t_start = time.perf_counter()
-    st = RunState(cfg=cfg, out=out, rngs=rngs, t_start=t_start)
+    st = RunState(cfg=cfg, out=out, rngs=run_rngs(cfg.seed), t_start=t_start)
     recorder = None
     # the worker hides rerun's import: a process that imported it already logs itself
     background = cfg.recording.background and "rerun" not in sys.modules

@@ -60,12 +60,7 @@ def baseline(cfg) -> Baseline:
         raise ValueError(f"advice needs a simulated platform (kind 'sim'); scenario "
                          f"{cfg.scenario!r} has kind {cfg.kind!r}")
     t0 = time.perf_counter()
-    children = np.random.SeedSequence(cfg.seed).spawn(len(pipeline.RNG_STREAMS))
-    rngs = {n: np.random.default_rng(s) for n, s in zip(pipeline.RNG_STREAMS, children)}
-    st = pipeline.RunState(cfg=cfg, out=None, rngs=rngs)
-    pipeline._stage_world(st)
-    pipeline._stage_streams(st)
-    pipeline._stage_pairs(st)
+    st = pipeline.state_through_pairs(cfg)
     C, H = st.pairs.C, st.pairs.H
     alpha = pipeline.choose_run_alpha(cfg, C, H)["alpha"]   # as the run's headline: no truth
     sol = simcalib.solve(C, H, method="dqopt", alpha=alpha)

@@ -262,15 +262,8 @@ def scenario_data(scenario: str, overrides=(), seeds=range(3), one_world=False) 
     for seed in seeds:
         cfg = load_config(scenario, ["recording.enabled=false", "progress=false",
                                      "workers=1", f"seed={seed}", *overrides])
-        children = np.random.SeedSequence(cfg.seed).spawn(len(P.RNG_STREAMS))
-        rngs = {n: np.random.default_rng(c) for n, c in zip(P.RNG_STREAMS, children)}
-        st = P.RunState(cfg=cfg, out=None, rngs=rngs)
-        if truth is None or not one_world:
-            P._stage_world(st)
-            truth = st.truth
-        st.truth = truth
-        P._stage_streams(st)
-        P._stage_pairs(st)
+        st = P.state_through_pairs(cfg, truth if one_world else None)
+        truth = st.truth
         out.append((np.asarray(st.pairs.C), np.asarray(st.pairs.H), np.asarray(st.X_true),
                     P.correlation_lag(st), _x_without_constant_pose_error(st),
                     P.calibration_bias(st)[0], P.pose_pairs(st)))
@@ -372,12 +365,7 @@ def aruco_trial(seed: int, keep_data: bool = False, overrides=()) -> dict:
     from simcalib.solvers.api import solve
     cfg = load_config("3d", ["recording.enabled=false", "progress=false", "workers=1",
                              f"seed={seed}", *overrides])
-    children = np.random.SeedSequence(cfg.seed).spawn(len(P.RNG_STREAMS))
-    rngs = {n: np.random.default_rng(c) for n, c in zip(P.RNG_STREAMS, children)}
-    st = P.RunState(cfg=cfg, out=None, rngs=rngs)
-    P._stage_world(st)
-    P._stage_streams(st)
-    P._stage_pairs(st)
+    st = P.state_through_pairs(cfg)
     C, H, X_true = np.asarray(st.pairs.C), np.asarray(st.pairs.H), np.asarray(st.X_true)
     lag, pairs, X_obs = P.correlation_lag(st), P.pose_pairs(st), _x_without_constant_pose_error(st)
     bias = P.calibration_bias(st)[0]

@@ -327,7 +327,7 @@ def systematic_residual_power(C, X, alpha: float, pose_pairs, systematic, weight
     estimate: motions ``C`` and ``H* = X^-1 C X`` re-simulated with ``n_draws`` draws of the
     basis, each solved for the alpha-cost minimiser (the part of the errors that is a change
     of X, e.g. a run-constant error, leaves no residual)."""
-    from simcalib.geometry import invert_transform, matrix_from_rotvec
+    from simcalib.geometry import invert_transform, transform_from_rotation_translation
     from simcalib.solvers.diagnostics.uncertainty import linear_model
     C = np.asarray(C, dtype=np.float64)
     X = np.asarray(X, dtype=np.float64)
@@ -338,11 +338,7 @@ def systematic_residual_power(C, X, alpha: float, pose_pairs, systematic, weight
     wn = w / w.sum()
 
     def exp6(xi):
-        T = np.zeros(xi.shape[:-1] + (4, 4))
-        T[..., :3, :3] = matrix_from_rotvec(xi[..., :3])
-        T[..., :3, 3] = xi[..., 3:]
-        T[..., 3, 3] = 1.0
-        return T
+        return transform_from_rotation_translation(matrix_from_rotvec(xi[..., :3]), xi[..., 3:])
 
     eta = rng.standard_normal((n_draws, Ba.shape[2]))
     Ea = exp6(_systematic_draw(Ba, eta))
