@@ -183,11 +183,19 @@ def test_small_verification_run(tmp_path, capsys):
     assert ver["advised"]["success"] and ver["advised"]["stops_measured"] >= 1
     assert len(ver["random"]) == 2 and len(ver["random_joint"]) == 2
     assert ver["motion_size"]["random_joint"]["rotation_deg"] > 0
+    # the third baseline draws from the advice's own candidates
+    assert len(ver["random_wide"]) == 2
+    assert all(0 <= j < out["candidates"]["drawn"] for r in ver["random_wide"]
+               for j in r["stops"])
+    assert set(ver["ratio_advised_to_random_wide_median"]) == {"rotation_error_deg",
+                                                               "translation_error_cm"}
     # the linear path leaves X's translation undetermined; two advised stops determine it
     assert ver["baseline"]["verdict"] != "determined"
     assert ver["advised"]["translation_error_cm"] < ver["baseline"]["translation_error_cm"]
     assert (tmp_path / "advice.rrd").is_file()
-    assert "advised median / random median" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "advised median / random (jog ranges) median" in printed
+    assert "advised median / random from the advice's candidates median" in printed
 
 
 def test_exchange_refinement_never_worse_than_greedy_and_noise_scale_steers():
@@ -210,6 +218,25 @@ def test_exchange_refinement_never_worse_than_greedy_and_noise_scale_steers():
         pl.greedy_chain(Fb, M, X, 0.005, 0.001, 2, noise_scale=np.zeros(60))
 
 
+def test_candidate_ranges_jog_and_wide(scara_advice):
+    from simcalib.advise.feasibility import RANGES, candidates
+    base, adv = scara_advice
+    world = base.truth.world
+    ang = {}
+    for r in ("jog", "wide"):
+        c = candidates(world, 60, np.random.default_rng(1), ranges=r)
+        ang[r] = np.degrees(np.linalg.norm(c.rotvec_world_rad, axis=1))
+        move = np.linalg.norm(c.dp_world_m, axis=1)
+        max_deg, max_m = RANGES[r]["arm"]
+        assert ang[r].min() >= 5.0 - 1e-9 and ang[r].max() <= max_deg + 1e-9
+        assert move.max() <= max_m + 1e-12
+    assert ang["wide"].max() > RANGES["jog"]["arm"][0]      # the planner looks farther
+    # the advice's candidates are drawn over the wide ranges by default
+    assert np.degrees(np.linalg.norm(adv.candidates.rotvec_world_rad, axis=1)).max() > 40.0
+    with pytest.raises(ValueError, match="ranges must be one of"):
+        candidates(world, 2, np.random.default_rng(0), ranges="far")
+
+
 def test_joint_jog_baseline_stops_are_feasible(scara_advice):
     from simcalib.advise.feasibility import joint_candidates, view_quality
     base, adv = scara_advice
@@ -230,3 +257,17 @@ def test_joint_jog_baseline_stops_are_feasible(scara_advice):
         assert (q[jc.visible[c] == 0] == 0).all()
     with pytest.raises(ValueError, match="max_joint_deg"):
         joint_candidates(world, 2, np.random.default_rng(0), max_joint_deg=0)
+
+
+def test_stops_are_measured_at_rest():
+    """Stop and go: a stop's frame is one instantaneous render (no sub-frames that would
+    interpolate the pose towards the next stop); every other camera effect is kept."""
+    from simcalib.advise.feasibility import _stop_config
+    from simcalib.config import load_config
+    cfg = load_config("3d", ["vision.preset=realistic"])
+    assert cfg.vision.effects().timed                   # realistic: blur, rolling shutter
+    at_rest = _stop_config(cfg)
+    eff, eff0 = at_rest.vision.effects(), cfg.vision.effects()
+    assert not eff.timed and at_rest.workers == 1
+    assert eff.distortion == eff0.distortion and eff.map_position_std_m > 0
+    assert eff.exposure_s == eff0.exposure_s and eff.jpeg_quality == eff0.jpeg_quality

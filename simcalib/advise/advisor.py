@@ -116,21 +116,27 @@ class Advice:
 
 
 WHEN_DETERMINED = ("stop", "advise")
+#: candidate stops the planner draws by default (advice for k = 5 in ~10 s on 2 cores)
+N_CANDIDATES = 1000
 
 
 def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alpha: float = 1.0,
-                   n_candidates: int = 300, aruco_cameras=(), tolerance_deg: float = 1.0,
-                   tolerance_m: float = 0.01, render_check=None, when_determined: str = "stop",
+                   n_candidates: int = N_CANDIDATES, aruco_cameras=(), tolerance_deg: float = 1.0,
+                   tolerance_m: float = 0.01, render_check=None, when_determined: str = "advise",
                    view_weighting: bool = True, refine: bool = True, pose_error_basis=None,
-                   run_cfg=None, sources=None, **cand_kw) -> Advice:
+                   run_cfg=None, sources=None, ranges: str = "wide", **cand_kw) -> Advice:
     """Propose ``k`` stops for a platform modelled by ``world`` given recorded motions
     ``C``, ``H`` (N, 4, 4) and the estimate ``X``. ``render_check(cand, idx) -> {camera:
     PoseStream}`` (optional) renders and detects the chosen stops; those not measured by an
-    ArUco camera are dropped and the choice repeated (at most 3 times).
+    ArUco camera are dropped and the choice repeated (at most 3 times). The candidates are
+    ``n_candidates`` stops drawn by :func:`feasibility.candidates` over ``ranges`` (default
+    ``"wide"``: the arm's flange rotated up to 90 deg and moved up to 30 cm; ``cand_kw``
+    overrides the maxima).
 
-    ``when_determined``: ``"stop"`` (default) proposes no motion when the recorded motions
-    already determine every direction of X within the tolerance (largest predicted 1-sigma
-    <= 1 tolerance) and says so in ``message``; ``"advise"`` proposes ``k`` anyway.
+    ``when_determined``: when the recorded motions already determine every direction of X
+    within the tolerance (largest predicted 1-sigma <= 1 tolerance), ``"advise"``
+    (default) still proposes the ``k`` stops that lower it most and says so in
+    ``message``; ``"stop"`` proposes none.
 
     ``view_weighting``: scale each candidate stop's pose-noise variance by how much worse
     (or better) the ArUco cameras' view of the markers is there than at the reference
@@ -154,7 +160,8 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
     s_r, s_t = u.noise.sigma_r_rad, u.noise.sigma_t_m
     F_base = pl.motion_information(C, H, X, s_r, s_t).sum(axis=0)
     t1 = time.perf_counter()
-    cand = fz.candidates(world, n_candidates, rng, aruco_cameras=aruco_cameras, **cand_kw)
+    cand = fz.candidates(world, n_candidates, rng, aruco_cameras=aruco_cameras, ranges=ranges,
+                         **cand_kw)
     t2 = time.perf_counter()
     Cc, Hc = pl.predicted_motions(cand.motion["cam_a"], X)
     F_cand = pl.motion_information(Cc, Hc, X, s_r, s_t)
@@ -175,12 +182,16 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
     rejected, checked = [], {}
     message = ""
     g0 = pl.greedy(F_base, F_cand, 1, feasible=np.zeros_like(feasible), **kw)
-    if when_determined == "stop" and g0.max_std_tol[0] <= 1.0:
-        feasible = np.zeros_like(feasible)
+    if g0.max_std_tol[0] <= 1.0:
         message = (f"X is already determined within the tolerance by the recorded motions "
-                   f"(largest predicted 1-sigma {g0.max_std_tol[0]:.3g} tolerance units); no "
-                   "motion proposed: more motions add measurement bias as well as "
-                   "information (use when_determined='advise' / force=true to get k anyway)")
+                   f"(largest predicted 1-sigma {g0.max_std_tol[0]:.3g} tolerance units); ")
+        if when_determined == "stop":
+            feasible = np.zeros_like(feasible)
+            message += ("no motion proposed (when_determined='advise' / force=true: the k "
+                        "stops that lower it most)")
+        else:
+            message += ("the stops below lower it further (when_determined='stop' / "
+                        "force=false: propose none)")
     for _ in range(4):
         g, added, added_g = pl.greedy_chain_systematic(
             F_base, cand.motion["cam_a"], X, s_r, s_t, k, feasible=feasible,
@@ -257,9 +268,9 @@ def _systematic(world, cand, C, H, X, s_r, s_t, recorded, sources, cfg):
     return G_base[:, used], B_ref[:, :, used], B_cand[:, :, :, used]
 
 
-def advise(base: Baseline, k: int = 5, *, seed: int = 0, n_candidates: int = 300,
+def advise(base: Baseline, k: int = 5, *, seed: int = 0, n_candidates: int = N_CANDIDATES,
            tolerance_deg: float = 1.0, tolerance_m: float = 0.01, render: bool = True,
-           when_determined: str = "stop", systematic: bool = True, **cand_kw) -> Advice:
+           when_determined: str = "advise", systematic: bool = True, **cand_kw) -> Advice:
     """Advice for a :class:`Baseline` (candidates drawn from ``seed``); ``systematic``: weigh
     the recorded run's systematic pose errors (``base.pose_error_basis``) in the choice."""
     rng = np.random.default_rng([int(seed), 13])
@@ -344,9 +355,11 @@ class Verification:
     seed's measurement noise, ``advised_seeds``, ``advised_median``) / median random
     (``advised`` is the advised stops measured once, with the scenario's seed). ``random_joint*`` /
     ``ratio_joint``: the same for the joint-jog baseline (arm only: k stops drawn from
-    :func:`feasibility.joint_candidates`); ``motion_size``: median rotation (deg) and
-    translation (cm) of camera a's stop-to-stop motions for ``advised``, ``random``,
-    ``random_joint``."""
+    :func:`feasibility.joint_candidates`); ``random_wide*`` / ``ratio_wide``: k stops
+    drawn at random from the planner's own feasible candidates (its wider ranges: how much
+    of the gain is moving farther rather than choosing); ``motion_size``: median rotation
+    (deg) and translation (cm) of camera a's stop-to-stop motions for ``advised``,
+    ``random``, ``random_joint``, ``random_wide``."""
     baseline: dict
     advised: dict
     random: list
@@ -359,19 +372,23 @@ class Verification:
     motion_size: dict = field(default_factory=dict)
     advised_seeds: list = field(default_factory=list)
     advised_median: dict = field(default_factory=dict)
+    random_wide: list = field(default_factory=list)
+    random_wide_median: dict = field(default_factory=dict)
+    ratio_wide: dict = field(default_factory=dict)
 
 
 def verify(base: Baseline, adv: Advice, *, seeds=(0, 1, 2, 3, 4), joint_baseline: bool = True,
-           max_joint_deg: float = 20.0, n_joint: int = 300, n_random: int = 300
-           ) -> Verification:
+           max_joint_deg: float = 20.0, n_joint: int = 300, n_random: int = 300,
+           wide_baseline: bool = True) -> Verification:
     """Execute the advised stops and ``len(seeds)`` sets of ``k`` random feasible stops
-    in the simulator; solve with each added. Two random baselines: ``random``, uniform over
-    ``n_random`` feasible stops drawn by :func:`feasibility.candidates` with its default
+    in the simulator; solve with each added. Random baselines: ``random``, uniform over
+    ``n_random`` feasible stops drawn by :func:`feasibility.candidates` with the ``"jog"``
     ranges (arm: flange rotated 5-40 deg about a uniform axis, moved up to 15 cm; cart:
-    yaw +-90 deg, 1 m; the same draw as the planner's candidates when it used the
-    defaults; never screened by information), and, for the arm with ``joint_baseline``,
-    ``random_joint``: ``k`` feasible stops of ``n_joint`` joint jogs of +-``max_joint_deg``
-    per joint around the reference (:func:`feasibility.joint_candidates`)."""
+    yaw +-90 deg, 1 m; never screened by information); for the arm with
+    ``joint_baseline``, ``random_joint``: ``k`` feasible stops of ``n_joint`` joint jogs of
+    +-``max_joint_deg`` per joint around the reference
+    (:func:`feasibility.joint_candidates`); with ``wide_baseline``, ``random_wide``: ``k``
+    stops uniform over the planner's own feasible candidates."""
     t0 = time.perf_counter()
     X_true = base.truth.X_true
     kw = dict(tolerance_deg=adv.tolerance_deg, tolerance_m=adv.tolerance_m)
@@ -403,11 +420,11 @@ def verify(base: Baseline, adv: Advice, *, seeds=(0, 1, 2, 3, 4), joint_baseline
         res_adv = dict(res0, stops_measured=0, stops=[])
         res_adv_seeds = [dict(res0, stops_measured=0, stops=[], seed=int(s)) for s in seeds]
     adv_med, _ = _summary({}, res_adv_seeds)
-    # the random baseline's own feasible set, drawn with the default ranges (5-40 deg,
+    # the random baseline's own feasible set, drawn with the "jog" ranges (5-40 deg,
     # 15 cm; cart +-90 deg, 1 m) whatever ranges the planner was given
     rc = fz.candidates(base.truth.world, n_random,
                        np.random.default_rng([int(base.cfg.seed), 13]),
-                       aruco_cameras=base.aruco_cameras)
+                       aruco_cameras=base.aruco_cameras, ranges="jog")
     def random_runs(cands, salt: int) -> list[dict]:
         """k random feasible stops of ``cands`` per seed (choice drawn with ``salt``)."""
         feas = np.flatnonzero(cands.feasible)
@@ -429,12 +446,17 @@ def verify(base: Baseline, adv: Advice, *, seeds=(0, 1, 2, 3, 4), joint_baseline
                                  aruco_cameras=base.aruco_cameras, max_joint_deg=max_joint_deg)
         res_joint = random_runs(jc, 505)
         med_j, ratio_j = _summary(adv_med, res_joint)
+    res_wide, med_w, ratio_w = [], {}, {}
+    if wide_baseline and adv.k > 0:
+        res_wide = random_runs(adv.candidates, 606)
+        med_w, ratio_w = _summary(adv_med, res_wide)
     size = {"advised": res_adv.get("motion_size"),
             "random": _median_size([r.get("motion_size") for r in res_rand]),
-            "random_joint": _median_size([r.get("motion_size") for r in res_joint])}
+            "random_joint": _median_size([r.get("motion_size") for r in res_joint]),
+            "random_wide": _median_size([r.get("motion_size") for r in res_wide])}
     return Verification(res0, res_adv, res_rand, med, ratio,
                         {"verification": time.perf_counter() - t0}, res_joint, med_j,
-                        ratio_j, size, res_adv_seeds, adv_med)
+                        ratio_j, size, res_adv_seeds, adv_med, res_wide, med_w, ratio_w)
 
 
 def _summary(res_adv, res_rand):
@@ -570,6 +592,9 @@ def advice_dict(base: Baseline, adv: Advice, ver: Verification | None = None) ->
                                "motion_size": ver.motion_size,
                                "advised_seeds": ver.advised_seeds,
                                "advised_median": ver.advised_median,
+                               "random_wide": ver.random_wide,
+                               "random_wide_median": ver.random_wide_median,
+                               "ratio_advised_to_random_wide_median": ver.ratio_wide,
                                "timing_s": ver.timing_s}
     return out
 

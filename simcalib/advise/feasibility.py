@@ -32,10 +32,19 @@ import numpy as np
 from simcalib.geometry import invert_transform, matrix_from_rotvec
 
 __all__ = ["Candidates", "SelfCollision", "candidates", "joint_candidates", "view_quality",
-           "stop_state", "execute_stops", "reference_index", "ROOM_MARGIN_M"]
+           "stop_state", "execute_stops", "reference_index", "ROOM_MARGIN_M", "RANGES"]
 
 ROOM_MARGIN_M = 0.05
 CART_ROOM_MARGIN_M = 0.3
+
+#: ``(max rotation deg, max translation m)`` of the drawn stops, per range and platform:
+#: ``"jog"`` — the moves a user adds without advice (flange rotated up to 40 deg about an
+#: axis, moved up to 15 cm; cart yaw +-90 deg, 1 m): the random baseline of
+#: :func:`simcalib.advise.verify`; ``"wide"`` — what the planner searches (the arm's flange
+#: rotated up to 90 deg, moved up to 30 cm; the same cart moves): advice includes *how far*
+#: to move, within what IK, limits, collisions and the markers allow.
+RANGES = {"jog": {"arm": (40.0, 0.15), "cart": (90.0, 1.0)},
+          "wide": {"arm": (90.0, 0.30), "cart": (90.0, 1.0)}}
 
 
 @dataclass(frozen=True)
@@ -204,32 +213,37 @@ def _reference(world):
 
 def candidates(world, n: int, rng: np.random.Generator, *, aruco_cameras=(),
                max_rotation_deg: float | None = None, max_translation_m: float | None = None,
-               min_rotation_deg: float = 5.0, min_markers: int = 4) -> Candidates:
+               min_rotation_deg: float = 5.0, min_markers: int = 4,
+               ranges: str = "jog") -> Candidates:
     """``n`` random candidate stops around the world's reference pose, with feasibility.
 
     Arm: rotation about a uniform axis by an angle uniform in ``[min_rotation_deg,
-    max_rotation_deg]`` (default 40) and a translation uniform in a ball of radius
-    ``max_translation_m`` (default 0.15 m). Cart: yaw uniform in +-``max_rotation_deg``
-    (default 90) and a planar translation in a disc of radius ``max_translation_m``
-    (default 1.0 m); roll, pitch and height are not drivable. ``aruco_cameras``: the
-    cameras whose poses come from the marker field (visibility checked)."""
+    max_rotation_deg]`` and a translation uniform in a ball of radius
+    ``max_translation_m``. Cart: yaw uniform in +-``max_rotation_deg`` and a planar
+    translation in a disc of radius ``max_translation_m``; roll, pitch and height are not
+    drivable. Unset maxima come from ``RANGES[ranges]`` (``"jog"``: arm 40 deg / 0.15 m,
+    cart 90 deg / 1 m; ``"wide"``: arm 90 deg / 0.30 m). ``aruco_cameras``: the cameras
+    whose poses come from the marker field (visibility checked)."""
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
         raise ValueError(f"n must be an integer >= 1; received {n!r}")
     if not isinstance(rng, np.random.Generator):
         raise TypeError(f"rng must be a numpy.random.Generator; received {type(rng).__name__}")
+    if ranges not in RANGES:
+        raise ValueError(f"ranges must be one of {sorted(RANGES)}; received {ranges!r}")
     cfg = world.config
     platform = cfg.platform
     if platform not in ("arm", "cart"):
         raise ValueError(f"motion advice supports platforms 'arm' and 'cart'; received "
                          f"{platform!r}")
+    default_r, default_t = RANGES[ranges][platform]
     model = world.model
     data, q_ref, mp_ref, mq_ref, k_ref, T_ref_target, T_ref_cam = _reference(world)
     site = world.scene.mount_site
 
     # ---- draw the moves
     if platform == "arm":
-        max_r = 40.0 if max_rotation_deg is None else float(max_rotation_deg)
-        max_t = 0.15 if max_translation_m is None else float(max_translation_m)
+        max_r = default_r if max_rotation_deg is None else float(max_rotation_deg)
+        max_t = default_t if max_translation_m is None else float(max_translation_m)
         axis = rng.standard_normal((n, 3))
         axis /= np.linalg.norm(axis, axis=1, keepdims=True)
         ang = np.deg2rad(rng.uniform(min(min_rotation_deg, max_r), max_r, n))
@@ -238,8 +252,8 @@ def candidates(world, n: int, rng: np.random.Generator, *, aruco_cameras=(),
         d /= np.linalg.norm(d, axis=1, keepdims=True)
         dp = d * (max_t * rng.random(n) ** (1 / 3))[:, None]
     else:
-        max_r = 90.0 if max_rotation_deg is None else float(max_rotation_deg)
-        max_t = 1.0 if max_translation_m is None else float(max_translation_m)
+        max_r = default_r if max_rotation_deg is None else float(max_rotation_deg)
+        max_t = default_t if max_translation_m is None else float(max_translation_m)
         yaw = np.deg2rad(rng.uniform(-max_r, max_r, n))
         omega = np.zeros((n, 3))
         omega[:, 2] = yaw
@@ -434,17 +448,25 @@ def execute_stops(truth, cfg, cand: Candidates, idx, rng: np.random.Generator,
     out = {}
     children = rng.spawn(len(by_source))
     for (name, cams), r in zip(sorted(by_source.items()), children):
-        res = get_source(name, truth.kind).measure(t2, _quiet(cfg), r, tuple(cams))
+        res = get_source(name, truth.kind).measure(t2, _stop_config(cfg), r, tuple(cams))
         out.update({c: res.streams[c] for c in cams})
     return out
 
 
-def _quiet(cfg):
-    """``cfg`` rendering in this process (small batches: no worker pool)."""
+def _stop_config(cfg):
+    """``cfg`` for measuring stops: rendering in this process (small batches: no worker
+    pool) and with the platform **at rest**: one instantaneous render per frame. At rest
+    motion blur and rolling shutter vanish; the sub-frame renders would instead interpolate
+    the state towards the next stop, seconds away, as if the platform moved through the
+    exposure."""
     try:
-        return dataclasses.replace(cfg, workers=1)
+        cfg = dataclasses.replace(cfg, workers=1)
     except (TypeError, ValueError):
         return cfg
+    vision = getattr(cfg, "vision", None)
+    if vision is not None and dataclasses.is_dataclass(vision):
+        cfg = dataclasses.replace(cfg, vision=dataclasses.replace(vision, subframes=1))
+    return cfg
 
 
 def stop_motions(streams: dict, chain: bool = True

@@ -10,7 +10,7 @@ from pathlib import Path
 from simcalib.errors import UsageError
 
 USAGE = """usage: python -m simcalib advise scenario=NAME [k=5] [verify=true|false]
-       [seeds=5] [candidates=300] [output=DIR] [key=value ...] [--debug]
+       [seeds=5] [candidates=1000] [output=DIR] [key=value ...] [--debug]
 
 Proposes the next k stop-and-go motions of the platform that most reduce the predicted
 uncertainty of X (greedy over feasible candidates: IK within joint limits, no
@@ -20,9 +20,10 @@ simulator (render, detect, solve with dqopt) and compared with k random feasible
 for `seeds` seeds. Writes DIR/advice.json and DIR/advice.rrd (proposed poses in 3D);
 prints the predicted 1-sigma per axis before and after each motion.
 
-Advice options: k, verify, seeds, candidates, max_rotation_deg, max_translation_m,
-min_markers, recording (true|false), force (true: propose k motions even when the
-recorded motions already determine X within the tolerance; default false: none then),
+Advice options: k, verify, seeds, candidates, max_rotation_deg, max_translation_m
+(the stops drawn: arm up to 90 deg / 0.30 m by default, cart 90 deg / 1 m),
+min_markers, recording (true|false), force (default true: propose k motions even when
+the recorded motions already determine X within the tolerance; false: none then),
 systematic (true|false, default true: weigh the marker map's and the calibrations' errors
 the ArUco poses share, see docs/advice.md). Every other key=value is a scenario override
 (see `run --help`), e.g. world.platform=arm.
@@ -53,8 +54,9 @@ def _value(key, text):
 
 
 def parse_args(args):
+    from simcalib.advise.advisor import N_CANDIDATES
     from simcalib.commands.run import parse_args as run_args
-    opts = {"k": 5, "verify": False, "seeds": 5, "candidates": 300, "recording": True}
+    opts = {"k": 5, "verify": False, "seeds": 5, "candidates": N_CANDIDATES, "recording": True}
     rest = []
     for a in args:
         key, eq, val = a.partition("=")
@@ -108,26 +110,26 @@ def print_table(out: dict) -> None:
         vr("advised", ver["advised"])
         for r in ver.get("advised_seeds", []):
             vr(f"advised s{r['seed']}", r)
-        for r in ver["random"]:
-            vr(f"random s{r['seed']}", r)
-        med = ver["random_median"]
-        print(f"{'random med':<12}{_n(med['rotation_error_deg']):>10}"
-              f"{_n(med['translation_error_cm']):>12}{_n(med['max_std_deg']):>13}"
-              f"{_n(med['max_std_cm']):>14}")
-        for r in ver.get("random_joint", []):
-            vr(f"jog s{r['seed']}", r)
-        medj = ver.get("random_joint_median") or {}
-        if medj:
-            print(f"{'jog med':<12}{_n(medj['rotation_error_deg']):>10}"
-                  f"{_n(medj['translation_error_cm']):>12}{_n(medj['max_std_deg']):>13}"
-                  f"{_n(medj['max_std_cm']):>14}")
-        rt = ver["ratio_advised_to_random_median"]
-        print(f"advised median / random median: rotation {_n(rt['rotation_error_deg'])}, "
-              f"translation {_n(rt['translation_error_cm'])}")
-        rtj = ver.get("ratio_advised_to_random_joint_median") or {}
-        if rtj:
-            print(f"advised median / joint-jog median: rotation {_n(rtj['rotation_error_deg'])}, "
-                  f"translation {_n(rtj['translation_error_cm'])}")
+        for tag, key, name in BASELINES:
+            for r in ver.get(key, []):
+                vr(f"{tag} s{r['seed']}", r)
+            med = ver.get(f"{key}_median") or {}
+            if med:
+                print(f"{tag + ' med':<12}{_n(med['rotation_error_deg']):>10}"
+                      f"{_n(med['translation_error_cm']):>12}{_n(med['max_std_deg']):>13}"
+                      f"{_n(med['max_std_cm']):>14}")
+        for tag, key, name in BASELINES:
+            rt = ver.get(f"ratio_advised_to_{key}_median") or {}
+            if rt:
+                print(f"advised median / {name} median: rotation "
+                      f"{_n(rt['rotation_error_deg'])}, translation "
+                      f"{_n(rt['translation_error_cm'])}")
+
+
+#: (console tag, advice.json key, name) of the verification's random baselines
+BASELINES = (("random", "random", "random (jog ranges)"),
+             ("jog", "random_joint", "joint-jog"),
+             ("wide", "random_wide", "random from the advice's candidates"))
 
 
 def _n(v):
@@ -148,10 +150,9 @@ def main(args: list[str]) -> int:
     kw = {k: opts[k] for k in ("max_rotation_deg", "max_translation_m", "min_markers")
           if k in opts}
     adv = advise(base, opts["k"], seed=cfg.seed, n_candidates=opts["candidates"],
-                 when_determined="advise" if opts.get("force") else "stop",
+                 when_determined="advise" if opts.get("force", True) else "stop",
                  systematic=opts.get("systematic", True), **kw)
-    ver = (verify(base, adv, seeds=tuple(range(opts["seeds"])), n_random=opts["candidates"],
-                  n_joint=opts["candidates"]) if opts["verify"] else None)
+    ver = verify(base, adv, seeds=tuple(range(opts["seeds"]))) if opts["verify"] else None
     out = advice_dict(base, adv, ver)
     path = out_dir / "advice.json"
     path.write_text(json.dumps(out, indent=1, allow_nan=False))
