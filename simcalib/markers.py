@@ -623,7 +623,6 @@ def intrinsics_pose_sensitivity(points_world, T_world_cam, K, dist, sigmas) -> n
     error is constant over a run). The pose error covariance is ``J J^T`` (independent
     parameters)."""
     cv2 = _cv2()
-    from .camera_effects import undistort_points  # noqa: PLC0415
     from .geometry import rotvec_from_matrix  # noqa: PLC0415
     T, K, dist, sig = _check_intrinsics_inputs(points_world, T_world_cam, K, dist, sigmas,
                                                nonempty=True)
@@ -632,22 +631,15 @@ def intrinsics_pose_sensitivity(points_world, T_world_cam, K, dist, sigmas) -> n
     J = np.zeros((6, 8))
     n_used = 0
     for f in range(T.shape[0]):
-        Pw = np.asarray(points_world[f], dtype=np.float64).reshape(-1, 3)
-        if Pw.shape[0] < 4:
+        seen = _frame_projection(cv2, points_world[f], T[f], K, dist)
+        if seen is None:
             continue
-        T_cw = _inv(T[f])
-        rvec0, _ = cv2.Rodrigues(T_cw[:3, :3])
+        Pw, T_cw, rvec0, img = seen
         tvec0 = T_cw[:3, 3].reshape(3, 1)
-        img, _ = cv2.projectPoints(Pw, rvec0, tvec0, K, dist)
-        img = img.reshape(-1, 2)
         col = np.zeros((6, 8))
         for j in np.flatnonzero(sig > 0):
             xi = []
-            for s in (1.0, -1.0):
-                step = np.zeros(8)
-                step[j] = s * sig[j]
-                K2, d2 = perturbed_intrinsics(K, dist, step)
-                uv = undistort_points(img, K2, d2)
+            for K2, uv in _undistorted_at_plus_minus_sigma(img, K, dist, sig, j):
                 rvec, tvec = cv2.solvePnPRefineLM(Pw, uv, K2, zero, rvec0.copy(), tvec0.copy(),
                                                   criteria=crit)
                 T_est = _inv(_rvec_t_to_T(rvec, tvec))
@@ -660,6 +652,31 @@ def intrinsics_pose_sensitivity(points_world, T_world_cam, K, dist, sigmas) -> n
         raise ValueError("no pose sees 4 or more points; the calibration sensitivity is "
                          "undefined")
     return J / n_used
+
+
+def _frame_projection(cv2, points_world_f, T_world_cam_f, K, dist):
+    """One frame's world points ``(P, 3)``, ``T_cam_world``, its Rodrigues vector and the
+    points' pixels with the calibration ``(K, dist)`` ``(P, 2)``; None below 4 points."""
+    Pw = np.asarray(points_world_f, dtype=np.float64).reshape(-1, 3)
+    if Pw.shape[0] < 4:
+        return None
+    T_cw = _inv(T_world_cam_f)
+    rvec, _ = cv2.Rodrigues(T_cw[:3, :3])
+    img, _ = cv2.projectPoints(Pw, rvec, T_cw[:3, 3].reshape(3, 1), K, dist)
+    return Pw, T_cw, rvec, img.reshape(-1, 2)
+
+
+def _undistorted_at_plus_minus_sigma(img, K, dist, sig, j):
+    """``[(K', points)]`` for the calibration moved by ``+sigma_j`` and by ``-sigma_j``:
+    the pixels ``img`` undistorted as the pipeline would with that believed calibration."""
+    from .camera_effects import undistort_points  # noqa: PLC0415
+    out = []
+    for s in (1.0, -1.0):
+        step = np.zeros(8)
+        step[j] = s * sig[j]
+        K2, d2 = perturbed_intrinsics(K, dist, step)
+        out.append((K2, undistort_points(img, K2, d2)))
+    return out
 
 
 def _pose_from_point_jacobian(pc: np.ndarray, K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -777,29 +794,20 @@ def intrinsics_pose_jacobians(points_world, T_world_cam, K, dist, sigmas) -> np.
     equations of PnP in normalised coordinates. Frames with fewer than 4 points: zero.
     No PnP iteration (the linear counterpart of :func:`intrinsics_pose_sensitivity`)."""
     cv2 = _cv2()
-    from .camera_effects import undistort_points  # noqa: PLC0415
     T, K, dist, sig = _check_intrinsics_inputs(points_world, T_world_cam, K, dist, sigmas)
     K_norm = np.eye(3)
     J = np.zeros((T.shape[0], 6, 8))
     for f in range(T.shape[0]):
-        Pw = np.asarray(points_world[f], dtype=np.float64).reshape(-1, 3)
-        if Pw.shape[0] < 4:
+        seen = _frame_projection(cv2, points_world[f], T[f], K, dist)
+        if seen is None:
             continue
-        T_cw = _inv(T[f])
+        Pw, T_cw, _, img = seen
         pc = Pw @ T_cw[:3, :3].T + T_cw[:3, 3]
-        rvec0, _ = cv2.Rodrigues(T_cw[:3, :3])
-        img, _ = cv2.projectPoints(Pw, rvec0, T_cw[:3, 3].reshape(3, 1), K, dist)
-        img = img.reshape(-1, 2)
         duv_dpc, dpc_dxi = _pose_from_point_jacobian(pc, K_norm)
         A = (duv_dpc @ dpc_dxi).reshape(-1, 6)                  # normalised coordinates
         Apinv = np.linalg.pinv(A)
         for j in np.flatnonzero(sig > 0):
-            n = []
-            for s in (1.0, -1.0):
-                step = np.zeros(8)
-                step[j] = s * sig[j]
-                K2, d2 = perturbed_intrinsics(K, dist, step)
-                uv = undistort_points(img, K2, d2)
-                n.append((uv - K2[:2, 2]) / np.diag(K2)[:2])
+            n = [(uv - K2[:2, 2]) / np.diag(K2)[:2]
+                 for K2, uv in _undistorted_at_plus_minus_sigma(img, K, dist, sig, j)]
             J[f, :, j] = Apinv @ (0.5 * (n[0] - n[1])).ravel()
     return J
