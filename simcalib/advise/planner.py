@@ -144,25 +144,16 @@ def systematic_scores(C, H, X, sigma_r_rad: float, sigma_t_m: float, B_start_a, 
     per camera, ``eta ~ N(0, I)`` shared), the motion the error ``xi_end - Ad(M^-1)
     xi_start`` (right-multiplied), the residual its first-order response (the eq. 38
     noise Jacobians of :func:`simcalib.solvers.diagnostics.uncertainty.linear_model`)."""
-    from simcalib.geometry import skew_matrix
-    from simcalib.solvers.diagnostics.uncertainty import linear_model
+    from simcalib.solvers.diagnostics.uncertainty import (linear_model_jacobians,
+                                                          noise_covariance_parts)
     C = np.asarray(C, dtype=np.float64)
     H = np.asarray(H, dtype=np.float64)
     X = np.asarray(X, dtype=np.float64)
-    _, K, Qr, Qt = linear_model(C, H, X)
+    _, K, Jc, Jh = linear_model_jacobians(C, H, X)
+    Qr, Qt = noise_covariance_parts(Jc, Jh)
     L = max(float(np.linalg.norm(X[:3, 3])), 1e-3)
     Q = ((sigma_r_rad ** 2 + _FLOOR_R ** 2) * Qr + (sigma_t_m ** 2 + (1e-9 * L) ** 2) * Qt)
     KQ = np.swapaxes(K, -1, -2) @ np.linalg.inv(Q)
-    RX, tX = X[:3, :3], X[:3, 3]
-    RCp = (X @ H @ invert_transform(X))[:, :3, :3]
-    u_map = RX @ H[:, :3, :3]
-    Jc = np.zeros(C.shape[:1] + (6, 6))
-    Jc[:, :3, :3] = C[:, :3, :3]
-    Jc[:, 3:, 3:] = C[:, :3, :3]
-    Jh = np.zeros_like(Jc)
-    Jh[:, :3, :3] = -u_map
-    Jh[:, 3:, :3] = -skew_matrix(RCp @ tX) @ u_map
-    Jh[:, 3:, 3:] = -u_map
     dA = np.asarray(B_end_a) - _adinv(C) @ np.asarray(B_start_a)
     dB = np.asarray(B_end_b) - _adinv(H) @ np.asarray(B_start_b)
     return KQ @ (Jc @ dA + Jh @ dB)
@@ -183,11 +174,17 @@ def systematic_std(F, G, *, tolerance_deg: float = 1.0, tolerance_m: float = 0.0
     det = sig * np.sqrt(np.sum((U / rng_sc[:, None]) ** 2, axis=0)) <= 1.0
     B = U[:, det]
     Fi = (B / lam[det]) @ B.T if B.shape[1] else np.zeros((6, 6))
-    Gt = np.asarray(G) * dsc[:, None]
-    S = Fi + Fi @ Gt @ Gt.T @ Fi
+    S = _with_systematic(Fi, np.asarray(G) * dsc[:, None])
     s = np.sqrt(np.clip(np.diag(S), 0, None)) * dsc
     s = np.concatenate([np.degrees(s[:3]), s[3:]])
     return np.where(np.isfinite(white), s, np.inf)
+
+
+def _with_systematic(Fi, Gt) -> np.ndarray:
+    """The covariance ``Fi + Fi G G^T Fi`` (batched): white-noise covariance ``Fi`` plus
+    what the shared pose errors with score ``G`` add."""
+    FG = Fi @ Gt
+    return Fi + FG @ np.swapaxes(FG, -1, -2)
 
 
 def _criterion_systematic(Ft, Gt) -> np.ndarray:
@@ -195,9 +192,7 @@ def _criterion_systematic(Ft, Gt) -> np.ndarray:
     ``Gt`` ``(..., 6, P)``): max + mean eigenvalue of ``Fe^-1 + Fe^-1 G G^T Fe^-1`` with
     ``Fe = F + EPS I`` — :func:`_criterion` exactly when ``G = 0``."""
     Fe = 0.5 * (Ft + np.swapaxes(Ft, -1, -2)) + EPS * np.eye(6)
-    Fi = np.linalg.inv(Fe)
-    FG = Fi @ Gt
-    S = Fi + FG @ np.swapaxes(FG, -1, -2)
+    S = _with_systematic(np.linalg.inv(Fe), Gt)
     lam = np.linalg.eigvalsh(0.5 * (S + np.swapaxes(S, -1, -2)))
     return lam.max(axis=-1) + lam.mean(axis=-1)
 
@@ -413,9 +408,8 @@ def _max_std_sys(F, G, dsc) -> float:
     w = _max_std(Ft)
     if not math.isfinite(w):
         return math.inf
-    Fi = np.linalg.inv(0.5 * (Ft + Ft.T))
-    FG = Fi @ (G * dsc[:, None])
-    lam = np.linalg.eigvalsh(Fi + FG @ FG.T)[-1]
+    S = _with_systematic(np.linalg.inv(0.5 * (Ft + Ft.T)), G * dsc[:, None])
+    lam = np.linalg.eigvalsh(S)[-1]
     return float(math.sqrt(max(lam, 0.0)))
 
 

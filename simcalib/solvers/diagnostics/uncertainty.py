@@ -167,7 +167,7 @@ from simcalib.geometry import (
 )
 
 __all__ = [
-    "linear_model", "NoiseModel", "PoseBias", "pose_bias_jacobians", "pose_bias_covariance",
+    "linear_model", "linear_model_jacobians", "noise_covariance_parts", "NoiseModel", "PoseBias", "pose_bias_jacobians", "pose_bias_covariance",
     "Direction", "Uncertainty", "AlphaChoice", "covariance", "covariance_batch",
     "choose_alpha", "bootstrap_covariance", "pose_error", "check_tolerances",
     "check_pose_bias", "TOLERANCE_DEG", "TOLERANCE_M", "ROTATION_FLOOR_RAD",
@@ -351,6 +351,25 @@ def pose_error(X_true, X_est) -> np.ndarray:
 def linear_model(C, H, X):
     """Residuals e (N,6), Jacobians K (N,6,6) w.r.t. delta, and the two noise-covariance
     parts Qr, Qt (N,6,6) with Cov(e_i) = sigma_r^2 Qr_i + sigma_t^2 Qt_i."""
+    e, K, J_c, J_h = linear_model_jacobians(C, H, X)
+    return (e, K, *noise_covariance_parts(J_c, J_h))
+
+
+def noise_covariance_parts(J_c, J_h):
+    """``(Qr, Qt)`` (N,6,6) of :func:`linear_model` from the noise Jacobians of
+    :func:`linear_model_jacobians` (isotropic eq. 38 noise: per-component variance
+    ``sigma_r^2 / 3`` on the rotation columns, ``sigma_t^2`` on the translation ones)."""
+    def outer(J):
+        return J @ np.swapaxes(J, -1, -2)
+    Qr = (outer(J_c[..., :3]) + outer(J_h[..., :3])) / 3.0
+    Qt = outer(J_c[..., 3:]) + outer(J_h[..., 3:])
+    return Qr, Qt
+
+
+def linear_model_jacobians(C, H, X):
+    """Residuals e (N,6), Jacobians K (N,6,6) w.r.t. delta, and the first-order response
+    of the residuals to the eq. 38 noise right-multiplied on C_i and on H_i: ``J_c``,
+    ``J_h`` (N,6,6), columns (rotation eps, translation n)."""
     N = C.shape[0]
     RX, tX = X[:3, :3], X[:3, 3]
     Cp = X @ H @ invert_transform(X)                       # C_i' = X H_i X^-1
@@ -366,18 +385,14 @@ def linear_model(C, H, X):
     K[:, 3:, 3:] = RCp - I3
     # noise Jacobians (eq. 38 right-multiplied noise on C_i and H_i)
     u_map = RX @ H[:, :3, :3]                              # eps_h -> u = R_X R_H eps_h
-    G_ec = np.zeros((N, 6, 3))
-    G_ec[:, :3] = RC
-    G_nc = np.zeros((N, 6, 3))
-    G_nc[:, 3:] = RC
-    G_eh = np.zeros((N, 6, 3))
-    G_eh[:, :3] = -u_map
-    G_eh[:, 3:] = -skew_matrix(RCp @ tX) @ u_map
-    G_nh = np.zeros((N, 6, 3))
-    G_nh[:, 3:] = -u_map
-    Qr = (G_ec @ np.swapaxes(G_ec, -1, -2) + G_eh @ np.swapaxes(G_eh, -1, -2)) / 3.0
-    Qt = G_nc @ np.swapaxes(G_nc, -1, -2) + G_nh @ np.swapaxes(G_nh, -1, -2)
-    return e, K, Qr, Qt
+    J_c = np.zeros((N, 6, 6))
+    J_c[:, :3, :3] = RC
+    J_c[:, 3:, 3:] = RC
+    J_h = np.zeros((N, 6, 6))
+    J_h[:, :3, :3] = -u_map
+    J_h[:, 3:, :3] = -skew_matrix(RCp @ tX) @ u_map
+    J_h[:, 3:, 3:] = -u_map
+    return e, K, J_c, J_h
 
 
 def noise_jacobians(H, X) -> np.ndarray:
