@@ -603,6 +603,8 @@ def stop_error_basis(world, cfg, cam: str, source: str, T_world_cam, qpos=None,
     arm's DH deviation (``robot.kinematic_error``, :func:`simcalib.world.robot_error.
     fk_pose_error_basis`; ``qpos`` (F, nq) the MuJoCo joint state at each pose). None for
     other sources or when the configuration has no such error."""
+    if source not in ("aruco", "robot_fk"):
+        return None
     lay = basis_layout(world)
     T = np.asarray(T_world_cam, dtype=np.float64)
     if source == "aruco" and world.marker_field is not None:

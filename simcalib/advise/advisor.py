@@ -243,24 +243,32 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
                             "total": time.perf_counter() - t0})
 
 
+def _stop_bases(world, cfg, sources, T_world_cam, qpos, P) -> np.ndarray:
+    """``(2, F, 6, P)``: :func:`simcalib.pipeline.stop_error_basis` of cameras a and b
+    (``sources``: camera -> pose source) at the poses ``T_world_cam[camera]`` (F, 4, 4)
+    and joint states ``qpos`` (F, nq); zero where a camera's source has none."""
+    from simcalib.pipeline import stop_error_basis
+    qpos = np.asarray(qpos)
+    out = np.zeros((2, qpos.shape[0], 6, P))
+    for k, cam in enumerate(("cam_a", "cam_b")):
+        B = stop_error_basis(world, cfg, cam, sources.get(cam), T_world_cam[cam], qpos=qpos)
+        if B is not None:
+            out[k] = B
+    return out
+
+
 def _systematic(world, cand, C, H, X, s_r, s_t, recorded, sources, cfg):
     """``(G_base, B_ref, B_cand)`` for :func:`planner.greedy_chain`: the recorded motions'
     summed systematic score and the error bases of the reference and candidate stops
     (:func:`simcalib.pipeline.stop_error_basis` of each camera's source), in the columns of
     the recorded basis, columns no pose uses dropped."""
-    from simcalib.pipeline import stop_error_basis
     Ba, Bb, pairs = recorded
     Ba, Bb = np.asarray(Ba, dtype=np.float64), np.asarray(Bb, dtype=np.float64)
-    P = Ba.shape[2]
-    B_ref = np.zeros((2, 6, P))
-    B_cand = np.zeros((2, cand.n, 6, P))
-    for k, cam in enumerate(("cam_a", "cam_b")):
-        src = sources.get(cam)
-        T = np.concatenate([cand.ref["T_world_cam"][cam][None], cand.T_world_cam[cam]])
-        q = np.concatenate([np.asarray(cand.ref["qpos"])[None], np.asarray(cand.qpos)])
-        B = stop_error_basis(world, cfg, cam, src, T, qpos=q) if src else None
-        if B is not None:
-            B_ref[k], B_cand[k] = B[0], B[1:]
+    T = {c: np.concatenate([cand.ref["T_world_cam"][c][None], cand.T_world_cam[c]])
+         for c in ("cam_a", "cam_b")}
+    q = np.concatenate([np.asarray(cand.ref["qpos"])[None], np.asarray(cand.qpos)])
+    B = _stop_bases(world, cfg, sources, T, q, Ba.shape[2])
+    B_ref, B_cand = B[:, 0], B[:, 1:]
     G_base = pl.systematic_scores(C, H, X, s_r, s_t, Ba[pairs[:, 0]], Ba[pairs[:, 1]],
                                   Bb[pairs[:, 0]], Bb[pairs[:, 1]]).sum(axis=0)
     used = (np.any(Ba != 0, axis=(0, 1)) | np.any(Bb != 0, axis=(0, 1))
@@ -296,21 +304,17 @@ def _systematic_inputs(base: Baseline, cand, idx, streams, got) -> dict:
     without a recorded basis."""
     if base.pose_error_basis is None or not np.asarray(got).size:
         return {}
-    from simcalib.pipeline import stop_error_basis
     Ba, Bb, pairs = base.pose_error_basis
     D = Ba.shape[0]
     got = np.asarray(got, dtype=np.int64)
-    qpos = fz.stop_state(cand, idx)[0]
-    stops = []
-    for cam, B in (("cam_a", Ba), ("cam_b", Bb)):
+    frames = np.concatenate([[0], got])
+    T = {}
+    for cam in ("cam_a", "cam_b"):
         st = streams[cam]
         pos = {int(f): k for k, f in enumerate(np.asarray(st.frame_index))}
-        frames = np.concatenate([[0], got])
-        T = np.asarray(st.T_world_cam)[[pos[int(f)] for f in frames]]
-        src = base.sources.get(cam)
-        S = stop_error_basis(base.truth.world, base.cfg, cam, src, T, qpos=qpos[frames]) \
-            if src in ("aruco", "robot_fk") else None
-        stops.append(np.zeros((frames.size, 6, B.shape[2])) if S is None else S)
+        T[cam] = np.asarray(st.T_world_cam)[[pos[int(f)] for f in frames]]
+    stops = _stop_bases(base.truth.world, base.cfg, base.sources, T,
+                        fz.stop_state(cand, idx)[0][frames], Ba.shape[2])
     row = np.arange(1, got.size + 1)              # stop got[j] is row j + 1 (0: reference)
     chain = np.stack([D + row - 1, D + row], axis=1)
     return {"pose_pairs": np.concatenate([pairs, chain]),
