@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
 import time
 
 import numpy as np
@@ -37,8 +36,6 @@ def _datasets(motion: str, trials: int, n: int, seed: int):
 def coverage_case(method: str, alpha: float, with_prior: bool, trials: int, n: int = 100,
                   seed: int = 0, level: float = 0.95) -> dict:
     """Coverage of the ``level`` region and predicted vs empirical RMS per axis."""
-    from scipy.stats import chi2
-
     from simcalib.solvers.api import Prior, solve_batch
     C, H, X, cfg = _datasets("random", trials, n, seed)
     priors = [None] * trials
@@ -53,22 +50,18 @@ def coverage_case(method: str, alpha: float, with_prior: bool, trials: int, n: i
         Xs = np.stack([_solve_one(C[b], H[b], method, alpha, priors[b]) for b in range(trials)])
     else:
         Xs = solve_batch(C, H, method=method, alpha=alpha).X
-    d2, err, pred, flagged, ok = [], [], [], 0, 0
+    records = []
     for b in range(trials):
         if not np.isfinite(Xs[b]).all():
+            records.append(None)
             continue
-        ok += 1
         u = U.covariance(C[b], H[b], Xs[b], alpha, prior=priors[b])
-        flagged += u.degenerate
-        d2.append(u.mahalanobis2(X))
-        err.append(U.pose_error(X, Xs[b]))
-        pred.append(np.diag(u.covariance_determined))
-    d2, err, pred = np.array(d2), np.array(err), np.array(pred)
-    rms = np.sqrt(np.mean(err**2, axis=0))
-    prd = np.sqrt(np.mean(pred, axis=0))
-    return {"method": method, "alpha": alpha, "prior": with_prior, "trials": trials,
-            "solved": ok, "coverage": float(np.mean(d2 <= chi2.ppf(level, 6))),
-            "rms": rms, "pred": prd, "ratio": prd / rms, "flagged": flagged / max(ok, 1)}
+        records.append({"d2": u.mahalanobis2(X), "err": U.pose_error(X, Xs[b]),
+                        "pred": np.diag(u.covariance_determined),
+                        "degenerate": bool(u.degenerate),
+                        "simulated": u.method == "pose_simulation"})
+    row = coverage_row(f"random {method}", records, trials, method, level)
+    return {**row, "alpha": alpha, "prior": with_prior}
 
 
 def _perturb(X, d):
@@ -293,14 +286,16 @@ def _x_without_constant_pose_error(st):
     return invert_transform(N["cam_a"]) @ np.asarray(st.X_true) @ N["cam_b"]
 
 
-def _chosen(C, H, method="dqopt", lag=0, pose_bias=None, pose_pairs=None):
+def _chosen(C, H, method="dqopt", lag=0, pose_bias=None, pose_pairs=None,
+            pose_error_basis=None):
     """dqopt at alpha = 1, alpha from its residuals, re-solved: (solution, alpha) - what
-    a run does (``alpha: auto``; ``pose_pairs`` as a run passes them for its headline)."""
+    a run does (``alpha: auto``; ``pose_pairs`` and ``pose_error_basis`` as a run passes
+    them for its headline)."""
     from simcalib.solvers.api import solve
     s1 = solve(C, H, method="dqopt", alpha=1.0)
     a = U.choose_alpha(C, H, s1.X, 1.0).alpha if s1.success else 1.0
     return solve(C, H, method=method, alpha=a, correlation_lag=lag, pose_bias=pose_bias,
-                 pose_pairs=pose_pairs), a
+                 pose_pairs=pose_pairs, pose_error_basis=pose_error_basis), a
 
 
 def _coverage_record(sol, X) -> dict | None:
@@ -369,10 +364,7 @@ def aruco_trial(seed: int, keep_data: bool = False, overrides=()) -> dict:
     C, H, X_true = np.asarray(st.pairs.C), np.asarray(st.pairs.H), np.asarray(st.X_true)
     lag, pairs, X_obs = P.correlation_lag(st), P.pose_pairs(st), _x_without_constant_pose_error(st)
     bias = P.calibration_bias(st)[0]
-    s1 = solve(C, H, method="dqopt", alpha=1.0)
-    a = U.choose_alpha(C, H, s1.X, 1.0).alpha if s1.success else 1.0
-    run = solve(C, H, alpha=a, correlation_lag=lag, pose_bias=bias, pose_pairs=pairs,
-                pose_error_basis=P.pose_error_basis(st))
+    run, a = _chosen(C, H, "dqopt", lag, bias, pairs, P.pose_error_basis(st))
     first = solve(C, H, alpha=a, correlation_lag=lag, pose_bias=bias, pose_pairs=pairs)
     out = {"run": _coverage_record(run, X_true),
            "observable": _coverage_record(run, X_obs),
@@ -383,20 +375,11 @@ def aruco_trial(seed: int, keep_data: bool = False, overrides=()) -> dict:
 
 
 def aruco_trials(n: int, keep: int, workers: int) -> list:
-    """:func:`aruco_trial` for seeds ``0..n-1`` on ``workers`` processes (spawned; each
+    """:func:`aruco_trial` for seeds ``0..n-1`` on ``workers`` processes
+    (:func:`simcalib.experiments.common.run_tasks`: spawned, one thread per library, each
     renders with one worker), the first ``keep`` with their data."""
-    import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor
-    if workers <= 1:
-        return [aruco_trial(s, s < keep) for s in range(n)]
-    with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn")) as ex:
-        futures = [ex.submit(aruco_trial, s, s < keep) for s in range(n)]
-        out = []
-        for k, f in enumerate(futures):
-            out.append(f.result())
-            if (k + 1) % 25 == 0:
-                print(f"aruco trials: {k + 1}/{n}", flush=True)
-        return out
+    from simcalib.experiments.common import run_tasks
+    return run_tasks(aruco_trial, [(s, s < keep) for s in range(n)], workers)
 
 
 def scenario_flags(label: str, data: list, method: str = "dqopt") -> dict:
@@ -470,6 +453,17 @@ def car_case(label: str, data: list) -> list:
     return rows
 
 
+def _coverage_cells(r) -> str:
+    """The cells a coverage row shares in every table: trials, coverage, pred/RMS, RMS,
+    flagged and how many trials used the simulated covariance."""
+    return (f"{r['solved']}/{r['trials']} | {r['coverage']:.3f} | "
+            + " ".join(f"{x:.2f}" for x in r["ratio"][:3]) + " | "
+            + " ".join(f"{x:.2f}" for x in r["ratio"][3:]) + " | "
+            + " ".join(f"{math.degrees(x):.3f}" for x in r["rms"][:3]) + " | "
+            + " ".join(f"{1e3 * x:.2f}" for x in r["rms"][3:]) + f" | {r['flagged']:.3f} | "
+            f"simulated {r.get('simulated', 0)}/{r['solved']} |")
+
+
 def render(cov_rows, flag_rows, alpha_rows, args, runtime_s, sim=None) -> str:
     cmd = (f"python -m simcalib.experiments.coverage --trials {args.trials} --flag-trials "
            f"{args.flag_trials} --alpha-trials {args.alpha_trials} --n {args.n} --seed "
@@ -536,16 +530,11 @@ def render(cov_rows, flag_rows, alpha_rows, args, runtime_s, sim=None) -> str:
          "adds `oracle_alpha` (uses the ground truth) - docs/results-schema.md.", "",
          "## Coverage on `random` (95 % region, chi2 with 6 dof)", "",
          "| method | alpha | prior | trials | coverage | pred/RMS wx wy wz | pred/RMS vx vy vz "
-         "| RMS rot (deg) | RMS trans (mm) | flagged |",
-         "|---|---|---|---|---|---|---|---|---|---|"]
+         "| RMS rot (deg) | RMS trans (mm) | flagged | model |",
+         "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in cov_rows:
         L.append(f"| {r['method']} | {r['alpha']:g} | {'yes' if r['prior'] else 'no'} | "
-                 f"{r['solved']}/{r['trials']} | {r['coverage']:.3f} | "
-                 + " ".join(f"{x:.2f}" for x in r["ratio"][:3]) + " | "
-                 + " ".join(f"{x:.2f}" for x in r["ratio"][3:]) + " | "
-                 + " ".join(f"{math.degrees(x):.3f}" for x in r["rms"][:3]) + " | "
-                 + " ".join(f"{1e3 * x:.2f}" for x in r["rms"][3:]) + f" | {r['flagged']:.3f} | "
-                 f"simulated {r.get('simulated', 0)}/{r['solved']} |")
+                 + _coverage_cells(r))
     L += ["", "Target (issue 9): coverage in [0.92, 0.98] and pred/RMS in [1/1.5, 1.5] for "
           "dqopt at alpha 0.3, 1, 3. The covariance is that of the minimiser of the alpha "
           "cost; for dq2steps and daniilidis it is an approximation. The prior row: prior "
@@ -662,12 +651,7 @@ def _render_sim(sim, args) -> list:
          "RMS rot (deg) | RMS trans (mm) | flagged | model |",
          "|---|---|---|---|---|---|---|---|---|"]
     for r in sim["coverage"]:
-        L.append(f"| {r['label']} | {r['solved']}/{r['trials']} | {r['coverage']:.3f} | "
-                 + " ".join(f"{x:.2f}" for x in r["ratio"][:3]) + " | "
-                 + " ".join(f"{x:.2f}" for x in r["ratio"][3:]) + " | "
-                 + " ".join(f"{math.degrees(x):.3f}" for x in r["rms"][:3]) + " | "
-                 + " ".join(f"{1e3 * x:.2f}" for x in r["rms"][3:]) + f" | {r['flagged']:.3f} | "
-                 f"simulated {r.get('simulated', 0)}/{r['solved']} |")
+        L.append(f"| {r['label']} | " + _coverage_cells(r))
     L += ["", f"`3d` with source=noisy: {args.sim_noisy_trials} trials, one world (the arm "
           "path of seed 0) and the pose noise redrawn per seed. With source=aruco: "
           f"{args.sim_aruco_trials} trials, seeds 0-{args.sim_aruco_trials - 1} (each "
@@ -786,12 +770,14 @@ def main(argv=None) -> int:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--sim-noisy-trials", type=int, default=500)
     p.add_argument("--sim-aruco-trials", type=int, default=500)
-    p.add_argument("--workers", type=int, default=os.cpu_count() or 1,
-                   help="processes for the ArUco trials (default: the CPU count)")
+    p.add_argument("--workers", type=int, default=0,
+                   help="processes for the ArUco trials (0, default: one per CPU, at most 8)")
     p.add_argument("--cart-seeds", type=int, default=4)
     p.add_argument("--car-seeds", type=int, default=3)
     p.add_argument("--out", default="docs/uncertainty.md")
     args = p.parse_args(argv)
+    from simcalib.experiments.common import check_workers
+    args.workers = check_workers(args.workers)
     t0 = time.perf_counter()
     cov_rows = []
     for method, alpha, pr in COVERAGE_CASES:
