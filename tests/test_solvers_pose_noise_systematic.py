@@ -226,3 +226,7 @@ def test_solve_checks_a_reused_simulation():
     sim = PN.SimulatedError(np.zeros(6), np.eye(6) * 1e-8, 1.0, (1e-3, 1e-3))
     with pytest.raises(ValueError, match="needs pose_pairs"):
         simcalib.solve(C, H, pose_simulation=sim)
+    # a simulation at another alpha is refused by solve itself (the uncertainty property
+    # would otherwise turn the error into a silent None)
+    with pytest.raises(ValueError, match="simulated at alpha = 1"):
+        simcalib.solve(C, H, alpha=2.0, pose_pairs=P, pose_simulation=sim)

@@ -558,17 +558,8 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
     alpha = check_alpha(alpha)
     from simcalib.solvers.diagnostics.uncertainty import check_pose_bias
     pose_bias = check_pose_bias(pose_bias)
-    if pose_simulation is not None:
-        from simcalib.solvers.diagnostics.pose_noise import SimulatedError
-        if not isinstance(pose_simulation, SimulatedError):
-            raise TypeError(f"pose_simulation must be a SimulatedError (Solution.uncertainty."
-                            f"simulation); received {type(pose_simulation).__name__}")
-        if pose_pairs is None:
-            raise ValueError("pose_simulation needs pose_pairs (the datapoints of each "
-                             "motion); received pose_pairs=None")
-    if pose_error_basis is not None and pose_pairs is None:
-        raise ValueError("pose_error_basis needs pose_pairs (the datapoints of each motion); "
-                         "received pose_pairs=None")
+    from simcalib.solvers.diagnostics.pose_noise import check_pose_inputs
+    check_pose_inputs(pose_pairs, pose_error_basis, pose_simulation, None, alpha)
     if pose_pairs is not None:
         if robust != "none":
             raise ValueError("pose_pairs cannot be combined with robust=" + repr(robust) +
@@ -602,18 +593,14 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
     compile_s = warm_up()
     t0 = time.perf_counter()
     problem = prepare_problem(C, H, alpha, weights)
-    if pose_pairs is not None:
-        from simcalib.solvers.diagnostics.pose_noise import check_pose_pairs
-        pose_pairs = check_pose_pairs(pose_pairs, problem.n)
-        if pose_error_basis is not None:
-            from simcalib.solvers.diagnostics.pose_noise import check_systematic
-            pose_error_basis = check_systematic(pose_error_basis, int(pose_pairs.max()) + 1)
     try:
         out = info.fn(problem, alpha, prior, rng)
     except Exception as exc:  # noqa: BLE001 - a solver failing on valid input is reported
         out = SolverOutput(X=np.full((4, 4), np.nan), success=False,
                            message=f"solver raised {type(exc).__name__}: {exc}")
     runtime = time.perf_counter() - t0
+    pose_pairs, pose_error_basis, _ = check_pose_inputs(pose_pairs, pose_error_basis,
+                                                        pose_simulation, problem.n, alpha)
     X, success, message, diag = _finish_output(out, method)
     diag["sign_flips"] = problem.sign_flips
     diag["compile_s"] = compile_s

@@ -89,6 +89,36 @@ class SimulatedError:
     systematic_parameters: int = 0
 
 
+def check_pose_inputs(pose_pairs, pose_error_basis, pose_simulation, n: int | None,
+                      alpha: float) -> tuple:
+    """``(P, systematic, pose_simulation)``: the pose-structure inputs of
+    :func:`simcalib.solve` and :func:`simcalib.solvers.diagnostics.uncertainty.covariance`
+    checked together — ``pose_simulation`` a :class:`SimulatedError` at ``alpha``,
+    ``pose_simulation`` and ``pose_error_basis`` only with ``pose_pairs``, and (``n``: the
+    number of motions; None: not known yet, only these checks) ``P`` by
+    :func:`check_pose_pairs`, ``systematic`` by :func:`check_systematic` (None when not
+    given). TypeError / ValueError naming what was received otherwise."""
+    if pose_simulation is not None:
+        if not isinstance(pose_simulation, SimulatedError):
+            raise TypeError(f"pose_simulation must be a SimulatedError (Solution.uncertainty."
+                            f"simulation); received {type(pose_simulation).__name__}")
+        if pose_simulation.alpha != alpha:
+            raise ValueError(f"pose_simulation was simulated at alpha = "
+                             f"{pose_simulation.alpha:g}; this estimate is at alpha = "
+                             f"{alpha:g}")
+    for name, given in (("pose_simulation", pose_simulation),
+                        ("pose_error_basis", pose_error_basis)):
+        if given is not None and pose_pairs is None:
+            raise ValueError(f"{name} needs pose_pairs (the datapoints of each motion); "
+                             "received pose_pairs=None")
+    if pose_pairs is None or n is None:
+        return pose_pairs, pose_error_basis, pose_simulation
+    P = check_pose_pairs(pose_pairs, n)
+    systematic = None if pose_error_basis is None else \
+        check_systematic(pose_error_basis, int(P.max()) + 1)
+    return P, systematic, pose_simulation
+
+
 def check_pose_pairs(pose_pairs, n: int) -> np.ndarray:
     """``(n, 2)`` int64 datapoint indices ``(start, end)`` of each motion; ValueError
     naming what was received otherwise."""

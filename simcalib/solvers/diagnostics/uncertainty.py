@@ -779,17 +779,9 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
         F = F @ _sym_inv(Fc) @ F
         F = 0.5 * (F + F.T)
     pose_test = sim_bias = sim = None
-    systematic = None
-    if pose_simulation is not None and pose_pairs is None:
-        raise ValueError("pose_simulation needs pose_pairs (the datapoints of each motion); "
-                         "received pose_pairs=None")
-    if pose_error_basis is not None:
-        if pose_pairs is None:
-            raise ValueError("pose_error_basis needs pose_pairs (the datapoints of each "
-                             "motion); received pose_pairs=None")
-        from simcalib.solvers.diagnostics.pose_noise import check_pose_pairs, check_systematic
-        systematic = check_systematic(
-            pose_error_basis, int(check_pose_pairs(pose_pairs, N).max()) + 1)
+    from simcalib.solvers.diagnostics.pose_noise import check_pose_inputs
+    pose_pairs, systematic, pose_simulation = check_pose_inputs(
+        pose_pairs, pose_error_basis, pose_simulation, N, alpha)
     if pose_pairs is not None:
         fit = (qr_rot, qr_tr, qt_tr) if noise is None else None
         Ms, pose_test, sim = _pose_simulation(
@@ -980,19 +972,12 @@ def _pose_simulation(C, X, alpha, pose_pairs, Linv, e, Hs, Ms, s_r2, s_t2, w, pr
     ``systematic`` the white level is what the residuals leave beyond the systematic
     errors' expected share (``fit``: the noise fit's ``(qr_rot, qr_tr, qt_tr)``; None when
     the noise was given). ``shared``: a SimulatedError of the same motions at the same
-    alpha, used instead of simulating."""
-    from simcalib.solvers.diagnostics.pose_noise import (SimulatedError, check_pose_pairs,
-                                                          simulate_error,
+    alpha, used instead of simulating. ``pose_pairs``, ``systematic``, ``shared`` as
+    checked by :func:`~simcalib.solvers.diagnostics.pose_noise.check_pose_inputs`."""
+    from simcalib.solvers.diagnostics.pose_noise import (SimulatedError, simulate_error,
                                                           systematic_residual_power,
                                                           white_noise_test)
-    if shared is not None:
-        if not isinstance(shared, SimulatedError):
-            raise TypeError(f"pose_simulation must be a SimulatedError (Uncertainty."
-                            f"simulation); received {type(shared).__name__}")
-        if shared.alpha != alpha:
-            raise ValueError(f"pose_simulation was simulated at alpha = {shared.alpha:g}; "
-                             f"this estimate is at alpha = {alpha:g}")
-    P = check_pose_pairs(pose_pairs, C.shape[0])
+    P = pose_pairs
     test = white_noise_test(np.einsum("nij,nj->ni", Linv, e), P)
     if prior is not None or not (test.accepted or systematic is not None
                                  or shared is not None):
