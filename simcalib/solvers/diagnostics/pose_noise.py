@@ -58,8 +58,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from simcalib.geometry import (dual_quat_from_transform, matrix_from_rotvec, quat_conjugate,
-                               quat_left_matrix, quat_multiply, quat_right_matrix,
-                               rotvec_from_matrix)
+                               quat_left_matrix, quat_multiply, quat_right_matrix)
+from simcalib.solvers.diagnostics.uncertainty import pose_error
 
 __all__ = ["WhiteNoiseTest", "check_pose_pairs", "expected_autocorrelation",
            "white_noise_test", "simulate_error", "check_systematic", "systematic_residual_power",
@@ -206,11 +206,9 @@ def _pose_noise(shape, sigma_r, sigma_t, rng):
     about a uniform axis, dt ~ N(0, sigma_t^2 I)), shape ``shape + (4,)`` each."""
     axis = rng.standard_normal(shape + (3,))
     axis /= np.linalg.norm(axis, axis=-1, keepdims=True)
-    half = 0.5 * rng.normal(0.0, sigma_r, size=shape)
-    q = np.concatenate([axis * np.sin(half)[..., None], np.cos(half)[..., None]], axis=-1)
+    angle = rng.normal(0.0, sigma_r, size=shape)
     t = rng.normal(0.0, sigma_t, size=shape + (3,))
-    qd = 0.5 * quat_multiply(np.concatenate([t, np.zeros(shape + (1,))], axis=-1), q)
-    return q, qd
+    return _dq_from_xi(np.concatenate([axis * angle[..., None], t], axis=-1))
 
 
 def _perturb(qm, qmd, P, noise):
@@ -222,22 +220,25 @@ def _perturb(qm, qmd, P, noise):
     return _dq_mul(a, ad, e[:, P[:, 1]], ed[:, P[:, 1]])
 
 
-def _gram(qC, qCd, qH, qHd, alpha, sw):
-    """``(..., 8, 8)`` matrix ``G`` of the alpha cost ``sum w |M Q|^2 = Q^T G Q``."""
-    A = (quat_left_matrix(qC) - quat_right_matrix(qH)) * sw[:, None, None]
-    Bm = (quat_left_matrix(qCd) - quat_right_matrix(qHd)) * sw[:, None, None]
-    sh = A.shape[:-3] + (-1, 4)
-    Af, Bf = A.reshape(sh), Bm.reshape(sh)
-    AtA = np.swapaxes(Af, -1, -2) @ Af
-    BtB = np.swapaxes(Bf, -1, -2) @ Bf
-    BtA = np.swapaxes(Bf, -1, -2) @ Af
-    a2 = alpha * alpha
-    G = np.empty(A.shape[:-3] + (8, 8))
-    G[..., :4, :4] = AtA + a2 * BtB
-    G[..., :4, 4:] = a2 * BtA                       # M = [[A, 0], [aB, aA]]: G = M^T M
-    G[..., 4:, :4] = a2 * np.swapaxes(BtA, -1, -2)
-    G[..., 4:, 4:] = a2 * AtA
-    return G
+def _gram(qC, qCd, qH, qHd, alpha, w):
+    """``(..., 8, 8)`` matrix ``G`` of the alpha cost ``sum w |M Q|^2 = Q^T G Q`` (the blocks
+    of :mod:`simcalib.solvers.kernels.gram`, the one place of that formula)."""
+    from simcalib.solvers.kernels.gram import assemble, gram_blocks
+    S, W, M = assemble(*gram_blocks(qC, qCd, qH, qHd, w), alpha)
+    return np.concatenate([np.concatenate([S, W], -1),
+                           np.concatenate([np.swapaxes(W, -1, -2), M], -1)], -2)
+
+
+def _signed_gram(C, H, X, alpha, w):
+    """:func:`_gram` of the motions ``C``, ``H`` (…, N, 4, 4), each motion's dual-quaternion
+    pair signed to fit ``X`` (the sign a minimiser near ``X`` sees)."""
+    qC, qCd = dual_quat_from_transform(C)
+    qH, qHd = dual_quat_from_transform(H)
+    qX, _ = dual_quat_from_transform(X)
+    fit = np.sum(quat_multiply(qC, np.broadcast_to(qX, qC.shape))
+                 * quat_multiply(np.broadcast_to(qX, qH.shape), qH), axis=-1)
+    sgn = np.where(fit < 0, -1.0, 1.0)[..., None]
+    return _gram(qC, qCd, qH * sgn, qHd * sgn, alpha, w)
 
 
 def _q_and_jacobian(X):
@@ -269,12 +270,6 @@ def _minimise(G, X0, steps: int = 3):
     return X
 
 
-def _deviation(Xs, X):
-    """Estimate minus truth in delta coordinates: ``(rotvec(R_est R^T), t_est - t)``."""
-    w = rotvec_from_matrix(Xs[..., :3, :3] @ X[:3, :3].T)
-    return np.concatenate([w, Xs[..., :3, 3] - X[:3, 3]], -1)
-
-
 def _consistent_h(qC, qCd, X):
     """``H* = X^-1 C X`` as dual quaternions (…, 4) each: the motions of camera b that fit
     ``X`` exactly, for truths ``(qC, qCd)``."""
@@ -284,13 +279,14 @@ def _consistent_h(qC, qCd, X):
     return _dq_mul(a, ad, np.broadcast_to(qX, qC.shape), np.broadcast_to(qXd, qC.shape))
 
 
-def _simulated(truth_c, truth_h, X, alpha, P, noise_a, noise_b, sw):
+def _simulated(truth_c, truth_h, X, alpha, P, noise_a, noise_b, w):
     """Deviations (B, 6) of the minimisers from ``X`` for truths ``truth_c`` and
     ``truth_h = H*`` (dual-quaternion pairs, (B,) N, 4) with pose noise draws ``noise_a``,
     ``noise_b`` (B, n_pose)."""
     Cb = _perturb(*truth_c, P, noise_a)
     Hb = _perturb(*truth_h, P, noise_b)
-    return _deviation(_minimise(_gram(*Cb, *Hb, alpha, sw), X), X)
+    # estimate minus truth in delta coordinates: (rotvec(R_est R^T), t_est - t)
+    return pose_error(_minimise(_gram(*Cb, *Hb, alpha, w), X), X)
 
 
 def check_systematic(systematic, n_pose: int) -> tuple[np.ndarray, np.ndarray]:
@@ -358,7 +354,6 @@ def systematic_residual_power(C, X, alpha: float, pose_pairs, systematic, weight
     basis, each solved for the alpha-cost minimiser (the part of the errors that is a change
     of X, e.g. a run-constant error, leaves no residual)."""
     from simcalib.geometry import invert_transform, transform_from_rotation_translation
-    from simcalib.solvers.diagnostics.uncertainty import linear_model
     C = np.asarray(C, dtype=np.float64)
     X = np.asarray(X, dtype=np.float64)
     P = check_pose_pairs(pose_pairs, C.shape[0])
@@ -375,14 +370,9 @@ def systematic_residual_power(C, X, alpha: float, pose_pairs, systematic, weight
     Eb = exp6(_systematic_draw(Bb, eta))
     Cs = invert_transform(Ea[:, P[:, 0]]) @ C @ Ea[:, P[:, 1]]
     Hs = invert_transform(Eb[:, P[:, 0]]) @ (invert_transform(X) @ C @ X) @ Eb[:, P[:, 1]]
-    qC, qCd = dual_quat_from_transform(Cs)
-    qH, qHd = dual_quat_from_transform(Hs)
-    qX, _ = dual_quat_from_transform(X)
-    fit = np.sum(quat_multiply(qC, np.broadcast_to(qX, qC.shape))
-                 * quat_multiply(np.broadcast_to(qX, qH.shape), qH), axis=-1)
-    sgn = np.where(fit < 0, -1.0, 1.0)[..., None]
-    Xs = _minimise(_gram(qC, qCd, qH * sgn, qHd * sgn, alpha, np.sqrt(w)), X)
-    e = np.stack([linear_model(Cs[b], Hs[b], Xs[b])[0] for b in range(n_draws)])
+    Xs = _minimise(_signed_gram(Cs, Hs, X, alpha, w), X)
+    # residuals of each draw at its minimiser: C_i against X H_i X^-1 (linear_model's e)
+    e = pose_error(Cs, Xs[:, None] @ Hs @ invert_transform(Xs)[:, None])
     return (float(np.mean(np.sum(wn * np.sum(e[..., :3] ** 2, -1), -1))),
             float(np.mean(np.sum(wn * np.sum(e[..., 3:] ** 2, -1), -1))))
 
@@ -406,18 +396,17 @@ def simulate_error(C, X, alpha: float, pose_pairs, sigma_r_rad: float, sigma_t_m
     P = check_pose_pairs(pose_pairs, C.shape[0])
     rng = np.random.default_rng(0) if rng is None else rng
     w = np.ones(C.shape[0]) if weights is None else np.asarray(weights, dtype=np.float64)
-    sw = np.sqrt(w)
     n_pose = int(P.max()) + 1
     basis = None if systematic is None else check_systematic(systematic, n_pose)
     noise_a, noise_b = _draw_noise((n_sim, n_pose), sigma_r_rad, sigma_t_m, rng, basis)
     qC, qCd = dual_quat_from_transform(C)
-    D1 = _simulated((qC, qCd), _consistent_h(qC, qCd, X), X, alpha, P, noise_a, noise_b, sw)
+    D1 = _simulated((qC, qCd), _consistent_h(qC, qCd, X), X, alpha, P, noise_a, noise_b, w)
     tC = _perturb(qC, qCd, P, _draw_noise((n_truths, n_pose), sigma_r_rad, sigma_t_m, rng,
                                           basis)[0])
     tH = _consistent_h(*tC, X)                     # once per truth, then taken in turns
     pick = np.arange(n_sim) % n_truths
     D2 = _simulated((tC[0][pick], tC[1][pick]), (tH[0][pick], tH[1][pick]), X, alpha, P,
-                    noise_a, noise_b, sw)
+                    noise_a, noise_b, w)
     if not (np.all(np.isfinite(D1)) and np.all(np.isfinite(D2))):
         return None
     b1, S1 = D1.mean(0), np.cov(D1.T)
@@ -441,11 +430,4 @@ def minimiser_offset(C, H, X, alpha: float, weights=None) -> np.ndarray:
     H = np.asarray(H, dtype=np.float64)
     X = np.asarray(X, dtype=np.float64)
     w = np.ones(C.shape[0]) if weights is None else np.asarray(weights, dtype=np.float64)
-    qC, qCd = dual_quat_from_transform(C)
-    qH, qHd = dual_quat_from_transform(H)
-    qX, _ = dual_quat_from_transform(X)
-    fit = np.sum(quat_multiply(qC, np.broadcast_to(qX, qC.shape))
-                 * quat_multiply(np.broadcast_to(qX, qH.shape), qH), axis=-1)
-    sgn = np.where(fit < 0, -1.0, 1.0)[:, None]
-    G = _gram(qC, qCd, qH * sgn, qHd * sgn, alpha, np.sqrt(w))
-    return _deviation(_minimise(G, X, steps=5), X)
+    return pose_error(_minimise(_signed_gram(C, H, X, alpha, w), X, steps=5), X)
