@@ -796,19 +796,13 @@ def _uncertainty_model(sol) -> dict | None:
     if u is None:
         return None
     t = u.pose_noise_test
-    b = u.simulated_bias
-    if b is not None:   # a bias along an undetermined axis means nothing: null there
-        b = np.where(np.isfinite(np.diag(u.covariance)), b, np.nan)
+    b = u.simulated_bias_determined          # null along the undetermined axes
     wn = u.white_pose_noise
     return {"method": u.method,
             "systematic_parameters": int(u.systematic_parameters),
             "white_pose_noise": None if wn is None else {
                 "sigma_r_deg": math.degrees(wn[0]), "sigma_t_m": float(wn[1])},
-            "pose_noise_test": None if t is None else {
-                "white": bool(t.accepted), "statistic": float(t.statistic),
-                "threshold": float(t.threshold),
-                "autocorrelation": [round(float(x), 4) for x in t.autocorrelation],
-                "expected": [round(float(x), 4) for x in t.expected]},
+            "pose_noise_test": None if t is None else t.to_dict(digits=4),
             "simulated_bias_deg": None if b is None else [
                 float(x) if np.isfinite(x) else None for x in np.degrees(b[:3])],
             "simulated_bias_m": None if b is None else [

@@ -412,15 +412,9 @@ def _uncertainty_dict(u) -> dict | None:
                       "estimated": u.noise.estimated},
             "tolerance_deg": u.tolerance_deg, "tolerance_m": u.tolerance_m,
             "method": u.method,
-            "pose_noise": None if u.pose_noise_test is None else {
-                "white": u.pose_noise_test.accepted,
-                "autocorrelation": [float(x) for x in u.pose_noise_test.autocorrelation],
-                "expected": [float(x) for x in u.pose_noise_test.expected],
-                "statistic": _num(u.pose_noise_test.statistic),
-                "threshold": float(u.pose_noise_test.threshold)},
+            "pose_noise": None if u.pose_noise_test is None else u.pose_noise_test.to_dict(),
             "simulated_bias": None if u.simulated_bias is None   # null along undetermined axes
-            else [_num(x) if math.isfinite(u.covariance[i, i]) else None
-                  for i, x in enumerate(u.simulated_bias)],
+            else [_num(x) for x in u.simulated_bias_determined],
             "directions": [{"reason": d.reason, "kind": d.kind, "description": d.description,
                             "rotation_axis_a": d.rotation_axis_a.tolist(),
                             "translation_dir_a": d.translation_dir_a.tolist(),

@@ -169,6 +169,17 @@ class WhiteNoiseTest:
     threshold: float
     accepted: bool
 
+    def to_dict(self, digits: int | None = None) -> dict:
+        """JSON form: ``white``, ``statistic`` (None when not finite), ``threshold``,
+        ``autocorrelation`` and ``expected`` (rounded to ``digits`` when given)."""
+        num = float if digits is None else (lambda x: round(float(x), digits))  # noqa: E731
+        stat = float(self.statistic)
+        return {"white": bool(self.accepted),
+                "statistic": stat if math.isfinite(stat) else None,
+                "threshold": float(self.threshold),
+                "autocorrelation": [num(x) for x in self.autocorrelation],
+                "expected": [num(x) for x in self.expected]}
+
     def summary(self) -> str:
         word = "white (independent per pose)" if self.accepted else "correlated between poses"
         return (f"pose noise {word}: residual autocorrelation lags 1-{self.expected.size} "

@@ -600,6 +600,14 @@ class Uncertainty:
         return np.concatenate([np.degrees(s[:3]), s[3:]])
 
     @property
+    def simulated_bias_determined(self) -> np.ndarray | None:
+        """``simulated_bias`` with NaN along the undetermined axes (a bias along a direction
+        the data cannot determine means nothing); None without a simulation."""
+        if self.simulated_bias is None:
+            return None
+        return np.where(np.isfinite(np.diag(self.covariance)), self.simulated_bias, np.nan)
+
+    @property
     def std_deg(self) -> np.ndarray:
         return self.std[:3]
 
