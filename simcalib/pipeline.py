@@ -617,13 +617,12 @@ def stop_error_basis(world, cfg, cam: str, source: str, T_world_cam, qpos=None,
         B[:, :, lay["cal_a" if cam == "cam_a" else "cal_b"]] = V[:, :, lay["map"].stop:]
         return B
     if source == "robot_fk" and qpos is not None and cfg.robot.kinematic_error.active:
-        from simcalib.sources.robot_fk import arm_state
+        from simcalib.sources.robot_fk import T_flange_cam, arm_state
         from simcalib.world.robot_error import fk_pose_error_basis
         adr, _ = arm_state(world)
-        rig = world.config.rig
-        T_fc = rig.T_rig_cam_a() if cam == "cam_a" else rig.T_rig_cam_a() @ rig.T_a_b()
         B = np.zeros((T.shape[0], 6, lay["P"]))
-        B[:, :, lay["dh"]] = fk_pose_error_basis(np.asarray(qpos)[:, adr], T_fc,
+        B[:, :, lay["dh"]] = fk_pose_error_basis(np.asarray(qpos)[:, adr],
+                                                 T_flange_cam(world.config.rig, cam),
                                                  cfg.robot.kinematic_error.sigmas)
         return B
     return None

@@ -27,6 +27,12 @@ __all__ = ["RobotFKSource", "ARM_JOINTS", "arm_state"]
 ARM_JOINTS = ("shoulder_pan", "shoulder_lift", "elbow", "wrist_1", "wrist_2", "wrist_3")
 
 
+def T_flange_cam(rig, cam: str) -> np.ndarray:
+    """``(4, 4)`` pose of camera ``cam`` in the flange frame (the rig is the flange)."""
+    T = rig.T_rig_cam_a()
+    return T if cam == "cam_a" else T @ rig.T_a_b()
+
+
 def arm_state(world) -> tuple[np.ndarray, np.ndarray]:
     """``(qpos addresses (6,), T_world_base (4, 4))`` of the world's arm."""
     import mujoco
@@ -67,7 +73,7 @@ class RobotFKSource:
         world = truth.world
         adr, T_world_base = arm_state(world)
         rig = world.config.rig
-        T_flange = {"cam_a": rig.T_rig_cam_a(), "cam_b": rig.T_rig_cam_a() @ rig.T_a_b()}
+        T_flange = {c: T_flange_cam(rig, c) for c in CAMERAS}
         rngs = dict(zip(CAMERAS, rng.spawn(len(CAMERAS))))
         streams, log = {}, {}
         for cam in cameras:
