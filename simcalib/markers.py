@@ -19,6 +19,7 @@ __all__ = [
     "map_pose_jacobians",
     "map_error_variances",
     "intrinsics_pose_jacobians",
+    "check_camera_poses",
     "CORNER_REFINEMENTS",
     "DICTIONARY",
     "DROP_REASONS",
@@ -582,15 +583,22 @@ def perturbed_intrinsics(K, dist, step) -> tuple[np.ndarray, np.ndarray]:
     return K2, np.asarray(dist, dtype=np.float64) + step[3:8]
 
 
-def _check_intrinsics_inputs(points_world, T_world_cam, K, dist, sigmas,
-                             nonempty: bool = False) -> tuple:
-    """``(T, K, dist, sigmas)`` as float arrays for the calibration sensitivities, or a
-    ValueError naming what was received (``nonempty``: at least one pose)."""
+def check_camera_poses(T_world_cam, nonempty: bool = False) -> np.ndarray:
+    """``(F, 4, 4)`` float camera poses of the pose-error sensitivities, or a ValueError
+    naming the received shape (``nonempty``: at least one pose)."""
     T = np.asarray(T_world_cam, dtype=np.float64)
     if T.ndim != 3 or T.shape[1:] != (4, 4) or (nonempty and T.shape[0] == 0) \
             or not np.isfinite(T).all():
         raise ValueError(f"T_world_cam must be (F, 4, 4) finite poses"
                          f"{', F >= 1' if nonempty else ''}; received shape {T.shape}")
+    return T
+
+
+def _check_intrinsics_inputs(points_world, T_world_cam, K, dist, sigmas,
+                             nonempty: bool = False) -> tuple:
+    """``(T, K, dist, sigmas)`` as float arrays for the calibration sensitivities, or a
+    ValueError naming what was received (``nonempty``: at least one pose)."""
+    T = check_camera_poses(T_world_cam, nonempty)
     if len(points_world) != T.shape[0]:
         raise ValueError(f"points_world must hold one (P, 3) array per pose ({T.shape[0]}); "
                          f"received {len(points_world)}")
@@ -698,10 +706,8 @@ def _pose_from_point_jacobian(pc: np.ndarray, K: np.ndarray) -> tuple[np.ndarray
 
 
 def _check_map_inputs(field, visible, T_world_cam, K):
-    T = np.asarray(T_world_cam, dtype=np.float64)
+    T = check_camera_poses(T_world_cam)
     vis = np.asarray(visible, dtype=bool)
-    if T.ndim != 3 or T.shape[1:] != (4, 4) or not np.isfinite(T).all():
-        raise ValueError(f"T_world_cam must be (F, 4, 4) finite poses; received shape {T.shape}")
     M = field.T_world_marker.shape[0]
     if vis.shape != (T.shape[0], M):
         raise ValueError(f"visible must be (F, M) = ({T.shape[0]}, {M}) booleans; received "

@@ -755,15 +755,13 @@ def pose_error_basis(world, camera: str, T_world_cam, cfg: "VisionConfig | None"
     ``visible`` (F, M) bool (e.g. the ids the PnP used, :attr:`VisualFrame.ids_used`), by
     default those the layout makes fully visible there
     (:func:`simcalib.world.layout.visible_markers`). Nothing is rendered."""
-    from .markers import (intrinsics_pose_jacobians, map_error_variances,  # noqa: PLC0415
-                          map_pose_jacobians)
+    from .markers import (check_camera_poses, intrinsics_pose_jacobians,  # noqa: PLC0415
+                          map_error_variances, map_pose_jacobians)
     from .world.layout import visible_markers  # noqa: PLC0415
     cfg = VisionConfig() if cfg is None else cfg
     if not isinstance(cfg, VisionConfig):
         raise TypeError(f"cfg must be a VisionConfig; received {type(cfg).__name__}")
-    T = np.asarray(T_world_cam, dtype=np.float64)
-    if T.ndim != 3 or T.shape[1:] != (4, 4) or not np.isfinite(T).all():
-        raise ValueError(f"T_world_cam must be (F, 4, 4) finite poses; received shape {T.shape}")
+    T = check_camera_poses(T_world_cam)
     eff = cfg.effects()
     intr, _ = _camera_intrinsics(world, camera, cfg)
     field = world.marker_field
