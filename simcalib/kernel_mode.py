@@ -63,10 +63,9 @@ def prepare_kernels() -> KernelPlan:
 
 def _load_kernels() -> None:
     """Load every kernel a run uses (one small solve and its diagnostics)."""
-    import simcalib
-    from simcalib.solvers.kernels.batch import random_motions_for_warm_up
+    from simcalib.solvers.kernels.batch import load_every_kernel
     try:
-        simcalib.solve(*random_motions_for_warm_up()).message
+        load_every_kernel()
     except Exception:  # noqa: BLE001 - the command's own first solve reports any problem
         pass
 

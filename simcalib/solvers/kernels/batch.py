@@ -439,3 +439,10 @@ def random_motions_for_warm_up():
     C[:, :3, 3] = np.stack([np.cos(k), np.sin(2 * k), 0.3 * k / 8], axis=1)
     H = invert_transform(X) @ C @ X
     return C, H
+
+
+def load_every_kernel() -> None:
+    """One small solve and its diagnostics on :func:`random_motions_for_warm_up`: loads
+    (or compiles) every kernel a run uses."""
+    import simcalib
+    simcalib.solve(*random_motions_for_warm_up()).message
