@@ -69,7 +69,7 @@ COMMANDS: dict[str, Command] = {
                      "sweep FILE [key=value ...] output=DIR | sweep report|status DIR"),
     "advise": Command("simcalib.commands.advise:main",
                       "which motions to record next (verified in simulation)",
-                      "advise scenario=NAME [k=5] [verify=true] [output=DIR]"),
+                      "advise scenario=NAME|a=PATH b=PATH platform=P [k=5] output=DIR"),
     "bench": Command("simcalib.bench:main", "solver benchmark (Table-1-like timings)",
                      "bench [...]"),
     "bench-vision": Command("simcalib.vision_bench:main",

@@ -5,7 +5,9 @@ from simcalib.advise.advisor import (Advice, Baseline, Verification, advice_dict
                                      advise_motions, baseline, solve_errors, verify)
 from simcalib.advise.feasibility import Candidates, candidates, execute_stops, stop_motions
 from simcalib.advise.planner import greedy, motion_information, predicted_std, undeterminable
+from simcalib.advise.recorded import RecordedAdvice, advise_recorded, recorded_advice_dict
 
 __all__ = ["Advice", "Baseline", "Verification", "advice_dict", "advise", "advise_motions",
            "baseline", "solve_errors", "verify", "Candidates", "candidates", "execute_stops",
-           "stop_motions", "greedy", "motion_information", "predicted_std", "undeterminable"]
+           "stop_motions", "greedy", "motion_information", "predicted_std", "undeterminable",
+           "RecordedAdvice", "advise_recorded", "recorded_advice_dict"]

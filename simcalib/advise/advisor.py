@@ -20,8 +20,9 @@ import numpy as np
 from simcalib.advise import feasibility as fz
 from simcalib.advise import planner as pl
 
-__all__ = ["Baseline", "Advice", "Verification", "baseline", "advise", "advise_motions",
-           "verify", "solve_errors", "advice_dict"]
+__all__ = ["Baseline", "StopPlan", "Advice", "Verification", "baseline", "advise",
+           "advise_motions", "verify", "solve_errors", "advice_dict", "recorded_information",
+           "determined_message", "predicted_along_chain", "check_when_determined"]
 
 AXES = ("wx_deg", "wy_deg", "wz_deg", "vx_m", "vy_m", "vz_m")
 
@@ -85,16 +86,14 @@ def baseline(cfg) -> Baseline:
 
 
 @dataclass(frozen=True)
-class Advice:
-    """``candidates`` (all drawn, with feasibility), ``chosen`` (indices into them, in the
-    order added), ``std_before`` (6,) and ``std_after`` (k, 6): predicted 1-sigma per axis
-    (deg, deg, deg, m, m, m) with the recorded motions and after each added stop;
-    ``max_std_tol``: largest 1-sigma in tolerance units per step; ``noise``
+class StopPlan:
+    """What any advice holds: ``chosen`` (candidate indices, in the order to visit them),
+    ``std_before`` (6,) and ``std_after`` (k, 6): predicted 1-sigma per axis (deg, deg,
+    deg, m, m, m) with the recorded motions and after each added stop; ``max_std_tol``:
+    largest 1-sigma in tolerance units per step; ``criterion`` per step; ``noise``
     (sigma_r_rad, sigma_t_m) fitted to the recorded motions; ``cannot_help``: directions
-    no feasible motion determines (with the fix); ``render_check``: camera -> markers
-    detected per chosen stop; ``rejected_by_render``: candidates dropped by it."""
+    no feasible motion determines (with the fix); ``X``: the estimate it linearises at."""
     k: int
-    candidates: fz.Candidates
     chosen: np.ndarray
     std_before: np.ndarray
     std_after: np.ndarray
@@ -104,12 +103,21 @@ class Advice:
     tolerance_deg: float
     tolerance_m: float
     cannot_help: list
-    render_check: dict
-    rejected_by_render: tuple
-    F_base: np.ndarray
-    F_cand: np.ndarray
     X: np.ndarray
     timing_s: dict
+
+
+@dataclass(frozen=True)
+class Advice(StopPlan):
+    """A :class:`StopPlan` for a simulated platform: ``candidates`` (all drawn, with
+    feasibility), ``render_check``: camera -> markers detected per chosen stop;
+    ``rejected_by_render``: candidates dropped by it; ``F_base``, ``F_cand``: the recorded
+    and the candidates' information."""
+    candidates: fz.Candidates = None
+    render_check: dict = field(default_factory=dict)
+    rejected_by_render: tuple = ()
+    F_base: np.ndarray | None = None
+    F_cand: np.ndarray | None = None
     message: str = ""
     noise_scale: np.ndarray | None = None
     systematic_parameters: int = 0     # shared pose-error parameters the choice weighed
@@ -151,14 +159,10 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
     (:func:`simcalib.pipeline.stop_error_basis`, the markers the layout shows there), and
     the criterion that of the covariance with those shared errors
     (:func:`planner.greedy_chain`, ``systematic``); the predicted 1-sigma include them."""
-    if when_determined not in WHEN_DETERMINED:
-        raise ValueError(f"when_determined must be one of {list(WHEN_DETERMINED)}; received "
-                         f"{when_determined!r}")
-    from simcalib.solvers.diagnostics.uncertainty import covariance
+    check_when_determined(when_determined)
     t0 = time.perf_counter()
-    u = covariance(C, H, X, alpha, tolerance_deg=tolerance_deg, tolerance_m=tolerance_m)
-    s_r, s_t = u.noise.sigma_r_rad, u.noise.sigma_t_m
-    F_base = pl.motion_information(C, H, X, s_r, s_t).sum(axis=0)
+    kw = dict(tolerance_deg=tolerance_deg, tolerance_m=tolerance_m)
+    s_r, s_t, F_base, L = recorded_information(C, H, X, alpha, **kw)
     t1 = time.perf_counter()
     cand = fz.candidates(world, n_candidates, rng, aruco_cameras=aruco_cameras, ranges=ranges,
                          **cand_kw)
@@ -166,8 +170,6 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
     Cc, Hc = pl.predicted_motions(cand.motion["cam_a"], X)
     F_cand = pl.motion_information(Cc, Hc, X, s_r, s_t)
     feasible = cand.feasible.copy()
-    L = u.translation_scale_m
-    kw = dict(tolerance_deg=tolerance_deg, tolerance_m=tolerance_m)
     scale = np.ones(cand.n)
     if view_weighting and aruco_cameras:
         for c in aruco_cameras:
@@ -180,18 +182,9 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
         sysm = _systematic(world, cand, C, H, X, s_r, s_t, pose_error_basis, dict(sources),
                            run_cfg)
     rejected, checked = [], {}
-    message = ""
-    g0 = pl.greedy(F_base, F_cand, 1, feasible=np.zeros_like(feasible), **kw)
-    if g0.max_std_tol[0] <= 1.0:
-        message = (f"X is already determined within the tolerance by the recorded motions "
-                   f"(largest predicted 1-sigma {g0.max_std_tol[0]:.3g} tolerance units); ")
-        if when_determined == "stop":
-            feasible = np.zeros_like(feasible)
-            message += ("no motion proposed (when_determined='advise' / force=true: the k "
-                        "stops that lower it most)")
-        else:
-            message += ("the stops below lower it further (when_determined='stop' / "
-                        "force=false: propose none)")
+    message, propose = determined_message(F_base, when_determined, **kw)
+    if not propose:
+        feasible = np.zeros_like(feasible)
     for _ in range(4):
         g, added, added_g = pl.greedy_chain_systematic(
             F_base, cand.motion["cam_a"], X, s_r, s_t, k, feasible=feasible,
@@ -216,23 +209,10 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
         rejected += sorted(set(bad))
         feasible[np.array(sorted(set(bad)))] = False
     t3 = time.perf_counter()
-
-    def std(F, G):
-        if sysm is None:
-            return pl.predicted_std(F, range_m=L, **kw)
-        return pl.systematic_std(F, G, range_m=L, **kw)
-
-    F = F_base.copy()
-    G = sysm[0].copy() if sysm is not None else None
-    after = []
-    for j, Fa in enumerate(added):
-        F = F + Fa
-        G = G + added_g[j] if G is not None else None
-        after.append(std(F, G))
+    before, after = predicted_along_chain(F_base, added, added_g, sysm, L, **kw)
     cannot = pl.undeterminable(F_base, F_cand, feasible=cand.feasible, range_m=L, **kw)
     return Advice(k=int(k), candidates=cand, chosen=g.order,
-                  std_before=std(F_base, None if sysm is None else sysm[0]),
-                  std_after=np.array(after).reshape(-1, 6), max_std_tol=g.max_std_tol,
+                  std_before=before, std_after=after, max_std_tol=g.max_std_tol,
                   criterion=g.criterion, noise=(s_r, s_t), tolerance_deg=tolerance_deg,
                   tolerance_m=tolerance_m, cannot_help=cannot, render_check=checked,
                   rejected_by_render=tuple(rejected), F_base=F_base, F_cand=F_cand, X=X,
@@ -241,6 +221,63 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
                   timing_s={"information": t1 - t0, "candidates": t2 - t1,
                             "choice_and_render_check": t3 - t2,
                             "total": time.perf_counter() - t0})
+
+
+def check_when_determined(when_determined) -> str:
+    """``when_determined`` if it is one of :data:`WHEN_DETERMINED`, else ValueError."""
+    if when_determined not in WHEN_DETERMINED:
+        raise ValueError(f"when_determined must be one of {list(WHEN_DETERMINED)}; received "
+                         f"{when_determined!r}")
+    return when_determined
+
+
+def recorded_information(C, H, X, alpha: float, *, tolerance_deg: float = 1.0,
+                         tolerance_m: float = 0.01) -> tuple:
+    """``(sigma_r_rad, sigma_t_m, F_base, L)``: the eq. 38 noise fitted to the recorded
+    motions' residuals at ``X`` (:func:`~simcalib.solvers.diagnostics.uncertainty.covariance`),
+    their summed Fisher information ``(6, 6)`` and the translation range ``L`` (m) beyond
+    which a direction counts as undetermined."""
+    from simcalib.solvers.diagnostics.uncertainty import covariance
+    u = covariance(C, H, X, alpha, tolerance_deg=tolerance_deg, tolerance_m=tolerance_m)
+    s_r, s_t = u.noise.sigma_r_rad, u.noise.sigma_t_m
+    return (s_r, s_t, pl.motion_information(C, H, X, s_r, s_t).sum(axis=0),
+            u.translation_scale_m)
+
+
+def determined_message(F_base, when_determined: str, **kw) -> tuple[str, bool]:
+    """``(message, propose)``: when the recorded information ``F_base`` already determines
+    every direction within the tolerance, say so; ``propose`` is False then only for
+    ``when_determined="stop"``."""
+    check_when_determined(when_determined)
+    g0 = pl.greedy(F_base, np.zeros((1, 6, 6)), 1, feasible=np.zeros(1, bool), **kw)
+    if g0.max_std_tol[0] > 1.0:
+        return "", True
+    message = (f"X is already determined within the tolerance by the recorded motions "
+               f"(largest predicted 1-sigma {g0.max_std_tol[0]:.3g} tolerance units); ")
+    if when_determined == "stop":
+        return message + ("no motion proposed (when_determined='advise' / force=true: the "
+                          "k stops that lower it most)"), False
+    return message + ("the stops below lower it further (when_determined='stop' / "
+                      "force=false: propose none)"), True
+
+
+def predicted_along_chain(F_base, added, added_g, sysm, L: float, **kw) -> tuple:
+    """``(std_before (6,), std_after (k, 6))``: predicted 1-sigma per axis with the recorded
+    information ``F_base`` and after each stop's information ``added`` (with ``sysm``, the
+    systematic scores: ``sysm[0]`` the recorded one, ``added_g`` each stop's)."""
+    def std(F, G):
+        if sysm is None:
+            return pl.predicted_std(F, range_m=L, **kw)
+        return pl.systematic_std(F, G, range_m=L, **kw)
+
+    F = np.asarray(F_base, dtype=np.float64).copy()
+    G = sysm[0].copy() if sysm is not None else None
+    after = []
+    for j, Fa in enumerate(added):
+        F = F + Fa
+        G = G + added_g[j] if G is not None else None
+        after.append(std(F, G))
+    return std(F_base, None if sysm is None else sysm[0]), np.array(after).reshape(-1, 6)
 
 
 def _stop_bases(world, cfg, sources, T_world_cam, qpos, P) -> np.ndarray:

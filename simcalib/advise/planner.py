@@ -418,9 +418,18 @@ def _max_std(Ft) -> float:
     return float(1.0 / math.sqrt(lam)) if lam > 0 else math.inf
 
 
+#: how a prior on X is given, named in the fix of :func:`undeterminable`: a scenario's keys
+PRIOR_KEYS_SCENARIO = {"translation": "prior.translation_m with a weight prior.b",
+                       "rotation": "prior.rotvec_deg with a weight prior.a"}
+#: ... and ``calibrate``'s (pose files)
+PRIOR_KEYS_CALIBRATE = {
+    "translation": "prior=[tx,ty,tz,qx,qy,qz,qw] with a weight prior_weight_translation",
+    "rotation": "prior=[tx,ty,tz,qx,qy,qz,qw] with a weight prior_weight_rotation"}
+
+
 def undeterminable(F_base, F_cand, *, feasible=None, tolerance_deg: float = 1.0,
                    tolerance_m: float = 0.01, range_rad: float = 1.0,
-                   range_m: float = 1.0) -> list[dict]:
+                   range_m: float = 1.0, prior_keys: dict | None = None) -> list[dict]:
     """Directions of X that no feasible candidate motion can determine: undetermined (1-sigma
     beyond the range) by the feasible candidates alone, each added 100 times, and not
     determined within the tolerance by the recorded motions (``F_base``). The candidates
@@ -430,7 +439,9 @@ def undeterminable(F_base, F_cand, *, feasible=None, tolerance_deg: float = 1.0,
     dict:
     ``kind`` (rotation / translation / coupled), ``rotation_axis_a``, ``translation_dir_a``
     (unit, camera-a frame, zeros when that part is < 5 %), ``description``, ``fix`` (the
-    prior or extra measurement that would determine it)."""
+    prior or extra measurement that would determine it; ``prior_keys``: how the prior is
+    given, :data:`PRIOR_KEYS_SCENARIO` by default)."""
+    keys = PRIOR_KEYS_SCENARIO if prior_keys is None else prior_keys
     dsc = _scale(tolerance_deg, tolerance_m)
     Fb = np.asarray(F_base, dtype=np.float64) * np.outer(dsc, dsc)
     Fc = np.asarray(F_cand, dtype=np.float64)
@@ -463,15 +474,15 @@ def undeterminable(F_base, F_cand, *, feasible=None, tolerance_deg: float = 1.0,
             kind, desc = "translation", f"translation of X along {vec(td)} (camera-a frame)"
         fix = []
         if td.any():
-            fix.append(f"a prior on X's translation along {vec(td)} (prior.translation_m "
-                       "with a weight prior.b, e.g. the camera offset measured with a ruler or "
-                       "taken from the CAD model, to within the tolerance)")
+            fix.append(f"a prior on X's translation along {vec(td)} ({keys['translation']}, "
+                       "e.g. the camera offset measured with a ruler or taken from the CAD "
+                       "model, to within the tolerance)")
             fix.append("or motions rotating about an axis not parallel to it — which this "
                        "platform cannot make (e.g. tilt the rig: drive over a ramp, or mount "
                        "it on an arm)")
         if ax.any():
-            fix.append(f"a prior on X's rotation about {vec(ax)} (prior.rotvec_deg with a "
-                       "weight prior.a), or motions with rotations about two non-parallel axes")
+            fix.append(f"a prior on X's rotation about {vec(ax)} ({keys['rotation']}), or "
+                       "motions with rotations about two non-parallel axes")
         out.append({"kind": kind, "rotation_axis_a": ax.tolist(),
                     "translation_dir_a": td.tolist(), "description": desc,
                     "statement": (f"{desc}: no motion this platform can make determines it "

@@ -149,6 +149,40 @@ n_random=300, wide_baseline=True)`; `feasibility.candidates(world, n, rng, range
 systematic=)`, `planner.systematic_scores`, `planner.systematic_std`,
 `pipeline.stop_error_basis`.
 
+## Advice for your pose files
+
+`python -m simcalib advise a=PATH b=PATH platform=free|cart output=DIR [k=5]
+[candidates=1000] [calibrate key=value ...]`
+
+With pose files instead of a scenario, the files are first calibrated exactly as
+`simcalib calibrate` does (formats and conventions detected, clocks aligned, outliers
+rejected; every `calibrate` key applies), the noise is fitted to the inlier motions'
+residuals, and the next k stops of **sensor a** are chosen from its last recorded pose
+with the same stop-and-go criterion (`simcalib/advise/recorded.py`). Nothing is known
+about your robot, scene or marker map, so there is no render, no visibility check and
+no systematic-error model, and `platform` says which motions are possible:
+
+- `free`: any rotation of sensor a about any axis by 5-90 deg and a move up to 30 cm (the
+  arm's wide ranges). Reachability, joint limits, collisions and whether the target stays
+  in view are **not checked**: check each stop on the robot before recording it.
+- `cart`: drivable planar motions: a yaw of up to +-90 deg about the normal of the plane
+  the recorded motions lie in (estimated from the recorded rotations; motions that do
+  not rotate about one axis, within 10 deg, are refused with a pointer to
+  `platform=free`) and a planar move up to 1 m. The vertical translation of X is stated
+  as undeterminable, with the `calibrate` prior that fixes it.
+
+`DIR/advice.json`: `source`, `platform`, `X` (the files' estimate), `reference`
+(`T_frame_a`: sensor a's last pose, in file a's frame), `predicted_std_before`, per
+stop `T_frame_a_target` (where to put sensor a, file a's frame), `sensor_motions` (`a`,
+`b`: the motion from the previous stop: `rotvec_deg`, `angle_deg`, `translation_m`) and
+`predicted_std_after`, `cannot_help`, `not_checked`, `message`; `DIR/advice.rrd`: both
+sensors' recorded trajectories in file a's frame (b through the estimate), the reference
+and the proposed stops, and the predicted 1-sigma against the added stops. There is no
+verification (no simulator of your rig); `tests/test_advise_recorded.py` records the
+advised stops of synthetic SCARA-like files with ground truth and checks that they
+determine X and beat random stops. Python: `simcalib.advise.recorded.advise_recorded(C,
+H, X, T_ref_a, k, platform=, rng=)`, `recorded_advice_dict(adv)`.
+
 ## Measured (k = {k}, {n_seeds} random seeds, {n_cand} candidates, seed 0)
 
 Errors of dqopt against the true X: rotation (deg) and translation (cm); "max sigma" =

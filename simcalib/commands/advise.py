@@ -11,6 +11,8 @@ from simcalib.errors import UsageError
 
 USAGE = """usage: python -m simcalib advise scenario=NAME [k=5] [verify=true|false]
        [seeds=5] [candidates=1000] [output=DIR] [key=value ...] [--debug]
+   or: python -m simcalib advise a=PATH b=PATH platform=free|cart output=DIR [k=5]
+       [candidates=1000] [calibrate key=value ...]
 
 Proposes the next k stop-and-go motions of the platform that most reduce the predicted
 uncertainty of X (greedy over feasible candidates: IK within joint limits, no
@@ -27,6 +29,14 @@ the recorded motions already determine X within the tolerance; false: none then)
 systematic (true|false, default true: weigh the marker map's and the calibrations' errors
 the ArUco poses share, see docs/advice.md). Every other key=value is a scenario override
 (see `run --help`), e.g. world.platform=arm.
+
+With a=PATH (your own pose files): the files are calibrated as `calibrate` does (every
+calibrate key applies: format, time_offset, robust, alpha, ...) and the next k stops of
+sensor a are proposed from its last recorded pose. platform=free: any rotation up to
+90 deg and move up to 30 cm (nothing about your robot or scene is checked: check each
+stop before recording it); platform=cart: yaw about the plane the recorded motions lie
+in (up to 90 deg) and planar moves up to 1 m. Options k, candidates, max_rotation_deg,
+max_translation_m, force, recording. No verification (there is no simulator of your rig).
 """
 
 ADVICE_KEYS = {"k": int, "verify": bool, "seeds": int, "candidates": int,
@@ -68,20 +78,34 @@ def parse_args(args):
     return scenario, overrides, opts
 
 
+def _std_row(label, s) -> str:
+    vals = [s.get(a) for a in ("wx_deg", "wy_deg", "wz_deg")]
+    tr = [s.get(a) for a in ("vx_m", "vy_m", "vz_m")]
+    f = lambda v, m=1.0: "    inf" if v is None else f"{v * m:7.3f}"   # noqa: E731
+    return f"{label:<10}" + " ".join(f(v) for v in vals) + "  " + " ".join(
+        f(v, 100) for v in tr)
+
+
+def _print_std_rows(out: dict) -> None:
+    print("predicted 1-sigma   wx      wy      wz [deg]   vx      vy      vz [cm]")
+    print(_std_row("before", out["predicted_std_before"]))
+    for m in out["motions"]:
+        print(_std_row(f"+ stop {m['step']}", m["predicted_std_after"]))
+
+
+def _print_notes(out: dict) -> None:
+    if out.get("message"):
+        print(out["message"])
+    for c in out["cannot_help"]:
+        print(f"cannot help: {c['statement']}. Fix: {c['fix']}")
+    print(f"advice took {out['timing_s']['total']:.1f} s")
+
+
 def print_table(out: dict) -> None:
-    def row(label, s):
-        vals = [s.get(a) for a in ("wx_deg", "wy_deg", "wz_deg")]
-        tr = [s.get(a) for a in ("vx_m", "vy_m", "vz_m")]
-        f = lambda v, m=1.0: "    inf" if v is None else f"{v * m:7.3f}"   # noqa: E731
-        return f"{label:<10}" + " ".join(f(v) for v in vals) + "  " + " ".join(
-            f(v, 100) for v in tr)
     print(f"advice for {out['scenario']} ({out['platform']}, {out['recorded_motions']} recorded "
           f"motions; {out['candidates']['feasible']} of {out['candidates']['drawn']} candidates "
           f"feasible)")
-    print("predicted 1-sigma   wx      wy      wz [deg]   vx      vy      vz [cm]")
-    print(row("before", out["predicted_std_before"]))
-    for m in out["motions"]:
-        print(row(f"+ stop {m['step']}", m["predicted_std_after"]))
+    _print_std_rows(out)
     for m in out["motions"]:
         cm = m["camera_motions"]
         desc = ", ".join(f"{c}: {v['angle_deg']:.1f} deg / "
@@ -90,11 +114,7 @@ def print_table(out: dict) -> None:
         jt = (" joints [deg] " + " ".join(f"{math.degrees(v):.1f}" for v in joints.values())
               if joints else f" cart {m['cart_pose']}")
         print(f"stop {m['step']}: {desc};{jt}")
-    if out.get("message"):
-        print(out["message"])
-    for c in out["cannot_help"]:
-        print(f"cannot help: {c['statement']}. Fix: {c['fix']}")
-    print(f"advice took {out['timing_s']['total']:.1f} s")
+    _print_notes(out)
     ver = out.get("verification")
     if ver:
         print("verification (dqopt; actual error vs truth, predicted largest 1-sigma):")
@@ -136,10 +156,96 @@ def _n(v):
     return "inf/n/a" if v is None else f"{v:.3f}"
 
 
+def print_recorded_table(out: dict) -> None:
+    """Console summary of advice for recorded pose files."""
+    print(f"advice for your pose files ({out['platform']}, {out['recorded_motions']} recorded "
+          f"motions, {out['candidates']['drawn']} candidates)")
+    _print_std_rows(out)
+    for m in out["motions"]:
+        desc = ", ".join(f"sensor {c}: {v['angle_deg']:.1f} deg about "
+                         f"[{', '.join(f'{x:.2f}' for x in _axis(v))}] / "
+                         f"{100 * math.hypot(*v['translation_m']):.1f} cm"
+                         for c, v in m["sensor_motions"].items())
+        print(f"stop {m['step']}: {desc}")
+    print(f"not checked: {out['not_checked']}")
+    _print_notes(out)
+
+
+def _axis(v) -> list:
+    n = math.hypot(*v["rotvec_deg"])
+    return [x / n for x in v["rotvec_deg"]] if n > 0 else [0.0, 0.0, 0.0]
+
+
+#: advice options that apply to recorded pose files (the others need a simulated scenario)
+FILE_KEYS = ("k", "candidates", "max_rotation_deg", "max_translation_m", "recording", "force")
+
+
+def parse_file_args(args):
+    """``(CalibrateOptions, platform, advice options)`` for ``advise a=PATH ...``."""
+    from simcalib.advise.recorded import PLATFORMS
+    from simcalib.commands.calibrate import parse_options
+    opts = {"k": 5, "candidates": 1000, "recording": True, "force": True}
+    platform, rest = None, []
+    for a in args:
+        key, eq, val = (x.strip() for x in a.partition("="))
+        if eq and key == "platform":
+            if val not in PLATFORMS:
+                raise UsageError(f"platform must be one of {list(PLATFORMS)} for pose files; "
+                                 f"received {val!r}")
+            platform = val
+        elif eq and key in ADVICE_KEYS:
+            if key not in FILE_KEYS:
+                raise UsageError(f"{key} needs a simulated scenario (scenario=NAME); with "
+                                 f"pose files the advice options are {list(FILE_KEYS)}")
+            opts[key] = _value(key, val)
+        else:
+            rest.append(a)
+    if platform is None:
+        raise UsageError(f"advice for pose files needs platform=... (one of "
+                         f"{list(PLATFORMS)}: free = no platform model, cart = planar)")
+    return parse_options(rest), platform, opts
+
+
+def main_files(args: list[str]) -> int:
+    """``advise a=PATH [b=PATH] platform=... output=DIR``: advice for recorded pose files."""
+    import numpy as np
+
+    from simcalib.advise.recorded import advise_recorded, recorded_advice_dict
+    from simcalib.commands.calibrate import calibrate
+    from simcalib.kernel_mode import prepare_kernels
+    copts, platform, opts = parse_file_args(args)
+    with prepare_kernels().context():
+        r, assessment = calibrate(copts)
+    mask = np.asarray(r.robust.inlier_mask, dtype=bool)
+    kw = {k: opts[k] for k in ("max_rotation_deg", "max_translation_m") if k in opts}
+    try:
+        adv = advise_recorded(r.C[mask], r.H[mask], r.X, r.synced.T_a[-1], opts["k"],
+                              platform=platform, rng=np.random.default_rng([copts.seed, 13]),
+                              alpha=copts.alpha, n_candidates=opts["candidates"],
+                              when_determined="advise" if opts["force"] else "stop", **kw)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    out = recorded_advice_dict(adv, {"a": str(copts.a), "b": str(copts.b) if copts.b else None,
+                                     "calibration": assessment.verdict})
+    out_dir = Path(copts.output)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    path = out_dir / "advice.json"
+    if opts["recording"]:
+        from simcalib.rerun_log import record_recorded_advice
+        out["recording"] = str(record_recorded_advice(out_dir / "advice.rrd", r.synced.T_a,
+                                                      adv))
+    path.write_text(json.dumps(out, indent=1, allow_nan=False))
+    print_recorded_table(out)
+    print(f"wrote {path}" + (f", {out['recording']}" if opts["recording"] else ""))
+    return 0
+
+
 def main(args: list[str]) -> int:
     if any(a in ("-h", "--help") for a in args):
         print(USAGE, end="")
         return 0
+    if any(a.partition("=")[0].strip() == "a" and "=" in a for a in args):
+        return main_files(args)
     scenario, overrides, opts = parse_args(args)
     from simcalib.config import load_config
     cfg = load_config(scenario, list(overrides))
