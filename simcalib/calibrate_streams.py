@@ -162,15 +162,10 @@ def align_worlds(T_a: np.ndarray, T_b: np.ndarray, X: np.ndarray) -> np.ndarray:
     ``X`` (``T_wa_a X = T_wa_wb T_wb_b`` at every synchronised instant), as the chordal
     mean rotation (SVD projection of the mean) and the median translation of the per-instant
     estimates ``T_wa_a X T_wb_b^-1``. Used to draw both trajectories in one frame."""
-    from simcalib.geometry import invert_transform
+    from simcalib.geometry import chordal_mean_rotation, invert_transform
     Y = T_a @ X @ invert_transform(T_b)
-    U, _, Vt = np.linalg.svd(Y[:, :3, :3].mean(axis=0))
-    R = U @ Vt
-    if np.linalg.det(R) < 0:
-        U[:, -1] *= -1
-        R = U @ Vt
     out = np.eye(4)
-    out[:3, :3] = R
+    out[:3, :3] = chordal_mean_rotation(Y[:, :3, :3])
     out[:3, 3] = np.median(Y[:, :3, 3], axis=0)
     return out
 

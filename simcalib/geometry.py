@@ -22,6 +22,7 @@ import numpy as np
 
 __all__ = [
     "adjoint_from_transform",
+    "chordal_mean_rotation",
     "as_real_array",
     "project_points",
     "check_transforms",
@@ -341,6 +342,18 @@ def relative_motions(T_w_a: np.ndarray, T_w_b: np.ndarray, i: np.ndarray, j: np.
     C = invert_transform(T_w_a[i]) @ T_w_a[j]
     H = invert_transform(T_w_b[i]) @ T_w_b[j]
     return C, H
+
+
+def chordal_mean_rotation(R: np.ndarray) -> np.ndarray:
+    """Chordal L2 mean ``(3, 3)`` of rotations ``(N, 3, 3)``: the rotation nearest (in
+    Frobenius norm) to their arithmetic mean (SVD projection, ``det = +1``)."""
+    R = np.asarray(R, dtype=np.float64)
+    if R.ndim != 3 or R.shape[1:] != (3, 3) or R.shape[0] == 0:
+        raise ValueError(f"R must be (N, 3, 3) with N >= 1; received shape {R.shape}")
+    U, _, Vt = np.linalg.svd(R.mean(axis=0))
+    if np.linalg.det(U @ Vt) < 0:
+        U[:, -1] *= -1
+    return U @ Vt
 
 
 # ---------------------------------------------------------------------------- errors

@@ -271,3 +271,50 @@ def test_stops_are_measured_at_rest():
     assert not eff.timed and at_rest.workers == 1
     assert eff.distortion == eff0.distortion and eff.map_position_std_m > 0
     assert eff.exposure_s == eff0.exposure_s and eff.jpeg_quality == eff0.jpeg_quality
+
+
+def test_average_stop_frames_takes_the_mean_pose_of_each_stop():
+    from simcalib.advise.feasibility import average_stop_frames
+    from simcalib.geometry import matrix_from_rotvec
+    from simcalib.streams import PoseStream
+    truth = np.stack([np.eye(4)] * 3)
+    truth[:, :3, 3] = [[0, 0, 1], [0.5, 0, 1], [0, 0.5, 1]]
+    truth[1, :3, :3] = matrix_from_rotvec(np.array([0.0, 0.0, 0.7]))
+    stop_of = np.repeat(np.arange(3), 4)                  # 4 frames at rest per stop
+    fi = np.array([0, 1, 2, 3, 4, 6])                     # stop 1 lost two, stop 2 all
+    d = 0.01
+    E = [np.array([d, 0, 0]), np.array([-d, 0, 0]), np.array([0, d, 0]), np.array([0, -d, 0]),
+         np.array([0, 0, d]), np.array([0, 0, -d])]
+    T = truth[stop_of[fi]].copy()
+    for k, e in enumerate(E):                            # symmetric errors: mean = truth
+        T[k, :3, :3] = T[k, :3, :3] @ matrix_from_rotvec(e)
+        T[k, :3, 3] += e
+    s = PoseStream("cam_b", "aruco", fi, 0.1 * fi, T, 12,
+                   info={"n_markers": np.array([5, 6, 7, 8, 9, 10])})
+    out = average_stop_frames(s, stop_of)
+    assert out.frame_index.tolist() == [0, 1] and out.n_frames == 3
+    assert out.info["frames_averaged"].tolist() == [4, 2]
+    assert out.info["n_markers"].tolist() == [5, 9]
+    assert np.allclose(out.T_world_cam, truth[:2], atol=1e-4)
+    assert np.allclose(out.timestamp_s, [0.0, 0.4])
+
+
+@pytest.mark.slow
+def test_stops_measured_with_several_frames_at_rest(scara_advice):
+    """frames_per_stop: each stop's pose is the mean of its frames, each with its own noise
+    (the frames differ), stop indices as with one frame."""
+    from simcalib.advise.feasibility import execute_stops
+    base, adv = scara_advice
+    idx = adv.chosen[:2]
+    one = execute_stops(base.truth, base.cfg, adv.candidates, idx, np.random.default_rng(1))
+    avg = execute_stops(base.truth, base.cfg, adv.candidates, idx, np.random.default_rng(1),
+                        frames_per_stop=4)
+    for cam in ("cam_a", "cam_b"):
+        assert set(avg[cam].frame_index) == set(one[cam].frame_index)
+    cam = base.aruco_cameras[0]
+    assert (avg[cam].info["frames_averaged"] >= 1).all()
+    assert (avg[cam].info["frames_averaged"] <= 4).all()
+    assert not np.allclose(avg[cam].T_world_cam, one[cam].T_world_cam, atol=1e-9)
+    with pytest.raises(ValueError, match="frames_per_stop must be an integer >= 1"):
+        execute_stops(base.truth, base.cfg, adv.candidates, idx, np.random.default_rng(1),
+                      frames_per_stop=0)

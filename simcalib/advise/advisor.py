@@ -400,7 +400,8 @@ class Verification:
     drawn at random from the planner's own feasible candidates (its wider ranges: how much
     of the gain is moving farther rather than choosing); ``motion_size``: median rotation
     (deg) and translation (cm) of camera a's stop-to-stop motions for ``advised``,
-    ``random``, ``random_joint``, ``random_wide``."""
+    ``random``, ``random_joint``, ``random_wide``; ``frames_per_stop``: frames averaged
+    at each stop."""
     baseline: dict
     advised: dict
     random: list
@@ -416,11 +417,12 @@ class Verification:
     random_wide: list = field(default_factory=list)
     random_wide_median: dict = field(default_factory=dict)
     ratio_wide: dict = field(default_factory=dict)
+    frames_per_stop: int = 1
 
 
 def verify(base: Baseline, adv: Advice, *, seeds=(0, 1, 2, 3, 4), joint_baseline: bool = True,
            max_joint_deg: float = 20.0, n_joint: int = 300, n_random: int = 300,
-           wide_baseline: bool = True) -> Verification:
+           wide_baseline: bool = True, frames_per_stop: int = 1) -> Verification:
     """Execute the advised stops and ``len(seeds)`` sets of ``k`` random feasible stops
     in the simulator; solve with each added. Random baselines: ``random``, uniform over
     ``n_random`` feasible stops drawn by :func:`feasibility.candidates` with the ``"jog"``
@@ -429,7 +431,9 @@ def verify(base: Baseline, adv: Advice, *, seeds=(0, 1, 2, 3, 4), joint_baseline
     ``joint_baseline``, ``random_joint``: ``k`` feasible stops of ``n_joint`` joint jogs of
     +-``max_joint_deg`` per joint around the reference
     (:func:`feasibility.joint_candidates`); with ``wide_baseline``, ``random_wide``: ``k``
-    stops uniform over the planner's own feasible candidates."""
+    stops uniform over the planner's own feasible candidates. ``frames_per_stop``: frames
+    recorded and averaged at each stop, for every set of stops alike
+    (:func:`feasibility.execute_stops`)."""
     t0 = time.perf_counter()
     X_true = base.truth.X_true
     kw = dict(tolerance_deg=adv.tolerance_deg, tolerance_m=adv.tolerance_m)
@@ -438,7 +442,8 @@ def verify(base: Baseline, adv: Advice, *, seeds=(0, 1, 2, 3, 4), joint_baseline
     res0 = solve_errors(base.C, base.H, X_true, base.alpha, **kw, **rec)
 
     def run(idx, rng, cand=adv.candidates):
-        streams = fz.execute_stops(base.truth, base.cfg, cand, idx, rng)
+        streams = fz.execute_stops(base.truth, base.cfg, cand, idx, rng,
+                                   frames_per_stop=frames_per_stop)
         Cs, Hs, got = fz.stop_motions(streams, chain=True)
         r = solve_errors(np.concatenate([base.C, Cs]), np.concatenate([base.H, Hs]), X_true,
                          base.alpha, **kw,
@@ -497,7 +502,8 @@ def verify(base: Baseline, adv: Advice, *, seeds=(0, 1, 2, 3, 4), joint_baseline
             "random_wide": _median_size([r.get("motion_size") for r in res_wide])}
     return Verification(res0, res_adv, res_rand, med, ratio,
                         {"verification": time.perf_counter() - t0}, res_joint, med_j,
-                        ratio_j, size, res_adv_seeds, adv_med, res_wide, med_w, ratio_w)
+                        ratio_j, size, res_adv_seeds, adv_med, res_wide, med_w, ratio_w,
+                        frames_per_stop=int(frames_per_stop))
 
 
 def _summary(res_adv, res_rand):
@@ -636,6 +642,7 @@ def advice_dict(base: Baseline, adv: Advice, ver: Verification | None = None) ->
                                "random_wide": ver.random_wide,
                                "random_wide_median": ver.random_wide_median,
                                "ratio_advised_to_random_wide_median": ver.ratio_wide,
+                               "frames_per_stop": ver.frames_per_stop,
                                "timing_s": ver.timing_s}
     return out
 

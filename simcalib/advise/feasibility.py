@@ -414,19 +414,29 @@ def stop_state(cand: Candidates, idx) -> tuple:
 
 
 def execute_stops(truth, cfg, cand: Candidates, idx, rng: np.random.Generator,
-                  stop_interval_s: float = 2.0) -> dict:
+                  stop_interval_s: float = 2.0, frames_per_stop: int = 1) -> dict:
     """Drive the platform to the reference stop and then to the candidates ``idx`` (stop and
     go), measure each camera there with the run's pose sources (ArUco renders and detects,
     robot_fk reads the encoders ...), and return camera -> ``PoseStream`` over the stops
-    (frame 0 = the reference stop; stops without a pose are absent)."""
+    (frame 0 = the reference stop; stops without a pose are absent). ``frames_per_stop``:
+    frames recorded while the platform rests at each stop (at the run's fps, each with its
+    own sensor noise); a stop's pose is their mean (:func:`average_stop_frames`)."""
     from simcalib.sources import camera_sources, get_source
     from simcalib.streams import Trajectory
     from simcalib.world.simulate import SimCameraFrames, camera_poses_from_state
+    if isinstance(frames_per_stop, bool) or not isinstance(frames_per_stop, (int, np.integer)) \
+            or frames_per_stop < 1:
+        raise ValueError(f"frames_per_stop must be an integer >= 1; received "
+                         f"{frames_per_stop!r}")
     world = truth.world
     qpos, mpos, mquat = stop_state(cand, idx)
+    stop_of = np.repeat(np.arange(qpos.shape[0]), int(frames_per_stop))
+    qpos, mpos, mquat = qpos[stop_of], mpos[stop_of], mquat[stop_of]
     n = qpos.shape[0]
     t_end = float(np.max(world.frames("cam_b").time_s))
-    t = t_end + stop_interval_s * np.arange(1, n + 1)
+    t = (t_end + stop_interval_s * (1 + stop_of)
+         + np.tile(np.arange(int(frames_per_stop)), n // int(frames_per_stop))
+         / float(world.config.fps))
     Tc = camera_poses_from_state(world.model, qpos, mpos, mquat)
     ids = _camera_ids(world.model, world.camera_names)
     from simcalib.world.layout import visible_markers
@@ -450,7 +460,35 @@ def execute_stops(truth, cfg, cand: Candidates, idx, rng: np.random.Generator,
     for (name, cams), r in zip(sorted(by_source.items()), children):
         res = get_source(name, truth.kind).measure(t2, _stop_config(cfg), r, tuple(cams))
         out.update({c: res.streams[c] for c in cams})
+    if frames_per_stop > 1:
+        out = {c: average_stop_frames(s, stop_of) for c, s in out.items()}
     return out
+
+
+def average_stop_frames(stream, stop_of) -> object:
+    """``stream`` (a PoseStream over the frames at rest) with one pose per stop: frame ``f``
+    belongs to stop ``stop_of[f]``; a stop's pose is the chordal mean rotation and the
+    mean translation of its measured frames; ``info["frames_averaged"]`` counts them,
+    the other ``info`` arrays keep the stop's first measured frame. Stops no frame
+    measured stay absent."""
+    from simcalib.geometry import chordal_mean_rotation
+    fi = np.asarray(stream.frame_index, dtype=np.int64)
+    stop_of = np.asarray(stop_of, dtype=np.int64)
+    stops, first = np.unique(stop_of[fi], return_index=True)
+    T = np.asarray(stream.T_world_cam)
+    mean = np.repeat(np.eye(4)[None], stops.size, axis=0)
+    count = np.zeros(stops.size, dtype=np.int64)
+    for k, st in enumerate(stops):
+        rows = np.flatnonzero(stop_of[fi] == st)
+        mean[k, :3, :3] = chordal_mean_rotation(T[rows, :3, :3])
+        mean[k, :3, 3] = T[rows, :3, 3].mean(axis=0)
+        count[k] = rows.size
+    info = {key: np.asarray(v)[first] for key, v in stream.info.items()
+            if np.ndim(v) >= 1 and len(v) == fi.size}
+    info["frames_averaged"] = count
+    return dataclasses.replace(stream, frame_index=stops,
+                               timestamp_s=np.asarray(stream.timestamp_s)[first],
+                               T_world_cam=mean, n_frames=int(stop_of.max()) + 1, info=info)
 
 
 def _stop_config(cfg):

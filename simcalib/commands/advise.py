@@ -27,7 +27,8 @@ Advice options: k, verify, seeds, candidates, max_rotation_deg, max_translation_
 min_markers, recording (true|false), force (default true: propose k motions even when
 the recorded motions already determine X within the tolerance; false: none then),
 systematic (true|false, default true: weigh the marker map's and the calibrations' errors
-the ArUco poses share, see docs/advice.md). Every other key=value is a scenario override
+the ArUco poses share, see docs/advice.md), stop_frames (verification: frames recorded
+and averaged at each stop while the platform rests, default 1). Every other key=value is a scenario override
 (see `run --help`), e.g. world.platform=arm.
 
 With a=PATH (your own pose files): the files are calibrated as `calibrate` does (every
@@ -39,7 +40,7 @@ in (up to 90 deg) and planar moves up to 1 m. Options k, candidates, max_rotatio
 max_translation_m, force, recording. No verification (there is no simulator of your rig).
 """
 
-ADVICE_KEYS = {"k": int, "verify": bool, "seeds": int, "candidates": int,
+ADVICE_KEYS = {"k": int, "verify": bool, "seeds": int, "candidates": int, "stop_frames": int,
                "max_rotation_deg": float, "max_translation_m": float, "min_markers": int,
                "recording": bool, "force": bool, "systematic": bool}
 
@@ -258,7 +259,8 @@ def main(args: list[str]) -> int:
     adv = advise(base, opts["k"], seed=cfg.seed, n_candidates=opts["candidates"],
                  when_determined="advise" if opts.get("force", True) else "stop",
                  systematic=opts.get("systematic", True), **kw)
-    ver = verify(base, adv, seeds=tuple(range(opts["seeds"]))) if opts["verify"] else None
+    ver = verify(base, adv, seeds=tuple(range(opts["seeds"])),
+                 frames_per_stop=opts.get("stop_frames", 1)) if opts["verify"] else None
     out = advice_dict(base, adv, ver)
     path = out_dir / "advice.json"
     path.write_text(json.dumps(out, indent=1, allow_nan=False))
