@@ -474,7 +474,8 @@ class VisualStreamsInterrupted(KeyboardInterrupt):
 
 
 def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Generator | None = None,
-                   workers: int | None = None, progress=None) -> tuple[dict, VisualLog]:
+                   workers: int | None = None, progress=None,
+                   rig_entropy: int | None = None) -> tuple[dict, VisualLog]:
     """Visual ``PoseStream`` of every camera of ``world`` and the :class:`VisualLog`.
 
     ``rng`` (required ``numpy.random.Generator``) seeds the image noise: one number is
@@ -483,6 +484,12 @@ def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Genera
     cores; ``1``: render in this process). Poses are ``T_world_cam`` in the marker map's
     frame (the MuJoCo world); ``info`` holds ``n_markers``, ``reproj_rmse_px`` and
     ``ambiguity`` per pose; ``drop_reasons`` counts dropped frames by reason.
+
+    The rig's fixed errors — the marker map's survey error, each camera's calibration
+    error (:func:`_camera_optics`) and the lighting's phase — are drawn from that number
+    too, unless ``rig_entropy`` (the number an earlier call drew, see
+    :func:`rig_entropy_of`) is given: then more frames of the *same* rig are measured,
+    with fresh per-frame noise.
 
     ``progress(n_done, n_total)`` (optional) is called as camera frames finish (e.g. a
     progress bar's update; :class:`simcalib.render.LineProgress` prints a line every N
@@ -498,6 +505,7 @@ def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Genera
     _check_world(world)
     cameras = tuple(world.camera_names)
     entropy = int(rng.integers(0, 2**63 - 1))
+    rig = entropy if rig_entropy is None else int(rig_entropy)
     intr, fovy = {}, {}
     for cam in cameras:
         intr[cam], fovy[cam] = _camera_intrinsics(world, cam, cfg)
@@ -505,12 +513,12 @@ def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Genera
             _check_model_fovy(world.model, cam, fovy[cam], world.intrinsics[cam])
     frames = {cam: _camera_frames(world, cam) for cam in cameras}
     eff = cfg.effects()
-    optics = _camera_optics(cameras, intr, eff, entropy)
-    proc = FrameProcessor(_estimator_map(world.marker_field, eff, entropy),
+    optics = _camera_optics(cameras, intr, eff, rig)
+    proc = FrameProcessor(_estimator_map(world.marker_field, eff, rig),
                           {c: intr[c].K for c in cameras},
                           {c: i for i, c in enumerate(cameras)}, cfg, entropy, optics)
     light_phase = float(np.random.default_rng(np.random.SeedSequence(
-        entropy, spawn_key=(10**6,))).uniform(0, 2 * np.pi))
+        rig, spawn_key=(10**6,))).uniform(0, 2 * np.pi))
     offsets = _subframe_offsets(eff)
 
     # One render pass per rendered image size (cameras usually share one).
@@ -781,6 +789,14 @@ def pose_error_basis(world, camera: str, T_world_cam, cfg: "VisionConfig | None"
                                    eff.distortion, sig)
     F, M = Jm.shape[:2]
     return np.concatenate([Jm.transpose(0, 2, 1, 3).reshape(F, 6, 6 * M), Ji], axis=2)
+
+
+def rig_entropy_of(rng: np.random.Generator) -> int:
+    """The number :func:`visual_streams` draws first from ``rng`` (a copy is drawn from:
+    ``rng`` is not advanced): pass it as ``rig_entropy`` to measure more frames of the rig
+    a call with ``rng`` measured."""
+    import copy  # noqa: PLC0415
+    return int(copy.deepcopy(rng).integers(0, 2**63 - 1))
 
 
 def _estimator_map(field: MarkerField, eff, entropy: int) -> MarkerField:

@@ -318,3 +318,27 @@ def test_stops_measured_with_several_frames_at_rest(scara_advice):
     with pytest.raises(ValueError, match="frames_per_stop must be an integer >= 1"):
         execute_stops(base.truth, base.cfg, adv.candidates, idx, np.random.default_rng(1),
                       frames_per_stop=0)
+
+
+@pytest.mark.slow
+def test_stops_are_measured_by_the_recorded_runs_rig(scara_advice, monkeypatch):
+    """The stops see the recorded run's marker map survey and camera calibrations (the same
+    rig), with their own per-frame noise: the rig number the stops' ArUco measurement uses
+    is the one the recorded run's drew."""
+    import simcalib.vision as vision
+    from simcalib import pipeline
+    from simcalib.advise.feasibility import execute_stops
+    base, adv = scara_advice
+    seen = []
+    real = vision.visual_streams
+
+    def spy(world, cfg, rng, *a, rig_entropy=None, **kw):
+        seen.append(vision.rig_entropy_of(rng) if rig_entropy is None else rig_entropy)
+        return real(world, cfg, rng, *a, rig_entropy=rig_entropy, **kw)
+
+    monkeypatch.setattr(vision, "visual_streams", spy)
+    pipeline.state_through_pairs(base.cfg)                       # the recorded run
+    for s in (1, 2):
+        execute_stops(base.truth, base.cfg, adv.candidates, adv.chosen[:1],
+                      np.random.default_rng(s))
+    assert len(seen) == 3 and seen[0] == seen[1] == seen[2]

@@ -418,7 +418,10 @@ def execute_stops(truth, cfg, cand: Candidates, idx, rng: np.random.Generator,
     """Drive the platform to the reference stop and then to the candidates ``idx`` (stop and
     go), measure each camera there with the run's pose sources (ArUco renders and detects,
     robot_fk reads the encoders ...), and return camera -> ``PoseStream`` over the stops
-    (frame 0 = the reference stop; stops without a pose are absent). ``frames_per_stop``:
+    (frame 0 = the reference stop; stops without a pose are absent). The rig is the recorded
+    run's: the same true arm (DH deviation), marker map survey and camera calibrations
+    (:func:`recorded_rig_entropy`); ``rng`` draws only the per-frame noise (images,
+    encoders). ``frames_per_stop``:
     frames recorded while the platform rests at each stop (at the run's fps, each with its
     own sensor noise); a stop's pose is their mean (:func:`average_stop_frames`)."""
     from simcalib.sources import camera_sources, get_source
@@ -450,7 +453,7 @@ def execute_stops(truth, cfg, cand: Candidates, idx, rng: np.random.Generator,
     traj = Trajectory(cam_a=frames["cam_a"], cam_b=frames["cam_b"],
                       T_a_b=world.trajectory.T_a_b, meta=dict(world.trajectory.meta))
     w2 = dataclasses.replace(world, trajectory=traj)
-    t2 = dataclasses.replace(truth, world=w2)
+    t2 = dataclasses.replace(truth, world=w2, rig_entropy=recorded_rig_entropy(cfg))
     srcs = camera_sources(cfg, truth.kind)
     by_source: dict = {}
     for cam, name in srcs.items():
@@ -489,6 +492,15 @@ def average_stop_frames(stream, stop_of) -> object:
     return dataclasses.replace(stream, frame_index=stops,
                                timestamp_s=np.asarray(stream.timestamp_s)[first],
                                T_world_cam=mean, n_frames=int(stop_of.max()) + 1, info=info)
+
+
+def recorded_rig_entropy(cfg) -> dict:
+    """``{"vision": n}``: the number the recorded run of ``cfg`` drew for its rig's fixed
+    errors (marker map survey, camera calibrations): the stops are measured by the same rig
+    (the same map and calibrations as the recorded run), with their own per-frame noise."""
+    from simcalib.pipeline import run_rngs
+    from simcalib.vision import rig_entropy_of
+    return {"vision": rig_entropy_of(run_rngs(cfg.seed)["vision"])}
 
 
 def _stop_config(cfg):

@@ -189,7 +189,9 @@ def recorded_advice_dict(adv: RecordedAdvice, source: dict | None = None) -> dic
             "recorded_motions": adv.recorded_motions,
             "X": adv.X.tolist(),
             "reference": {"T_frame_a": adv.T_ref_a.tolist(),
-                          "meaning": "sensor a's last recorded pose, in file a's frame"},
+                          "meaning": "sensor a's last recorded pose T_world_a in file "
+                                     "a's world frame (after the conventions detected, see "
+                                     "source.conventions)"},
             "predicted_std_before": _std_dict(adv.std_before),
             "max_std_tolerance_units_before": _f(adv.max_std_tol[0]),
             "message": adv.message, "motions": motions, "cannot_help": adv.cannot_help,

@@ -227,7 +227,9 @@ def main_files(args: list[str]) -> int:
     except ValueError as exc:
         raise UsageError(str(exc)) from None
     out = recorded_advice_dict(adv, {"a": str(copts.a), "b": str(copts.b) if copts.b else None,
-                                     "calibration": assessment.verdict})
+                                     "calibration": assessment.verdict,
+                                     "conventions": r.summary.get("conventions"),
+                                     "inlier_motions": int(mask.sum())})
     out_dir = Path(copts.output)
     out_dir.mkdir(parents=True, exist_ok=True)
     path = out_dir / "advice.json"

@@ -20,7 +20,8 @@ class ArucoSource:
         if set(cameras) != set(world.camera_names):   # per-stream selection: render only these
             world = dataclasses.replace(world, camera_names=tuple(
                 c for c in world.camera_names if c in cameras))
-        streams, log = visual_streams(world, cfg.vision, rng, workers=cfg.workers)
+        streams, log = visual_streams(world, cfg.vision, rng, workers=cfg.workers,
+                                      rig_entropy=truth.rig_entropy.get(self.info.rng_stream))
         return SourceOutput(streams={cam: streams[cam] for cam in cameras}, log=log)
 
 

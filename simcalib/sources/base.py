@@ -33,7 +33,11 @@ class GroundTruth:
     :class:`simcalib.world.World` (``kind="sim"``, else ``None``); ``synthetic``: the
     :class:`simcalib.synthetic.SyntheticProblem` (``kind="synthetic"``, else ``None``);
     ``intrinsics``: camera -> :class:`~simcalib.streams.CameraIntrinsics` (empty without
-    cameras); ``marker_field``: the known marker map or ``None``.
+    cameras); ``marker_field``: the known marker map or ``None``; ``rig_entropy``: rng
+    stream name -> the number a source drew for the rig's fixed errors in the recorded run
+    (e.g. ``"vision"``: the marker map's survey and the camera calibrations, see
+    :func:`simcalib.vision.visual_streams`), set when more frames of the same rig are
+    measured (the stops of ``simcalib advise``); empty: drawn from the source's generator.
     """
     kind: str
     X_true: np.ndarray
@@ -42,6 +46,7 @@ class GroundTruth:
     synthetic: object = None
     intrinsics: Mapping[str, object] = field(default_factory=dict)
     marker_field: object = None
+    rig_entropy: Mapping[str, int] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
