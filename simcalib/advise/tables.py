@@ -232,8 +232,12 @@ History of the ratios (rotation / translation; same command): the information-on
 planner (commit 174d94d) scara 0.48 / 1.2, linear-arm 0.35 / 0.38, rotation-arm
 0.75 / 1.2, `3d` with k forced stops 1.1 / 1.3; with the systematic errors weighed
 (commit 83eefa2: 300 candidates over the jog ranges, stops measured with sub-frame
-renders) 0.89 / 1.2, 0.27 / 0.41, 0.40 / 0.49, 0.44 / 0.96. This version searches the
-wide ranges and measures the stops at rest (the tables above). Once rotations about different axes fix the
+renders) 0.89 / 1.2, 0.27 / 0.41, 0.40 / 0.49, 0.44 / 0.96; searching the wide ranges with
+the stops measured at rest (commit 509c0bd; one rig, and the stops' map survey and
+calibrations redrawn for every seed: not the recorded run's rig) 0.49 / 0.38,
+0.20 / 0.35, 0.30 / 0.39, 0.49 / 0.51. This version measures the stops with the recorded
+run's rig and pools three rigs (the tables above): the per-rig column shows that one
+rig's luck moves a ratio by 2-4x, so a single rig's ratio says little. Once rotations about different axes fix the
 degenerate directions, what remains is set mostly by the errors the stops share (the
 marker map, the calibrations, the DH table): the same for any choice of stops, so the
 advised stops lower the error by the factors in the table rather than without bound.
