@@ -63,6 +63,10 @@ def test_plane_normal_of_a_cart_and_refusal_of_3d_motion():
     C3 = np.stack([_pose(rng.normal(0, 0.5, 3), rng.normal(0, 0.3, 3)) for _ in range(20)])
     with pytest.raises(ValueError, match="planar motion.*spread.*platform=free"):
         rc.plane_normal(C3)
+    C_lift = C.copy()                                # a SCARA: vertical moves as well
+    C_lift[:, 2, 3] = np.linspace(-0.2, 0.2, len(C))
+    with pytest.raises(ValueError, match="leave that plane by .* platform=free"):
+        rc.plane_normal(C_lift)
     with pytest.raises(ValueError, match="rotate by 0 deg"):
         rc.plane_normal(np.repeat(np.eye(4)[None], 3, axis=0))
 

@@ -13,8 +13,8 @@ sensor a from the last recorded pose (the reference), in sensor a's own frame:
   :data:`simcalib.advise.feasibility.RANGES`). Reachability, collisions and whether the
   target stays visible are **not** checked: each stop must be checked on the robot.
 * ``cart``: drivable planar motions: a yaw about the plane's normal (estimated from the
-  recorded rotations, which must all be about one axis) of up to +-90 deg and a move up
-  to 1 m in the plane. Obstacles are not checked.
+  recorded rotations, which must all be about one axis, with translations in the plane)
+  of up to +-90 deg and a move up to 1 m in the plane. Obstacles are not checked.
 
 Directions no candidate can determine (a cart cannot determine X's translation along
 the plane's normal) are stated with their fix, as for a scenario.
@@ -40,14 +40,18 @@ __all__ = ["PLATFORMS", "RecordedAdvice", "plane_normal", "motion_candidates",
 PLATFORMS = ("free", "cart")
 #: the recorded rotations of a cart must lie within this angle of one axis (RMS, deg)
 MAX_AXIS_SPREAD_DEG = 10.0
-#: ... and rotate by at least this much in total to define that axis (deg)
+#: ... and rotate by at least this much in total to define that axis (deg); their
+#: translations must stay within MAX_AXIS_SPREAD_DEG of the plane normal to it unless they
+#: leave it by less than MIN_OFF_PLANE_M (RMS)
 MIN_TOTAL_ROTATION_DEG = 5.0
+MIN_OFF_PLANE_M = 0.002
 
 
 def plane_normal(C) -> np.ndarray:
     """Unit normal ``(3,)`` (sensor-a frame) of the plane a cart moved in: the axis all the
     recorded rotations of sensor a turn about (principal axis of the rotation vectors).
-    ValueError when the motions rotate too little to define it or not about one axis."""
+    ValueError when the motions rotate too little to define it, not about one axis, or
+    translate out of the plane normal to it."""
     from simcalib.geometry import rotvec_from_matrix
     C = np.asarray(C, dtype=np.float64)
     if C.ndim != 3 or C.shape[1:] != (4, 4) or C.shape[0] == 0:
@@ -66,7 +70,18 @@ def plane_normal(C) -> np.ndarray:
                          f"axis); the recorded rotations of sensor a spread {spread:.3g} deg "
                          f"RMS around their main axis (at most {MAX_AXIS_SPREAD_DEG:g}); use "
                          f"platform=free")
-    return n if n[np.argmax(np.abs(n))] > 0 else -n
+    n = n if n[np.argmax(np.abs(n))] > 0 else -n
+    t = C[:, :3, 3]
+    along = float(np.sqrt(np.mean((t @ n) ** 2)))
+    across = float(np.sqrt(np.mean(np.sum((t - np.outer(t @ n, n)) ** 2, axis=1))))
+    tilt = math.degrees(math.atan2(along, across))
+    if along > MIN_OFF_PLANE_M and tilt > MAX_AXIS_SPREAD_DEG:
+        raise ValueError(f"platform 'cart' expects planar motion (translations in the plane "
+                         f"normal to the rotation axis); the recorded translations of sensor "
+                         f"a leave that plane by {tilt:.3g} deg RMS ({1e3 * along:.3g} mm RMS "
+                         f"along the axis; at most {MAX_AXIS_SPREAD_DEG:g} deg); use "
+                         f"platform=free")
+    return n
 
 
 def _unit(v):

@@ -172,8 +172,8 @@ no systematic-error model, and `platform` says which motions are possible:
   in view are **not checked**: check each stop on the robot before recording it.
 - `cart`: drivable planar motions: a yaw of up to +-90 deg about the normal of the plane
   the recorded motions lie in (estimated from the recorded rotations; motions that do
-  not rotate about one axis, within 10 deg, are refused with a pointer to
-  `platform=free`) and a planar move up to 1 m. The vertical translation of X is stated
+  not rotate about one axis or translate out of the plane normal to it, by more than
+  10 deg RMS, are refused with a pointer to `platform=free`) and a planar move up to 1 m. The vertical translation of X is stated
   as undeterminable, with the `calibrate` prior that fixes it.
 
 `DIR/advice.json`: `source` (files, calibration verdict, detected conventions, inlier
