@@ -236,7 +236,7 @@ renders) 0.89 / 1.2, 0.27 / 0.41, 0.40 / 0.49, 0.44 / 0.96; searching the wide r
 the stops measured at rest (commit 509c0bd; one rig, and the stops' map survey and
 calibrations redrawn for every seed: not the recorded run's rig) 0.49 / 0.38,
 0.20 / 0.35, 0.30 / 0.39, 0.49 / 0.51. This version measures the stops with the recorded
-run's rig and pools three rigs (the tables above): the per-rig column shows that one
+run's rig and pools several rigs (the tables above): the per-rig column shows that one
 rig's luck moves a ratio by 2-4x, so a single rig's ratio says little. Once rotations about different axes fix the
 degenerate directions, what remains is set mostly by the errors the stops share (the
 marker map, the calibrations, the DH table): the same for any choice of stops, so the
@@ -380,7 +380,7 @@ def main(argv=None) -> int:
     ap.add_argument("--candidates", type=int, default=1000)
     ap.add_argument("--stop-frames", type=int, default=10,
                     help="frames averaged at each stop in the second verification")
-    ap.add_argument("--rigs", type=int, default=3,
+    ap.add_argument("--rigs", type=int, default=5,
                     help="scenario seeds 0..rigs-1: each its own recorded run and rig")
     a = ap.parse_args(argv)
     os.environ.setdefault("MUJOCO_GL", "egl")
