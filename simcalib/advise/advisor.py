@@ -249,11 +249,11 @@ def determined_message(F_base, when_determined: str, **kw) -> tuple[str, bool]:
     every direction within the tolerance, say so; ``propose`` is False then only for
     ``when_determined="stop"``."""
     check_when_determined(when_determined)
-    g0 = pl.greedy(F_base, np.zeros((1, 6, 6)), 1, feasible=np.zeros(1, bool), **kw)
-    if g0.max_std_tol[0] > 1.0:
+    worst = pl.max_std_tolerance_units(F_base, **kw)
+    if worst > 1.0:
         return "", True
     message = (f"X is already determined within the tolerance by the recorded motions "
-               f"(largest predicted 1-sigma {g0.max_std_tol[0]:.3g} tolerance units); ")
+               f"(largest predicted 1-sigma {worst:.3g} tolerance units); ")
     if when_determined == "stop":
         return message + ("no motion proposed (when_determined='advise' / force=true: the "
                           "k stops that lower it most)"), False

@@ -438,8 +438,7 @@ def execute_stops(truth, cfg, cand: Candidates, idx, rng: np.random.Generator,
     n = qpos.shape[0]
     t_end = float(np.max(world.frames("cam_b").time_s))
     t = (t_end + stop_interval_s * (1 + stop_of)
-         + np.tile(np.arange(int(frames_per_stop)), n // int(frames_per_stop))
-         / float(world.config.fps))
+         + (np.arange(n) % int(frames_per_stop)) / float(world.config.fps))
     Tc = camera_poses_from_state(world.model, qpos, mpos, mquat)
     ids = _camera_ids(world.model, world.camera_names)
     from simcalib.world.layout import visible_markers

@@ -30,7 +30,7 @@ from simcalib.geometry import invert_transform
 
 __all__ = ["motion_information", "predicted_std", "greedy", "greedy_chain", "GreedyResult",
            "undeterminable", "EPS", "systematic_scores", "systematic_std",
-           "greedy_chain_systematic", "check_chain_systematic"]
+           "greedy_chain_systematic", "check_chain_systematic", "max_std_tolerance_units"]
 
 EPS = 1e-6
 _FLOOR_R = math.sqrt(np.finfo(float).eps)
@@ -411,6 +411,14 @@ def _max_std_sys(F, G, dsc) -> float:
     S = _with_systematic(np.linalg.inv(0.5 * (Ft + Ft.T)), G * dsc[:, None])
     lam = np.linalg.eigvalsh(S)[-1]
     return float(math.sqrt(max(lam, 0.0)))
+
+
+def max_std_tolerance_units(F, *, tolerance_deg: float = 1.0,
+                            tolerance_m: float = 0.01) -> float:
+    """Largest 1-sigma of information ``F`` (rad, m) in tolerance units
+    (``1/sqrt(lambda_min)``; inf when a direction is undetermined)."""
+    dsc = _scale(tolerance_deg, tolerance_m)
+    return _max_std(np.asarray(F, dtype=np.float64) * np.outer(dsc, dsc))
 
 
 def _max_std(Ft) -> float:

@@ -156,8 +156,7 @@ def advise_recorded(C, H, X, T_ref_a, k: int = 5, *, platform: str, rng: np.rand
     F_cand = pl.motion_information(Cc, Hc, X, s_r, s_t)
     message, propose = determined_message(F_base, when_determined, **kw)
     feasible = np.full(M.shape[0], propose)
-    g, added, _ = pl.greedy_chain_systematic(F_base, M, X, s_r, s_t, k, feasible=feasible,
-                                             **kw)
+    g, added = pl.greedy_chain(F_base, M, X, s_r, s_t, k, feasible=feasible, **kw)
     before, after = predicted_along_chain(F_base, added, None, None, L, **kw)
     cannot = pl.undeterminable(F_base, F_cand, range_m=L, prior_keys=pl.PRIOR_KEYS_CALIBRATE,
                                **kw)

@@ -237,7 +237,7 @@ the stops measured at rest (commit 509c0bd; one rig, and the stops' map survey a
 calibrations redrawn for every seed: not the recorded run's rig) 0.49 / 0.38,
 0.20 / 0.35, 0.30 / 0.39, 0.49 / 0.51. This version measures the stops with the recorded
 run's rig and pools several rigs (the tables above): the per-rig column shows that one
-rig's luck moves a ratio by 2-4x, so a single rig's ratio says little. Once rotations about different axes fix the
+rig's luck moves a ratio several-fold, so a single rig's ratio says little. Once rotations about different axes fix the
 degenerate directions, what remains is set mostly by the errors the stops share (the
 marker map, the calibrations, the DH table): the same for any choice of stops, so the
 advised stops lower the error by the factors in the table rather than without bound.
