@@ -25,6 +25,7 @@ __all__ = [
     "chordal_mean_rotation",
     "as_real_array",
     "project_points",
+    "distort_pixels",
     "check_transforms",
     "check_rotation_matrices",
     "invert_transform",
@@ -425,3 +426,26 @@ def project_points(T_cam_world: np.ndarray, p_world: np.ndarray, K: np.ndarray
                    K[1, 1] * pc[..., 1] / safe + K[1, 2]], axis=-1)
     lead = (T.shape[0],) + p.shape[:-1]
     return uv.reshape(lead + (2,)), z.reshape(lead)
+
+
+def distort_pixels(uv: np.ndarray, K: np.ndarray, dist) -> tuple[np.ndarray, np.ndarray]:
+    """Pinhole pixels ``(..., 2)`` -> the pixels a lens with distortion ``dist`` = (k1, k2,
+    p1, p2, k3) (OpenCV's Brown-Conrady model, same ``K``) images them at, and ``(...)``
+    bool: where the model is one-to-one (the radial map ``r (1 + k1 r^2 + k2 r^4 + k3 r^6)``
+    still increasing at the point's normalised radius ``r``; beyond it a barrel model folds
+    far-off points back into the image, which no lens does)."""
+    d = np.asarray(dist, dtype=np.float64).ravel()
+    if d.shape != (5,) or not np.all(np.isfinite(d)):
+        raise ValueError(f"dist must be 5 finite numbers (k1, k2, p1, p2, k3); received {dist!r}")
+    K = np.asarray(K, dtype=np.float64)
+    uv = np.asarray(uv, dtype=np.float64)
+    k1, k2, p1, p2, k3 = d
+    x = (uv[..., 0] - K[0, 2] - K[0, 1] * (uv[..., 1] - K[1, 2]) / K[1, 1]) / K[0, 0]
+    y = (uv[..., 1] - K[1, 2]) / K[1, 1]
+    r2 = x * x + y * y
+    radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+    xd = x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x)
+    yd = y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
+    out = np.stack([K[0, 0] * xd + K[0, 1] * yd + K[0, 2], K[1, 1] * yd + K[1, 2]], axis=-1)
+    valid = 1.0 + r2 * (3 * k1 + r2 * (5 * k2 + r2 * 7 * k3)) > 0
+    return out, valid

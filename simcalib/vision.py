@@ -761,8 +761,9 @@ def pose_error_basis(world, camera: str, T_world_cam, cfg: "VisionConfig | None"
     are shared where the cameras see the same markers); each camera's calibration is its
     own. First order, linearised at the given poses with the markers each pose rests on:
     ``visible`` (F, M) bool (e.g. the ids the PnP used, :attr:`VisualFrame.ids_used`), by
-    default those the layout makes fully visible there
-    (:func:`simcalib.world.layout.visible_markers`). Nothing is rendered."""
+    default those the layout makes fully visible there in the camera's distorted image
+    (:func:`simcalib.world.layout.visible_markers` with the lens distortion). Nothing is
+    rendered."""
     from .markers import (check_camera_poses, intrinsics_pose_jacobians,  # noqa: PLC0415
                           map_error_variances, map_pose_jacobians)
     from .world.layout import visible_markers  # noqa: PLC0415
@@ -774,7 +775,7 @@ def pose_error_basis(world, camera: str, T_world_cam, cfg: "VisionConfig | None"
     intr, _ = _camera_intrinsics(world, camera, cfg)
     field = world.marker_field
     if visible is None:
-        vis = visible_markers(field, T, intr)
+        vis = visible_markers(field, T, intr, distortion=eff.distortion)
     else:
         vis = np.asarray(visible)
         if vis.shape != (T.shape[0], field.T_world_marker.shape[0]) or vis.dtype != bool:

@@ -90,3 +90,25 @@ def test_check_transforms_rejects_bad_input(bad, match):
 def test_check_transforms_min_count():
     with pytest.raises(ValueError, match="at least 2"):
         g.check_transforms(np.eye(4)[None], "C", min_count=2)
+
+
+def test_distort_pixels_is_opencvs_lens_model_and_undistort_inverts_it():
+    cv2 = pytest.importorskip("cv2")
+    from simcalib.camera_effects import PRESETS, undistort_points
+    K = np.array([[500.0, 0.0, 319.5], [0.0, 510.0, 239.5], [0.0, 0.0, 1.0]])
+    dist = PRESETS["realistic"].distortion
+    uv = np.random.default_rng(0).uniform([0, 0], [640, 480], (40, 2))
+    ud, one_to_one = g.distort_pixels(uv, K, dist)
+    xy1 = np.concatenate([(uv - K[:2, 2]) / [K[0, 0], K[1, 1]], np.ones((40, 1))], axis=1)
+    ref, _ = cv2.projectPoints(xy1, np.zeros(3), np.zeros(3), K, np.asarray(dist))
+    np.testing.assert_allclose(ud, ref[:, 0], atol=1e-9)
+    np.testing.assert_allclose(undistort_points(ud, K, dist), uv, atol=1e-7)
+    assert one_to_one.all()
+    # far outside the field of view a barrel model (here the harsh lens) folds back:
+    # flagged, not trusted
+    _, ok = g.distort_pixels(np.array([[319.5 + 100.0, 239.5], [319.5 + 2500.0, 239.5]]), K,
+                             PRESETS["harsh"].distortion)
+    assert ok.tolist() == [True, False]
+    np.testing.assert_allclose(g.distort_pixels(uv, K, (0, 0, 0, 0, 0))[0], uv)
+    with pytest.raises(ValueError, match="5 finite numbers"):
+        g.distort_pixels(uv, K, (0.1, 0.2))

@@ -242,6 +242,28 @@ def test_visible_markers_geometry():
     assert vis[:, 0].tolist() == [True, False, False, False]
 
 
+
+def test_visible_markers_through_a_barrel_lens_sees_past_the_pinhole_edge():
+    """The distorted image of a barrel lens reaches beyond the pinhole image: a marker just
+    outside the pinhole view is fully visible through the lens (the markers the PnP rests
+    on, the systematic error basis of a stop)."""
+    from simcalib.camera_effects import PRESETS
+    T_m = np.eye(4)[None]
+    field = MarkerField("DICT_4X4_250", np.array([0]), 0.1, T_m)
+    intr = CameraIntrinsics.from_fovy(640, 480, 60.0)
+    R = np.diag([1.0, -1.0, -1.0])
+    dist = PRESETS["realistic"].distortion
+    found = []
+    for x in np.linspace(0.0, 1.2, 121):       # slide the camera: the marker moves left
+        T = transform_from_rotation_translation(R, [x, 0.0, 1.0])[None]
+        found.append((visible_markers(field, T, intr)[0, 0],
+                      visible_markers(field, T, intr, distortion=dist)[0, 0]))
+    found = np.array(found)
+    assert found[0].all()                                   # centred: both
+    assert (found[:, 0] <= found[:, 1]).all()               # the lens never sees less here
+    assert (found[:, 1] & ~found[:, 0]).any()               # and sees past the pinhole edge
+    assert not found[-1].any()                              # far off: neither
+
 def test_project_points_is_the_pinhole_model():
     from simcalib.geometry import project_points
     from simcalib.streams import CameraIntrinsics

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from simcalib.geometry import invert_transform, project_points as _project
+from simcalib.geometry import distort_pixels, invert_transform, project_points as _project
 from simcalib.markers import MarkerField, marker_corners_local
 from simcalib.streams import CameraIntrinsics
 
@@ -120,19 +120,27 @@ def project_points(T_world_cam: np.ndarray, intr: CameraIntrinsics, p_world: np.
 
 def visible_markers(field: MarkerField, T_world_cam: np.ndarray, intr: CameraIntrinsics, *,
                     min_side_px: float = 20.0, max_view_angle_deg: float = 70.0,
-                    border_px: float = 2.0, min_depth_m: float = 0.05) -> np.ndarray:
+                    border_px: float = 2.0, min_depth_m: float = 0.05,
+                    distortion=None) -> np.ndarray:
     """``(F, M)`` bool: marker fully inside the image (all four corners at least
     ``border_px`` from the edge, in front of the camera), facing it within
     ``max_view_angle_deg`` of its normal, and with its shortest projected edge at least
-    ``min_side_px`` pixels. Occlusion by the platform is not modelled."""
+    ``min_side_px`` pixels. Occlusion by the platform is not modelled. ``distortion``
+    (k1, k2, p1, p2, k3; default none): the image is the lens's distorted one
+    (:func:`simcalib.geometry.distort_pixels`): a barrel lens shows markers beyond the
+    pinhole image's edge, and shrinks them there."""
     T = np.asarray(T_world_cam, dtype=np.float64)
     if T.ndim == 2:
         T = T[None]
     corners = field.corners_world()                             # (M, 4, 3)
     uv, z = project_points(T, intr, corners)                    # (F, M, 4, 2), (F, M, 4)
+    ok = z > min_depth_m
+    if distortion is not None and np.any(np.asarray(distortion, dtype=np.float64) != 0):
+        uv, one_to_one = distort_pixels(uv, intr.K, distortion)
+        ok &= one_to_one
     inside = ((uv[..., 0] >= border_px) & (uv[..., 0] <= intr.width - 1 - border_px)
               & (uv[..., 1] >= border_px) & (uv[..., 1] <= intr.height - 1 - border_px)
-              & (z > min_depth_m)).all(axis=-1)
+              & ok).all(axis=-1)
     centre = field.T_world_marker[:, :3, 3]
     normal = field.T_world_marker[:, :3, 2]
     to_cam = T[:, None, :3, 3] - centre[None]                   # (F, M, 3)
