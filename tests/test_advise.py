@@ -175,7 +175,7 @@ def test_cart_states_what_it_cannot_help():
 def test_small_verification_run(tmp_path, capsys):
     from simcalib.cli import main
     code = main(["advise", "scenario=linear", "world.platform=arm", "k=2", "verify=true",
-                 "seeds=2", "candidates=30", f"output={tmp_path}", *SMALL,
+                 "seeds=2", "candidates=30", "hindsight=true", f"output={tmp_path}", *SMALL,
                  "camera.width=320", "camera.height=240"])
     assert code == 0
     out = json.loads((tmp_path / "advice.json").read_text())
@@ -196,6 +196,13 @@ def test_small_verification_run(tmp_path, capsys):
     printed = capsys.readouterr().out
     assert "advised median / random (jog ranges) median" in printed
     assert "advised median / random from the advice's candidates median" in printed
+    # the hindsight bound: k feasible stops of the advice's candidates, picked by the truth
+    hs = ver["hindsight"]
+    assert hs["success"] and len(hs["stops"]) == 2 and len(set(hs["stops"])) == 2
+    assert hs["translation_error_cm"] < ver["baseline"]["translation_error_cm"]
+    assert set(ver["ratio_hindsight_to_random_median"]) == {"rotation_error_deg",
+                                                            "translation_error_cm"}
+    assert "hindsight (stops picked knowing the true X" in printed
 
 
 def test_exchange_refinement_never_worse_than_greedy_and_noise_scale_steers():
@@ -342,3 +349,40 @@ def test_stops_are_measured_by_the_recorded_runs_rig(scara_advice, monkeypatch):
         execute_stops(base.truth, base.cfg, adv.candidates, adv.chosen[:1],
                       np.random.default_rng(s))
     assert len(seen) == 3 and seen[0] == seen[1] == seen[2]
+
+
+@pytest.mark.slow
+def test_hindsight_stops_are_the_best_by_the_truth():
+    """The hindsight bound picks, among the measured candidates, the stop whose motion gives
+    dqopt the smallest scored error against the true X — checked by measuring and solving
+    every feasible candidate on its own (ideal images: a pose's measurement does not depend
+    on its frame number)."""
+    import simcalib
+    from simcalib.advise import advise, baseline
+    from simcalib.advise import feasibility as fz
+    from simcalib.advise.advisor import hindsight_stops
+    from simcalib.config import load_config
+    from simcalib.geometry import rotation_error_rad
+    cfg = load_config("linear", SMALL + ["world.platform=arm", "vision.preset=ideal",
+                                         "camera.width=320", "camera.height=240"])
+    base = baseline(cfg)
+    cand = advise(base, 1, n_candidates=12, render=False).candidates
+    scale = (0.05, 0.2)
+    h = hindsight_stops(base, cand, 1, np.random.default_rng(0), scale=scale)
+    assert h["success"] and len(h["stops"]) == 1 and cand.feasible[h["stops"][0]]
+    scores = {}
+    for j in np.flatnonzero(cand.feasible):
+        C, H, got = fz.stop_motions(fz.execute_stops(base.truth, base.cfg, cand, [j],
+                                                     np.random.default_rng(1)))
+        if got.size:
+            X = simcalib.solve(np.concatenate([base.C, C]), np.concatenate([base.H, H]),
+                               method="dqopt", alpha=base.alpha).X
+            r = np.rad2deg(rotation_error_rad(X, base.truth.X_true))
+            t = 100 * np.linalg.norm(X[:3, 3] - base.truth.X_true[:3, 3])
+            scores[int(j)] = (max(r / scale[0], t / scale[1]), r, t)
+    best = min(scores, key=lambda j: scores[j][0])
+    assert h["stops"][0] == best
+    np.testing.assert_allclose([h["rotation_error_deg"], h["translation_error_cm"]],
+                               scores[best][1:], rtol=1e-6, atol=1e-9)
+    with pytest.raises(ValueError, match="scale must be"):
+        hindsight_stops(base, cand, 1, np.random.default_rng(0), scale=(0.0, 1.0))

@@ -22,7 +22,8 @@ from simcalib.advise import planner as pl
 
 __all__ = ["Baseline", "StopPlan", "Advice", "Verification", "baseline", "advise",
            "advise_motions", "verify", "solve_errors", "advice_dict", "recorded_information",
-           "determined_message", "predicted_along_chain", "check_when_determined"]
+           "determined_message", "predicted_along_chain", "check_when_determined",
+           "hindsight_stops"]
 
 AXES = ("wx_deg", "wy_deg", "wz_deg", "vx_m", "vy_m", "vz_m")
 
@@ -401,7 +402,9 @@ class Verification:
     of the gain is moving farther rather than choosing); ``motion_size``: median rotation
     (deg) and translation (cm) of camera a's stop-to-stop motions for ``advised``,
     ``random``, ``random_joint``, ``random_wide``; ``frames_per_stop``: frames averaged
-    at each stop."""
+    at each stop; ``hindsight`` / ``ratio_hindsight`` (with ``hindsight=True``): the
+    :func:`hindsight_stops` bound (k stops picked with the true X) and its ratio to the
+    random median."""
     baseline: dict
     advised: dict
     random: list
@@ -418,11 +421,14 @@ class Verification:
     random_wide_median: dict = field(default_factory=dict)
     ratio_wide: dict = field(default_factory=dict)
     frames_per_stop: int = 1
+    hindsight: dict = field(default_factory=dict)
+    ratio_hindsight: dict = field(default_factory=dict)
 
 
 def verify(base: Baseline, adv: Advice, *, seeds=(0, 1, 2, 3, 4), joint_baseline: bool = True,
            max_joint_deg: float = 20.0, n_joint: int = 300, n_random: int = 300,
-           wide_baseline: bool = True, frames_per_stop: int = 1) -> Verification:
+           wide_baseline: bool = True, frames_per_stop: int = 1,
+           hindsight: bool = False) -> Verification:
     """Execute the advised stops and ``len(seeds)`` sets of ``k`` random feasible stops
     in the simulator; solve with each added. Random baselines: ``random``, uniform over
     ``n_random`` feasible stops drawn by :func:`feasibility.candidates` with the ``"jog"``
@@ -433,7 +439,9 @@ def verify(base: Baseline, adv: Advice, *, seeds=(0, 1, 2, 3, 4), joint_baseline
     (:func:`feasibility.joint_candidates`); with ``wide_baseline``, ``random_wide``: ``k``
     stops uniform over the planner's own feasible candidates. ``frames_per_stop``: frames
     recorded and averaged at each stop, for every set of stops alike
-    (:func:`feasibility.execute_stops`)."""
+    (:func:`feasibility.execute_stops`). ``hindsight``: also the bound of
+    :func:`hindsight_stops` on the planner's candidates (measured with the first seed's
+    noise, scored against the random medians)."""
     t0 = time.perf_counter()
     X_true = base.truth.X_true
     kw = dict(tolerance_deg=adv.tolerance_deg, tolerance_m=adv.tolerance_m)
@@ -496,6 +504,13 @@ def verify(base: Baseline, adv: Advice, *, seeds=(0, 1, 2, 3, 4), joint_baseline
     if wide_baseline and adv.k > 0:
         res_wide = random_runs(adv.candidates, 606)
         med_w, ratio_w = _summary(adv_med, res_wide)
+    hind, ratio_h = {}, {}
+    if hindsight and adv.k > 0 and med.get("rotation_error_deg") and \
+            med.get("translation_error_cm"):
+        hind = hindsight_stops(base, adv.candidates, adv.k,
+                               np.random.default_rng([int(seeds[0]), 303]),
+                               scale=(med["rotation_error_deg"], med["translation_error_cm"]))
+        _, ratio_h = _summary(hind, res_rand)
     size = {"advised": res_adv.get("motion_size"),
             "random": _median_size([r.get("motion_size") for r in res_rand]),
             "random_joint": _median_size([r.get("motion_size") for r in res_joint]),
@@ -503,7 +518,63 @@ def verify(base: Baseline, adv: Advice, *, seeds=(0, 1, 2, 3, 4), joint_baseline
     return Verification(res0, res_adv, res_rand, med, ratio,
                         {"verification": time.perf_counter() - t0}, res_joint, med_j,
                         ratio_j, size, res_adv_seeds, adv_med, res_wide, med_w, ratio_w,
-                        frames_per_stop=int(frames_per_stop))
+                        frames_per_stop=int(frames_per_stop), hindsight=hind,
+                        ratio_hindsight=ratio_h)
+
+
+def hindsight_stops(base: Baseline, cand, k: int, rng: np.random.Generator, *,
+                    scale=(1.0, 1.0)) -> dict:
+    """The ``k`` stops of ``cand`` a chooser that knew the true X would visit: **not
+    advice** (no planner has the truth) but the bound on what any choice of these
+    candidates reaches on this rig. Every feasible candidate is measured once (the rig of
+    the recorded run, per-frame noise from ``rng``), then stops are added greedily (stop
+    and go, from the reference), each the one whose chain gives dqopt the smallest
+    ``max(rotation error / scale[0] deg, translation error / scale[1] cm)`` against the
+    true X. Returns ``stops`` (candidate indices, in order), ``rotation_error_deg``,
+    ``translation_error_cm``, ``success``, ``measured`` (candidates measured)."""
+    import simcalib
+    from simcalib.geometry import invert_transform, rotation_error_rad
+    if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
+        raise ValueError(f"k must be an integer >= 1; received {k!r}")
+    s_deg, s_cm = (float(x) for x in scale)
+    if not (s_deg > 0 and s_cm > 0 and np.isfinite(s_deg) and np.isfinite(s_cm)):
+        raise ValueError(f"scale must be two positive numbers (deg, cm); received {scale!r}")
+    feas = np.flatnonzero(cand.feasible)
+    streams = fz.execute_stops(base.truth, base.cfg, cand, feas, rng)
+    pose = {}
+    for cam in ("cam_a", "cam_b"):
+        st = streams[cam]
+        pose[cam] = {int(f): T for f, T in zip(np.asarray(st.frame_index),
+                                               np.asarray(st.T_world_cam))}
+    ok = [f for f in pose["cam_a"] if f in pose["cam_b"]]
+    if 0 not in ok:
+        return {"success": False, "stops": [], "measured": 0}
+    X_true = base.truth.X_true
+
+    def errors(frames):
+        prev = [0] + frames[:-1]
+        C = [invert_transform(pose["cam_a"][p]) @ pose["cam_a"][f] for p, f in zip(prev, frames)]
+        H = [invert_transform(pose["cam_b"][p]) @ pose["cam_b"][f] for p, f in zip(prev, frames)]
+        sol = simcalib.solve(np.concatenate([base.C, C]), np.concatenate([base.H, H]),
+                             method="dqopt", alpha=base.alpha)
+        X = np.asarray(sol.X, dtype=np.float64)
+        if not sol.success or not np.isfinite(X).all():
+            return np.inf, np.inf
+        return (float(np.rad2deg(rotation_error_rad(X, X_true))),
+                float(100 * np.linalg.norm(X[:3, 3] - X_true[:3, 3])))
+
+    chosen, best = [], (np.inf, np.inf)
+    for _ in range(int(k)):
+        scored = [(max(e[0] / s_deg, e[1] / s_cm), f, e)
+                  for f in ok if f > 0 and f not in chosen for e in (errors(chosen + [f]),)]
+        if not scored:
+            break
+        _, f, best = min(scored, key=lambda x: x[0])
+        chosen.append(f)
+    return {"success": bool(np.isfinite(best).all()),
+            "stops": [int(feas[f - 1]) for f in chosen],
+            "rotation_error_deg": _f(best[0]), "translation_error_cm": _f(best[1]),
+            "measured": int(len(ok) - 1)}
 
 
 def _summary(res_adv, res_rand):
@@ -644,6 +715,9 @@ def advice_dict(base: Baseline, adv: Advice, ver: Verification | None = None) ->
                                "ratio_advised_to_random_wide_median": ver.ratio_wide,
                                "frames_per_stop": ver.frames_per_stop,
                                "timing_s": ver.timing_s}
+        if ver.hindsight:
+            out["verification"]["hindsight"] = ver.hindsight
+            out["verification"]["ratio_hindsight_to_random_median"] = ver.ratio_hindsight
     return out
 
 

@@ -28,7 +28,9 @@ min_markers, recording (true|false), force (default true: propose k motions even
 the recorded motions already determine X within the tolerance; false: none then),
 systematic (true|false, default true: weigh the marker map's and the calibrations' errors
 the ArUco poses share, see docs/advice.md), stop_frames (verification: frames recorded
-and averaged at each stop while the platform rests, default 1). Every other key=value is a scenario override
+and averaged at each stop while the platform rests, default 1), hindsight (verification:
+also the k stops a chooser knowing the true X would pick, the bound on what any choice of
+the candidates reaches; default false). Every other key=value is a scenario override
 (see `run --help`), e.g. world.platform=arm.
 
 With a=PATH (your own pose files): the files are calibrated as `calibrate` does (every
@@ -42,7 +44,7 @@ max_translation_m, force, recording. No verification (there is no simulator of y
 
 ADVICE_KEYS = {"k": int, "verify": bool, "seeds": int, "candidates": int, "stop_frames": int,
                "max_rotation_deg": float, "max_translation_m": float, "min_markers": int,
-               "recording": bool, "force": bool, "systematic": bool}
+               "recording": bool, "force": bool, "systematic": bool, "hindsight": bool}
 
 
 def _value(key, text):
@@ -126,7 +128,7 @@ def print_table(out: dict) -> None:
                 print(f"{label:<12} FAILED: {r.get('error')}")
                 return
             print(f"{label:<12}{r['rotation_error_deg']:>10.3f}{r['translation_error_cm']:>12.3f}"
-                  f"{_n(r['max_std_deg']):>13}{_n(r['max_std_cm']):>14}")
+                  f"{_n(r.get('max_std_deg')):>13}{_n(r.get('max_std_cm')):>14}")
         vr("baseline", ver["baseline"])
         vr("advised", ver["advised"])
         for r in ver.get("advised_seeds", []):
@@ -145,6 +147,13 @@ def print_table(out: dict) -> None:
                 print(f"advised median / {name} median: rotation "
                       f"{_n(rt['rotation_error_deg'])}, translation "
                       f"{_n(rt['translation_error_cm'])}")
+        hs = ver.get("hindsight") or {}
+        if hs:
+            vr("hindsight", hs)
+            rt = ver.get("ratio_hindsight_to_random_median") or {}
+            print(f"hindsight (stops picked knowing the true X: a bound, not advice) / random "
+                  f"median: rotation {_n(rt.get('rotation_error_deg'))}, translation "
+                  f"{_n(rt.get('translation_error_cm'))}")
 
 
 #: (console tag, advice.json key, name) of the verification's random baselines
@@ -262,7 +271,8 @@ def main(args: list[str]) -> int:
                  when_determined="advise" if opts.get("force", True) else "stop",
                  systematic=opts.get("systematic", True), **kw)
     ver = verify(base, adv, seeds=tuple(range(opts["seeds"])),
-                 frames_per_stop=opts.get("stop_frames", 1)) if opts["verify"] else None
+                 frames_per_stop=opts.get("stop_frames", 1),
+                 hindsight=opts.get("hindsight", False)) if opts["verify"] else None
     out = advice_dict(base, adv, ver)
     path = out_dir / "advice.json"
     path.write_text(json.dumps(out, indent=1, allow_nan=False))

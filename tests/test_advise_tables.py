@@ -1,0 +1,45 @@
+"""docs/advice.md's generator (simcalib.advise.tables): pooling rigs and the table rows,
+on hand-made verifications (the full command runs the simulator for half an hour)."""
+
+import numpy as np
+
+from simcalib.advise import tables
+from simcalib.advise.advisor import Verification
+
+
+def _r(rot, trans, sd=0.1, scm=0.2, verdict="determined"):
+    return {"success": True, "rotation_error_deg": rot, "translation_error_cm": trans,
+            "max_std_deg": sd, "max_std_cm": scm, "verdict": verdict}
+
+
+def _ver(adv, rand, hind):
+    med = {"rotation_error_deg": float(np.median([r["rotation_error_deg"] for r in rand]))}
+    return Verification(baseline=_r(1.0, 10.0), advised=adv[0], random=rand,
+                        random_median=med, ratio={}, timing_s={}, advised_seeds=adv,
+                        hindsight=hind, motion_size={"advised": None})
+
+
+def test_pool_takes_medians_over_every_rig_and_seed_and_the_hindsight_bound():
+    v0 = _ver([_r(0.1, 0.2), _r(0.3, 0.4)], [_r(1.0, 2.0, 0.4, 0.8), _r(2.0, 4.0, 0.4, 0.8)],
+              _r(0.05, 0.1))
+    v1 = _ver([_r(0.2, 0.3)], [_r(3.0, 6.0, 0.4, 0.8)], _r(0.15, 0.3))
+    p = tables.pool([v0, v1])
+    assert p.advised_median["rotation_error_deg"] == 0.2          # of 0.1, 0.3, 0.2
+    assert p.random_median["rotation_error_deg"] == 2.0           # of 1, 2, 3
+    assert p.ratio["translation_error_cm"] == 0.3 / 4.0
+    assert p.hindsight_median["rotation_error_deg"] == 0.1        # of 0.05, 0.15
+    assert np.isclose(p.ratio_hindsight["rotation_error_deg"], 0.1 / 2.0)
+    row = tables._bound_row("scara", p)
+    cells = [c.strip() for c in row.strip("|").split("|")]
+    assert cells[0] == "scara" and cells[2] == "0.1 / 0.2" and cells[4] == "0.1 / 0.075"
+    assert cells[5] == "0.05 / 0.05"
+    assert cells[6] == "0.25 / 0.25"          # predicted sigma: 0.1 / 0.4 and 0.2 / 0.8
+    assert tables._verdicts(p) == "determined (3/3 determined)"
+
+
+def test_pool_without_a_hindsight_bound_leaves_its_cells_empty():
+    v = _ver([_r(0.1, 0.2)], [_r(1.0, 2.0)], {})
+    p = tables.pool([v])
+    assert p.hindsight_median == {} and p.ratio_hindsight == {}
+    cells = [c.strip() for c in tables._bound_row("x", p).strip("|").split("|")]
+    assert cells[2] == "n/a" and cells[5] == "n/a"
