@@ -525,8 +525,9 @@ def verify(base: Baseline, adv: Advice, *, seeds=(0, 1, 2, 3, 4), joint_baseline
 def hindsight_stops(base: Baseline, cand, k: int, rng: np.random.Generator, *,
                     scale=(1.0, 1.0)) -> dict:
     """The ``k`` stops of ``cand`` a chooser that knew the true X would visit: **not
-    advice** (no planner has the truth) but the bound on what any choice of these
-    candidates reaches on this rig. Every feasible candidate is measured once (the rig of
+    advice** (no planner has the truth) but what these candidates can give on this rig
+    (greedy, so the best choice of ``k`` of them does at least as well: an upper bound on
+    the smallest reachable error). Every feasible candidate is measured once (the rig of
     the recorded run, per-frame noise from ``rng``), then stops are added greedily (stop
     and go, from the reference), each the one whose chain gives dqopt the smallest
     ``max(rotation error / scale[0] deg, translation error / scale[1] cm)`` against the

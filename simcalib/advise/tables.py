@@ -362,8 +362,9 @@ only their sizes. The **hindsight** column is what a chooser that knew the true 
 reach with the same candidates (`advisor.hindsight_stops`: every feasible candidate of the
 advice measured once, k stops added greedily by their actual dqopt error against the true
 X, scored as max(rotation / random's median, translation / random's median); the first
-measurement seed; median over the rigs): a bound on what *any* choice of these stops can
-do on these rigs, not something a user can run. **Expected ratio**: the ratio the error
+measurement seed; median over the rigs): what knowing the truth buys with these
+candidates (greedy: the best choice of k of them does at least as well), not something a
+user can run. **Expected ratio**: the ratio the error
 model itself expects (median largest predicted 1-sigma of the verification solves,
 advised / random, each with the systematic errors): what advice gains on an average rig,
 without the luck of the particular map, calibration and arm.

@@ -29,8 +29,8 @@ the recorded motions already determine X within the tolerance; false: none then)
 systematic (true|false, default true: weigh the marker map's and the calibrations' errors
 the ArUco poses share, see docs/advice.md), stop_frames (verification: frames recorded
 and averaged at each stop while the platform rests, default 1), hindsight (verification:
-also the k stops a chooser knowing the true X would pick, the bound on what any choice of
-the candidates reaches; default false). Every other key=value is a scenario override
+also the k stops a chooser knowing the true X would pick: what the candidates can give on
+this rig, not advice; default false). Every other key=value is a scenario override
 (see `run --help`), e.g. world.platform=arm.
 
 With a=PATH (your own pose files): the files are calibrated as `calibrate` does (every
