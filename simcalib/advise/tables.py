@@ -364,8 +364,10 @@ advice measured once, k stops added greedily by their actual dqopt error against
 X, scored as max(rotation / random's median, translation / random's median); the first
 measurement seed; median over the rigs): what knowing the truth buys with these
 candidates (greedy: the best choice of k of them does at least as well), not something a
-user can run. **Expected ratio**: the ratio the error
-model itself expects (median largest predicted 1-sigma of the verification solves,
+user can run. It is optimistic: with hundreds of candidates per step it also picks the
+noise's luck (on `planar` it finds stops whose errors happen to put dqopt near the true
+vertical offset, which no drivable motion determines). **Expected ratio**: the ratio the
+error model itself expects (median largest predicted 1-sigma of the verification solves,
 advised / random, each with the systematic errors): what advice gains on an average rig,
 without the luck of the particular map, calibration and arm.
 
