@@ -148,6 +148,21 @@ def test_advice_monotone_and_json(scara_advice):
     assert len(out["motions"]) == 3
     assert set(out["motions"][0]["camera_motions"]) == {"cam_a", "cam_b"}
     assert len(out["motions"][0]["joint_targets_rad"]) == 6
+    # what the predicted sigma after the stops is made of: the sources of the scara rig
+    # (robot_fk flange: DH table; ArUco wrist camera b: map and calibration), shares of
+    # each axis's variance summing to one, and the largest axis named with its fix
+    lb = out["limited_by"]
+    assert set(lb["shares"]) <= {"white noise", "marker map", "calibration of cam_b",
+                                 "DH table of the arm"}
+    assert "DH table of the arm" in lb["shares"] and "calibration of cam_a" not in lb["shares"]
+    for axis, shares in lb["per_axis"].items():
+        assert abs(sum(shares.values()) - 1.0) < 1e-9, axis
+    std = adv.std_after[-1]
+    in_tol = np.r_[std[:3] / adv.tolerance_deg, std[3:] / adv.tolerance_m]
+    assert lb["axis"] == ["wx_deg", "wy_deg", "wz_deg", "vx_m", "vy_m", "vz_m"][
+        int(np.argmax(in_tol))]
+    assert lb["dominant"] == max(lb["shares"], key=lb["shares"].get)
+    assert "lower it" in lb["statement"] and lb["axis"] in lb["statement"]
 
 
 @pytest.mark.slow
@@ -386,3 +401,27 @@ def test_hindsight_stops_are_the_best_by_the_truth():
                                scores[best][1:], rtol=1e-6, atol=1e-9)
     with pytest.raises(ValueError, match="scale must be"):
         hindsight_stops(base, cand, 1, np.random.default_rng(0), scale=(0.0, 1.0))
+
+
+def test_variance_shares_split_the_covariance_by_source():
+    rng = np.random.default_rng(4)
+    A = rng.standard_normal((6, 6))
+    F = A @ A.T * 1e4 + 1e3 * np.eye(6)
+    G = rng.standard_normal((6, 5)) * 30
+    labels = ["map", "map", "cal", "dh", "cal"]
+    shares, names = pl.variance_shares(F, G, labels)
+    assert names == ["white noise", "map", "cal", "dh"]
+    np.testing.assert_allclose(shares.sum(axis=1), 1.0)
+    # the parts add up to the diagonal of F^-1 + F^-1 G G^T F^-1 (systematic_std, squared)
+    Fi = np.linalg.inv(F)
+    var = np.diag(Fi + Fi @ G @ G.T @ Fi)
+    s = pl.systematic_std(F, G)
+    np.testing.assert_allclose(np.r_[np.radians(s[:3]), s[3:]] ** 2, var, rtol=1e-9)
+    # the map's share is its columns' part of that diagonal
+    FG = Fi @ G[:, :2]
+    np.testing.assert_allclose(shares[:, 1], np.sum(FG * FG, axis=1) / var, rtol=1e-9)
+    # without systematic columns everything is white noise; bad shapes are named
+    sh0, n0 = pl.variance_shares(F, np.zeros((6, 0)), [])
+    assert n0 == ["white noise"] and np.allclose(sh0, 1.0)
+    with pytest.raises(ValueError, match="P group labels"):
+        pl.variance_shares(F, G, labels[:3])

@@ -23,7 +23,7 @@ from simcalib.advise import planner as pl
 __all__ = ["Baseline", "StopPlan", "Advice", "Verification", "baseline", "advise",
            "advise_motions", "verify", "solve_errors", "advice_dict", "recorded_information",
            "determined_message", "predicted_along_chain", "check_when_determined",
-           "hindsight_stops"]
+           "hindsight_stops", "limited_by"]
 
 AXES = ("wx_deg", "wy_deg", "wz_deg", "vx_m", "vy_m", "vz_m")
 
@@ -122,6 +122,8 @@ class Advice(StopPlan):
     message: str = ""
     noise_scale: np.ndarray | None = None
     systematic_parameters: int = 0     # shared pose-error parameters the choice weighed
+    #: what the predicted uncertainty after the stops is made of (:func:`limited_by`)
+    limited_by: dict = field(default_factory=dict)
 
 
 WHEN_DETERMINED = ("stop", "advise")
@@ -178,10 +180,10 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
             q = fz.view_quality(world, cand.T_world_cam[c], c)
             f = np.clip((q_ref / np.maximum(q, 1e-9)) ** 2, 0.25, 4.0)
             scale = np.maximum(scale, f) if c != aruco_cameras[0] else f
-    sysm = None
+    sysm, groups = None, []
     if pose_error_basis is not None and run_cfg is not None and sources:
-        sysm = _systematic(world, cand, C, H, X, s_r, s_t, pose_error_basis, dict(sources),
-                           run_cfg)
+        sysm, groups = _systematic(world, cand, C, H, X, s_r, s_t, pose_error_basis,
+                                   dict(sources), run_cfg)
     rejected, checked = [], {}
     message, propose = determined_message(F_base, when_determined, **kw)
     if not propose:
@@ -212,6 +214,10 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
     t3 = time.perf_counter()
     before, after = predicted_along_chain(F_base, added, added_g, sysm, L, **kw)
     cannot = pl.undeterminable(F_base, F_cand, feasible=cand.feasible, range_m=L, **kw)
+    limit = {}
+    if sysm is not None:
+        limit = limited_by(F_base + added.sum(axis=0), sysm[0] + added_g.sum(axis=0), groups,
+                           after[-1] if len(after) else before, range_m=L, **kw)
     return Advice(k=int(k), candidates=cand, chosen=g.order,
                   std_before=before, std_after=after, max_std_tol=g.max_std_tol,
                   criterion=g.criterion, noise=(s_r, s_t), tolerance_deg=tolerance_deg,
@@ -219,6 +225,7 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
                   rejected_by_render=tuple(rejected), F_base=F_base, F_cand=F_cand, X=X,
                   message=message, noise_scale=scale,
                   systematic_parameters=0 if sysm is None else int(sysm[0].shape[1]),
+                  limited_by=limit,
                   timing_s={"information": t1 - t0, "candidates": t2 - t1,
                             "choice_and_render_check": t3 - t2,
                             "total": time.perf_counter() - t0})
@@ -296,10 +303,11 @@ def _stop_bases(world, cfg, sources, T_world_cam, qpos, P) -> np.ndarray:
 
 
 def _systematic(world, cand, C, H, X, s_r, s_t, recorded, sources, cfg):
-    """``(G_base, B_ref, B_cand)`` for :func:`planner.greedy_chain`: the recorded motions'
-    summed systematic score and the error bases of the reference and candidate stops
-    (:func:`simcalib.pipeline.stop_error_basis` of each camera's source), in the columns of
-    the recorded basis, columns no pose uses dropped."""
+    """``((G_base, B_ref, B_cand), groups)``: for :func:`planner.greedy_chain` the recorded
+    motions' summed systematic score and the error bases of the reference and candidate
+    stops (:func:`simcalib.pipeline.stop_error_basis` of each camera's source), in the
+    columns of the recorded basis, columns no pose uses dropped; ``groups`` the source of
+    each kept column (:data:`LIMIT_FIX`)."""
     Ba, Bb, pairs = recorded
     Ba, Bb = np.asarray(Ba, dtype=np.float64), np.asarray(Bb, dtype=np.float64)
     T = {c: np.concatenate([cand.ref["T_world_cam"][c][None], cand.T_world_cam[c]])
@@ -311,7 +319,72 @@ def _systematic(world, cand, C, H, X, s_r, s_t, recorded, sources, cfg):
                                   Bb[pairs[:, 0]], Bb[pairs[:, 1]]).sum(axis=0)
     used = (np.any(Ba != 0, axis=(0, 1)) | np.any(Bb != 0, axis=(0, 1))
             | np.any(B_ref != 0, axis=(0, 1)) | np.any(B_cand != 0, axis=(0, 1, 2)))
-    return G_base[:, used], B_ref[:, :, used], B_cand[:, :, :, used]
+    return (G_base[:, used], B_ref[:, :, used], B_cand[:, :, :, used]), \
+        [g for g, u in zip(_column_groups(world), used) if u]
+
+
+#: each source of X's predicted uncertainty (:func:`limited_by`): a short name and what
+#: would lower its share
+LIMIT_FIX = {
+    "white noise": ("the pose noise", "more stops, or several frames averaged at each stop "
+                    "(stop_frames=), lower it"),
+    "marker map": ("the marker map's survey error", "it is shared by every stop: a more "
+                   "accurate survey of the markers would lower it (vision.map_position_std_m "
+                   "/ map_rotation_std_deg describe the survey), more stops barely"),
+    "calibration of cam_a": ("cam_a's intrinsic calibration error", "it is shared by every "
+                             "stop: recalibrating cam_a would lower it "
+                             "(vision.intrinsics_error describes it), more stops barely"),
+    "calibration of cam_b": ("cam_b's intrinsic calibration error", "it is shared by every "
+                             "stop: recalibrating cam_b would lower it "
+                             "(vision.intrinsics_error describes it), more stops barely"),
+    "DH table of the arm": ("the arm's kinematic (DH table) error", "it is shared by every "
+                            "stop: a kinematic calibration of the arm would lower it "
+                            "(robot.kinematic_error describes it), more stops barely"),
+}
+
+
+def _column_groups(world) -> list:
+    """A group name (:data:`LIMIT_FIX`) per column of :func:`simcalib.pipeline.basis_layout`."""
+    from simcalib.pipeline import basis_layout
+    lay = basis_layout(world)
+    out = [""] * lay["P"]
+    for key, name in (("map", "marker map"), ("cal_a", "calibration of cam_a"),
+                      ("cal_b", "calibration of cam_b"), ("dh", "DH table of the arm")):
+        for i in range(lay[key].start, lay[key].stop):
+            out[i] = name
+    return out
+
+
+def limited_by(F, G, groups, std, *, tolerance_deg: float = 1.0, tolerance_m: float = 0.01,
+               range_m: float = 1.0) -> dict:
+    """What X's predicted uncertainty is made of (:func:`planner.variance_shares`) with the
+    information ``F``, the systematic score ``G`` (6, P) and its column ``groups``, and
+    ``std`` (6,) the 1-sigma per axis: ``per_axis`` (axis -> source -> share of the
+    variance), ``axis`` (the largest 1-sigma in tolerance units), its ``std`` and
+    ``shares``, the ``dominant`` source and a ``statement`` saying what would lower it.
+    Empty when every axis is undetermined."""
+    std = np.asarray(std, dtype=np.float64)
+    tol = np.array([tolerance_deg] * 3 + [tolerance_m] * 3)
+    in_tol = np.where(np.isfinite(std), std / tol, -np.inf)
+    if not np.isfinite(in_tol).any():
+        return {}
+    shares, names = pl.variance_shares(F, G, groups, tolerance_deg=tolerance_deg,
+                                       tolerance_m=tolerance_m, range_m=range_m)
+    per_axis = {a: {n: _f(v) for n, v in zip(names, row)} for a, row in zip(AXES, shares)}
+    w = int(np.argmax(in_tol))
+    row = {n: float(v) for n, v in zip(names, shares[w]) if np.isfinite(v)}
+    if not row:
+        return {}
+    order = sorted(row, key=row.get, reverse=True)
+    top = order[0]
+    unit = f"{std[w]:.3g} deg" if w < 3 else f"{100 * std[w]:.3g} cm"
+    parts = ", ".join(f"{100 * row[n]:.0f} % {LIMIT_FIX.get(n, (n, ''))[0]}" for n in order
+                      if row[n] >= 0.05)
+    statement = (f"the largest predicted 1-sigma ({AXES[w]}: {unit}) comes from {parts}; "
+                 f"the largest share, {LIMIT_FIX.get(top, (top, ''))[0]}: "
+                 f"{LIMIT_FIX.get(top, ('', 'n/a'))[1]}")
+    return {"axis": AXES[w], "std": float(std[w]), "shares": row, "dominant": top,
+            "statement": statement, "per_axis": per_axis}
 
 
 def advise(base: Baseline, k: int = 5, *, seed: int = 0, n_candidates: int = N_CANDIDATES,
@@ -683,6 +756,7 @@ def advice_dict(base: Baseline, adv: Advice, ver: Verification | None = None) ->
                          "minimise max + mean of 1/(lambda + 1e-6) of the information in "
                          "tolerance units (lambda_min = 1/largest sigma^2)"),
            "systematic_parameters": int(adv.systematic_parameters),
+           "limited_by": adv.limited_by,
            "tolerance": {"deg": adv.tolerance_deg, "m": adv.tolerance_m},
            "noise_fitted": {"sigma_r_deg": math.degrees(adv.noise[0]),
                             "sigma_t_m": adv.noise[1]},

@@ -30,7 +30,8 @@ from simcalib.geometry import invert_transform
 
 __all__ = ["motion_information", "predicted_std", "greedy", "greedy_chain", "GreedyResult",
            "undeterminable", "EPS", "systematic_scores", "systematic_std",
-           "greedy_chain_systematic", "check_chain_systematic", "max_std_tolerance_units"]
+           "greedy_chain_systematic", "check_chain_systematic", "max_std_tolerance_units",
+           "variance_shares"]
 
 EPS = 1e-6
 _FLOOR_R = math.sqrt(np.finfo(float).eps)
@@ -167,17 +168,53 @@ def systematic_std(F, G, *, tolerance_deg: float = 1.0, tolerance_m: float = 0.0
     white = predicted_std(F, tolerance_deg=tolerance_deg, tolerance_m=tolerance_m,
                           range_rad=range_rad, range_m=range_m)
     dsc = _scale(tolerance_deg, tolerance_m)
+    Fi = _determined_inverse(F, dsc, range_rad, range_m)
+    S = _with_systematic(Fi, np.asarray(G) * dsc[:, None])
+    s = np.sqrt(np.clip(np.diag(S), 0, None)) * dsc
+    s = np.concatenate([np.degrees(s[:3]), s[3:]])
+    return np.where(np.isfinite(white), s, np.inf)
+
+
+def _determined_inverse(F, dsc, range_rad: float, range_m: float) -> np.ndarray:
+    """Inverse of the scaled information ``F * dsc dsc^T`` over its determined directions
+    (1-sigma within ``range_rad`` / ``range_m``), zero along the others."""
     Ft = np.asarray(F) * np.outer(dsc, dsc)
     lam, U = np.linalg.eigh(0.5 * (Ft + Ft.T))
     rng_sc = np.array([range_rad] * 3 + [range_m] * 3) / dsc
     sig = np.where(lam > 0, 1.0 / np.sqrt(np.maximum(lam, 1e-300)), np.inf)
     det = sig * np.sqrt(np.sum((U / rng_sc[:, None]) ** 2, axis=0)) <= 1.0
     B = U[:, det]
-    Fi = (B / lam[det]) @ B.T if B.shape[1] else np.zeros((6, 6))
-    S = _with_systematic(Fi, np.asarray(G) * dsc[:, None])
-    s = np.sqrt(np.clip(np.diag(S), 0, None)) * dsc
-    s = np.concatenate([np.degrees(s[:3]), s[3:]])
-    return np.where(np.isfinite(white), s, np.inf)
+    return (B / lam[det]) @ B.T if B.shape[1] else np.zeros((6, 6))
+
+
+def variance_shares(F, G, groups, *, tolerance_deg: float = 1.0, tolerance_m: float = 0.01,
+                    range_rad: float = 1.0, range_m: float = 1.0) -> tuple[np.ndarray, list]:
+    """Where the predicted variance of each axis of X comes from: ``(shares (6, 1 + n),
+    names)`` with ``names = ["white noise", *the n distinct groups]`` and ``shares[a, j]``
+    the fraction of axis ``a``'s variance (the diagonal of
+    ``F^-1 + F^-1 G G^T F^-1`` over the determined directions, :func:`systematic_std`) that
+    the white noise (``F^-1``) or the columns of ``G`` (6, P) labelled with group ``j``
+    (``groups``: P labels, e.g. "marker map") add — exactly, since ``G G^T`` is the sum
+    of its column groups' ``G_g G_g^T``. Rows of undetermined axes (zero variance over
+    the determined directions) are NaN."""
+    G = np.asarray(G, dtype=np.float64)
+    labels = list(groups)
+    if G.ndim != 2 or G.shape[0] != 6 or len(labels) != G.shape[1]:
+        raise ValueError(f"G must be (6, P) with P group labels; received G of shape "
+                         f"{G.shape} and {len(labels)} labels")
+    dsc = _scale(tolerance_deg, tolerance_m)
+    Fi = _determined_inverse(F, dsc, range_rad, range_m)
+    names = ["white noise"] + list(dict.fromkeys(labels))
+    parts = [np.diag(Fi)]
+    Gt = G * dsc[:, None]
+    for name in names[1:]:
+        FG = Fi @ Gt[:, [i for i, g in enumerate(labels) if g == name]]
+        parts.append(np.sum(FG * FG, axis=1))
+    V = np.stack(parts, axis=1)
+    total = V.sum(axis=1, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        shares = np.where(total > 0, V / np.where(total > 0, total, 1.0), np.nan)
+    return shares, names
 
 
 def _with_systematic(Fi, Gt) -> np.ndarray:

@@ -101,6 +101,8 @@ def _print_notes(out: dict) -> None:
         print(out["message"])
     for c in out["cannot_help"]:
         print(f"cannot help: {c['statement']}. Fix: {c['fix']}")
+    if (out.get("limited_by") or {}).get("statement"):
+        print(f"after the stops, {out['limited_by']['statement']}")
     print(f"advice took {out['timing_s']['total']:.1f} s")
 
 
