@@ -184,6 +184,14 @@ def test_cart_states_what_it_cannot_help():
     up_a = T_wa[:3, :3].T @ np.array([0.0, 0.0, 1.0])
     assert h["kind"] == "translation" and abs(np.dot(h["translation_dir_a"], up_a)) > 0.9
     assert "prior" in h["fix"]
+    # what limits the determined axes never names the undeterminable one (cannot_help has it)
+    from simcalib.advise.advisor import cannot_help_axes
+    excluded = cannot_help_axes(adv.cannot_help)
+    vert = ["vx_m", "vy_m", "vz_m"][int(np.argmax(np.abs(up_a)))]
+    assert vert in excluded
+    if adv.limited_by:
+        assert adv.limited_by["axis"] not in excluded
+        assert "cannot_help" in adv.limited_by["statement"]
 
 
 @pytest.mark.slow

@@ -217,7 +217,8 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
     limit = {}
     if sysm is not None:
         limit = limited_by(F_base + added.sum(axis=0), sysm[0] + added_g.sum(axis=0), groups,
-                           after[-1] if len(after) else before, range_m=L, **kw)
+                           after[-1] if len(after) else before, range_m=L,
+                           exclude=cannot_help_axes(cannot), **kw)
     return Advice(k=int(k), candidates=cand, chosen=g.order,
                   std_before=before, std_after=after, max_std_tol=g.max_std_tol,
                   criterion=g.criterion, noise=(s_r, s_t), tolerance_deg=tolerance_deg,
@@ -343,6 +344,17 @@ LIMIT_FIX = {
 }
 
 
+def cannot_help_axes(cannot_help) -> list:
+    """The axes (:data:`AXES`) the directions of :func:`planner.undeterminable` move (a
+    component above 0.3 of the rotation axis or translation direction)."""
+    out = set()
+    for h in cannot_help:
+        for block, key in ((0, "rotation_axis_a"), (3, "translation_dir_a")):
+            v = np.abs(np.asarray(h.get(key, np.zeros(3)), dtype=np.float64))
+            out.update(AXES[block + i] for i in np.flatnonzero(v > 0.3))
+    return [a for a in AXES if a in out]
+
+
 def _column_groups(world) -> list:
     """A group name (:data:`LIMIT_FIX`) per column of :func:`simcalib.pipeline.basis_layout`."""
     from simcalib.pipeline import basis_layout
@@ -356,16 +368,17 @@ def _column_groups(world) -> list:
 
 
 def limited_by(F, G, groups, std, *, tolerance_deg: float = 1.0, tolerance_m: float = 0.01,
-               range_m: float = 1.0) -> dict:
+               range_m: float = 1.0, exclude=()) -> dict:
     """What X's predicted uncertainty is made of (:func:`planner.variance_shares`) with the
     information ``F``, the systematic score ``G`` (6, P) and its column ``groups``, and
     ``std`` (6,) the 1-sigma per axis: ``per_axis`` (axis -> source -> share of the
     variance), ``axis`` (the largest 1-sigma in tolerance units), its ``std`` and
     ``shares``, the ``dominant`` source and a ``statement`` saying what would lower it.
-    Empty when every axis is undetermined."""
+    ``exclude``: axes no motion of the platform determines (:func:`cannot_help_axes`),
+    left to the ``cannot_help`` statements. Empty when no other axis is determined."""
     std = np.asarray(std, dtype=np.float64)
     tol = np.array([tolerance_deg] * 3 + [tolerance_m] * 3)
-    in_tol = np.where(np.isfinite(std), std / tol, -np.inf)
+    in_tol = np.where(np.isfinite(std) & ~np.isin(AXES, list(exclude)), std / tol, -np.inf)
     if not np.isfinite(in_tol).any():
         return {}
     shares, names = pl.variance_shares(F, G, groups, tolerance_deg=tolerance_deg,
@@ -380,8 +393,10 @@ def limited_by(F, G, groups, std, *, tolerance_deg: float = 1.0, tolerance_m: fl
     unit = f"{std[w]:.3g} deg" if w < 3 else f"{100 * std[w]:.3g} cm"
     parts = ", ".join(f"{100 * row[n]:.0f} % {LIMIT_FIX.get(n, (n, ''))[0]}" for n in order
                       if row[n] >= 0.05)
-    statement = (f"the largest predicted 1-sigma ({AXES[w]}: {unit}) comes from {parts}; "
-                 f"the largest share, {LIMIT_FIX.get(top, (top, ''))[0]}: "
+    but = (f" (apart from {', '.join(exclude)}, which no motion of this platform "
+           f"determines: see cannot_help)" if len(exclude) else "")
+    statement = (f"the largest predicted 1-sigma{but} ({AXES[w]}: {unit}) comes from "
+                 f"{parts}; the largest share, {LIMIT_FIX.get(top, (top, ''))[0]}: "
                  f"{LIMIT_FIX.get(top, ('', 'n/a'))[1]}")
     return {"axis": AXES[w], "std": float(std[w]), "shares": row, "dominant": top,
             "statement": statement, "per_axis": per_axis}
