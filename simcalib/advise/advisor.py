@@ -308,7 +308,7 @@ def _systematic(world, cand, C, H, X, s_r, s_t, recorded, sources, cfg):
     motions' summed systematic score and the error bases of the reference and candidate
     stops (:func:`simcalib.pipeline.stop_error_basis` of each camera's source), in the
     columns of the recorded basis, columns no pose uses dropped; ``groups`` the source of
-    each kept column (:data:`LIMIT_FIX`)."""
+    each kept column (:data:`UNCERTAINTY_SOURCES`)."""
     Ba, Bb, pairs = recorded
     Ba, Bb = np.asarray(Ba, dtype=np.float64), np.asarray(Bb, dtype=np.float64)
     T = {c: np.concatenate([cand.ref["T_world_cam"][c][None], cand.T_world_cam[c]])
@@ -324,22 +324,24 @@ def _systematic(world, cand, C, H, X, s_r, s_t, recorded, sources, cfg):
         [g for g, u in zip(_column_groups(world), used) if u]
 
 
-#: each source of X's predicted uncertainty (:func:`limited_by`): a short name and what
-#: would lower its share
-LIMIT_FIX = {
-    "white noise": ("the pose noise", "more stops, or several frames averaged at each stop "
-                    "(stop_frames=), lower it"),
-    "marker map": ("the marker map's survey error", "it is shared by every stop: a more "
-                   "accurate survey of the markers would lower it (vision.map_position_std_m "
-                   "/ map_rotation_std_deg describe the survey), more stops barely"),
-    "calibration of cam_a": ("cam_a's intrinsic calibration error", "it is shared by every "
-                             "stop: recalibrating cam_a would lower it "
+#: each source of X's predicted uncertainty (:func:`limited_by`): name -> (its columns in
+#: :func:`simcalib.pipeline.basis_layout`, None for the white noise; a short name; what would
+#: lower its share)
+UNCERTAINTY_SOURCES = {
+    "white noise": (None, "the pose noise", "more stops, or several frames averaged at "
+                    "each stop (stop_frames=), lower it"),
+    "marker map": ("map", "the marker map's survey error", "it is shared by every stop: a "
+                   "more accurate survey of the markers would lower it "
+                   "(vision.map_position_std_m / map_rotation_std_deg describe the survey), "
+                   "more stops barely"),
+    "calibration of cam_a": ("cal_a", "cam_a's intrinsic calibration error", "it is shared "
+                             "by every stop: recalibrating cam_a would lower it "
                              "(vision.intrinsics_error describes it), more stops barely"),
-    "calibration of cam_b": ("cam_b's intrinsic calibration error", "it is shared by every "
-                             "stop: recalibrating cam_b would lower it "
+    "calibration of cam_b": ("cal_b", "cam_b's intrinsic calibration error", "it is shared "
+                             "by every stop: recalibrating cam_b would lower it "
                              "(vision.intrinsics_error describes it), more stops barely"),
-    "DH table of the arm": ("the arm's kinematic (DH table) error", "it is shared by every "
-                            "stop: a kinematic calibration of the arm would lower it "
+    "DH table of the arm": ("dh", "the arm's kinematic (DH table) error", "it is shared by "
+                            "every stop: a kinematic calibration of the arm would lower it "
                             "(robot.kinematic_error describes it), more stops barely"),
 }
 
@@ -356,14 +358,14 @@ def cannot_help_axes(cannot_help) -> list:
 
 
 def _column_groups(world) -> list:
-    """A group name (:data:`LIMIT_FIX`) per column of :func:`simcalib.pipeline.basis_layout`."""
+    """The source name (:data:`UNCERTAINTY_SOURCES`) of each column of
+    :func:`simcalib.pipeline.basis_layout`."""
     from simcalib.pipeline import basis_layout
     lay = basis_layout(world)
     out = [""] * lay["P"]
-    for key, name in (("map", "marker map"), ("cal_a", "calibration of cam_a"),
-                      ("cal_b", "calibration of cam_b"), ("dh", "DH table of the arm")):
-        for i in range(lay[key].start, lay[key].stop):
-            out[i] = name
+    for name, (key, _, _) in UNCERTAINTY_SOURCES.items():
+        if key is not None:
+            out[lay[key]] = [name] * (lay[key].stop - lay[key].start)
     return out
 
 
@@ -391,13 +393,14 @@ def limited_by(F, G, groups, std, *, tolerance_deg: float = 1.0, tolerance_m: fl
     order = sorted(row, key=row.get, reverse=True)
     top = order[0]
     unit = f"{std[w]:.3g} deg" if w < 3 else f"{100 * std[w]:.3g} cm"
-    parts = ", ".join(f"{100 * row[n]:.0f} % {LIMIT_FIX.get(n, (n, ''))[0]}" for n in order
-                      if row[n] >= 0.05)
+    def short(n):
+        return UNCERTAINTY_SOURCES.get(n, (None, n, ""))[1]
+    parts = ", ".join(f"{100 * row[n]:.0f} % {short(n)}" for n in order if row[n] >= 0.05)
     but = (f" (apart from {', '.join(exclude)}, which no motion of this platform "
            f"determines: see cannot_help)" if len(exclude) else "")
     statement = (f"the largest predicted 1-sigma{but} ({AXES[w]}: {unit}) comes from "
-                 f"{parts}; the largest share, {LIMIT_FIX.get(top, (top, ''))[0]}: "
-                 f"{LIMIT_FIX.get(top, ('', 'n/a'))[1]}")
+                 f"{parts}; the largest share, {short(top)}: "
+                 f"{UNCERTAINTY_SOURCES.get(top, (None, '', 'n/a'))[2]}")
     return {"axis": AXES[w], "std": float(std[w]), "shares": row, "dominant": top,
             "statement": statement, "per_axis": per_axis}
 
@@ -454,23 +457,29 @@ def solve_errors(C, H, X_true, alpha, *, tolerance_deg=1.0, tolerance_m=0.01,
     (with ``pose_pairs`` / ``pose_error_basis``: the systematic pose errors included, as in
     a run)."""
     import simcalib
-    from simcalib.geometry import rotation_error_rad
     sol = simcalib.solve(C, H, method="dqopt", alpha=alpha, tolerance_deg=tolerance_deg,
                          tolerance_m=tolerance_m, pose_pairs=pose_pairs,
                          pose_error_basis=pose_error_basis)
     X = np.asarray(sol.X, dtype=np.float64)
     if not sol.success or not np.isfinite(X).all():
         return {"success": False, "error": sol.solver_message, "n_motions": int(C.shape[0])}
+    rot_deg, trans_cm = _errors_against(X, X_true)
     try:
         std = np.asarray(sol.std, dtype=np.float64)
         verdict = sol.verdict
     except Exception as exc:  # noqa: BLE001 - report, never pretend
         std, verdict = np.full(6, np.nan), f"unavailable: {exc}"
     return {"success": True, "n_motions": int(C.shape[0]),
-            "rotation_error_deg": float(np.rad2deg(rotation_error_rad(X, X_true))),
-            "translation_error_cm": float(100 * np.linalg.norm(X[:3, 3] - X_true[:3, 3])),
+            "rotation_error_deg": rot_deg, "translation_error_cm": trans_cm,
             "predicted_std": _std_dict(std), "verdict": verdict,
             "max_std_deg": _f(np.max(std[:3])), "max_std_cm": _f(100 * np.max(std[3:]))}
+
+
+def _errors_against(X, X_true) -> tuple[float, float]:
+    """``(rotation error deg, translation error cm)`` of the estimate ``X``."""
+    from simcalib.geometry import rotation_error_rad
+    return (float(np.rad2deg(rotation_error_rad(X, X_true))),
+            float(100 * np.linalg.norm(X[:3, 3] - X_true[:3, 3])))
 
 
 def _std_dict(s) -> dict:
@@ -622,7 +631,7 @@ def hindsight_stops(base: Baseline, cand, k: int, rng: np.random.Generator, *,
     true X. Returns ``stops`` (candidate indices, in order), ``rotation_error_deg``,
     ``translation_error_cm``, ``success``, ``measured`` (candidates measured)."""
     import simcalib
-    from simcalib.geometry import invert_transform, rotation_error_rad
+    from simcalib.geometry import invert_transform
     if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
         raise ValueError(f"k must be an integer >= 1; received {k!r}")
     s_deg, s_cm = (float(x) for x in scale)
@@ -649,17 +658,22 @@ def hindsight_stops(base: Baseline, cand, k: int, rng: np.random.Generator, *,
         X = np.asarray(sol.X, dtype=np.float64)
         if not sol.success or not np.isfinite(X).all():
             return np.inf, np.inf
-        return (float(np.rad2deg(rotation_error_rad(X, X_true))),
-                float(100 * np.linalg.norm(X[:3, 3] - X_true[:3, 3])))
+        return _errors_against(X, X_true)
 
     chosen, best = [], (np.inf, np.inf)
     for _ in range(int(k)):
-        scored = [(max(e[0] / s_deg, e[1] / s_cm), f, e)
-                  for f in ok if f > 0 and f not in chosen for e in (errors(chosen + [f]),)]
-        if not scored:
+        step = None                               # (score, frame, errors) of the best stop
+        for f in ok:
+            if f == 0 or f in chosen:
+                continue
+            e = errors(chosen + [f])
+            score = max(e[0] / s_deg, e[1] / s_cm)
+            if step is None or score < step[0]:
+                step = (score, f, e)
+        if step is None:
             break
-        _, f, best = min(scored, key=lambda x: x[0])
-        chosen.append(f)
+        chosen.append(step[1])
+        best = step[2]
     return {"success": bool(np.isfinite(best).all()),
             "stops": [int(feas[f - 1]) for f in chosen],
             "rotation_error_deg": _f(best[0]), "translation_error_cm": _f(best[1]),

@@ -348,16 +348,20 @@ def _verdicts(ver) -> str:
     return f"{top} ({v.count('determined')}/{len(v)} determined)"
 
 
+def _pair(m, digits: int = 3) -> str:
+    """``"rotation / translation"`` cell of an errors (or ratios) dict; ``n/a`` when empty."""
+    if not m:
+        return "n/a"
+    return (f"{_fmt(m.get('rotation_error_deg'), digits)} / "
+            f"{_fmt(m.get('translation_error_cm'), digits)}")
+
+
 def _frames_row(label, ver, ver_f) -> str:
     """A row of the frames-averaged table: advised and random medians with 1 and with
     several frames per stop, and the ratio with several."""
-    def pair(m):
-        return f"{_fmt(m.get('rotation_error_deg'))} / {_fmt(m.get('translation_error_cm'))}"
-    r = ver_f.ratio
-    return (f"| {label} | {pair(ver.advised_median)} | {pair(ver_f.advised_median)} | "
-            f"{pair(ver.random_median)} | {pair(ver_f.random_median)} | "
-            f"{_fmt(r.get('rotation_error_deg'), 2)} / "
-            f"{_fmt(r.get('translation_error_cm'), 2)} |")
+    return (f"| {label} | {_pair(ver.advised_median)} | {_pair(ver_f.advised_median)} | "
+            f"{_pair(ver.random_median)} | {_pair(ver_f.random_median)} | "
+            f"{_pair(ver_f.ratio, 2)} |")
 
 
 BOUND_HEAD = """
@@ -384,21 +388,11 @@ without the luck of the particular map, calibration and arm.
 
 def _bound_row(label, ver) -> str:
     """A row of the hindsight-bound table."""
-    def pair(m):
-        if not m:
-            return "n/a"
-        return f"{_fmt(m.get('rotation_error_deg'))} / {_fmt(m.get('translation_error_cm'))}"
-
-    def ratio(m):
-        if not m:
-            return "n/a"
-        return (f"{_fmt(m.get('rotation_error_deg'), 2)} / "
-                f"{_fmt(m.get('translation_error_cm'), 2)}")
     am, med = ver.advised_median, ver.random_median
     exp = [am.get(k) / med[k] if am.get(k) is not None and med.get(k) else None
            for k in ("max_std_deg", "max_std_cm")]
-    return (f"| {label} | {pair(am)} | {pair(ver.hindsight_median)} | {pair(med)} | "
-            f"{ratio(ver.ratio)} | {ratio(ver.ratio_hindsight)} | "
+    return (f"| {label} | {_pair(am)} | {_pair(ver.hindsight_median)} | {_pair(med)} | "
+            f"{_pair(ver.ratio, 2)} | {_pair(ver.ratio_hindsight, 2)} | "
             f"{_fmt(exp[0], 2)} / {_fmt(exp[1], 2)} |")
 
 
@@ -449,7 +443,7 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     rows, sig_rows, notes, checks, size_rows, frame_rows = [], [], [], [], [], []
     bound_rows = []
-    prose = {"advised": [], "random": [], "pred": [], "planner": [], "base3d": "n/a"}
+    prose = {"advised": [], "random": [], "planner": [], "base3d": "n/a"}
     for name, ov in CASES:
         runs = [run_case(name, ov, a.k, tuple(range(a.seeds)), a.candidates, a.stop_frames,
                          rig) for rig in range(a.rigs)]
@@ -511,9 +505,6 @@ def main(argv=None) -> int:
                               ("translation_error_cm", "max_std_cm")):
                     if v.get(e) is not None and v.get(sd):
                         prose[key].append(v[e] / v[sd])
-            for sd in ("max_std_deg", "max_std_cm"):
-                if am.get(sd) is not None and med.get(sd):
-                    prose["pred"].append(am[sd] / med[sd])
         print(rows[-1], flush=True)
     text = HEAD.format(command=f"python -m simcalib.advise.tables --out {a.out} --k {a.k} "
                                f"--seeds {a.seeds} --candidates {a.candidates} "
