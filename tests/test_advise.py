@@ -163,6 +163,14 @@ def test_advice_monotone_and_json(scara_advice):
         int(np.argmax(in_tol))]
     assert lb["dominant"] == max(lb["shares"], key=lb["shares"].get)
     assert "lower it" in lb["statement"] and lb["axis"] in lb["statement"]
+    # the planner's own expectation: its chain against random chains of the same candidates
+    eg = out["expected_gain"]
+    assert eg["stops"] == len(out["motions"]) and eg["chains"] == adv.random_chains.shape[0]
+    assert adv.random_chains_std.shape == (eg["chains"], 6)
+    assert set(adv.random_chains.ravel()) <= set(np.flatnonzero(adv.candidates.feasible))
+    assert eg["advised_max_std_cm"] == pytest.approx(100 * std[3:].max())
+    assert eg["advised_max_std_cm"] < eg["random_max_std_cm_median"]
+    assert eg["advised_max_std_deg"] < eg["random_max_std_deg_median"]
 
 
 @pytest.mark.slow
@@ -407,6 +415,21 @@ def test_hindsight_stops_are_the_best_by_the_truth():
     assert h["stops"][0] == best
     np.testing.assert_allclose([h["rotation_error_deg"], h["translation_error_cm"]],
                                scores[best][1:], rtol=1e-6, atol=1e-9)
+    # the ranking diagnostic: each one-stop chain's actual error is the one just solved
+    # (each measured stop three times: chains may share stops, and >= 10 chains are ranked)
+    feas = np.repeat(sorted(scores), 3)
+    assert len(scores) >= 4
+    chains = feas[:, None]
+    pred = np.zeros((feas.size, 6))
+    pred[:, 0] = [scores[j][1] for j in feas]              # predicted = actual (rotation)
+    pred[:, 3] = [1.0 / scores[j][2] for j in feas]        # reversed ranking (translation)
+    hr = hindsight_stops(base, cand, 1, np.random.default_rng(0), scale=scale,
+                         chains=chains, chains_std=pred)
+    rk = hr["ranking"]
+    assert rk["chains"] == feas.size
+    assert rk["spearman_rotation"] == pytest.approx(1.0)
+    assert rk["spearman_translation"] == pytest.approx(-1.0)
+    assert rk["best_tenth_over_all_rotation"] < 1.0 < rk["best_tenth_over_all_translation"]
     with pytest.raises(ValueError, match="scale must be"):
         hindsight_stops(base, cand, 1, np.random.default_rng(0), scale=(0.0, 1.0))
 

@@ -146,6 +146,61 @@ def test_chain_choice_weighs_systematic_errors_and_never_raises_the_criterion():
                         systematic=(np.zeros((6, P)), np.zeros((2, 6, P)), Bc[:, :10]))
 
 
+def test_chain_information_reproduces_the_chosen_chain_and_checks_its_input():
+    """The planner's model of any chain (batched) equals what the greedy choice weighed for
+    the chain it chose — the same predicted 1-sigma after its stops, with and without the
+    systematic errors — and bad chains are refused with what was received."""
+    rng = np.random.default_rng(9)
+    X = _X()
+    Cb = _motions(rng, 30, max_angle=0.05)
+    Fb = pl.motion_information(Cb, g.invert_transform(X) @ Cb @ X, X, 0.005, 0.001).sum(0)
+    M = _motions(rng, 40)
+    P = 7
+    sysm = (rng.normal(0, 1e-3, (6, P)), rng.normal(0, 1e-3, (2, 6, P)),
+            rng.normal(0, 1e-3, (2, 40, 6, P)))
+    scale = rng.uniform(0.5, 2.0, 40)
+    for sy in (None, sysm):
+        res, added, added_g = pl.greedy_chain_systematic(Fb, M, X, 0.005, 0.001, 4,
+                                                         noise_scale=scale, systematic=sy)
+        others = np.stack([rng.choice(40, 4, replace=False) for _ in range(3)])
+        chains = np.concatenate([res.order[None], others])
+        F, G = pl.chain_information(Fb, M, X, 0.005, 0.001, chains, noise_scale=scale,
+                                    systematic=sy)
+        assert F.shape == (4, 6, 6) and G.shape == (4, 6, 0 if sy is None else P)
+        np.testing.assert_allclose(F[0], Fb + added.sum(0), rtol=1e-12, atol=1e-9)
+        if sy is not None:
+            np.testing.assert_allclose(G[0], sy[0] + added_g.sum(0), rtol=1e-12, atol=1e-15)
+        # a chain's information does not depend on the other chains of the batch
+        F1, _ = pl.chain_information(Fb, M, X, 0.005, 0.001, chains[2:3], noise_scale=scale,
+                                     systematic=sy)
+        np.testing.assert_allclose(F1[0], F[2], rtol=1e-12)
+    for bad in (np.array([1, 2]), np.array([[0, 40]]), np.array([[0.0, 1.0]]),
+                np.zeros((0, 3), int)):
+        with pytest.raises(ValueError, match="chains must be"):
+            pl.chain_information(Fb, M, X, 0.005, 0.001, bad)
+
+
+def test_ranking_agreement_measures_how_well_predictions_rank_actual_errors():
+    from simcalib.advise.advisor import ranking_agreement
+    rng = np.random.default_rng(2)
+    n = 200
+    std = rng.uniform(0.01, 1.0, (n, 6))
+    size = np.sqrt(np.c_[(std[:, :3] ** 2).sum(1), (std[:, 3:] ** 2).sum(1)])
+    exact = ranking_agreement(std, 3.0 * size)                 # actual = monotone in size
+    assert exact["chains"] == n
+    assert exact["spearman_rotation"] == pytest.approx(1.0)
+    assert exact["spearman_translation"] == pytest.approx(1.0)
+    assert exact["best_tenth_over_all_rotation"] < 0.6
+    blind = ranking_agreement(std, rng.uniform(0, 1, (n, 2)))  # no relation
+    assert abs(blind["spearman_rotation"]) < 0.2 and abs(blind["spearman_translation"]) < 0.2
+    assert 0.7 < blind["best_tenth_over_all_translation"] < 1.3
+    std[0, 4] = np.inf                                         # undetermined in one chain
+    und = ranking_agreement(std, size)
+    assert und["spearman_translation"] is None and und["spearman_rotation"] is not None
+    few = ranking_agreement(std[1:6], size[1:6])
+    assert few["spearman_rotation"] is None and few["best_tenth_over_all_rotation"] is None
+
+
 def test_verification_chain_indices_follow_the_measured_stops():
     """A stop that was not measured is skipped: the chain links the measured ones and
     every datapoint index has a row in the combined basis."""

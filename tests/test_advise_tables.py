@@ -43,3 +43,24 @@ def test_pool_without_a_hindsight_bound_leaves_its_cells_empty():
     assert p.hindsight_median == {} and p.ratio_hindsight == {}
     cells = [c.strip() for c in tables._bound_row("x", p).strip("|").split("|")]
     assert cells[2] == "n/a" and cells[5] == "n/a"
+
+
+def test_ranking_row_takes_medians_over_the_rigs():
+    from types import SimpleNamespace
+    advs = [SimpleNamespace(random_chains=np.zeros((200, 5), int),
+                            random_chains_std=np.tile(np.r_[r, r, r, 0.01, 0.01, 0.02], (200, 1)),
+                            std_after=np.array([[0.1, 0.05, 0.05, 0.004, 0.004, 0.004]]))
+            for r in (0.2, 0.5, 0.4)]                 # expected ratio 0.5, 0.2, 0.25
+    rk = [{"spearman_rotation": 0.2, "spearman_translation": 0.3,
+           "best_tenth_over_all_rotation": 0.9, "best_tenth_over_all_translation": 0.8},
+          {"spearman_rotation": 0.4, "spearman_translation": None,
+           "best_tenth_over_all_rotation": 0.7, "best_tenth_over_all_translation": None},
+          {}]
+    vers = [_ver([_r(0.1, 0.2)], [_r(1.0, 2.0)], {"ranking": d} if d else {}) for d in rk]
+    pooled = SimpleNamespace(ratio_wide={"rotation_error_deg": 0.6, "translation_error_cm": 0.7})
+    cells = [c.strip() for c in tables._ranking_row("scara", advs, vers, pooled)
+             .strip("|").split("|")]
+    assert cells[1] == "0.25 / 0.2"          # medians of (0.5, 0.2, 0.25) and (0.2, 0.2, 0.2)
+    assert cells[2] == "0.6 / 0.7"
+    assert cells[3] == "0.3 / 0.3"           # rigs without a ranking are left out
+    assert cells[4] == "0.8 / 0.8"

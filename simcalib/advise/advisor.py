@@ -124,6 +124,10 @@ class Advice(StopPlan):
     systematic_parameters: int = 0     # shared pose-error parameters the choice weighed
     #: what the predicted uncertainty after the stops is made of (:func:`limited_by`)
     limited_by: dict = field(default_factory=dict)
+    #: ``(n, k)`` chains of ``k`` stops drawn at random from the same feasible candidates
+    #: and ``(n, 6)`` their predicted 1-sigma per axis (:func:`random_chains`)
+    random_chains: np.ndarray | None = None
+    random_chains_std: np.ndarray | None = None
 
 
 WHEN_DETERMINED = ("stop", "advise")
@@ -214,6 +218,11 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
     t3 = time.perf_counter()
     before, after = predicted_along_chain(F_base, added, added_g, sysm, L, **kw)
     cannot = pl.undeterminable(F_base, F_cand, feasible=cand.feasible, range_m=L, **kw)
+    usable = cand.feasible.copy()
+    usable[list(rejected)] = False
+    chains, chains_std = random_chains(F_base, cand.motion["cam_a"], X, s_r, s_t, usable,
+                                       int(g.order.size), rng, noise_scale=scale,
+                                       systematic=sysm, range_m=L, **kw)
     limit = {}
     if sysm is not None:
         limit = limited_by(F_base + added.sum(axis=0), sysm[0] + added_g.sum(axis=0), groups,
@@ -226,7 +235,7 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
                   rejected_by_render=tuple(rejected), F_base=F_base, F_cand=F_cand, X=X,
                   message=message, noise_scale=scale,
                   systematic_parameters=0 if sysm is None else int(sysm[0].shape[1]),
-                  limited_by=limit,
+                  limited_by=limit, random_chains=chains, random_chains_std=chains_std,
                   timing_s={"information": t1 - t0, "candidates": t2 - t1,
                             "choice_and_render_check": t3 - t2,
                             "total": time.perf_counter() - t0})
@@ -287,6 +296,53 @@ def predicted_along_chain(F_base, added, added_g, sysm, L: float, **kw) -> tuple
         G = G + added_g[j] if G is not None else None
         after.append(std(F, G))
     return std(F_base, None if sysm is None else sysm[0]), np.array(after).reshape(-1, 6)
+
+
+#: random chains :func:`advise_motions` predicts, to compare the chosen chain with
+N_RANDOM_CHAINS = 200
+
+
+def random_chains(F_base, motion_a, X, s_r, s_t, usable, k: int, rng, *, noise_scale,
+                  systematic, range_m: float, n: int = N_RANDOM_CHAINS, **kw) -> tuple:
+    """``(chains (n, k), std (n, 6))``: ``n`` chains of ``k`` stops drawn uniformly (without
+    replacement within a chain) from the ``usable`` candidates and the predicted 1-sigma per
+    axis after each (deg, m; :func:`planner.chain_information`, the same model as the
+    choice): what choosing is expected to gain over visiting as many of the same
+    candidates without choosing. ``(None, None)`` when fewer than ``k`` are usable or
+    ``k`` is 0."""
+    idx = np.flatnonzero(usable)
+    if k < 1 or idx.size < k:
+        return None, None
+    chains = np.stack([rng.choice(idx, size=k, replace=False) for _ in range(int(n))])
+    F, G = pl.chain_information(F_base, motion_a, X, s_r, s_t, chains,
+                                noise_scale=noise_scale, systematic=systematic)
+    if systematic is None:
+        std = [pl.predicted_std(f, range_m=range_m, **kw) for f in F]
+    else:
+        std = [pl.systematic_std(f, g, range_m=range_m, **kw) for f, g in zip(F, G)]
+    return chains, np.array(std)
+
+
+def expected_gain(adv) -> dict:
+    """The planner's own expectation of what its choice gains (no simulation): the advised
+    chain's largest predicted 1-sigma (deg, cm) against the median over
+    :attr:`Advice.random_chains` (random stops from the same candidates); empty without
+    them."""
+    if adv.random_chains_std is None or len(adv.std_after) == 0:
+        return {}
+    a = np.asarray(adv.std_after[-1], dtype=np.float64)
+    r = np.asarray(adv.random_chains_std, dtype=np.float64)
+    adv_deg, adv_cm = float(a[:3].max()), 100.0 * float(a[3:].max())
+    rnd_deg = float(np.median(r[:, :3].max(axis=1)))
+    rnd_cm = 100.0 * float(np.median(r[:, 3:].max(axis=1)))
+
+    def ratio(x, y):
+        return x / y if np.isfinite(x) and np.isfinite(y) and y > 0 else None
+    return {"chains": int(r.shape[0]), "stops": int(adv.random_chains.shape[1]),
+            "advised_max_std_deg": _f(adv_deg), "advised_max_std_cm": _f(adv_cm),
+            "random_max_std_deg_median": _f(rnd_deg), "random_max_std_cm_median": _f(rnd_cm),
+            "expected_ratio_rotation": _f(ratio(adv_deg, rnd_deg)),
+            "expected_ratio_translation": _f(ratio(adv_cm, rnd_cm))}
 
 
 def _stop_bases(world, cfg, sources, T_world_cam, qpos, P) -> np.ndarray:
@@ -606,7 +662,8 @@ def verify(base: Baseline, adv: Advice, *, seeds=(0, 1, 2, 3, 4), joint_baseline
             med.get("translation_error_cm"):
         hind = hindsight_stops(base, adv.candidates, adv.k,
                                np.random.default_rng([int(seeds[0]), 303]),
-                               scale=(med["rotation_error_deg"], med["translation_error_cm"]))
+                               scale=(med["rotation_error_deg"], med["translation_error_cm"]),
+                               chains=adv.random_chains, chains_std=adv.random_chains_std)
         _, ratio_h = _summary(hind, res_rand)
     size = {"advised": res_adv.get("motion_size"),
             "random": _median_size([r.get("motion_size") for r in res_rand]),
@@ -620,7 +677,7 @@ def verify(base: Baseline, adv: Advice, *, seeds=(0, 1, 2, 3, 4), joint_baseline
 
 
 def hindsight_stops(base: Baseline, cand, k: int, rng: np.random.Generator, *,
-                    scale=(1.0, 1.0)) -> dict:
+                    scale=(1.0, 1.0), chains=None, chains_std=None) -> dict:
     """The ``k`` stops of ``cand`` a chooser that knew the true X would visit: **not
     advice** (no planner has the truth) but what these candidates can give on this rig
     (greedy, so the best choice of ``k`` of them does at least as well: an upper bound on
@@ -629,7 +686,10 @@ def hindsight_stops(base: Baseline, cand, k: int, rng: np.random.Generator, *,
     and go, from the reference), each the one whose chain gives dqopt the smallest
     ``max(rotation error / scale[0] deg, translation error / scale[1] cm)`` against the
     true X. Returns ``stops`` (candidate indices, in order), ``rotation_error_deg``,
-    ``translation_error_cm``, ``success``, ``measured`` (candidates measured)."""
+    ``translation_error_cm``, ``success``, ``measured`` (candidates measured); with
+    ``chains`` ``(n, k)`` and their predicted 1-sigma ``chains_std`` ``(n, 6)``
+    (:attr:`Advice.random_chains`) also ``ranking`` (:func:`ranking_agreement`): how well
+    the planner's prediction ranks those chains by their actual errors."""
     import simcalib
     from simcalib.geometry import invert_transform
     if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
@@ -674,10 +734,44 @@ def hindsight_stops(base: Baseline, cand, k: int, rng: np.random.Generator, *,
             break
         chosen.append(step[1])
         best = step[2]
-    return {"success": bool(np.isfinite(best).all()),
-            "stops": [int(feas[f - 1]) for f in chosen],
-            "rotation_error_deg": _f(best[0]), "translation_error_cm": _f(best[1]),
-            "measured": int(len(ok) - 1)}
+    out = {"success": bool(np.isfinite(best).all()),
+           "stops": [int(feas[f - 1]) for f in chosen],
+           "rotation_error_deg": _f(best[0]), "translation_error_cm": _f(best[1]),
+           "measured": int(len(ok) - 1)}
+    if chains is not None and chains_std is not None:
+        frame = {int(c): j + 1 for j, c in enumerate(feas)}
+        keep, actual = [], []
+        for i, ch in enumerate(np.asarray(chains)):
+            fr = [frame.get(int(c), -1) for c in ch]
+            if all(f in pose["cam_a"] and f in pose["cam_b"] for f in fr):
+                keep.append(i)
+                actual.append(errors(fr))
+        out["ranking"] = ranking_agreement(np.asarray(chains_std)[keep],
+                                           np.array(actual).reshape(-1, 2))
+    return out
+
+
+def ranking_agreement(predicted_std, actual) -> dict:
+    """How well predicted 1-sigma ``(n, 6)`` (deg, m per axis) rank ``n`` chains by their
+    actual errors ``(n, 2)`` (rotation deg, translation cm): per block, Spearman's rank
+    correlation of the predicted error size (root sum of the axes' variances: the expected
+    norm) with the actual error, and the median actual error of the tenth best-predicted
+    chains over that of all (1: the prediction picks no better than chance). ``None``
+    where a block is undetermined for some chain or fewer than 10 chains were measured."""
+    from scipy.stats import spearmanr
+    P = np.asarray(predicted_std, dtype=np.float64)
+    A = np.asarray(actual, dtype=np.float64)
+    out = {"chains": int(A.shape[0])}
+    for b, name in ((0, "rotation"), (1, "translation")):
+        pred = np.sqrt(np.sum(P[:, 3 * b:3 * b + 3] ** 2, axis=1))
+        act = A[:, b]
+        if A.shape[0] < 10 or not (np.isfinite(pred).all() and np.isfinite(act).all()):
+            out[f"spearman_{name}"] = out[f"best_tenth_over_all_{name}"] = None
+            continue
+        best = pred <= np.quantile(pred, 0.1)
+        out[f"spearman_{name}"] = _f(spearmanr(pred, act).statistic)
+        out[f"best_tenth_over_all_{name}"] = _f(np.median(act[best]) / np.median(act))
+    return out
 
 
 def _summary(res_adv, res_rand):
@@ -786,6 +880,7 @@ def advice_dict(base: Baseline, adv: Advice, ver: Verification | None = None) ->
                          "tolerance units (lambda_min = 1/largest sigma^2)"),
            "systematic_parameters": int(adv.systematic_parameters),
            "limited_by": adv.limited_by,
+           "expected_gain": expected_gain(adv),
            "tolerance": {"deg": adv.tolerance_deg, "m": adv.tolerance_m},
            "noise_fitted": {"sigma_r_deg": math.degrees(adv.noise[0]),
                             "sigma_t_m": adv.noise[1]},

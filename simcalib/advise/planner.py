@@ -297,6 +297,49 @@ def greedy_chain(F_base, motion_a, X, sigma_r_rad: float, sigma_t_m: float, k: i
     return res, added
 
 
+def chain_information(F_base, motion_a, X, sigma_r_rad: float, sigma_t_m: float, chains, *,
+                      noise_scale=None, ref_noise_scale: float = 1.0,
+                      systematic=None) -> tuple[np.ndarray, np.ndarray]:
+    """``(F (n, 6, 6), G (n, 6, P))``: the information and the systematic score of the
+    recorded motions plus each of ``n`` given chains of stops ``chains`` ``(n, k)``
+    (candidate indices, visited in order from the reference, stop and go) — what
+    :func:`greedy_chain` weighs, for chains it did not choose (e.g. random ones, to compare
+    with the chosen chain). Batched over the chains; same arguments as
+    :func:`greedy_chain` (``P = 0`` without ``systematic``)."""
+    M = np.asarray(motion_a, dtype=np.float64)
+    N = M.shape[0]
+    ch = np.asarray(chains)
+    if ch.ndim != 2 or not np.issubdtype(ch.dtype, np.integer) or ch.size == 0 \
+            or ch.min() < 0 or ch.max() >= N:
+        raise ValueError(f"chains must be a non-empty (n, k) integer array of candidate "
+                         f"indices in [0, {N}); received shape {ch.shape}, dtype {ch.dtype}")
+    sc = np.ones(N) if noise_scale is None else np.asarray(noise_scale, dtype=np.float64)
+    if sc.shape != (N,) or not np.all(np.isfinite(sc)) or np.any(sc <= 0):
+        raise ValueError(f"noise_scale must be ({N},) finite and > 0; received shape "
+                         f"{sc.shape}")
+    sysm = check_chain_systematic(systematic, N)
+    n = ch.shape[0]
+    F = np.broadcast_to(np.asarray(F_base, dtype=np.float64), (n, 6, 6)).copy()
+    G = np.zeros((n, 6, 0)) if sysm is None else np.broadcast_to(sysm[0], (n,) + sysm[0].shape
+                                                                 ).copy()
+    T_prev = np.broadcast_to(np.eye(4), (n, 4, 4))
+    s_prev = np.full(n, float(ref_noise_scale))
+    B_prev = None if sysm is None else np.broadcast_to(sysm[1][:, None],
+                                                       (2, n) + sysm[1].shape[1:])
+    for j in range(ch.shape[1]):
+        idx = ch[:, j]
+        C, H = predicted_motions(invert_transform(T_prev) @ M[idx], X)
+        F += motion_information(C, H, X, sigma_r_rad, sigma_t_m) / \
+            (0.5 * (s_prev + sc[idx]))[:, None, None]
+        if sysm is not None:
+            B = sysm[2][:, idx]
+            G += systematic_scores(C, H, X, sigma_r_rad, sigma_t_m, B_prev[0], B[0],
+                                   B_prev[1], B[1])
+            B_prev = B
+        T_prev, s_prev = M[idx], sc[idx]
+    return F, G
+
+
 def greedy_chain_systematic(*args, **kw) -> tuple[GreedyResult, np.ndarray, np.ndarray]:
     """:func:`greedy_chain` returning also the systematic score ``(k, 6, P)`` each stop of
     the final chain adds."""

@@ -103,6 +103,13 @@ def _print_notes(out: dict) -> None:
         print(f"cannot help: {c['statement']}. Fix: {c['fix']}")
     if (out.get("limited_by") or {}).get("statement"):
         print(f"after the stops, {out['limited_by']['statement']}")
+    eg = out.get("expected_gain") or {}
+    if eg:
+        print(f"expected (predicted largest 1-sigma, no simulation): these stops "
+              f"{_n(eg['advised_max_std_deg'])} deg / {_n(eg['advised_max_std_cm'])} cm; "
+              f"{eg['stops']} random stops of the same candidates (median of {eg['chains']}) "
+              f"{_n(eg['random_max_std_deg_median'])} deg / "
+              f"{_n(eg['random_max_std_cm_median'])} cm")
     print(f"advice took {out['timing_s']['total']:.1f} s")
 
 
@@ -156,6 +163,14 @@ def print_table(out: dict) -> None:
             print(f"hindsight (stops picked knowing the true X: a bound, not advice) / random "
                   f"median: rotation {_n(rt.get('rotation_error_deg'))}, translation "
                   f"{_n(rt.get('translation_error_cm'))}")
+            rk = hs.get("ranking") or {}
+            if rk:
+                print(f"prediction vs actual over {rk['chains']} random chains of the "
+                      f"candidates: rank correlation rotation "
+                      f"{_n(rk['spearman_rotation'])}, translation "
+                      f"{_n(rk['spearman_translation'])}; best-predicted tenth's actual "
+                      f"error / all: {_n(rk['best_tenth_over_all_rotation'])}, "
+                      f"{_n(rk['best_tenth_over_all_translation'])}")
 
 
 #: (console tag, advice.json key, name) of the verification's random baselines
