@@ -409,8 +409,8 @@ factor "expected" (its predicted largest 1-sigma against the median over 200 ran
 chains of its feasible candidates: `advisor.expected_gain`, advice.json `expected_gain`;
 median over the rigs); measured, the factor is "actual" (the ratio advised / random from
 the advice's candidates of the first table). The gap is what choosing the best of many
-candidates by a prediction costs when the prediction ranks them only loosely (the chosen
-chain is also the one whose error the model underrates most). **Ranking**: those 200
+candidates by a prediction costs when the prediction ranks them only loosely (the minimum
+of many loose predictions favours chains whose error the model underrates). **Ranking**: those 200
 random chains, solved with the hindsight's measurements of every candidate
 (`advisor.ranking_agreement`), per rig: Spearman's rank correlation between each chain's
 predicted error size (root of the summed variances of the rotation, the translation
@@ -419,7 +419,7 @@ of the chains predicted best over that of all (1 = no better than chance); media
 the rigs. The model predicts how large the error of a set of stops is on rigs like this
 one (the spread the marker map's survey, the calibrations and the arm's DH table are drawn
 with), not this rig's error, which those shared errors fix once: that is why the
-hindsight chooser, which sees this rig's errors, does several times better than any
+hindsight chooser, which sees this rig's errors, does several times better than the
 choice by prediction.
 
 | scenario | expected ratio advised / random from the candidates (planner) | actual ratio advised / random from the candidates | rank correlation predicted vs actual (rotation / translation) | best-predicted tenth's actual error / all (rotation / translation) |
