@@ -704,8 +704,9 @@ def calibration_pose_bias(world, cfg: "VisionConfig | None" = None, cameras=None
     """Per camera of ``world`` (or of ``cameras``): the :class:`CalibrationBias` the
     calibration error ``cfg.effects().intrinsics_error`` (read as the 1-sigma of the
     calibration the estimator has, :func:`calibration_sigmas`) causes in the ArUco poses.
-    Nothing is rendered: the marker corners the layout makes visible
-    (:func:`simcalib.world.layout.visible_markers`) from up to ``max_frames`` of the
+    Nothing is rendered: the marker corners the layout makes fully visible in the camera's
+    distorted image (:func:`simcalib.world.layout.visible_markers` with the lens
+    distortion, as :func:`pose_error_basis`) from up to ``max_frames`` of the
     camera's true poses (evenly spaced over the delivered frames) go through
     :func:`simcalib.markers.intrinsics_pose_sensitivity`; ``covariance = J J^T`` plus the
     marker-map term (``vision.map_position_std_m`` / ``map_rotation_std_deg``, the map's
@@ -733,7 +734,7 @@ def calibration_pose_bias(world, cfg: "VisionConfig | None" = None, cameras=None
         if idx.size > max_frames:
             idx = idx[np.round(np.linspace(0, idx.size - 1, max_frames)).astype(int)]
         T = np.asarray(fr.T_world_cam, dtype=np.float64)[idx]
-        vis = visible_markers(world.marker_field, T, intr)
+        vis = visible_markers(world.marker_field, T, intr, distortion=eff.distortion)
         corners = world.marker_field.corners_world()
         pts = [corners[v].reshape(-1, 3) for v in vis]
         if np.any(sig > 0):

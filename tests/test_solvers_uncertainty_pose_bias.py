@@ -476,3 +476,24 @@ def test_coverage_tool_aruco_trial_records():
     row = coverage_row("x", [t["run"], None], 2)
     assert row["solved"] == 1 and row["trials"] == 2 and row["simulated"] == 1
     assert row["coverage"] in (0.0, 1.0) and np.all(row["ratio"] > 0)
+
+
+def test_calibration_bias_rests_on_the_markers_the_lens_shows():
+    """The run-constant calibration bias (mean over the frames) and the per-frame error basis
+    rest on the same markers — those fully inside the camera's *distorted* image: with the
+    camera close to the wall the barrel lens shows markers past the pinhole image's edge,
+    and the two agree to first order only when both count them."""
+    from simcalib.vision import VisionConfig, calibration_pose_bias, pose_error_basis
+    from simcalib.world.layout import visible_markers
+    w = _wall_world(6)
+    w.trajectory.cam_a.T_world_cam[:, 2, 3] = 0.45
+    T = np.asarray(w.trajectory.cam_a.T_world_cam)
+    cfg = VisionConfig(preset="realistic")
+    dist = cfg.effects().distortion
+    intr = w.intrinsics["cam_a"]
+    lens = visible_markers(w.marker_field, T, intr, distortion=dist)
+    assert lens.sum() > visible_markers(w.marker_field, T, intr).sum()   # the test bites
+    bias = calibration_pose_bias(w, cfg, cameras=["cam_a"], max_frames=30)["cam_a"]
+    per_frame = pose_error_basis(w, "cam_a", T, cfg)[:, :, -8:]           # calibration columns
+    mean = per_frame.sum(0) / int((lens.sum(1) > 0).sum())
+    np.testing.assert_allclose(bias.jacobian, mean, atol=1e-4 * np.abs(mean).max())
