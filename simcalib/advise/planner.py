@@ -234,13 +234,18 @@ def _criterion_systematic(Ft, Gt) -> np.ndarray:
     return lam.max(axis=-1) + lam.mean(axis=-1)
 
 
-def _chain_info(M, T_from, X, s_r, s_t, scale_from, scale_to):
-    """Information of the motions ``T_from -> M`` (batched over ``M`` or ``T_from``) with the
-    variance factor of the two stops' poses averaged (each pose error enters the motion)."""
-    C, H = predicted_motions(invert_transform(T_from) @ M, X)
-    F = motion_information(C, H, X, s_r, s_t)
+def _link(T_from, T_to, X, s_r, s_t, scale_from, scale_to, B_from=None, B_to=None):
+    """``(F (n, 6, 6), G (n, 6, P))`` of the motions ``T_from -> T_to`` (stop and go; batched,
+    either side may be one pose): the information with the variance factor of the two
+    stops' poses averaged (each pose error enters the motion) and, with the stops' error
+    bases ``B_*`` ``(2, n, 6, P)`` (cameras a, b), the systematic score
+    (:func:`systematic_scores`); ``P = 0`` without them."""
+    C, H = predicted_motions(invert_transform(T_from) @ T_to, X)
     f = 0.5 * (np.asarray(scale_from, dtype=np.float64) + np.asarray(scale_to, np.float64))
-    return F / np.broadcast_to(f, (F.shape[0],))[:, None, None]
+    F = motion_information(C, H, X, s_r, s_t) / np.broadcast_to(f, (C.shape[0],))[:, None, None]
+    if B_from is None:
+        return F, np.zeros((F.shape[0], 6, 0))
+    return F, systematic_scores(C, H, X, s_r, s_t, B_from[0], B_to[0], B_from[1], B_to[1])
 
 
 def check_chain_systematic(systematic, n: int):
@@ -328,15 +333,10 @@ def chain_information(F_base, motion_a, X, sigma_r_rad: float, sigma_t_m: float,
                                                        (2, n) + sysm[1].shape[1:])
     for j in range(ch.shape[1]):
         idx = ch[:, j]
-        C, H = predicted_motions(invert_transform(T_prev) @ M[idx], X)
-        F += motion_information(C, H, X, sigma_r_rad, sigma_t_m) / \
-            (0.5 * (s_prev + sc[idx]))[:, None, None]
-        if sysm is not None:
-            B = sysm[2][:, idx]
-            G += systematic_scores(C, H, X, sigma_r_rad, sigma_t_m, B_prev[0], B[0],
-                                   B_prev[1], B[1])
-            B_prev = B
-        T_prev, s_prev = M[idx], sc[idx]
+        B = None if sysm is None else sysm[2][:, idx]
+        Fj, Gj = _link(T_prev, M[idx], X, sigma_r_rad, sigma_t_m, s_prev, sc[idx], B_prev, B)
+        F, G = F + Fj, G + Gj
+        T_prev, s_prev, B_prev = M[idx], sc[idx], B
     return F, G
 
 
@@ -378,22 +378,13 @@ def _greedy_chain(F_base, motion_a, X, sigma_r_rad, sigma_t_m, k, *, feasible=No
 
     def link(prev, idx, nxt=None):
         """(F, G) of the motions prev -> idx (idx an array), or idx -> nxt when nxt given."""
+        def one(j):                       # a single stop's basis beside the batch's
+            return np.broadcast_to(basis(j)[:, None], (2, len(idx)) + G0.shape)
         if nxt is None:
-            F = _chain_info(M[idx], pose(prev), X, s_r, s_t, scale(prev), sc[idx])
-        else:
-            C, H = predicted_motions(invert_transform(M[idx]) @ M[nxt], X)
-            F = motion_information(C, H, X, s_r, s_t) / (0.5 * (sc[idx] + sc[nxt]))[:, None,
-                                                                                     None]
-        if sysm is None:
-            return F, np.zeros((F.shape[0], 6, 0))
-        if nxt is None:
-            C, H = predicted_motions(invert_transform(pose(prev)) @ M[idx], X)
-            Bs = np.broadcast_to(basis(prev)[:, None], (2, len(idx)) + G0.shape)
-            Be = sysm[2][:, idx]
-        else:
-            Bs = sysm[2][:, idx]
-            Be = np.broadcast_to(basis(nxt)[:, None], (2, len(idx)) + G0.shape)
-        return F, systematic_scores(C, H, X, s_r, s_t, Bs[0], Be[0], Bs[1], Be[1])
+            Bf, Bt = (None, None) if sysm is None else (one(prev), sysm[2][:, idx])
+            return _link(pose(prev), M[idx], X, s_r, s_t, scale(prev), sc[idx], Bf, Bt)
+        Bf, Bt = (None, None) if sysm is None else (sysm[2][:, idx], one(nxt))
+        return _link(M[idx], M[nxt], X, s_r, s_t, sc[idx], sc[nxt], Bf, Bt)
 
     def crit(F, G):
         if sysm is None:
