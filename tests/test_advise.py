@@ -110,9 +110,10 @@ def test_every_proposed_stop_is_feasible(scara_advice):
         ang = np.arccos(np.clip((np.trace(R.T @ cand.T_world_target[j, :3, :3]) - 1) / 2,
                                 -1, 1))
         assert ang <= world.config.ik.fail_rot_rad
+    from simcalib.advise.advisor import lens_distortion
     for c in base.aruco_cameras:
         v = visible_markers(world.marker_field, cand.T_world_cam[c][adv.chosen],
-                            world.intrinsics[c]).sum(axis=1)
+                            world.intrinsics[c], distortion=lens_distortion(base.cfg)).sum(axis=1)
         assert (v >= 4).all()
         assert all(n >= 1 for n in adv.render_check[c])     # detected in the render
     # self-collision: none at the chosen stops; a folded elbow is caught
@@ -273,6 +274,40 @@ def test_candidate_ranges_jog_and_wide(scara_advice):
     assert np.degrees(np.linalg.norm(adv.candidates.rotvec_world_rad, axis=1)).max() > 40.0
     with pytest.raises(ValueError, match="ranges must be one of"):
         candidates(world, 2, np.random.default_rng(0), ranges="far")
+
+
+def test_candidates_count_the_markers_the_lens_shows(scara_advice):
+    """The candidates' marker check and view quality are judged in the image the camera
+    sees: the scenario's barrel lens shows markers past the pinhole image's edge (as the
+    render does), and the advice counts them."""
+    from simcalib.advise.advisor import lens_distortion
+    from simcalib.advise.feasibility import candidates, view_quality
+    from simcalib.world.layout import visible_markers
+    base, adv = scara_advice
+    world = base.truth.world
+    lens = lens_distortion(base.cfg)
+    assert lens is not None and np.any(lens != 0)              # the realistic preset's lens
+    cams = base.aruco_cameras
+    pin = candidates(world, 60, np.random.default_rng(3), aruco_cameras=cams, ranges="wide")
+    dis = candidates(world, 60, np.random.default_rng(3), aruco_cameras=cams, ranges="wide",
+                     distortion=lens)
+    np.testing.assert_array_equal(pin.T_world_target, dis.T_world_target)  # same draws
+    for c in cams:
+        assert dis.visible[c].sum() > pin.visible[c].sum()      # the lens shows more
+        np.testing.assert_array_equal(adv.candidates.visible[c], visible_markers(
+            world.marker_field, adv.candidates.T_world_cam[c], world.intrinsics[c],
+            distortion=lens).sum(axis=1))
+        q_pin = view_quality(world, dis.T_world_cam[c], c)
+        q_lens = view_quality(world, dis.T_world_cam[c], c, lens)
+        assert q_pin.shape == q_lens.shape == (60,) and not np.allclose(q_pin, q_lens)
+    # a stop the pinhole check refuses for too few markers, the lens admits (and never
+    # the reverse for that reason alone)
+    few = [i for i, r in enumerate(pin.reason) if "markers" in r]
+    assert any(dis.feasible[i] for i in few)
+    zero = candidates(world, 60, np.random.default_rng(3), aruco_cameras=cams, ranges="wide",
+                      distortion=np.zeros(5))                  # no lens: the pinhole image
+    for c in cams:
+        np.testing.assert_array_equal(zero.visible[c], pin.visible[c])
 
 
 def test_joint_jog_baseline_stops_are_feasible(scara_advice):

@@ -146,7 +146,8 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
     ArUco camera are dropped and the choice repeated (at most 3 times). The candidates are
     ``n_candidates`` stops drawn by :func:`feasibility.candidates` over ``ranges`` (default
     ``"wide"``: the arm's flange rotated up to 90 deg and moved up to 30 cm; ``cand_kw``
-    overrides the maxima).
+    overrides the maxima); with ``run_cfg``, the ArUco cameras' markers are counted in the
+    image their lens forms (:func:`lens_distortion`).
 
     ``when_determined``: when the recorded motions already determine every direction of X
     within the tolerance (largest predicted 1-sigma <= 1 tolerance), ``"advise"``
@@ -171,8 +172,9 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
     kw = dict(tolerance_deg=tolerance_deg, tolerance_m=tolerance_m)
     s_r, s_t, F_base, L = recorded_information(C, H, X, alpha, **kw)
     t1 = time.perf_counter()
+    lens = lens_distortion(run_cfg) if aruco_cameras else None
     cand = fz.candidates(world, n_candidates, rng, aruco_cameras=aruco_cameras, ranges=ranges,
-                         **cand_kw)
+                         **{"distortion": lens, **cand_kw})
     t2 = time.perf_counter()
     Cc, Hc = pl.predicted_motions(cand.motion["cam_a"], X)
     F_cand = pl.motion_information(Cc, Hc, X, s_r, s_t)
@@ -180,8 +182,8 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
     scale = np.ones(cand.n)
     if view_weighting and aruco_cameras:
         for c in aruco_cameras:
-            q_ref = fz.view_quality(world, cand.ref["T_world_cam"][c][None], c)[0]
-            q = fz.view_quality(world, cand.T_world_cam[c], c)
+            q_ref = fz.view_quality(world, cand.ref["T_world_cam"][c][None], c, lens)[0]
+            q = fz.view_quality(world, cand.T_world_cam[c], c, lens)
             f = np.clip((q_ref / np.maximum(q, 1e-9)) ** 2, 0.25, 4.0)
             scale = np.maximum(scale, f) if c != aruco_cameras[0] else f
     sysm, groups = None, []
@@ -343,6 +345,14 @@ def expected_gain(adv) -> dict:
             "random_max_std_deg_median": _f(rnd_deg), "random_max_std_cm_median": _f(rnd_cm),
             "expected_ratio_rotation": _f(ratio(adv_deg, rnd_deg)),
             "expected_ratio_translation": _f(ratio(adv_cm, rnd_cm))}
+
+
+def lens_distortion(run_cfg) -> "np.ndarray | None":
+    """The ArUco cameras' lens distortion (k1, k2, p1, p2, k3) of the run's vision
+    configuration (what the render images through), None without a run configuration:
+    the candidates' visibility and view quality are judged in the image the camera sees."""
+    return None if run_cfg is None else np.asarray(run_cfg.vision.effects().distortion,
+                                                   dtype=np.float64)
 
 
 def _stop_bases(world, cfg, sources, T_world_cam, qpos, P) -> np.ndarray:
@@ -631,7 +641,8 @@ def verify(base: Baseline, adv: Advice, *, seeds=(0, 1, 2, 3, 4), joint_baseline
     # 15 cm; cart +-90 deg, 1 m) whatever ranges the planner was given
     rc = fz.candidates(base.truth.world, n_random,
                        np.random.default_rng([int(base.cfg.seed), 13]),
-                       aruco_cameras=base.aruco_cameras, ranges="jog")
+                       aruco_cameras=base.aruco_cameras, ranges="jog",
+                       distortion=lens_distortion(base.cfg))
     def random_runs(cands, salt: int) -> list[dict]:
         """k random feasible stops of ``cands`` per seed (choice drawn with ``salt``)."""
         feas = np.flatnonzero(cands.feasible)
@@ -650,7 +661,8 @@ def verify(base: Baseline, adv: Advice, *, seeds=(0, 1, 2, 3, 4), joint_baseline
     if joint_baseline and adv.candidates.platform == "arm" and adv.k > 0:
         jc = fz.joint_candidates(base.truth.world, n_joint,
                                  np.random.default_rng([int(base.cfg.seed), 404]),
-                                 aruco_cameras=base.aruco_cameras, max_joint_deg=max_joint_deg)
+                                 aruco_cameras=base.aruco_cameras, max_joint_deg=max_joint_deg,
+                                 distortion=lens_distortion(base.cfg))
         res_joint = random_runs(jc, 505)
         med_j, ratio_j = _summary(adv_med, res_joint)
     res_wide, med_w, ratio_w = [], {}, {}

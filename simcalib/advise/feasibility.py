@@ -17,8 +17,10 @@ Feasibility:
   every camera inside the room;
 * cart: a planar move (x, y, yaw) keeping the cameras inside the room (margin 0.3 m);
 * cameras measured by ArUco: at least ``min_markers`` markers fully visible at the target
-  pose (:func:`simcalib.world.layout.visible_markers`); chosen stops are also rendered
-  and detected (:func:`execute_stops`).
+  pose (:func:`simcalib.world.layout.visible_markers`) in the camera's image — the lens's
+  distorted one when ``distortion`` is given (a barrel lens shows markers past the
+  pinhole image's edge, as the render does); chosen stops are also rendered and
+  detected (:func:`execute_stops`).
 """
 
 from __future__ import annotations
@@ -214,7 +216,7 @@ def _reference(world):
 def candidates(world, n: int, rng: np.random.Generator, *, aruco_cameras=(),
                max_rotation_deg: float | None = None, max_translation_m: float | None = None,
                min_rotation_deg: float = 5.0, min_markers: int = 4,
-               ranges: str = "jog") -> Candidates:
+               ranges: str = "jog", distortion=None) -> Candidates:
     """``n`` random candidate stops around the world's reference pose, with feasibility.
 
     Arm: rotation about a uniform axis by an angle uniform in ``[min_rotation_deg,
@@ -223,7 +225,9 @@ def candidates(world, n: int, rng: np.random.Generator, *, aruco_cameras=(),
     translation in a disc of radius ``max_translation_m``; roll, pitch and height are not
     drivable. Unset maxima come from ``RANGES[ranges]`` (``"jog"``: arm 40 deg / 0.15 m,
     cart 90 deg / 1 m; ``"wide"``: arm 90 deg / 0.30 m). ``aruco_cameras``: the cameras
-    whose poses come from the marker field (visibility checked)."""
+    whose poses come from the marker field (visibility checked); ``distortion``: their
+    lens (k1, k2, p1, p2, k3, e.g. ``VisionConfig.effects().distortion``; default none:
+    pinhole), the markers counted in the distorted image."""
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
         raise ValueError(f"n must be an integer >= 1; received {n!r}")
     if not isinstance(rng, np.random.Generator):
@@ -298,11 +302,12 @@ def candidates(world, n: int, rng: np.random.Generator, *, aruco_cameras=(),
         qpos, mocap_pos, mocap_quat = mot.qpos, mot.mocap_pos, mot.mocap_quat_wxyz
     return _finish(world, platform, omega, dp, T_t, qpos, mocap_pos, mocap_quat, ep, er,
                    reason, aruco_cameras, min_markers, T_ref_cam, q_ref, mp_ref, mq_ref,
-                   T_ref_target, k_ref)
+                   T_ref_target, k_ref, distortion)
 
 
 def _finish(world, platform, omega, dp, T_t, qpos, mocap_pos, mocap_quat, ep, er, reason,
-            aruco_cameras, min_markers, T_ref_cam, q_ref, mp_ref, mq_ref, T_ref_target, k_ref):
+            aruco_cameras, min_markers, T_ref_cam, q_ref, mp_ref, mq_ref, T_ref_target, k_ref,
+            distortion):
     """Room and marker checks, camera poses and motions of drawn stops -> Candidates."""
     from simcalib.world.layout import visible_markers
     from simcalib.world.simulate import camera_poses_from_state
@@ -317,7 +322,8 @@ def _finish(world, platform, omega, dp, T_t, qpos, mocap_pos, mocap_quat, ep, er
             reason[i] = reason[i] or f"{c} leaves the room"
     visible = {}
     for c in aruco_cameras:
-        v = visible_markers(world.marker_field, T_world_cam[c], world.intrinsics[c]).sum(axis=1)
+        v = visible_markers(world.marker_field, T_world_cam[c], world.intrinsics[c],
+                            distortion=distortion).sum(axis=1)
         visible[c] = v.astype(np.int64)
         for i in np.flatnonzero(v < min_markers):
             reason[i] = reason[i] or f"{c} sees {int(v[i])} < {min_markers} markers"
@@ -333,11 +339,13 @@ def _finish(world, platform, omega, dp, T_t, qpos, mocap_pos, mocap_quat, ep, er
 
 
 def joint_candidates(world, n: int, rng: np.random.Generator, *, aruco_cameras=(),
-                     max_joint_deg: float = 20.0, min_markers: int = 4) -> Candidates:
+                     max_joint_deg: float = 20.0, min_markers: int = 4,
+                     distortion=None) -> Candidates:
     """``n`` stops an arm reaches by jogging its joints: every hinge joint moved from the
     reference by an angle uniform in +-``max_joint_deg`` (what a user adds without advice:
     random joint perturbations around the current pose), with the same feasibility checks
-    as :func:`candidates` (joint limits, self-collision, room, markers seen). Used as the
+    as :func:`candidates` (joint limits, self-collision, room, markers seen through
+    ``distortion``). Used as the
     random baseline of :func:`simcalib.advise.verify`; the cart has no joints to jog
     (use :func:`candidates`)."""
     import mujoco
@@ -383,22 +391,27 @@ def joint_candidates(world, n: int, rng: np.random.Generator, *, aruco_cameras=(
     return _finish(world, "arm", omega, dp, T_t, qpos, np.repeat(mp_ref[None], n, axis=0),
                    np.repeat(mq_ref[None], n, axis=0), np.zeros(n), np.zeros(n), reason,
                    aruco_cameras, min_markers, T_ref_cam, q_ref, mp_ref, mq_ref,
-                   T_ref_target, k_ref)
+                   T_ref_target, k_ref, distortion)
 
 
-def view_quality(world, T_world_cam, camera: str) -> np.ndarray:
+def view_quality(world, T_world_cam, camera: str, distortion=None) -> np.ndarray:
     """``(N,)`` quality of camera ``camera``'s view of the marker field at poses
     ``T_world_cam`` ``(N, 4, 4)``: ``sqrt(sum of squared shortest projected edges, px)`` of
     the markers fully visible (0 when none). A marker's PnP pose error scales roughly with
     1 / (its size in pixels), and the errors of several markers average, so the variance
     of the camera pose scales roughly with ``1 / quality**2``: far, oblique views with few
-    markers are noisier."""
+    markers are noisier. ``distortion`` (k1, k2, p1, p2, k3; default none): the markers
+    and edges of the lens's distorted image (a barrel lens shows more markers, smaller
+    towards the edge)."""
+    from simcalib.geometry import distort_pixels
     from simcalib.world.layout import project_points, visible_markers
     T = np.asarray(T_world_cam, dtype=np.float64)
     intr = world.intrinsics[camera]
     field = world.marker_field
-    vis = visible_markers(field, T, intr)
+    vis = visible_markers(field, T, intr, distortion=distortion)
     uv, _ = project_points(T, intr, field.corners_world())
+    if distortion is not None and np.any(np.asarray(distortion, dtype=np.float64) != 0):
+        uv, _ = distort_pixels(uv, intr.K, distortion)
     edges = np.linalg.norm(uv - np.roll(uv, -1, axis=-2), axis=-1).min(axis=-1)
     return np.sqrt(np.sum(np.where(vis, edges, 0.0) ** 2, axis=1))
 
