@@ -146,3 +146,7 @@ def test_bad_inputs_raise_clear_errors():
         track_joint_path(None, smooth_path, duration_s=1.0, timestep_s=0.01)
     with pytest.raises(ValueError, match="site 'flange' not found"):
         track_joint_path(None, smooth_path, duration_s=1.0, site="flange")
+    with pytest.raises(ValueError, match=r"'stop_and_go' needs at least two stops .*"
+                                         r"received duration_s=2.0, capture_rate_hz=0.1"):
+        track_joint_path(None, smooth_path, duration_s=2.0, capture="stop_and_go",
+                         capture_rate_hz=0.1)

@@ -235,7 +235,37 @@ def track_joint_path(model, qpos_targets, *, duration_s: float | None = None,
     on the arm ``model`` (see :func:`build_controlled_arm`) for ``duration_s`` of path time
     (default: the arrays' span) and return the :class:`ArmTrajectory`. The arm starts at
     rest at ``q(0)``. Deterministic (no randomness)."""
-    mujoco = _mujoco()
+    _mujoco()                       # decide the GL backend and import mujoco first
+    _check_track_options(capture, gains, limits, capture_rate_hz, control_rate_hz,
+                         sample_rate_hz, settle_tol_rad, settle_vel_tol_rad_s, settle_max_s)
+    t0 = time.perf_counter()
+    m, jnames = build_controlled_arm(model, gains, limits,
+                                     gravity_compensation=gravity_compensation,
+                                     timestep_s=timestep_s)
+    nj = len(jnames)
+    kp, kd = gains.resolved(nj)
+    tmax, vmax = limits.resolved(nj)
+    n_ctrl, n_samp = _steps_per_tick(control_rate_hz, sample_rate_hz, timestep_s)
+    q_fn, qd_fn, span = _target_fn(qpos_targets, nj)
+    duration_s = _path_duration(duration_s, span)
+    sid, qadr, vadr, lo, hi = _site_and_joint_indices(m, jnames, site)
+    _check_target_in_joint_ranges(q_fn, duration_s, lo, hi, jnames)
+
+    arm = _ServoArm(m=m, data=_arm_at_rest(m, qadr, q_fn(0.0)), sid=sid, qadr=qadr,
+                    vadr=vadr, kp=kp, kd=kd, tmax=tmax, vmax=vmax, q_fn=q_fn, qd_fn=qd_fn,
+                    timestep_s=timestep_s, n_ctrl=n_ctrl, n_samp=n_samp,
+                    dt_c=n_ctrl * timestep_s)
+    plan = _capture_plan(capture, capture_rate_hz, duration_s, settle_tol_rad,
+                         settle_vel_tol_rad_s, settle_max_s)
+    st = _LoopState(q_ref=q_fn(0.0).copy(), holding=plan.stop_mode)
+    _run_control_loop(arm, plan, st)
+    t_sim = time.perf_counter() - t0
+    return _trajectory_from_run(arm, plan, st, capture, jnames, t0, t_sim)
+
+
+def _check_track_options(capture, gains, limits, capture_rate_hz, control_rate_hz,
+                         sample_rate_hz, settle_tol_rad, settle_vel_tol_rad_s, settle_max_s):
+    """Raise on a bad capture mode, gains/limits type or out-of-range rate or tolerance."""
     if not isinstance(capture, str) or capture not in CAPTURE_MODES:
         raise ValueError(f"capture must be one of {list(CAPTURE_MODES)}; received {capture!r}")
     if not isinstance(gains, ArmGains):
@@ -251,13 +281,10 @@ def track_joint_path(model, qpos_targets, *, duration_s: float | None = None,
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not (
                 math.isfinite(v) and lo <= v <= hi):
             raise ValueError(f"{name} must be a number in [{lo}, {hi}]; received {v!r}")
-    t0 = time.perf_counter()
-    m, jnames = build_controlled_arm(model, gains, limits,
-                                     gravity_compensation=gravity_compensation,
-                                     timestep_s=timestep_s)
-    nj = len(jnames)
-    kp, kd = gains.resolved(nj)
-    tmax, vmax = limits.resolved(nj)
+
+
+def _steps_per_tick(control_rate_hz, sample_rate_hz, timestep_s):
+    """Physics steps per control tick and per sample (whole numbers, samples on ticks)."""
     n_ctrl = 1.0 / (control_rate_hz * timestep_s)
     n_samp = 1.0 / (sample_rate_hz * timestep_s)
     for name, nn in (("control_rate_hz", n_ctrl), ("sample_rate_hz", n_samp)):
@@ -268,7 +295,11 @@ def track_joint_path(model, qpos_targets, *, duration_s: float | None = None,
     if n_samp % n_ctrl:
         raise ValueError(f"sample_rate_hz={sample_rate_hz} must divide control_rate_hz="
                          f"{control_rate_hz}")
-    q_fn, qd_fn, span = _target_fn(qpos_targets, nj)
+    return n_ctrl, n_samp
+
+
+def _path_duration(duration_s, span):
+    """Path time to execute: ``duration_s``, else the target arrays' span (positive)."""
     if duration_s is None:
         if span is None:
             raise ValueError("duration_s is required for a callable qpos_targets (or arrays "
@@ -277,6 +308,12 @@ def track_joint_path(model, qpos_targets, *, duration_s: float | None = None,
     if not (isinstance(duration_s, (int, float)) and math.isfinite(duration_s)
             and duration_s > 0):
         raise ValueError(f"duration_s must be a positive number; received {duration_s!r}")
+    return duration_s
+
+
+def _site_and_joint_indices(m, jnames, site):
+    """``(site id, qpos addresses, dof addresses, lower limits, upper limits)`` of the arm."""
+    mujoco = _mujoco()
     sid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, site)
     if sid < 0:
         raise ValueError(f"site {site!r} not found in the arm model; sites: "
@@ -286,8 +323,11 @@ def track_joint_path(model, qpos_targets, *, duration_s: float | None = None,
     vadr = np.array([m.jnt_dofadr[j] for j in jids])
     lo = np.where(m.jnt_limited[jids].astype(bool), m.jnt_range[jids, 0], -np.inf)
     hi = np.where(m.jnt_limited[jids].astype(bool), m.jnt_range[jids, 1], np.inf)
+    return sid, qadr, vadr, lo, hi
 
-    # check the target against the joint ranges (dense sampling)
+
+def _check_target_in_joint_ranges(q_fn, duration_s, lo, hi, jnames):
+    """Raise if the target path leaves a joint's range (dense sampling)."""
     tt = np.linspace(0.0, duration_s, max(50, int(duration_s * 100)))
     Qs = np.array([q_fn(v) for v in tt])
     bad = (Qs < lo) | (Qs > hi)
@@ -297,140 +337,225 @@ def track_joint_path(model, qpos_targets, *, duration_s: float | None = None,
                          f"[{lo[j]:.4g}, {hi[j]:.4g}] rad at t = {tt[k]:.3f} s "
                          f"(value {Qs[k, j]:.4g} rad)")
 
+
+def _arm_at_rest(m, qadr, q0):
+    """New ``MjData`` with the arm at rest at joint angles ``q0`` (forward computed)."""
+    mujoco = _mujoco()
     data = mujoco.MjData(m)
-    data.qpos[qadr] = q_fn(0.0)
+    data.qpos[qadr] = q0
     data.qvel[:] = 0.0
     mujoco.mj_forward(m, data)
+    return data
 
-    dt_c = n_ctrl * timestep_s
+
+@dataclass
+class _ServoArm:
+    """The servo-controlled arm of one run: model, data, addresses, gains, limits, path."""
+    m: object
+    data: object
+    sid: int
+    qadr: np.ndarray
+    vadr: np.ndarray
+    kp: np.ndarray
+    kd: np.ndarray
+    tmax: np.ndarray
+    vmax: np.ndarray
+    q_fn: object
+    qd_fn: object
+    timestep_s: float
+    n_ctrl: int
+    n_samp: int
+    dt_c: float
+    jacp: np.ndarray = field(init=False)
+    jacr: np.ndarray = field(init=False)
+
+    def __post_init__(self):
+        """Site Jacobian buffers for :func:`_flange_motion`."""
+        self.jacp = np.zeros((3, self.m.nv))
+        self.jacr = np.zeros((3, self.m.nv))
+
+
+@dataclass(frozen=True)
+class _CapturePlan:
+    """When to capture: mode, the K capture path times and the settling criteria."""
+    stop_mode: bool
+    n_cap: int
+    cap_tau: np.ndarray
+    duration_s: float
+    settle_tol_rad: float
+    settle_vel_tol_rad_s: float
+    settle_max_s: float
+
+
+def _capture_plan(capture, capture_rate_hz, duration_s, settle_tol_rad, settle_vel_tol_rad_s,
+                  settle_max_s):
+    """The :class:`_CapturePlan`: one capture every ``1 / capture_rate_hz`` of path time."""
     n_cap = int(math.floor(duration_s * capture_rate_hz + 1e-9)) + 1
-    cap_tau = np.arange(n_cap) / capture_rate_hz
-    stop_mode = capture == "stop_and_go"
+    if capture == "stop_and_go" and n_cap < 2:
+        raise ValueError(f"capture='stop_and_go' needs at least two stops (duration_s * "
+                         f"capture_rate_hz >= 1); received duration_s={duration_s!r}, "
+                         f"capture_rate_hz={capture_rate_hz!r}: one stop has no motion")
+    return _CapturePlan(stop_mode=capture == "stop_and_go", n_cap=n_cap,
+                        cap_tau=np.arange(n_cap) / capture_rate_hz, duration_s=duration_s,
+                        settle_tol_rad=settle_tol_rad,
+                        settle_vel_tol_rad_s=settle_vel_tol_rad_s, settle_max_s=settle_max_s)
 
-    rec = {k: [] for k in ("t", "tau", "q", "qd", "qt", "qr", "tq", "pos", "mat")}
-    caps = {k: [] for k in ("t", "tau", "q", "pos", "mat", "v", "w", "settle", "ok")}
-    q_ref = q_fn(0.0).copy()
-    tau = 0.0
-    step = 0
-    k_cap = 0
-    holding = stop_mode             # stop_and_go starts with the first capture at tau = 0
-    hold_start = 0.0
-    sat_count = 0
-    ctrl_count = 0
-    jacp = np.zeros((3, m.nv))
-    jacr = np.zeros((3, m.nv))
 
-    def flange_motion():
-        mujoco.mj_jacSite(m, data, jacp, jacr, sid)
-        return float(np.linalg.norm(jacp @ data.qvel)), float(np.linalg.norm(jacr @ data.qvel))
+@dataclass
+class _LoopState:
+    """Mutable state of the control loop: clocks, reference, captures taken, records."""
+    q_ref: np.ndarray
+    holding: bool                   # stop_and_go starts with the first capture at tau = 0
+    tau: float = 0.0
+    step: int = 0
+    k_cap: int = 0
+    hold_start: float = 0.0
+    seg_start: float = 0.0
+    sat_count: int = 0
+    ctrl_count: int = 0
+    rec: dict = field(default_factory=lambda: {
+        k: [] for k in ("t", "tau", "q", "qd", "qt", "qr", "tq", "pos", "mat")})
+    caps: dict = field(default_factory=lambda: {
+        k: [] for k in ("t", "tau", "q", "pos", "mat", "v", "w", "settle", "ok")})
 
-    def do_capture(settle_s, ok):
-        v, w = flange_motion()
-        caps["t"].append(step * timestep_s)
-        caps["tau"].append(tau)
-        caps["q"].append(data.qpos[qadr].copy())
-        caps["pos"].append(data.site_xpos[sid].copy())
-        caps["mat"].append(data.site_xmat[sid].copy())
-        caps["v"].append(v)
-        caps["w"].append(w)
-        caps["settle"].append(settle_s)
-        caps["ok"].append(ok)
 
+def _run_control_loop(arm, plan, st):
+    """Step the physics under servo control until the last capture (updates ``st``)."""
+    mujoco = _mujoco()
     # stop_and_go: between stops the path clock follows a smoothstep (zero speed at both
     # stops, peak speed = the path's own), so each move takes 1.5x its path time
-    max_steps = int(round((1.5 * duration_s + n_cap * (settle_max_s + dt_c) + 1.0)
-                          / timestep_s))
-    seg_start = 0.0
+    max_steps = int(round((1.5 * plan.duration_s + plan.n_cap * (plan.settle_max_s + arm.dt_c)
+                           + 1.0) / arm.timestep_s))
     while True:
-        t_now = step * timestep_s
-        if step % n_ctrl == 0:
-            # path clock
-            tau_rate = 1.0
-            if stop_mode and not holding:
-                ta, tb = cap_tau[k_cap - 1], cap_tau[k_cap]
-                T_seg = 1.5 * (tb - ta)
-                u = min(1.0, (t_now - seg_start) / T_seg)
-                tau = ta + (tb - ta) * (3.0 * u * u - 2.0 * u ** 3)
-                tau_rate = (tb - ta) * 6.0 * u * (1.0 - u) / T_seg
-                if u >= 1.0:
-                    tau, holding, hold_start = tb, True, t_now
-            elif not stop_mode:
-                tau = min(t_now, duration_s)
-            # captures
-            if stop_mode and holding:
-                err = np.abs(q_fn(tau) - data.qpos[qadr])
-                settled = bool(err.max() <= settle_tol_rad
-                               and np.abs(data.qvel[vadr]).max() <= settle_vel_tol_rad_s)
-                if settled or t_now - hold_start >= settle_max_s - 1e-12:
-                    do_capture(t_now - hold_start, settled)
-                    k_cap += 1
-                    if k_cap >= n_cap:
-                        break
-                    holding, seg_start = False, t_now
-            elif not stop_mode and k_cap < n_cap and tau >= cap_tau[k_cap] - 1e-9:
-                do_capture(0.0, True)
-                k_cap += 1
-            if not stop_mode and t_now >= duration_s - 1e-9 and k_cap >= n_cap:
+        t_now = st.step * arm.timestep_s
+        if st.step % arm.n_ctrl == 0:
+            tau_rate = _advance_path_clock(plan, st, t_now)
+            if _take_due_capture(arm, plan, st, t_now):
                 break
-            # reference (speed-limited)
-            q_tgt = q_fn(tau)
-            qd_tgt = np.zeros(nj) if holding else qd_fn(tau) * tau_rate
-            step_lim = vmax * dt_c
-            q_new = q_ref + np.clip(q_tgt - q_ref, -step_lim, step_lim)
-            limited = np.abs(q_tgt - q_ref) > step_lim
-            qd_ref = np.where(limited, (q_new - q_ref) / dt_c, np.clip(qd_tgt, -vmax, vmax))
-            q_ref = q_new
-            data.ctrl[:] = kp * q_ref + kd * qd_ref
-            ctrl_count += 1
-        if step % n_samp == 0:
-            rec["t"].append(t_now)
-            rec["tau"].append(tau)
-            rec["q"].append(data.qpos[qadr].copy())
-            rec["qd"].append(data.qvel[vadr].copy())
-            rec["qt"].append(q_fn(tau))
-            rec["qr"].append(q_ref.copy())
-            rec["tq"].append(data.actuator_force.copy())
-            rec["pos"].append(data.site_xpos[sid].copy())
-            rec["mat"].append(data.site_xmat[sid].copy())
-        if step >= max_steps:
+            _command_servos(arm, st, tau_rate)
+        if st.step % arm.n_samp == 0:
+            _record_sample(arm, st, t_now)
+        if st.step >= max_steps:
             raise ValueError(f"the arm did not finish the path within "
-                             f"{max_steps * timestep_s:.1f} s of simulated time")
-        mujoco.mj_step(m, data, nstep=n_ctrl)
-        sat_count += int(np.any(np.abs(data.actuator_force) >= tmax - 1e-9))
-        step += n_ctrl
-    t_sim = time.perf_counter() - t0
+                             f"{max_steps * arm.timestep_s:.1f} s of simulated time")
+        mujoco.mj_step(arm.m, arm.data, nstep=arm.n_ctrl)
+        st.sat_count += int(np.any(np.abs(arm.data.actuator_force) >= arm.tmax - 1e-9))
+        st.step += arm.n_ctrl
 
+
+def _advance_path_clock(plan, st, t_now):
+    """Set the path time ``st.tau`` at ``t_now``; return its rate d(tau)/dt."""
+    tau_rate = 1.0
+    if plan.stop_mode and not st.holding:
+        ta, tb = plan.cap_tau[st.k_cap - 1], plan.cap_tau[st.k_cap]
+        T_seg = 1.5 * (tb - ta)
+        u = min(1.0, (t_now - st.seg_start) / T_seg)
+        st.tau = ta + (tb - ta) * (3.0 * u * u - 2.0 * u ** 3)
+        tau_rate = (tb - ta) * 6.0 * u * (1.0 - u) / T_seg
+        if u >= 1.0:
+            st.tau, st.holding, st.hold_start = tb, True, t_now
+    elif not plan.stop_mode:
+        st.tau = min(t_now, plan.duration_s)
+    return tau_rate
+
+
+def _take_due_capture(arm, plan, st, t_now):
+    """Capture if one is due at ``t_now``; return True when the run is complete."""
+    if plan.stop_mode and st.holding:
+        err = np.abs(arm.q_fn(st.tau) - arm.data.qpos[arm.qadr])
+        settled = bool(err.max() <= plan.settle_tol_rad
+                       and np.abs(arm.data.qvel[arm.vadr]).max() <= plan.settle_vel_tol_rad_s)
+        if settled or t_now - st.hold_start >= plan.settle_max_s - 1e-12:
+            _record_capture(arm, st, t_now - st.hold_start, settled)
+            st.k_cap += 1
+            if st.k_cap >= plan.n_cap:
+                return True
+            st.holding, st.seg_start = False, t_now
+    elif not plan.stop_mode and st.k_cap < plan.n_cap and st.tau >= plan.cap_tau[st.k_cap] - 1e-9:
+        _record_capture(arm, st, 0.0, True)
+        st.k_cap += 1
+    return not plan.stop_mode and t_now >= plan.duration_s - 1e-9 and st.k_cap >= plan.n_cap
+
+
+def _flange_motion(arm):
+    """``(linear m/s, angular rad/s)`` speed of the site, from its Jacobian and ``qvel``."""
+    _mujoco().mj_jacSite(arm.m, arm.data, arm.jacp, arm.jacr, arm.sid)
+    return (float(np.linalg.norm(arm.jacp @ arm.data.qvel)),
+            float(np.linalg.norm(arm.jacr @ arm.data.qvel)))
+
+
+def _record_capture(arm, st, settle_s, ok):
+    """Append a capture of the arm's current state to ``st.caps``."""
+    v, w = _flange_motion(arm)
+    caps = st.caps
+    caps["t"].append(st.step * arm.timestep_s)
+    caps["tau"].append(st.tau)
+    caps["q"].append(arm.data.qpos[arm.qadr].copy())
+    caps["pos"].append(arm.data.site_xpos[arm.sid].copy())
+    caps["mat"].append(arm.data.site_xmat[arm.sid].copy())
+    caps["v"].append(v)
+    caps["w"].append(w)
+    caps["settle"].append(settle_s)
+    caps["ok"].append(ok)
+
+
+def _command_servos(arm, st, tau_rate):
+    """Advance the speed-limited reference ``st.q_ref`` and write the servos' ``ctrl``."""
+    q_tgt = arm.q_fn(st.tau)
+    qd_tgt = np.zeros(len(arm.qadr)) if st.holding else arm.qd_fn(st.tau) * tau_rate
+    step_lim = arm.vmax * arm.dt_c
+    q_new = st.q_ref + np.clip(q_tgt - st.q_ref, -step_lim, step_lim)
+    limited = np.abs(q_tgt - st.q_ref) > step_lim
+    qd_ref = np.where(limited, (q_new - st.q_ref) / arm.dt_c,
+                      np.clip(qd_tgt, -arm.vmax, arm.vmax))
+    st.q_ref = q_new
+    arm.data.ctrl[:] = arm.kp * st.q_ref + arm.kd * qd_ref
+    st.ctrl_count += 1
+
+
+def _record_sample(arm, st, t_now):
+    """Append a sample (clocks, measured state, target, reference, torques, site pose)."""
+    rec = st.rec
+    rec["t"].append(t_now)
+    rec["tau"].append(st.tau)
+    rec["q"].append(arm.data.qpos[arm.qadr].copy())
+    rec["qd"].append(arm.data.qvel[arm.vadr].copy())
+    rec["qt"].append(arm.q_fn(st.tau))
+    rec["qr"].append(st.q_ref.copy())
+    rec["tq"].append(arm.data.actuator_force.copy())
+    rec["pos"].append(arm.data.site_xpos[arm.sid].copy())
+    rec["mat"].append(arm.data.site_xmat[arm.sid].copy())
+
+
+def _target_flange_poses(arm, cap_taus, like):
+    """Site poses of the target joint angles at the capture path times (kinematics)."""
+    mujoco = _mujoco()
+    dk = mujoco.MjData(arm.m)
+    T_tgt = np.zeros_like(like)
+    for i, tau_i in enumerate(cap_taus):
+        dk.qpos[arm.qadr] = arm.q_fn(tau_i)
+        mujoco.mj_kinematics(arm.m, dk)
+        T_tgt[i] = np.eye(4)
+        T_tgt[i, :3, :3] = dk.site_xmat[arm.sid].reshape(3, 3)
+        T_tgt[i, :3, 3] = dk.site_xpos[arm.sid]
+    return T_tgt
+
+
+def _trajectory_from_run(arm, plan, st, capture, jnames, t0, t_sim):
+    """The :class:`ArmTrajectory` of a finished run, with its ``stats``."""
     from simcalib.geometry import transforms_from_flat
+    rec, caps = st.rec, st.caps
     T_fl = transforms_from_flat(rec["mat"], rec["pos"])
     T_cap = transforms_from_flat(caps["mat"], caps["pos"])
     # target flange poses at the capture path times (forward kinematics of the target)
-    dk = mujoco.MjData(m)
-    T_tgt = np.zeros_like(T_cap)
-    for i, tau_i in enumerate(caps["tau"]):
-        dk.qpos[qadr] = q_fn(tau_i)
-        mujoco.mj_kinematics(m, dk)
-        T_tgt[i] = np.eye(4)
-        T_tgt[i, :3, :3] = dk.site_xmat[sid].reshape(3, 3)
-        T_tgt[i, :3, 3] = dk.site_xpos[sid]
+    T_tgt = _target_flange_poses(arm, caps["tau"], T_cap)
     qpos = np.array(rec["q"])
     qt = np.array(rec["qt"])
     err = qt - qpos
     cap_pos_err = np.linalg.norm(T_cap[:, :3, 3] - T_tgt[:, :3, 3], axis=1)
-    pred = _predicted_error(m, q_fn, qd_fn, duration_s, qadr, vadr, kp)
-    stats = {
-        "max_tracking_error_rad": np.abs(err).max(axis=0).tolist(),
-        "rms_tracking_error_rad": np.sqrt((err ** 2).mean(axis=0)).tolist(),
-        "predicted_error_rad": pred.tolist(),
-        "capture_position_error_max_m": float(cap_pos_err.max()),
-        "capture_position_error_mean_m": float(cap_pos_err.mean()),
-        "capture_flange_speed_max_mps": float(np.max(caps["v"])),
-        "settle_mean_s": float(np.mean(caps["settle"])),
-        "settle_max_s": float(np.max(caps["settle"])),
-        "settled_fraction": float(np.mean(caps["ok"])),
-        "torque_saturated_fraction": sat_count / max(ctrl_count, 1),
-        "duration_s": float(step * timestep_s),
-        "physics_ms_per_sim_s": 1e3 * t_sim / max(step * timestep_s, 1e-9),
-    }
+    pred = _predicted_error(arm.m, arm.q_fn, arm.qd_fn, plan.duration_s, arm.qadr, arm.vadr,
+                            arm.kp)
+    stats = _run_stats(err, pred, cap_pos_err, caps, st, arm.timestep_s, t_sim)
     return ArmTrajectory(
         time_s=np.array(rec["t"]), path_time_s=np.array(rec["tau"]), qpos=qpos,
         qvel=np.array(rec["qd"]), qpos_target=qt, qpos_ref=np.array(rec["qr"]),
@@ -442,7 +567,25 @@ def track_joint_path(model, qpos_targets, *, duration_s: float | None = None,
         capture_flange_rate_rad_s=np.array(caps["w"]),
         capture_settle_s=np.array(caps["settle"]), capture_settled=np.array(caps["ok"]),
         capture=capture, joint_names=jnames, stats=stats,
-        timing_s={"total": time.perf_counter() - t0}, model=m)
+        timing_s={"total": time.perf_counter() - t0}, model=arm.m)
+
+
+def _run_stats(err, pred, cap_pos_err, caps, st, timestep_s, t_sim):
+    """``ArmTrajectory.stats``: tracking, capture, settling, saturation and timing summary."""
+    return {
+        "max_tracking_error_rad": np.abs(err).max(axis=0).tolist(),
+        "rms_tracking_error_rad": np.sqrt((err ** 2).mean(axis=0)).tolist(),
+        "predicted_error_rad": pred.tolist(),
+        "capture_position_error_max_m": float(cap_pos_err.max()),
+        "capture_position_error_mean_m": float(cap_pos_err.mean()),
+        "capture_flange_speed_max_mps": float(np.max(caps["v"])),
+        "settle_mean_s": float(np.mean(caps["settle"])),
+        "settle_max_s": float(np.max(caps["settle"])),
+        "settled_fraction": float(np.mean(caps["ok"])),
+        "torque_saturated_fraction": st.sat_count / max(st.ctrl_count, 1),
+        "duration_s": float(st.step * timestep_s),
+        "physics_ms_per_sim_s": 1e3 * t_sim / max(st.step * timestep_s, 1e-9),
+    }
 
 
 def _predicted_error(m, q_fn, qd_fn, duration_s, qadr, vadr, kp, n=400):
