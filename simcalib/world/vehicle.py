@@ -353,15 +353,25 @@ def apply_vehicle_geometry(spec, cfg: VehicleConfig) -> None:
 
 
 def _build(cfg: VehicleConfig, rng, extent_xy_m) -> _Built:
+    """Compile the variant ``cfg`` of models/car.xml and its ground-height function."""
     mujoco = _mujoco()
     spec = mujoco.MjSpec.from_file(str(CAR_XML))
     spec.option.timestep = float(cfg.timestep_s)
     apply_vehicle_geometry(spec, cfg)
-    L, W, r = float(cfg.wheelbase_m), float(cfg.track_m), float(cfg.wheel_radius_m)
-    chassis = spec.body("chassis")
-    mass = float(cfg.chassis_mass_kg)
+    _set_suspension(spec, cfg)
+    if cfg.drive == "ackermann":
+        _set_ackermann_limits(spec, cfg)
+    else:
+        _make_differential(mujoco, spec, cfg)
+    height = _set_ground(mujoco, spec, cfg, rng, extent_xy_m)
+    model = spec.compile()
+    if cfg.sprung:
+        _preload_springs(mujoco, model, cfg)
+    return _Built(model, spec.to_xml(), height)
 
-    # suspension
+
+def _set_suspension(spec, cfg: VehicleConfig) -> None:
+    """Give the four corner slide joints their spring, damper and travel, or delete them."""
     travel = float(cfg.suspension_travel_m)
     for c in CORNERS:
         j = spec.joint(f"susp_{c}")
@@ -372,55 +382,70 @@ def _build(cfg: VehicleConfig, rng, extent_xy_m) -> _Built:
         else:
             spec.delete(j)
 
-    # drive variant
+
+def _set_ackermann_limits(spec, cfg: VehicleConfig) -> None:
+    """Limit the front steering joints/actuators and the drive/brake torques of the car."""
     max_steer = math.radians(float(cfg.max_steer_deg))
     tq = float(cfg.max_wheel_torque_nm)
-    if cfg.drive == "ackermann":
-        for c in ("fl", "fr"):
-            spec.joint(f"steer_{c}").range = [-max_steer, max_steer]
-            spec.actuator(f"steer_{c}").ctrlrange = [-max_steer, max_steer]
-        for name in ("drive_rl", "drive_rr", "brake_fl", "brake_fr"):
-            spec.actuator(name).ctrlrange = [-tq, tq]
-    else:
-        # differential: the driven wheels (rl, rr) move to the middle of the wheelbase,
-        # the front corners become ball casters and two more casters (bl, br) are added at
-        # the rear: a differential-drive platform turning about its centre
-        for c in ("fl", "fr"):
-            spec.delete(spec.actuator(f"steer_{c}"))
-            spec.delete(spec.actuator(f"brake_{c}"))
-            spec.delete(spec.joint(f"steer_{c}"))
-            spec.delete(spec.joint(f"spin_{c}"))
-            spec.body(f"wheel_{c}").add_joint(name=f"caster_{c}",
-                                              type=mujoco.mjtJoint.mjJNT_BALL,
-                                              damping=0.2, armature=0.05)
-            spec.geom(f"wheel_{c}_visual").type = mujoco.mjtGeom.mjGEOM_SPHERE
-            spec.geom(f"wheel_{c}_visual").size = [r, 0.0, 0.0]
-        for c in ("rl", "rr"):
-            spec.body(f"susp_{c}").pos = [0.0, 0.5 * W if c[1] == "l" else -0.5 * W, r]
-        for c in ("bl", "br"):
-            hub = chassis.add_body(name=f"susp_{c}",
-                                   pos=[-0.5 * L, 0.5 * W if c[1] == "l" else -0.5 * W, r],
-                                   mass=25.0, ipos=[0, 0, 0], inertia=[0.5, 0.5, 0.5],
-                                   explicitinertial=True)
-            if cfg.sprung:
-                hub.add_joint(name=f"susp_{c}", type=mujoco.mjtJoint.mjJNT_SLIDE,
-                              axis=[0, 0, 1], range=[-travel, travel], armature=0.01,
-                              stiffness=[float(cfg.suspension_stiffness_npm), 0, 0],
-                              damping=[float(cfg.suspension_damping_nspm), 0, 0])
-            wheel = hub.add_body(name=f"wheel_{c}", mass=15.0, ipos=[0, 0, 0],
-                                 inertia=[0.6, 0.6, 0.6], explicitinertial=True)
-            wheel.add_joint(name=f"caster_{c}", type=mujoco.mjtJoint.mjJNT_BALL,
-                            damping=0.2, armature=0.05)
-            wheel.add_geom(name=f"tyre_{c}", type=mujoco.mjtGeom.mjGEOM_SPHERE,
-                           size=[r, 0, 0], contype=1, conaffinity=0, condim=3, group=3,
-                           friction=[float(cfg.friction), 0.005, 0.0001],
-                           rgba=[0.2, 0.2, 0.2, 0.3])
-            wheel.add_geom(name=f"wheel_{c}_visual", type=mujoco.mjtGeom.mjGEOM_SPHERE,
-                           size=[r, 0, 0], contype=0, conaffinity=0, material="car_tyre")
-        for name in ("drive_rl", "drive_rr"):
-            spec.actuator(name).ctrlrange = [-tq, tq]
+    for c in ("fl", "fr"):
+        spec.joint(f"steer_{c}").range = [-max_steer, max_steer]
+        spec.actuator(f"steer_{c}").ctrlrange = [-max_steer, max_steer]
+    for name in ("drive_rl", "drive_rr", "brake_fl", "brake_fr"):
+        spec.actuator(name).ctrlrange = [-tq, tq]
 
-    # ground
+
+def _make_differential(mujoco, spec, cfg: VehicleConfig) -> None:
+    """Turn the car into a differential-drive platform with four ball casters."""
+    # differential: the driven wheels (rl, rr) move to the middle of the wheelbase,
+    # the front corners become ball casters and two more casters (bl, br) are added at
+    # the rear: a differential-drive platform turning about its centre
+    L, W, r = float(cfg.wheelbase_m), float(cfg.track_m), float(cfg.wheel_radius_m)
+    tq = float(cfg.max_wheel_torque_nm)
+    for c in ("fl", "fr"):
+        spec.delete(spec.actuator(f"steer_{c}"))
+        spec.delete(spec.actuator(f"brake_{c}"))
+        spec.delete(spec.joint(f"steer_{c}"))
+        spec.delete(spec.joint(f"spin_{c}"))
+        spec.body(f"wheel_{c}").add_joint(name=f"caster_{c}",
+                                          type=mujoco.mjtJoint.mjJNT_BALL,
+                                          damping=0.2, armature=0.05)
+        spec.geom(f"wheel_{c}_visual").type = mujoco.mjtGeom.mjGEOM_SPHERE
+        spec.geom(f"wheel_{c}_visual").size = [r, 0.0, 0.0]
+    for c in ("rl", "rr"):
+        spec.body(f"susp_{c}").pos = [0.0, 0.5 * W if c[1] == "l" else -0.5 * W, r]
+    chassis = spec.body("chassis")
+    for c in ("bl", "br"):
+        _add_rear_caster(mujoco, chassis, cfg, c, L, W, r)
+    for name in ("drive_rl", "drive_rr"):
+        spec.actuator(name).ctrlrange = [-tq, tq]
+
+
+def _add_rear_caster(mujoco, chassis, cfg: VehicleConfig, c, L, W, r) -> None:
+    """Add the (sprung) ball-caster corner ``c`` (``bl``/``br``) at the rear of the chassis."""
+    travel = float(cfg.suspension_travel_m)
+    hub = chassis.add_body(name=f"susp_{c}",
+                           pos=[-0.5 * L, 0.5 * W if c[1] == "l" else -0.5 * W, r],
+                           mass=25.0, ipos=[0, 0, 0], inertia=[0.5, 0.5, 0.5],
+                           explicitinertial=True)
+    if cfg.sprung:
+        hub.add_joint(name=f"susp_{c}", type=mujoco.mjtJoint.mjJNT_SLIDE,
+                      axis=[0, 0, 1], range=[-travel, travel], armature=0.01,
+                      stiffness=[float(cfg.suspension_stiffness_npm), 0, 0],
+                      damping=[float(cfg.suspension_damping_nspm), 0, 0])
+    wheel = hub.add_body(name=f"wheel_{c}", mass=15.0, ipos=[0, 0, 0],
+                         inertia=[0.6, 0.6, 0.6], explicitinertial=True)
+    wheel.add_joint(name=f"caster_{c}", type=mujoco.mjtJoint.mjJNT_BALL,
+                    damping=0.2, armature=0.05)
+    wheel.add_geom(name=f"tyre_{c}", type=mujoco.mjtGeom.mjGEOM_SPHERE,
+                   size=[r, 0, 0], contype=1, conaffinity=0, condim=3, group=3,
+                   friction=[float(cfg.friction), 0.005, 0.0001],
+                   rgba=[0.2, 0.2, 0.2, 0.3])
+    wheel.add_geom(name=f"wheel_{c}_visual", type=mujoco.mjtGeom.mjGEOM_SPHERE,
+                   size=[r, 0, 0], contype=0, conaffinity=0, material="car_tyre")
+
+
+def _set_ground(mujoco, spec, cfg: VehicleConfig, rng, extent_xy_m) -> Callable:
+    """Shape the ground geom (flat, sloped or uneven) and return its height(x, y)."""
     ground = spec.geom("ground")
     if cfg.ground == "flat":
         def height(x, y):
@@ -433,57 +458,66 @@ def _build(cfg: VehicleConfig, rng, extent_xy_m) -> _Built:
         def height(x, y):
             return ta * np.asarray(x, dtype=np.float64)
     else:
-        if not isinstance(rng, np.random.Generator):
-            raise TypeError("ground='uneven' needs rng, a numpy.random.Generator (it draws "
-                            f"the bumps); received {type(rng).__name__}")
-        (x0, x1), (y0, y1) = extent_xy_m
-        step = min(0.25, float(cfg.bump_wavelength_m) / 8.0)
-        ncol = int(math.ceil((x1 - x0) / step)) + 1
-        nrow = int(math.ceil((y1 - y0) / step)) + 1
-        if nrow * ncol > 4_000_000:
-            raise ValueError(f"the uneven ground over {x1 - x0:.0f} x {y1 - y0:.0f} m at "
-                             f"{step:.3g} m spacing needs {nrow * ncol} samples (> 4e6); "
-                             "use a longer bump_wavelength_m or a smaller path")
-        x1 = x0 + (ncol - 1) * step
-        y1 = y0 + (nrow - 1) * step
-        xs = np.linspace(x0, x1, ncol)
-        ys = np.linspace(y0, y1, nrow)
-        A = float(cfg.bump_amplitude_m)
-        h = terrain_heights(cfg, xs, ys, rng)
-        spec.add_hfield(name="terrain", size=[0.5 * (x1 - x0), 0.5 * (y1 - y0), 2.0 * A, 0.5],
-                        nrow=nrow, ncol=ncol, userdata=[float(v) for v in h.ravel()])
-        ground.type = mujoco.mjtGeom.mjGEOM_HFIELD
-        ground.hfieldname = "terrain"
-        ground.pos = [0.5 * (x0 + x1), 0.5 * (y0 + y1), -A]
-        ground.material = ""
-        ground.rgba = [0.45, 0.45, 0.47, 1.0]
-        # MuJoCo normalises the samples to [0, 1] over [min, max] of h: the rendered and
-        # collided surface is z = -A + 2A (h - min) / (max - min)
-        hmin, hmax = float(h.min()), float(h.max())
-        hz = -A + 2.0 * A * (h - hmin) / (hmax - hmin)
-        from scipy.interpolate import RegularGridInterpolator
-        interp = RegularGridInterpolator((ys, xs), hz, bounds_error=False, fill_value=None)
+        height = _set_uneven_ground(mujoco, spec, ground, cfg, rng, extent_xy_m)
+    return height
 
-        def height(x, y):
-            x = np.asarray(x, dtype=np.float64)
-            y = np.asarray(y, dtype=np.float64)
-            return interp(np.stack([y, x], axis=-1))
 
-    model = spec.compile()
+def _set_uneven_ground(mujoco, spec, ground, cfg: VehicleConfig, rng,
+                       extent_xy_m) -> Callable:
+    """Make the ground a height field of random bumps over ``extent_xy_m``; its height(x, y)."""
+    if not isinstance(rng, np.random.Generator):
+        raise TypeError("ground='uneven' needs rng, a numpy.random.Generator (it draws "
+                        f"the bumps); received {type(rng).__name__}")
+    (x0, x1), (y0, y1) = extent_xy_m
+    step = min(0.25, float(cfg.bump_wavelength_m) / 8.0)
+    ncol = int(math.ceil((x1 - x0) / step)) + 1
+    nrow = int(math.ceil((y1 - y0) / step)) + 1
+    if nrow * ncol > 4_000_000:
+        raise ValueError(f"the uneven ground over {x1 - x0:.0f} x {y1 - y0:.0f} m at "
+                         f"{step:.3g} m spacing needs {nrow * ncol} samples (> 4e6); "
+                         "use a longer bump_wavelength_m or a smaller path")
+    x1 = x0 + (ncol - 1) * step
+    y1 = y0 + (nrow - 1) * step
+    xs = np.linspace(x0, x1, ncol)
+    ys = np.linspace(y0, y1, nrow)
+    A = float(cfg.bump_amplitude_m)
+    h = terrain_heights(cfg, xs, ys, rng)
+    spec.add_hfield(name="terrain", size=[0.5 * (x1 - x0), 0.5 * (y1 - y0), 2.0 * A, 0.5],
+                    nrow=nrow, ncol=ncol, userdata=[float(v) for v in h.ravel()])
+    ground.type = mujoco.mjtGeom.mjGEOM_HFIELD
+    ground.hfieldname = "terrain"
+    ground.pos = [0.5 * (x0 + x1), 0.5 * (y0 + y1), -A]
+    ground.material = ""
+    ground.rgba = [0.45, 0.45, 0.47, 1.0]
+    # MuJoCo normalises the samples to [0, 1] over [min, max] of h: the rendered and
+    # collided surface is z = -A + 2A (h - min) / (max - min)
+    hmin, hmax = float(h.min()), float(h.max())
+    hz = -A + 2.0 * A * (h - hmin) / (hmax - hmin)
+    from scipy.interpolate import RegularGridInterpolator
+    interp = RegularGridInterpolator((ys, xs), hz, bounds_error=False, fill_value=None)
+
+    def height(x, y):
+        x = np.asarray(x, dtype=np.float64)
+        y = np.asarray(y, dtype=np.float64)
+        return interp(np.stack([y, x], axis=-1))
+    return height
+
+
+def _preload_springs(mujoco, model, cfg: VehicleConfig) -> None:
+    """Set the suspension springs' rest positions so the chassis rides at q = 0."""
     # spring preload, so that the chassis rides at q = 0: Ackermann, a quarter of the
     # sprung weight per corner; differential, half on the two driven wheels and an eighth
     # on each of the four casters (symmetric about the CG)
-    if cfg.sprung:
-        if cfg.drive == "ackermann":
-            share = {c: 0.25 for c in CORNERS}
-        else:
-            share = {"rl": 0.25, "rr": 0.25, "fl": 0.125, "fr": 0.125, "bl": 0.125,
-                     "br": 0.125}
-        for c, f in share.items():
-            jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, f"susp_{c}")
-            model.qpos_spring[model.jnt_qposadr[jid]] = -(
-                f * mass * _G / float(cfg.suspension_stiffness_npm))
-    return _Built(model, spec.to_xml(), height)
+    mass = float(cfg.chassis_mass_kg)
+    if cfg.drive == "ackermann":
+        share = {c: 0.25 for c in CORNERS}
+    else:
+        share = {"rl": 0.25, "rr": 0.25, "fl": 0.125, "fr": 0.125, "bl": 0.125,
+                 "br": 0.125}
+    for c, f in share.items():
+        jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, f"susp_{c}")
+        model.qpos_spring[model.jnt_qposadr[jid]] = -(
+            f * mass * _G / float(cfg.suspension_stiffness_npm))
 
 
 # -------------------------------------------------------------------------- trajectory
@@ -582,15 +616,43 @@ def simulate_vehicle(cfg: VehicleConfig, path, rng: np.random.Generator, *,
     mujoco = _mujoco()
     t_wall0 = time.perf_counter()
     (rng_ground,) = rng.spawn(1)
-    margin = 12.0 + 2.0 * float(cfg.wheelbase_m)
-    extent = ((float(p.x.min()) - margin, float(p.x.max()) + margin),
-              (float(p.y.min()) - margin, float(p.y.max()) + margin))
-    built = _build(cfg, rng_ground, extent)
+    built = _build(cfg, rng_ground, _ground_extent(cfg, p))
     model = built.model
     data = mujoco.MjData(model)
     t_build = time.perf_counter() - t_wall0
 
-    L, W, r = float(cfg.wheelbase_m), float(cfg.track_m), float(cfg.wheel_radius_m)
+    ids = _lookup_ids(mujoco, model)
+    # the controlled point (driven-axle centre: rear axle, or the middle of the
+    # differential platform) starts on the path's first point
+    x_ctrl = -0.5 * float(cfg.wheelbase_m) if cfg.drive == "ackermann" else 0.0
+    _place_at_path_start(mujoco, model, data, cfg, p, built.ground_height, x_ctrl)
+    follower = _PathFollower(cfg, p, model, data, ids, x_ctrl)
+    follower.settle(mujoco)
+    rec, step, t_sim = _drive_and_record(mujoco, model, data, cfg, ids, follower)
+    return _trajectory_from_record(rec, step, cfg, ids.wheels, built, t_build, t_sim, t_wall0)
+
+
+def _ground_extent(cfg: VehicleConfig, p: PlanarPath):
+    """The ground's ``((x0, x1), (y0, y1))``: the path's bounding box plus a margin."""
+    margin = 12.0 + 2.0 * float(cfg.wheelbase_m)
+    return ((float(p.x.min()) - margin, float(p.x.max()) + margin),
+            (float(p.y.min()) - margin, float(p.y.max()) + margin))
+
+
+@dataclass(frozen=True)
+class _Ids:
+    """MuJoCo ids and dof addresses of a compiled vehicle model."""
+    aid: dict
+    chassis: int
+    mount: int
+    wheels: tuple
+    hub_ids: list
+    spin_dof: list
+    spin_dof_all: dict
+
+
+def _lookup_ids(mujoco, model) -> _Ids:
+    """The actuator, body, site ids and wheel spin dofs of ``model`` (wheels with a spin joint)."""
     jid = {n: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, n) for n in
            [f"spin_{c}" for c in CORNERS] + ["steer_fl", "steer_fr"]}
     aid = {n: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, n) for n in
@@ -601,17 +663,20 @@ def simulate_vehicle(cfg: VehicleConfig, path, rng: np.random.Generator, *,
     hub_ids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, f"steer_{c}") for c in wheels]
     spin_dof = [model.jnt_dofadr[jid[f"spin_{c}"]] for c in wheels]
     spin_dof_all = {c: model.jnt_dofadr[jid[f"spin_{c}"]] for c in wheels}
+    return _Ids(aid, chassis_id, mount_id, wheels, hub_ids, spin_dof, spin_dof_all)
 
+
+def _place_at_path_start(mujoco, model, data, cfg: VehicleConfig, p: PlanarPath,
+                         ground_height, x_ctrl: float) -> None:
+    """Pose the chassis with its controlled point on the path start, facing the start yaw."""
     # initial pose: on the path start, facing its start yaw, wheels just above the ground
+    L, W = float(cfg.wheelbase_m), float(cfg.track_m)
     yaw0 = float(p.yaw[0])
     cy, sy = math.cos(yaw0), math.sin(yaw0)
-    # the controlled point (driven-axle centre: rear axle, or the middle of the
-    # differential platform) starts on the path's first point
-    x_ctrl = -0.5 * L if cfg.drive == "ackermann" else 0.0
     x0, y0 = float(p.x[0]) - x_ctrl * cy, float(p.y[0]) - x_ctrl * sy
     corners_xy = np.array([[x0 + cy * ax - sy * ay, y0 + sy * ax + cy * ay]
                            for ax in (0.5 * L, -0.5 * L) for ay in (0.5 * W, -0.5 * W)])
-    zg = built.ground_height(corners_xy[:, 0], corners_xy[:, 1])
+    zg = ground_height(corners_xy[:, 0], corners_xy[:, 1])
     pitch0 = 0.0
     if cfg.ground == "slope":
         # ground pitch along the heading (nose up when climbing +x)
@@ -625,27 +690,39 @@ def simulate_vehicle(cfg: VehicleConfig, path, rng: np.random.Generator, *,
     data.qpos[3:7] = _quat_wxyz_yaw_pitch(yaw0, pitch0, roll0)
     mujoco.mj_forward(model, data)
 
-    # path geometry for the follower
-    s_path = p.arc_length_m
-    s_end = float(s_path[-1])
-    px, py = p.x, p.y
-    v_set = float(cfg.speed_mps)
-    a_acc, a_dec = float(cfg.accel_mps2), float(cfg.decel_mps2)
-    m_total = float(model.body_subtreemass[chassis_id])
-    kp, ki = float(cfg.speed_kp_per_s), float(cfg.speed_ki_per_s2)
-    max_steer = math.radians(float(cfg.max_steer_deg))
-    tq_max = float(cfg.max_wheel_torque_nm)
-    dt_ctrl = 1.0 / float(cfg.control_rate_hz)
-    n_ctrl = cfg.steps_per_control
-    n_per_sample = cfg.steps_per_sample
-    ackermann = cfg.drive == "ackermann"
-    # yaw-rate loop of the differential drive (1/s, 1/s^2) on the vehicle's yaw inertia
-    yaw_kp, yaw_ki = 8.0, 4.0
-    i_zz = float(model.body_inertia[chassis_id][2]) + m_total * 0.25 * (L ** 2 + W ** 2) * 0.2
 
-    state = {"i": 0, "integ": 0.0, "v_ref": 0.0, "integ_l": 0.0, "integ_r": 0.0}
+class _PathFollower:
+    """Pure-pursuit steering and PI speed control of the vehicle along the path."""
 
-    def rear_axle():
+    def __init__(self, cfg: VehicleConfig, p: PlanarPath, model, data, ids: _Ids,
+                 x_ctrl: float):
+        """Path geometry, controller gains and limits, and the controller state."""
+        self.cfg, self.model, self.data, self.ids, self.x_ctrl = cfg, model, data, ids, x_ctrl
+        L, W = float(cfg.wheelbase_m), float(cfg.track_m)
+        self.L, self.W, self.r = L, W, float(cfg.wheel_radius_m)
+        # path geometry for the follower
+        self.s_path = p.arc_length_m
+        self.s_end = float(self.s_path[-1])
+        self.px, self.py, self.yaw_path = p.x, p.y, p.yaw
+        self.v_set = float(cfg.speed_mps)
+        self.a_acc, self.a_dec = float(cfg.accel_mps2), float(cfg.decel_mps2)
+        self.m_total = float(model.body_subtreemass[ids.chassis])
+        self.kp, self.ki = float(cfg.speed_kp_per_s), float(cfg.speed_ki_per_s2)
+        self.max_steer = math.radians(float(cfg.max_steer_deg))
+        self.tq_max = float(cfg.max_wheel_torque_nm)
+        self.dt_ctrl = 1.0 / float(cfg.control_rate_hz)
+        self.ackermann = cfg.drive == "ackermann"
+        # yaw-rate loop of the differential drive (1/s, 1/s^2) on the vehicle's yaw inertia
+        self.yaw_kp, self.yaw_ki = 8.0, 4.0
+        self.i_zz = (float(model.body_inertia[ids.chassis][2])
+                     + self.m_total * 0.25 * (L ** 2 + W ** 2) * 0.2)
+        # controller state: nearest path index, speed integrator, speed reference, yaw-rate
+        # path index, speed integrator, speed reference, yaw-rate integrator
+        self.i, self.integ, self.v_ref, self.integ_yaw = 0, 0.0, 0.0, 0.0
+
+    def control_point_state(self):
+        """``(pos, heading, v_fwd, omega_z)`` of the controlled point (driven-axle centre)."""
+        data, chassis_id, x_ctrl = self.data, self.ids.chassis, self.x_ctrl
         R = data.xmat[chassis_id].reshape(3, 3)
         pos = data.xpos[chassis_id] + R @ np.array([x_ctrl, 0.0, 0.0])
         fwd = R[:, 0]
@@ -655,89 +732,138 @@ def simulate_vehicle(cfg: VehicleConfig, path, rng: np.random.Generator, *,
         omega_z = float((R @ data.qvel[3:6])[2])
         return pos, heading, v_fwd, omega_z
 
-    def nearest(pos):
-        i0 = state["i"]
+    def advance_to_nearest(self, pos):
+        """Index of the path point nearest ``pos`` (searching forward only) and its distance."""
+        s_path, i0 = self.s_path, self.i
         # search forward along the path only (a figure-eight crosses itself)
-        s_lim = s_path[i0] + 3.0 + 2.0 * v_set * dt_ctrl + 1.0
+        s_lim = s_path[i0] + 3.0 + 2.0 * self.v_set * self.dt_ctrl + 1.0
         i1 = int(np.searchsorted(s_path, s_lim)) + 1
-        seg_x, seg_y = px[i0:i1], py[i0:i1]
+        seg_x, seg_y = self.px[i0:i1], self.py[i0:i1]
         d2 = (seg_x - pos[0]) ** 2 + (seg_y - pos[1]) ** 2
         k = int(np.argmin(d2))
-        state["i"] = i0 + k
+        self.i = i0 + k
         return i0 + k, math.sqrt(float(d2[k]))
 
-    def control(t_drive, stop_mode):
-        pos, heading, v, omega_z = rear_axle()
-        i, cte = nearest(pos)
-        s_here = float(s_path[i])
-        # speed reference: ramp up, cruise, brake to a stop at the path end
+    def stopped_at_end(self) -> bool:
+        """Whether the vehicle stands at the path end with a zero speed reference."""
+        pos, heading, v, _ = self.control_point_state()
+        at_end = self.i >= len(self.s_path) - 2 or (self.s_end - self.s_path[self.i]) < 0.05
+        return at_end and abs(v) < 0.05 and self.v_ref < 1e-3
+
+    def speed_reference(self, s_here: float, stop_mode: bool):
+        """``(v_ref, a_ff)``: ramp up, cruise, brake to a stop at the path end (0 when stopping)."""
         if stop_mode:
-            v_ref, a_ff = 0.0, 0.0
-        else:
-            v_cap = math.sqrt(max(0.0, 2.0 * a_dec * (s_end - s_here)))
-            v_ref = min(v_set, state["v_ref"] + a_acc * dt_ctrl, v_cap)
-            # no steeper drop than 1.2 x decel (v_cap's slope is unbounded at the end)
-            v_ref = max(v_ref, state["v_ref"] - 1.2 * a_dec * dt_ctrl, 0.0)
-            a_ff = (v_ref - state["v_ref"]) / dt_ctrl
-            state["v_ref"] = v_ref
-        # pure pursuit on the rear-axle centre
+            return 0.0, 0.0
+        dt_ctrl, a_dec = self.dt_ctrl, self.a_dec
+        v_cap = math.sqrt(max(0.0, 2.0 * a_dec * (self.s_end - s_here)))
+        v_ref = min(self.v_set, self.v_ref + self.a_acc * dt_ctrl, v_cap)
+        # no steeper drop than 1.2 x decel (v_cap's slope is unbounded at the end)
+        v_ref = max(v_ref, self.v_ref - 1.2 * a_dec * dt_ctrl, 0.0)
+        a_ff = (v_ref - self.v_ref) / dt_ctrl
+        self.v_ref = v_ref
+        return v_ref, a_ff
+
+    def pursuit_curvature(self, pos, heading: float, v: float, s_here: float) -> float:
+        """Pure-pursuit curvature towards the lookahead point on the path."""
+        cfg, s_end = self.cfg, self.s_end
         ld = max(float(cfg.lookahead_min_m), float(cfg.lookahead_gain_s) * abs(v))
         s_goal = min(s_here + ld, s_end)
-        gx = float(np.interp(s_goal, s_path, px))
-        gy = float(np.interp(s_goal, s_path, py))
+        gx = float(np.interp(s_goal, self.s_path, self.px))
+        gy = float(np.interp(s_goal, self.s_path, self.py))
         if s_end - s_here < 0.5 * ld:     # past the end: extend along the final tangent
             ext = ld - (s_end - s_here)
-            gx += ext * math.cos(float(p.yaw[-1]))
-            gy += ext * math.sin(float(p.yaw[-1]))
+            gx += ext * math.cos(float(self.yaw_path[-1]))
+            gy += ext * math.sin(float(self.yaw_path[-1]))
         alpha = math.atan2(gy - pos[1], gx - pos[0]) - heading
         alpha = (alpha + math.pi) % (2.0 * math.pi) - math.pi
         dist = max(math.hypot(gx - pos[0], gy - pos[1]), 1e-6)
-        kappa = 2.0 * math.sin(alpha) / dist
+        return 2.0 * math.sin(alpha) / dist
+
+    def speed_force(self, v_ref: float, a_ff: float, v: float) -> float:
+        """Total longitudinal force of the PI speed loop (with feed-forward), clipped."""
+        e = v_ref - v
+        self.integ += e * self.dt_ctrl
+        a_cmd = a_ff + self.kp * e + self.ki * self.integ
+        a_cmd = max(-1.5 * self.a_dec, min(1.5 * self.a_acc, a_cmd))
+        return self.m_total * a_cmd
+
+    def steer_front_wheels(self, kappa: float) -> float:
+        """Set the Ackermann front-wheel angles for ``kappa``; the bicycle steering angle."""
+        L, W, max_steer = self.L, self.W, self.max_steer
+        delta = max(-max_steer, min(max_steer, math.atan(L * kappa)))
+        kap = math.tan(delta) / L
+        dl = math.atan(L * kap / (1.0 - 0.5 * W * kap)) if abs(0.5 * W * kap) < 0.95 else delta
+        dr = math.atan(L * kap / (1.0 + 0.5 * W * kap)) if abs(0.5 * W * kap) < 0.95 else delta
+        self.data.ctrl[self.ids.aid["steer_fl"]] = max(-max_steer, min(max_steer, dl))
+        self.data.ctrl[self.ids.aid["steer_fr"]] = max(-max_steer, min(max_steer, dr))
+        return delta
+
+    def drive_or_brake(self, f_total: float) -> None:
+        """Apply ``f_total`` as rear-wheel drive torque, or as 60/40 front/rear braking."""
+        torque = f_total * self.r
+        if torque >= 0.0:      # drive: rear wheels
+            tr, brake_f, brake_r = 0.5 * torque, 0.0, 0.0
+        else:                  # brake (dry friction on the wheel hinges): 60/40 f/r
+            tr, brake_f, brake_r = 0.0, -0.3 * torque, -0.2 * torque
+        for name in ("drive_rl", "drive_rr"):
+            self.data.ctrl[self.ids.aid[name]] = min(self.tq_max, tr)
+        for c, val in (("fl", brake_f), ("fr", brake_f), ("rl", brake_r), ("rr", brake_r)):
+            self.model.dof_frictionloss[self.ids.spin_dof_all[c]] = min(self.tq_max, val)
+
+    def drive_differential(self, kappa: float, v_ref: float, a_ff: float, v: float,
+                           omega_z: float) -> None:
+        """Set the two wheel torques: force for the speed, yaw moment for the yaw rate."""
+        # differential: force for the speed, yaw moment for the pursuit yaw rate
+        omega_ref = v * kappa
+        f_total = self.speed_force(v_ref, a_ff, v)
+        e_w = omega_ref - omega_z
+        self.integ_yaw += e_w * self.dt_ctrl
+        m_yaw = self.i_zz * (self.yaw_kp * e_w + self.yaw_ki * self.integ_yaw)
+        tq_max = self.tq_max
+        for side, sgn in (("rl", -1.0), ("rr", 1.0)):
+            torque = (0.5 * f_total + sgn * m_yaw / self.W) * self.r
+            self.data.ctrl[self.ids.aid[f"drive_{side}"]] = max(-tq_max, min(tq_max, torque))
+
+    def control(self, stop_mode: bool):
+        """One controller update; ``(v, v_ref, steer, cte)``."""
+        pos, heading, v, omega_z = self.control_point_state()
+        i, cte = self.advance_to_nearest(pos)
+        s_here = float(self.s_path[i])
+        v_ref, a_ff = self.speed_reference(s_here, stop_mode)
+        kappa = self.pursuit_curvature(pos, heading, v, s_here)   # on the controlled point
         steer = 0.0
-        if ackermann:
-            delta = max(-max_steer, min(max_steer, math.atan(L * kappa)))
-            kap = math.tan(delta) / L
-            dl = math.atan(L * kap / (1.0 - 0.5 * W * kap)) if abs(0.5 * W * kap) < 0.95 else delta
-            dr = math.atan(L * kap / (1.0 + 0.5 * W * kap)) if abs(0.5 * W * kap) < 0.95 else delta
-            data.ctrl[aid["steer_fl"]] = max(-max_steer, min(max_steer, dl))
-            data.ctrl[aid["steer_fr"]] = max(-max_steer, min(max_steer, dr))
-            steer = delta
-            e = v_ref - v
-            state["integ"] += e * dt_ctrl
-            a_cmd = a_ff + kp * e + ki * state["integ"]
-            a_cmd = max(-1.5 * a_dec, min(1.5 * a_acc, a_cmd))
-            f_total = m_total * a_cmd
-            torque = f_total * r
-            if torque >= 0.0:      # drive: rear wheels
-                tr, brake_f, brake_r = 0.5 * torque, 0.0, 0.0
-            else:                  # brake (dry friction on the wheel hinges): 60/40 f/r
-                tr, brake_f, brake_r = 0.0, -0.3 * torque, -0.2 * torque
-            for name in ("drive_rl", "drive_rr"):
-                data.ctrl[aid[name]] = min(tq_max, tr)
-            for c, val in (("fl", brake_f), ("fr", brake_f), ("rl", brake_r), ("rr", brake_r)):
-                model.dof_frictionloss[spin_dof_all[c]] = min(tq_max, val)
+        if self.ackermann:
+            steer = self.steer_front_wheels(kappa)
+            self.drive_or_brake(self.speed_force(v_ref, a_ff, v))
         else:
-            # differential: force for the speed, yaw moment for the pursuit yaw rate
-            omega_ref = v * kappa
-            e = v_ref - v
-            state["integ"] += e * dt_ctrl
-            f_total = m_total * max(-1.5 * a_dec, min(1.5 * a_acc,
-                                                      a_ff + kp * e + ki * state["integ"]))
-            e_w = omega_ref - omega_z
-            state["integ_l"] += e_w * dt_ctrl
-            m_yaw = i_zz * (yaw_kp * e_w + yaw_ki * state["integ_l"])
-            for side, sgn in (("rl", -1.0), ("rr", 1.0)):
-                torque = (0.5 * f_total + sgn * m_yaw / W) * r
-                data.ctrl[aid[f"drive_{side}"]] = max(-tq_max, min(tq_max, torque))
+            self.drive_differential(kappa, v_ref, a_ff, v, omega_z)
         return v, v_ref, steer, cte
 
-    # settle on the ground, holding still
-    n_settle = int(round(float(cfg.settle_s) / float(cfg.timestep_s)))
-    for _ in range(max(0, n_settle // n_ctrl)):
-        control(0.0, True)
-        mujoco.mj_step(model, data, nstep=n_ctrl)
-    state["integ"] = state["integ_l"] = state["integ_r"] = 0.0
+    def settle(self, mujoco) -> None:
+        """Stand still for ``cfg.settle_s`` (settling on the ground), then reset the integrators."""
+        cfg, n_ctrl = self.cfg, self.cfg.steps_per_control
+        n_settle = int(round(float(cfg.settle_s) / float(cfg.timestep_s)))
+        for _ in range(max(0, n_settle // n_ctrl)):
+            self.control(True)
+            mujoco.mj_step(self.model, self.data, nstep=n_ctrl)
+        self.integ = self.integ_yaw = 0.0
 
+
+def _check_on_path(cfg: VehicleConfig, last, t: float) -> None:
+    """Raise ``ValueError`` when the cross-track error of ``last`` exceeds 5 m."""
+    if last[3] > 5.0:
+        raise ValueError(
+            f"the vehicle left the path (cross-track error {last[3]:.2f} m at "
+            f"t = {t:.2f} s, speed {last[0]:.2f} m/s): the path is "
+            f"too tight for speed_mps={cfg.speed_mps} with friction {cfg.friction} "
+            f"and max_steer_deg={cfg.max_steer_deg}; lower the speed or widen the path")
+
+
+def _drive_and_record(mujoco, model, data, cfg: VehicleConfig, ids: _Ids,
+                      follower: _PathFollower):
+    """Step the drive from its start to the stop, recording samples; ``(rec, step, t_sim)``."""
+    n_ctrl = cfg.steps_per_control
+    n_per_sample = cfg.steps_per_sample
     rec = {k: [] for k in ("t", "pos", "mat", "mpos", "mmat", "v", "vref", "steer", "cte",
                            "slip", "slipang")}
     res6 = np.zeros(6)
@@ -749,50 +875,61 @@ def simulate_vehicle(cfg: VehicleConfig, path, rng: np.random.Generator, *,
     stop_steps = 0
     while True:
         if step % n_ctrl == 0:
-            pos, heading, v, _ = rear_axle()
-            at_end = state["i"] >= len(s_path) - 2 or (s_end - s_path[state["i"]]) < 0.05
-            if at_end and abs(v) < 0.05 and state["v_ref"] < 1e-3:
+            if follower.stopped_at_end():
                 finished = True
-            last = control(step * cfg.timestep_s, False)
-            if last[3] > 5.0:
-                raise ValueError(
-                    f"the vehicle left the path (cross-track error {last[3]:.2f} m at "
-                    f"t = {step * cfg.timestep_s:.2f} s, speed {last[0]:.2f} m/s): the path is "
-                    f"too tight for speed_mps={cfg.speed_mps} with friction {cfg.friction} "
-                    f"and max_steer_deg={cfg.max_steer_deg}; lower the speed or widen the path")
+            last = follower.control(False)
+            _check_on_path(cfg, last, step * cfg.timestep_s)
         if step % n_per_sample == 0:
-            rec["t"].append(step * cfg.timestep_s)
-            rec["pos"].append(data.xpos[chassis_id].copy())
-            rec["mat"].append(data.xmat[chassis_id].copy())
-            rec["mpos"].append(data.site_xpos[mount_id].copy())
-            rec["mmat"].append(data.site_xmat[mount_id].copy())
-            rec["v"].append(last[0])
-            rec["vref"].append(last[1])
-            rec["steer"].append(last[2])
-            rec["cte"].append(last[3])
-            sl = np.full(len(wheels), np.nan)
-            sa = np.full(len(wheels), np.nan)
-            for k, (bid, dof) in enumerate(zip(hub_ids, spin_dof)):
-                mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, bid, res6, 1)
-                vx, vy = float(res6[3]), float(res6[4])
-                if abs(vx) > 1.0:
-                    sl[k] = (float(data.qvel[dof]) * r - vx) / abs(vx)
-                    sa[k] = math.atan2(vy, abs(vx))
-            rec["slip"].append(sl)
-            rec["slipang"].append(sa)
+            _record_sample(mujoco, model, data, cfg, ids, rec, step * cfg.timestep_s, last,
+                           res6)
             if finished:
                 stop_steps += 1
                 if stop_steps > 1:
                     break
         if step >= max_steps:
             raise ValueError(f"the drive did not finish within max_duration_s="
-                             f"{cfg.max_duration_s} s (path length {s_end:.1f} m at "
+                             f"{cfg.max_duration_s} s (path length {follower.s_end:.1f} m at "
                              f"{cfg.speed_mps} m/s); raise max_duration_s")
         n = min(n_ctrl - step % n_ctrl, n_per_sample - step % n_per_sample)
         mujoco.mj_step(model, data, nstep=n)
         step += n
-    t_sim = time.perf_counter() - t_sim0
+    return rec, step, time.perf_counter() - t_sim0
 
+
+def _record_sample(mujoco, model, data, cfg: VehicleConfig, ids: _Ids, rec: dict, t: float,
+                   last, res6) -> None:
+    """Append the chassis and mount poses, controller outputs and wheel slips to ``rec``."""
+    rec["t"].append(t)
+    rec["pos"].append(data.xpos[ids.chassis].copy())
+    rec["mat"].append(data.xmat[ids.chassis].copy())
+    rec["mpos"].append(data.site_xpos[ids.mount].copy())
+    rec["mmat"].append(data.site_xmat[ids.mount].copy())
+    rec["v"].append(last[0])
+    rec["vref"].append(last[1])
+    rec["steer"].append(last[2])
+    rec["cte"].append(last[3])
+    sl, sa = _wheel_slips(mujoco, model, data, float(cfg.wheel_radius_m), ids, res6)
+    rec["slip"].append(sl)
+    rec["slipang"].append(sa)
+
+
+def _wheel_slips(mujoco, model, data, r: float, ids: _Ids, res6):
+    """Slip ratio and slip angle of each spinning wheel (NaN below 1 m/s forward speed)."""
+    sl = np.full(len(ids.wheels), np.nan)
+    sa = np.full(len(ids.wheels), np.nan)
+    for k, (bid, dof) in enumerate(zip(ids.hub_ids, ids.spin_dof)):
+        mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, bid, res6, 1)
+        vx, vy = float(res6[3]), float(res6[4])
+        if abs(vx) > 1.0:
+            sl[k] = (float(data.qvel[dof]) * r - vx) / abs(vx)
+            sa[k] = math.atan2(vy, abs(vx))
+    return sl, sa
+
+
+def _trajectory_from_record(rec: dict, step: int, cfg: VehicleConfig, wheels: tuple,
+                            built: _Built, t_build: float, t_sim: float,
+                            t_wall0: float) -> VehicleTrajectory:
+    """Assemble the :class:`VehicleTrajectory` (poses, angles, slips, stats) of a record."""
     from simcalib.geometry import transforms_from_flat
     T_base = transforms_from_flat(rec["mat"], rec["pos"])
     T_mount = transforms_from_flat(rec["mmat"], rec["mpos"])
@@ -814,7 +951,7 @@ def simulate_vehicle(cfg: VehicleConfig, path, rng: np.random.Generator, *,
         speed_ref_mps=np.array(rec["vref"]), steer_rad=np.array(rec["steer"]),
         cross_track_m=cte, wheels=wheels, slip_ratio=slip, slip_angle_rad=slip_ang,
         stats=stats, timing_s={"build": t_build, "simulate": t_sim, "total": total},
-        config=cfg, model=model, mjcf=built.spec_xml)
+        config=cfg, model=built.model, mjcf=built.spec_xml)
 
 
 # ------------------------------------------------------------------- observability
