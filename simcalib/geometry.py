@@ -75,14 +75,14 @@ def check_transforms(T, name: str = "T", *, min_count: int | None = None,
                              f"received {arr.shape[0]}")
     finite = np.isfinite(arr).all(axis=(-2, -1))
     if not finite.all():
-        idx = _first_bad_index(finite)
-        raise ValueError(f"{name} contains NaN or inf (first at index {idx}); "
-                         "all entries must be finite")
+        where = f" (first at index {_first_bad_index(finite)})" if arr.ndim > 2 else ""
+        raise ValueError(f"{name} contains NaN or inf{where}; all entries must be finite")
     bottom = arr[..., 3, :]
     bottom_ok = np.all(np.abs(bottom - np.array([0.0, 0.0, 0.0, 1.0])) <= tol, axis=-1)
     if not bottom_ok.all():
         idx = _first_bad_index(bottom_ok)
-        raise ValueError(f"{name}[{idx}] has bottom row {np.asarray(bottom[idx]).tolist()}; "
+        at = f"{name}[{idx}]" if arr.ndim > 2 else name
+        raise ValueError(f"{at} has bottom row {np.asarray(bottom[idx]).tolist()}; "
                          "a rigid transform's bottom row must be (0, 0, 0, 1)")
     check_rotation_matrices(arr[..., :3, :3], name=f"{name} rotation block", tol=tol)
     return arr
@@ -124,7 +124,8 @@ def check_rotation_matrices(R, name: str = "R", tol: float = ORTHONORMAL_TOL) ->
         why = (f"|R^T R - I|_max = {g_err:.3g}" if g_err > tol else
                f"det = {d:.15g} (|det - 1| = {abs(d - 1.0):.3g})")
         raise ValueError(
-            f"{name}[{idx}] is not a rotation: {why}; allowed: orthonormal with det +1 "
+            f"{name}{f'[{idx}]' if np.ndim(det) else ''} is not a rotation: {why}; allowed: "
+            "orthonormal with det +1 "
             f"(tolerance {tol:g}; |R^T R - I|_max = {g_err:.3g}, det = {d:.15g})")
     return arr
 

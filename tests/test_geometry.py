@@ -87,6 +87,18 @@ def test_check_transforms_rejects_bad_input(bad, match):
         g.check_transforms(bad, "C")
 
 
+@pytest.mark.parametrize("bad, match", [
+    (np.where(np.eye(4) == 1, np.nan, 0.0), r"^X contains NaN or inf; all entries"),
+    (np.diag([2.0, 1, 1, 1]), r"^X rotation block is not a rotation: "),
+    (np.array([[1.0, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 1, 1]]),
+     r"^X has bottom row \[0.0, 0.0, 1.0, 1.0\]"),
+])
+def test_check_transforms_single_transform_names_no_index(bad, match):
+    """A single 4x4 is named as itself (no "index ()" / "[()]" in the message)."""
+    with pytest.raises(ValueError, match=match):
+        g.check_transforms(bad, "X")
+
+
 def test_check_transforms_min_count():
     with pytest.raises(ValueError, match="at least 2"):
         g.check_transforms(np.eye(4)[None], "C", min_count=2)

@@ -319,6 +319,11 @@ def test_input_errors():
         U.covariance(C[0], H[0], np.full((4, 4), np.nan), 1.0)
     with pytest.raises(ValueError):
         U.covariance(C[0], H[0], X, 1.0, tolerance_deg=0.0)
+    Xbig = X.copy()
+    Xbig[0, 3] = 1e300                  # finite, but its residuals overflow
+    for noise in (None, U.NoiseModel(0.01, 0.001)):      # fitted or given noise alike
+        with pytest.raises(ValueError, match="residuals of X are not finite"):
+            U.covariance(C[0], H[0], Xbig, 1.0, noise=noise)
 
 
 # ------------------------------------------------------------------------------- fuzz

@@ -706,6 +706,78 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
     :class:`~simcalib.solvers.diagnostics.pose_noise.SimulatedError` of the same motions at
     the same ``alpha`` (``Uncertainty.simulation`` of another estimate) used instead of
     simulating again (one simulation serves every solver of a run). See the module doc."""
+    C, H, X, alpha, tol_r, tol_m, noise, bias = _checked_inputs(
+        C, H, X, alpha, tolerance_deg, tolerance_m, noise, pose_bias, prior)
+    N = C.shape[0]
+    w = _check_weights(weights, N)
+    e, K, Qr, Qt = linear_model(C, H, X)
+    L = _translation_scale(C, H, X, tol_m)
+    s_r2, s_t2, noise_out, fit, dof_noise = _noise_level(e, Qr, Qt, w, noise, L)
+    Q = s_r2 * Qr + s_t2 * Qt                              # (N,6,6), full rank (floors)
+    if not (np.isfinite(e).all() and np.isfinite(Q).all()):   # also with the noise given
+        raise ValueError(f"residuals of X are not finite; X is not a usable estimate "
+                         f"(received X with translation {X[:3, 3].tolist()})")
+    # ---- information (alpha-free) and the alpha-cost sandwich
+    Linv, Qinv, Kw, Bw = _whitened_rows(H, X, K, Q, w, s_r2, s_t2)
+    F, F_noise = _stacked_information(Kw), _stacked_information(Bw)
+    T, S, Hs, Ms = _sandwich(C, X, alpha, K, Q, w)
+    lag = _check_lag(correlation_lag, N)
+    if lag:
+        Ms, F = _serial_correlation_corrected(Ms, F, e, K, S, Qinv, w, lag)
+    from simcalib.solvers.diagnostics.pose_noise import check_pose_inputs
+    pose_pairs, systematic, pose_simulation = check_pose_inputs(
+        pose_pairs, pose_error_basis, pose_simulation, N, alpha)
+    pose_test = sim = None
+    if pose_pairs is not None:
+        Ms, pose_test, sim = _pose_simulation(
+            C, X, alpha, pose_pairs, Linv, e, Hs, Ms, s_r2, s_t2, w, prior, simulation_rng,
+            systematic, fit, pose_simulation)
+    sim_bias = None if sim is None else sim.bias
+    Sig_bias, Ms, F = _with_pose_bias(X, bias, Hs, Ms, F,
+                                      systematic is not None and sim_bias is not None)
+    Hs, Ms, F_prior, prior_cov = _with_prior(X, prior, T, Q, alpha, Hs, Ms)
+    # ---- tolerance-scaled coordinates
+    dsc = np.array([tol_r] * 3 + [tol_m] * 3)              # delta = dsc * delta_tilde
+    Ft, Fp_t, Ht, Mt = (A * np.outer(dsc, dsc) for A in (F, F_prior, Hs, Ms))
+    Ftot = Ft + Fp_t
+    range_sc = np.array([_UNDETERMINED_ROT_RAD] * 3 + [L] * 3) / dsc   # range in tol units
+    # ---- undetermined by the data: information not above what the noise alone makes
+    null = _noise_null_test(Kw, Bw, dsc, lag, dof_noise)
+    Ud = _data_undetermined(null, Ft, range_sc)
+    Bd = _complement(Ud)
+    # ---- undetermined in total: within Ud only the prior informs; the range rule on all
+    Ut = _total_undetermined(Ud, Fp_t, Ftot, range_sc)
+    Bt = _complement(Ut)
+    W, Blk = _counting_information(Bd, Ud, Ft, Fp_t)
+    # ---- covariance of the estimate: the sandwich on the determined subspace Bt
+    Sig_b, Hb_inv = _restricted_sandwich(Bt, Ht, Mt)        # None, None: Bt is empty
+    step = None if prior is not None or Sig_b is None else _minimiser_step(
+        C, H, X, alpha, w, K, S, e, dsc, Bt, Hb_inv, sim_bias)
+    cov_t, offset_t = _with_offset(Bt, Sig_b, step)
+    cov_det, cov = _reported_covariances(cov_t, dsc, Ut)
+    Bp = _physical_basis(Bt, dsc)
+    # ---- directions from the data information, then those only this estimate leaves
+    raw = _data_directions(Ud, Bd, Ft)
+    sp = [None if prior is None else _std_with_prior(u, Ut, W, Bt, Blk) for u, _, _ in raw]
+    dirs = [_data_direction(*r, dsc, tol_r, tol_m, s_p) for r, s_p in zip(raw, sp)]
+    dirs += _estimate_directions(cov_t, raw, dsc, tol_r, tol_m)
+    dirs.sort(key=lambda d: d.reason != "undetermined")
+    return Uncertainty(X=X, covariance=cov, covariance_determined=cov_det,
+                       determined_basis=Bp, information=F, prior_covariance=prior_cov,
+                       noise=noise_out, alpha=alpha, tolerance_deg=math.degrees(tol_r),
+                       tolerance_m=tol_m, directions=tuple(dirs), translation_scale_m=L,
+                       n_motions=N, offset=offset_t * dsc, bias_covariance=Sig_bias,
+                       noise_information=F_noise, information_ratio=null.ratio,
+                       ratio_threshold=null.threshold, pose_noise_test=pose_test,
+                       simulated_bias=sim_bias,
+                       systematic_parameters=0 if sim is None else sim.systematic_parameters,
+                       white_pose_noise=None if sim is None else sim.white, simulation=sim,
+                       method="pose_simulation" if sim_bias is not None else "sandwich")
+
+
+# ------------------------------------------------------------------- covariance steps
+def _checked_inputs(C, H, X, alpha, tolerance_deg, tolerance_m, noise, pose_bias, prior):
+    """Validated ``(C, H, X, alpha, tol_r, tol_m, noise, bias)`` of :func:`covariance`."""
     C = check_transforms(C, "C", min_count=2)
     H = check_transforms(H, "H", min_count=2)
     if C.shape != H.shape:
@@ -720,16 +792,18 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
     if prior is not None and not all(hasattr(prior, k) for k in ("X", "a", "b")):
         raise TypeError(f"prior must be a simcalib.Prior or None; received "
                         f"{type(prior).__name__}")
-    N = C.shape[0]
-    w = _check_weights(weights, N)
-    e, K, Qr, Qt = linear_model(C, H, X)
+    return C, H, X, alpha, tol_r, tol_m, noise, bias
 
-    # translation scale of the data (units follow the input)
-    L = float(max(np.sqrt(np.mean(np.sum(C[:, :3, 3] ** 2, axis=1))),
-                  np.sqrt(np.mean(np.sum(H[:, :3, 3] ** 2, axis=1))),
-                  np.linalg.norm(X[:3, 3]), tol_m))
 
-    # ---- noise level
+def _translation_scale(C, H, X, tol_m) -> float:
+    """Translation scale ``L`` of the data (units follow the input)."""
+    return float(max(np.sqrt(np.mean(np.sum(C[:, :3, 3] ** 2, axis=1))),
+                     np.sqrt(np.mean(np.sum(H[:, :3, 3] ** 2, axis=1))),
+                     np.linalg.norm(X[:3, 3]), tol_m))
+
+
+def _noise_level(e, Qr, Qt, w, noise, L):
+    """``(s_r2, s_t2, noise_out, fit, dof_noise)``: fitted or given noise variances, floors in."""
     n_eff = float(w.sum() ** 2 / np.sum(w * w))
     # degrees of freedom of the fitted rotation noise (3 residual components per motion)
     dof_noise = math.inf if noise is not None else max(3.0 * (n_eff - 1.0), 1.0)
@@ -749,14 +823,18 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
         if not (math.isfinite(s_r2) and math.isfinite(s_t2)):
             raise ValueError("residuals of X are not finite; X is not a usable estimate")
         noise_out = NoiseModel(math.sqrt(s_r2), math.sqrt(s_t2), estimated=True)
+        fit = (qr_rot, qr_tr, qt_tr)
     else:
         s_r2, s_t2 = noise.sigma_r_rad ** 2, noise.sigma_t_m ** 2
         noise_out = noise
+        fit = None
     s_r2 += ROTATION_FLOOR_RAD ** 2
     s_t2 += (TRANSLATION_FLOOR_REL * L) ** 2
-    Q = s_r2 * Qr + s_t2 * Qt                              # (N,6,6), full rank (floors)
+    return s_r2, s_t2, noise_out, fit, dof_noise
 
-    # ---- information (alpha-free) and the alpha-cost sandwich
+
+def _whitened_rows(H, X, K, Q, w, s_r2, s_t2):
+    """``(Linv, Qinv, Kw, Bw)``: whitening of ``Q`` and the whitened data and null rows."""
     # whitened rows: Kw_i = sqrt(w_i) L_i^-1 K_i (Q_i = L_i L_i^T), F = sum Kw^T Kw; Bw: the
     # same for the derivatives of K_i w.r.t. the noise of H_i, scaled by its std (the null)
     Linv = np.linalg.inv(np.linalg.cholesky(0.5 * (Q + np.swapaxes(Q, -1, -2))))
@@ -766,121 +844,146 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
     std_xi = np.sqrt(np.array([s_r2 / 3.0] * 3 + [s_t2] * 3))
     Bw = ((Linv[:, None] @ noise_jacobians(H, X))
           * (sw[:, None, None, None] * std_xi[None, :, None, None]))
-    Kf, Bf = Kw.reshape(-1, 6), Bw.reshape(-1, 6)
-    F = Kf.T @ Kf
-    F_noise = Bf.T @ Bf
+    return Linv, Qinv, Kw, Bw
+
+
+def _stacked_information(Aw) -> np.ndarray:
+    """``A^T A`` (6x6) of the whitened rows ``Aw`` stacked into one (-1, 6) matrix ``A``."""
+    Af = Aw.reshape(-1, 6)
+    return Af.T @ Af
+
+
+def _sandwich(C, X, alpha, K, Q, w):
+    """``(T, S, Hs, Ms)``: DQ map, its ``T^T T``, and the bread and meat of the alpha cost."""
     T = _dq_map(C, X, alpha)
     S = np.einsum("nki,nkj->nij", T, T)                    # (N,6,6)
     Hs = np.einsum("n,nki,nkl,nlj->ij", w, K, S, K)
     SQS = S @ Q @ S
     Ms = np.einsum("n,nki,nkl,nlj->ij", w * w, K, SQS, K)
-    lag = _check_lag(correlation_lag, N)
-    if lag:
-        # motions in time order that share poses (pairs (k, k + step) of one pose stream):
-        # their noise is correlated up to lag = step. The model meat is rescaled, per
-        # direction, by the ratio of the empirical meat with the cross terms up to the lag
-        # (truncated kernel) to the one without (serial-correlation, HAC-type correction).
-        Ms = _rescale_meat(Ms, *_score_meats(np.einsum("n,nki,nkl,nl->ni", w, K, S, e), lag))
-        # the same correction of the alpha-free information (efficient weighting: the
-        # meat is F itself, so the information becomes F Mc^-1 F)
-        Fc = _rescale_meat(F, *_score_meats(np.einsum("n,nki,nkl,nl->ni", w, K, Qinv, e), lag))
-        F = F @ _sym_inv(Fc) @ F
-        F = 0.5 * (F + F.T)
-    pose_test = sim_bias = sim = None
-    from simcalib.solvers.diagnostics.pose_noise import check_pose_inputs
-    pose_pairs, systematic, pose_simulation = check_pose_inputs(
-        pose_pairs, pose_error_basis, pose_simulation, N, alpha)
-    if pose_pairs is not None:
-        fit = (qr_rot, qr_tr, qt_tr) if noise is None else None
-        Ms, pose_test, sim = _pose_simulation(
-            C, X, alpha, pose_pairs, Linv, e, Hs, Ms, s_r2, s_t2, w, prior, simulation_rng,
-            systematic, fit, pose_simulation)
-        sim_bias = None if sim is None else sim.bias
-    Sig_bias = None
-    if bias is not None and not bias.is_zero and not (systematic is not None
-                                                      and sim_bias is not None):
-        Sig_bias = pose_bias_covariance(X, bias.cov_a, bias.cov_b)
-        Ms = Ms + Hs @ Sig_bias @ Hs
-        F = _woodbury_information(F, Sig_bias)
-    F_prior = np.zeros((6, 6))
-    prior_cov = None
-    if prior is not None:
-        Ja, Jb = _prior_jacobians(X, prior)
-        TQT = T @ Q @ np.swapaxes(T, -1, -2)
-        nu_a = float(np.mean(np.trace(TQT[:, :4, :4], axis1=1, axis2=2)) / 3.0)
-        nu_b = float(np.mean(np.trace(TQT[:, 4:, 4:], axis1=1, axis2=2)) / 3.0) / alpha**2
-        A = Ja.T @ Ja
-        Bm = Jb.T @ Jb
-        F_prior = prior.a * A / nu_a + prior.b * Bm / nu_b
-        Hs = Hs + prior.a * A + prior.b * Bm
-        Ms = Ms + prior.a * nu_a * A + prior.b * nu_b * Bm
-        prior_cov = _pinv_cov(F_prior)
+    return T, S, Hs, Ms
 
-    # ---- tolerance-scaled coordinates
-    dsc = np.array([tol_r] * 3 + [tol_m] * 3)              # delta = dsc * delta_tilde
-    Ft = F * np.outer(dsc, dsc)
-    Fp_t = F_prior * np.outer(dsc, dsc)
-    Ftot = Ft + Fp_t
-    Ht = Hs * np.outer(dsc, dsc)
-    Mt = Ms * np.outer(dsc, dsc)
-    range_sc = np.array([_UNDETERMINED_ROT_RAD] * 3 + [L] * 3) / dsc   # range in tol units
 
-    def range_ratio(U, sig):
-        """1-sigma along the columns of U relative to the range of rotation/translation."""
-        return sig * np.sqrt(np.sum((U / range_sc[:, None]) ** 2, axis=0))
+def _serial_correlation_corrected(Ms, F, e, K, S, Qinv, w, lag):
+    """``(Ms, F)`` corrected for the serial correlation of motions sharing poses up to ``lag``."""
+    # motions in time order that share poses (pairs (k, k + step) of one pose stream):
+    # their noise is correlated up to lag = step. The model meat is rescaled, per
+    # direction, by the ratio of the empirical meat with the cross terms up to the lag
+    # (truncated kernel) to the one without (serial-correlation, HAC-type correction).
+    Ms = _rescale_meat(Ms, *_score_meats(np.einsum("n,nki,nkl,nl->ni", w, K, S, e), lag))
+    # the same correction of the alpha-free information (efficient weighting: the
+    # meat is F itself, so the information becomes F Mc^-1 F)
+    Fc = _rescale_meat(F, *_score_meats(np.einsum("n,nki,nkl,nl->ni", w, K, Qinv, e), lag))
+    F = F @ _sym_inv(Fc) @ F
+    F = 0.5 * (F + F.T)
+    return Ms, F
 
-    def modes(Fm):
-        lam, U = np.linalg.eigh(0.5 * (Fm + Fm.T))
-        sig = np.where(lam > 0, 1.0 / np.sqrt(np.maximum(lam, 1e-300)), np.inf)
-        return lam, U, sig, range_ratio(U, sig)
 
-    # ---- undetermined by the data: information not above what the noise alone makes
-    null = _noise_null_test(Kw, Bw, dsc, lag, dof_noise)
-    lam_d, U_d, sig_d, rr_d = modes(Ft)
-    Ud = _span([null.directions[:, null.undetermined], U_d[:, rr_d > 1.0]])
-    Bd = _complement(Ud)
-    # ---- undetermined in total: within Ud only the prior informs; the range rule on all
+def _with_pose_bias(X, bias, Hs, Ms, F, in_simulation):
+    """``(Sig_bias, Ms, F)``: the calibration bias added to the meat and the information."""
+    # none given, or its run-constant errors already drawn by a systematic simulation
+    if bias is None or bias.is_zero or in_simulation:
+        return None, Ms, F
+    Sig_bias = pose_bias_covariance(X, bias.cov_a, bias.cov_b)
+    Ms = Ms + Hs @ Sig_bias @ Hs
+    F = _woodbury_information(F, Sig_bias)
+    return Sig_bias, Ms, F
+
+
+def _with_prior(X, prior, T, Q, alpha, Hs, Ms):
+    """``(Hs, Ms, F_prior, prior_cov)`` with the prior's pseudo-measurements (if any) added."""
+    if prior is None:
+        return Hs, Ms, np.zeros((6, 6)), None
+    Ja, Jb = _prior_jacobians(X, prior)
+    TQT = T @ Q @ np.swapaxes(T, -1, -2)
+    nu_a = float(np.mean(np.trace(TQT[:, :4, :4], axis1=1, axis2=2)) / 3.0)
+    nu_b = float(np.mean(np.trace(TQT[:, 4:, 4:], axis1=1, axis2=2)) / 3.0) / alpha**2
+    A = Ja.T @ Ja
+    Bm = Jb.T @ Jb
+    F_prior = prior.a * A / nu_a + prior.b * Bm / nu_b
+    Hs = Hs + prior.a * A + prior.b * Bm
+    Ms = Ms + prior.a * nu_a * A + prior.b * nu_b * Bm
+    return Hs, Ms, F_prior, _pinv_cov(F_prior)
+
+
+def _range_ratio(U, sig, range_sc) -> np.ndarray:
+    """1-sigma along the columns of U relative to the range of rotation/translation."""
+    return sig * np.sqrt(np.sum((U / range_sc[:, None]) ** 2, axis=0))
+
+
+def _modes(Fm, range_sc):
+    """``(lam, U, sig, range ratio)``: eigen-directions of ``Fm`` and their 1-sigma."""
+    lam, U = np.linalg.eigh(0.5 * (Fm + Fm.T))
+    sig = np.where(lam > 0, 1.0 / np.sqrt(np.maximum(lam, 1e-300)), np.inf)
+    return lam, U, sig, _range_ratio(U, sig, range_sc)
+
+
+def _data_undetermined(null, Ft, range_sc) -> np.ndarray:
+    """Basis ``Ud`` of the directions the data leave to the noise or beyond the range."""
+    _, U_d, _, rr_d = _modes(Ft, range_sc)
+    return _span([null.directions[:, null.undetermined], U_d[:, rr_d > 1.0]])
+
+
+def _total_undetermined(Ud, Fp_t, Ftot, range_sc) -> np.ndarray:
+    """Basis ``Ut`` of the directions neither the prior (within ``Ud``) nor all determine."""
     if Ud.shape[1]:
         lam_p, V_p = np.linalg.eigh(0.5 * (Ud.T @ Fp_t @ Ud + (Ud.T @ Fp_t @ Ud).T))
         sig_p = np.where(lam_p > 0, 1.0 / np.sqrt(np.maximum(lam_p, 1e-300)), np.inf)
         Up = Ud @ V_p
-        still = Up[:, range_ratio(Up, sig_p) > 1.0]
+        still = Up[:, _range_ratio(Up, sig_p, range_sc) > 1.0]
     else:
         still = np.zeros((6, 0))
-    _, U_tt, _, rr_t = modes(Ftot)
-    Ut = _span([still, U_tt[:, rr_t > 1.0]])
-    Bt = _complement(Ut)
+    _, U_tt, _, rr_t = _modes(Ftot, range_sc)
+    return _span([still, U_tt[:, rr_t > 1.0]])
+
+
+def _counting_information(Bd, Ud, Ft, Fp_t):
+    """``(W, Blk)``: basis ``[Bd, Ud]`` and the prior plus the data outside ``Ud`` in it."""
     # information that counts, in the basis W = [Bd, Ud]: data (outside Ud) plus prior
     W = np.concatenate([Bd, Ud], axis=1)
     kb = Bd.shape[1]
     Blk = W.T @ Fp_t @ W
     Blk[:kb, :kb] += Bd.T @ Ft @ Bd
-    if Bt.shape[1]:
-        Hb = Bt.T @ Ht @ Bt
-        Mb = Bt.T @ Mt @ Bt
-        Hb_inv = _sym_inv(Hb)
-        Sig_b = Hb_inv @ Mb @ Hb_inv
-        lb, Vb = np.linalg.eigh(0.5 * (Sig_b + Sig_b.T))
-        Sig_b = (Vb * np.clip(lb, 0.0, None)) @ Vb.T        # PSD despite rounding
-        if prior is None:
-            # X need not be the minimiser of the alpha cost (daniilidis, opencv, dq2steps,
-            # an early stop): its Gauss-Newton offset from the minimiser is a bias of X
-            # that the sandwich does not see; added as step step^T (mean squared error).
-            if sim_bias is not None:   # the exact offset (the linearised one errs by
-                # terms of second order in the noise, here as large as the bias itself)
-                from simcalib.solvers.diagnostics.pose_noise import minimiser_offset
-                step = Bt.T @ (minimiser_offset(C, H, X, alpha, w) / dsc)
-            else:
-                g = np.einsum("n,nki,nkl,nl->i", w, K, S, e) * dsc
-                step = -Hb_inv @ (Bt.T @ g)
-            Sig_b = Sig_b + np.outer(step, step)
-            offset_t = Bt @ step
-        else:
-            offset_t = np.zeros(6)
-        cov_t = Bt @ Sig_b @ Bt.T
-    else:
-        cov_t = np.zeros((6, 6))
-        offset_t = np.zeros(6)
+    return W, Blk
+
+
+def _restricted_sandwich(Bt, Ht, Mt):
+    """``(Sig_b, Hb_inv)``: the sandwich restricted to ``Bt`` (PSD), its bread inverse."""
+    if not Bt.shape[1]:
+        return None, None
+    Hb = Bt.T @ Ht @ Bt
+    Mb = Bt.T @ Mt @ Bt
+    Hb_inv = _sym_inv(Hb)
+    Sig_b = Hb_inv @ Mb @ Hb_inv
+    lb, Vb = np.linalg.eigh(0.5 * (Sig_b + Sig_b.T))
+    Sig_b = (Vb * np.clip(lb, 0.0, None)) @ Vb.T        # PSD despite rounding
+    return Sig_b, Hb_inv
+
+
+def _minimiser_step(C, H, X, alpha, w, K, S, e, dsc, Bt, Hb_inv, sim_bias) -> np.ndarray:
+    """Step from ``X`` to the alpha-cost minimiser in ``Bt`` coordinates (tol units)."""
+    # X need not be the minimiser of the alpha cost (daniilidis, opencv, dq2steps,
+    # an early stop): its Gauss-Newton offset from the minimiser is a bias of X
+    # that the sandwich does not see; added as step step^T (mean squared error).
+    if sim_bias is not None:   # the exact offset (the linearised one errs by
+        # terms of second order in the noise, here as large as the bias itself)
+        from simcalib.solvers.diagnostics.pose_noise import minimiser_offset
+        return Bt.T @ (minimiser_offset(C, H, X, alpha, w) / dsc)
+    g = np.einsum("n,nki,nkl,nl->i", w, K, S, e) * dsc
+    return -Hb_inv @ (Bt.T @ g)
+
+
+def _with_offset(Bt, Sig_b, step):
+    """``(cov_t, offset_t)`` (tol units): ``Sig_b`` plus ``step step^T``, back from ``Bt``."""
+    if Sig_b is None:
+        return np.zeros((6, 6)), np.zeros(6)
+    if step is None:
+        return Bt @ Sig_b @ Bt.T, np.zeros(6)
+    Sig_b = Sig_b + np.outer(step, step)
+    return Bt @ Sig_b @ Bt.T, Bt @ step
+
+
+def _reported_covariances(cov_t, dsc, Ut):
+    """``(cov_det, cov)``: the finite part, and it with ``inf`` on the axes touching ``Ut``."""
     cov_det = cov_t * np.outer(dsc, dsc)
     cov_det = 0.5 * (cov_det + cov_det.T)
     cov = cov_det.copy()
@@ -889,60 +992,71 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
         cov[touched, :] = 0.0
         cov[:, touched] = 0.0
         cov[touched, touched] = np.inf
-    # physical determined basis (orthonormalised in delta coordinates)
+    return cov_det, cov
+
+
+def _physical_basis(Bt, dsc) -> np.ndarray:
+    """Determined basis orthonormalised in delta coordinates (6, k)."""
     if Bt.shape[1]:
         Bp, _ = np.linalg.qr(Bt * dsc[:, None])
     else:
         Bp = np.zeros((6, 0))
+    return Bp
 
-    def with_prior(u):
-        """1-sigma (tol units) along u from the information that counts; inf if in Ut."""
-        if Ut.shape[1] and np.linalg.norm(Ut.T @ u) > _PURE:
-            return math.inf
-        Bb = W.T @ Bt
-        Sb = Bb @ _sym_inv(Bb.T @ Blk @ Bb) @ Bb.T
-        ew = W.T @ u
-        return math.sqrt(max(float(ew @ Sb @ ew), 0.0))
 
-    # ---- directions from the data information
+def _std_with_prior(u, Ut, W, Bt, Blk) -> float:
+    """1-sigma (tol units) along u from the information that counts; inf if in Ut."""
+    if Ut.shape[1] and np.linalg.norm(Ut.T @ u) > _PURE:
+        return math.inf
+    Bb = W.T @ Bt
+    Sb = Bb @ _sym_inv(Bb.T @ Blk @ Bb) @ Bb.T
+    ew = W.T @ u
+    return math.sqrt(max(float(ew @ Sb @ ew), 0.0))
+
+
+def _data_directions(Ud, Bd, Ft) -> list:
+    """``(u, reason, 1-sigma tol units)`` of the undetermined and poorly determined directions."""
     dirs = []
-    flagged = []
     if Ud.shape[1]:                                       # undetermined: basis of Ud
-        lu, Vu = np.linalg.eigh(0.5 * (Ud.T @ Ft @ Ud + (Ud.T @ Ft @ Ud).T))
+        _, Vu = np.linalg.eigh(0.5 * (Ud.T @ Ft @ Ud + (Ud.T @ Ft @ Ud).T))
         for u in (Ud @ Vu).T:
             dirs.append((u, "undetermined", math.inf))
-    if kb:                                                # poorly determined: outside Ud
+    if Bd.shape[1]:                                       # poorly determined: outside Ud
         lb_, Vb_ = np.linalg.eigh(0.5 * (Bd.T @ Ft @ Bd + (Bd.T @ Ft @ Bd).T))
-        for k in range(kb):
+        for k in range(Bd.shape[1]):
             s = 1.0 / math.sqrt(lb_[k]) if lb_[k] > 0 else math.inf
             if s > 1.0:
                 dirs.append((Bd @ Vb_[:, k], "poorly determined", s))
-    out = []
-    for u, reason, s in dirs:
-        flagged.append(u)
-        nw, nt = np.linalg.norm(u[:3]), np.linalg.norm(u[3:])
-        tot = math.hypot(nw, nt)
-        if math.isfinite(s):
-            sdeg, sm = math.degrees(s * tol_r * nw), s * tol_m * nt
-        else:
-            sdeg = math.inf if nw > _PURE * tot else 0.0
-            sm = math.inf if nt > _PURE * tot else 0.0
-        if prior is not None:
-            st = with_prior(u)
-            by_prior = st <= 1.0
-            if math.isfinite(st):
-                swd, swm = math.degrees(st * tol_r * nw), st * tol_m * nt
-            else:
-                swd = math.inf if nw > _PURE * tot else 0.0
-                swm = math.inf if nt > _PURE * tot else 0.0
-        else:
-            by_prior, swd, swm = False, sdeg, sm
-        out.append(_describe(u, dsc, reason, sdeg, sm, swd, swm, by_prior))
-    dirs = out
+    return dirs
+
+
+def _stds_along(u, s, tol_r, tol_m) -> tuple[float, float]:
+    """(deg, m) 1-sigma of u's rotation / translation parts at ``s`` (inf: parts over 5 %)."""
+    nw, nt = np.linalg.norm(u[:3]), np.linalg.norm(u[3:])
+    tot = math.hypot(nw, nt)
+    if math.isfinite(s):
+        return math.degrees(s * tol_r * nw), s * tol_m * nt
+    return (math.inf if nw > _PURE * tot else 0.0), (math.inf if nt > _PURE * tot else 0.0)
+
+
+def _data_direction(u, reason, s, dsc, tol_r, tol_m, st) -> Direction:
+    """The :class:`Direction` of ``u`` at 1-sigma ``s``, ``st`` with the prior (None: none)."""
+    sdeg, sm = _stds_along(u, s, tol_r, tol_m)
+    if st is not None:
+        by_prior = st <= 1.0
+        swd, swm = _stds_along(u, st, tol_r, tol_m)
+    else:
+        by_prior, swd, swm = False, sdeg, sm
+    return _describe(u, dsc, reason, sdeg, sm, swd, swm, by_prior)
+
+
+def _estimate_directions(cov_t, raw, dsc, tol_r, tol_m) -> list:
+    """Directions this estimate leaves beyond the tolerance that the motions would not."""
     # directions this estimate (covariance of the alpha-cost minimiser) leaves beyond the
     # tolerance although the information would allow better (a poorly chosen alpha or an
-    # estimator that ignores part of the data)
-    flagged = np.array(flagged).reshape(-1, 6).T
+    # estimator that ignores part of the data); ``raw``: those already flagged
+    flagged = np.array([u for u, _, _ in raw]).reshape(-1, 6).T
+    dirs = []
     le, Ve = np.linalg.eigh(0.5 * (cov_t + cov_t.T))
     for k in range(6):
         if not le[k] > 1.0:
@@ -957,18 +1071,7 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
         dirs.append(dataclasses.replace(d, description=d.description + " by this estimate "
                                         "(the motions would determine it better)"))
         flagged = np.concatenate([flagged, u[:, None]], axis=1)
-    dirs.sort(key=lambda d: d.reason != "undetermined")
-    return Uncertainty(X=X, covariance=cov, covariance_determined=cov_det,
-                       determined_basis=Bp, information=F, prior_covariance=prior_cov,
-                       noise=noise_out, alpha=alpha, tolerance_deg=math.degrees(tol_r),
-                       tolerance_m=tol_m, directions=tuple(dirs), translation_scale_m=L,
-                       n_motions=N, offset=offset_t * dsc, bias_covariance=Sig_bias,
-                       noise_information=F_noise, information_ratio=null.ratio,
-                       ratio_threshold=null.threshold, pose_noise_test=pose_test,
-                       simulated_bias=sim_bias,
-                       systematic_parameters=0 if sim is None else sim.systematic_parameters,
-                       white_pose_noise=None if sim is None else sim.white, simulation=sim,
-                       method="pose_simulation" if sim_bias is not None else "sandwich")
+    return dirs
 
 
 def _pose_simulation(C, X, alpha, pose_pairs, Linv, e, Hs, Ms, s_r2, s_t2, w, prior, rng,
