@@ -64,3 +64,31 @@ def test_ranking_row_takes_medians_over_the_rigs():
     assert cells[2] == "0.6 / 0.7"
     assert cells[3] == "0.3 / 0.3"           # rigs without a ranking are left out
     assert cells[4] == "0.8 / 0.8"
+
+
+def test_ratio_interval_bootstraps_the_rigs():
+    """The pooled ratio's interval over resampled rigs: a point when every rig gives the
+    same results, a spread that contains the pooled ratio when rigs differ, deterministic,
+    and bad arguments refused."""
+    import pytest
+    same = [_ver([_r(0.1, 0.2)], [_r(1.0, 1.0)], None) for _ in range(4)]
+    iv = tables.ratio_interval(same)
+    assert iv["rotation_error_deg"] == pytest.approx((0.1, 0.1))
+    assert iv["translation_error_cm"] == pytest.approx((0.2, 0.2))
+    vers = [_ver([_r(a, 2 * a)], [_r(1.0, 1.0)], None) for a in (0.1, 0.2, 0.4, 0.8, 1.6)]
+    p = tables.pool(vers)
+    lo, hi = p.ratio_interval["rotation_error_deg"]
+    assert lo < p.ratio["rotation_error_deg"] == 0.4 < hi          # median of 0.1 .. 1.6
+    assert 0.1 <= lo and hi <= 1.6
+    assert tables.ratio_interval(vers) == tables.ratio_interval(vers)
+    lo50, hi50 = tables.ratio_interval(vers, level=0.5)["rotation_error_deg"]
+    assert lo <= lo50 < hi50 <= hi and (lo50, hi50) != (lo, hi)     # the level is used
+    assert tables.ratio_interval(vers[:1]) == {}
+    assert tables._interval(p.ratio_interval) == \
+        f"{tables._fmt(lo, 2)}-{tables._fmt(hi, 2)} / " + "-".join(
+            tables._fmt(x, 2) for x in p.ratio_interval["translation_error_cm"])
+    assert tables._interval({}) == "n/a / n/a"
+    with pytest.raises(ValueError, match="n_boot must be an integer >= 1; received 0"):
+        tables.ratio_interval(vers, n_boot=0)
+    with pytest.raises(ValueError, match=r"level must be in \(0, 1\); received 1.5"):
+        tables.ratio_interval(vers, level=1.5)

@@ -226,7 +226,11 @@ its own; each rig's advised and random stops are measured with {n_seeds} seeds o
 per-frame noise. The medians pool every (rig, seed): ratio = median over all (rig, seed)
 of the advised stops' error / median over all (rig, seed) of random's (target of issue
 13: <= 0.3 on scara, linear-arm, rotation-arm; <= 1.1 on 3d); the column "per rig" gives
-each rig's own ratio (rotation/translation), to show how much one rig's luck moves it.
+each rig's own ratio (rotation/translation), to show how much one rig's luck moves it, and
+"90 % interval" how far the pooled ratio itself is known: the 5th-95th percentile of the
+pooled ratio over 2000 bootstrap resamples of the rigs (each rig's advised and random
+results drawn together, `tables.ratio_interval`): its width is how far a ratio pooled
+over {n_rigs} rigs is known; "met" / "NOT met" compares the point value only.
 Errors of dqopt against the true X: rotation (deg) and translation (cm); "max sigma" =
 largest predicted 1-sigma over the three axes (inf = undetermined). Baseline: median over
 the rigs of the recorded runs' errors. The planner's own numbers (predicted 1-sigma,
@@ -336,6 +340,7 @@ def pool(vers):
     out = {"advised_median": adv_med, "advised_all": adv_all,
            "baseline": _summary({}, [v.baseline for v in vers])[0],
            "per_rig_ratio": [v.ratio for v in vers], "motion_size": vers[0].motion_size,
+           "ratio_interval": ratio_interval(vers),
            "verdicts": [r.get("verdict") for r in adv_all]}
     hind = [v.hindsight for v in vers if v.hindsight]
     out["hindsight_median"] = _summary({}, hind)[0] if hind else {}
@@ -347,6 +352,43 @@ def pool(vers):
         rs = pooled(attr)
         out[mk], out[rk] = _summary(adv_med, rs) if rs else ({}, {})
     return SimpleNamespace(**out)
+
+
+def ratio_interval(vers, attr: str = "random", *, n_boot: int = 2000, level: float = 0.9,
+                   seed: int = 0) -> dict:
+    """How far the pooled ratio advised / baseline ``attr`` of :func:`pool` is known: its
+    ``level`` percentile interval over ``n_boot`` bootstrap resamples of the rigs (each
+    rig's advised and baseline results drawn together, with replacement; draws from
+    ``numpy.random.default_rng(seed)``). ``{"rotation_error_deg": (lo, hi),
+    "translation_error_cm": (lo, hi)}`` (None where no resample gives a ratio); ``{}``
+    with fewer than 2 rigs."""
+    from simcalib.advise.advisor import _summary
+    if isinstance(n_boot, bool) or not isinstance(n_boot, int) or n_boot < 1:
+        raise ValueError(f"n_boot must be an integer >= 1; received {n_boot!r}")
+    if not 0 < level < 1:
+        raise ValueError(f"level must be in (0, 1); received {level!r}")
+    keys = ("rotation_error_deg", "translation_error_cm")
+    if len(vers) < 2:
+        return {}
+    rng = np.random.default_rng(seed)
+    draws: dict = {k: [] for k in keys}
+    for _ in range(n_boot):
+        pick = rng.integers(0, len(vers), len(vers))
+        adv_med, _ = _summary({}, [r for i in pick for r in vers[i].advised_seeds])
+        _, ratio = _summary(adv_med, [r for i in pick for r in getattr(vers[i], attr)])
+        for k in keys:
+            if ratio.get(k) is not None and math.isfinite(ratio[k]):
+                draws[k].append(ratio[k])
+    q = ((1.0 - level) / 2.0, (1.0 + level) / 2.0)
+    return {k: (tuple(float(x) for x in np.quantile(v, q)) if v else None)
+            for k, v in draws.items()}
+
+
+def _interval(iv) -> str:
+    """A :func:`ratio_interval` as ``lo-hi / lo-hi`` (rotation / translation)."""
+    return " / ".join("n/a" if not iv or iv.get(k) is None else
+                      f"{_fmt(iv[k][0], 2)}-{_fmt(iv[k][1], 2)}"
+                      for k in ("rotation_error_deg", "translation_error_cm"))
 
 
 def _verdicts(ver) -> str:
@@ -479,9 +521,12 @@ def _targets(checks) -> str:
                 f"({'met' if tw is not None and tw <= lim else 'NOT met'})")
         verdict = _verdicts(ver)
         tol_ok = bool(ver.verdicts) and all(v == "determined" for v in ver.verdicts)
+        iv = getattr(ver, "ratio_interval", {}) or {}
+        ivtxt = f" (90 % interval over rigs {_interval(iv)})" if iv else ""
         out.append(f"- {label}: ratio rotation {_fmt(r, 2)} ({'met' if ok[0] else 'NOT met'}), "
                    f"translation {_fmt(t, 2)} ({'met' if ok[1] else 'NOT met'}) against "
-                   f"<= {lim} (candidate-set baseline){jtxt}{wtxt}; advised verdict {verdict} "
+                   f"<= {lim} (candidate-set baseline){ivtxt}{jtxt}{wtxt}; advised verdict "
+                   f"{verdict} "
                    f"({'all directions within tolerance in every solve' if tol_ok else 'NOT within tolerance in every solve'})"
                    f"; advice {t_adv:.1f} s (<= 30 s: {'met' if t_adv <= 30 else 'NOT met'})")
     return "\n".join(out)
@@ -522,7 +567,7 @@ def main(argv=None) -> int:
             f"{_fmt(b.get('translation_error_cm'))} | {_fmt(am.get('rotation_error_deg'))} / "
             f"{_fmt(am.get('translation_error_cm'))} | {_fmt(med['rotation_error_deg'])} / "
             f"{_fmt(med['translation_error_cm'])} | {_fmt(rt['rotation_error_deg'], 2)} / "
-            f"{_fmt(rt['translation_error_cm'], 2)} | "
+            f"{_fmt(rt['translation_error_cm'], 2)} | {_interval(ver.ratio_interval)} | "
             + _median_ratio(medj, rtj) + _median_ratio(ver.random_wide_median, ver.ratio_wide)
             + " ".join(f"{_fmt(x.get('rotation_error_deg'), 2)}/"
                        f"{_fmt(x.get('translation_error_cm'), 2)}" for x in ver.per_rig_ratio)
@@ -578,11 +623,11 @@ def main(argv=None) -> int:
     text += ("\n### Actual errors (rotation deg / translation cm)\n\n"
              "| scenario | recorded motions | feasible candidates | stops advised | baseline "
              "| advised (median) | random (median) | ratio advised/random | "
-             "joint-jog random (median) "
+             "90 % interval (bootstrap over rigs) | joint-jog random (median) "
              "| ratio advised/joint-jog | random from the advice's candidates (median) | "
              "ratio advised/that | ratio advised/random per rig | advised verdict | "
              "advice time (s), slowest rig |\n"
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
              + "\n".join(rows) + "\n")
     text += ("\n### Predicted largest 1-sigma (deg / cm)\n\n"
              "Columns 2-4: the verification solves' largest 1-sigma, with the systematic "
