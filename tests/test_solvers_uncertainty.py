@@ -321,9 +321,12 @@ def test_input_errors():
         U.covariance(C[0], H[0], X, 1.0, tolerance_deg=0.0)
     Xbig = X.copy()
     Xbig[0, 3] = 1e300                  # finite, but its residuals overflow
+    import warnings
     for noise in (None, U.NoiseModel(0.01, 0.001)):      # fitted or given noise alike
-        with pytest.raises(ValueError, match="residuals of X are not finite"):
-            U.covariance(C[0], H[0], Xbig, 1.0, noise=noise)
+        with warnings.catch_warnings():                  # the error, not numpy's warnings
+            warnings.simplefilter("error", RuntimeWarning)
+            with pytest.raises(ValueError, match="residuals of X are not finite"):
+                U.covariance(C[0], H[0], Xbig, 1.0, noise=noise)
 
 
 # ------------------------------------------------------------------------------- fuzz

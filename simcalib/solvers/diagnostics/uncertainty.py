@@ -710,10 +710,11 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
         C, H, X, alpha, tolerance_deg, tolerance_m, noise, pose_bias, prior)
     N = C.shape[0]
     w = _check_weights(weights, N)
-    e, K, Qr, Qt = linear_model(C, H, X)
-    L = _translation_scale(C, H, X, tol_m)
-    s_r2, s_t2, noise_out, fit, dof_noise = _noise_level(e, Qr, Qt, w, noise, L)
-    Q = s_r2 * Qr + s_t2 * Qt                              # (N,6,6), full rank (floors)
+    with np.errstate(over="ignore", invalid="ignore"):    # a non-usable X raises below
+        e, K, Qr, Qt = linear_model(C, H, X)
+        L = _translation_scale(C, H, X, tol_m)
+        s_r2, s_t2, noise_out, fit, dof_noise = _noise_level(e, Qr, Qt, w, noise, L)
+        Q = s_r2 * Qr + s_t2 * Qt                          # (N,6,6), full rank (floors)
     if not (np.isfinite(e).all() and np.isfinite(Q).all()):   # also with the noise given
         raise ValueError(f"residuals of X are not finite; X is not a usable estimate "
                          f"(received X with translation {X[:3, 3].tolist()})")
