@@ -496,131 +496,208 @@ def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Genera
     frames for non-terminal stderr). On Ctrl-C the render workers stop quietly and
     :class:`VisualStreamsInterrupted` is raised carrying the streams of the frames done.
     """
-    from .render import FrameJob, RenderInterrupted, RenderSettings, render_map  # noqa: PLC0415
     cfg = VisionConfig() if cfg is None else cfg
-    if not isinstance(cfg, VisionConfig):
-        raise TypeError(f"cfg must be a VisionConfig; received {type(cfg).__name__}")
-    if not isinstance(rng, np.random.Generator):
-        raise TypeError(f"rng must be a numpy.random.Generator; received {type(rng).__name__}")
-    _check_world(world)
+    _check_inputs(world, cfg, rng, progress)
     cameras = tuple(world.camera_names)
     entropy = int(rng.integers(0, 2**63 - 1))
     rig = entropy if rig_entropy is None else int(rig_entropy)
-    intr, fovy = {}, {}
-    for cam in cameras:
-        intr[cam], fovy[cam] = _camera_intrinsics(world, cam, cfg)
-        if cfg.fovy_deg is None:
-            _check_model_fovy(world.model, cam, fovy[cam], world.intrinsics[cam])
+    intr = _checked_intrinsics(world, cameras, cfg)
     frames = {cam: _camera_frames(world, cam) for cam in cameras}
     eff = cfg.effects()
     optics = _camera_optics(cameras, intr, eff, rig)
     proc = FrameProcessor(_estimator_map(world.marker_field, eff, rig),
                           {c: intr[c].K for c in cameras},
                           {c: i for i, c in enumerate(cameras)}, cfg, entropy, optics)
+    t_start = time.perf_counter()
+    outs, occl, timings, n_jobs_total, interrupted = _render_all(
+        world, cameras, cfg, eff, frames, intr, optics, proc, rig, workers, progress)
+    wall_s = time.perf_counter() - t_start
+    streams, log_frames, log_images = {}, {}, {}
+    for cam in cameras:
+        streams[cam], log_frames[cam], log_images[cam] = _camera_outputs(
+            cam, frames[cam], outs.get(cam, []), occl[cam])
+    timing = _timing_report(outs, timings, wall_s, workers)
+    log = VisualLog(cfg, intr, log_frames, log_images, timing)
+    if interrupted is not None:
+        raise VisualStreamsInterrupted(streams, log, len(timings), n_jobs_total) from None
+    return streams, log
+
+
+def _check_inputs(world, cfg, rng, progress) -> None:
+    """Raise TypeError unless ``cfg`` is a VisionConfig, ``rng`` a Generator, ``world`` a World
+    and ``progress`` a callable or None (checked before any frame renders)."""
+    if not isinstance(cfg, VisionConfig):
+        raise TypeError(f"cfg must be a VisionConfig; received {type(cfg).__name__}")
+    if not isinstance(rng, np.random.Generator):
+        raise TypeError(f"rng must be a numpy.random.Generator; received {type(rng).__name__}")
+    if progress is not None and not callable(progress):
+        raise TypeError(f"progress must be a callable (n_done, n_total) or None; received "
+                        f"{type(progress).__name__}")
+    _check_world(world)
+
+
+def _checked_intrinsics(world, cameras, cfg: VisionConfig) -> dict:
+    """Each camera's intrinsics under ``cfg``, checked against the model if fovy is not set."""
+    intr = {}
+    for cam in cameras:
+        intr[cam], fovy = _camera_intrinsics(world, cam, cfg)
+        if cfg.fovy_deg is None:
+            _check_model_fovy(world.model, cam, fovy, world.intrinsics[cam])
+    return intr
+
+
+def _render_all(world, cameras, cfg: VisionConfig, eff, frames: dict, intr: dict, optics: dict,
+                proc: FrameProcessor, rig: int, workers, progress) -> tuple:
+    """Render and process every delivered frame, one pass per image size, until an interrupt."""
     light_phase = float(np.random.default_rng(np.random.SeedSequence(
         rig, spawn_key=(10**6,))).uniform(0, 2 * np.pi))
     offsets = _subframe_offsets(eff)
-
-    # One render pass per rendered image size (cameras usually share one).
-    sizes: dict[tuple[int, int], list[str]] = {}
-    for cam in cameras:
-        mx, my = optics[cam].margin_px if optics else (0, 0)
-        sizes.setdefault((intr[cam].width + 2 * mx, intr[cam].height + 2 * my), []).append(cam)
+    sizes = _render_sizes(cameras, intr, optics)
     outs: dict[str, list] = {}
     occl: dict[str, dict] = {c: {} for c in cameras}
     timings: list = []
-    t_start = time.perf_counter()
     n_jobs_total = int(sum(_delivered(frames[c]).sum() for c in cameras))
     n_before = 0
     interrupted = None
     for (w, h), cams in sizes.items():
-        fov_over = {}
-        for c in cams:
-            if cfg.fovy_deg is not None or (w, h) != (intr[c].width, intr[c].height):
-                fov_over[c] = float(np.rad2deg(2 * np.arctan(h / (2 * intr[c].fy))))
-        settings = RenderSettings(width=w, height=h, msaa_samples=cfg.msaa_samples,
-                                  fovy_deg=fov_over)
+        settings = _render_settings(w, h, cams, intr, cfg)
         jobs = []
         for cam in cams:
-            fr = frames[cam]
-            in_view = _markers_in_view(world.marker_field, fr.T_world_cam, intr[cam]) \
-                if cfg.count_occlusion else None
-            for k in np.flatnonzero(_delivered(fr)):
-                k = int(k)
-                t_k = float(fr.time_s[k])
-                subs = () if offsets is None else tuple(
-                    _state_at(fr, t_k + o) for o in offsets)
-                light = None
-                if eff.light_variation > 0 or eff.light_motion_deg > 0:
-                    from .camera_effects import light_state  # noqa: PLC0415
-                    light = light_state(t_k, eff, light_phase,
-                                        float(np.sin(2 * np.pi * 3.7 * t_k + light_phase)))
-                pts = None
-                if in_view is not None:
-                    pts = _shrunk_corners(world.marker_field, in_view[k])
-                    occl[cam][k] = int(in_view[k].sum())
-                jobs.append(FrameJob(cam, k, _row(fr.qpos, k), _row(fr.mocap_pos, k),
-                                     _row(fr.mocap_quat_wxyz, k), key=t_k, substates=subs,
-                                     light=light, check_points=pts))
-        sub_progress = None
-        if progress is not None:
-            def sub_progress(n, _t, _base=n_before):
-                progress(_base + n, n_jobs_total)
-        try:
-            results, rtimes = render_map(world.model, settings, jobs, proc, workers=workers,
-                                         progress=sub_progress)
-        except RenderInterrupted as exc:
-            interrupted = exc
-            results = [r if r is not None else _NOT_RENDERED for r in exc.results]
-            rtimes = exc.timings
+            jobs += _camera_jobs(world, cam, frames[cam], intr[cam], cfg, eff, offsets,
+                                 light_phase, occl[cam])
+        results, rtimes, interrupted = _render_pass(world.model, settings, jobs, proc, workers,
+                                                    progress, n_before, n_jobs_total)
         done = [i for i, t in enumerate(rtimes) if t is not None]
         timings += [rtimes[i] for i in done]
-        for i in done:
-            if rtimes[i].occluded is not None:
-                n_occ = int(rtimes[i].occluded.reshape(-1, 4).any(axis=1).sum())
-                occl[jobs[i].camera][jobs[i].frame_index] = (
-                    occl[jobs[i].camera][jobs[i].frame_index], n_occ)
+        _record_occlusion(occl, jobs, rtimes, done)
         _check_rendered_poses([jobs[i] for i in done], [rtimes[i] for i in done], frames)
         for job, res in zip(jobs, results):
             outs.setdefault(job.camera, []).append(res)
         n_before += len(jobs)
         if interrupted is not None:
             break
-    wall_s = time.perf_counter() - t_start
+    return outs, occl, timings, n_jobs_total, interrupted
 
-    streams, log_frames, log_images = {}, {}, {}
+
+def _render_sizes(cameras, intr: dict, optics: dict) -> dict:
+    """Cameras grouped by rendered image size (image plus distortion margin), in camera order."""
+    sizes: dict[tuple[int, int], list[str]] = {}
     for cam in cameras:
-        fr = frames[cam]
-        delivered = _delivered(fr)
-        res: list = [_NOT_DELIVERED] * fr.n_frames
-        for job_k, r in zip(np.flatnonzero(delivered), outs.get(cam, [])):
-            res[int(job_k)] = r
-        stamps = _stamps(fr)
-        ok = np.array([r.status == "ok" for r in res], dtype=bool)
-        idx = np.flatnonzero(ok)
-        reasons: dict[str, int] = {}
-        for r in res:
-            if r.status != "ok":
-                reasons[r.status] = reasons.get(r.status, 0) + 1
-        T = np.stack([res[i].T_world_cam for i in idx]) if idx.size else np.zeros((0, 4, 4))
-        streams[cam] = PoseStream(
-            camera=cam, source="visual", frame_index=idx.astype(np.int64),
-            timestamp_s=stamps[idx] if stamps.size else np.zeros(0), T_world_cam=T,
-            n_frames=fr.n_frames,
-            info={"n_markers": np.array([res[i].ids_used.size for i in idx], dtype=np.int64),
-                  "reproj_rmse_px": np.array([res[i].reproj_rmse_px for i in idx]),
-                  "ambiguity": np.array([res[i].ambiguity for i in idx])},
-            drop_reasons=reasons)
-        vis = {k: v for k, v in occl[cam].items() if isinstance(v, tuple)}
-        log_frames[cam] = tuple(
-            VisualFrame(cam, k, float(fr.time_s[k]), r.status, r.ids, r.corners_px, r.ids_used,
-                        r.reproj_rmse_px, r.ambiguity, r.T_world_cam,
-                        *vis.get(k, (-1, -1)))
-            for k, r in enumerate(res))
-        log_images[cam] = {k: r.jpeg for k, r in enumerate(res) if r.jpeg is not None}
+        mx, my = optics[cam].margin_px if optics else (0, 0)
+        sizes.setdefault((intr[cam].width + 2 * mx, intr[cam].height + 2 * my), []).append(cam)
+    return sizes
+
+
+def _render_settings(w: int, h: int, cams, intr: dict, cfg: VisionConfig):
+    """RenderSettings of one image size, with fovy overridden where the model's does not fit."""
+    from .render import RenderSettings  # noqa: PLC0415
+    fov_over = {}
+    for c in cams:
+        if cfg.fovy_deg is not None or (w, h) != (intr[c].width, intr[c].height):
+            fov_over[c] = float(np.rad2deg(2 * np.arctan(h / (2 * intr[c].fy))))
+    return RenderSettings(width=w, height=h, msaa_samples=cfg.msaa_samples,
+                          fovy_deg=fov_over)
+
+
+def _camera_jobs(world, cam: str, fr, intr, cfg: VisionConfig, eff, offsets, light_phase: float,
+                 occl_cam: dict) -> list:
+    """FrameJobs of one camera's delivered frames; stores markers-in-view counts in ``occl_cam``."""
+    from .render import FrameJob  # noqa: PLC0415
+    in_view = _markers_in_view(world.marker_field, fr.T_world_cam, intr) \
+        if cfg.count_occlusion else None
+    jobs = []
+    for k in np.flatnonzero(_delivered(fr)):
+        k = int(k)
+        t_k = float(fr.time_s[k])
+        subs = () if offsets is None else tuple(
+            _state_at(fr, t_k + o) for o in offsets)
+        light = _light_at(t_k, eff, light_phase)
+        pts = None
+        if in_view is not None:
+            pts = _shrunk_corners(world.marker_field, in_view[k])
+            occl_cam[k] = int(in_view[k].sum())
+        jobs.append(FrameJob(cam, k, _row(fr.qpos, k), _row(fr.mocap_pos, k),
+                             _row(fr.mocap_quat_wxyz, k), key=t_k, substates=subs,
+                             light=light, check_points=pts))
+    return jobs
+
+
+def _light_at(t_k: float, eff, light_phase: float):
+    """Scene light state at time ``t_k`` (``None`` when the effects keep the lights constant)."""
+    if eff.light_variation > 0 or eff.light_motion_deg > 0:
+        from .camera_effects import light_state  # noqa: PLC0415
+        return light_state(t_k, eff, light_phase,
+                           float(np.sin(2 * np.pi * 3.7 * t_k + light_phase)))
+    return None
+
+
+def _render_pass(model, settings, jobs: list, proc: FrameProcessor, workers, progress,
+                 n_before: int, n_jobs_total: int) -> tuple:
+    """Render one pass: ``(results, timings, RenderInterrupted or None)``."""
+    from .render import RenderInterrupted, render_map  # noqa: PLC0415
+    def report(n, _t, _base=n_before):
+        progress(_base + n, n_jobs_total)
+    sub_progress = report if progress is not None else None
+    try:
+        results, rtimes = render_map(model, settings, jobs, proc, workers=workers,
+                                     progress=sub_progress)
+    except RenderInterrupted as exc:
+        return [r if r is not None else _NOT_RENDERED for r in exc.results], exc.timings, exc
+    return results, rtimes, None
+
+
+def _record_occlusion(occl: dict, jobs: list, rtimes: list, done: list) -> None:
+    """Pair each rendered frame's markers-in-view count with its count of occluded markers."""
+    for i in done:
+        if rtimes[i].occluded is not None:
+            n_occ = int(rtimes[i].occluded.reshape(-1, 4).any(axis=1).sum())
+            occl[jobs[i].camera][jobs[i].frame_index] = (
+                occl[jobs[i].camera][jobs[i].frame_index], n_occ)
+
+
+def _camera_outputs(cam: str, fr, outs_cam: list, occl_cam: dict) -> tuple:
+    """One camera's ``(PoseStream, VisualFrame records, logged JPEGs)`` from its frame results."""
+    delivered = _delivered(fr)
+    res: list = [_NOT_DELIVERED] * fr.n_frames
+    for i, job_k in enumerate(np.flatnonzero(delivered)):
+        # a delivered frame without a result: its pass never ran (interrupted before)
+        res[int(job_k)] = outs_cam[i] if i < len(outs_cam) else _NOT_RENDERED
+    stream = _pose_stream(cam, fr, res)
+    vis = {k: v for k, v in occl_cam.items() if isinstance(v, tuple)}
+    log_frames = tuple(
+        VisualFrame(cam, k, float(fr.time_s[k]), r.status, r.ids, r.corners_px, r.ids_used,
+                    r.reproj_rmse_px, r.ambiguity, r.T_world_cam,
+                    *vis.get(k, (-1, -1)))
+        for k, r in enumerate(res))
+    log_images = {k: r.jpeg for k, r in enumerate(res) if r.jpeg is not None}
+    return stream, log_frames, log_images
+
+
+def _pose_stream(cam: str, fr, res: list) -> PoseStream:
+    """The visual PoseStream of one camera's per-frame results (drops counted by reason)."""
+    stamps = _stamps(fr)
+    ok = np.array([r.status == "ok" for r in res], dtype=bool)
+    idx = np.flatnonzero(ok)
+    reasons: dict[str, int] = {}
+    for r in res:
+        if r.status != "ok":
+            reasons[r.status] = reasons.get(r.status, 0) + 1
+    T = np.stack([res[i].T_world_cam for i in idx]) if idx.size else np.zeros((0, 4, 4))
+    return PoseStream(
+        camera=cam, source="visual", frame_index=idx.astype(np.int64),
+        timestamp_s=stamps[idx] if stamps.size else np.zeros(0), T_world_cam=T,
+        n_frames=fr.n_frames,
+        info={"n_markers": np.array([res[i].ids_used.size for i in idx], dtype=np.int64),
+              "reproj_rmse_px": np.array([res[i].reproj_rmse_px for i in idx]),
+              "ambiguity": np.array([res[i].ambiguity for i in idx])},
+        drop_reasons=reasons)
+
+
+def _timing_report(outs: dict, timings: list, wall_s: float, workers) -> dict:
+    """The log's timing: wall-clock seconds, frame counts and per-stage means."""
     n_total = sum(len(v) for v in outs.values())
     all_res = [r for v in outs.values() for r in v]
-    timing = {
+    return {
         "wall_s": wall_s,
         "camera_frames": n_total,
         "frames_per_s": n_total / wall_s if wall_s > 0 else float("inf"),
@@ -632,10 +709,6 @@ def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Genera
         "detect_ms_mean": 1e3 * float(np.mean([r.detect_s for r in all_res])) if all_res else 0.0,
         "pnp_ms_mean": 1e3 * float(np.mean([r.pnp_s for r in all_res])) if all_res else 0.0,
     }
-    log = VisualLog(cfg, intr, log_frames, log_images, timing)
-    if interrupted is not None:
-        raise VisualStreamsInterrupted(streams, log, len(timings), n_jobs_total) from None
-    return streams, log
 
 
 def _camera_optics(cameras, intr: dict, eff, entropy: int) -> dict:

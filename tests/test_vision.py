@@ -496,6 +496,23 @@ def test_visual_streams_interrupt_returns_partial_streams(world, monkeypatch):
     exc = info.value
     st = exc.streams["cam_a"]
     assert exc.n_done == 5 and st.n_used >= 4 and st.drop_reasons.get("not_rendered", 0) >= 1
+    # two image sizes, two render passes: interrupted in the first, the second camera's
+    # frames were never rendered (not "dropped" by the sensor)
+    from types import SimpleNamespace
+    from simcalib.streams import CameraIntrinsics
+    mixed = SimpleNamespace(**vars(world))
+    mixed.intrinsics = dict(world.intrinsics,
+                            cam_b=CameraIntrinsics.from_fovy(W // 2, H // 2, FOVY))
+    with pytest.raises(VisualStreamsInterrupted) as info:
+        visual_streams(mixed, VisionConfig(log_every=0), np.random.default_rng(0), workers=1)
+    st_b = info.value.streams["cam_b"]                 # every frame of cam_b delivered
+    assert st_b.drop_reasons == {"not_rendered": world.trajectory.cam_b.n_frames}
+
+
+def test_visual_streams_refuses_a_non_callable_progress_before_rendering(world):
+    with pytest.raises(TypeError, match="progress must be a callable .* received int"):
+        visual_streams(world, VisionConfig(log_every=0), np.random.default_rng(0), workers=1,
+                       progress=5)
 
 
 @pytest.mark.slow
