@@ -415,6 +415,142 @@ def _rvec_t_to_T(rvec, tvec) -> np.ndarray:
     return T
 
 
+def _checked_pose_inputs(detections, field, K, dist_coeffs) -> np.ndarray:
+    """Validate the inputs of :func:`estimate_camera_pose`; ``K`` as a float64 array."""
+    if not isinstance(detections, Detections):
+        raise TypeError(f"detections must be a Detections; received {type(detections).__name__}")
+    if not isinstance(field, MarkerField):
+        raise TypeError(f"field must be a MarkerField; received {type(field).__name__}")
+    K = np.asarray(K, dtype=np.float64)
+    if K.shape != (3, 3) or not np.isfinite(K).all():
+        raise ValueError(f"K must be a finite (3, 3) camera matrix; received shape {K.shape}")
+    if dist_coeffs is not None and np.any(np.asarray(dist_coeffs) != 0):
+        raise ValueError("estimate_camera_pose supports undistorted images only "
+                         "(dist_coeffs None or zeros); received non-zero coefficients")
+    return K
+
+
+def _usable_detections(ids: np.ndarray, field: MarkerField) -> tuple[np.ndarray, np.ndarray]:
+    """Map rows of the detected ids and the mask of those in the map and seen only once."""
+    rows = field.index_of(ids)
+    uniq, counts = np.unique(ids, return_counts=True)
+    dup = np.isin(ids, uniq[counts > 1])
+    keep = (rows >= 0) & ~dup
+    return rows, keep
+
+
+def _ippe_candidates(img: np.ndarray, T_wm: np.ndarray, local: np.ndarray, K: np.ndarray,
+                     max_seed_markers: int) -> list:
+    """Camera poses from both IPPE_SQUARE solutions of the largest markers (list of (C, 4, 4))."""
+    cv2 = _cv2()
+    zero = np.zeros(5)
+    perim = np.linalg.norm(img - np.roll(img, -1, axis=1), axis=-1).sum(-1)
+    seeds = np.argsort(-perim, kind="stable")[:max_seed_markers]
+    T_cm = []
+    seed_of = []
+    for m in seeds:
+        try:
+            n_sol, rvecs, tvecs, _ = cv2.solvePnPGeneric(local, img[m], K, zero,
+                                                         flags=cv2.SOLVEPNP_IPPE_SQUARE)
+        except cv2.error:
+            n_sol = 0
+        for k in range(int(n_sol)):
+            T_cm.append(_rvec_t_to_T(rvecs[k], tvecs[k]))
+            seed_of.append(m)
+    return [np.stack(T_cm) @ _inv(T_wm[np.asarray(seed_of)])] if T_cm else []
+
+
+def _sqpnp_candidate(world: np.ndarray, img: np.ndarray, K: np.ndarray) -> list:
+    """The camera pose from one SQPnP over all corners (a list of one (1, 4, 4), or empty)."""
+    cv2 = _cv2()
+    Xw = world.reshape(-1, 3)
+    uv = img.reshape(-1, 2)
+    try:
+        ok, rvec, tvec = cv2.solvePnP(Xw, uv, K, np.zeros(5), flags=cv2.SOLVEPNP_SQPNP)
+        if ok:
+            return [_rvec_t_to_T(rvec, tvec)[None]]
+    except cv2.error:
+        pass
+    return []
+
+
+@dataclass(frozen=True)
+class _Correspondences:
+    """The kept markers' world corners (M, 4, 3), their image corners (M, 4, 2), and K."""
+    world: np.ndarray
+    img: np.ndarray
+    K: np.ndarray
+
+
+def _marker_errors(Tc: np.ndarray, obs: _Correspondences, use: np.ndarray) -> np.ndarray:
+    """(C, M) per-marker RMS reprojection error (px) of poses Tc; 1e6 when a corner is behind."""
+    pts = obs.world[use].reshape(-1, 3)
+    proj, z = _project(Tc, pts, obs.K)
+    e2 = ((proj - obs.img[use].reshape(-1, 2)[None]) ** 2).sum(-1).reshape(len(Tc), -1, 4)
+    e = np.sqrt(e2.mean(-1))
+    behind = (z.reshape(len(Tc), -1, 4) <= 1e-6).any(-1)
+    return np.where(behind, 1e6, e)
+
+
+def _refined_pose(T: np.ndarray, obs: _Correspondences, use: np.ndarray,
+                  refine: bool) -> np.ndarray:
+    """``T`` (cam <- world) refined by ``solvePnPRefineLM`` on the used markers (if ``refine``)."""
+    if not refine:
+        return T
+    cv2 = _cv2()
+    rvec, _ = cv2.Rodrigues(T[:3, :3])
+    rvec, tvec = cv2.solvePnPRefineLM(
+        obs.world[use].reshape(-1, 3), obs.img[use].reshape(-1, 2), obs.K, np.zeros(5), rvec.copy(),
+        T[:3, 3].copy(), criteria=(cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, 50, 1e-12))
+    return _rvec_t_to_T(rvec, tvec)
+
+
+def _rmse(e: np.ndarray) -> float:
+    """Root mean square of the per-marker errors ``e``."""
+    return float(np.sqrt((e ** 2).mean()))
+
+
+def _drop_outlier_markers(best: np.ndarray, obs: _Correspondences, use: np.ndarray,
+                          settings: PnPSettings) -> tuple[np.ndarray, np.ndarray]:
+    """Drop the worst marker above max_marker_reproj_px and refit, repeatedly (``use`` in place)."""
+    while True:
+        per = _marker_errors(best[None], obs, use)[0]
+        worst = int(np.argmax(per))
+        if per[worst] <= settings.max_marker_reproj_px or use.sum() <= settings.min_markers:
+            break
+        use[np.flatnonzero(use)[worst]] = False
+        best = _refined_pose(best, obs, use, settings.refine)
+    return best, per
+
+
+def _ranked_candidates(cands: np.ndarray, obs: _Correspondences, cap: float):
+    """Candidate order by robust score, the scores, and the best candidate's inlier markers."""
+    # Robust choice: a truncated quadratic over markers, so that one wrong marker (a false
+    # id, or a marker behind the camera) cannot veto the right pose.
+    E = _marker_errors(cands, obs, np.ones(obs.img.shape[0], dtype=bool))
+    sc = (np.minimum(E, cap) ** 2).sum(-1)
+    order = np.argsort(sc, kind="stable")
+    return order, sc, E[order[0]] <= cap
+
+
+def _ambiguity(cands: np.ndarray, order: np.ndarray, sc: np.ndarray, cap: float,
+               best: np.ndarray, rmse: float, obs: _Correspondences, use: np.ndarray,
+               settings: PnPSettings) -> float:
+    """RMSE of the best distinct rival (refined on the same markers) / best RMSE; inf if none."""
+    ambiguity = float("inf")
+    min_ang = np.deg2rad(settings.ambiguity_min_angle_deg)
+    for j in order[1:]:
+        if sc[j] >= cap ** 2 * obs.img.shape[0]:
+            break
+        if _angle(cands[j][:3, :3], best[:3, :3]) > min_ang:
+            rival = _refined_pose(cands[j], obs, use, settings.refine)
+            if _angle(rival[:3, :3], best[:3, :3]) > min_ang:
+                rival_rmse = _rmse(_marker_errors(rival[None], obs, use)[0])
+                ambiguity = rival_rmse / max(rmse, 1e-3)
+            break
+    return ambiguity
+
+
 def estimate_camera_pose(detections: Detections, field: MarkerField, K,
                          settings: PnPSettings | None = None,
                          dist_coeffs=None) -> CameraPoseEstimate:
@@ -431,26 +567,17 @@ def estimate_camera_pose(detections: Detections, field: MarkerField, K,
        ambiguity test. 5. The RMSE gate. Failures return ``ok=False`` with a reason
        (:data:`DROP_REASONS`).
     """
+    if settings is not None and not isinstance(settings, PnPSettings):
+        raise TypeError(f"settings must be a PnPSettings or None; received "
+                        f"{type(settings).__name__}")
     settings = settings or PnPSettings()
-    if not isinstance(detections, Detections):
-        raise TypeError(f"detections must be a Detections; received {type(detections).__name__}")
-    if not isinstance(field, MarkerField):
-        raise TypeError(f"field must be a MarkerField; received {type(field).__name__}")
-    K = np.asarray(K, dtype=np.float64)
-    if K.shape != (3, 3) or not np.isfinite(K).all():
-        raise ValueError(f"K must be a finite (3, 3) camera matrix; received shape {K.shape}")
-    if dist_coeffs is not None and np.any(np.asarray(dist_coeffs) != 0):
-        raise ValueError("estimate_camera_pose supports undistorted images only "
-                         "(dist_coeffs None or zeros); received non-zero coefficients")
-    cv2 = _cv2()
+    K = _checked_pose_inputs(detections, field, K, dist_coeffs)
+    _cv2()  # OpenCV is required from here on, even when nothing was detected
     n_det = detections.n
     if n_det == 0:
         return _fail("no_markers", 0, 0)
     ids = np.ravel(detections.ids)
-    rows = field.index_of(ids)
-    uniq, counts = np.unique(ids, return_counts=True)
-    dup = np.isin(ids, uniq[counts > 1])
-    keep = (rows >= 0) & ~dup
+    rows, keep = _usable_detections(ids, field)
     n_known = int(keep.sum())
     if n_known == 0:
         return _fail("no_known_markers", n_det, 0)
@@ -461,90 +588,23 @@ def estimate_camera_pose(detections: Detections, field: MarkerField, K,
     T_wm = np.asarray(field.T_world_marker, dtype=np.float64)[rows[keep]]
     local = marker_corners_local(field.side_m)
     world = np.einsum("mij,cj->mci", T_wm[:, :3, :3], local) + T_wm[:, None, :3, 3]  # M,4,3
-    zero = np.zeros(5)
 
     # --- candidates: both IPPE solutions of the largest markers, and SQPnP on all corners
-    perim = np.linalg.norm(img - np.roll(img, -1, axis=1), axis=-1).sum(-1)
-    seeds = np.argsort(-perim, kind="stable")[:settings.max_seed_markers]
-    T_cm = []
-    seed_of = []
-    for m in seeds:
-        try:
-            n_sol, rvecs, tvecs, _ = cv2.solvePnPGeneric(local, img[m], K, zero,
-                                                         flags=cv2.SOLVEPNP_IPPE_SQUARE)
-        except cv2.error:
-            n_sol = 0
-        for k in range(int(n_sol)):
-            T_cm.append(_rvec_t_to_T(rvecs[k], tvecs[k]))
-            seed_of.append(m)
-    cands = [np.stack(T_cm) @ _inv(T_wm[np.asarray(seed_of)])] if T_cm else []
-    Xw = world.reshape(-1, 3)
-    uv = img.reshape(-1, 2)
-    try:
-        ok, rvec, tvec = cv2.solvePnP(Xw, uv, K, zero, flags=cv2.SOLVEPNP_SQPNP)
-        if ok:
-            cands.append(_rvec_t_to_T(rvec, tvec)[None])
-    except cv2.error:
-        pass
+    cands = (_ippe_candidates(img, T_wm, local, K, settings.max_seed_markers)
+             + _sqpnp_candidate(world, img, K))
     if not cands:
         return _fail("pnp_failed", n_det, n_known, ids=ids_k)
     cands = np.concatenate(cands)
 
+    obs = _Correspondences(world, img, K)
     cap = 4.0 * settings.max_marker_reproj_px  # truncation of the robust candidate score
-
-    def marker_err(Tc, use):
-        """(C, M) per-marker RMS reprojection error (px); 1e6 when a corner is behind."""
-        pts = world[use].reshape(-1, 3)
-        proj, z = _project(Tc, pts, K)
-        e2 = ((proj - img[use].reshape(-1, 2)[None]) ** 2).sum(-1).reshape(len(Tc), -1, 4)
-        e = np.sqrt(e2.mean(-1))
-        behind = (z.reshape(len(Tc), -1, 4) <= 1e-6).any(-1)
-        return np.where(behind, 1e6, e)
-
-    def refine(T, use):
-        if not settings.refine:
-            return T
-        rvec, _ = cv2.Rodrigues(T[:3, :3])
-        rvec, tvec = cv2.solvePnPRefineLM(
-            world[use].reshape(-1, 3), img[use].reshape(-1, 2), K, zero, rvec.copy(),
-            T[:3, 3].copy(), criteria=(cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, 50, 1e-12))
-        return _rvec_t_to_T(rvec, tvec)
-
-    def rmse_of(e):
-        return float(np.sqrt((e ** 2).mean()))
-
-    # Robust choice: a truncated quadratic over markers, so that one wrong marker (a false
-    # id, or a marker behind the camera) cannot veto the right pose.
-    every = np.ones(ids_k.size, dtype=bool)
-    E = marker_err(cands, every)
-    sc = (np.minimum(E, cap) ** 2).sum(-1)
-    order = np.argsort(sc, kind="stable")
-    use = E[order[0]] <= cap
+    order, sc, use = _ranked_candidates(cands, obs, cap)
     if not use.any():
         return _fail("pnp_failed", n_det, n_known, ids=ids_k)
-    best = refine(cands[order[0]], use)
-
-    # --- per-marker outliers (worst first, refit each time)
-    while True:
-        per = marker_err(best[None], use)[0]
-        worst = int(np.argmax(per))
-        if per[worst] <= settings.max_marker_reproj_px or use.sum() <= settings.min_markers:
-            break
-        use[np.flatnonzero(use)[worst]] = False
-        best = refine(best, use)
-    rmse = rmse_of(per)
-
-    # --- ambiguity: the best distinct rival on the same markers, refined too
-    ambiguity = float("inf")
-    min_ang = np.deg2rad(settings.ambiguity_min_angle_deg)
-    for j in order[1:]:
-        if sc[j] >= cap ** 2 * ids_k.size:
-            break
-        if _angle(cands[j][:3, :3], best[:3, :3]) > min_ang:
-            rival = refine(cands[j], use)
-            if _angle(rival[:3, :3], best[:3, :3]) > min_ang:
-                ambiguity = rmse_of(marker_err(rival[None], use)[0]) / max(rmse, 1e-3)
-            break
+    best = _refined_pose(cands[order[0]], obs, use, settings.refine)
+    best, per = _drop_outlier_markers(best, obs, use, settings)  # updates use
+    rmse = _rmse(per)
+    ambiguity = _ambiguity(cands, order, sc, cap, best, rmse, obs, use, settings)
     if ambiguity < settings.ambiguity_ratio:
         return _fail("ambiguous", n_det, n_known, rmse, ids_k[use], ambiguity)
     if use.sum() < settings.min_markers:

@@ -321,6 +321,9 @@ def test_bad_input_messages():
         estimate_camera_pose({"ids": [1]}, field, K)
     with pytest.raises(ValueError, match="undistorted"):
         estimate_camera_pose(det, field, K, dist_coeffs=[0.1, 0, 0, 0, 0])
+    with pytest.raises(TypeError, match="settings must be a PnPSettings or None; received str"):
+        estimate_camera_pose(Detections(np.zeros(0, int), np.zeros((0, 4, 2))), field, K,
+                             settings="fast")                 # refused even with no marker
     with pytest.raises(ValueError, match="unique"):
         MarkerField("DICT_4X4_250", np.array([1, 1]), 0.1, np.stack([np.eye(4)] * 2))
     with pytest.raises(ValueError, match="shape"):

@@ -185,8 +185,8 @@ def _upper_bound(S, W, M, G):
     return z, v, eG, name
 
 
-def dqoptpoly(problem: MotionProblem, alpha: float = 1.0, prior=None) -> SolverOutput:
-    """The optimal X of cost (8) (+ prior) by appendix B's root counting."""
+def _cost_matrices(problem: MotionProblem, alpha: float, prior):
+    """``(S, W, M)``, the symmetrised ``G = [[S, W], [W^T, M]]``, the prior constant, the scale."""
     S, W, M = problem_matrices(problem, alpha, prior)
     G = np.block([[S, W], [W.T, M]])
     G = 0.5 * (G + G.T)
@@ -194,51 +194,57 @@ def dqoptpoly(problem: MotionProblem, alpha: float = 1.0, prior=None) -> SolverO
     scale = float(np.abs(np.linalg.eigvalsh(G)).max())
     if scale == 0.0:
         raise ValueError("dqoptpoly: the cost matrices are all zero (no motion information)")
-    z_feas, hi, eG, hi_from = _upper_bound(S, W, M, G)
-    lo = -const
-    info = {"lam_upper_start": hi, "lam_upper_from": hi_from, "lam_lower_start": lo,
-            "gram_eigenvalues": eG}
-    # noise-free / exact case: the feasible point from the null space has zero cost
-    if hi - lo <= 1e-13 * scale:
-        n_null = int(np.sum(eG <= 1e-10 * scale))
-        if n_null > 2:
-            from simcalib.solvers.classic import unit_dual_quat_from_null_space
-            try:
-                q, qd = unit_dual_quat_from_null_space(np.linalg.eigh(G)[1][:, :n_null].T)
-                z_feas = np.concatenate([q, qd - (q @ qd) * q])
-            except ValueError:
-                from simcalib.solvers.classic import describe_motion_degeneracy
-                return SolverOutput(np.full((4, 4), np.nan), info, success=False, message=(
-                    f"degenerate: {describe_motion_degeneracy(problem)}; no estimate"))
-        X = transform_from_dual_quat(z_feas[:4], z_feas[4:])
-        info.update(lam_star=hi, mu_star=0.0, iterations=0, route="null space (exact data)")
-        msg = "exact data: optimum from the null space of [[S, W], [W^T, M]] (cost 0)"
-        ok = n_null <= 2
-        if not ok:
+    return S, W, M, G, const, scale
+
+
+def _exact_data_output(problem: MotionProblem, G, z_feas, eG, hi: float, scale: float,
+                       info: dict) -> SolverOutput:
+    """The result on exact data: X from the null space of G (cost 0), flagged if not unique."""
+    n_null = int(np.sum(eG <= 1e-10 * scale))
+    if n_null > 2:
+        from simcalib.solvers.classic import unit_dual_quat_from_null_space
+        try:
+            q, qd = unit_dual_quat_from_null_space(np.linalg.eigh(G)[1][:, :n_null].T)
+            z_feas = np.concatenate([q, qd - (q @ qd) * q])
+        except ValueError:
             from simcalib.solvers.classic import describe_motion_degeneracy
-            msg = (f"degenerate: [[S, W], [W^T, M]] has {n_null} zero eigenvalues (a unique X "
-                   f"needs 2): {describe_motion_degeneracy(problem)}; X is one arbitrary "
-                   "exact solution")
-        return SolverOutput(X, info, success=ok, message=msg)
+            return SolverOutput(np.full((4, 4), np.nan), info, success=False, message=(
+                f"degenerate: {describe_motion_degeneracy(problem)}; no estimate"))
+    X = transform_from_dual_quat(z_feas[:4], z_feas[4:])
+    info.update(lam_star=hi, mu_star=0.0, iterations=0, route="null space (exact data)")
+    msg = "exact data: optimum from the null space of [[S, W], [W^T, M]] (cost 0)"
+    ok = n_null <= 2
+    if not ok:
+        from simcalib.solvers.classic import describe_motion_degeneracy
+        msg = (f"degenerate: [[S, W], [W^T, M]] has {n_null} zero eigenvalues (a unique X "
+               f"needs 2): {describe_motion_degeneracy(problem)}; X is one arbitrary "
+               "exact solution")
+    return SolverOutput(X, info, success=ok, message=msg)
 
-    radius = max(abs(hi), abs(lo), 1e-300)
-    a = curve_coefficients(S, W, M, radius)
-    # scaled variable nu = mu / scale: coefficient k multiplied by scale^k
-    a_nu = a * (scale ** np.arange(9))[None, :]
 
-    n_counts = 0
+def _nu_coefficients(a: np.ndarray, scale: float) -> np.ndarray:
+    """Coefficients in the scaled variable ``nu = mu / scale`` (coefficient k times scale^k)."""
+    return a * (scale ** np.arange(9))[None, :]
 
-    def count(lam):
-        nonlocal n_counts
-        n_counts += 1
-        return sturm_real_root_count_exact(_mu_poly(a_nu, lam))
 
-    n_lo, n_hi = count(lo), count(hi)
-    info.update(count_at_lower=n_lo, count_at_upper=n_hi)
+class _RootCounter:
+    """Exact Sturm count of the real nu roots of P(lam, .) for ``a_nu``, counting its calls."""
+
+    def __init__(self, a_nu: np.ndarray):
+        self.a_nu = a_nu
+        self.calls = 0
+
+    def __call__(self, lam: float) -> int:
+        self.calls += 1
+        return sturm_real_root_count_exact(_mu_poly(self.a_nu, lam))
+
+
+def _relaxation_lower_bound(count: _RootCounter, lo: float, hi: float, scale: float) -> float:
+    """The convex relaxation's lambda_min(Z0) as the lower bound when the count confirms it."""
     # tighter lower bound: the convex relaxation lambda_min(Z0) (<= lam*), i.e. the smallest
     # real root of the quartic P(lam, 0) = det(M) det(Z0 - lam I); kept only if the exact
     # count confirms 8 real roots there
-    quartic = np.trim_zeros(a_nu[:, 0], "b")
+    quartic = np.trim_zeros(count.a_nu[:, 0], "b")
     if quartic.size > 1:
         r = np.roots(quartic[::-1])
         r = r[np.abs(r.imag) <= 1e-9 * np.maximum(np.abs(r), 1e-300)].real
@@ -247,6 +253,28 @@ def dqoptpoly(problem: MotionProblem, alpha: float = 1.0, prior=None) -> SolverO
             lo_relax = float(r.min()) - 1e-14 * (abs(float(r.min())) + scale * 1e-16)
             if lo_relax > lo and count(lo_relax) == 8:
                 lo = lo_relax
+    return lo
+
+
+def _bisect_root_count(count: _RootCounter, lo: float, hi: float, it: int):
+    """Bisect lam on "8 real roots" (true at lo, false at hi) to relative width _BISECT_RTOL."""
+    while it < _BISECT_MAX and hi - lo > _BISECT_RTOL * max(abs(hi), abs(lo)):
+        mid = 0.5 * (lo + hi)
+        if mid <= lo or mid >= hi:
+            break
+        if count(mid) == 8:
+            lo = mid
+        else:
+            hi = mid
+        it += 1
+    return lo, hi, it
+
+
+def _first_bracket(count: _RootCounter, lo: float, hi: float, scale: float, info: dict):
+    """Counts at the bounds, the relaxation lower bound, then bisection: ``lo, hi, it, n_hi``."""
+    n_lo, n_hi = count(lo), count(hi)
+    info.update(count_at_lower=n_lo, count_at_upper=n_hi)
+    lo = _relaxation_lower_bound(count, lo, hi, scale)
     info["lam_lower_bisection"] = lo
     if n_lo != 8:
         raise RuntimeError(f"dqoptpoly: expected 8 real mu roots at the lower bound lam = {lo:.6g}"
@@ -254,42 +282,32 @@ def dqoptpoly(problem: MotionProblem, alpha: float = 1.0, prior=None) -> SolverO
     it = 0
     if n_hi == 8:          # the feasible point is (to rounding) already optimal
         lo = hi
+    lo, hi, it = _bisect_root_count(count, lo, hi, it)
+    return lo, hi, it, n_hi
 
-    def bisect(lo, hi, it):
-        while it < _BISECT_MAX and hi - lo > _BISECT_RTOL * max(abs(hi), abs(lo)):
-            mid = 0.5 * (lo + hi)
-            if mid <= lo or mid >= hi:
-                break
-            if count(mid) == 8:
-                lo = mid
-            else:
-                hi = mid
-            it += 1
-        return lo, hi, it
 
-    lo, hi, it = bisect(lo, hi, it)
+def _rebracket_re_extracted(count: _RootCounter, S, W, M, scale: float, lo: float, hi: float,
+                            it: int, info: dict):
+    """Re-extract the coefficients near lam*, re-find the bracket and bisect: ``lo, hi, it, ok``."""
     # the coefficients are accurate for |lam| up to ~radius: if lam* came out much smaller,
     # re-extract them on a circle of radius ~lam*, find a bracket around the previous answer
     # with the new coefficients (widening it by factors of 10) and bisect again
-    verified = True
-    if n_hi != 8 and max(abs(lo), abs(hi)) < radius / 16:
-        a_nu = curve_coefficients(S, W, M, max(abs(lo), abs(hi), 1e-300)) \
-            * (scale ** np.arange(9))[None, :]
-        info["re_extracted"] = True
-        verified = False
-        w = 1e-13 * max(abs(lo), abs(hi), 1e-300)
-        for _ in range(14):
-            if count(lo - w) == 8 and count(hi + w) < 8:
-                lo, hi, it = bisect(lo - w, hi + w, it)
-                verified = True
-                break
-            w *= 10.0
-    lam_star = 0.5 * (lo + hi)
-    # mu*: (lam*, mu*) is a double root, P = dP/dmu = 0. Among the roots of dP/dmu(lam*, .)
-    # (the extrema of the curves lambda_i(mu) at ...) take the one on the curve through
-    # lam*: smallest lam-distance |P / dP/dlam| (a Newton step in lam, evaluated at lam*
-    # where the extracted coefficients are accurate).
-    dp = npoly.polyder(_mu_poly(a_nu, lam_star))
+    count.a_nu = _nu_coefficients(curve_coefficients(S, W, M, max(abs(lo), abs(hi), 1e-300)),
+                                  scale)
+    info["re_extracted"] = True
+    verified = False
+    w = 1e-13 * max(abs(lo), abs(hi), 1e-300)
+    for _ in range(14):
+        if count(lo - w) == 8 and count(hi + w) < 8:
+            lo, hi, it = _bisect_root_count(count, lo - w, hi + w, it)
+            verified = True
+            break
+        w *= 10.0
+    return lo, hi, it, verified
+
+
+def _nu_on_curve(a_nu: np.ndarray, lam_star: float, dp: np.ndarray) -> float:
+    """The root of dP/dnu(lam*, .) on the curve through lam* (smallest |P / dP/dlam|)."""
     droots = np.roots(dp[::-1]).real
     a_dlam = a_nu[1:] * np.arange(1, 5)[:, None]
     pows = lam_star ** np.arange(5)
@@ -299,8 +317,11 @@ def dqoptpoly(problem: MotionProblem, alpha: float = 1.0, prior=None) -> SolverO
         P = pows @ a_nu @ nup
         dP = pows[:4] @ a_dlam @ nup
         dist.append(abs(P / dP) if dP != 0 else np.inf)
-    nu_star = float(droots[int(np.argmin(dist))])
-    # Newton polish of dP/dmu = 0 (simple root)
+    return float(droots[int(np.argmin(dist))])
+
+
+def _newton_polish(dp: np.ndarray, nu_star: float) -> float:
+    """Up to three Newton steps on dP/dnu(lam*, nu) = 0 (a simple root) from ``nu_star``."""
     ddp = npoly.polyder(dp)
     for _ in range(3):
         den = npoly.polyval(nu_star, ddp)
@@ -310,23 +331,59 @@ def dqoptpoly(problem: MotionProblem, alpha: float = 1.0, prior=None) -> SolverO
         nu_star -= step
         if abs(step) <= 1e-16 * max(abs(nu_star), 1e-300):
             break
-    mu_star = float(nu_star * scale)
+    return nu_star
+
+
+def _mu_star(a_nu: np.ndarray, lam_star: float, scale: float) -> float:
+    """mu* of the double root (lam*, mu*) of P: P = dP/dmu = 0."""
+    # mu*: (lam*, mu*) is a double root, P = dP/dmu = 0. Among the roots of dP/dmu(lam*, .)
+    # (the extrema of the curves lambda_i(mu) at ...) take the one on the curve through
+    # lam*: smallest lam-distance |P / dP/dlam| (a Newton step in lam, evaluated at lam*
+    # where the extracted coefficients are accurate).
+    dp = npoly.polyder(_mu_poly(a_nu, lam_star))
+    nu_star = _newton_polish(dp, _nu_on_curve(a_nu, lam_star, dp))
+    return float(nu_star * scale)
+
+
+def _dual_quat_at(G, lam_star: float, mu_star: float):
+    """The best unit dual quaternion from the null vectors of K(lam*, mu*): ``z, value, sv``."""
     K = G - lam_star * _E - mu_star * _J
     _, sv, Vt = np.linalg.svd(K)
-    cands = []
-    for v1, v2 in ((Vt[-1], Vt[-2]),):
-        q, qd = unit_dual_quat_from_span(v1, v2)
-        cands.append(np.concatenate([q, qd - (q @ qd) * q]))
+    q, qd = unit_dual_quat_from_span(Vt[-1], Vt[-2])
+    cands = [np.concatenate([q, qd - (q @ qd) * q])]
     # the smallest singular vector alone (normalised) is the generic answer
     v = Vt[-1] / np.linalg.norm(Vt[-1][:4])
     v = v * np.sign(v[3] if v[3] != 0 else 1.0)
     cands.append(np.concatenate([v[:4], v[4:] - (v[:4] @ v[4:]) * v[:4]]))
     vals = [float(c @ G @ c) for c in cands]
-    z = cands[int(np.argmin(vals))]
+    return cands[int(np.argmin(vals))], min(vals), sv
+
+
+def dqoptpoly(problem: MotionProblem, alpha: float = 1.0, prior=None) -> SolverOutput:
+    """The optimal X of cost (8) (+ prior) by appendix B's root counting."""
+    S, W, M, G, const, scale = _cost_matrices(problem, alpha, prior)
+    z_feas, hi, eG, hi_from = _upper_bound(S, W, M, G)
+    lo = -const
+    info = {"lam_upper_start": hi, "lam_upper_from": hi_from, "lam_lower_start": lo,
+            "gram_eigenvalues": eG}
+    # noise-free / exact case: the feasible point from the null space has zero cost
+    if hi - lo <= 1e-13 * scale:
+        return _exact_data_output(problem, G, z_feas, eG, hi, scale, info)
+
+    radius = max(abs(hi), abs(lo), 1e-300)
+    a = curve_coefficients(S, W, M, radius)
+    count = _RootCounter(_nu_coefficients(a, scale))
+    lo, hi, it, n_hi = _first_bracket(count, lo, hi, scale, info)
+    verified = True
+    if n_hi != 8 and max(abs(lo), abs(hi)) < radius / 16:
+        lo, hi, it, verified = _rebracket_re_extracted(count, S, W, M, scale, lo, hi, it, info)
+    lam_star = 0.5 * (lo + hi)
+    mu_star = _mu_star(count.a_nu, lam_star, scale)
+    z, objective, sv = _dual_quat_at(G, lam_star, mu_star)
     X = transform_from_dual_quat(z[:4], z[4:])
     info.update(lam_star=lam_star, mu_star=mu_star, iterations=it, route="sturm bisection",
-                sturm_counts=n_counts,
-                coefficients=a, objective=min(vals), K_singular_values=sv)
+                sturm_counts=count.calls,
+                coefficients=a, objective=objective, K_singular_values=sv)
     if not verified:
         return SolverOutput(X, info, success=False, message=(
             f"dqoptpoly: the 8 -> 6 root-count bracket [{lo:.6g}, {hi:.6g}] was not confirmed "
