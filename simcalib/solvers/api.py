@@ -550,6 +550,38 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
     """
     info = registry.get(method)
     alpha = check_alpha(alpha)
+    pose_bias = _check_pose_options(pose_bias, pose_pairs, pose_error_basis, pose_simulation,
+                                    alpha, robust)
+    if robust != "none":
+        sol = _solve_robust(C, H, method, alpha, robust, robust_threshold, rng,
+                            tolerance_deg=tolerance_deg, tolerance_m=tolerance_m,
+                            weights=weights, prior=prior)
+        return replace(sol, pose_bias=pose_bias)
+    tolerance_deg, tolerance_m, correlation_lag = _check_uncertainty_options(
+        tolerance_deg, tolerance_m, uncertainty, bootstrap_samples, correlation_lag)
+    boot_rng = _bootstrap_rng(uncertainty, rng)
+    prior, rng = _check_method_inputs(info, prior, weights, rng)
+    problem, out, runtime, compile_s = _run_solver(info, C, H, alpha, prior, rng, weights)
+    pose_pairs, pose_error_basis = _check_pose_structure(pose_pairs, pose_error_basis,
+                                                         pose_simulation, problem.n, alpha)
+    X, success, message, diag = _finish_output(out, method)
+    diag["sign_flips"] = problem.sign_flips
+    diag["compile_s"] = compile_s
+    cost, objective, success = _cost_and_objective(problem, X, alpha, prior, success)
+    return Solution(X=X, cost=cost, objective=objective, method=method, alpha=alpha,
+                    runtime_s=runtime, success=success, solver_message=message,
+                    n_motions=problem.n, family=info.family, prior=prior,
+                    diagnostics=diag, problem=problem, tolerance_deg=tolerance_deg,
+                    tolerance_m=tolerance_m, uncertainty_method=uncertainty,
+                    bootstrap_rng=boot_rng, bootstrap_samples=int(bootstrap_samples),
+                    correlation_lag=correlation_lag, pose_bias=pose_bias,
+                    pose_pairs=pose_pairs, pose_error_basis=pose_error_basis,
+                    pose_simulation=pose_simulation)
+
+
+def _check_pose_options(pose_bias, pose_pairs, pose_error_basis, pose_simulation, alpha,
+                        robust):
+    """The checked ``pose_bias``, after the checks of the pose inputs that need no motions."""
     from simcalib.solvers.diagnostics.uncertainty import check_pose_bias
     pose_bias = check_pose_bias(pose_bias)
     from simcalib.solvers.diagnostics.pose_noise import check_pose_inputs
@@ -559,11 +591,12 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
             raise ValueError("pose_pairs cannot be combined with robust=" + repr(robust) +
                              ": the motions it rejects break the pose structure; pass "
                              "pose_pairs=None")
-    if robust != "none":
-        sol = _solve_robust(C, H, method, alpha, robust, robust_threshold, rng,
-                            tolerance_deg=tolerance_deg, tolerance_m=tolerance_m,
-                            weights=weights, prior=prior)
-        return replace(sol, pose_bias=pose_bias)
+    return pose_bias
+
+
+def _check_uncertainty_options(tolerance_deg, tolerance_m, uncertainty, bootstrap_samples,
+                               correlation_lag) -> tuple:
+    """The checked ``(tolerance_deg, tolerance_m, correlation_lag)`` of the uncertainty."""
     from simcalib.solvers.diagnostics.uncertainty import check_tolerances
     tolerance_deg, tolerance_m = check_tolerances(tolerance_deg, tolerance_m)
     if uncertainty not in ("sandwich", "bootstrap"):
@@ -575,15 +608,30 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
                          f"{bootstrap_samples!r}")
     from simcalib.solvers.diagnostics.uncertainty import _check_lag
     correlation_lag = _check_lag(correlation_lag, 10**9)
+    return tolerance_deg, tolerance_m, correlation_lag
+
+
+def _bootstrap_rng(uncertainty, rng) -> np.random.Generator | None:
+    """The bootstrap's generator (a child of ``rng``, else ``default_rng(0)``), or None."""
     boot_rng = None
     if uncertainty == "bootstrap":
         boot_rng = np.random.default_rng(_check_rng(rng).bit_generator.seed_seq.spawn(1)[0]) \
             if rng is not None else np.random.default_rng(0)
+    return boot_rng
+
+
+def _check_method_inputs(info, prior, weights, rng) -> tuple:
+    """The checked ``(prior, rng)``, once ``info`` is known to accept the prior and weights."""
     prior = _check_prior(prior)
     _check_prior_supported(info, prior)
     _check_weights_supported(info, weights)
     if rng is not None or info.stochastic:
         rng = _check_rng(rng)   # stochastic methods get default_rng(0) when none is given
+    return prior, rng
+
+
+def _run_solver(info, C, H, alpha, prior, rng, weights) -> tuple:
+    """``(problem, solver output, runtime_s, compile_s)`` of the timed solve of ``(C, H)``."""
     compile_s = warm_up()
     t0 = time.perf_counter()
     problem = prepare_problem(C, H, alpha, weights)
@@ -593,11 +641,20 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
         out = SolverOutput(X=np.full((4, 4), np.nan), success=False,
                            message=f"solver raised {type(exc).__name__}: {exc}")
     runtime = time.perf_counter() - t0
+    return problem, out, runtime, compile_s
+
+
+def _check_pose_structure(pose_pairs, pose_error_basis, pose_simulation, n: int,
+                          alpha: float) -> tuple:
+    """The checked ``(pose_pairs, pose_error_basis)`` for ``n`` motions."""
+    from simcalib.solvers.diagnostics.pose_noise import check_pose_inputs
     pose_pairs, pose_error_basis, _ = check_pose_inputs(pose_pairs, pose_error_basis,
-                                                        pose_simulation, problem.n, alpha)
-    X, success, message, diag = _finish_output(out, method)
-    diag["sign_flips"] = problem.sign_flips
-    diag["compile_s"] = compile_s
+                                                        pose_simulation, n, alpha)
+    return pose_pairs, pose_error_basis
+
+
+def _cost_and_objective(problem, X, alpha, prior, success) -> tuple:
+    """``(cost, objective, success)`` at ``X``: inf and a failure when ``X`` is not finite."""
     if np.isfinite(X).all():
         q, qd = dual_quat_from_transform(X)
         cost = problem_cost(problem, q, qd, alpha)
@@ -605,15 +662,7 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
     else:
         cost = objective = math.inf
         success = False
-    return Solution(X=X, cost=cost, objective=objective, method=method, alpha=alpha,
-                    runtime_s=runtime, success=success, solver_message=message,
-                    n_motions=problem.n, family=info.family, prior=prior,
-                    diagnostics=diag, problem=problem, tolerance_deg=tolerance_deg,
-                    tolerance_m=tolerance_m, uncertainty_method=uncertainty,
-                    bootstrap_rng=boot_rng, bootstrap_samples=int(bootstrap_samples),
-                    correlation_lag=correlation_lag, pose_bias=pose_bias,
-                    pose_pairs=pose_pairs, pose_error_basis=pose_error_basis,
-                    pose_simulation=pose_simulation)
+    return cost, objective, success
 
 
 def solve_batch(C, H, method: str = "dqopt", alpha=1.0, prior: Prior | None = None,

@@ -177,7 +177,22 @@ def ransac(C, H, *, alpha: float = 1.0, threshold: float | None = None,
     ``max_iterations``. The best consensus is refined (dqopt on its inliers, re-thresholded)
     until stable. ``rng``: Generator (default ``default_rng(0)``).
     """
-    import simcalib
+    C, H, rng = _check_ransac_inputs(C, H, rng, sample_size)
+    threshold = _ransac_threshold(C, H, threshold, noise, alpha)
+    auto = threshold is None
+    axes = _rotation_axes(C)
+    sample_size, min_axis, note = _minimal_set_plan(rng, axes, sample_size, min_axis_angle_deg)
+    best_X, iters = _best_hypothesis(C, H, rng, axes, sample_size, min_axis, threshold, alpha,
+                                     minimal_method, max_iterations, confidence)
+    X, final, mask, r, thr = _refine_consensus(C, H, best_X, threshold, alpha, final_method)
+    msg = _ransac_message(mask, thr, auto, noise, iters, sample_size, final_method, note)
+    return RobustSolution(X=X, solution=final, inlier_mask=mask,
+                          weights=mask.astype(np.float64), residuals=r, threshold=float(thr),
+                          method="ransac", iterations=iters, message=msg)
+
+
+def _check_ransac_inputs(C, H, rng, sample_size) -> tuple:
+    """The checked ``(C, H, rng)`` (rng default ``default_rng(0)``), ``sample_size`` checked."""
     C, H = _check_problem(C, H)
     N = C.shape[0]
     if rng is None:
@@ -190,16 +205,28 @@ def ransac(C, H, *, alpha: float = 1.0, threshold: float | None = None,
                          f"received {sample_size!r}")
     if N < 4:
         raise ValueError(f"RANSAC needs at least 4 motions; received {N}")
+    return C, H, rng
+
+
+def _ransac_threshold(C, H, threshold, noise, alpha) -> float | None:
+    """The inlier threshold: given, else from ``noise``, else None (automatic)."""
     if threshold is None and noise is not None:
         threshold = noise_threshold(C, H, *noise, alpha=alpha)
     if threshold is not None and not (math.isfinite(threshold) and threshold > 0):
         raise ValueError(f"threshold must be finite and > 0; received {threshold!r}")
-    auto = threshold is None
+    return threshold
+
+
+def _rotation_axes(C) -> np.ndarray:
+    """Unit rotation axes ``(N, 3)`` of the motions ``C`` (zero rotations: the zero vector)."""
     rv = rotvec_from_matrix(C[:, :3, :3])
     ang = np.linalg.norm(rv, axis=-1)
-    axes = rv / np.where(ang > 1e-12, ang, 1.0)[:, None]
-    best_score, best_X, iters, needed = -math.inf, None, 0, max_iterations
-    batch = 64
+    return rv / np.where(ang > 1e-12, ang, 1.0)[:, None]
+
+
+def _minimal_set_plan(rng, axes, sample_size, min_axis_angle_deg) -> tuple:
+    """``(sample_size, min_axis_rad, note)`` of the minimal sets, from a probe of 256 pairs."""
+    N = axes.shape[0]
     min_axis = math.radians(min_axis_angle_deg)
     note = ""
     probe = _draw_minimal_sets(rng, axes, 256, 2, min_axis)
@@ -211,6 +238,16 @@ def ransac(C, H, *, alpha: float = 1.0, threshold: float | None = None,
         note = (f"; only {probe.shape[0]}/256 motion pairs have rotation axes > "
                 f"{min_axis_angle_deg:g} deg apart (near-degenerate motion): minimal sets of "
                 f"{sample_size} motions, axis filter off")
+    return sample_size, min_axis, note
+
+
+def _best_hypothesis(C, H, rng, axes, sample_size, min_axis, threshold, alpha,
+                     minimal_method, max_iterations, confidence) -> tuple:
+    """``(X, hypotheses drawn)`` of the best-scoring minimal-set solve (threshold None: LMedS)."""
+    import simcalib
+    N = C.shape[0]
+    best_score, best_X, iters, needed = -math.inf, None, 0, max_iterations
+    batch = 64
     while iters < min(needed, max_iterations):
         sets = _draw_minimal_sets(rng, axes, batch, sample_size, min_axis)
         iters += batch
@@ -221,25 +258,41 @@ def ransac(C, H, *, alpha: float = 1.0, threshold: float | None = None,
         if Xs.shape[0] == 0:
             continue
         r = screw_residuals(C, H, Xs, alpha)                         # (B, N)
-        if auto:
-            score = -np.median(r, axis=1)
-        else:
-            score = (r < threshold).sum(axis=1) - 1e-9 * np.minimum(r, threshold).sum(axis=1)
+        score = _hypothesis_scores(r, threshold)
         k = int(np.argmax(score))
         if score[k] > best_score:
             best_score, best_X = float(score[k]), Xs[k]
-            if auto:
-                w = 0.5     # LMedS: plan for the 50 % breakdown point
-            else:
-                w = max(float((r[k] < threshold).mean()), 1.0 / N)
-            p_good = w ** sample_size
-            needed = (math.ceil(math.log(1 - confidence) / math.log(1 - p_good))
-                      if 0 < p_good < 1 else batch)
+            needed = _hypotheses_needed(r[k], threshold, N, sample_size, confidence, batch)
     if best_X is None:
         raise SolverError("RANSAC found no usable minimal set (are all rotation axes "
                          "parallel? such motions do not determine X)")
+    return best_X, iters
+
+
+def _hypothesis_scores(r: np.ndarray, threshold) -> np.ndarray:
+    """Score per hypothesis from residuals ``(B, N)``: -median (threshold None), else inliers."""
+    if threshold is None:
+        return -np.median(r, axis=1)
+    return (r < threshold).sum(axis=1) - 1e-9 * np.minimum(r, threshold).sum(axis=1)
+
+
+def _hypotheses_needed(r: np.ndarray, threshold, N: int, sample_size, confidence: float,
+                       batch: int) -> int:
+    """Hypotheses needed for ``confidence`` at the inlier ratio of residuals ``r`` (N,)."""
+    if threshold is None:
+        w = 0.5     # LMedS: plan for the 50 % breakdown point
+    else:
+        w = max(float((r < threshold).mean()), 1.0 / N)
+    p_good = w ** sample_size
+    return (math.ceil(math.log(1 - confidence) / math.log(1 - p_good))
+            if 0 < p_good < 1 else batch)
+
+
+def _refine_consensus(C, H, X, threshold, alpha, final_method) -> tuple:
+    """``(X, Solution, inliers, residuals, threshold)`` of ``final_method`` on stable inliers."""
+    import simcalib
+    auto = threshold is None
     # local optimisation: dqopt on the inliers until the set is stable
-    X = best_X
     r = screw_residuals(C, H, X, alpha)
     thr = _auto_threshold(r, 6) if auto else threshold
     mask = r < thr
@@ -259,12 +312,16 @@ def ransac(C, H, *, alpha: float = 1.0, threshold: float | None = None,
     if final is None or mask.sum() < 3:
         raise SolverError(f"RANSAC consensus has only {int(mask.sum())} motions "
                          f"(threshold {thr:.3g}); give a larger threshold or check the data")
+    return X, final, mask, r, thr
+
+
+def _ransac_message(mask, thr, auto, noise, iters, sample_size, final_method, note) -> str:
+    """The one-line summary of a RANSAC result."""
+    N = mask.size
     msg = (f"RANSAC: {int(mask.sum())}/{N} inliers ({mask.mean():.0%}), threshold "
            f"{thr:.3g} ({'auto, LMedS scale' if auto else ('from noise' if noise else 'given')}), "
            f"{iters} hypotheses of {sample_size} motions; {final_method} on the inliers{note}")
-    return RobustSolution(X=X, solution=final, inlier_mask=mask,
-                          weights=mask.astype(np.float64), residuals=r, threshold=float(thr),
-                          method="ransac", iterations=iters, message=msg)
+    return msg
 
 
 # -------------------------------------------------------------------------------- IRLS
