@@ -90,6 +90,26 @@ def test_ransac_is_deterministic_and_checks_inputs():
         ransac(p.C, p.H, threshold=-1.0)
     with pytest.raises(ValueError, match="at least 4"):
         ransac(p.C[:3], p.H[:3])
+    with pytest.raises(ValueError, match="at least 4 motions; received 2"):
+        ransac(p.C[:2], p.H[:2])                     # not the sample_size range
+    for kw, exc, match in (
+            (dict(threshold="0.1"), TypeError, "threshold must be a number or None; received str"),
+            (dict(noise=(0.01,)), ValueError, r"noise must be \(sigma_r_rad, sigma_t_m\)"),
+            (dict(confidence=1.0), ValueError, r"confidence must be in \(0, 1\); received 1.0"),
+            (dict(max_iterations=0), ValueError, "max_iterations must be an integer >= 1"),
+            (dict(min_axis_angle_deg=90), ValueError, r"min_axis_angle_deg must be in \[0, 90\)")):
+        with pytest.raises(exc, match=match):
+            ransac(p.C, p.H, **kw)
+    # a minimal set so large that its all-inlier chance rounds 1 - p to 1: the iteration
+    # budget still comes out finite (was a ZeroDivisionError)
+    from simcalib.solvers.robust import _hypotheses_needed
+    n = _hypotheses_needed(np.ones(40), 1e-3, 40, 39, 0.999, 64)   # p_good = 40**-39
+    assert isinstance(n, int) and n >= 10**18
+    assert _hypotheses_needed(np.zeros(40), 1e-3, 40, 2, 0.999, 64) == 64   # all inliers
+    # a given threshold wins over the noise, and the message says which was used
+    given = ransac(p.C, p.H, threshold=0.05, noise=(0.01, 0.01))
+    assert "(given)" in given.message and given.threshold <= 0.05 + 1e-12
+    assert "(from noise)" in ransac(p.C, p.H, noise=(0.01, 0.01)).message
     with pytest.raises(ValueError, match="available: none, ransac, irls"):
         robust_solve(p.C, p.H, "lmeds")
     assert noise_threshold(p.C, p.H, 0.01, 0.01) > 0
@@ -136,3 +156,15 @@ def test_solve_robust_reports_inliers_and_weights(robust):
         simcalib.solve(C, p.H, robust="ransc")
     with pytest.raises(ValueError, match="needs a method that takes weights"):
         simcalib.solve(C, p.H, method="daniilidis", robust=robust)
+    # the uncertainty options apply to the robust solve too (were silently ignored)
+    with pytest.raises(ValueError, match="uncertainty must be 'sandwich' or 'bootstrap'"):
+        simcalib.solve(C, p.H, robust=robust, uncertainty="bogus")
+    with pytest.raises(ValueError, match="tolerance"):
+        simcalib.solve(C, p.H, robust=robust, tolerance_deg=-1.0)
+    with pytest.raises(ValueError, match="correlation_lag applies to consecutive motions"):
+        simcalib.solve(C, p.H, robust=robust, correlation_lag=2)
+    boot = simcalib.solve(C, p.H, robust=robust, rng=np.random.default_rng(0),
+                          uncertainty="bootstrap", bootstrap_samples=20)
+    assert np.array_equal(boot.X, sol.X)                  # the same robust estimate
+    assert boot.uncertainty.method == "bootstrap" and boot.bootstrap_samples == 20
+    assert np.all(np.isfinite(boot.std)) and boot.uncertainty.n_motions == sol.n_motions

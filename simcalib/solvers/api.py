@@ -552,13 +552,19 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
     alpha = check_alpha(alpha)
     pose_bias = _check_pose_options(pose_bias, pose_pairs, pose_error_basis, pose_simulation,
                                     alpha, robust)
+    tolerance_deg, tolerance_m, correlation_lag = _check_uncertainty_options(
+        tolerance_deg, tolerance_m, uncertainty, bootstrap_samples, correlation_lag)
     if robust != "none":
+        if correlation_lag:
+            raise ValueError(f"correlation_lag applies to consecutive motions; robust="
+                             f"{robust!r} keeps a subset of them; received correlation_lag="
+                             f"{correlation_lag}")
         sol = _solve_robust(C, H, method, alpha, robust, robust_threshold, rng,
                             tolerance_deg=tolerance_deg, tolerance_m=tolerance_m,
                             weights=weights, prior=prior)
-        return replace(sol, pose_bias=pose_bias)
-    tolerance_deg, tolerance_m, correlation_lag = _check_uncertainty_options(
-        tolerance_deg, tolerance_m, uncertainty, bootstrap_samples, correlation_lag)
+        return replace(sol, pose_bias=pose_bias, uncertainty_method=uncertainty,
+                       bootstrap_rng=_bootstrap_rng(uncertainty, rng),
+                       bootstrap_samples=int(bootstrap_samples))
     boot_rng = _bootstrap_rng(uncertainty, rng)
     prior, rng = _check_method_inputs(info, prior, weights, rng)
     problem, out, runtime, compile_s = _run_solver(info, C, H, alpha, prior, rng, weights)

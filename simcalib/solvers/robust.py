@@ -178,6 +178,8 @@ def ransac(C, H, *, alpha: float = 1.0, threshold: float | None = None,
     until stable. ``rng``: Generator (default ``default_rng(0)``).
     """
     C, H, rng = _check_ransac_inputs(C, H, rng, sample_size)
+    _check_ransac_options(threshold, noise, max_iterations, confidence, min_axis_angle_deg)
+    given = threshold is not None
     threshold = _ransac_threshold(C, H, threshold, noise, alpha)
     auto = threshold is None
     axes = _rotation_axes(C)
@@ -185,7 +187,8 @@ def ransac(C, H, *, alpha: float = 1.0, threshold: float | None = None,
     best_X, iters = _best_hypothesis(C, H, rng, axes, sample_size, min_axis, threshold, alpha,
                                      minimal_method, max_iterations, confidence)
     X, final, mask, r, thr = _refine_consensus(C, H, best_X, threshold, alpha, final_method)
-    msg = _ransac_message(mask, thr, auto, noise, iters, sample_size, final_method, note)
+    msg = _ransac_message(mask, thr, auto, noise is not None and not given, iters,
+                          sample_size, final_method, note)
     return RobustSolution(X=X, solution=final, inlier_mask=mask,
                           weights=mask.astype(np.float64), residuals=r, threshold=float(thr),
                           method="ransac", iterations=iters, message=msg)
@@ -199,13 +202,36 @@ def _check_ransac_inputs(C, H, rng, sample_size) -> tuple:
         rng = np.random.default_rng(0)
     if not isinstance(rng, np.random.Generator):
         raise TypeError(f"rng must be a numpy.random.Generator; received {type(rng).__name__}")
+    if N < 4:
+        raise ValueError(f"RANSAC needs at least 4 motions; received {N}")
     if isinstance(sample_size, bool) or not isinstance(sample_size, (int, np.integer)) \
             or not 2 <= sample_size < N:
         raise ValueError(f"sample_size must be an integer in [2, N-1] (N = {N}); "
                          f"received {sample_size!r}")
-    if N < 4:
-        raise ValueError(f"RANSAC needs at least 4 motions; received {N}")
     return C, H, rng
+
+
+def _is_real(v) -> bool:
+    """A real number (not a bool)."""
+    return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)
+
+
+def _check_ransac_options(threshold, noise, max_iterations, confidence, min_axis_angle_deg):
+    """Raise on a threshold, noise, iteration budget, confidence or axis angle out of range."""
+    if threshold is not None and not _is_real(threshold):
+        raise TypeError(f"threshold must be a number or None; received "
+                        f"{type(threshold).__name__}")
+    if noise is not None and not (isinstance(noise, (tuple, list, np.ndarray))
+                                  and len(noise) == 2):
+        raise ValueError(f"noise must be (sigma_r_rad, sigma_t_m) or None; received {noise!r}")
+    if isinstance(max_iterations, bool) or not isinstance(max_iterations, (int, np.integer)) \
+            or max_iterations < 1:
+        raise ValueError(f"max_iterations must be an integer >= 1; received {max_iterations!r}")
+    if not (_is_real(confidence) and 0 < confidence < 1):
+        raise ValueError(f"confidence must be in (0, 1); received {confidence!r}")
+    if not (_is_real(min_axis_angle_deg) and 0 <= min_axis_angle_deg < 90):
+        raise ValueError(f"min_axis_angle_deg must be in [0, 90); received "
+                         f"{min_axis_angle_deg!r}")
 
 
 def _ransac_threshold(C, H, threshold, noise, alpha) -> float | None:
@@ -284,8 +310,12 @@ def _hypotheses_needed(r: np.ndarray, threshold, N: int, sample_size, confidence
     else:
         w = max(float((r < threshold).mean()), 1.0 / N)
     p_good = w ** sample_size
-    return (math.ceil(math.log(1 - confidence) / math.log(1 - p_good))
-            if 0 < p_good < 1 else batch)
+    if not 0 < p_good < 1:
+        return batch
+    den = math.log(1 - p_good)
+    if den == 0.0:              # 1 - p_good rounds to 1: log1p keeps the tiny p_good
+        den = math.log1p(-p_good)
+    return int(min(math.ceil(math.log(1 - confidence) / den), 2**62))
 
 
 def _refine_consensus(C, H, X, threshold, alpha, final_method) -> tuple:
@@ -315,11 +345,12 @@ def _refine_consensus(C, H, X, threshold, alpha, final_method) -> tuple:
     return X, final, mask, r, thr
 
 
-def _ransac_message(mask, thr, auto, noise, iters, sample_size, final_method, note) -> str:
-    """The one-line summary of a RANSAC result."""
+def _ransac_message(mask, thr, auto, from_noise, iters, sample_size, final_method,
+                    note) -> str:
+    """The one-line summary of a RANSAC result (``from_noise``: threshold from the noise)."""
     N = mask.size
     msg = (f"RANSAC: {int(mask.sum())}/{N} inliers ({mask.mean():.0%}), threshold "
-           f"{thr:.3g} ({'auto, LMedS scale' if auto else ('from noise' if noise else 'given')}), "
+           f"{thr:.3g} ({'auto, LMedS scale' if auto else ('from noise' if from_noise else 'given')}), "
            f"{iters} hypotheses of {sample_size} motions; {final_method} on the inliers{note}")
     return msg
 
