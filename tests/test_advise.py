@@ -310,6 +310,34 @@ def test_candidates_count_the_markers_the_lens_shows(scara_advice):
         np.testing.assert_array_equal(zero.visible[c], pin.visible[c])
 
 
+def test_a_stop_the_render_never_measures_is_never_advised(scara_advice):
+    """When every round of the render check finds an unmeasured stop (here: the last stop
+    of each chain it is shown), the advice is chosen among the stops the renders did
+    measure: no advised stop is one the render rejected, and each has its marker count."""
+    from types import SimpleNamespace
+    from simcalib.advise.advisor import advise_motions
+    base, _ = scara_advice
+    shown = []
+
+    def render_check(cand, order):
+        shown.append([int(j) for j in order])
+        frames = [0] + list(range(1, len(order)))            # the last stop: no pose
+        return {c: SimpleNamespace(frame_index=np.array(frames),
+                                   info={"n_markers": np.full(len(frames), 7)})
+                for c in base.aruco_cameras}
+
+    adv = advise_motions(base.truth.world, base.C, base.H, base.X, 3,
+                         rng=np.random.default_rng([5, 13]), alpha=base.alpha,
+                         n_candidates=40, aruco_cameras=base.aruco_cameras,
+                         render_check=render_check)
+    assert len(shown) == 4 and adv.rejected_by_render          # every round rejected one
+    measured = {j for order in shown for j in order[:-1]}
+    assert adv.chosen.size >= 1 and set(adv.chosen.tolist()) <= measured
+    assert not set(adv.chosen.tolist()) & set(adv.rejected_by_render)
+    for c in base.aruco_cameras:
+        assert adv.render_check[c] == [7] * adv.chosen.size
+
+
 def test_joint_jog_baseline_stops_are_feasible(scara_advice):
     from simcalib.advise.feasibility import joint_candidates, view_quality
     base, adv = scara_advice

@@ -92,3 +92,11 @@ def test_ratio_interval_bootstraps_the_rigs():
         tables.ratio_interval(vers, n_boot=0)
     with pytest.raises(ValueError, match=r"level must be in \(0, 1\); received 1.5"):
         tables.ratio_interval(vers, level=1.5)
+
+
+def test_verdict_cell_is_the_same_in_every_process():
+    """A tie between verdicts is broken by name, not by the process's hash seed."""
+    from types import SimpleNamespace
+    for v in (["undetermined", "determined"], ["determined", "undetermined"]):
+        assert tables._verdicts(SimpleNamespace(verdicts=v)) == "determined (1/2 determined)"
+    assert tables._verdicts(SimpleNamespace(verdicts=[None])) == "n/a"

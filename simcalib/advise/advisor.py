@@ -178,58 +178,25 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
     t2 = time.perf_counter()
     Cc, Hc = pl.predicted_motions(cand.motion["cam_a"], X)
     F_cand = pl.motion_information(Cc, Hc, X, s_r, s_t)
-    feasible = cand.feasible.copy()
-    scale = np.ones(cand.n)
-    if view_weighting and aruco_cameras:
-        for c in aruco_cameras:
-            q_ref = fz.view_quality(world, cand.ref["T_world_cam"][c][None], c, lens)[0]
-            q = fz.view_quality(world, cand.T_world_cam[c], c, lens)
-            f = np.clip((q_ref / np.maximum(q, 1e-9)) ** 2, 0.25, 4.0)
-            scale = np.maximum(scale, f) if c != aruco_cameras[0] else f
+    scale = _view_noise_scale(world, cand, aruco_cameras, lens, view_weighting)
     sysm, groups = None, []
     if pose_error_basis is not None and run_cfg is not None and sources:
         sysm, groups = _systematic(world, cand, C, H, X, s_r, s_t, pose_error_basis,
                                    dict(sources), run_cfg)
-    rejected, checked = [], {}
     message, propose = determined_message(F_base, when_determined, **kw)
-    if not propose:
-        feasible = np.zeros_like(feasible)
-    for _ in range(4):
-        g, added, added_g = pl.greedy_chain_systematic(
-            F_base, cand.motion["cam_a"], X, s_r, s_t, k, feasible=feasible,
-            noise_scale=scale, refine=refine, systematic=sysm, **kw)
-        if render_check is None or not aruco_cameras or g.order.size == 0:
-            break
-        streams = render_check(cand, g.order)
-        bad = []
-        checked = {}
-        for c in aruco_cameras:
-            got = set(int(f) for f in np.asarray(streams[c].frame_index))
-            nm = np.asarray(streams[c].info.get("n_markers", np.zeros(0)))
-            per = {int(f): int(nm[j]) if j < nm.size else -1
-                   for j, f in enumerate(np.asarray(streams[c].frame_index))}
-            checked[c] = [per.get(j + 1, 0) for j in range(g.order.size)]
-            bad += [int(g.order[j]) for j in range(g.order.size) if (j + 1) not in got]
-            if 0 not in got:
-                raise ValueError(f"{c} measures no pose at the reference stop; advice needs "
-                                 "the reference pose")
-        if not bad:
-            break
-        rejected += sorted(set(bad))
-        feasible[np.array(sorted(set(bad)))] = False
+    feasible = cand.feasible.copy() if propose else np.zeros_like(cand.feasible)
+    g, added, added_g, rejected, checked = _choose_render_checked(
+        F_base, cand, X, s_r, s_t, k, feasible, scale, refine, sysm, render_check,
+        aruco_cameras, kw)
     t3 = time.perf_counter()
     before, after = predicted_along_chain(F_base, added, added_g, sysm, L, **kw)
     cannot = pl.undeterminable(F_base, F_cand, feasible=cand.feasible, range_m=L, **kw)
-    usable = cand.feasible.copy()
-    usable[list(rejected)] = False
-    chains, chains_std = random_chains(F_base, cand.motion["cam_a"], X, s_r, s_t, usable,
-                                       int(g.order.size), rng, noise_scale=scale,
-                                       systematic=sysm, range_m=L, **kw)
-    limit = {}
-    if sysm is not None:
-        limit = limited_by(F_base + added.sum(axis=0), sysm[0] + added_g.sum(axis=0), groups,
-                           after[-1] if len(after) else before, range_m=L,
-                           exclude=cannot_help_axes(cannot), **kw)
+    chains, chains_std = random_chains(F_base, cand.motion["cam_a"], X, s_r, s_t,
+                                       _usable(cand, rejected), int(g.order.size), rng,
+                                       noise_scale=scale, systematic=sysm, range_m=L, **kw)
+    limit = {} if sysm is None else limited_by(
+        F_base + added.sum(axis=0), sysm[0] + added_g.sum(axis=0), groups,
+        after[-1] if len(after) else before, range_m=L, exclude=cannot_help_axes(cannot), **kw)
     return Advice(k=int(k), candidates=cand, chosen=g.order,
                   std_before=before, std_after=after, max_std_tol=g.max_std_tol,
                   criterion=g.criterion, noise=(s_r, s_t), tolerance_deg=tolerance_deg,
@@ -241,6 +208,71 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
                   timing_s={"information": t1 - t0, "candidates": t2 - t1,
                             "choice_and_render_check": t3 - t2,
                             "total": time.perf_counter() - t0})
+
+
+def _view_noise_scale(world, cand, aruco_cameras, lens, view_weighting: bool) -> np.ndarray:
+    """``(N,)`` pose-noise variance factor of each candidate stop from the worst ArUco view."""
+    scale = np.ones(cand.n)
+    if view_weighting and aruco_cameras:
+        for c in aruco_cameras:
+            q_ref = fz.view_quality(world, cand.ref["T_world_cam"][c][None], c, lens)[0]
+            q = fz.view_quality(world, cand.T_world_cam[c], c, lens)
+            f = np.clip((q_ref / np.maximum(q, 1e-9)) ** 2, 0.25, 4.0)
+            scale = np.maximum(scale, f) if c != aruco_cameras[0] else f
+    return scale
+
+
+def _choose_render_checked(F_base, cand, X, s_r, s_t, k, feasible, scale, refine, sysm,
+                           render_check, aruco_cameras, kw) -> tuple:
+    """The chain, chosen again without the stops the render check finds unmeasured (at most
+    4 rounds; if the last still finds some, chosen among the stops the renders measured):
+    ``(g, added, added_g, rejected, markers per chosen stop and camera)``."""
+    def choose(feas):
+        return pl.greedy_chain_systematic(
+            F_base, cand.motion["cam_a"], X, s_r, s_t, k, feasible=feas,
+            noise_scale=scale, refine=refine, systematic=sysm, **kw)
+    rejected, seen, measured = [], {c: {} for c in aruco_cameras}, set()
+    for _ in range(4):
+        g, added, added_g = choose(feasible)
+        if render_check is None or not aruco_cameras or g.order.size == 0:
+            return g, added, added_g, rejected, {}
+        bad, checked = _unmeasured_stops(render_check(cand, g.order), aruco_cameras, g.order)
+        if not bad:
+            return g, added, added_g, rejected, checked
+        for c in aruco_cameras:
+            seen[c].update(zip(g.order.tolist(), checked[c]))
+        measured |= set(g.order.tolist()) - set(bad)
+        rejected += sorted(set(bad))
+        feasible[np.array(sorted(set(bad)))] = False
+    only = np.zeros_like(feasible)
+    only[sorted(measured)] = True
+    g, added, added_g = choose(feasible & only)
+    return g, added, added_g, rejected, {c: [seen[c][int(j)] for j in g.order]
+                                         for c in aruco_cameras}
+
+
+def _unmeasured_stops(streams, aruco_cameras, order) -> tuple[list, dict]:
+    """``(bad, checked)``: stops an ArUco camera measured no pose at, its markers per stop."""
+    bad = []
+    checked = {}
+    for c in aruco_cameras:
+        got = set(int(f) for f in np.asarray(streams[c].frame_index))
+        nm = np.asarray(streams[c].info.get("n_markers", np.zeros(0)))
+        per = {int(f): int(nm[j]) if j < nm.size else -1
+               for j, f in enumerate(np.asarray(streams[c].frame_index))}
+        checked[c] = [per.get(j + 1, 0) for j in range(order.size)]
+        bad += [int(order[j]) for j in range(order.size) if (j + 1) not in got]
+        if 0 not in got:
+            raise ValueError(f"{c} measures no pose at the reference stop; advice needs "
+                             "the reference pose")
+    return bad, checked
+
+
+def _usable(cand, rejected) -> np.ndarray:
+    """``(N,)`` feasible candidates the render check did not reject."""
+    usable = cand.feasible.copy()
+    usable[list(rejected)] = False
+    return usable
 
 
 def check_when_determined(when_determined) -> str:

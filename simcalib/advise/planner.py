@@ -318,10 +318,7 @@ def chain_information(F_base, motion_a, X, sigma_r_rad: float, sigma_t_m: float,
             or ch.min() < 0 or ch.max() >= N:
         raise ValueError(f"chains must be a non-empty (n, k) integer array of candidate "
                          f"indices in [0, {N}); received shape {ch.shape}, dtype {ch.dtype}")
-    sc = np.ones(N) if noise_scale is None else np.asarray(noise_scale, dtype=np.float64)
-    if sc.shape != (N,) or not np.all(np.isfinite(sc)) or np.any(sc <= 0):
-        raise ValueError(f"noise_scale must be ({N},) finite and > 0; received shape "
-                         f"{sc.shape}")
+    sc = _check_noise_scale(noise_scale, N)
     sysm = check_chain_systematic(systematic, N)
     n = ch.shape[0]
     F = np.broadcast_to(np.asarray(F_base, dtype=np.float64), (n, 6, 6)).copy()
@@ -349,125 +346,186 @@ def greedy_chain_systematic(*args, **kw) -> tuple[GreedyResult, np.ndarray, np.n
 def _greedy_chain(F_base, motion_a, X, sigma_r_rad, sigma_t_m, k, *, feasible=None,
                   tolerance_deg=1.0, tolerance_m=0.01, noise_scale=None,
                   ref_noise_scale=1.0, refine=True, max_passes=4, systematic=None):
+    """:func:`greedy_chain_systematic`: the greedy chain, its exchange passes, its result."""
     if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
         raise ValueError(f"k must be an integer >= 1; received {k!r}")
-    dsc = _scale(tolerance_deg, tolerance_m)
-    S = np.outer(dsc, dsc)
-    M = np.asarray(motion_a, dtype=np.float64)
-    N = M.shape[0]
+    m = _chain_model(motion_a, X, sigma_r_rad, sigma_t_m, noise_scale, ref_noise_scale,
+                     systematic, tolerance_deg, tolerance_m)
+    N = m.M.shape[0]
+    avail = np.ones(N, bool) if feasible is None else np.asarray(feasible, bool).copy()
+    F0 = np.asarray(F_base, dtype=np.float64)
+    order = _greedy_stops(m, F0, avail, k)
+    if refine and len(order) > 0:
+        _exchange_passes(m, F0, order, avail, max_passes)
+    return _chain_result(m, F0, order)
+
+
+@dataclass(frozen=True)
+class _ChainModel:
+    """What the links and the criterion of a stop-and-go chain are computed from."""
+    M: np.ndarray             # (N, 4, 4) camera a's motion from the reference to each candidate
+    X: object
+    s_r: float
+    s_t: float
+    sc: np.ndarray            # (N,) noise variance factor of each candidate stop
+    ref_scale: float          # ... and of the reference stop
+    sysm: tuple | None        # check_chain_systematic's (G_base, B_ref, B_cand), or None
+    G0: np.ndarray            # (6, P) systematic score of the recorded motions (P = 0: none)
+    dsc: np.ndarray           # (6,) tolerance scale
+    S: np.ndarray             # (6, 6) its outer product
+
+
+def _check_noise_scale(noise_scale, N: int) -> np.ndarray:
+    """The per-candidate pose-noise factors ``(N,)`` (default ones), finite and > 0."""
     sc = np.ones(N) if noise_scale is None else np.asarray(noise_scale, dtype=np.float64)
     if sc.shape != (N,) or not np.all(np.isfinite(sc)) or np.any(sc <= 0):
         raise ValueError(f"noise_scale must be ({N},) finite and > 0; received shape "
                          f"{sc.shape}")
+    return sc
+
+
+def _chain_model(motion_a, X, s_r, s_t, noise_scale, ref_noise_scale, systematic,
+                 tolerance_deg, tolerance_m) -> _ChainModel:
+    """The checked inputs of a chain choice (noise factors and systematic errors)."""
+    dsc = _scale(tolerance_deg, tolerance_m)
+    M = np.asarray(motion_a, dtype=np.float64)
+    N = M.shape[0]
+    sc = _check_noise_scale(noise_scale, N)
     sysm = check_chain_systematic(systematic, N)
-    avail = np.ones(N, bool) if feasible is None else np.asarray(feasible, bool).copy()
-    F0 = np.asarray(F_base, dtype=np.float64)
     G0 = sysm[0] if sysm is not None else np.zeros((6, 0))
-    I4 = np.eye(4)
-    s_r, s_t = sigma_r_rad, sigma_t_m
+    return _ChainModel(M, X, s_r, s_t, sc, ref_noise_scale, sysm, G0, dsc, np.outer(dsc, dsc))
 
-    def pose(j):
-        return I4 if j < 0 else M[j]
 
-    def scale(j):
-        return ref_noise_scale if j < 0 else sc[j]
+def _stop_pose_scale(m: _ChainModel, j):
+    """Camera a's pose and the noise factor of stop ``j`` (-1: the reference)."""
+    return (np.eye(4), m.ref_scale) if j < 0 else (m.M[j], m.sc[j])
 
-    def basis(j):
-        """(2, 6, P) error basis of stop j (-1: the reference) for cameras a and b."""
-        return sysm[1] if j < 0 else sysm[2][:, j]
 
-    def link(prev, idx, nxt=None):
-        """(F, G) of the motions prev -> idx (idx an array), or idx -> nxt when nxt given."""
-        def one(j):                       # a single stop's basis beside the batch's
-            return np.broadcast_to(basis(j)[:, None], (2, len(idx)) + G0.shape)
-        if nxt is None:
-            Bf, Bt = (None, None) if sysm is None else (one(prev), sysm[2][:, idx])
-            return _link(pose(prev), M[idx], X, s_r, s_t, scale(prev), sc[idx], Bf, Bt)
-        Bf, Bt = (None, None) if sysm is None else (sysm[2][:, idx], one(nxt))
-        return _link(M[idx], M[nxt], X, s_r, s_t, sc[idx], sc[nxt], Bf, Bt)
+def _stop_basis(m: _ChainModel, j, n: int) -> np.ndarray:
+    """(2, n, 6, P) error basis of stop ``j`` (-1: the reference), cameras a and b, n times."""
+    B = m.sysm[1] if j < 0 else m.sysm[2][:, j]
+    return np.broadcast_to(B[:, None], (2, n) + m.G0.shape)
 
-    def crit(F, G):
-        if sysm is None:
-            return _criterion(F * S)
-        return _criterion_systematic(F * S, G * dsc[:, None])
 
-    cur_F, cur_G = F0, G0
+def _chain_link(m: _ChainModel, prev, idx, nxt=None):
+    """(F, G) of the motions prev -> idx (idx an array), or idx -> nxt when nxt given."""
+    if nxt is None:
+        Bf, Bt = (None, None) if m.sysm is None else (_stop_basis(m, prev, len(idx)),
+                                                      m.sysm[2][:, idx])
+        T_prev, s_prev = _stop_pose_scale(m, prev)
+        return _link(T_prev, m.M[idx], m.X, m.s_r, m.s_t, s_prev, m.sc[idx], Bf, Bt)
+    Bf, Bt = (None, None) if m.sysm is None else (m.sysm[2][:, idx],
+                                                  _stop_basis(m, nxt, len(idx)))
+    return _link(m.M[idx], m.M[nxt], m.X, m.s_r, m.s_t, m.sc[idx], m.sc[nxt], Bf, Bt)
+
+
+def _chain_criterion(m: _ChainModel, F, G):
+    """Criterion (batched) of information ``F`` and systematic score ``G`` (rad, m)."""
+    if m.sysm is None:
+        return _criterion(F * m.S)
+    return _criterion_systematic(F * m.S, G * m.dsc[:, None])
+
+
+def _greedy_stops(m: _ChainModel, F0, avail, k) -> list:
+    """Greedy chain: each step adds the available stop with the best criterion."""
+    cur_F, cur_G = F0, m.G0
     order = []
     for _ in range(int(k)):
         idx = np.flatnonzero(avail)
         if idx.size == 0:
             break
         prev = order[-1] if order else -1
-        Fc, Gc = link(prev, idx)
-        c = crit(cur_F[None] + Fc, cur_G[None] + Gc)
+        Fc, Gc = _chain_link(m, prev, idx)
+        c = _chain_criterion(m, cur_F[None] + Fc, cur_G[None] + Gc)
         j = int(np.argmin(c))
-        if sysm is not None and not c[j] < float(crit(cur_F, cur_G)):
+        if m.sysm is not None and not c[j] < float(_chain_criterion(m, cur_F, cur_G)):
             break          # every stop would add more systematic error than information
         order.append(int(idx[j]))
         avail[idx[j]] = False
         cur_F, cur_G = cur_F + Fc[j], cur_G + Gc[j]
+    return order
 
-    def links(order):
-        """(F, G) of each motion of the chain ``order`` (from the reference)."""
-        prevs = [-1] + order[:-1]
-        out = [link(p, np.array([o])) for p, o in zip(prevs, order)]
-        return [f[0] for f, _ in out], [g[0] for _, g in out]
 
-    def _monotone(order):
-        LF, LG = links(order)
-        F, G = F0, G0
-        prev_c = float(crit(F, G))
-        for Fa, Ga in zip(LF, LG):
-            F, G = F + Fa, G + Ga
-            c = float(crit(F, G))
-            if c > prev_c:
-                return False
-            prev_c = c
-        return True
+def _chain_links(m: _ChainModel, order):
+    """(F, G) of each motion of the chain ``order`` (from the reference)."""
+    prevs = [-1] + order[:-1]
+    out = [_chain_link(m, p, np.array([o])) for p, o in zip(prevs, order)]
+    return [f[0] for f, _ in out], [g[0] for _, g in out]
 
-    if refine and len(order) > 0:
-        for _ in range(int(max_passes)):
-            changed = False
-            for p in range(len(order)):
-                idx = np.flatnonzero(avail)
-                if idx.size == 0:
-                    break
-                LF, LG = links(order)
-                prev = order[p - 1] if p > 0 else -1
-                keep = [i for i in range(len(order)) if i not in (p, p + 1)]
-                rest_F = F0 + sum((LF[i] for i in keep), np.zeros((6, 6)))
-                rest_G = G0 + sum((LG[i] for i in keep), np.zeros_like(G0))
-                F_in, G_in = link(prev, idx)
-                tot_F, tot_G = rest_F[None] + F_in, rest_G[None] + G_in
-                if p + 1 < len(order):
-                    F_out, G_out = link(None, idx, order[p + 1])
-                    tot_F, tot_G = tot_F + F_out, tot_G + G_out
-                c = crit(tot_F, tot_G)
-                now = float(crit(F0 + sum(LF), G0 + sum(LG, np.zeros_like(G0))))
-                for best in np.argsort(c, kind="stable")[:10]:
-                    if not c[best] < now * (1 - 1e-9):
-                        break
-                    trial = order[:p] + [int(idx[best])] + order[p + 1:]
-                    if sysm is not None and not _monotone(trial):
-                        continue   # each stop must lower the predicted uncertainty
-                    avail[order[p]] = True
-                    order[p] = int(idx[best])
-                    avail[order[p]] = False
-                    changed = True
-                    break
-            if not changed:
+
+def _lowers_at_every_stop(m: _ChainModel, F0, order) -> bool:
+    """Whether no stop of the chain ``order`` raises the criterion."""
+    LF, LG = _chain_links(m, order)
+    F, G = F0, m.G0
+    prev_c = float(_chain_criterion(m, F, G))
+    for Fa, Ga in zip(LF, LG):
+        F, G = F + Fa, G + Ga
+        c = float(_chain_criterion(m, F, G))
+        if c > prev_c:
+            return False
+        prev_c = c
+    return True
+
+
+def _exchange_passes(m: _ChainModel, F0, order, avail, max_passes) -> None:
+    """Exchange passes over ``order`` (in place) until one changes nothing."""
+    for _ in range(int(max_passes)):
+        changed = False
+        for p in range(len(order)):
+            idx = np.flatnonzero(avail)
+            if idx.size == 0:
                 break
-    LF, LG = links(order) if order else ([], [])
-    cur_F, cur_G = F0.copy(), G0.copy()
-    crits, mx = [float(crit(cur_F, cur_G))], [_max_std_sys(cur_F, cur_G, dsc)]
+            if _exchange_stop(m, F0, order, avail, p, idx):
+                changed = True
+        if not changed:
+            break
+
+
+def _exchange_stop(m: _ChainModel, F0, order, avail, p, idx) -> bool:
+    """Whether stop ``p`` of ``order`` was replaced (in place) by a better candidate."""
+    LF, LG = _chain_links(m, order)
+    c = _criteria_with_stop_replaced(m, F0, order, LF, LG, p, idx)
+    now = float(_chain_criterion(m, F0 + sum(LF), m.G0 + sum(LG, np.zeros_like(m.G0))))
+    for best in np.argsort(c, kind="stable")[:10]:
+        if not c[best] < now * (1 - 1e-9):
+            break
+        trial = order[:p] + [int(idx[best])] + order[p + 1:]
+        if m.sysm is not None and not _lowers_at_every_stop(m, F0, trial):
+            continue   # each stop must lower the predicted uncertainty
+        avail[order[p]] = True
+        order[p] = int(idx[best])
+        avail[order[p]] = False
+        return True
+    return False
+
+
+def _criteria_with_stop_replaced(m: _ChainModel, F0, order, LF, LG, p, idx):
+    """Criterion of the chain ``order`` with stop ``p`` replaced by each of ``idx``."""
+    prev = order[p - 1] if p > 0 else -1
+    keep = [i for i in range(len(order)) if i not in (p, p + 1)]
+    rest_F = F0 + sum((LF[i] for i in keep), np.zeros((6, 6)))
+    rest_G = m.G0 + sum((LG[i] for i in keep), np.zeros_like(m.G0))
+    F_in, G_in = _chain_link(m, prev, idx)
+    tot_F, tot_G = rest_F[None] + F_in, rest_G[None] + G_in
+    if p + 1 < len(order):
+        F_out, G_out = _chain_link(m, None, idx, order[p + 1])
+        tot_F, tot_G = tot_F + F_out, tot_G + G_out
+    return _chain_criterion(m, tot_F, tot_G)
+
+
+def _chain_result(m: _ChainModel, F0, order):
+    """(GreedyResult, information, systematic score of each stop) of the chain ``order``."""
+    LF, LG = _chain_links(m, order) if order else ([], [])
+    cur_F, cur_G = F0.copy(), m.G0.copy()
+    crits, mx = [float(_chain_criterion(m, cur_F, cur_G))], [_max_std_sys(cur_F, cur_G, m.dsc)]
     for Fa, Ga in zip(LF, LG):
         cur_F, cur_G = cur_F + Fa, cur_G + Ga
-        crits.append(float(crit(cur_F, cur_G)))
-        mx.append(_max_std_sys(cur_F, cur_G, dsc))
+        crits.append(float(_chain_criterion(m, cur_F, cur_G)))
+        mx.append(_max_std_sys(cur_F, cur_G, m.dsc))
+    P = m.G0.shape[1]
     return (GreedyResult(np.array(order, dtype=np.int64), np.array(crits), np.array(mx)),
             np.array(LF).reshape(-1, 6, 6),
-            np.array(LG).reshape((len(LF), 6, G0.shape[1])) if LG else
-            np.zeros((0, 6, G0.shape[1])))
+            np.array(LG).reshape((len(LF), 6, P)) if LG else np.zeros((0, 6, P)))
 
 
 def _max_std_sys(F, G, dsc) -> float:
@@ -479,7 +537,11 @@ def _max_std_sys(F, G, dsc) -> float:
     w = _max_std(Ft)
     if not math.isfinite(w):
         return math.inf
-    S = _with_systematic(np.linalg.inv(0.5 * (Ft + Ft.T)), G * dsc[:, None])
+    try:
+        Fi = np.linalg.inv(0.5 * (Ft + Ft.T))
+    except np.linalg.LinAlgError:           # numerically singular: a direction undetermined
+        return math.inf
+    S = _with_systematic(Fi, G * dsc[:, None])
     lam = np.linalg.eigvalsh(S)[-1]
     return float(math.sqrt(max(lam, 0.0)))
 

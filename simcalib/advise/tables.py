@@ -401,7 +401,7 @@ def _verdicts(ver) -> str:
     v = [x for x in ver.verdicts if x]
     if not v:
         return "n/a"
-    top = max(set(v), key=v.count)
+    top = max(sorted(set(v)), key=v.count)       # ties: the first in sorted order
     return f"{top} ({v.count('determined')}/{len(v)} determined)"
 
 
@@ -537,6 +537,25 @@ def _targets(checks) -> str:
 
 
 def main(argv=None) -> int:
+    a = _parse_args(argv)
+    os.environ.setdefault("MUJOCO_GL", "egl")
+    t0 = time.perf_counter()
+    tab = {key: [] for key in ("rows", "sig_rows", "notes", "checks", "size_rows",
+                               "frame_rows", "bound_rows", "rank_rows")}
+    prose = {"advised": [], "random": [], "planner": [], "base3d": "n/a"}
+    for name, ov in CASES:
+        runs = [run_case(name, ov, a.k, tuple(range(a.seeds)), a.candidates, a.stop_frames,
+                         rig) for rig in range(a.rigs)]
+        _add_scenario(tab, prose, name, ov, runs)
+        print(tab["rows"][-1], flush=True)
+    text = _head(a, prose, time.perf_counter() - t0) + _sections(a, tab)
+    Path(a.out).write_text(text)
+    print(f"wrote {a.out}")
+    return 0
+
+
+def _parse_args(argv):
+    """The command line of :func:`main`."""
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--out", default="docs/advice.md")
     ap.add_argument("--k", type=int, default=5)
@@ -546,127 +565,179 @@ def main(argv=None) -> int:
                     help="frames averaged at each stop in the second verification")
     ap.add_argument("--rigs", type=int, default=5,
                     help="scenario seeds 0..rigs-1: each its own recorded run and rig")
-    a = ap.parse_args(argv)
-    os.environ.setdefault("MUJOCO_GL", "egl")
-    t0 = time.perf_counter()
-    rows, sig_rows, notes, checks, size_rows, frame_rows = [], [], [], [], [], []
-    bound_rows, rank_rows = [], []
-    prose = {"advised": [], "random": [], "planner": [], "base3d": "n/a"}
-    for name, ov in CASES:
-        runs = [run_case(name, ov, a.k, tuple(range(a.seeds)), a.candidates, a.stop_frames,
-                         rig) for rig in range(a.rigs)]
-        cfg, base, adv = runs[0][:3]                 # the planner's numbers: rig 0
-        t_adv = max(r[4] for r in runs)
-        ver = pool([r[3] for r in runs])
-        ver_f = pool([r[5] for r in runs]) if runs[0][5] is not None else None
-        label = name + "".join(f" {o}" for o in ov)
-        b, med, rt = ver.baseline, ver.random_median, ver.ratio
-        verdict = _verdicts(ver)
-        medj, rtj = ver.random_joint_median, ver.ratio_joint
-        am = ver.advised_median
-        cand = adv.candidates
-        rows.append(
-            f"| {label} | {base.C.shape[0]} | {cand.feasible.sum()}/{cand.n} | "
-            f"{adv.chosen.size} | {_fmt(b.get('rotation_error_deg'))} / "
-            f"{_fmt(b.get('translation_error_cm'))} | {_fmt(am.get('rotation_error_deg'))} / "
-            f"{_fmt(am.get('translation_error_cm'))} | {_fmt(med['rotation_error_deg'])} / "
-            f"{_fmt(med['translation_error_cm'])} | {_fmt(rt['rotation_error_deg'], 2)} / "
-            f"{_fmt(rt['translation_error_cm'], 2)} | {_interval(ver.ratio_interval)} | "
-            + _median_ratio(medj, rtj) + _median_ratio(ver.random_wide_median, ver.ratio_wide)
-            + " ".join(f"{_fmt(x.get('rotation_error_deg'), 2)}/"
-                       f"{_fmt(x.get('translation_error_cm'), 2)}" for x in ver.per_rig_ratio)
-            + f" | {verdict} | {t_adv:.1f} |")
-        if ver_f is not None:
-            frame_rows.append(_frames_row(label, ver, ver_f))
-        bound_rows.append(_bound_row(label, ver))
-        rank_rows.append(_ranking_row(label, [r[2] for r in runs], [r[3] for r in runs], ver))
-        ms = ver.motion_size
-        size_rows.append(
-            f"| {label} | " + " | ".join(
-                f"{_fmt((ms.get(w) or {}).get('rotation_deg'), 2)} / "
-                f"{_fmt((ms.get(w) or {}).get('translation_cm'), 2)}"
-                for w in ("advised", "random", "random_joint", "random_wide")) + " |")
-        plan = adv.std_after[-1] if adv.std_after.size else adv.std_before
-        plan_deg, plan_cm = float(np.max(plan[:3])), 100 * float(np.max(plan[3:]))
-        sig_rows.append(
-            f"| {label} | {_fmt(b.get('max_std_deg'))} / {_fmt(b.get('max_std_cm'))} | "
-            f"{_fmt(am.get('max_std_deg'))} / {_fmt(am.get('max_std_cm'))} | "
-            f"{_fmt(med['max_std_deg'])} / {_fmt(med['max_std_cm'])} | "
-            f"{_fmt(plan_deg)} / {_fmt(plan_cm)} | {adv.systematic_parameters} | "
-            + " ".join(_fmt(x, 2) for x in adv.max_std_tol) + " |")
-        for h in adv.cannot_help:
-            notes.append(f"- {label}: {h['statement']}. Fix: {h['fix']}.")
-        if adv.message:
-            notes.append(f"- {label}: {adv.message}.")
-        if adv.limited_by.get("statement"):
-            notes.append(f"- {label}: after the advised stops, {adv.limited_by['statement']}.")
-        checks.append((label, name, rt, ver, t_adv, rtj, ver.ratio_wide))
-        if name == "3d" and not ov:
-            b0 = runs[0][3].baseline
-            prose["base3d"] = (f"{_fmt(b0.get('rotation_error_deg'))} deg / "
-                               f"{_fmt(b0.get('translation_error_cm'))} cm")
-        if name in ("scara", "linear", "rotation"):
-            for e, sd in (("rotation_error_deg", plan_deg), ("translation_error_cm", plan_cm)):
-                if am.get(e) is not None and math.isfinite(sd) and sd > 0:
-                    prose["planner"].append(am[e] / sd)
-            for key, v in (("advised", am), ("random", med)):
-                for e, sd in (("rotation_error_deg", "max_std_deg"),
-                              ("translation_error_cm", "max_std_cm")):
-                    if v.get(e) is not None and v.get(sd):
-                        prose[key].append(v[e] / v[sd])
-        print(rows[-1], flush=True)
-    text = HEAD.format(command=f"python -m simcalib.advise.tables --out {a.out} --k {a.k} "
+    return ap.parse_args(argv)
+
+
+def _add_scenario(tab, prose, name, ov, runs) -> None:
+    """Append a scenario's rows (its :func:`run_case` of every rig) to ``tab`` and ``prose``."""
+    base, adv = runs[0][1:3]                     # the planner's numbers: rig 0
+    t_adv = max(r[4] for r in runs)
+    ver = pool([r[3] for r in runs])
+    ver_f = pool([r[5] for r in runs]) if runs[0][5] is not None else None
+    label = name + "".join(f" {o}" for o in ov)
+    tab["rows"].append(_actual_row(label, base, adv, ver, t_adv))
+    if ver_f is not None:
+        tab["frame_rows"].append(_frames_row(label, ver, ver_f))
+    tab["bound_rows"].append(_bound_row(label, ver))
+    tab["rank_rows"].append(_ranking_row(label, [r[2] for r in runs], [r[3] for r in runs],
+                                         ver))
+    tab["size_rows"].append(_size_row(label, ver.motion_size))
+    plan_deg, plan_cm = _planned_max_std(adv)
+    tab["sig_rows"].append(_sigma_row(label, ver, adv, plan_deg, plan_cm))
+    tab["notes"] += _statements(label, adv)
+    tab["checks"].append((label, name, ver.ratio, ver, t_adv, ver.ratio_joint,
+                          ver.ratio_wide))
+    _add_prose(prose, name, ov, runs, ver, plan_deg, plan_cm)
+
+
+def _actual_row(label, base, adv, ver, t_adv) -> str:
+    """A row of the actual-errors table."""
+    b, med, rt = ver.baseline, ver.random_median, ver.ratio
+    verdict = _verdicts(ver)
+    medj, rtj = ver.random_joint_median, ver.ratio_joint
+    am = ver.advised_median
+    cand = adv.candidates
+    return (
+        f"| {label} | {base.C.shape[0]} | {cand.feasible.sum()}/{cand.n} | "
+        f"{adv.chosen.size} | {_fmt(b.get('rotation_error_deg'))} / "
+        f"{_fmt(b.get('translation_error_cm'))} | {_fmt(am.get('rotation_error_deg'))} / "
+        f"{_fmt(am.get('translation_error_cm'))} | {_fmt(med['rotation_error_deg'])} / "
+        f"{_fmt(med['translation_error_cm'])} | {_fmt(rt['rotation_error_deg'], 2)} / "
+        f"{_fmt(rt['translation_error_cm'], 2)} | {_interval(ver.ratio_interval)} | "
+        + _median_ratio(medj, rtj) + _median_ratio(ver.random_wide_median, ver.ratio_wide)
+        + " ".join(f"{_fmt(x.get('rotation_error_deg'), 2)}/"
+                   f"{_fmt(x.get('translation_error_cm'), 2)}" for x in ver.per_rig_ratio)
+        + f" | {verdict} | {t_adv:.1f} |")
+
+
+def _size_row(label, ms) -> str:
+    """A row of the motion-size table (``ms``: the pooled ``motion_size``)."""
+    return (
+        f"| {label} | " + " | ".join(
+            f"{_fmt((ms.get(w) or {}).get('rotation_deg'), 2)} / "
+            f"{_fmt((ms.get(w) or {}).get('translation_cm'), 2)}"
+            for w in ("advised", "random", "random_joint", "random_wide")) + " |")
+
+
+def _planned_max_std(adv) -> tuple[float, float]:
+    """The planner's largest 1-sigma (deg, cm) after the advised stops."""
+    plan = adv.std_after[-1] if adv.std_after.size else adv.std_before
+    return float(np.max(plan[:3])), 100 * float(np.max(plan[3:]))
+
+
+def _sigma_row(label, ver, adv, plan_deg, plan_cm) -> str:
+    """A row of the predicted-1-sigma table."""
+    b, am, med = ver.baseline, ver.advised_median, ver.random_median
+    return (
+        f"| {label} | {_fmt(b.get('max_std_deg'))} / {_fmt(b.get('max_std_cm'))} | "
+        f"{_fmt(am.get('max_std_deg'))} / {_fmt(am.get('max_std_cm'))} | "
+        f"{_fmt(med['max_std_deg'])} / {_fmt(med['max_std_cm'])} | "
+        f"{_fmt(plan_deg)} / {_fmt(plan_cm)} | {adv.systematic_parameters} | "
+        + " ".join(_fmt(x, 2) for x in adv.max_std_tol) + " |")
+
+
+def _statements(label, adv) -> list:
+    """The statements of a scenario's advice: what it cannot help, its message, its limit."""
+    notes = []
+    for h in adv.cannot_help:
+        notes.append(f"- {label}: {h['statement']}. Fix: {h['fix']}.")
+    if adv.message:
+        notes.append(f"- {label}: {adv.message}.")
+    if adv.limited_by.get("statement"):
+        notes.append(f"- {label}: after the advised stops, {adv.limited_by['statement']}.")
+    return notes
+
+
+def _add_prose(prose, name, ov, runs, ver, plan_deg, plan_cm) -> None:
+    """Add a scenario's numbers the text of :data:`HEAD` quotes to ``prose``."""
+    am, med = ver.advised_median, ver.random_median
+    if name == "3d" and not ov:
+        b0 = runs[0][3].baseline
+        prose["base3d"] = (f"{_fmt(b0.get('rotation_error_deg'))} deg / "
+                           f"{_fmt(b0.get('translation_error_cm'))} cm")
+    if name in ("scara", "linear", "rotation"):
+        for e, sd in (("rotation_error_deg", plan_deg), ("translation_error_cm", plan_cm)):
+            if am.get(e) is not None and math.isfinite(sd) and sd > 0:
+                prose["planner"].append(am[e] / sd)
+        for key, v in (("advised", am), ("random", med)):
+            for e, sd in (("rotation_error_deg", "max_std_deg"),
+                          ("translation_error_cm", "max_std_cm")):
+                if v.get(e) is not None and v.get(sd):
+                    prose[key].append(v[e] / v[sd])
+
+
+def _head(a, prose, seconds: float) -> str:
+    """:data:`HEAD` with the command, its duration and the numbers of ``prose``."""
+    return HEAD.format(command=f"python -m simcalib.advise.tables --out {a.out} --k {a.k} "
                                f"--seeds {a.seeds} --candidates {a.candidates} "
                                f"--stop-frames {a.stop_frames} --rigs {a.rigs}",
-                       seconds=time.perf_counter() - t0, k=a.k, n_seeds=a.seeds,
+                       seconds=seconds, k=a.k, n_seeds=a.seeds,
                        n_rigs=a.rigs,
                        n_cand=a.candidates, base3d=prose["base3d"],
                        over_advised=_span(prose["advised"], "x"),
                        over_random=_span(prose["random"], "x"),
                        over_planner=_span(prose["planner"], "x"))
-    text += ("\n### Actual errors (rotation deg / translation cm)\n\n"
-             "| scenario | recorded motions | feasible candidates | stops advised | baseline "
-             "| advised (median) | random (median) | ratio advised/random | "
-             "90 % interval (bootstrap over rigs) | joint-jog random (median) "
-             "| ratio advised/joint-jog | random from the advice's candidates (median) | "
-             "ratio advised/that | ratio advised/random per rig | advised verdict | "
-             "advice time (s), slowest rig |\n"
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
-             + "\n".join(rows) + "\n")
-    text += ("\n### Predicted largest 1-sigma (deg / cm)\n\n"
-             "Columns 2-4: the verification solves' largest 1-sigma, with the systematic "
-             "pose errors simulated as in a run; 'planner, after the stops': the planner's "
-             "largest 1-sigma (linear, with the same errors) after the advised stops, and "
-             "how many shared parameters it weighed.\n\n"
-             "| scenario | baseline | advised (median) | random (median) | planner, after "
-             "the stops | systematic parameters | planner: largest 1-sigma in "
-             "tolerance units before and after each stop |\n|---|---|---|---|---|---|---|\n"
-             + "\n".join(sig_rows) + "\n")
-    text += BOUND_HEAD + "\n".join(bound_rows) + "\n"
-    text += RANK_HEAD + "\n".join(rank_rows) + "\n"
+
+
+def _sections(a, tab) -> str:
+    """The tables, targets and statements of docs/advice.md after :data:`HEAD`."""
+    text = _actual_section(tab["rows"]) + _sigma_section(tab["sig_rows"])
+    text += BOUND_HEAD + "\n".join(tab["bound_rows"]) + "\n"
+    text += RANK_HEAD + "\n".join(tab["rank_rows"]) + "\n"
     text += ("\n### Size of the added stop-to-stop motions of camera a (median rotation deg / "
              "translation cm)\n\n| scenario | advised | random | joint-jog random | random "
              "from the advice's candidates |\n|---|---|---|---|---|\n"
-             + "\n".join(size_rows) + "\n")
-    if frame_rows:
-        text += (f"\n### Holding still: {a.stop_frames} frames averaged at each stop "
-                 f"(rotation deg / translation cm)\n\n"
-                 f"The same advised stops and the same random stops (same seeds), each stop "
-                 f"measured by {a.stop_frames} frames recorded while the platform rests "
-                 f"(each with its own sensor noise; `verify(..., frames_per_stop=)`, CLI "
-                 f"`stop_frames=`) and their mean pose (chordal mean rotation, mean "
-                 f"translation). Averaging removes the per-frame noise, not the errors the "
-                 f"frames share (marker map, calibrations, DH table, the detector's "
-                 f"view-dependent errors).\n\n"
-                 f"| scenario | advised, 1 frame (median) | advised, {a.stop_frames} frames "
-                 f"(median) | random, 1 frame (median) | random, {a.stop_frames} frames "
-                 f"(median) | ratio advised/random, {a.stop_frames} frames |\n"
-                 f"|---|---|---|---|---|---|\n" + "\n".join(frame_rows) + "\n")
-    text += "\n### Targets of issue 13, checked on the rows above\n\n" + _targets(checks) + "\n"
+             + "\n".join(tab["size_rows"]) + "\n")
+    if tab["frame_rows"]:
+        text += _frames_section(a.stop_frames, tab["frame_rows"])
+    text += ("\n### Targets of issue 13, checked on the rows above\n\n"
+             + _targets(tab["checks"]) + "\n")
+    notes = tab["notes"]
     text += "\n### Statements\n\n" + ("\n".join(notes) if notes else "(none)") + "\n"
-    Path(a.out).write_text(text)
-    print(f"wrote {a.out}")
-    return 0
+    return text
+
+
+def _actual_section(rows) -> str:
+    """The actual-errors table."""
+    return ("\n### Actual errors (rotation deg / translation cm)\n\n"
+            "| scenario | recorded motions | feasible candidates | stops advised | baseline "
+            "| advised (median) | random (median) | ratio advised/random | "
+            "90 % interval (bootstrap over rigs) | joint-jog random (median) "
+            "| ratio advised/joint-jog | random from the advice's candidates (median) | "
+            "ratio advised/that | ratio advised/random per rig | advised verdict | "
+            "advice time (s), slowest rig |\n"
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n"
+            + "\n".join(rows) + "\n")
+
+
+def _sigma_section(sig_rows) -> str:
+    """The predicted-1-sigma table."""
+    return ("\n### Predicted largest 1-sigma (deg / cm)\n\n"
+            "Columns 2-4: the verification solves' largest 1-sigma, with the systematic "
+            "pose errors simulated as in a run; 'planner, after the stops': the planner's "
+            "largest 1-sigma (linear, with the same errors) after the advised stops, and "
+            "how many shared parameters it weighed.\n\n"
+            "| scenario | baseline | advised (median) | random (median) | planner, after "
+            "the stops | systematic parameters | planner: largest 1-sigma in "
+            "tolerance units before and after each stop |\n|---|---|---|---|---|---|---|\n"
+            + "\n".join(sig_rows) + "\n")
+
+
+def _frames_section(stop_frames, frame_rows) -> str:
+    """The table of the stops measured with ``stop_frames`` frames averaged."""
+    return (f"\n### Holding still: {stop_frames} frames averaged at each stop "
+            f"(rotation deg / translation cm)\n\n"
+            f"The same advised stops and the same random stops (same seeds), each stop "
+            f"measured by {stop_frames} frames recorded while the platform rests "
+            f"(each with its own sensor noise; `verify(..., frames_per_stop=)`, CLI "
+            f"`stop_frames=`) and their mean pose (chordal mean rotation, mean "
+            f"translation). Averaging removes the per-frame noise, not the errors the "
+            f"frames share (marker map, calibrations, DH table, the detector's "
+            f"view-dependent errors).\n\n"
+            f"| scenario | advised, 1 frame (median) | advised, {stop_frames} frames "
+            f"(median) | random, 1 frame (median) | random, {stop_frames} frames "
+            f"(median) | ratio advised/random, {stop_frames} frames |\n"
+            f"|---|---|---|---|---|---|\n" + "\n".join(frame_rows) + "\n")
 
 
 if __name__ == "__main__":
