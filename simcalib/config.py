@@ -24,9 +24,10 @@ Lists have one syntax everywhere (runs, experiments, sweeps): ``alpha=[0.1,1,10]
 
 Why one hand-written coercer rather than pydantic v2: the schemas are plain frozen
 dataclasses that library code builds directly from Python (stage configs, experiment
-configs, results), so a ~150-line coercer over ``typing`` hints keeps them import-light
-and gives exactly the messages, suffix keys and aliases the CLI needs, where pydantic
-would add a second model layer over every dataclass. Range checks live in each dataclass's
+configs, results), so a small coercer over ``typing`` hints (:func:`_coerce`, one helper
+per kind of type) keeps them import-light and gives exactly the messages, suffix keys and
+aliases the CLI needs, where pydantic would add a second model layer over every
+dataclass. Range checks live in each dataclass's
 ``__post_init__``, written with the helpers of :mod:`simcalib.checks`; every error is a
 :class:`simcalib.errors.ConfigError` naming the full dotted key.
 """
@@ -509,110 +510,185 @@ def _coerce(value, tp, path: str, default=dataclasses.MISSING):
     if tp is Any or tp is object:
         return value
     origin = typing.get_origin(tp)
-    args = typing.get_args(tp)
     if dataclasses.is_dataclass(tp):
-        if dataclasses.is_dataclass(value) and isinstance(value, tp):
-            return value
-        if not isinstance(value, Mapping):
-            raise _fail(path, value, f"a mapping of the keys of section {path!r}")
-        return build(tp, value, path=path, base=_custom_base(tp, default))
+        return _coerce_section(value, tp, path, default)
     if origin is Literal:
-        if value in args:
-            return value
-        opts = [str(a) for a in args]
-        raise ConfigError(f"{path}: invalid value {value!r}{did_you_mean(value, opts)}; "
-                          f"allowed: {', '.join(opts)}", key=path, value=value)
+        return _coerce_choice(value, typing.get_args(tp), path)
     if origin in (typing.Union, types.UnionType):
-        if value is None:
-            if type(None) in args:
-                return None
-            raise _fail(path, value, _type_name(tp))
-        non_none = [a for a in args if a is not type(None)]
-        seq = [a for a in non_none if typing.get_origin(a) in (tuple, list)]
-        scalar = [a for a in non_none if a not in seq]
-        order = (seq + scalar) if isinstance(value, (list, tuple)) else (scalar + seq)
-        errors = []
-        for a in order:
-            try:
-                return _coerce(value, a, path)
-            except ConfigError as exc:
-                errors.append(str(exc))
-        if len(errors) == 1:
-            raise ConfigError(errors[0])
-        raise _fail(path, value, _type_name(tp))
+        return _coerce_union(value, tp, path)
     if origin in (tuple, list):
-        if isinstance(value, str) or not isinstance(value, (list, tuple)):
-            value = [value]  # a scalar for a list field: a one-element list
-        if len(args) == 2 and args[1] is Ellipsis:
-            out = [_coerce(v, args[0], f"{path}[{i}]") for i, v in enumerate(value)]
-        elif args:
-            if len(value) != len(args):
-                raise _fail(path, value, f"a list of {len(args)} values "
-                                         f"({_type_name(tp)})")
-            out = [_coerce(v, a, f"{path}[{i}]") for i, (v, a) in enumerate(zip(value, args))]
-        else:
-            out = list(value)
-        return tuple(out) if origin is tuple else out
+        return _coerce_typed_sequence(value, tp, path)
     if tp in (tuple, list):  # unparametrised sequence: a scalar is a one-element list
-        seq = [value] if isinstance(value, str) or not isinstance(value, (list, tuple)) \
-            else list(value)
-        return tuple(seq) if tp is tuple else seq
+        return _coerce_bare_sequence(value, tp)
     if origin is dict or tp is dict:
-        if not isinstance(value, Mapping):
-            raise _fail(path, value, "a mapping")
-        return dict(value)
-    if tp is bool:
-        if isinstance(value, bool):
-            return value
-        if isinstance(value, str) and value.lower() in ("true", "false", "yes", "no", "on", "off"):
-            return value.lower() in ("true", "yes", "on")
-        raise _fail(path, value, "a boolean (true or false)")
-    if tp is int:
-        if isinstance(value, bool):
-            raise _fail(path, value, "an integer")
-        if isinstance(value, int):
-            return value
-        if isinstance(value, float) and value.is_integer():
-            return int(value)
-        if isinstance(value, str):
-            try:
-                return int(value.strip())
-            except ValueError:
-                pass
-        raise _fail(path, value, "an integer")
-    if tp is float:
-        if isinstance(value, bool):
-            raise _fail(path, value, "a number")
-        if isinstance(value, (int, float)):
-            out = float(value)
-        elif isinstance(value, str):
-            try:
-                out = float(value.strip())
-            except ValueError:
-                raise _fail(path, value, "a number") from None
-        else:
-            raise _fail(path, value, "a number")
-        if math.isnan(out):
-            raise _fail(path, value, "a number (not NaN)")
-        return out
-    if tp is str:
-        if isinstance(value, str):
-            return value
-        if isinstance(value, (int, float)) and not isinstance(value, bool):
-            return str(value)
-        raise _fail(path, value, "a string")
-    if tp is Path:
-        if isinstance(value, (str, Path)):
-            return Path(value)
-        raise _fail(path, value, "a path")
-    if isinstance(tp, type):
-        if isinstance(value, tp):
-            return value
+        return _coerce_dict(value, path)
+    return _coerce_scalar(value, tp, path)
+
+
+def _coerce_section(value, tp, path: str, default):
+    """A nested dataclass section: an instance of ``tp`` as is, else built from a mapping."""
+    if dataclasses.is_dataclass(value) and isinstance(value, tp):
+        return value
+    if not isinstance(value, Mapping):
+        raise _fail(path, value, f"a mapping of the keys of section {path!r}")
+    return build(tp, value, path=path, base=_custom_base(tp, default))
+
+
+def _coerce_choice(value, choices: tuple, path: str):
+    """A ``Literal`` leaf: one of ``choices``, else an error naming the closest one."""
+    if value in choices:
+        return value
+    opts = [str(a) for a in choices]
+    raise ConfigError(f"{path}: invalid value {value!r}{did_you_mean(value, opts)}; "
+                      f"allowed: {', '.join(opts)}", key=path, value=value)
+
+
+def _coerce_union(value, tp, path: str):
+    """A union leaf (``X | None``, ``'auto' | float | list``): the first member accepting it."""
+    args = typing.get_args(tp)
+    if value is None:
+        if type(None) in args:
+            return None
+        raise _fail(path, value, _type_name(tp))
+    errors = []
+    for a in _union_members_in_order(value, args):
         try:
-            return tp(value)
-        except Exception:
-            raise _fail(path, value, _type_name(tp)) from None
+            return _coerce(value, a, path)
+        except ConfigError as exc:
+            errors.append(str(exc))
+    if len(errors) == 1:
+        raise ConfigError(errors[0])
+    raise _fail(path, value, _type_name(tp))
+
+
+def _union_members_in_order(value, args: tuple) -> list:
+    """Non-null union members to try: list types first for a list value, else scalars first."""
+    non_none = [a for a in args if a is not type(None)]
+    seq = [a for a in non_none if typing.get_origin(a) in (tuple, list)]
+    scalar = [a for a in non_none if a not in seq]
+    return (seq + scalar) if isinstance(value, (list, tuple)) else (scalar + seq)
+
+
+def _as_items(value):
+    """``value`` itself when a list or tuple, else a one-element list (a string is a scalar)."""
+    if isinstance(value, str) or not isinstance(value, (list, tuple)):
+        return [value]  # a scalar for a list field: a one-element list
     return value
+
+
+def _coerce_typed_sequence(value, tp, path: str):
+    """A ``tuple[...]``/``list[...]`` leaf: ``[X, ...]`` any length, else one value per arg."""
+    args = typing.get_args(tp)
+    given, value = value, _as_items(value)
+    if len(args) == 2 and args[1] is Ellipsis:
+        out = [_coerce(v, args[0], f"{path}[{i}]") for i, v in enumerate(value)]
+    elif args:
+        if len(value) != len(args):
+            raise _fail(path, given, f"a list of {len(args)} values "
+                                     f"({_type_name(tp)})")
+        out = [_coerce(v, a, f"{path}[{i}]") for i, (v, a) in enumerate(zip(value, args))]
+    else:
+        out = list(value)
+    return tuple(out) if typing.get_origin(tp) is tuple else out
+
+
+def _coerce_bare_sequence(value, tp):
+    """An unparametrised ``tuple``/``list`` leaf: its items unchecked, a scalar as one item."""
+    seq = list(_as_items(value))
+    return tuple(seq) if tp is tuple else seq
+
+
+def _coerce_dict(value, path: str) -> dict:
+    """A ``dict`` leaf: any mapping, copied to a plain dict."""
+    if not isinstance(value, Mapping):
+        raise _fail(path, value, "a mapping")
+    return dict(value)
+
+
+def _coerce_scalar(value, tp, path: str):
+    """A plain-class leaf: bool, int, float, str, Path or any other class (called on it)."""
+    if tp is bool:
+        return _coerce_bool(value, path)
+    if tp is int:
+        return _coerce_int(value, path)
+    if tp is float:
+        return _coerce_float(value, path)
+    if tp is str:
+        return _coerce_str(value, path)
+    if tp is Path:
+        return _coerce_path(value, path)
+    if isinstance(tp, type):
+        return _coerce_instance(value, tp, path)
+    return value
+
+
+def _coerce_bool(value, path: str) -> bool:
+    """A ``bool`` leaf: a bool or true/false, yes/no, on/off (any case)."""
+    if isinstance(value, bool):
+        return value
+    if isinstance(value, str) and value.lower() in ("true", "false", "yes", "no", "on", "off"):
+        return value.lower() in ("true", "yes", "on")
+    raise _fail(path, value, "a boolean (true or false)")
+
+
+def _coerce_int(value, path: str) -> int:
+    """An ``int`` leaf: an int (not a bool), an integral float or an integer's text."""
+    if isinstance(value, bool):
+        raise _fail(path, value, "an integer")
+    if isinstance(value, int):
+        return value
+    if isinstance(value, float) and value.is_integer():
+        return int(value)
+    if isinstance(value, str):
+        try:
+            return int(value.strip())
+        except ValueError:
+            pass
+    raise _fail(path, value, "an integer")
+
+
+def _coerce_float(value, path: str) -> float:
+    """A ``float`` leaf: a number (not a bool) or a number's text, never NaN."""
+    if isinstance(value, bool):
+        raise _fail(path, value, "a number")
+    if isinstance(value, (int, float)):
+        out = float(value)
+    elif isinstance(value, str):
+        try:
+            out = float(value.strip())
+        except ValueError:
+            raise _fail(path, value, "a number") from None
+    else:
+        raise _fail(path, value, "a number")
+    if math.isnan(out):
+        raise _fail(path, value, "a number (not NaN)")
+    return out
+
+
+def _coerce_str(value, path: str) -> str:
+    """A ``str`` leaf: a string, or a number (not a bool) as its text."""
+    if isinstance(value, str):
+        return value
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return str(value)
+    raise _fail(path, value, "a string")
+
+
+def _coerce_path(value, path: str) -> Path:
+    """A ``Path`` leaf: a string or a path."""
+    if isinstance(value, (str, Path)):
+        return Path(value)
+    raise _fail(path, value, "a path")
+
+
+def _coerce_instance(value, tp: type, path: str):
+    """A leaf of any other class: an instance as is, else ``tp(value)``."""
+    if isinstance(value, tp):
+        return value
+    try:
+        return tp(value)
+    except Exception:
+        raise _fail(path, value, _type_name(tp)) from None
 
 
 def _custom_base(tp, default):

@@ -211,6 +211,8 @@ def test_load_configs_is_cheap():
     ("world.path=plannar", "did you mean 'planar'"),
     ("world.cam_a.widht=3", "did you mean 'world.cam_a.width'"),
     ("prior.rotvec_deg=[1,2,3]", "prior.translation_m must be given together with rotvec_deg"),
+    ("prior.translation_m=1", "prior.translation_m must be a list of 3 values "
+                              "([float, float, float]); received 1"),       # as written
 ])
 def test_override_errors_name_key_value_and_allowed(override, fragment):
     with pytest.raises(ConfigError) as e:
