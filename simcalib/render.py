@@ -629,13 +629,7 @@ def render_map(model, settings: RenderSettings, jobs: Sequence[FrameJob],
     """
     if workers is None:
         workers = default_workers()
-    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
-        raise ValueError(f"workers must be a positive integer or None; received {workers!r}")
-    if not isinstance(chunk_size, (int, np.integer)) or chunk_size < 1:
-        raise ValueError(f"chunk_size must be a positive integer; received {chunk_size!r}")
-    if progress is not None and not callable(progress):
-        raise TypeError(f"progress must be a callable (n_done, n_total) or None; received "
-                        f"{type(progress).__name__}")
+    _check_map_options(workers, chunk_size, progress)
     jobs = list(jobs)
     if not jobs:
         return [], []
@@ -644,81 +638,144 @@ def render_map(model, settings: RenderSettings, jobs: Sequence[FrameJob],
     # Starting a worker costs ~1 s (a fresh interpreter importing mujoco and cv2): not
     # worth it below ~MIN_JOBS_PER_WORKER frames per process.
     workers = int(min(workers, -(-len(jobs) // MIN_JOBS_PER_WORKER)))
-    n_total = len(jobs)
-    from .parallel import deferred_interrupt, worker_pool  # noqa: PLC0415
     if workers == 1 and inprocess:
-        pairs: list = []
-        try:
-            with deferred_interrupt() as intr, CameraRenderer(model, settings) as r:
-                for job in jobs:
-                    pairs += _run_jobs(r, fn, [job])
-                    if progress is not None:
-                        progress(len(pairs), n_total)
-                    intr.check()
-        except KeyboardInterrupt:
-            pad = [None] * (n_total - len(pairs))
-            raise RenderInterrupted([p[0] for p in pairs] + pad,
-                                    [p[1] for p in pairs] + pad) from None
-        return [p[0] for p in pairs], [p[1] for p in pairs]
-    blob = model_to_bytes(model)
-    # Contiguous chunks, several per worker for load balance.
-    size = int(max(1, min(chunk_size, -(-len(jobs) // (2 * workers)))))
-    chunks = [jobs[i:i + size] for i in range(0, len(jobs), size)]
-    # When this process can render, it is one of the workers: it starts at once (no
-    # interpreter start-up) and takes chunks from the end while the spawned processes
-    # take them from the front. Chunk results do not depend on who renders them.
-    n_proc = workers - 1 if inprocess else workers
-    results: list = [None] * len(chunks)
-    state = {"done": 0}
+        pairs = _pairs_rendered_here(model, settings, jobs, fn, progress)
+    else:
+        pairs = _pairs_rendered_in_pool(model, settings, jobs, fn, workers, chunk_size,
+                                        backend, inprocess, progress)
+    return [p[0] for p in pairs], [p[1] for p in pairs]
 
-    def _collect(futures, block: bool) -> None:
+
+def _check_map_options(workers, chunk_size, progress) -> None:
+    """Raise the error of the first invalid ``workers``/``chunk_size``/``progress``."""
+    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
+        raise ValueError(f"workers must be a positive integer or None; received {workers!r}")
+    if isinstance(chunk_size, bool) or not isinstance(chunk_size, (int, np.integer)) \
+            or chunk_size < 1:
+        raise ValueError(f"chunk_size must be a positive integer; received {chunk_size!r}")
+    if progress is not None and not callable(progress):
+        raise TypeError(f"progress must be a callable (n_done, n_total) or None; received "
+                        f"{type(progress).__name__}")
+
+
+def _render_each(renderer: CameraRenderer, fn: Callable, jobs: Sequence[FrameJob], out: list,
+                 done_before: int, n_total: int, progress, intr) -> None:
+    """Append each job's (result, timing) pair to ``out``; progress and interrupt per frame."""
+    for job in jobs:
+        out += _run_jobs(renderer, fn, [job])
+        if progress is not None:
+            progress(done_before + len(out), n_total)
+        intr.check()
+
+
+def _pairs_rendered_here(model, settings: RenderSettings, jobs: list, fn: Callable,
+                         progress) -> list:
+    """(result, timing) pairs of ``jobs`` rendered one by one in this process."""
+    from .parallel import deferred_interrupt  # noqa: PLC0415
+    n_total = len(jobs)
+    pairs: list = []
+    try:
+        with deferred_interrupt() as intr, CameraRenderer(model, settings) as r:
+            _render_each(r, fn, jobs, pairs, 0, n_total, progress, intr)
+    except KeyboardInterrupt:
+        pad = [None] * (n_total - len(pairs))
+        raise RenderInterrupted([p[0] for p in pairs] + pad,
+                                [p[1] for p in pairs] + pad) from None
+    return pairs
+
+
+def _job_chunks(jobs: list, workers: int, chunk_size: int) -> list:
+    """Contiguous chunks of ``jobs``, several per worker for load balance."""
+    size = int(max(1, min(chunk_size, -(-len(jobs) // (2 * workers)))))
+    return [jobs[i:i + size] for i in range(0, len(jobs), size)]
+
+
+class _ChunkPairs:
+    """Each chunk's (result, timing) pairs as they arrive (``None``: not yet); frames done."""
+
+    def __init__(self, n_chunks: int, n_total: int, progress):
+        self.pairs: list = [None] * n_chunks
+        self.done = 0
+        self.n_total = n_total
+        self.progress = progress
+
+    def store(self, i: int, part: list) -> None:
+        """Record chunk ``i``'s pairs and count its frames as done."""
+        self.pairs[i] = part
+        self.done += len(part)
+
+    def collect(self, futures, block: bool) -> None:
+        """Store finished worker chunks (``block``: wait up to 0.2 s first); report progress."""
         from concurrent.futures import FIRST_COMPLETED, wait  # noqa: PLC0415
-        pending = [f for i, f in enumerate(futures) if results[i] is None]
+        pending = [f for i, f in enumerate(futures) if self.pairs[i] is None]
         if block and pending:
             wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
         for i, f in enumerate(futures):
-            if results[i] is None and f.done() and not f.cancelled():
-                results[i] = f.result()
-                state["done"] += len(results[i])
-        if progress is not None:
-            progress(state["done"], n_total)
+            if self.pairs[i] is None and f.done() and not f.cancelled():
+                self.store(i, f.result())
+        if self.progress is not None:
+            self.progress(self.done, self.n_total)
 
-    try:
-        # Do not wait for workers that are still starting up once every result is in:
-        # they receive the shutdown request and exit on their own.
-        with deferred_interrupt() as intr, \
-                worker_pool(n_proc, _worker_init, (blob, settings, backend, fn),
-                            wait=False) as pool:
-            futures = []
-            for c in chunks:
-                futures.append(pool.submit(_worker_chunk, c))
-                intr.check()
-            if inprocess:
-                with CameraRenderer(model, settings) as r:
-                    for i in range(len(chunks) - 1, -1, -1):
-                        if futures[i].cancel():
-                            part = []
-                            for job in chunks[i]:
-                                part += _run_jobs(r, fn, [job])
-                                if progress is not None:
-                                    progress(state["done"] + len(part), n_total)
-                                intr.check()
-                            results[i] = part
-                            state["done"] += len(part)
-                            _collect(futures, block=False)
-            while any(r is None for r in results):
-                _collect(futures, block=True)
-                intr.check()
-    except KeyboardInterrupt:
+    def interrupted(self, chunks: list) -> RenderInterrupted:
+        """The :class:`RenderInterrupted` of the chunks done (``None`` per frame of the others)."""
         res_out: list = []
         tim_out: list = []
-        for c, chunk_res in zip(chunks, results):
+        for c, chunk_res in zip(chunks, self.pairs):
             if chunk_res is None:
                 res_out += [None] * len(c)
                 tim_out += [None] * len(c)
             else:
                 res_out += [p[0] for p in chunk_res]
                 tim_out += [p[1] for p in chunk_res]
-        raise RenderInterrupted(res_out, tim_out) from None
-    pairs = [p for chunk in results for p in chunk]
-    return [p[0] for p in pairs], [p[1] for p in pairs]
+        return RenderInterrupted(res_out, tim_out)
+
+
+def _submitted_chunks(pool, chunks: list, intr) -> list:
+    """Futures of every chunk submitted to ``pool``; interrupt checked after each."""
+    futures = []
+    for c in chunks:
+        futures.append(pool.submit(_worker_chunk, c))
+        intr.check()
+    return futures
+
+
+def _render_unstarted_chunks_here(model, settings: RenderSettings, fn: Callable, chunks: list,
+                                  futures: list, book: _ChunkPairs, intr) -> None:
+    """Render here, last chunk first, every chunk whose future could still be cancelled."""
+    with CameraRenderer(model, settings) as r:
+        for i in range(len(chunks) - 1, -1, -1):
+            if futures[i].cancel():
+                part: list = []
+                _render_each(r, fn, chunks[i], part, book.done, book.n_total, book.progress,
+                             intr)
+                book.store(i, part)
+                book.collect(futures, block=False)
+
+
+def _pairs_rendered_in_pool(model, settings: RenderSettings, jobs: list, fn: Callable,
+                            workers: int, chunk_size: int, backend: str, inprocess: bool,
+                            progress) -> list:
+    """(result, timing) pairs of ``jobs`` rendered in chunks by worker processes (and here)."""
+    from .parallel import deferred_interrupt, worker_pool  # noqa: PLC0415
+    blob = model_to_bytes(model)
+    chunks = _job_chunks(jobs, workers, chunk_size)
+    # When this process can render, it is one of the workers: it starts at once (no
+    # interpreter start-up) and takes chunks from the end while the spawned processes
+    # take them from the front. Chunk results do not depend on who renders them.
+    n_proc = workers - 1 if inprocess else workers
+    book = _ChunkPairs(len(chunks), len(jobs), progress)
+    try:
+        # Do not wait for workers that are still starting up once every result is in:
+        # they receive the shutdown request and exit on their own.
+        with deferred_interrupt() as intr, \
+                worker_pool(n_proc, _worker_init, (blob, settings, backend, fn),
+                            wait=False) as pool:
+            futures = _submitted_chunks(pool, chunks, intr)
+            if inprocess:
+                _render_unstarted_chunks_here(model, settings, fn, chunks, futures, book, intr)
+            while any(r is None for r in book.pairs):
+                book.collect(futures, block=True)
+                intr.check()
+    except KeyboardInterrupt:
+        raise book.interrupted(chunks) from None
+    return [p for chunk in book.pairs for p in chunk]

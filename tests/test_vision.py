@@ -478,6 +478,12 @@ def test_render_interrupt_keeps_done_frames_and_progress_reports(world):
         lp(n, 5)
     assert buf.getvalue().splitlines()[0].startswith("render: 2/5") and \
         len(buf.getvalue().splitlines()) == 3
+    for kw, match in ((dict(workers=True), "workers must be a positive integer"),
+                      (dict(chunk_size=True), "chunk_size must be a positive integer; "
+                                              "received True"),
+                      (dict(chunk_size=0), "chunk_size must be a positive integer")):
+        with pytest.raises(ValueError, match=match):
+            render_map(world.model, RenderSettings(width=64, height=48), jobs, None, **kw)
 
 
 def test_visual_streams_interrupt_returns_partial_streams(world, monkeypatch):
