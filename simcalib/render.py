@@ -44,6 +44,7 @@ __all__ = [
     "CameraRenderer",
     "RenderInterrupted",
     "VALID_BACKENDS",
+    "check_progress",
     "available_backend",
     "import_mujoco",
     "select_backend",
@@ -646,6 +647,13 @@ def render_map(model, settings: RenderSettings, jobs: Sequence[FrameJob],
     return [p[0] for p in pairs], [p[1] for p in pairs]
 
 
+def check_progress(progress) -> None:
+    """Raise TypeError unless ``progress`` is a callable ``(n_done, n_total)`` or None."""
+    if progress is not None and not callable(progress):
+        raise TypeError(f"progress must be a callable (n_done, n_total) or None; received "
+                        f"{type(progress).__name__}")
+
+
 def _check_map_options(workers, chunk_size, progress) -> None:
     """Raise the error of the first invalid ``workers``/``chunk_size``/``progress``."""
     if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
@@ -653,9 +661,7 @@ def _check_map_options(workers, chunk_size, progress) -> None:
     if isinstance(chunk_size, bool) or not isinstance(chunk_size, (int, np.integer)) \
             or chunk_size < 1:
         raise ValueError(f"chunk_size must be a positive integer; received {chunk_size!r}")
-    if progress is not None and not callable(progress):
-        raise TypeError(f"progress must be a callable (n_done, n_total) or None; received "
-                        f"{type(progress).__name__}")
+    check_progress(progress)
 
 
 def _render_each(renderer: CameraRenderer, fn: Callable, jobs: Sequence[FrameJob], out: list,

@@ -530,9 +530,8 @@ def _check_inputs(world, cfg, rng, progress) -> None:
         raise TypeError(f"cfg must be a VisionConfig; received {type(cfg).__name__}")
     if not isinstance(rng, np.random.Generator):
         raise TypeError(f"rng must be a numpy.random.Generator; received {type(rng).__name__}")
-    if progress is not None and not callable(progress):
-        raise TypeError(f"progress must be a callable (n_done, n_total) or None; received "
-                        f"{type(progress).__name__}")
+    from .render import check_progress  # noqa: PLC0415
+    check_progress(progress)
     _check_world(world)
 
 

@@ -403,16 +403,9 @@ def view_quality(world, T_world_cam, camera: str, distortion=None) -> np.ndarray
     markers are noisier. ``distortion`` (k1, k2, p1, p2, k3; default none): the markers
     and edges of the lens's distorted image (a barrel lens shows more markers, smaller
     towards the edge)."""
-    from simcalib.geometry import distort_pixels
-    from simcalib.world.layout import project_points, visible_markers
-    T = np.asarray(T_world_cam, dtype=np.float64)
-    intr = world.intrinsics[camera]
-    field = world.marker_field
-    vis = visible_markers(field, T, intr, distortion=distortion)
-    uv, _ = project_points(T, intr, field.corners_world())
-    if distortion is not None and np.any(np.asarray(distortion, dtype=np.float64) != 0):
-        uv, _ = distort_pixels(uv, intr.K, distortion)
-    edges = np.linalg.norm(uv - np.roll(uv, -1, axis=-2), axis=-1).min(axis=-1)
+    from simcalib.world.layout import marker_views
+    vis, edges = marker_views(world.marker_field, T_world_cam, world.intrinsics[camera],
+                              distortion=distortion)
     return np.sqrt(np.sum(np.where(vis, edges, 0.0) ** 2, axis=1))
 
 

@@ -21,7 +21,7 @@ from simcalib.markers import MarkerField, marker_corners_local
 from simcalib.streams import CameraIntrinsics
 
 __all__ = ["marker_layout", "dictionary_size", "marker_cells", "project_points",
-           "visible_markers", "MARKER_SURFACE_OFFSET_M"]
+           "visible_markers", "marker_views", "MARKER_SURFACE_OFFSET_M"]
 
 #: Printed face of a marker sits this far in front of its wall/floor/ceiling surface.
 MARKER_SURFACE_OFFSET_M = 0.002
@@ -129,6 +129,17 @@ def visible_markers(field: MarkerField, T_world_cam: np.ndarray, intr: CameraInt
     (k1, k2, p1, p2, k3; default none): the image is the lens's distorted one
     (:func:`simcalib.geometry.distort_pixels`): a barrel lens shows markers beyond the
     pinhole image's edge, and shrinks them there."""
+    return marker_views(field, T_world_cam, intr, min_side_px=min_side_px,
+                        max_view_angle_deg=max_view_angle_deg, border_px=border_px,
+                        min_depth_m=min_depth_m, distortion=distortion)[0]
+
+
+def marker_views(field: MarkerField, T_world_cam: np.ndarray, intr: CameraIntrinsics, *,
+                 min_side_px: float = 20.0, max_view_angle_deg: float = 70.0,
+                 border_px: float = 2.0, min_depth_m: float = 0.05,
+                 distortion=None) -> tuple[np.ndarray, np.ndarray]:
+    """``(visible (F, M) bool, shortest projected edge (F, M) px)``: :func:`visible_markers`
+    with the edge lengths its size test used (in the distorted image with ``distortion``)."""
     T = np.asarray(T_world_cam, dtype=np.float64)
     if T.ndim == 2:
         T = T[None]
@@ -148,6 +159,6 @@ def visible_markers(field: MarkerField, T_world_cam: np.ndarray, intr: CameraInt
     cos = np.einsum("fmi,mi->fm", to_cam, normal) / np.maximum(dist, 1e-12)
     facing = cos >= np.cos(np.deg2rad(max_view_angle_deg))
     edges = np.linalg.norm(uv - np.roll(uv, -1, axis=-2), axis=-1).min(axis=-1)
-    return inside & facing & (edges >= min_side_px)
+    return inside & facing & (edges >= min_side_px), edges
 
 
