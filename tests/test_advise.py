@@ -1,6 +1,7 @@
 """Motion advice (simcalib.advise): information model, greedy choice, feasibility of the
 proposed stops, the cart's "cannot help" statement and a small verification run."""
 
+import dataclasses
 import json
 import os
 
@@ -207,7 +208,8 @@ def test_cart_states_what_it_cannot_help():
 def test_small_verification_run(tmp_path, capsys):
     from simcalib.cli import main
     code = main(["advise", "scenario=linear", "world.platform=arm", "k=2", "verify=true",
-                 "seeds=2", "candidates=30", "hindsight=true", f"output={tmp_path}", *SMALL,
+                 "seeds=2", "candidates=30", "hindsight=true", "floor=true",
+                 f"output={tmp_path}", *SMALL,
                  "camera.width=320", "camera.height=240"])
     assert code == 0
     out = json.loads((tmp_path / "advice.json").read_text())
@@ -235,6 +237,10 @@ def test_small_verification_run(tmp_path, capsys):
     assert set(ver["ratio_hindsight_to_random_median"]) == {"rotation_error_deg",
                                                             "translation_error_cm"}
     assert "hindsight (stops picked knowing the true X" in printed
+    # the model's floor: never above the advised stops' expected error, beside random's
+    fl = out["choice_floor"]
+    assert fl["stops"] == 2 and fl["floor_expected_cm"] <= fl["advised_expected_cm"]
+    assert fl["random_expected_cm"] > 0 and "model floor (expected RMS error" in printed
 
 
 def test_exchange_refinement_never_worse_than_greedy_and_noise_scale_steers():
@@ -519,3 +525,33 @@ def test_variance_shares_split_the_covariance_by_source():
     assert n0 == ["white noise"] and np.allclose(sh0, 1.0)
     with pytest.raises(ValueError, match="P group labels"):
         pl.variance_shares(F, G, labels[:3])
+
+
+@pytest.mark.slow
+def test_choice_floor_is_no_worse_than_the_advice_and_states_its_search(scara_advice):
+    """The model's floor: its search starts from the advised chain, so it is never above
+    the advice's expected error; its chains are usable candidates of k distinct stops;
+    the ratios are the expected errors over the random baseline's; the advised expected
+    error is the model's for the chosen chain."""
+    from simcalib.advise import advisor as A
+    from simcalib.advise import planner as pl
+    base, adv = scara_advice
+    fl = A.choice_floor(base, adv, n_starts=2, n_random=60, n_chains=20)
+    assert fl["stops"] == adv.k == 3 and fl["starts"] == 3 and fl["random_chains"] == 20
+    for blk, u in (("rotation", "deg"), ("translation", "cm")):
+        assert 0 < fl[f"floor_expected_{u}"] <= fl[f"advised_expected_{u}"] * (1 + 1e-12)
+        assert fl[f"floor_expected_{u}"] == pytest.approx(min(fl[f"floor_per_start_{u}"]))
+        assert fl[f"ratio_floor_{blk}"] == pytest.approx(
+            fl[f"floor_expected_{u}"] / fl[f"random_expected_{u}"])
+        assert fl[f"ratio_advised_{blk}"] == pytest.approx(
+            fl[f"advised_expected_{u}"] / fl[f"random_expected_{u}"])
+        ch = fl["floor_chains"][blk]
+        assert len(set(ch)) == 3 and adv.candidates.feasible[ch].all()
+        assert not set(ch) & set(adv.rejected_by_render)
+    # the advised expected error: the planner's model of the chosen chain (white noise
+    # alone, as a lower bound: the shared errors only add)
+    F, G = pl.chain_information(adv.F_base, adv.candidates.motion["cam_a"], adv.X,
+                                *adv.noise, adv.chosen[None], noise_scale=adv.noise_scale)
+    white = pl.expected_errors(F, G)[0]
+    assert fl["advised_expected_deg"] >= white[0] and fl["advised_expected_cm"] >= 100 * white[1]
+    assert A.choice_floor(base, dataclasses.replace(adv, chosen=adv.chosen[:2])) == {}

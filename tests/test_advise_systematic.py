@@ -224,3 +224,84 @@ def test_verification_chain_indices_follow_the_measured_stops():
     assert pp.shape == (D - 1 + 3, 2)
     np.testing.assert_array_equal(pp[D - 1:], [[D, D + 1], [D + 1, D + 2], [D + 2, D + 3]])
     assert out["pose_error_basis"][0].shape == (D + 4, 6, P) and pp.max() < D + 4
+
+
+def _floor_problem(seed=11, n=10, P=4):
+    rng = np.random.default_rng(seed)
+    X = _X()
+    Cb = _motions(rng, 30, max_angle=0.05)                   # nearly degenerate record
+    Fb = pl.motion_information(Cb, g.invert_transform(X) @ Cb @ X, X, 0.005, 0.001).sum(0)
+    M = _motions(rng, n)
+    sysm = (rng.normal(0, 1e-3, (6, P)), rng.normal(0, 1e-4, (2, 6, P)),
+            rng.normal(0, 1e-4, (2, n, 6, P)))
+    return Fb, M, X, sysm, rng.uniform(0.5, 2.0, n)
+
+
+def test_expected_errors_are_the_root_of_each_blocks_variance():
+    """Without systematic errors the expected error norms are the root sum of the squared
+    per-axis 1-sigma of :func:`predicted_std`; shared errors only add to them."""
+    Fb, M, X, sysm, scale = _floor_problem()
+    chains = np.array([[0, 1, 2], [3, 4, 5]])
+    F, G0 = pl.chain_information(Fb, M, X, 0.005, 0.001, chains, noise_scale=scale)
+    e = pl.expected_errors(F, G0)
+    for f, row in zip(F, e):
+        s = pl.predicted_std(f)
+        np.testing.assert_allclose(row, [np.sqrt(np.sum(s[:3] ** 2)),
+                                         np.sqrt(np.sum(s[3:] ** 2))], rtol=1e-5)
+    F, G = pl.chain_information(Fb, M, X, 0.005, 0.001, chains, noise_scale=scale,
+                                systematic=sysm)
+    assert np.all(pl.expected_errors(F, G) > e)
+    for bad in ((F[0], G), (F, G[:1]), (F, G[..., :3, :])):
+        with pytest.raises(ValueError, match="F must be"):
+            pl.expected_errors(*bad)
+
+
+def test_best_expected_chains_settle_on_a_local_optimum_of_each_block():
+    """The search's chain is what it reports (by :func:`chain_information`), no start ends
+    worse than it began, no single stop exchange lowers the result (a local optimum), it
+    is never below the brute-force minimum over every ordered chain, and from a start at
+    that minimum it stays there."""
+    import itertools
+    Fb, M, X, sysm, scale = _floor_problem()
+    n, k = M.shape[0], 2
+    feasible = np.ones(n, bool)
+    feasible[7] = False
+    rng = np.random.default_rng(5)
+    okidx = np.flatnonzero(feasible)
+    starts = np.stack([rng.choice(okidx, k, replace=False) for _ in range(4)])
+    every = np.array([c for c in itertools.permutations(okidx, k)])
+    F, G = pl.chain_information(Fb, M, X, 0.005, 0.001, every, noise_scale=scale,
+                                systematic=sysm)
+    brute = pl.expected_errors(F, G)
+    F, G = pl.chain_information(Fb, M, X, 0.005, 0.001, starts, noise_scale=scale,
+                                systematic=sysm)
+    start_vals = pl.expected_errors(F, G)
+    kw = dict(feasible=feasible, noise_scale=scale, systematic=sysm)
+    best = pl.best_expected_chains(Fb, M, X, 0.005, 0.001, starts, **kw)
+    for b, (name, unit) in enumerate((("rotation", "deg"), ("translation", "m"))):
+        res = best[name]
+        chain = np.array(res["chain"])
+        assert feasible[chain].all() and len(set(chain.tolist())) == k
+        Fc, Gc = pl.chain_information(Fb, M, X, 0.005, 0.001, chain[None], noise_scale=scale,
+                                      systematic=sysm)
+        val = pl.expected_errors(Fc, Gc)[0, b]
+        assert res[f"expected_{unit}"] == pytest.approx(val, rel=1e-9)
+        assert res[f"expected_{unit}"] == pytest.approx(min(res[f"per_start_{unit}"]))
+        assert np.all(np.array(res[f"per_start_{unit}"]) <= start_vals[:, b] * (1 + 1e-12))
+        assert val >= brute[:, b].min() * (1 - 1e-12)
+        for p in range(k):                                   # a local optimum
+            trial = np.repeat(chain[None], okidx.size, 0)
+            trial[:, p] = okidx
+            trial = trial[[len(set(t.tolist())) == k for t in trial]]
+            Ft, Gt = pl.chain_information(Fb, M, X, 0.005, 0.001, trial, noise_scale=scale,
+                                          systematic=sysm)
+            assert pl.expected_errors(Ft, Gt)[:, b].min() >= val * (1 - 1e-9)
+        opt = every[int(np.argmin(brute[:, b]))]
+        at_opt = pl.best_expected_chains(Fb, M, X, 0.005, 0.001, opt[None], **kw)[name]
+        assert at_opt[f"expected_{unit}"] == pytest.approx(brute[:, b].min(), rel=1e-9)
+    for bad in (np.array([[1, 1]]), np.array([[0, n]]), np.array([1, 2]),
+                np.array([[0.0, 1.0]]), np.zeros((0, 2), int)):
+        with pytest.raises(ValueError, match="starts must be"):
+            pl.best_expected_chains(Fb, M, X, 0.005, 0.001, bad, **kw)
+    with pytest.raises(ValueError, match="feasible must be"):
+        pl.best_expected_chains(Fb, M, X, 0.005, 0.001, np.array([[7, 1]]), **kw)

@@ -100,3 +100,40 @@ def test_verdict_cell_is_the_same_in_every_process():
     for v in (["undetermined", "determined"], ["determined", "undetermined"]):
         assert tables._verdicts(SimpleNamespace(verdicts=v)) == "determined (1/2 determined)"
     assert tables._verdicts(SimpleNamespace(verdicts=[None])) == "n/a"
+
+
+def _floor(rr, rt, adv=(0.1, 0.2), spread=(1.0, 1.0)):
+    rnd = (0.4, 0.8)
+    return {"advised_expected_deg": adv[0], "advised_expected_cm": adv[1],
+            "floor_expected_deg": rr * rnd[0], "floor_expected_cm": rt * rnd[1],
+            "random_expected_deg": rnd[0], "random_expected_cm": rnd[1],
+            "ratio_advised_rotation": adv[0] / rnd[0],
+            "ratio_advised_translation": adv[1] / rnd[1],
+            "ratio_floor_rotation": rr, "ratio_floor_translation": rt,
+            "floor_per_start_deg": [rr * rnd[0], rr * rnd[0] * spread[0]],
+            "floor_per_start_cm": [rt * rnd[1], rt * rnd[1] * spread[1]]}
+
+
+def test_floor_summary_row_and_target_clause():
+    """Medians over the rigs, each rig's floor ratios, the largest search spread; the
+    target clause names the blocks whose floor is above the target; rigs without a floor
+    (fewer stops than k) are left out."""
+    s = tables.floor_summary([_floor(0.5, 0.2, spread=(1.1, 1.0)), {},
+                              _floor(0.3, 0.4, spread=(1.0, 1.05)), _floor(0.4, 0.3)])
+    assert s["rigs"] == 3 and s["ratio_floor_rotation"] == 0.4
+    assert s["ratio_floor_translation"] == 0.3 and s["random_expected_cm"] == 0.8
+    assert s["per_rig"] == [(0.5, 0.2), (0.3, 0.4), (0.4, 0.3)]
+    assert np.allclose(s["spread"], (1.1, 1.05))
+    cells = [c.strip() for c in tables._floor_row("scara", s, _ver(
+        [_r(0.1, 0.2)], [_r(1.0, 2.0)], {})).strip("|").split("|")]
+    assert cells[2] == "0.16 / 0.24" and cells[5] == "0.4 / 0.3"
+    assert cells[6] == "0.5/0.2 0.3/0.4 0.4/0.3" and cells[7] == "1.100 / 1.050"
+    assert "on rotation and translation" in tables._floor_target(s, 0.29)
+    assert tables._floor_target(s, 0.35).endswith("reach the target on rotation")
+    assert "expected to reach the target" in tables._floor_target(s, 0.5)
+    assert tables.floor_summary([{}, {}]) == {} and tables._floor_target({}, 0.3) == ""
+    import dataclasses
+    v = dataclasses.replace(_ver([_r(0.1, 0.2)], [_r(1.0, 2.0)], {}),
+                            ratio={"rotation_error_deg": 0.1, "translation_error_cm": 0.1})
+    cells = [c.strip() for c in tables._floor_row("x", {}, v).strip("|").split("|")]
+    assert cells[1:8] == ["n/a"] * 7 and cells[8] == "0.1 / 0.1"

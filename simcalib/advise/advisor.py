@@ -23,7 +23,7 @@ from simcalib.advise import planner as pl
 __all__ = ["Baseline", "StopPlan", "Advice", "Verification", "baseline", "advise",
            "advise_motions", "verify", "solve_errors", "advice_dict", "recorded_information",
            "determined_message", "predicted_along_chain", "check_when_determined",
-           "hindsight_stops", "limited_by"]
+           "hindsight_stops", "limited_by", "choice_floor", "random_baseline_candidates"]
 
 AXES = ("wx_deg", "wy_deg", "wz_deg", "vx_m", "vy_m", "vz_m")
 
@@ -620,6 +620,84 @@ class Verification:
     ratio_hindsight: dict = field(default_factory=dict)
 
 
+#: random starts of :func:`choice_floor`'s search (besides the planner's chain)
+N_FLOOR_STARTS = 6
+
+
+def choice_floor(base: Baseline, adv: Advice, *, n_starts: int = N_FLOOR_STARTS,
+                 n_random: int = 300, n_chains: int = N_RANDOM_CHAINS) -> dict:
+    """How much any choice of stops can gain, by the planner's own model (no simulation):
+    the expected error of X (root-mean-square norm of its rotation, deg, and of its
+    translation, cm: white noise and the shared pose errors) after the advised stops;
+    the smallest any chain of ``adv.k`` of the advice's usable candidates reaches
+    (:func:`planner.best_expected_chains`, rotation and translation each searched on its
+    own, from the planner's chain and ``n_starts`` random chains); and the median over
+    ``n_chains`` chains of ``adv.k`` random stops of the verification's random baseline
+    (:func:`random_baseline_candidates`, ``n_random`` drawn). A *floor* ratio above a
+    target says that no choice among these candidates can be expected to reach it on a
+    rig of this kind: only knowing this rig's shared errors (the hindsight bound of
+    :func:`hindsight_stops`) could. Empty when the advice proposes fewer than ``k`` stops."""
+    k = int(adv.chosen.size)
+    if k < 1 or k != adv.k:
+        return {}
+    world = base.truth.world
+    s_r, s_t = adv.noise
+    kw = dict(tolerance_deg=adv.tolerance_deg, tolerance_m=adv.tolerance_m)
+    lens = lens_distortion(base.cfg)
+    rng = np.random.default_rng([int(base.cfg.seed), 707])
+
+    def model(cand):
+        sysm = None if base.pose_error_basis is None else _systematic(
+            world, cand, base.C, base.H, adv.X, s_r, s_t, base.pose_error_basis,
+            base.sources, base.cfg)[0]
+        return sysm, _view_noise_scale(world, cand, base.aruco_cameras, lens, True)
+
+    cand = adv.candidates
+    sysm, scale = model(cand)
+    usable = _usable(cand, adv.rejected_by_render)
+    idx = np.flatnonzero(usable)
+    starts = np.concatenate([adv.chosen[None]] + [rng.choice(idx, k, replace=False)[None]
+                                                  for _ in range(int(n_starts))])
+    best = pl.best_expected_chains(adv.F_base, cand.motion["cam_a"], adv.X, s_r, s_t, starts,
+                                   feasible=usable, noise_scale=scale, systematic=sysm, **kw)
+    F, G = pl.chain_information(adv.F_base, cand.motion["cam_a"], adv.X, s_r, s_t,
+                                adv.chosen[None], noise_scale=scale, systematic=sysm)
+    advised = pl.expected_errors(F, G, **kw)[0]
+    rc = random_baseline_candidates(base, n_random)
+    sysm_r, scale_r = model(rc)
+    feas = np.flatnonzero(rc.feasible)
+    if feas.size < k:
+        return {}
+    chains = np.stack([rng.choice(feas, k, replace=False) for _ in range(int(n_chains))])
+    F, G = pl.chain_information(adv.F_base, rc.motion["cam_a"], adv.X, s_r, s_t, chains,
+                                noise_scale=scale_r, systematic=sysm_r)
+    rand = np.median(pl.expected_errors(F, G, **kw), axis=0)
+    floor = (best["rotation"]["expected_deg"], best["translation"]["expected_m"])
+    return {"stops": k, "starts": int(starts.shape[0]), "random_chains": int(chains.shape[0]),
+            "advised_expected_deg": float(advised[0]),
+            "advised_expected_cm": 100.0 * float(advised[1]),
+            "floor_expected_deg": float(floor[0]), "floor_expected_cm": 100.0 * float(floor[1]),
+            "random_expected_deg": float(rand[0]), "random_expected_cm": 100.0 * float(rand[1]),
+            "ratio_advised_rotation": float(advised[0] / rand[0]),
+            "ratio_advised_translation": float(advised[1] / rand[1]),
+            "ratio_floor_rotation": float(floor[0] / rand[0]),
+            "ratio_floor_translation": float(floor[1] / rand[1]),
+            "floor_per_start_deg": [float(v) for v in best["rotation"]["per_start_deg"]],
+            "floor_per_start_cm": [100.0 * float(v)
+                                   for v in best["translation"]["per_start_m"]],
+            "floor_chains": {"rotation": best["rotation"]["chain"],
+                             "translation": best["translation"]["chain"]}}
+
+
+def random_baseline_candidates(base: Baseline, n: int = 300) -> fz.Candidates:
+    """The random baseline's own feasible set: ``n`` stops drawn with the ``"jog"`` ranges
+    (arm 5-40 deg, 15 cm; cart +-90 deg, 1 m) whatever ranges the planner was given, from
+    the scenario's seed (the same set for every verification of a run)."""
+    return fz.candidates(base.truth.world, n, np.random.default_rng([int(base.cfg.seed), 13]),
+                         aruco_cameras=base.aruco_cameras, ranges="jog",
+                         distortion=lens_distortion(base.cfg))
+
+
 def verify(base: Baseline, adv: Advice, *, seeds=(0, 1, 2, 3, 4), joint_baseline: bool = True,
            max_joint_deg: float = 20.0, n_joint: int = 300, n_random: int = 300,
            wide_baseline: bool = True, frames_per_stop: int = 1,
@@ -669,12 +747,7 @@ def verify(base: Baseline, adv: Advice, *, seeds=(0, 1, 2, 3, 4), joint_baseline
         res_adv = dict(res0, stops_measured=0, stops=[])
         res_adv_seeds = [dict(res0, stops_measured=0, stops=[], seed=int(s)) for s in seeds]
     adv_med, _ = _summary({}, res_adv_seeds)
-    # the random baseline's own feasible set, drawn with the "jog" ranges (5-40 deg,
-    # 15 cm; cart +-90 deg, 1 m) whatever ranges the planner was given
-    rc = fz.candidates(base.truth.world, n_random,
-                       np.random.default_rng([int(base.cfg.seed), 13]),
-                       aruco_cameras=base.aruco_cameras, ranges="jog",
-                       distortion=lens_distortion(base.cfg))
+    rc = random_baseline_candidates(base, n_random)
     def random_runs(cands, salt: int) -> list[dict]:
         """k random feasible stops of ``cands`` per seed (choice drawn with ``salt``)."""
         feas = np.flatnonzero(cands.feasible)
@@ -879,8 +952,9 @@ def _joint_names(model) -> list:
     return names
 
 
-def advice_dict(base: Baseline, adv: Advice, ver: Verification | None = None) -> dict:
-    """advice.json (see docs/advice.md)."""
+def advice_dict(base: Baseline, adv: Advice, ver: Verification | None = None,
+                floor: dict | None = None) -> dict:
+    """advice.json (see docs/advice.md); ``floor``: :func:`choice_floor`'s result, if any."""
     cand = adv.candidates
     world = base.truth.world
     names = _joint_names(world.model) if cand.platform == "arm" else []
@@ -943,6 +1017,8 @@ def advice_dict(base: Baseline, adv: Advice, ver: Verification | None = None) ->
                           "by_reason": reasons,
                           "rejected_by_render_check": list(adv.rejected_by_render)},
            "timing_s": dict(adv.timing_s)}
+    if floor:
+        out["choice_floor"] = floor
     if ver is not None:
         out["verification"] = {"baseline": ver.baseline, "advised": ver.advised,
                                "random": ver.random, "random_median": ver.random_median,

@@ -21,6 +21,7 @@ eigen-decomposition of all candidates per step).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -31,7 +32,7 @@ from simcalib.geometry import invert_transform
 __all__ = ["motion_information", "predicted_std", "greedy", "greedy_chain", "GreedyResult",
            "undeterminable", "EPS", "systematic_scores", "systematic_std",
            "greedy_chain_systematic", "check_chain_systematic", "max_std_tolerance_units",
-           "variance_shares"]
+           "variance_shares", "chain_information", "best_expected_chains", "expected_errors"]
 
 EPS = 1e-6
 _FLOOR_R = math.sqrt(np.finfo(float).eps)
@@ -337,6 +338,75 @@ def chain_information(F_base, motion_a, X, sigma_r_rad: float, sigma_t_m: float,
     return F, G
 
 
+def expected_errors(F, G, *, tolerance_deg: float = 1.0, tolerance_m: float = 0.01
+                    ) -> np.ndarray:
+    """``(n, 2)``: the expected (root-mean-square) norm of X's rotation error (deg) and
+    translation error (m) under information ``F`` ``(n, 6, 6)`` and systematic score ``G``
+    ``(n, 6, P)`` (rad, m) — the root of the trace of each block of the covariance
+    ``Fe^-1 + Fe^-1 G G^T Fe^-1`` that :func:`best_expected_chains` minimises (an
+    undetermined direction counts with the 1-sigma of 1000 tolerances that ``EPS`` gives)."""
+    F = np.asarray(F, dtype=np.float64)
+    G = np.asarray(G, dtype=np.float64)
+    if F.ndim != 3 or F.shape[1:] != (6, 6) or G.ndim != 3 or G.shape[:2] != (F.shape[0], 6):
+        raise ValueError(f"F must be (n, 6, 6) and G (n, 6, P); received {F.shape}, {G.shape}")
+    dsc = _scale(tolerance_deg, tolerance_m)
+    Ft, Gt = F * np.outer(dsc, dsc), G * dsc[:, None]
+    return np.stack([tolerance_deg * np.sqrt(_block_variance(Ft, Gt, 0)),
+                     tolerance_m * np.sqrt(_block_variance(Ft, Gt, 1))], axis=1)
+
+
+def best_expected_chains(F_base, motion_a, X, sigma_r_rad: float, sigma_t_m: float, starts, *,
+                         feasible=None, tolerance_deg: float = 1.0, tolerance_m: float = 0.01,
+                         noise_scale=None, ref_noise_scale: float = 1.0, systematic=None,
+                         max_passes: int = 20) -> dict:
+    """How small the expected error of X can be made by *any* choice of ``k`` stops among the
+    feasible candidates, under this model (white noise and the shared pose errors, the same
+    as :func:`greedy_chain`): for X's rotation and its translation each on its own (so no
+    single chain need reach both: a floor for any chain, whatever it trades between them),
+    coordinate exchange — every stop in turn replaced by the feasible candidate that
+    lowers that block's expected squared error most (the trace of its block of the
+    covariance), passes until one changes nothing (at most ``max_passes``) — from each of
+    the ``starts`` ``(n, k)`` chains (candidate indices, visited in order from the
+    reference; e.g. the planner's chain and random ones). A local search of a
+    combinatorial problem: the spread of ``per_start`` says how far it is from settled.
+
+    Returns ``{"rotation": {"expected_deg", "chain", "per_start_deg"}, "translation":
+    {"expected_m", "chain", "per_start_m"}}``: the smallest root-mean-square error norm the
+    search reached (deg, m), its chain and what each start converged to."""
+    st = np.asarray(starts)
+    m0 = _chain_model(motion_a, X, sigma_r_rad, sigma_t_m, noise_scale, ref_noise_scale,
+                      systematic, tolerance_deg, tolerance_m)
+    N = m0.M.shape[0]
+    if st.ndim != 2 or st.size == 0 or not np.issubdtype(st.dtype, np.integer) \
+            or st.min() < 0 or st.max() >= N \
+            or any(len(set(row.tolist())) != st.shape[1] for row in st):
+        raise ValueError(f"starts must be a non-empty (n, k) integer array of distinct "
+                         f"candidate indices in [0, {N}) per row; received shape {st.shape}, "
+                         f"dtype {st.dtype}")
+    feas = np.ones(N, bool) if feasible is None else np.asarray(feasible, bool)
+    if feas.shape != (N,) or not feas[st].all():
+        raise ValueError(f"feasible must be ({N},) bool and hold every start's stops; "
+                         f"received shape {feas.shape}")
+    F0 = np.asarray(F_base, dtype=np.float64)
+    out = {}
+    for block, name, unit, tol in ((0, "rotation", "deg", tolerance_deg),
+                                   (1, "translation", "m", tolerance_m)):
+        m = dataclasses.replace(m0, block=block, monotone=False)
+        found = []
+        for row in st:
+            order = [int(j) for j in row]
+            avail = feas.copy()
+            avail[order] = False
+            _exchange_passes(m, F0, order, avail, max_passes)
+            LF, LG = _chain_links(m, order)
+            v = float(_chain_criterion(m, F0 + sum(LF), m.G0 + sum(LG, np.zeros_like(m.G0))))
+            found.append((tol * math.sqrt(max(v, 0.0)), order))
+        best = min(found, key=lambda f: f[0])
+        out[name] = {f"expected_{unit}": best[0], "chain": best[1],
+                     f"per_start_{unit}": [f[0] for f in found]}
+    return out
+
+
 def greedy_chain_systematic(*args, **kw) -> tuple[GreedyResult, np.ndarray, np.ndarray]:
     """:func:`greedy_chain` returning also the systematic score ``(k, 6, P)`` each stop of
     the final chain adds."""
@@ -373,6 +443,13 @@ class _ChainModel:
     G0: np.ndarray            # (6, P) systematic score of the recorded motions (P = 0: none)
     dsc: np.ndarray           # (6,) tolerance scale
     S: np.ndarray             # (6, 6) its outer product
+    #: what a chain is judged by: None the planner's criterion (:func:`_criterion` /
+    #: :func:`_criterion_systematic`); 0 / 1 the expected squared norm of X's rotation /
+    #: translation error alone (the trace of that block of the covariance; tolerance units)
+    block: int | None = None
+    #: exchanges must leave every stop lowering the criterion (the planner's rule with
+    #: systematic errors); off for :func:`best_expected_chains`, which judges whole chains
+    monotone: bool = True
 
 
 def _check_noise_scale(noise_scale, N: int) -> np.ndarray:
@@ -421,9 +498,21 @@ def _chain_link(m: _ChainModel, prev, idx, nxt=None):
 
 def _chain_criterion(m: _ChainModel, F, G):
     """Criterion (batched) of information ``F`` and systematic score ``G`` (rad, m)."""
+    if m.block is not None:
+        return _block_variance(F * m.S, G * m.dsc[:, None], m.block)
     if m.sysm is None:
         return _criterion(F * m.S)
     return _criterion_systematic(F * m.S, G * m.dsc[:, None])
+
+
+def _block_variance(Ft, Gt, block: int) -> np.ndarray:
+    """Batched expected squared norm of the rotation (``block`` 0) or translation (1) error
+    of X: the trace of that block of ``Fe^-1 + Fe^-1 G G^T Fe^-1`` (tolerance units,
+    ``Fe = F + EPS I`` as in :func:`_criterion_systematic`)."""
+    Fe = 0.5 * (Ft + np.swapaxes(Ft, -1, -2)) + EPS * np.eye(6)
+    S = _with_systematic(np.linalg.inv(Fe), Gt)
+    d = np.diagonal(S, axis1=-2, axis2=-1)
+    return d[..., 3 * block:3 * block + 3].sum(axis=-1)
 
 
 def _greedy_stops(m: _ChainModel, F0, avail, k) -> list:
@@ -490,7 +579,7 @@ def _exchange_stop(m: _ChainModel, F0, order, avail, p, idx) -> bool:
         if not c[best] < now * (1 - 1e-9):
             break
         trial = order[:p] + [int(idx[best])] + order[p + 1:]
-        if m.sysm is not None and not _lowers_at_every_stop(m, F0, trial):
+        if m.sysm is not None and m.monotone and not _lowers_at_every_stop(m, F0, trial):
             continue   # each stop must lower the predicted uncertainty
         avail[order[p]] = True
         order[p] = int(idx[best])

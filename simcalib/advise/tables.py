@@ -10,6 +10,7 @@ import math
 import os
 import time
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -143,7 +144,10 @@ render), `cannot_help` (`statement`, `fix`), `limited_by` (`axis`, `std`, `share
 `dominant`, `statement`, `per_axis`), `expected_gain` (the planner's
 largest predicted 1-sigma after its stops and the median over 200 chains of k random stops
 of the same feasible candidates: what it expects the choice to gain, no simulation),
-`message`, `candidates` (drawn, feasible,
+with `floor=true` `choice_floor` (the model's floor, table below: the expected error
+after the advised stops, the smallest any chain of k of the candidates reaches, and k
+random stops', each rotation deg / translation cm, their ratios, what each search start
+reached and the floor's chains), `message`, `candidates` (drawn, feasible,
 by reason), `timing_s`, and with `verify=true` `verification` (`baseline`, `advised`,
 `random` per seed: `rotation_error_deg`, `translation_error_cm`, `predicted_std`,
 `verdict`, `max_std_deg`, `max_std_cm`; `random_median`,
@@ -168,6 +172,9 @@ refine=True, pose_error_basis=, run_cfg=, sources=)`;
 n_random=300, wide_baseline=True, hindsight=False)`,
 `advisor.hindsight_stops(base, cand, k, rng, scale=, chains=, chains_std=)`,
 `advisor.expected_gain(adv)`, `advisor.ranking_agreement(predicted_std, actual)`,
+`advisor.choice_floor(base, adv, n_starts=6, n_random=300, n_chains=200)`,
+`planner.best_expected_chains(F_base, motion_a, X, s_r, s_t, starts, ...)`,
+`planner.expected_errors(F, G)`,
 `advisor.lens_distortion(run_cfg)`; `feasibility.candidates(world, n, rng, ranges="jog")`,
 `feasibility.RANGES`; `feasibility.joint_candidates(world, n, rng, max_joint_deg=)`,
 `feasibility.view_quality(world, T_world_cam, camera, distortion=)` (both candidate sets
@@ -298,12 +305,25 @@ def _fmt(v, d=3):
     return f"{v:.{d}g}"
 
 
-def run_case(name, overrides, k, seeds, n_cand, stop_frames=1, rig=0):
-    """``(cfg, base, adv, ver, t_adv, ver_frames)`` of the scenario run with ``seed=rig``
-    (its own recorded run and rig: marker map survey, calibrations, DH deviation);
+class Case(NamedTuple):
+    """One rig of a scenario (:func:`run_case`)."""
+    cfg: object
+    base: object
+    adv: object
+    ver: object
+    t_adv: float
+    ver_frames: object
+    floor: dict
+
+
+def run_case(name, overrides, k, seeds, n_cand, stop_frames=1, rig=0) -> Case:
+    """The :class:`Case` of the scenario run with ``seed=rig`` (its own recorded run and
+    rig: marker map survey, calibrations, DH deviation): its advice, verification,
     ``ver_frames`` the verification with ``stop_frames`` frames averaged at each stop
-    (advised and random only; None for 1)."""
+    (advised and random only; None for 1) and ``floor`` (:func:`simcalib.advise.advisor.
+    choice_floor`: what any choice of the candidates can expect by the model)."""
     from simcalib.advise import advise, baseline, verify
+    from simcalib.advise.advisor import choice_floor
     from simcalib.config import load_config
     ov = list(overrides) + [f"seed={int(rig)}", "recording.enabled=false", "progress=false"]
     cfg = load_config(name, ov)
@@ -316,7 +336,7 @@ def run_case(name, overrides, k, seeds, n_cand, stop_frames=1, rig=0):
     ver_f = None if stop_frames <= 1 else verify(
         base, adv, seeds=seeds, joint_baseline=False, wide_baseline=False,
         frames_per_stop=stop_frames)
-    return cfg, base, adv, ver, t_adv, ver_f
+    return Case(cfg, base, adv, ver, t_adv, ver_f, choice_floor(base, adv))
 
 
 def _median_ratio(med, ratio) -> str:
@@ -501,9 +521,85 @@ def _ranking_row(label, advs, vers, pooled) -> str:
             f"{_fmt(cell['best_tenth_over_all_translation'], 2)} |")
 
 
+FLOOR_HEAD = """
+### What no choice of these candidates can beat: the model's floor
+
+By the planner's own error model (white noise and the shared pose errors: marker map,
+calibrations, DH table; no simulation), the expected error of X after k stops — the
+root-mean-square norm of its rotation error (deg) and of its translation error (cm) —
+for the advised stops, for **the best chain of k of the advice's candidates** the model
+knows of (`advisor.choice_floor`, `planner.best_expected_chains`: rotation and
+translation each minimised on its own, so no single chain need reach both; coordinate
+exchange from the planner's chain and 6 random chains until no single exchange lowers
+it), and for k random stops of the target's baseline (median over 200 chains of its
+feasible set). The floor ratio is what the best choice of stops could be expected to
+gain over random on a rig of this kind: a floor above the target says no choice among
+these candidates, by any planner that does not know this rig's errors, is expected to
+reach it (the hindsight bound above, which does know them, can). The model is the one
+the actual errors are compared with in the tables above (its expected errors and the
+median actual errors agree within the spread the per-rig column shows). "Search
+spread": largest / smallest of the 7 starts' results (rotation / translation; 1 = every
+start found the same value), the largest over the rigs. Medians over the rigs; "per
+rig" each rig's floor ratio.
+
+| scenario | expected after the advised stops (model) | floor: best k of the candidates (model) | k random stops (model) | ratio advised/random (model) | ratio floor/random (model) | floor ratio per rig | search spread | actual ratio advised/random |
+|---|---|---|---|---|---|---|---|---|
+"""
+
+
+#: the numbers of :func:`simcalib.advise.advisor.choice_floor` the floor table gives medians of
+FLOOR_MEDIANS = tuple(f"{w}_expected_{u}" for w in ("advised", "floor", "random")
+                      for u in ("deg", "cm")) + tuple(
+    f"ratio_{w}_{b}" for w in ("advised", "floor") for b in ("rotation", "translation"))
+
+
+def floor_summary(floors) -> dict:
+    """Medians over the rigs of :func:`simcalib.advise.advisor.choice_floor`'s numbers
+    (``{}`` when no rig has one), each rig's floor ratios (``per_rig``) and the largest
+    search spread (largest / smallest start result) over the rigs."""
+    fl = [f for f in floors if f]
+    if not fl:
+        return {}
+    out = {k: float(np.median([f[k] for f in fl])) for k in FLOOR_MEDIANS}
+    out["per_rig"] = [(f["ratio_floor_rotation"], f["ratio_floor_translation"]) for f in fl]
+    out["spread"] = tuple(max(max(f[k]) / min(f[k]) for f in fl)
+                          for k in ("floor_per_start_deg", "floor_per_start_cm"))
+    out["rigs"] = len(fl)
+    return out
+
+
+def _floor_row(label, floor, ver) -> str:
+    """A row of the floor table (``floor``: :func:`floor_summary`)."""
+    if not floor:
+        return f"| {label} | n/a | n/a | n/a | n/a | n/a | n/a | n/a | {_pair(ver.ratio, 2)} |"
+    f = floor
+    return (f"| {label} | {_fmt(f['advised_expected_deg'])} / {_fmt(f['advised_expected_cm'])} | "
+            f"{_fmt(f['floor_expected_deg'])} / {_fmt(f['floor_expected_cm'])} | "
+            f"{_fmt(f['random_expected_deg'])} / {_fmt(f['random_expected_cm'])} | "
+            f"{_fmt(f['ratio_advised_rotation'], 2)} / "
+            f"{_fmt(f['ratio_advised_translation'], 2)} | "
+            f"{_fmt(f['ratio_floor_rotation'], 2)} / {_fmt(f['ratio_floor_translation'], 2)} | "
+            + " ".join(f"{_fmt(r, 2)}/{_fmt(t, 2)}" for r, t in f["per_rig"])
+            + f" | {f['spread'][0]:.3f} / {f['spread'][1]:.3f} | {_pair(ver.ratio, 2)} |")
+
+
+def _floor_target(floor, lim) -> str:
+    """The floor's clause of a target line: whether any choice is expected to reach it."""
+    if not floor:
+        return ""
+    r, t = floor["ratio_floor_rotation"], floor["ratio_floor_translation"]
+    above = [b for b, v in (("rotation", r), ("translation", t)) if v > lim]
+    reach = (f"no choice of these candidates is expected to reach the target on "
+             f"{' and '.join(above)}" if above else
+             "the best choice of these candidates is expected to reach the target")
+    return (f"; the model's floor for any choice of these candidates (median over "
+            f"{floor['rigs']} rigs) rotation {_fmt(r, 2)}, translation {_fmt(t, 2)}: "
+            f"{reach}")
+
+
 def _targets(checks) -> str:
     out = []
-    for label, name, rt, ver, t_adv, rtj, rtw in checks:
+    for label, name, rt, ver, t_adv, rtj, rtw, floor in checks:
         r, t = rt["rotation_error_deg"], rt["translation_error_cm"]
         rj, tj = rtj.get("rotation_error_deg"), rtj.get("translation_error_cm")
         rw, tw = rtw.get("rotation_error_deg"), rtw.get("translation_error_cm")
@@ -532,7 +628,8 @@ def _targets(checks) -> str:
                    f"<= {lim} (candidate-set baseline){ivtxt}{jtxt}{wtxt}; advised verdict "
                    f"{verdict} "
                    f"({'all directions within tolerance in every solve' if tol_ok else 'NOT within tolerance in every solve'})"
-                   f"; advice {t_adv:.1f} s (<= 30 s: {'met' if t_adv <= 30 else 'NOT met'})")
+                   f"; advice {t_adv:.1f} s (<= 30 s: {'met' if t_adv <= 30 else 'NOT met'})"
+                   + _floor_target(floor, lim))
     return "\n".join(out)
 
 
@@ -541,7 +638,7 @@ def main(argv=None) -> int:
     os.environ.setdefault("MUJOCO_GL", "egl")
     t0 = time.perf_counter()
     tab = {key: [] for key in ("rows", "sig_rows", "notes", "checks", "size_rows",
-                               "frame_rows", "bound_rows", "rank_rows")}
+                               "frame_rows", "bound_rows", "rank_rows", "floor_rows")}
     prose = {"advised": [], "random": [], "planner": [], "base3d": "n/a"}
     for name, ov in CASES:
         runs = [run_case(name, ov, a.k, tuple(range(a.seeds)), a.candidates, a.stop_frames,
@@ -570,23 +667,25 @@ def _parse_args(argv):
 
 def _add_scenario(tab, prose, name, ov, runs) -> None:
     """Append a scenario's rows (its :func:`run_case` of every rig) to ``tab`` and ``prose``."""
-    base, adv = runs[0][1:3]                     # the planner's numbers: rig 0
-    t_adv = max(r[4] for r in runs)
-    ver = pool([r[3] for r in runs])
-    ver_f = pool([r[5] for r in runs]) if runs[0][5] is not None else None
+    base, adv = runs[0].base, runs[0].adv        # the planner's numbers: rig 0
+    t_adv = max(r.t_adv for r in runs)
+    ver = pool([r.ver for r in runs])
+    ver_f = pool([r.ver_frames for r in runs]) if runs[0].ver_frames is not None else None
     label = name + "".join(f" {o}" for o in ov)
     tab["rows"].append(_actual_row(label, base, adv, ver, t_adv))
     if ver_f is not None:
         tab["frame_rows"].append(_frames_row(label, ver, ver_f))
     tab["bound_rows"].append(_bound_row(label, ver))
-    tab["rank_rows"].append(_ranking_row(label, [r[2] for r in runs], [r[3] for r in runs],
+    tab["rank_rows"].append(_ranking_row(label, [r.adv for r in runs], [r.ver for r in runs],
                                          ver))
+    floor = floor_summary([r.floor for r in runs])
+    tab["floor_rows"].append(_floor_row(label, floor, ver))
     tab["size_rows"].append(_size_row(label, ver.motion_size))
     plan_deg, plan_cm = _planned_max_std(adv)
     tab["sig_rows"].append(_sigma_row(label, ver, adv, plan_deg, plan_cm))
     tab["notes"] += _statements(label, adv)
     tab["checks"].append((label, name, ver.ratio, ver, t_adv, ver.ratio_joint,
-                          ver.ratio_wide))
+                          ver.ratio_wide, floor))
     _add_prose(prose, name, ov, runs, ver, plan_deg, plan_cm)
 
 
@@ -652,7 +751,7 @@ def _add_prose(prose, name, ov, runs, ver, plan_deg, plan_cm) -> None:
     """Add a scenario's numbers the text of :data:`HEAD` quotes to ``prose``."""
     am, med = ver.advised_median, ver.random_median
     if name == "3d" and not ov:
-        b0 = runs[0][3].baseline
+        b0 = runs[0].ver.baseline
         prose["base3d"] = (f"{_fmt(b0.get('rotation_error_deg'))} deg / "
                            f"{_fmt(b0.get('translation_error_cm'))} cm")
     if name in ("scara", "linear", "rotation"):
@@ -684,6 +783,7 @@ def _sections(a, tab) -> str:
     text = _actual_section(tab["rows"]) + _sigma_section(tab["sig_rows"])
     text += BOUND_HEAD + "\n".join(tab["bound_rows"]) + "\n"
     text += RANK_HEAD + "\n".join(tab["rank_rows"]) + "\n"
+    text += FLOOR_HEAD + "\n".join(tab["floor_rows"]) + "\n"
     text += ("\n### Size of the added stop-to-stop motions of camera a (median rotation deg / "
              "translation cm)\n\n| scenario | advised | random | joint-jog random | random "
              "from the advice's candidates |\n|---|---|---|---|---|\n"

@@ -30,7 +30,10 @@ systematic (true|false, default true: weigh the marker map's and the calibration
 the ArUco poses share, see docs/advice.md), stop_frames (verification: frames recorded
 and averaged at each stop while the platform rests, default 1), hindsight (verification:
 also the k stops a chooser knowing the true X would pick: what the candidates can give on
-this rig, not advice; default false). Every other key=value is a scenario override
+this rig, not advice; default false), floor (true|false, default false: also the model's
+floor, the smallest expected error any choice of k of the candidates reaches by the
+planner's error model, against k random stops: whether a better choice could gain more;
+no simulation, about a minute). Every other key=value is a scenario override
 (see `run --help`), e.g. world.platform=arm.
 
 With a=PATH (your own pose files): the files are calibrated as `calibrate` does (every
@@ -44,7 +47,8 @@ max_translation_m, force, recording. No verification (there is no simulator of y
 
 ADVICE_KEYS = {"k": int, "verify": bool, "seeds": int, "candidates": int, "stop_frames": int,
                "max_rotation_deg": float, "max_translation_m": float, "min_markers": int,
-               "recording": bool, "force": bool, "systematic": bool, "hindsight": bool}
+               "recording": bool, "force": bool, "systematic": bool, "hindsight": bool,
+               "floor": bool}
 
 
 def _value(key, text):
@@ -110,6 +114,15 @@ def _print_notes(out: dict) -> None:
               f"{eg['stops']} random stops of the same candidates (median of {eg['chains']}) "
               f"{_n(eg['random_max_std_deg_median'])} deg / "
               f"{_n(eg['random_max_std_cm_median'])} cm")
+    fl = out.get("choice_floor") or {}
+    if fl:
+        print(f"model floor (expected RMS error, no simulation): the best choice of "
+              f"{fl['stops']} of these candidates found {_n(fl['floor_expected_deg'])} deg / "
+              f"{_n(fl['floor_expected_cm'])} cm; these stops {_n(fl['advised_expected_deg'])}"
+              f" / {_n(fl['advised_expected_cm'])}; {fl['stops']} random stops "
+              f"{_n(fl['random_expected_deg'])} / {_n(fl['random_expected_cm'])} (floor / "
+              f"random: rotation {_n(fl['ratio_floor_rotation'])}, translation "
+              f"{_n(fl['ratio_floor_translation'])})")
     print(f"advice took {out['timing_s']['total']:.1f} s")
 
 
@@ -281,6 +294,7 @@ def main(args: list[str]) -> int:
     out_dir = Path(cfg.output) if cfg.output else Path("runs") / f"advise-{cfg.scenario}"
     out_dir.mkdir(parents=True, exist_ok=True)
     from simcalib.advise import advice_dict, advise, baseline, verify
+    from simcalib.advise.advisor import choice_floor
     base = baseline(cfg)
     kw = {k: opts[k] for k in ("max_rotation_deg", "max_translation_m", "min_markers")
           if k in opts}
@@ -290,7 +304,8 @@ def main(args: list[str]) -> int:
     ver = verify(base, adv, seeds=tuple(range(opts["seeds"])),
                  frames_per_stop=opts.get("stop_frames", 1),
                  hindsight=opts.get("hindsight", False)) if opts["verify"] else None
-    out = advice_dict(base, adv, ver)
+    floor = choice_floor(base, adv) if opts.get("floor", False) else None
+    out = advice_dict(base, adv, ver, floor)
     path = out_dir / "advice.json"
     path.write_text(json.dumps(out, indent=1, allow_nan=False))
     if opts["recording"]:
