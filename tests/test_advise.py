@@ -555,3 +555,26 @@ def test_choice_floor_is_no_worse_than_the_advice_and_states_its_search(scara_ad
     white = pl.expected_errors(F, G)[0]
     assert fl["advised_expected_deg"] >= white[0] and fl["advised_expected_cm"] >= 100 * white[1]
     assert A.choice_floor(base, dataclasses.replace(adv, chosen=adv.chosen[:2])) == {}
+
+
+@pytest.mark.parametrize("scenario, says", [
+    ("car", "advice supports world.platform 'arm' or 'cart'; scenario 'car' has 'car'"),
+    ("random", "advice needs a simulated platform (kind 'sim' on arm or cart); scenario "
+               "'random' has kind 'synthetic'")])
+def test_advice_refuses_a_platform_it_cannot_move_before_any_work(scenario, says, capsys,
+                                                                  monkeypatch, tmp_path):
+    """A usage error (exit 2) with what was received and what is allowed, before the
+    recorded run is simulated."""
+    from simcalib import pipeline
+    from simcalib.advise import advisor
+    from simcalib.cli import main
+    from simcalib.config import load_config
+    from simcalib.errors import ConfigError
+
+    def no_work(cfg):
+        raise AssertionError("the recorded run must not start")
+    monkeypatch.setattr(pipeline, "state_through_pairs", no_work)
+    assert main(["advise", f"scenario={scenario}", f"output={tmp_path}"]) == 2
+    assert says in capsys.readouterr().err
+    with pytest.raises(ConfigError, match="advice"):
+        advisor.baseline(load_config(scenario, ["progress=false"]))

@@ -23,7 +23,8 @@ from simcalib.advise import planner as pl
 __all__ = ["Baseline", "StopPlan", "Advice", "Verification", "baseline", "advise",
            "advise_motions", "verify", "solve_errors", "advice_dict", "recorded_information",
            "determined_message", "predicted_along_chain", "check_when_determined",
-           "hindsight_stops", "limited_by", "choice_floor", "random_baseline_candidates"]
+           "hindsight_stops", "limited_by", "choice_floor", "random_baseline_candidates",
+           "check_advisable", "PLATFORMS"]
 
 AXES = ("wx_deg", "wy_deg", "wz_deg", "vx_m", "vy_m", "vz_m")
 
@@ -51,16 +52,33 @@ class Baseline:
     sources: dict = field(default_factory=dict)   # camera -> pose source name
 
 
+#: the platforms advice can move (feasibility.candidates)
+PLATFORMS = ("arm", "cart")
+
+
+def check_advisable(cfg) -> None:
+    """ConfigError, before any work, unless ``cfg`` (a ScenarioConfig) simulates a
+    platform advice can move: kind ``sim`` on one of :data:`PLATFORMS`."""
+    from simcalib.errors import ConfigError
+    if cfg.kind != "sim":
+        raise ConfigError(f"advice needs a simulated platform (kind 'sim' on "
+                          f"{' or '.join(PLATFORMS)}); scenario {cfg.scenario!r} has kind "
+                          f"{cfg.kind!r}")
+    if cfg.world.platform not in PLATFORMS:
+        raise ConfigError(f"advice supports world.platform {' or '.join(map(repr, PLATFORMS))}"
+                          f"; scenario {cfg.scenario!r} has {cfg.world.platform!r} (its "
+                          f"motions come from a physics simulation, not from stops a planner "
+                          f"can choose)")
+
+
 def baseline(cfg) -> Baseline:
     """Run the stages ``world``, ``streams``, ``pairs`` of ``cfg`` (a ScenarioConfig) and
     solve dqopt at the run's alpha (``pipeline.choose_run_alpha``), plus its prior when
-    ``cfg.prior.enabled``."""
+    ``cfg.prior.enabled``; :func:`check_advisable` first."""
     import simcalib
     from simcalib import pipeline
     from simcalib.sources import camera_sources
-    if cfg.kind != "sim":
-        raise ValueError(f"advice needs a simulated platform (kind 'sim'); scenario "
-                         f"{cfg.scenario!r} has kind {cfg.kind!r}")
+    check_advisable(cfg)
     t0 = time.perf_counter()
     st = pipeline.state_through_pairs(cfg)
     C, H = st.pairs.C, st.pairs.H

@@ -291,6 +291,8 @@ def main(args: list[str]) -> int:
     scenario, overrides, opts = parse_args(args)
     from simcalib.config import load_config
     cfg = load_config(scenario, list(overrides))
+    from simcalib.advise.advisor import check_advisable
+    check_advisable(cfg)
     out_dir = Path(cfg.output) if cfg.output else Path("runs") / f"advise-{cfg.scenario}"
     out_dir.mkdir(parents=True, exist_ok=True)
     from simcalib.advise import advice_dict, advise, baseline, verify
