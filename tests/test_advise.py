@@ -202,6 +202,11 @@ def test_cart_states_what_it_cannot_help():
     if adv.limited_by:
         assert adv.limited_by["axis"] not in excluded
         assert "cannot_help" in adv.limited_by["statement"]
+    # the model's floor has no number for the translation no chain determines
+    from simcalib.advise.advisor import choice_floor
+    fl = choice_floor(base, adv, n_starts=1, n_random=40, n_chains=10)
+    assert fl["floor_expected_cm"] is None and fl["ratio_floor_translation"] is None
+    assert 0 < fl["floor_expected_deg"] <= fl["advised_expected_deg"]
 
 
 @pytest.mark.slow

@@ -2,6 +2,7 @@
 on hand-made verifications (the full command runs the simulator for half an hour)."""
 
 import numpy as np
+import pytest
 
 from simcalib.advise import tables
 from simcalib.advise.advisor import Verification
@@ -132,6 +133,12 @@ def test_floor_summary_row_and_target_clause():
     assert tables._floor_target(s, 0.35).endswith("reach the target on rotation")
     assert "expected to reach the target" in tables._floor_target(s, 0.5)
     assert tables.floor_summary([{}, {}]) == {} and tables._floor_target({}, 0.3) == ""
+    # a block some rig leaves undetermined has no median and never reaches a target
+    und = dict(_floor(0.4, 0.3), floor_expected_cm=None, ratio_floor_translation=None)
+    s = tables.floor_summary([und, _floor(0.2, 0.2)])
+    assert s["ratio_floor_translation"] is None
+    assert s["ratio_floor_rotation"] == pytest.approx(0.3)
+    assert tables._floor_target(s, 0.5).endswith("reach the target on translation")
     import dataclasses
     v = dataclasses.replace(_ver([_r(0.1, 0.2)], [_r(1.0, 2.0)], {}),
                             ratio={"rotation_error_deg": 0.1, "translation_error_cm": 0.1})

@@ -647,14 +647,16 @@ def choice_floor(base: Baseline, adv: Advice, *, n_starts: int = N_FLOOR_STARTS,
     """How much any choice of stops can gain, by the planner's own model (no simulation):
     the expected error of X (root-mean-square norm of its rotation, deg, and of its
     translation, cm: white noise and the shared pose errors) after the advised stops;
-    the smallest any chain of ``adv.k`` of the advice's usable candidates reaches
-    (:func:`planner.best_expected_chains`, rotation and translation each searched on its
-    own, from the planner's chain and ``n_starts`` random chains); and the median over
+    the smallest a chain of ``adv.k`` of the advice's usable candidates reaches, as far as
+    :func:`planner.best_expected_chains` finds (rotation and translation each searched on
+    its own, from the planner's chain and ``n_starts`` random chains); and the median over
     ``n_chains`` chains of ``adv.k`` random stops of the verification's random baseline
     (:func:`random_baseline_candidates`, ``n_random`` drawn). A *floor* ratio above a
     target says that no choice among these candidates can be expected to reach it on a
     rig of this kind: only knowing this rig's shared errors (the hindsight bound of
-    :func:`hindsight_stops`) could. Empty when the advice proposes fewer than ``k`` stops."""
+    :func:`hindsight_stops`) could. A block (rotation, translation) along which no feasible
+    candidate determines X (``adv.cannot_help``) gets None. Empty when the advice proposes
+    fewer than ``k`` stops."""
     k = int(adv.chosen.size)
     if k < 1 or k != adv.k:
         return {}
@@ -690,21 +692,31 @@ def choice_floor(base: Baseline, adv: Advice, *, n_starts: int = N_FLOOR_STARTS,
     F, G = pl.chain_information(adv.F_base, rc.motion["cam_a"], adv.X, s_r, s_t, chains,
                                 noise_scale=scale_r, systematic=sysm_r)
     rand = np.median(pl.expected_errors(F, G, **kw), axis=0)
-    floor = (best["rotation"]["expected_deg"], best["translation"]["expected_m"])
-    return {"stops": k, "starts": int(starts.shape[0]), "random_chains": int(chains.shape[0]),
-            "advised_expected_deg": float(advised[0]),
-            "advised_expected_cm": 100.0 * float(advised[1]),
-            "floor_expected_deg": float(floor[0]), "floor_expected_cm": 100.0 * float(floor[1]),
-            "random_expected_deg": float(rand[0]), "random_expected_cm": 100.0 * float(rand[1]),
-            "ratio_advised_rotation": float(advised[0] / rand[0]),
-            "ratio_advised_translation": float(advised[1] / rand[1]),
-            "ratio_floor_rotation": float(floor[0] / rand[0]),
-            "ratio_floor_translation": float(floor[1] / rand[1]),
-            "floor_per_start_deg": [float(v) for v in best["rotation"]["per_start_deg"]],
-            "floor_per_start_cm": [100.0 * float(v)
-                                   for v in best["translation"]["per_start_m"]],
-            "floor_chains": {"rotation": best["rotation"]["chain"],
-                             "translation": best["translation"]["chain"]}}
+    out = {"stops": k, "starts": int(starts.shape[0]), "random_chains": int(chains.shape[0])}
+    # a block with a direction no feasible candidate determines (cannot_help: the planar
+    # cart's vertical translation) has no floor to speak of: None
+    cannot = cannot_help_axes(adv.cannot_help)
+    for b, (name, unit, to_unit) in enumerate((("rotation", "deg", 1.0),
+                                               ("translation", "cm", 100.0))):
+        res = best[name]
+        floor = res["expected_deg" if b == 0 else "expected_m"]
+        per = res["per_start_deg" if b == 0 else "per_start_m"]
+        det = not set(cannot) & set(AXES[3 * b:3 * b + 3])
+        out.update({
+            f"advised_expected_{unit}": _det(to_unit * advised[b], det),
+            f"floor_expected_{unit}": _det(to_unit * floor, det),
+            f"random_expected_{unit}": _det(to_unit * rand[b], det),
+            f"ratio_advised_{name}": _det(advised[b] / rand[b], det),
+            f"ratio_floor_{name}": _det(floor / rand[b], det),
+            f"floor_per_start_{unit}": [to_unit * float(v) for v in per]})
+    out["floor_chains"] = {"rotation": best["rotation"]["chain"],
+                           "translation": best["translation"]["chain"]}
+    return out
+
+
+def _det(value, determined: bool):
+    """``float(value)`` where the block is determined, else None."""
+    return float(value) if determined else None
 
 
 def random_baseline_candidates(base: Baseline, n: int = 300) -> fz.Candidates:

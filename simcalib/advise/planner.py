@@ -229,10 +229,16 @@ def _criterion_systematic(Ft, Gt) -> np.ndarray:
     """Batched criterion with systematic errors (tolerance units; ``Ft`` ``(..., 6, 6)``,
     ``Gt`` ``(..., 6, P)``): max + mean eigenvalue of ``Fe^-1 + Fe^-1 G G^T Fe^-1`` with
     ``Fe = F + EPS I`` — :func:`_criterion` exactly when ``G = 0``."""
-    Fe = 0.5 * (Ft + np.swapaxes(Ft, -1, -2)) + EPS * np.eye(6)
-    S = _with_systematic(np.linalg.inv(Fe), Gt)
+    S = _regularised_covariance(Ft, Gt)
     lam = np.linalg.eigvalsh(0.5 * (S + np.swapaxes(S, -1, -2)))
     return lam.max(axis=-1) + lam.mean(axis=-1)
+
+
+def _regularised_covariance(Ft, Gt) -> np.ndarray:
+    """Batched ``Fe^-1 + Fe^-1 G G^T Fe^-1`` with ``Fe = F + EPS I`` (tolerance units):
+    what the chain criteria judge (undetermined directions kept finite)."""
+    Fe = 0.5 * (Ft + np.swapaxes(Ft, -1, -2)) + EPS * np.eye(6)
+    return _with_systematic(np.linalg.inv(Fe), Gt)
 
 
 def _link(T_from, T_to, X, s_r, s_t, scale_from, scale_to, B_from=None, B_to=None):
@@ -359,10 +365,11 @@ def best_expected_chains(F_base, motion_a, X, sigma_r_rad: float, sigma_t_m: flo
                          feasible=None, tolerance_deg: float = 1.0, tolerance_m: float = 0.01,
                          noise_scale=None, ref_noise_scale: float = 1.0, systematic=None,
                          max_passes: int = 20) -> dict:
-    """How small the expected error of X can be made by *any* choice of ``k`` stops among the
+    """How small the expected error of X can be made by a choice of ``k`` stops among the
     feasible candidates, under this model (white noise and the shared pose errors, the same
-    as :func:`greedy_chain`): for X's rotation and its translation each on its own (so no
-    single chain need reach both: a floor for any chain, whatever it trades between them),
+    as :func:`greedy_chain`), as far as a local search finds: for X's rotation and its
+    translation each on its own (so no single chain need reach both: what the best chain
+    for that block gives, whatever it does to the other),
     coordinate exchange — every stop in turn replaced by the feasible candidate that
     lowers that block's expected squared error most (the trace of its block of the
     covariance), passes until one changes nothing (at most ``max_passes``) — from each of
@@ -509,9 +516,7 @@ def _block_variance(Ft, Gt, block: int) -> np.ndarray:
     """Batched expected squared norm of the rotation (``block`` 0) or translation (1) error
     of X: the trace of that block of ``Fe^-1 + Fe^-1 G G^T Fe^-1`` (tolerance units,
     ``Fe = F + EPS I`` as in :func:`_criterion_systematic`)."""
-    Fe = 0.5 * (Ft + np.swapaxes(Ft, -1, -2)) + EPS * np.eye(6)
-    S = _with_systematic(np.linalg.inv(Fe), Gt)
-    d = np.diagonal(S, axis1=-2, axis2=-1)
+    d = np.diagonal(_regularised_covariance(Ft, Gt), axis1=-2, axis2=-1)
     return d[..., 3 * block:3 * block + 3].sum(axis=-1)
 
 

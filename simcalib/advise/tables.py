@@ -560,12 +560,17 @@ def floor_summary(floors) -> dict:
     fl = [f for f in floors if f]
     if not fl:
         return {}
-    out = {k: float(np.median([f[k] for f in fl])) for k in FLOOR_MEDIANS}
+    out = {k: _median_or_none([f[k] for f in fl]) for k in FLOOR_MEDIANS}
     out["per_rig"] = [(f["ratio_floor_rotation"], f["ratio_floor_translation"]) for f in fl]
     out["spread"] = tuple(max(max(f[k]) / min(f[k]) for f in fl)
                           for k in ("floor_per_start_deg", "floor_per_start_cm"))
     out["rigs"] = len(fl)
     return out
+
+
+def _median_or_none(vals):
+    """The median, or None when any value is None (a block some rig leaves undetermined)."""
+    return None if any(v is None for v in vals) else float(np.median(vals))
 
 
 def _floor_row(label, floor, ver) -> str:
@@ -588,7 +593,7 @@ def _floor_target(floor, lim) -> str:
     if not floor:
         return ""
     r, t = floor["ratio_floor_rotation"], floor["ratio_floor_translation"]
-    above = [b for b, v in (("rotation", r), ("translation", t)) if v > lim]
+    above = [b for b, v in (("rotation", r), ("translation", t)) if v is None or v > lim]
     reach = (f"no choice of these candidates is expected to reach the target on "
              f"{' and '.join(above)}" if above else
              "the best choice of these candidates is expected to reach the target")
