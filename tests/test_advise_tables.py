@@ -125,10 +125,11 @@ def test_floor_summary_row_and_target_clause():
     assert s["ratio_floor_translation"] == 0.3 and s["random_expected_cm"] == 0.8
     assert s["per_rig"] == [(0.5, 0.2), (0.3, 0.4), (0.4, 0.3)]
     assert np.allclose(s["spread"], (1.1, 1.05))
-    cells = [c.strip() for c in tables._floor_row("scara", s, _ver(
-        [_r(0.1, 0.2)], [_r(1.0, 2.0)], {})).strip("|").split("|")]
+    v = tables.pool([_ver([_r(0.1, 0.2)], [_r(0.2, 0.4)], {})])
+    cells = [c.strip() for c in tables._floor_row("scara", s, v).strip("|").split("|")]
     assert cells[2] == "0.16 / 0.24" and cells[5] == "0.4 / 0.3"
     assert cells[6] == "0.5/0.2 0.3/0.4 0.4/0.3" and cells[7] == "1.100 / 1.050"
+    assert cells[9] == "1 / 1" and cells[10] == "0.5 / 0.5"  # actual 0.1 / 0.2, 0.2 / 0.4
     assert "on rotation and translation" in tables._floor_target(s, 0.29)
     assert tables._floor_target(s, 0.35).endswith("reach the target on rotation")
     assert "expected to reach the target" in tables._floor_target(s, 0.5)
@@ -143,4 +144,4 @@ def test_floor_summary_row_and_target_clause():
     v = dataclasses.replace(_ver([_r(0.1, 0.2)], [_r(1.0, 2.0)], {}),
                             ratio={"rotation_error_deg": 0.1, "translation_error_cm": 0.1})
     cells = [c.strip() for c in tables._floor_row("x", {}, v).strip("|").split("|")]
-    assert cells[1:8] == ["n/a"] * 7 and cells[8] == "0.1 / 0.1"
+    assert cells[1:8] == ["n/a"] * 7 and cells[8] == "0.1 / 0.1" and cells[9:] == ["n/a"] * 2

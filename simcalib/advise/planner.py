@@ -143,9 +143,10 @@ def systematic_scores(C, H, X, sigma_r_rad: float, sigma_t_m: float, B_start_a, 
     """``(N, 6, P)``: how systematic pose errors move each motion's information-weighted
     score ``K_i^T Q_i^-1 e_i`` (the estimate's error is ``F^-1 sum_i`` of it): the poses
     at each motion's start and end carry the errors ``xi = B @ eta`` (``B_*`` ``(N, 6, P)``
-    per camera, ``eta ~ N(0, I)`` shared), the motion the error ``xi_end - Ad(M^-1)
-    xi_start`` (right-multiplied), the residual its first-order response (the eq. 38
-    noise Jacobians of :func:`simcalib.solvers.diagnostics.uncertainty.linear_model`)."""
+    per camera, or ``(6, P)`` when every motion starts or ends at the same pose;
+    ``eta ~ N(0, I)`` shared), the motion the error ``xi_end - Ad(M^-1) xi_start``
+    (right-multiplied), the residual its first-order response (the eq. 38 noise Jacobians
+    of :func:`simcalib.solvers.diagnostics.uncertainty.linear_model`)."""
     from simcalib.solvers.diagnostics.uncertainty import (linear_model_jacobians,
                                                           noise_covariance_parts)
     C = np.asarray(C, dtype=np.float64)
@@ -156,9 +157,18 @@ def systematic_scores(C, H, X, sigma_r_rad: float, sigma_t_m: float, B_start_a, 
     L = max(float(np.linalg.norm(X[:3, 3])), 1e-3)
     Q = ((sigma_r_rad ** 2 + _FLOOR_R ** 2) * Qr + (sigma_t_m ** 2 + (1e-9 * L) ** 2) * Qt)
     KQ = np.swapaxes(K, -1, -2) @ np.linalg.inv(Q)
-    dA = np.asarray(B_end_a) - _adinv(C) @ np.asarray(B_start_a)
-    dB = np.asarray(B_end_b) - _adinv(H) @ np.asarray(B_start_b)
-    return KQ @ (Jc @ dA + Jh @ dB)
+    Mc, Mh = KQ @ Jc, KQ @ Jh          # (N, 6, 6): the products with the bases come last
+    return (_times_basis(Mc, B_end_a) - _times_basis(Mc @ _adinv(C), B_start_a)
+            + _times_basis(Mh, B_end_b) - _times_basis(Mh @ _adinv(H), B_start_b))
+
+
+def _times_basis(M, B) -> np.ndarray:
+    """``M @ B`` for ``M`` ``(N, 6, 6)`` and an error basis ``B``: ``(N, 6, P)`` (one per
+    motion) or ``(6, P)`` (one pose shared by every motion: a single 2-D product)."""
+    B = np.asarray(B, dtype=np.float64)
+    if B.ndim == 2:
+        return (M.reshape(-1, 6) @ B).reshape(M.shape[0], 6, B.shape[-1])
+    return M @ B
 
 
 def systematic_std(F, G, *, tolerance_deg: float = 1.0, tolerance_m: float = 0.01,
@@ -245,7 +255,8 @@ def _link(T_from, T_to, X, s_r, s_t, scale_from, scale_to, B_from=None, B_to=Non
     """``(F (n, 6, 6), G (n, 6, P))`` of the motions ``T_from -> T_to`` (stop and go; batched,
     either side may be one pose): the information with the variance factor of the two
     stops' poses averaged (each pose error enters the motion) and, with the stops' error
-    bases ``B_*`` ``(2, n, 6, P)`` (cameras a, b), the systematic score
+    bases ``B_*`` ``(2, n, 6, P)`` or, for one pose, ``(2, 6, P)`` (cameras a, b), the
+    systematic score
     (:func:`systematic_scores`); ``P = 0`` without them."""
     C, H = predicted_motions(invert_transform(T_from) @ T_to, X)
     f = 0.5 * (np.asarray(scale_from, dtype=np.float64) + np.asarray(scale_to, np.float64))
@@ -333,8 +344,7 @@ def chain_information(F_base, motion_a, X, sigma_r_rad: float, sigma_t_m: float,
                                                                  ).copy()
     T_prev = np.broadcast_to(np.eye(4), (n, 4, 4))
     s_prev = np.full(n, float(ref_noise_scale))
-    B_prev = None if sysm is None else np.broadcast_to(sysm[1][:, None],
-                                                       (2, n) + sysm[1].shape[1:])
+    B_prev = None if sysm is None else sysm[1]        # the reference: one pose for every chain
     for j in range(ch.shape[1]):
         idx = ch[:, j]
         B = None if sysm is None else sysm[2][:, idx]
@@ -485,21 +495,18 @@ def _stop_pose_scale(m: _ChainModel, j):
     return (np.eye(4), m.ref_scale) if j < 0 else (m.M[j], m.sc[j])
 
 
-def _stop_basis(m: _ChainModel, j, n: int) -> np.ndarray:
-    """(2, n, 6, P) error basis of stop ``j`` (-1: the reference), cameras a and b, n times."""
-    B = m.sysm[1] if j < 0 else m.sysm[2][:, j]
-    return np.broadcast_to(B[:, None], (2, n) + m.G0.shape)
+def _stop_basis(m: _ChainModel, j) -> np.ndarray:
+    """(2, 6, P) error basis of stop ``j`` (-1: the reference), cameras a and b."""
+    return m.sysm[1] if j < 0 else m.sysm[2][:, j]
 
 
 def _chain_link(m: _ChainModel, prev, idx, nxt=None):
     """(F, G) of the motions prev -> idx (idx an array), or idx -> nxt when nxt given."""
     if nxt is None:
-        Bf, Bt = (None, None) if m.sysm is None else (_stop_basis(m, prev, len(idx)),
-                                                      m.sysm[2][:, idx])
+        Bf, Bt = (None, None) if m.sysm is None else (_stop_basis(m, prev), m.sysm[2][:, idx])
         T_prev, s_prev = _stop_pose_scale(m, prev)
         return _link(T_prev, m.M[idx], m.X, m.s_r, m.s_t, s_prev, m.sc[idx], Bf, Bt)
-    Bf, Bt = (None, None) if m.sysm is None else (m.sysm[2][:, idx],
-                                                  _stop_basis(m, nxt, len(idx)))
+    Bf, Bt = (None, None) if m.sysm is None else (m.sysm[2][:, idx], _stop_basis(m, nxt))
     return _link(m.M[idx], m.M[nxt], m.X, m.s_r, m.s_t, m.sc[idx], m.sc[nxt], Bf, Bt)
 
 

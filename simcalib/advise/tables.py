@@ -535,15 +535,19 @@ it), and for k random stops of the target's baseline (median over 200 chains of 
 feasible set). The floor ratio is what the best choice of stops could be expected to
 gain over random on a rig of this kind: a floor above the target says no choice among
 these candidates, by any planner that does not know this rig's errors, is expected to
-reach it (the hindsight bound above, which does know them, can). The model is the one
-the actual errors are compared with in the tables above (its expected errors and the
-median actual errors agree within the spread the per-rig column shows). "Search
-spread": largest / smallest of the 7 starts' results (rotation / translation; 1 = every
-start found the same value), the largest over the rigs. Medians over the rigs; "per
-rig" each rig's floor ratio.
+reach it (the hindsight bound above, which does know them, can). How well the model
+knows the actual errors: the last two columns, the pooled median actual error over the
+model's expected (RMS) error, for the advised and for the random stops (the median norm
+of a 3-D Gaussian error is 0.7-0.9 of its RMS, by its shape): where the model expects
+random stops to do relatively worse than they do (a smaller actual/model for random than
+for advised), its ratios — and its floor — are optimistic, and the actual ratio comes
+out above the model's. "Search spread": largest / smallest of the 7 starts' results
+(rotation / translation; 1 = every start found the same value), the largest over the
+rigs. Medians over the rigs; "per rig" each rig's floor ratio; inf: a direction no
+feasible candidate determines (`cannot_help`).
 
-| scenario | expected after the advised stops (model) | floor: best k of the candidates (model) | k random stops (model) | ratio advised/random (model) | ratio floor/random (model) | floor ratio per rig | search spread | actual ratio advised/random |
-|---|---|---|---|---|---|---|---|---|
+| scenario | expected after the advised stops (model) | floor: best k of the candidates (model) | k random stops (model) | ratio advised/random (model) | ratio floor/random (model) | floor ratio per rig | search spread | actual ratio advised/random | actual / model, advised | actual / model, random |
+|---|---|---|---|---|---|---|---|---|---|---|
 """
 
 
@@ -576,7 +580,8 @@ def _median_or_none(vals):
 def _floor_row(label, floor, ver) -> str:
     """A row of the floor table (``floor``: :func:`floor_summary`)."""
     if not floor:
-        return f"| {label} | n/a | n/a | n/a | n/a | n/a | n/a | n/a | {_pair(ver.ratio, 2)} |"
+        return (f"| {label} | n/a | n/a | n/a | n/a | n/a | n/a | n/a | {_pair(ver.ratio, 2)} "
+                f"| n/a | n/a |")
     f = floor
     return (f"| {label} | {_fmt(f['advised_expected_deg'])} / {_fmt(f['advised_expected_cm'])} | "
             f"{_fmt(f['floor_expected_deg'])} / {_fmt(f['floor_expected_cm'])} | "
@@ -585,7 +590,20 @@ def _floor_row(label, floor, ver) -> str:
             f"{_fmt(f['ratio_advised_translation'], 2)} | "
             f"{_fmt(f['ratio_floor_rotation'], 2)} / {_fmt(f['ratio_floor_translation'], 2)} | "
             + " ".join(f"{_fmt(r, 2)}/{_fmt(t, 2)}" for r, t in f["per_rig"])
-            + f" | {f['spread'][0]:.3f} / {f['spread'][1]:.3f} | {_pair(ver.ratio, 2)} |")
+            + f" | {f['spread'][0]:.3f} / {f['spread'][1]:.3f} | {_pair(ver.ratio, 2)} | "
+            f"{_actual_over_model(ver.advised_median, f, 'advised')} | "
+            f"{_actual_over_model(ver.random_median, f, 'random')} |")
+
+
+def _actual_over_model(med, floor, which: str) -> str:
+    """``"rotation / translation"``: pooled median actual error over the model's expected
+    error of the ``which`` (advised, random) stops; n/a where either is missing."""
+    cells = []
+    for err, exp in (("rotation_error_deg", f"{which}_expected_deg"),
+                     ("translation_error_cm", f"{which}_expected_cm")):
+        a, e = (med or {}).get(err), floor.get(exp)
+        cells.append(_fmt(a / e, 2) if a is not None and e else "n/a")
+    return " / ".join(cells)
 
 
 def _floor_target(floor, lim) -> str:
