@@ -652,8 +652,8 @@ def choice_floor(base: Baseline, adv: Advice, *, n_starts: int = N_FLOOR_STARTS,
     its own, from the planner's chain and ``n_starts`` random chains); and the median over
     ``n_chains`` chains of ``adv.k`` random stops of the verification's random baseline
     (:func:`random_baseline_candidates`, ``n_random`` drawn). A *floor* ratio above a
-    target says that no choice among these candidates can be expected to reach it on a
-    rig of this kind: only knowing this rig's shared errors (the hindsight bound of
+    target says that no choice among these candidates the search finds can be expected
+    to reach it on a rig of this kind: only knowing this rig's shared errors (the hindsight bound of
     :func:`hindsight_stops`) could. A block (rotation, translation) along which no feasible
     candidate determines X (``adv.cannot_help``) gets None. Empty when the advice proposes
     fewer than ``k`` stops."""

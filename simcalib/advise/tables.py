@@ -522,7 +522,7 @@ def _ranking_row(label, advs, vers, pooled) -> str:
 
 
 FLOOR_HEAD = """
-### What no choice of these candidates can beat: the model's floor
+### How far a better choice of these candidates could get: the model's floor
 
 By the planner's own error model (white noise and the shared pose errors: marker map,
 calibrations, DH table; no simulation), the expected error of X after k stops — the
@@ -534,8 +534,9 @@ exchange from the planner's chain and 6 random chains until no single exchange l
 it), and for k random stops of the target's baseline (median over 200 chains of its
 feasible set). The floor ratio is what the best choice of stops could be expected to
 gain over random on a rig of this kind: a floor above the target says no choice among
-these candidates, by any planner that does not know this rig's errors, is expected to
-reach it (the hindsight bound above, which does know them, can). How well the model
+these candidates that the search finds, by any planner that does not know this rig's
+errors, is expected to reach it (a local search: the spread column says how settled it
+is; the hindsight bound above, which does know the rig's errors, can). How well the model
 knows the actual errors: the last two columns, the pooled median actual error over the
 model's expected (RMS) error, for the advised and for the random stops (the median norm
 of a 3-D Gaussian error is 0.7-0.9 of its RMS, by its shape): where the model expects
