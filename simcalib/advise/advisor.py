@@ -653,9 +653,9 @@ def choice_floor(base: Baseline, adv: Advice, *, n_starts: int = N_FLOOR_STARTS,
     ``n_chains`` chains of ``adv.k`` random stops of the verification's random baseline
     (:func:`random_baseline_candidates`, ``n_random`` drawn). A *floor* ratio above a
     target says that no choice among these candidates the search finds can be expected
-    to reach it on a rig of this kind: only knowing this rig's shared errors (the hindsight bound of
-    :func:`hindsight_stops`) could. A block (rotation, translation) along which no feasible
-    candidate determines X (``adv.cannot_help``) gets None. Empty when the advice proposes
+    to reach it on a rig of this kind: only knowing this rig's shared errors (the
+    hindsight bound of :func:`hindsight_stops`) could. A block (rotation, translation)
+    along which no feasible candidate determines X (``adv.cannot_help``) gets None. Empty when the advice proposes
     fewer than ``k`` stops."""
     k = int(adv.chosen.size)
     if k < 1 or k != adv.k:
