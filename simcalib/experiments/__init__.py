@@ -35,6 +35,7 @@ EXPERIMENTS = {
     "figure3": ("simcalib.experiments.figure3", "Figure3Config"),
     "figure6": ("simcalib.experiments.figure6", "Figure6Config"),
     "streams": ("simcalib.experiments.streams", "StreamsConfig"),
+    "recordings": ("simcalib.experiments.recordings", "RecordingsConfig"),
 }
 
 
