@@ -1,5 +1,6 @@
 """The paper's experiments (Dekel et al., CVPR 2020): ``table1``, ``table2``, ``figure3``,
-``figure6``; and ``streams``, the validation of the stream calibration (issue 11).
+``figure6``; ``streams``, the validation of the stream calibration (issue 11); and
+``real_data``, the regression table on public real recordings (issue 28).
 
 Command line::
 
@@ -36,6 +37,7 @@ EXPERIMENTS = {
     "figure6": ("simcalib.experiments.figure6", "Figure6Config"),
     "streams": ("simcalib.experiments.streams", "StreamsConfig"),
     "recordings": ("simcalib.experiments.recordings", "RecordingsConfig"),
+    "real_data": ("simcalib.experiments.real_data", "RealDataConfig"),
 }
 
 
