@@ -78,12 +78,17 @@ def _apply(stream, swap, invert):
     return s
 
 
-def _motions(sa, sb, offset, n_pairs, rng):
+def _motions(sa, sb, offset, n_pairs, rng, sampling=None):
     """Motions between random pairs of synchronised instants (large motions separate the
-    readings best; consecutive steps are too small to tell them apart)."""
+    readings best; consecutive steps are too small to tell them apart). ``sampling``: a
+    :class:`simcalib.estimation.sampling.Sampling` that pairs by stamp."""
     from simcalib.geometry import invert_transform
     from simcalib.timesync import synchronise
-    sp = synchronise(sa, sb, offset)
+    if sampling is not None and sampling.paired_by_stamp:
+        from simcalib.estimation.sampling import pair_by_stamp
+        sp = pair_by_stamp(sa, sb, sampling, float(getattr(offset, "offset_s", offset)))
+    else:
+        sp = synchronise(sa, sb, offset)
     n = sp.n
     if n < 3:
         return np.zeros((0, 4, 4)), np.zeros((0, 4, 4))
@@ -112,7 +117,7 @@ def _label(sw, inv, name, has_order):
 def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None = None,
                        invert_b: bool | None = None, scalar_first_a: bool | None = None,
                        scalar_first_b: bool | None = None, alpha: float = 1.0,
-                       n_pairs: int = 400, seed: int = 0) -> ConventionReport:
+                       n_pairs: int = 400, seed: int = 0, sampling=None) -> ConventionReport:
     """Decide the reading of two :class:`simcalib.importers.PoseStreamData` from the data.
 
     Every candidate reading (quaternion order of each quaternion-format stream x inversion
@@ -124,7 +129,9 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
     rotation angles do not depend on inversion or quaternion order), 0 for sample-indexed
     files. ``invert_a``/``invert_b``/``scalar_first_a``/``_b``: force a reading
     (``scalar_first_x=True`` = read the quaternion numbers in the other order than the
-    reader did).
+    reader did). ``sampling``: how the streams are paired
+    (:func:`simcalib.estimation.sampling.classify_sampling`; stamp-paired streams are never
+    interpolated); None: interpolated at the offset.
     """
     from simcalib.solvers.robust import ransac, screw_residuals
     from simcalib.timesync import _coarse_offset, as_time_poses
@@ -136,7 +143,7 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
                           or getattr(stream_b, "synthetic_time", False))
     if offset is not None:
         off = offset
-    elif sample_indexed:
+    elif sample_indexed or (sampling is not None and sampling.paired_by_stamp):
         off = 0.0
     else:
         off = _coarse_offset(*as_time_poses(stream_a, "stream_a"),
@@ -155,7 +162,7 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
                                         _swap_options(stream_b, scalar_first_b)):
         for inv_a, inv_b in parities:
             sa, sb = _apply(stream_a, sw_a, inv_a), _apply(stream_b, sw_b, inv_b)
-            C, H = _motions(sa, sb, off, n_pairs, np.random.default_rng(seed))
+            C, H = _motions(sa, sb, off, n_pairs, np.random.default_rng(seed), sampling)
             if C.shape[0] < 3:
                 continue
             try:    # robust fit: outlier poses must not decide the reading

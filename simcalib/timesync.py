@@ -29,7 +29,8 @@ from simcalib.geometry import (invert_transform, matrix_from_quat, quat_from_mat
                                rotation_angle_rad, transform_from_rotation_translation)
 
 __all__ = ["TimeOffset", "SyncedPoses", "as_time_poses", "interpolate_poses", "angular_speed",
-           "estimate_time_offset", "synchronise", "make_motions", "calibration_cost_at_offset"]
+           "estimate_time_offset", "synchronise", "make_motions", "OffsetCost", "EVIDENCE_MIN",
+           "peak_z"]
 
 
 # ----------------------------------------------------------------------------- inputs
@@ -164,6 +165,17 @@ class TimeOffset:
     cost_offsets_s: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
     cost: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
     message: str = ""
+    #: how the offset was decided: ``estimated`` (the data tell it), ``zero`` (the data do
+    #: not tell it apart from 0, which is used), ``given``, ``shared_stamps`` (paired by
+    #: stamp, never shifted)
+    decision: str = "estimated"
+    #: ``n_eff ln(cost at 0 / cost at the estimate)``: the evidence against 0 (~chi2(1)
+    #: under no offset; > :data:`EVIDENCE_MIN` to use the estimate); NaN where not compared
+    evidence: float = float("nan")
+    #: the correlation peak's height over the spread of the correlation at other lags
+    peak_z: float = float("nan")
+    #: offsets the correlation allows (the plausibility window, s)
+    window_s: tuple = (float("-inf"), float("inf"))
 
     def offset_at(self, t_a) -> np.ndarray:
         """Offset ``t_b - t_a`` at clock-a times ``t_a``."""
@@ -187,7 +199,7 @@ def _as_offset(offset) -> TimeOffset:
     if not math.isfinite(offset):
         raise ValueError(f"offset must be finite; received {offset}")
     return TimeOffset(float(offset), 0.0, float(offset), float("nan"), np.zeros(0),
-                      np.zeros(0), refined=False, message="given")
+                      np.zeros(0), refined=False, message="given", decision="given")
 
 
 @dataclass(frozen=True)
@@ -349,26 +361,21 @@ def _normalised_xcorr(x: np.ndarray, y: np.ndarray, min_overlap: int):
     return lags, r
 
 
-def _despike(t, w, k: float = 8.0, max_fraction: float = 0.2):
-    """Replace isolated spikes (outlier poses) by interpolation: a speed is a spike when it
-    exceeds its local median (15 samples; two passes) by more than that median plus ``k``
-    robust sigmas of the deviations. Left alone if more than ``max_fraction`` would go (not spikes)."""
+def _despike(w: np.ndarray, size: int = 9) -> np.ndarray:
+    """Angular speeds with outlier poses' spikes removed: a running median over ``size``
+    samples (two passes), which ignores spikes of any share below half of a window
+    (an outlier pose makes two adjacent spikes), then a short median over 3."""
     from scipy.ndimage import median_filter
     for _ in range(2):
-        local = median_filter(w, size=15, mode="nearest")
-        dev = w - local
-        sig = 1.4826 * float(np.median(np.abs(dev))) + 1e-12
-        spike = dev > local + k * sig
-        if 0 < spike.sum() <= max_fraction * w.size and (~spike).sum() >= 2:
-            w = np.interp(t, t[~spike], w[~spike])
+        w = median_filter(w, size=size, mode="nearest")
     return median_filter(w, size=3, mode="nearest")
 
 
 def _coarse_offset(ta, Ta, tb, Tb, max_offset_s, min_overlap_frac, robust=True):
     tma, wa = angular_speed((ta, Ta))
     tmb, wb = angular_speed((tb, Tb))
-    if robust:      # outlier poses make spikes: drop them (robust bound), then median filter
-        wa, wb = _despike(tma, wa), _despike(tmb, wb)
+    if robust:      # outlier poses make spikes: running medians
+        wa, wb = _despike(wa), _despike(wb)
     dt_a, dt_b = float(np.median(np.diff(ta))), float(np.median(np.diff(tb)))
     dt = 0.5 * min(dt_a, dt_b)
     smooth = max(dt_a, dt_b)
@@ -380,8 +387,11 @@ def _coarse_offset(ta, Ta, tb, Tb, max_offset_s, min_overlap_frac, robust=True):
     if max_offset_s is not None:
         r = np.where(np.abs(offsets) <= max_offset_s, r, np.nan)
     if not np.isfinite(r).any():
-        raise ValueError("the streams do not overlap enough for any allowed offset "
-                         f"(max_offset_s={max_offset_s}); check the timestamps' units/clocks")
+        raise DataError(
+            f"the streams do not overlap by {min_overlap_frac:.0%} of the shorter one at any "
+            f"allowed offset (a: {ta[0]:.3f}..{ta[-1]:.3f} s, b: {tb[0]:.3f}..{tb[-1]:.3f} s"
+            + (f", |offset| <= {max_offset_s} s" if max_offset_s is not None else "")
+            + "); check the timestamps' units and clocks, or give time_offset=")
     k = int(np.nanargmax(r))
     best = offsets[k]
     if 0 < k < r.size - 1 and np.isfinite(r[k - 1]) and np.isfinite(r[k + 1]):
@@ -392,70 +402,137 @@ def _coarse_offset(ta, Ta, tb, Tb, max_offset_s, min_overlap_frac, robust=True):
     return float(best), float(r[k]), offsets[ok], r[ok], dt
 
 
+def peak_z(r: np.ndarray, peak: float) -> float:
+    """How far the correlation's peak stands above its values at other lags: (peak -
+    median) / (1.4826 MAD) over every allowed lag (a clear peak: >> 3)."""
+    if r.size < 5 or not math.isfinite(peak):
+        return float("nan")
+    med = float(np.median(r))
+    mad = 1.4826 * float(np.median(np.abs(r - med))) + 1e-12
+    return (peak - med) / mad
+
+
 # ------------------------------------------------------------------ cost refinement
-def calibration_cost_at_offset(stream_a, stream_b, offset, *, step_s: float, alpha: float = 1.0,
-                               method: str = "dqopt", window_s=None, reference=None,
-                               min_rotation_deg: float | None = None, motion_mask=None,
-                               smooth_s: float | None = None):
-    """Mean dqopt cost per motion (paper eq. 8 over the motions) after synchronising with
-    ``offset``; ``motion_mask`` (bool per motion) keeps only those motions (e.g. RANSAC
-    inliers; only meaningful with a fixed ``window_s`` and no rotation filter, so that the
-    motions are the same for every offset). Returns ``(mean_cost, n_motions, Solution)``."""
-    from simcalib.solvers.api import solve
-    sp = synchronise(stream_a, stream_b, offset, window_s=window_s, reference=reference,
-                     smooth_s=smooth_s)
-    C, H, _, _ = make_motions(sp, step_s=step_s, min_rotation_deg=min_rotation_deg)
-    if motion_mask is not None:
-        if motion_mask.shape[0] != C.shape[0]:
-            raise ValueError("motion_mask does not match the motions (window changed?)")
-        C, H = C[motion_mask], H[motion_mask]
-    if C.shape[0] < 3:
-        return math.inf, int(C.shape[0]), None
-    sol = solve(C, H, method=method, alpha=alpha)
-    return sol.cost / C.shape[0], int(C.shape[0]), sol
+#: ``n_eff ln(cost at 0 / cost at the estimate)`` above which an estimated offset is used
+#: instead of 0 (the log-likelihood-ratio statistic of Gaussian residuals, ~chi2(1) when
+#: there is no offset: 9 is a 3-sigma decision)
+EVIDENCE_MIN = 9.0
 
 
-def _refine(sa, sb, coarse, half_width, step_s, alpha, window, reference, n_grid=13,
-            robust=True, min_rotation_deg=1.0, smooth_s=None):
-    # motions are indexed by the reference stream's stamps (fixed window), so a mask chosen
-    # here selects the same motions at every offset. Keep motions in which the reference
-    # stream turns by >= min_rotation_deg (static ones carry no timing information and would
-    # dominate a robust scale), and of those the RANSAC inliers when robust.
-    sp = synchronise(sa, sb, coarse, window_s=window, reference=reference, smooth_s=smooth_s)
-    C, H, _, _ = make_motions(sp, step_s=step_s)
-    ref = C if reference == "a" else H
-    mask = rotation_angle_rad(ref[:, :3, :3]) >= math.radians(min_rotation_deg)
-    if mask.sum() < 8:
-        mask = np.ones(C.shape[0], dtype=bool)
-    if robust and mask.sum() >= 8:
+class OffsetCost:
+    """The mean dqopt cost per motion of ONE fixed set of motions as a function of the
+    clock offset ``t_b - t_a``, for offsets in ``bracket`` (s).
+
+    The motions span ``step_s`` between stamps of the slower ("reference") stream inside
+    the overlap that every offset of the bracket keeps (and never across a gap of the other
+    stream at any offset of the bracket), so the set does not change with the offset. Both
+    streams are kernel-smoothed over ``smooth_s`` (:func:`smooth_poses`). Used are the
+    motions that turn by >= 1 deg in the reference stream and, with ``robust``, the RANSAC
+    inliers at the bracket's centre. ``part``: 0 / 1 keeps the first / second half of the
+    reference stamps (the drift estimate). Raises DataError when the overlap is too short.
+    """
+
+    def __init__(self, ta, Ta, tb, Tb, bracket, *, step_s, alpha, smooth_s, robust=True,
+                 part=None, n_grid=13):
+        self.alpha, self.step_s, self.smooth_s = alpha, step_s, smooth_s
+        pa, pb = float(np.median(np.diff(ta))), float(np.median(np.diff(tb)))
+        self.reference = "a" if pa >= pb else "b"
+        slow = max(pa, pb)
+        lo_o, hi_o = bracket
+        margin = 5 * smooth_s + slow
+        if self.reference == "a":
+            own, T_own, self.t_other, self.T_other, gap = ta, Ta, tb, Tb, 2.5 * pb
+            lo = max(ta[0], tb[0] - lo_o) + margin
+            hi = min(ta[-1], tb[-1] - hi_o) - margin
+        else:
+            own, T_own, self.t_other, self.T_other, gap = tb, Tb, ta, Ta, 2.5 * pa
+            lo = max(tb[0], ta[0] + hi_o) + margin
+            hi = min(tb[-1], ta[-1] + lo_o) - margin
+        if hi - lo < 4 * step_s:
+            raise DataError(f"the streams overlap for only {max(hi - lo, 0):.3f} s at offsets "
+                            f"{lo_o:.3f}..{hi_o:.3f} s; too short to refine the offset")
+        keep = (own >= lo) & (own <= hi)
+        if part is not None:
+            mid = 0.5 * (lo + hi)
+            keep &= (own < mid) if part == 0 else (own >= mid)
+        self.t_ref = own[keep]
+        self.window = (float(self.t_ref[0]), float(self.t_ref[-1])) if keep.any() else (lo, hi)
+        self.T_ref = smooth_poses(own, T_own, self.t_ref, smooth_s)
+        self.i, self.j = self._pairs(self.t_ref, step_s)
+        grid = np.linspace(lo_o, hi_o, n_grid)
+        valid = np.ones(self.t_ref.size, dtype=bool)
+        for o in grid:
+            valid &= interpolate_poses(self.t_other, self.T_other, self._query(o), gap)[1]
+        ok = valid[self.i] & valid[self.j]
+        R = self.T_ref[:, :3, :3]
+        turn = rotation_angle_rad(np.swapaxes(R[self.i], 1, 2) @ R[self.j])
+        self.mask = ok & (turn >= math.radians(1.0))
+        if self.mask.sum() < 8:
+            self.mask = ok
+        if robust and self.mask.sum() >= 8:
+            self._keep_inliers(0.5 * (lo_o + hi_o))
+        self.n = int(self.mask.sum())
+        self.thin = max(1.0, step_s / slow)
+
+    @staticmethod
+    def _pairs(t, step_s):
+        tol = 0.01 * float(np.median(np.diff(t))) + 1e-9 if t.size > 1 else 1e-9
+        j = np.searchsorted(t, t + step_s - tol, side="left")
+        i = np.arange(t.size)
+        ok = j < t.size
+        i, j = i[ok], j[ok]
+        ok = t[j] - t[i] <= 2.0 * step_s + tol
+        return i[ok], j[ok]
+
+    def _query(self, offset):
+        return self.t_ref + offset if self.reference == "a" else self.t_ref - offset
+
+    def motions(self, offset):
+        """``(C, H)`` of the used motions at ``offset``."""
+        T_o = smooth_poses(self.t_other, self.T_other, self._query(offset), self.smooth_s)
+        T_a, T_b = (self.T_ref, T_o) if self.reference == "a" else (T_o, self.T_ref)
+        i, j = self.i[self.mask], self.j[self.mask]
+        return invert_transform(T_a[i]) @ T_a[j], invert_transform(T_b[i]) @ T_b[j]
+
+    def _keep_inliers(self, offset):
         from simcalib.solvers.robust import ransac
+        self.n = int(self.mask.sum())
+        C, H = self.motions(offset)
         try:
-            inl = ransac(C[mask], H[mask], alpha=alpha, rng=np.random.default_rng(0),
+            inl = ransac(C, H, alpha=self.alpha, rng=np.random.default_rng(0),
                          max_iterations=256).inlier_mask
-            mask[np.nonzero(mask)[0][~inl]] = False
-        except (ValueError, RuntimeError):   # RANSAC: too few motions / no consensus
-            pass
-    kw = dict(step_s=step_s, alpha=alpha, window_s=window, reference=reference,
-              motion_mask=mask, smooth_s=smooth_s)
-    offs = np.linspace(coarse - half_width, coarse + half_width, n_grid)
-    costs = np.array([calibration_cost_at_offset(sa, sb, o, **kw)[0] for o in offs])
+        except (ValueError, RuntimeError):     # too few motions / no consensus: keep all
+            return
+        idx = np.flatnonzero(self.mask)
+        self.mask[idx[~inl]] = False
+
+    def __call__(self, offset) -> float:
+        if self.n < 3:
+            return math.inf
+        from simcalib.solvers.api import solve
+        C, H = self.motions(offset)
+        return float(solve(C, H, method="dqopt", alpha=self.alpha).cost) / self.n
+
+
+def _refine(cost: OffsetCost, centre: float, half: float, n_grid: int = 13):
+    """``(best, cost at best, curvature, grid offsets, grid costs)``: ``cost`` on a grid over
+    ``centre +- half``, then bounded Brent between the grid neighbours of the minimum."""
+    from scipy.optimize import minimize_scalar
+    offs = np.linspace(centre - half, centre + half, n_grid)
+    costs = np.array([cost(o) for o in offs])
     if not np.isfinite(costs).any():
-        raise ValueError("calibration cost undefined for every offset near the coarse "
-                         "estimate (too few motions)")
+        raise DataError("calibration cost undefined for every offset near the coarse "
+                        "estimate (too few motions)")
     k = int(np.nanargmin(costs))
     h = offs[1] - offs[0]
     lo, hi = offs[max(k - 1, 0)], offs[min(k + 1, n_grid - 1)]
-    from scipy.optimize import minimize_scalar
-    f = lambda o: calibration_cost_at_offset(sa, sb, o, **kw)[0]  # noqa: E731
-    res = minimize_scalar(f, bounds=(lo, hi), method="bounded",
-                          options={"xatol": 1e-5 * max(1.0, h / 1e-3) * 1e-1})
+    res = minimize_scalar(cost, bounds=(lo, hi), method="bounded",
+                          options={"xatol": 1e-6 * max(1.0, h / 1e-3)})
     best = float(res.x)
-    j0, n_mot, _ = calibration_cost_at_offset(sa, sb, best, **kw)
+    j0 = cost(best)
     d = max(h / 4, 1e-4)
-    jp = f(best + d)
-    jm = f(best - d)
-    curv = (jp - 2 * j0 + jm) / (d * d)
-    return best, j0, n_mot, curv, offs, costs
+    curv = (cost(best + d) - 2 * j0 + cost(best - d)) / (d * d)
+    return best, j0, curv, offs, costs
 
 
 def _other_peaks(offsets, r, peak, best, min_sep_s, rel: float = 0.9, max_n: int = 3):
@@ -476,95 +553,131 @@ def _other_peaks(offsets, r, peak, best, min_sep_s, rel: float = 0.9, max_n: int
     return out
 
 
+@dataclass(frozen=True)
+class _Refined:
+    centre: float
+    best: float
+    cost_best: float
+    curvature: float
+    offsets: np.ndarray
+    costs: np.ndarray
+    cost: OffsetCost
+
+
+def _refine_candidates(ta, Ta, tb, Tb, cands, half, kw) -> list:
+    out = []
+    for c in cands:
+        try:
+            cost = OffsetCost(ta, Ta, tb, Tb, (c - half, c + half), **kw)
+            out.append(_Refined(c, *_refine(cost, c, half), cost))
+        except DataError:
+            continue
+    return out
+
+
+def _decide(tried, half):
+    """``(chosen _Refined, decision, evidence, cost at 0)``: the candidate of lowest cost
+    is used when it beats offset 0 by :data:`EVIDENCE_MIN`, else 0 (the data do not tell
+    an offset); a recording where offset 0 leaves no overlap has only the estimate."""
+    chosen = min(tried, key=lambda x: x.cost_best)
+    zero = [x for x in tried if abs(x.centre) <= half]
+    if not zero:
+        return chosen, "estimated", float("nan"), float("nan")
+    z = zero[0]
+    j_zero = z.cost(0.0)
+    n_eff = chosen.cost.n / chosen.cost.thin
+    if not (math.isfinite(j_zero) and chosen.cost_best > 0):
+        return chosen, "estimated", float("nan"), j_zero
+    evidence = n_eff * math.log(j_zero / chosen.cost_best)
+    return chosen, ("estimated" if evidence > EVIDENCE_MIN else "zero"), evidence, j_zero
+
+
 def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = None,
                          refine: bool = True, drift: bool = False, step_s: float | None = None,
                          alpha: float = 1.0, min_overlap_frac: float = 0.3,
                          robust: bool = True) -> TimeOffset:
-    """Estimate ``offset_s = t_b - t_a`` between two pose streams.
+    """Estimate ``offset_s = t_b - t_a`` between two pose streams, where the data tell it.
 
-    Coarse: the angular speeds (convention-free) on a common grid at half the faster period,
-    smoothed over the slower period, normalised cross-correlation over every lag with at least
-    ``min_overlap_frac`` overlap (``|offset| <= max_offset_s`` if given); parabolic peak.
-    Refine (``refine=True``): the mean dqopt cost per motion (motions over ``step_s``, default
-    4 periods of the slower stream, at least 0.2 s) is minimised over the offset within +-2
-    slower periods of the coarse value (grid, then bounded Brent), with both streams' poses
-    kernel-smoothed over the faster period (:func:`smooth_poses`: removes the bias of
-    interpolating noisy poses). Other correlation peaks within 90 % of the highest (a
-    periodic motion) are refined too and the lowest cost wins. ``drift=True``: the
-    refinement is repeated on the two halves of the overlap and a linear drift fitted.
-    ``alpha`` (1/m) weights translation in the cost. ``robust``: the angular speeds are
-    median-filtered (isolated outlier poses make spikes) and the refinement cost uses only
-    the RANSAC inliers among the motions at the coarse offset. Needs the streams'
-    conventions resolved for the refinement (see :mod:`simcalib.conventions`); the coarse step does not.
+    Coarse: the angular speeds (convention-free; running medians remove outlier poses'
+    spikes of any share below half a window) on a common grid at half the faster period,
+    smoothed over the slower period, normalised cross-correlation over every lag that keeps
+    ``min_overlap_frac`` of the shorter stream (the plausibility window; also
+    ``|offset| <= max_offset_s`` if given); parabolic peak, and ``peak_z`` (its height over
+    the spread at other lags). Refine (``refine=True``): candidates are the peak, other
+    peaks within 90 % of it (periodic motion) and 0; around each the mean dqopt cost per
+    motion of a fixed set of motions (:class:`OffsetCost`: motions over ``step_s``,
+    default 4 slower periods and >= 0.2 s) is minimised (grid over +- 2 slower periods,
+    then bounded Brent). The lowest cost wins, and it is used only when it beats offset 0
+    by the evidence ``n_eff ln(J(0) / J)`` > :data:`EVIDENCE_MIN` (``decision``
+    "estimated"); otherwise the data do not tell an offset and 0 is used ("zero").
+    ``drift=True``: the offset refined on both halves of the overlap, a linear drift
+    fitted. Needs the streams' readings resolved for the refinement
+    (:mod:`simcalib.conventions`); the coarse step does not.
     """
     ta, Ta = as_time_poses(stream_a, "stream_a")
     tb, Tb = as_time_poses(stream_b, "stream_b")
     coarse, peak, lags, corr, grid_dt = _coarse_offset(ta, Ta, tb, Tb, max_offset_s,
                                                        min_overlap_frac, robust)
+    z = peak_z(corr, peak)
+    window = (float(lags.min()), float(lags.max())) if lags.size else (coarse, coarse)
     slow_dt = max(float(np.median(np.diff(ta))), float(np.median(np.diff(tb))))
     msg = (f"coarse offset {coarse * 1e3:.1f} ms from angular-speed cross-correlation "
-           f"(peak r = {peak:.3f}, grid {grid_dt * 1e3:.1f} ms)")
+           f"(peak r = {peak:.3f}, {z:.1f} robust sigma above the other lags; offsets "
+           f"{window[0]:.3g}..{window[1]:.3g} s allowed)")
     if not refine:
         return TimeOffset(coarse, grid_dt, coarse, peak, lags, corr, refined=False,
-                          message=msg)
-    if step_s is None:
-        step_s = max(0.2, 4 * slow_dt)
-    reference = "a" if np.median(np.diff(ta)) >= np.median(np.diff(tb)) else "b"
+                          message=msg, peak_z=z, window_s=window)
+    step_s = max(0.2, 4 * slow_dt) if step_s is None else step_s
     half = 2.0 * slow_dt
-    smooth_s = min(float(np.median(np.diff(ta))), float(np.median(np.diff(tb))))
-
-    def refine_at(c):
-        # restrict to clock-a instants valid for every offset in the bracket
-        # (and far enough from the ends that the smoothing kernel is never truncated)
-        lo = max(ta[0], tb[0] - c) + half + 5 * smooth_s + slow_dt
-        hi = min(ta[-1], tb[-1] - c) - half - 5 * smooth_s - slow_dt
-        if hi - lo < 4 * step_s:
-            raise DataError(f"the streams overlap for only {max(hi - lo, 0):.3f} s at the "
-                            f"coarse offset {c:.3f} s; too short to refine")
-        sh = 0.0 if reference == "a" else c       # window in the reference's clock
-        out = _refine((ta, Ta), (tb, Tb), c, half, step_s, alpha, (lo + sh, hi + sh),
-                      reference, robust=robust, smooth_s=smooth_s)
-        return out, lo, hi, sh
-    # a periodic motion gives several near-equal correlation peaks: refine each, keep the
-    # one with the lowest calibration cost
-    cands = [coarse] + [o for o in _other_peaks(lags, corr, peak, coarse, 4 * slow_dt)]
-    tried = []
-    for c in cands:
-        try:
-            tried.append((refine_at(c), c))
-        except DataError:
-            if c == coarse and len(cands) == 1:
-                raise
+    kw = dict(step_s=step_s, alpha=alpha, robust=robust,
+              smooth_s=min(float(np.median(np.diff(ta))), float(np.median(np.diff(tb)))))
+    cands = [coarse] + _other_peaks(lags, corr, peak, coarse, 4 * slow_dt)
+    if window[0] <= 0.0 <= window[1] and all(abs(c) > half for c in cands):
+        cands.append(0.0)
+    tried = _refine_candidates(ta, Ta, tb, Tb, cands, half, kw)
     if not tried:
-        raise DataError(f"the streams overlap too little at every candidate offset "
-                        f"({', '.join(f'{c:.3f}' for c in cands)} s) to refine")
-    ((best, j0, n_mot, curv, offs, costs), lo_a, hi_a, shift), chosen = min(
-        tried, key=lambda x: x[0][0][1])
+        return TimeOffset(coarse, grid_dt, coarse, peak, lags, corr, refined=False,
+                          message=msg + "; the overlap is too short to refine it",
+                          peak_z=z, window_s=window)
+    chosen, decision, evidence, j_zero = _decide(tried, half)
+    best, sigma = _offset_and_sigma(chosen)
     if len(tried) > 1:
-        msg += (f"; {len(tried)} correlation peaks of similar height (periodic motion?) at "
-                + ", ".join(f"{c * 1e3:.0f}" for _, c in tried) + " ms, the one at "
-                f"{chosen * 1e3:.0f} ms has the lowest calibration cost ("
-                + ", ".join(f"{t[0][1]:.3g}" for t, _ in tried) + ")")
-        coarse = chosen
-    thin = max(1.0, step_s / slow_dt)
-    if curv > 0 and n_mot > 0:
-        sigma = math.sqrt(2.0 * j0 / (n_mot * curv) * thin)
-    else:
-        sigma = float("nan")
-    d = 0.0
-    t_ref = 0.5 * (lo_a + hi_a)
-    if drift:
-        mid = t_ref
-        o1 = _refine((ta, Ta), (tb, Tb), best, half, step_s, alpha,
-                     (lo_a + shift, mid + shift), reference, robust=robust,
-                     smooth_s=smooth_s)[0]
-        o2 = _refine((ta, Ta), (tb, Tb), best, half, step_s, alpha,
-                     (mid + shift, hi_a + shift), reference, robust=robust,
-                     smooth_s=smooth_s)[0]
-        d = (o2 - o1) / (0.5 * (hi_a - lo_a))
-        best = 0.5 * (o1 + o2)
-        msg += f"; drift {d * 1e6:.1f} ppm from two windows"
+        msg += ("; refined around " + ", ".join(f"{t.centre * 1e3:.0f}" for t in tried)
+                + " ms: calibration costs " + ", ".join(f"{t.cost_best:.3g}" for t in tried))
+    d, t_ref = 0.0, 0.5 * (chosen.cost.window[0] + chosen.cost.window[1])
+    if chosen.cost.reference == "b":
+        t_ref -= best                   # the window is in b's clock
+    if drift and decision == "estimated":
+        d, best, note = _drift(ta, Ta, tb, Tb, best, half, kw, chosen)
+        msg += note
     msg += (f"; refined to {best * 1e3:.2f} +- {sigma * 1e3:.2f} ms by the dqopt cost over "
-            f"{n_mot} motions of {step_s:.2f} s")
-    return TimeOffset(best, sigma, coarse, peak, lags, corr, drift=d, t_ref_s=t_ref,
-                      refined=True, cost_offsets_s=offs, cost=costs, message=msg)
+            f"{chosen.cost.n} motions of {step_s:.2f} s")
+    if decision == "zero":
+        msg += (f"; but the cost at 0 is not worse beyond chance (evidence {evidence:.1f} <= "
+                f"{EVIDENCE_MIN:g}): the data do not tell an offset, 0 is used")
+        best, d = 0.0, 0.0
+    elif math.isfinite(evidence):
+        msg += f"; it beats offset 0 with evidence {evidence:.1f} (> {EVIDENCE_MIN:g})"
+    return TimeOffset(best, sigma, chosen.centre, peak, lags, corr, drift=d, t_ref_s=t_ref,
+                      refined=True, cost_offsets_s=chosen.offsets, cost=chosen.costs,
+                      message=msg, decision=decision, evidence=evidence, peak_z=z,
+                      window_s=window)
+
+
+def _offset_and_sigma(r: _Refined) -> tuple[float, float]:
+    """The refined offset and its 1-sigma from the cost's curvature (residuals treated as
+    independent after thinning by the motion step)."""
+    if r.curvature > 0 and r.cost.n > 0:
+        return r.best, math.sqrt(2.0 * r.cost_best / (r.cost.n * r.curvature) * r.cost.thin)
+    return r.best, float("nan")
+
+
+def _drift(ta, Ta, tb, Tb, best, half, kw, chosen):
+    halves = []
+    for part in (0, 1):
+        cost = OffsetCost(ta, Ta, tb, Tb, (best - half, best + half), part=part, **kw)
+        halves.append((_refine(cost, best, half)[0], cost.window))
+    (o1, w1), (o2, w2) = halves
+    span = 0.5 * (w2[0] + w2[1]) - 0.5 * (w1[0] + w1[1])
+    d = (o2 - o1) / span if span > 0 else 0.0
+    return d, 0.5 * (o1 + o2), f"; drift {d * 1e6:.1f} ppm from two windows"

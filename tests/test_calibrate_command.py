@@ -167,28 +167,28 @@ def test_irls_calibrates(tmp_path, capsys):
     assert code == EXIT_OK, err
 
 
-def test_assess_uses_the_uncertainty():
-    """The one quality function takes the verdict and the sigmas from Solution.uncertainty
-    (issue 9); degenerate motion exits with EXIT_DEGENERATE (6)."""
-    import simcalib
+def test_assess_uses_the_uncertainty_and_its_consistency_check():
+    """The one quality function takes the verdict and the sigmas from the solution's
+    uncertainty raised to the block jackknife (never below the model's); degenerate motion
+    exits with EXIT_DEGENERATE (6) and names the direction."""
+    from simcalib.calibrate_streams import calibrate_streams
     from simcalib.commands.calibrate import assess
-    from simcalib.synthetic import synthetic_problem
-    p = synthetic_problem("random", n=30, rng=np.random.default_rng(0))
-    a = assess(simcalib.solve(p.C, p.H))
-    assert a.verdict == "determined" and not a.degenerate and a.exit_code == 0
-    assert a.source.startswith("Solution.uncertainty")
-    assert len(a.std_rot_deg) == 3 and all(s > 0 for s in a.std_rot_deg)
-    # every rotation about one axis (z): X's translation along z is not determined
-    from simcalib.geometry import matrix_from_rotvec
-    r = np.random.default_rng(1)
-    C = transform_from_rotation_translation(
-        matrix_from_rotvec(np.outer(r.uniform(0.2, 1.0, 20), [0, 0, 1])),
-        np.column_stack([r.uniform(-1, 1, (20, 2)), np.zeros(20)]))
-    H = invert_transform(p.X) @ C @ p.X
-    a = assess(simcalib.solve(C, H))
+    from simcalib.importers import stream_from_arrays
+    rs = rig_streams(duration_s=15.0, rng=np.random.default_rng(0))
+    r = calibrate_streams(stream_from_arrays(rs.t_a, rs.T_a), stream_from_arrays(rs.t_b, rs.T_b),
+                          time_offset=0.0)
+    a = assess(r)
+    assert a.verdict == "determined" and not a.degenerate and a.exit_code == 0, a.summary
+    assert a.source.startswith("the solver's covariance") and "jackknife" in a.source
+    model = np.sqrt(np.diag(r.robust.solution.uncertainty.covariance))
+    assert np.all(np.radians(a.std_rot_deg) >= model[:3] * (1 - 1e-12))
+    assert np.all(np.array(a.std_trans_m) >= model[3:] * (1 - 1e-12))
+    rs = rig_streams(duration_s=15.0, path="planar", rng=np.random.default_rng(1))
+    r = calibrate_streams(stream_from_arrays(rs.t_a, rs.T_a), stream_from_arrays(rs.t_b, rs.T_b),
+                          time_offset=0.0)
+    a = assess(r)
     assert a.degenerate and a.verdict != "determined" and a.exit_code == EXIT_DEGENERATE == 6
-    assert any("along [+0.000, +0.000, " in d or "along [-0.000, -0.000, " in d
-               for d in a.undetermined), a.undetermined
+    assert any("translation" in d for d in a.undetermined), a.undetermined
 
 
 @pytest.mark.slow

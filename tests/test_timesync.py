@@ -110,12 +110,14 @@ def test_eth_offsets_refine_the_cost():
     from simcalib.experiments.streams import eth_files
     from simcalib.conventions import apply_conventions, detect_conventions
     from simcalib.importers import read_pose_stream
-    from simcalib.timesync import calibration_cost_at_offset
+    from simcalib.timesync import OffsetCost, as_time_poses
     for name, (fa, fb) in eth_files(ETH).items():
         a, b = read_pose_stream(fa), read_pose_stream(fb)
         a, b = apply_conventions(a, b, detect_conventions(a, b))
         est = estimate_time_offset(a, b)
         assert abs(est.offset_s) < 0.1 and np.isfinite(est.uncertainty_s), (name, est.message)
-        c_est = calibration_cost_at_offset(a, b, est, step_s=0.2)[0]
-        c_coarse = calibration_cost_at_offset(a, b, est.coarse_offset_s, step_s=0.2)[0]
-        assert c_est <= c_coarse * (1 + 1e-9), name
+        lo = min(est.offset_s, est.coarse_offset_s) - 0.05
+        hi = max(est.offset_s, est.coarse_offset_s) + 0.05
+        cost = OffsetCost(*as_time_poses(a), *as_time_poses(b), (lo, hi), step_s=0.2,
+                          alpha=1.0, smooth_s=0.01)
+        assert cost(est.offset_s) <= cost(est.coarse_offset_s) * (1 + 1e-9), name

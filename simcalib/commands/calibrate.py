@@ -54,8 +54,13 @@ class CalibrateOptions:
     time_offset: float | Literal["estimate"] = field(default="estimate", metadata=_doc(
         "clock offset t_b - t_a in seconds, or 'estimate'"))
     drift: bool = field(default=False, metadata=_doc("also estimate a linear clock drift"))
-    robust: Literal["ransac", "irls", "none"] = field(default="ransac", metadata=_doc(
-        "outlier rejection over motions"))
+    robust: Literal["auto", "ransac", "irls", "none"] = field(default="auto", metadata=_doc(
+        "outlier rejection over motions (auto: RANSAC where the motions give minimal sets, "
+        "IRLS where they do not, none below 8 motions)"))
+    motions: Literal["auto", "stations", "consecutive", "keyframes"] = field(
+        default="auto", metadata=_doc(
+            "which pose pairs become motions (auto: every/far pair for stamp-paired "
+            "stop-and-go data, consecutive over step_s for continuous streams)"))
     threshold: float | None = field(default=None, metadata=_doc(
         "RANSAC inlier threshold on the screw residual (default: automatic, LMedS)"))
     method: str = field(default="dqopt", metadata=_doc("solver of the final estimate"))
@@ -74,7 +79,8 @@ class CalibrateOptions:
     scalar_first_a: bool | None = field(default=None, metadata=_doc(
         "force reading a's quaternion numbers in the other order; default: detected"))
     scalar_first_b: bool | None = field(default=None, metadata=_doc("the same for file b"))
-    step_s: float = field(default=1.0, metadata=_doc("motions span this time step, s"))
+    step_s: float = field(default=1.0, metadata=_doc(
+        "consecutive motions span this time step, s"))
     min_rotation_deg: float = field(default=2.0, metadata=_doc(
         "motions rotating less are dropped (they carry no information)"))
     max_rotation_deg: float | None = field(default=None, metadata=_doc(
@@ -117,8 +123,8 @@ class CalibrateOptions:
                    prior_weight_translation=check_positive("prior_weight_translation",
                                                            self.prior_weight_translation,
                                                            allow_zero=True))
-        check_that(self.threshold is None or self.robust == "ransac", "threshold",
-                   self.threshold, "given only with robust=ransac")
+        check_that(self.threshold is None or self.robust in ("ransac", "auto"), "threshold",
+                   self.threshold, "given only with robust=ransac or auto")
         check_that(self.prior_weight_rotation > 0 or self.prior_weight_translation > 0,
                    "prior_weight_rotation", self.prior_weight_rotation,
                    "> 0 when prior_weight_translation is 0 (omit prior instead)")
@@ -203,7 +209,8 @@ class Assessment:
     """How far the estimate can be trusted. ``verdict``: ``determined``, ``poorly
     determined``, ``undetermined`` or ``FAILED``; ``std_rot_deg`` / ``std_trans_m``: 1-sigma
     per axis (frame a) or None when not available; ``covariance`` 6x6 (rad, m) or None;
-    ``source``: what it was computed from; ``summary``: one line for people."""
+    ``source``: what it was computed from; ``summary``: one line for people;
+    ``unverified``: the data were too few to check the model's sigma."""
     verdict: str
     degenerate: bool
     summary: str
@@ -212,6 +219,7 @@ class Assessment:
     std_trans_m: tuple | None = None
     covariance: tuple | None = None
     undetermined: tuple = ()
+    unverified: bool = False
 
     @property
     def exit_code(self) -> int:
@@ -220,24 +228,29 @@ class Assessment:
         return EXIT_DEGENERATE if self.degenerate else EXIT_OK
 
 
-def assess(solution) -> Assessment:
-    """The verdict on ``solution`` (a :class:`simcalib.Solution`), from its uncertainty
-    (``Solution.uncertainty``: covariance from the residuals, ``std``, ``verdict``; issue 9).
-    A failed solve, or one whose uncertainty cannot be computed, is FAILED."""
+def assess(r) -> Assessment:
+    """The verdict on a calibration ``r`` (:class:`simcalib.calibrate_streams.
+    StreamCalibration`): :func:`simcalib.estimation.verdict.judge` on its solution with the
+    reported covariance (the model's, raised to the data's own consistency). A failed
+    solve, or one whose uncertainty cannot be computed, is FAILED."""
+    from simcalib.estimation.verdict import judge
+    solution = r.robust.solution
     if solution is None or not solution.success or not np.isfinite(solution.X).all():
         why = getattr(solution, "solver_message", "") or "no estimate"
         return Assessment("FAILED", True, f"the solver failed: {why}", "solver")
-    unc = solution.uncertainty
-    if unc is None:
+    if solution.uncertainty is None or r.covariance is None:
         return Assessment("FAILED", True, "the residuals of the estimate are not finite; "
                           "no uncertainty", "solver")
-    std = np.asarray(unc.std, dtype=np.float64)
-    fin = lambda v: tuple(float(x) if math.isfinite(x) else None for x in v)  # noqa
-    return Assessment(unc.verdict, bool(unc.degenerate), unc.summary(),
-                      "Solution.uncertainty (covariance from the residuals)",
-                      fin(std[:3]), fin(std[3:]),
-                      tuple(fin(r) for r in np.asarray(unc.covariance)),
-                      tuple(d.summary() for d in unc.directions))
+    v = judge(solution, r.covariance, r.covariance_determined, r.consistency)
+    fin = lambda vals: tuple(float(x) if math.isfinite(x) else None for x in vals)  # noqa
+    source = ("the solver's covariance from the residuals"
+              + (", raised to a block jackknife of the data" if r.consistency is not None
+                 and r.consistency.checked and r.consistency.ratio > 1 else
+                 ", checked by a block jackknife" if r.consistency is not None and
+                 r.consistency.checked else " (not checked: too few poses)"))
+    return Assessment(v.verdict, v.degenerate, v.summary(), source, fin(v.std_deg),
+                      fin(v.std_m), tuple(fin(row) for row in np.asarray(r.covariance)),
+                      tuple(d.summary() for d in v.directions), v.unverified)
 
 
 # ---------------------------------------------------------------------- the calibration
@@ -263,6 +276,7 @@ def calibrate(opts: CalibrateOptions):
     robust_options = {"threshold": opts.threshold} if opts.threshold is not None else {}
     try:
         r = calibrate_streams(a, b, time_offset=opts.time_offset, robust=opts.robust,
+                              motions=opts.motions,
                               alpha=opts.alpha, step_s=opts.step_s,
                               min_rotation_deg=opts.min_rotation_deg,
                               max_rotation_deg=opts.max_rotation_deg,
@@ -275,7 +289,7 @@ def calibrate(opts: CalibrateOptions):
         raise
     except ValueError as exc:                   # too few motions, no overlap ...
         raise DataError(f"cannot calibrate these streams: {exc}") from None
-    return r, assess(r.robust.solution)
+    return r, assess(r)
 
 
 # ------------------------------------------------------------------------------ outputs
@@ -321,13 +335,21 @@ def report_dict(opts: CalibrateOptions, r, a: Assessment,
         "verdict": {"verdict": a.verdict, "degenerate": a.degenerate,
                     "directions": list(a.undetermined), "message": a.summary},
         "time_offset": {"offset_s": off.offset_s, "uncertainty_s": _fin(off.uncertainty_s),
-                        "estimated": opts.time_offset == "estimate",
+                        "estimated": off.decision == "estimated",
+                        "decision": off.decision, "evidence": _fin(off.evidence),
+                        "peak_z": _fin(off.peak_z),
+                        "window_s": [_fin(x) for x in off.window_s],
                         "coarse_offset_s": off.coarse_offset_s,
                         "peak_correlation": _fin(off.peak_correlation),
                         "drift": off.drift, "t_ref_s": off.t_ref_s,
                         "convention": "offset_s = t_b - t_a for the same instant",
                         "message": off.message},
+        "sampling": r.sampling.to_dict(),
+        "motions": {"policy": r.motions.policy, "reason": r.motions.reason,
+                    "counts": dict(r.motions.counts)},
+        "consistency": None if r.consistency is None else r.consistency.to_dict(),
         "inliers": {"robust": rob.method, "n_motions": int(r.C.shape[0]),
+                    "choice": r.robust_choice,
                     "n_inliers": rob.n_inliers, "threshold": _fin(rob.threshold),
                     "message": rob.message},
         "residuals": {"inliers": s["residuals_inliers"], "all": s["residuals_all"],
@@ -406,13 +428,16 @@ def format_report(rep: dict) -> str:
         f"  rotation vector (deg):  {_vec(rep['X']['rotvec_deg'], digits=3)}",
         f"uncertainty (1 sigma, frame a): rotation {_vec(u['std_rotation_deg'], digits=4)} deg,"
         f" translation {_vec(u['std_translation_m'], 1e3, 2)} mm  [{u['source']}]",
-        f"verdict: {v['verdict'].upper()} - {v['message']}",
+        f"verdict: {v['verdict'].upper()}" + (f" - {v['message']}" if v["message"] else ""),
+        f"sampling: {rep['sampling']['reason']}",
+        f"motions: {rep['motions']['policy']} ({rep['motions']['reason']})",
         f"time offset t_b - t_a: {1e3 * off['offset_s']:.2f}"
-        + (f" +- {1e3 * sig:.2f} ms" if sig else " ms")
-        + (" (estimated)" if off["estimated"] else " (given)")
+        + (f" +- {1e3 * sig:.2f} ms" if sig and off["estimated"] else " ms")
+        + {"estimated": " (estimated)", "zero": " (not told by the data: 0 used)",
+           "given": " (given)", "shared_stamps": " (paired by stamp)"}[off["decision"]]
         + (f", drift {off['drift'] * 1e6:.1f} ppm" if off["drift"] else ""),
         f"  {off['message']}",
-        f"inliers: {inl['n_inliers']} of {inl['n_motions']} motions ({inl['robust']}): "
+        f"inliers: {inl['n_inliers']} of {inl['n_motions']} motions ({inl['choice']}): "
         f"{inl['message']}",
         f"residuals of C X = X H over the inliers: rotation median {res['rot_median_deg']:.3f}"
         f" / rms {res['rot_rms_deg']:.3f} deg, translation median "

@@ -77,8 +77,10 @@ def _header(text: str):
         s = line.strip()
         if not s:
             continue
-        if s.startswith("#") and not any(classify(c) for c in _split(s.lstrip("#"))):
-            continue
+        if s.startswith(("#", "%")):
+            s = s.lstrip("#%").strip()      # a commented header: '# timestamp tx ty ...'
+            if not any(classify(c) for c in _split(s)):
+                continue
         return lineno, _split(s)
     return None, []
 
@@ -94,9 +96,13 @@ def _layout(names: list[str]):
 
 
 def sniff(path, text: str) -> float:
-    _, names = _header(text)
+    lineno, names = _header(text)
     if not names:
         return 0.0
+    from simcalib.importers import tum
+    header = text.splitlines()[lineno - 1].lstrip()
+    if header.startswith(("#", "%")) and tum.sniff(path, text) > 0:
+        return 0.0          # TUM rows under the TUM header comment: the TUM reader's file
     try:
         [float(c) for c in names]
         return 0.0          # a numeric first line is not a header

@@ -1,0 +1,168 @@
+"""Motion formation: which pairs of synchronised poses become the motions ``(C_i, H_i)``.
+
+A policy is a small function ``(synced, options) -> MotionSet`` in :data:`POLICIES`:
+
+* ``stations`` — pairs of poses far apart in the recording: every pair ``i < j`` when there
+  are at most :data:`ALL_PAIRS_MAX` poses (what OpenCV's solvers build from stop-and-go
+  data), otherwise pairs at a geometric set of index distances (1, 2, 3, 5, 8, ...), so
+  each pose still meets far partners. For stop-and-go ("station") data and sample-index
+  stamps.
+* ``consecutive`` — from every synchronised instant to the first one ``step_s`` later
+  (overlapping motions of a continuous recording).
+* ``keyframes`` — non-overlapping motions, each ending where stream a has turned by
+  ``min_rotation_deg`` since the last keyframe.
+
+``auto`` (the default) takes ``stations`` for stamp-paired recordings of at most
+:data:`STATIONS_MAX` poses and ``consecutive`` otherwise, and says why. Motions whose
+rotation (mean of the two streams' angles) is below ``min_rotation_deg`` are dropped (they
+carry no information) unless fewer than 3 would remain; above ``max_rotation_deg`` too.
+
+Every motion remembers its two pose indices (``i``, ``j``), so the uncertainty knows which
+motions share a pose (:func:`simcalib.solve`'s ``pose_pairs``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from simcalib.errors import DataError, unknown_choice
+from simcalib.geometry import invert_transform, rotation_angle_rad
+
+__all__ = ["MotionSet", "form_motions", "POLICIES", "ALL_PAIRS_MAX", "STATIONS_MAX"]
+
+ALL_PAIRS_MAX = 64          # up to this many poses: every pair
+STATIONS_MAX = 600          # stamp-paired recordings up to this many poses: stations
+
+
+@dataclass(frozen=True, eq=False)
+class MotionSet:
+    """Motions ``C = T_a[i]^-1 T_a[j]``, ``H = T_b[i]^-1 T_b[j]`` (``C X = X H``) between
+    synchronised poses ``i`` -> ``j``; ``policy`` the policy used and ``reason`` why;
+    ``counts``: formed, dropped for small / large rotation, kept."""
+    C: np.ndarray = field(repr=False)
+    H: np.ndarray = field(repr=False)
+    i: np.ndarray = field(repr=False)
+    j: np.ndarray = field(repr=False)
+    policy: str
+    reason: str
+    counts: dict = field(default_factory=dict)
+
+    @property
+    def n(self) -> int:
+        return int(self.C.shape[0])
+
+    @property
+    def pose_pairs(self) -> np.ndarray:
+        return np.stack([self.i, self.j], axis=1)
+
+    def subset(self, mask) -> "MotionSet":
+        m = np.asarray(mask, dtype=bool)
+        return MotionSet(self.C[m], self.H[m], self.i[m], self.j[m], self.policy,
+                         self.reason, dict(self.counts))
+
+
+def _strides(n: int) -> np.ndarray:
+    s, out = [1, 2], []
+    while s[-1] < n:
+        s.append(s[-1] + s[-2])
+    for d in [1, 2] + s[2:]:
+        if d < n and d not in out:
+            out.append(d)
+    return np.asarray(out, dtype=np.int64)
+
+
+def _stations(t, options):
+    n = t.size
+    if n <= ALL_PAIRS_MAX:
+        i, j = np.triu_indices(n, k=1)
+        how = f"every pair of the {n} poses"
+    else:
+        d = _strides(n)
+        i = np.concatenate([np.arange(n - s) for s in d])
+        j = np.concatenate([np.arange(s, n) for s in d])
+        how = (f"pairs of the {n} poses {', '.join(map(str, d[:6]))}"
+               f"{', ...' if d.size > 6 else ''} apart")
+    return i.astype(np.int64), j.astype(np.int64), how
+
+
+def _consecutive(t, options):
+    step_s = options.get("step_s", 1.0)
+    if not (step_s > 0 and math.isfinite(step_s)):
+        raise ValueError(f"step_s must be finite and > 0; received {step_s}")
+    tol = 0.01 * float(np.median(np.diff(t))) + 1e-9
+    j = np.searchsorted(t, t + step_s - tol, side="left")
+    i = np.arange(t.size)
+    ok = j < t.size
+    i, j = i[ok], j[ok]
+    ok = t[j] - t[i] <= 2.0 * step_s + tol          # not across a gap
+    return i[ok], j[ok], f"from every instant to the first {step_s:g} s later"
+
+
+def _keyframes(t, options, T_a):
+    thr = math.radians(options.get("min_rotation_deg") or 5.0)
+    R = T_a[:, :3, :3]
+    ii, jj, i = [], [], 0
+    while i < t.size - 1:
+        hit = np.flatnonzero(rotation_angle_rad(R[i].T[None] @ R[i + 1:]) >= thr)
+        if hit.size == 0:
+            break
+        ii.append(i)
+        jj.append(i + 1 + int(hit[0]))
+        i = jj[-1]
+    return (np.asarray(ii, dtype=np.int64), np.asarray(jj, dtype=np.int64),
+            f"keyframes every {math.degrees(thr):g} deg of a's rotation")
+
+
+POLICIES = {"stations": _stations, "consecutive": _consecutive, "keyframes": _keyframes}
+
+
+def auto_policy(synced, paired_by_stamp: bool) -> tuple[str, str]:
+    """``(policy, reason)`` chosen from the data."""
+    if paired_by_stamp and synced.n <= STATIONS_MAX:
+        return "stations", (f"{synced.n} stamp-paired poses (stop-and-go or sample-index "
+                            "data): pairs of poses far apart")
+    if paired_by_stamp:
+        return "consecutive", (f"{synced.n} stamp-paired poses, too many for pairs: "
+                               "motions over a time step")
+    return "consecutive", "a continuous recording: motions over a time step"
+
+
+def form_motions(synced, policy: str = "auto", *, paired_by_stamp: bool = False,
+                 step_s: float = 1.0, min_rotation_deg: float | None = 2.0,
+                 max_rotation_deg: float | None = None) -> MotionSet:
+    """The :class:`MotionSet` of ``synced`` (:class:`simcalib.timesync.SyncedPoses`) under
+    ``policy`` (``auto`` or a name of :data:`POLICIES`)."""
+    if synced.n < 2:
+        raise DataError(f"only {synced.n} synchronised pose(s); at least 2 are needed (do "
+                        "the streams overlap in time?)")
+    reason = "given"
+    if policy == "auto":
+        policy, reason = auto_policy(synced, paired_by_stamp)
+    if policy not in POLICIES:
+        raise unknown_choice("motion policy", policy, list(POLICIES) + ["auto"], key="motions")
+    opts = {"step_s": step_s, "min_rotation_deg": min_rotation_deg}
+    t = synced.time_s
+    if policy == "keyframes":
+        i, j, how = _keyframes(t, opts, synced.T_a)
+    else:
+        i, j, how = POLICIES[policy](t, opts)
+    C = invert_transform(synced.T_a[i]) @ synced.T_a[j]
+    H = invert_transform(synced.T_b[i]) @ synced.T_b[j]
+    ang = 0.5 * (rotation_angle_rad(C[:, :3, :3]) + rotation_angle_rad(H[:, :3, :3]))
+    keep = np.ones(ang.shape, dtype=bool)
+    counts = {"formed": int(i.size)}
+    if min_rotation_deg and policy != "keyframes":
+        small = ang < math.radians(min_rotation_deg)
+        enough = (~small).sum() >= 3          # else keep them: better than no motions
+        keep &= ~small if enough else keep
+        counts["dropped_small_rotation"] = int(small.sum()) if enough else 0
+    if max_rotation_deg is not None:
+        big = ang > math.radians(max_rotation_deg)
+        counts["dropped_large_rotation"] = int((big & keep).sum())
+        keep &= ~big
+    counts["kept"] = int(keep.sum())
+    return MotionSet(C[keep], H[keep], i[keep], j[keep], policy,
+                     f"{reason}; {how}", counts)
