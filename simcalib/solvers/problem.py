@@ -46,7 +46,10 @@ class MotionProblem:
         return self.C.shape[0]
 
     def soa(self) -> np.ndarray:
-        """The motions as the kernels' ``Q (16, N)`` (rows c, h, c', h')."""
+        """The motions as the kernels' ``Q (16, N)`` (rows c, h, c', h'; a new array)."""
+        Q = self.__dict__.get("_soa")   # the kernel's own Q, kept by prepare_problem
+        if Q is not None:
+            return Q.copy()
         return np.ascontiguousarray(np.concatenate(
             [self.q_C.T, self.q_H.T, self.q_C_dual.T, self.q_H_dual.T]))
 
@@ -124,8 +127,11 @@ def prepare_problem(C, H, alpha: float = 1.0, weights=None) -> MotionProblem:
         check_transforms(H, "H")
         raise ValueError(f"motion {int(out['bad'][0])}: C or H is not a rigid transform")
     Q = out["Q"][0]
-    return MotionProblem(C, H, Q[0:4].T.copy(), Q[8:12].T.copy(), Q[4:8].T.copy(),
-                         Q[12:16].T.copy(), w, int(out["nflip"][0]))
+    problem = MotionProblem(C, H, Q[0:4].T.copy(), Q[8:12].T.copy(), Q[4:8].T.copy(),
+                            Q[12:16].T.copy(), w, int(out["nflip"][0]))
+    # soa() of these motions is Q itself (the same numbers): kept instead of re-stacked
+    object.__setattr__(problem, "_soa", Q)
+    return problem
 
 
 def prepare_batch(C, H, alphas, weights=None) -> tuple[np.ndarray, np.ndarray]:

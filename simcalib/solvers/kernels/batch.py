@@ -349,6 +349,9 @@ def _run_chunks(nb: int, args: tuple) -> None:
     """Run problems 0..nb-1 of ``args`` on the calling thread or, for larger batches, in
     chunks on ``_threads()`` threads (``_one`` releases the GIL)."""
     global _POOL
+    if nb <= _CHUNK:   # one chunk: the calling thread (without asking numba for threads)
+        _one(0, nb, *args)
+        return
     nthreads = min(_threads(), -(-nb // _CHUNK))
     if nthreads <= 1:
         _one(0, nb, *args)
