@@ -426,3 +426,64 @@ def test_real_recording_through_a_bag(tmp_path, kind):
         _close(got.T_world_sensor, want.T_world_sensor)
         np.testing.assert_array_equal(got.timestamps_s, _seconds(ns))
         np.testing.assert_allclose(got.timestamps_s - 1.0, want.timestamps_s, atol=1e-9)
+
+
+# ------------------------------------------------- end to end: bag -> X -> exports
+@pytest.mark.parametrize("eye", ["in_hand", "on_base"])
+def test_calibration_from_a_bag_recovers_X_and_exports_it(tmp_path, eye):
+    """The frame naming of docs/ros.md: eye in hand, a=/tf:base_link->tool0 and
+    b=/tf:camera_link->board (read inverted by the conventions) give X = T_tool0_camera;
+    eye on base, a=/tf:tool0->base_link and b=/tf:marker->camera_link give
+    X = T_base_link_camera. Both exported to easy_handeye2 and URDF with the right frames."""
+    from simcalib.calibrate_streams import calibrate_streams
+    from simcalib.exports import parse_easy_handeye2, parse_urdf_joint, write_exports
+    from simcalib.importers.rosbag import export_frames
+    rig = Rig(seed=5, n=40)
+    rng = np.random.default_rng(17)
+    fixed = _random_T(rng, scale=0.3)        # in hand: T_tool0_cam; on base: T_base_cam
+    other = _random_T(rng, scale=0.3)        # in hand: T_base_board; on base: T_tool0_marker
+    b = BagBuilder("mcap")
+    for k, ns in enumerate(rig.hand_ns):
+        T_bt = rig.T_base_hand[k]
+        if eye == "in_hand":
+            track = invert_transform(T_bt @ fixed) @ other         # T_cam_board
+            edge = (int(ns), "camera_link", "board", track)
+        else:
+            track = invert_transform(fixed) @ T_bt @ other         # T_cam_marker
+            edge = (int(ns), "camera_link", "marker", track)
+        b.tf("/tf", int(ns), [(int(ns), "base_link", "link1", rig.T_base_link1[k]),
+                              (int(ns), "link1", "tool0", rig.T_link1_tool0[k]), edge])
+    path = b.write(tmp_path / eye)
+    specs = (("/tf:base_link->tool0", "/tf:camera_link->board") if eye == "in_hand" else
+             ("/tf:tool0->base_link", "/tf:marker->camera_link"))
+    bag = read_bag(path, *specs)
+    r = calibrate_streams(bag.a.stream, bag.b.stream, time_offset=0.0)
+    _close(r.X, fixed, tol=1e-8)
+    frames = export_frames(bag, invert_a=r.conventions.invert_a,
+                           invert_b=r.conventions.invert_b, eye=eye)
+    want = (("tool0", "camera_link", "base_link", "board") if eye == "in_hand" else
+            ("base_link", "camera_link", "tool0", "marker"))
+    assert (frames.frame_a, frames.frame_b, frames.robot_frame, frames.marker_frame) == want
+    paths = write_exports(tmp_path / "out", r.X, ["urdf", "easy_handeye2"], frames)
+    eh = parse_easy_handeye2(paths["easy_handeye2"].read_text())
+    params = eh.details["parameters"]
+    assert params["calibration_type"] == ("eye_in_hand" if eye == "in_hand" else "eye_on_base")
+    assert (params["robot_base_frame"], params["robot_effector_frame"]) == ("base_link", "tool0")
+    assert (params["tracking_base_frame"], params["tracking_marker_frame"]) == (want[1], want[3])
+    _close(eh.X, fixed, tol=1e-8)
+    u = parse_urdf_joint(paths["urdf"].read_text())
+    assert (u.parent, u.child) == want[:2]
+    _close(u.X, fixed, tol=1e-8)
+
+
+def test_export_frames_needs_a_name_for_pose_stamped(topic_bag):
+    from simcalib.errors import ConfigError
+    from simcalib.importers.rosbag import export_frames
+    bag = read_bag(topic_bag, "/hand_pose", "/cam_odom")
+    with pytest.raises(ConfigError, match="frame_a.*PoseStamped topic names no child"):
+        export_frames(bag)
+    f = export_frames(bag, frame_a="tool0", invert_b=True)
+    assert (f.frame_a, f.frame_b, f.robot_frame, f.marker_frame) == (
+        "tool0", "board", "base_link", "camera_link")
+    with pytest.raises(ConfigError, match="eye must be in_hand or on_base"):
+        export_frames(bag, frame_a="tool0", eye="hand")

@@ -46,7 +46,7 @@ from simcalib.importers import PoseStreamData, stream_from_arrays
 
 __all__ = ["BagSpec", "BagStream", "BagStreams", "TopicSummary", "EdgeSummary", "BagSummary",
            "parse_spec", "read_bag", "read_bag_streams", "read_bag_stream", "describe_bag",
-           "list_bag", "stamp_seconds", "TF_TYPES", "POSE_TYPES", "FORMAT"]
+           "list_bag", "stamp_seconds", "export_frames", "TF_TYPES", "POSE_TYPES", "FORMAT"]
 
 FORMAT = "rosbag"
 TF_PREFIXES = ("/tf:", "tf:")
@@ -500,3 +500,33 @@ def describe_bag(path) -> BagSummary:
 def list_bag(path) -> str:
     """A text listing of a bag: topics with types and counts, tf edges, tf trees."""
     return describe_bag(path).format()
+
+
+# ------------------------------------------------------------------ frames for exports
+def export_frames(bag: BagStreams, *, invert_a: bool = False, invert_b: bool = False,
+                  eye: str | None = None, frame_a: str | None = None,
+                  frame_b: str | None = None, name: str = "simcalib"):
+    """The :class:`simcalib.exports.ExportFrames` of a calibration from ``bag``'s streams.
+
+    Stream a's sensor frame (the ``a`` of ``X = T_a_b``) is its spec's CHILD, or its PARENT
+    when the calibration read stream a inverted (``invert_a``, from the conventions report);
+    the same for b. The other end of spec a is the robot frame easy_handeye2 also needs
+    (the base when the eye is in hand, the effector when it is on the base), the other end
+    of spec b the marker frame. ``frame_a`` / ``frame_b`` override (required for a
+    PoseStamped topic, which names no child frame)."""
+    from simcalib.errors import ConfigError
+    from simcalib.exports import EYES, ExportFrames
+    if eye is not None and eye not in EYES:
+        raise ConfigError(key="eye", value=eye, allowed=" or ".join(EYES))
+    ends = []
+    for s, inv, key, override in ((bag.a, invert_a, "frame_a", frame_a),
+                                  (bag.b, invert_b, "frame_b", frame_b)):
+        sensor, world = (s.parent, s.child) if inv else (s.child, s.parent)
+        sensor = override or sensor
+        if not sensor:
+            raise ConfigError(key=key, value=override, allowed=(
+                f"the frame name of {s.spec.text!r} (a PoseStamped topic names no child "
+                "frame): give " + key + "=NAME"))
+        ends.append((sensor, world or None))
+    return ExportFrames(ends[0][0], ends[1][0], eye=eye, robot_frame=ends[0][1],
+                        marker_frame=ends[1][1], name=name)
