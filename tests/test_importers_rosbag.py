@@ -478,7 +478,7 @@ def test_calibration_from_a_bag_recovers_X_and_exports_it(tmp_path, eye):
 
 def test_export_frames_needs_a_name_for_pose_stamped(topic_bag):
     from simcalib.errors import ConfigError
-    from simcalib.importers.rosbag import export_frames
+    from simcalib.importers.rosbag import export_frames, spec_frames
     bag = read_bag(topic_bag, "/hand_pose", "/cam_odom")
     with pytest.raises(ConfigError, match="frame_a.*PoseStamped topic names no child"):
         export_frames(bag)
@@ -487,3 +487,10 @@ def test_export_frames_needs_a_name_for_pose_stamped(topic_bag):
         "tool0", "board", "base_link", "camera_link")
     with pytest.raises(ConfigError, match="eye must be in_hand or on_base"):
         export_frames(bag, frame_a="tool0", eye="hand")
+    g = export_frames(path=topic_bag, spec_a="/hand_pose", spec_b="/cam_odom",
+                      frame_a="tool0", invert_b=True)          # from the specs, cheaply
+    assert g == f
+    assert spec_frames(topic_bag, "/cam_tf") == ("board", "camera_link")
+    assert spec_frames(topic_bag, "/tf:a->b") == ("a", "b")
+    with pytest.raises(DataError, match="std_msgs/String"):
+        spec_frames(topic_bag, "/chatter")

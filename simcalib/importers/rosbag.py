@@ -46,7 +46,7 @@ from simcalib.importers import PoseStreamData, stream_from_arrays
 
 __all__ = ["BagSpec", "BagStream", "BagStreams", "TopicSummary", "EdgeSummary", "BagSummary",
            "parse_spec", "read_bag", "read_bag_streams", "read_bag_stream", "describe_bag",
-           "list_bag", "stamp_seconds", "export_frames", "TF_TYPES", "POSE_TYPES", "FORMAT"]
+           "list_bag", "stamp_seconds", "export_frames", "spec_frames", "TF_TYPES", "POSE_TYPES", "FORMAT"]
 
 FORMAT = "rosbag"
 TF_PREFIXES = ("/tf:", "tf:")
@@ -503,10 +503,33 @@ def list_bag(path) -> str:
 
 
 # ------------------------------------------------------------------ frames for exports
-def export_frames(bag: BagStreams, *, invert_a: bool = False, invert_b: bool = False,
-                  eye: str | None = None, frame_a: str | None = None,
-                  frame_b: str | None = None, name: str = "simcalib"):
-    """The :class:`simcalib.exports.ExportFrames` of a calibration from ``bag``'s streams.
+def spec_frames(path, spec: str) -> tuple[str, str]:
+    """``(parent, child)`` of a spec without reading the stream: a tf spec's two frames; a
+    topic's ``header.frame_id`` and ``child_frame_id`` of its first message (``""`` for a
+    PoseStamped / PoseWithCovarianceStamped topic, which names no child)."""
+    sp = parse_spec(spec)
+    if sp.kind == "tf":
+        return sp.parent, sp.child
+    reader = _open(path)
+    try:
+        topic = _resolve_topic(sp.topic, _topics(reader), str(path))
+        if topic.msgtype not in POSE_TYPES:
+            raise DataError(f"{path}: topic {topic.name!r} has type {_short(topic.msgtype)}; "
+                            f"supported: {', '.join(_short(t) for t in POSE_TYPES)}")
+        for _conn, msg in _messages(reader, [topic.name]):
+            return _frame(msg.header.frame_id), _frame(getattr(msg, "child_frame_id", ""))
+    finally:
+        reader.close()
+    raise DataError(f"{path}: topic {sp.topic!r} has no messages")
+
+
+def export_frames(bag: BagStreams | None = None, *, invert_a: bool = False,
+                  invert_b: bool = False, eye: str | None = None, frame_a: str | None = None,
+                  frame_b: str | None = None, name: str = "simcalib",
+                  path=None, spec_a: str | None = None, spec_b: str | None = None):
+    """The :class:`simcalib.exports.ExportFrames` of a calibration from a bag's streams:
+    from ``bag`` (a :func:`read_bag` result) or from ``path`` + ``spec_a`` / ``spec_b``
+    (:func:`spec_frames`: no stream is read again).
 
     Stream a's sensor frame (the ``a`` of ``X = T_a_b``) is its spec's CHILD, or its PARENT
     when the calibration read stream a inverted (``invert_a``, from the conventions report);
@@ -518,14 +541,21 @@ def export_frames(bag: BagStreams, *, invert_a: bool = False, invert_b: bool = F
     from simcalib.exports import EYES, ExportFrames
     if eye is not None and eye not in EYES:
         raise ConfigError(key="eye", value=eye, allowed=" or ".join(EYES))
+    if bag is not None:
+        pairs = [(bag.a.parent, bag.a.child, bag.a.spec.text),
+                 (bag.b.parent, bag.b.child, bag.b.spec.text)]
+    elif path is not None and spec_a is not None and spec_b is not None:
+        pairs = [(*spec_frames(path, sp), sp) for sp in (spec_a, spec_b)]
+    else:
+        raise TypeError("export_frames needs bag= or path=, spec_a=, spec_b=")
     ends = []
-    for s, inv, key, override in ((bag.a, invert_a, "frame_a", frame_a),
-                                  (bag.b, invert_b, "frame_b", frame_b)):
-        sensor, world = (s.parent, s.child) if inv else (s.child, s.parent)
+    for (parent, child, text), inv, key, override in ((pairs[0], invert_a, "frame_a", frame_a),
+                                                      (pairs[1], invert_b, "frame_b", frame_b)):
+        sensor, world = (parent, child) if inv else (child, parent)
         sensor = override or sensor
         if not sensor:
             raise ConfigError(key=key, value=override, allowed=(
-                f"the frame name of {s.spec.text!r} (a PoseStamped topic names no child "
+                f"the frame name of {text!r} (a PoseStamped topic names no child "
                 "frame): give " + key + "=NAME"))
         ends.append((sensor, world or None))
     return ExportFrames(ends[0][0], ends[1][0], eye=eye, robot_frame=ends[0][1],
