@@ -550,11 +550,14 @@ def _opencv(T_a, T_b, const: str) -> np.ndarray | None:
     if not hasattr(cv2, "calibrateHandEye"):
         return None
     Tc = invert_transform(T_b)
-    R, t = cv2.calibrateHandEye(
-        [np.ascontiguousarray(m) for m in T_a[:, :3, :3]],
-        [np.ascontiguousarray(m) for m in T_a[:, :3, 3:4]],
-        [np.ascontiguousarray(m) for m in Tc[:, :3, :3]],
-        [np.ascontiguousarray(m) for m in Tc[:, :3, 3:4]], method=getattr(cv2, const))
+    try:
+        R, t = cv2.calibrateHandEye(
+            [np.ascontiguousarray(m) for m in T_a[:, :3, :3]],
+            [np.ascontiguousarray(m) for m in T_a[:, :3, 3:4]],
+            [np.ascontiguousarray(m) for m in Tc[:, :3, :3]],
+            [np.ascontiguousarray(m) for m in Tc[:, :3, 3:4]], method=getattr(cv2, const))
+    except cv2.error:
+        return None
     X = np.eye(4)
     X[:3, :3] = np.asarray(R, dtype=np.float64)
     X[:3, 3] = np.asarray(t, dtype=np.float64).ravel()
@@ -624,6 +627,10 @@ def run_set(entry: RealSet, *, cache_dir=None) -> SetResult:
     return _evaluate(entry, r, a, rep, ref, wall)
 
 
+def _mm(v):
+    return None if v is None else tuple(None if x is None else 1e3 * x for x in v)
+
+
 def _evaluate(entry, r, a, rep, ref, wall) -> SetResult:
     X = np.asarray(rep["X"]["T_a_b"], dtype=np.float64)
     cov = None if a.covariance is None else _as_covariance(a.covariance)
@@ -636,10 +643,9 @@ def _evaluate(entry, r, a, rep, ref, wall) -> SetResult:
     park, tsai = opencv_estimates(np.asarray(r.synced.T_a), np.asarray(r.synced.T_b), ref,
                                   entry)
     off, inl = rep["time_offset"], rep["inliers"]
-    mm = lambda v: None if v is None else tuple(None if x is None else 1e3 * x for x in v)  # noqa
     return SetResult(
         entry.name, int(rep["exit_code"]), rep["status"], "", wall, X, cov, a.std_rot_deg,
-        mm(a.std_trans_m), a.verdict, _flagged(r.robust.solution), off["offset_s"],
+        _mm(a.std_trans_m), a.verdict, _flagged(r.robust.solution), off["offset_s"],
         off["uncertainty_s"], inl["n_inliers"], inl["n_motions"], ref, e, rot, trans, n0, n1,
         park, tsai)
 
@@ -780,6 +786,8 @@ class Summary:
     n_nees_within: int
     n_flags_required: int
     n_flags_ok: int
+    n_offsets: int
+    n_offsets_ok: int
     agreements: tuple
     loops: tuple
 
@@ -803,12 +811,16 @@ def summarise(results: dict) -> Summary:
     nin = [n for n in nsets if results[n].nees_target is not None
            and results[n].nees_target.within]
     flg = [n for n, e in ents.items() if e.required_flags]
+    offs = [n for n, e in ents.items() if e.tolerance is not None
+            and e.tolerance.offset_s is not None]
+    offs_ok = [n for n in offs if results[n].ran and abs(
+        results[n].offset_s - ents[n].tolerance.offset_s) <= ents[n].tolerance.offset_tolerance_s]
     loops = tuple(loop_agreement(*(results[n] for n in lp)) for lp in LOOPS
                   if all(n in results for n in lp))
     return Summary(len(results), len(ran), sum(r.exit_code == 0 for r in ran),
                    sum(r.exit_code == 6 for r in ran), len(refd), len(within), len(nsets),
                    len(nin), len(flg), sum(flag_check(ents[n], results[n])[0] for n in flg),
-                   _pairs(results, CROSS_SET_PAIRS), loops)
+                   len(offs), len(offs_ok), _pairs(results, CROSS_SET_PAIRS), loops)
 
 
 # --------------------------------------------------------------------------- markdown
@@ -914,6 +926,8 @@ def markdown(results: dict, *, command: str, total_time_s: float) -> str:
         f"- **{s.n_within_reference} of {s.n_referenced}** referenced sets within the "
         "README's tolerance.",
         f"- Required directions flagged on **{s.n_flags_ok} of {s.n_flags_required}** sets.",
+        f"- Clock offset within its expected value on **{s.n_offsets_ok} of {s.n_offsets}** "
+        "sets that have one.",
         f"- NEES within its 95 % bound on **{s.n_nees_within} of {s.n_nees_sets}** sets with "
         f"an independent reference ({share}; target ≥ {100 * NEES_TARGET_SHARE:.0f} %).",
         "- Cross-set agreement (sets sharing a mount; loop of three streams of one rig):",
