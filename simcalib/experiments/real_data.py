@@ -54,7 +54,7 @@ __all__ = ["RequiredFlag", "Tolerance", "RealSet", "Reference", "FlaggedDirectio
 REAL_ENV = "SIMCALIB_REAL_DIR"
 ETH_ENV = "SIMCALIB_ETH_DIR"
 #: the most synchronised poses handed to cv2.calibrateHandEye (it builds all i<j pairs)
-OPENCV_MAX_POSES = 200
+OPENCV_MAX_POSES = 150
 #: which NEES the 80 % target uses: with the reference's stated spread added when it has one
 NEES_TARGET_SHARE = 0.8
 #: cross-set agreement: every axis of the difference within this many combined sigma
