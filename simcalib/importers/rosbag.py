@@ -234,14 +234,18 @@ def _ns(stamp) -> int:
     return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
 
 
-def _pose_matrix(obj) -> np.ndarray:
-    """4x4 from a geometry_msgs Pose (position/orientation) or Transform
-    (translation/rotation)."""
+def _pose_row(obj) -> tuple:
+    """``(x, y, z, qx, qy, qz, qw)`` of a geometry_msgs Pose (position/orientation) or
+    Transform (translation/rotation)."""
     p = obj.position if hasattr(obj, "position") else obj.translation
     q = obj.orientation if hasattr(obj, "orientation") else obj.rotation
-    return transform_from_rotation_translation(
-        matrix_from_quat(np.array([q.x, q.y, q.z, q.w], dtype=np.float64)),
-        np.array([p.x, p.y, p.z], dtype=np.float64))
+    return (p.x, p.y, p.z, q.x, q.y, q.z, q.w)
+
+
+def _matrices(rows) -> np.ndarray:
+    """(N, 4, 4) from rows of :func:`_pose_row` (one batched conversion)."""
+    a = np.asarray(rows, dtype=np.float64).reshape(-1, 7)
+    return transform_from_rotation_translation(matrix_from_quat(a[:, 3:]), a[:, :3])
 
 
 # ------------------------------------------------------------------------------- tf
@@ -269,14 +273,14 @@ def _load_tf(reader, topics: dict) -> dict[str, _Edge]:
                     f"tf frame {child!r} has two parents in the bag ({e['parent']!r} and "
                     f"{parent!r}, topic {conn.topic}); a tf tree gives each frame one parent")
             e["static" if static else "moving"].append((_ns(tr.header.stamp),
-                                                        _pose_matrix(tr.transform)))
+                                                        _pose_row(tr.transform)))
     return {child: _edge(child, e) for child, e in acc.items()}
 
 
 def _edge(child: str, e: dict) -> _Edge:
     rows = e["moving"] or e["static"][-1:]      # a moving edge ignores stale static values
     stamps = np.array([r[0] for r in rows], dtype=np.int64)
-    T = np.stack([r[1] for r in rows])
+    T = _matrices([r[1] for r in rows])
     order = np.argsort(stamps, kind="stable")
     stamps, T = stamps[order], T[order]
     keep = np.concatenate([[True], np.diff(stamps) != 0])
@@ -418,7 +422,7 @@ def _topic_stream(reader, topic: TopicSummary, spec: BagSpec, path: str) -> BagS
         for a in attrs:
             obj = getattr(obj, a)
         stamps.append(_ns(msg.header.stamp))
-        mats.append(_pose_matrix(obj))
+        mats.append(_pose_row(obj))
         frames.add(_frame(msg.header.frame_id))
         children.add(_frame(getattr(msg, "child_frame_id", "")))
     if not stamps:
@@ -429,7 +433,7 @@ def _topic_stream(reader, topic: TopicSummary, spec: BagSpec, path: str) -> BagS
                             f"{sorted(vals)}; one stream needs one frame")
     ns = np.array(stamps, dtype=np.int64)
     t = stamp_seconds(ns // 1_000_000_000, ns % 1_000_000_000)
-    s = stream_from_arrays(t, np.stack(mats), source=f"{path}", name=spec.text)
+    s = stream_from_arrays(t, _matrices(mats), source=f"{path}", name=spec.text)
     parent, child = frames.pop(), children.pop()
     s = replace(s, format=FORMAT, detection=f"topic {topic.name} ({_short(topic.msgtype)}), "
                 f"poses in frame {parent!r}" + (f" of {child!r}" if child else ""))
