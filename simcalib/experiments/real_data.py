@@ -489,6 +489,8 @@ class MethodResult:
     translation_error_mm: float | None
     poses_used: int
     message: str = ""
+    rotation_diff_deg: float | None = None       # vs simcalib's X (all sets)
+    translation_diff_mm: float | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -573,18 +575,26 @@ def subsample_indices(n: int, max_poses: int = OPENCV_MAX_POSES) -> np.ndarray:
     return np.unique(np.linspace(0, n - 1, max_poses).round().astype(int))
 
 
-def opencv_estimates(T_a, T_b, ref: Reference | None, entry: RealSet) -> tuple:
+def opencv_estimates(T_a, T_b, ref: Reference | None, entry: RealSet,
+                     X_estimate=None) -> tuple:
     """PARK and TSAI on the synchronised poses (at most :data:`OPENCV_MAX_POSES`, evenly
-    spread: OpenCV pairs all i<j) and their errors vs ``ref``."""
+    spread: OpenCV pairs all i<j), their errors vs ``ref`` and their differences from
+    ``X_estimate`` (simcalib's X)."""
+    from simcalib.solvers.diagnostics.uncertainty import pose_error
     k = subsample_indices(T_a.shape[0])
     out = []
     for name, const in (("PARK", "CALIB_HAND_EYE_PARK"), ("TSAI", "CALIB_HAND_EYE_TSAI")):
         X = _opencv(T_a[k], T_b[k], const) if k.size >= 3 else None
-        rot = trans = None
+        rot = trans = d_rot = d_trans = None
         if X is not None and ref is not None:
             _, rot, trans = _reference_errors(ref, X, entry)
+        if X is not None and X_estimate is not None:
+            d = pose_error(X, X_estimate)
+            d_rot = math.degrees(float(np.linalg.norm(d[:3])))
+            d_trans = 1e3 * float(np.linalg.norm(d[3:]))
         out.append(MethodResult(name, X, rot, trans, int(k.size),
-                                "" if X is not None else "cv2.calibrateHandEye failed"))
+                                "" if X is not None else "cv2.calibrateHandEye failed",
+                                d_rot, d_trans))
     return tuple(out)
 
 
@@ -641,7 +651,7 @@ def _evaluate(entry, r, a, rep, ref, wall) -> SetResult:
         if ref.covariance is not None:
             n1 = nees(e, cov, entry.nees_axes, extra_covariance=ref.covariance)
     park, tsai = opencv_estimates(np.asarray(r.synced.T_a), np.asarray(r.synced.T_b), ref,
-                                  entry)
+                                  entry, X)
     off, inl = rep["time_offset"], rep["inliers"]
     return SetResult(
         entry.name, int(rep["exit_code"]), rep["status"], "", wall, X, cov, a.std_rot_deg,
@@ -855,7 +865,7 @@ def _method_cell(m: MethodResult | None) -> str:
     if m.X is None:
         return "failed"
     if m.rotation_error_deg is None:
-        return "(no ref)"
+        return f"(no ref; Δ X {m.rotation_diff_deg:.2f} / {m.translation_diff_mm:.1f})"
     return f"{m.rotation_error_deg:.2f} / {m.translation_error_mm:.1f}"
 
 
@@ -956,7 +966,8 @@ def markdown(results: dict, *, command: str, total_time_s: float) -> str:
         "relative to OpenCV on the same files) count for the tolerance only.",
         f"- **PARK / TSAI**: `cv2.calibrateHandEye` on the calibration's synchronised poses "
         f"(readings applied; at most {OPENCV_MAX_POSES} evenly spread poses, OpenCV pairs "
-        "all i<j), error vs the reference as above (rot deg / t mm).",
+        "all i<j), error vs the reference as above (rot deg / t mm); without a reference "
+        "`Δ X`: its difference from simcalib's X.",
         "- **checks**: the README tolerance (crwhe: the reference's spread), the expected "
         "offset where one is known, the required flagged directions.",
         f"- Cross-set agreement: `pose_error(X_1, X_2)` per axis against the combined "
