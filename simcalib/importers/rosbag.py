@@ -46,7 +46,8 @@ from simcalib.importers import PoseStreamData, stream_from_arrays
 
 __all__ = ["BagSpec", "BagStream", "BagStreams", "TopicSummary", "EdgeSummary", "BagSummary",
            "parse_spec", "read_bag", "read_bag_streams", "read_bag_stream", "describe_bag",
-           "list_bag", "stamp_seconds", "export_frames", "spec_frames", "TF_TYPES", "POSE_TYPES", "FORMAT"]
+           "list_bag", "stamp_seconds", "export_frames", "spec_frames", "TF_TYPES",
+           "POSE_TYPES", "FORMAT"]
 
 FORMAT = "rosbag"
 TF_PREFIXES = ("/tf:", "tf:")
