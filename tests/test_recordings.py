@@ -142,6 +142,15 @@ def test_offset_kind_offsets_drift_and_station_stamps():
     assert 10 <= st.stream_a.n <= 40 and 3 <= R.generate("stations_short", 0).stream_a.n <= 5
 
 
+def test_gaps_kind_has_gaps_of_1_to_3_s():
+    for seed in (0, 1, 2):
+        rec = R.generate("gaps", seed)
+        dts = [np.diff(s.timestamps_s).max() for s in (rec.stream_a, rec.stream_b)]
+        gapped = int(np.argmax(dts))
+        assert "ab"[gapped] == ("b" if seed % 2 == 0 else "a")
+        assert 0.9 <= dts[gapped] <= 3.2 and dts[1 - gapped] < 0.5, dts
+
+
 def test_planar_and_scara_rotate_about_one_axis_only():
     for kind in ("planar", "scara"):
         rec = R.generate(kind, 0, noise=False)
@@ -292,3 +301,11 @@ def test_outlier_motions_rejected(kind, seed, outcome):
     _estimate(o)
     assert o.precision >= R.MIN_PRECISION and o.recall >= R.MIN_RECALL, (o.precision,
                                                                           o.recall)
+
+
+@pytest.mark.slow
+def test_main_writes_the_table(tmp_path, capsys):
+    out = tmp_path / "rec.md"
+    assert R.main(["--kinds", "stations", "--seeds", "1", "--output", str(out)]) == 0
+    text = out.read_text()
+    assert "| stations | 1 |" in text and "Park" in text and text in capsys.readouterr().out

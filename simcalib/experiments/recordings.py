@@ -36,6 +36,7 @@ import math
 import sys
 import tempfile
 import time
+import zlib
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Callable
@@ -208,10 +209,13 @@ class Kind:
 
 
 # --------------------------------------------------------------------- small helpers
-def _rngs(seed: int) -> dict:
-    children = np.random.SeedSequence(seed).spawn(len(_RNG_STREAMS))
+def _rngs(seed: int, kind: str) -> dict:
+    """Independent Generators per purpose: children of ``SeedSequence([seed, crc32(kind)])``
+    (every kind draws its own rig and motion for a seed)."""
+    children = np.random.SeedSequence([seed, zlib.crc32(kind.encode())]).spawn(
+        len(_RNG_STREAMS))
     out = {name: np.random.default_rng(s) for name, s in zip(_RNG_STREAMS, children)}
-    out["seed"] = seed      # for kinds whose seeds take turns (offset: large / drift)
+    out["seed"] = seed      # for kinds whose seeds take turns (which file, ...)
     return out
 
 
@@ -283,8 +287,9 @@ def _station_poses(rng, k) -> np.ndarray:
     return transform_from_rotation_translation(R, p)
 
 
-def _station_stamps(rng, k) -> tuple[np.ndarray, str]:
-    if rng.random() < 0.5:
+def _station_stamps(rng, k, seed) -> tuple[np.ndarray, str]:
+    """Even seeds: the station index (0, 1, 2, ...); odd seeds: real stamps 2..6 s apart."""
+    if seed % 2 == 0:
         return np.arange(k, dtype=np.float64), "stamps = station index"
     return 1000.0 + np.cumsum(rng.uniform(2.0, 6.0, k)), "stamps 2..6 s apart"
 
@@ -341,7 +346,7 @@ def _stations_draft(rngs, s: Settings, k_range, label, poses=None) -> _Draft:
                                                                       endpoint=True))
     X, Y = _hand_camera_rig(rig_rng)
     A = poses(rngs["motion"], k) if poses is not None else _station_poses(rngs["motion"], k)
-    t, how = _station_stamps(rngs["clock"], k)
+    t, how = _station_stamps(rngs["clock"], k, rngs["seed"])
     B = _noisy(_camera_poses(A, X, Y), s.sigma_rot_b_deg, s.sigma_trans_b_m,
                rngs["noise_b"], s.noise)
     A = _noisy(A, s.sigma_rot_a_deg, s.sigma_trans_a_m, rngs["noise_a"], s.noise)
@@ -392,14 +397,16 @@ def _kind_outliers(rngs, s):
 def _kind_gaps(rngs, s):
     d = _continuous(rngs, s, label="gaps")
     r = rngs["events"]
-    which = "a" if r.random() < 0.5 else "b"
+    which = "b" if rngs["seed"] % 2 == 0 else "a"       # seeds take turns
     t = d.t_a if which == "a" else d.t_b
     span = t[-1] - t[0]
     keep = np.ones(t.size, dtype=bool)
     gaps = []
-    for _ in range(int(r.integers(1, 2, endpoint=True))):
+    n = int(r.integers(1, 2, endpoint=True))
+    regions = [(0.15, 0.85)] if n == 1 else [(0.15, 0.4), (0.6, 0.85)]     # never overlapping
+    for lo, hi in regions:
         length = r.uniform(1.0, 3.0)
-        start = t[0] + r.uniform(0.15, 0.85) * span - 0.5 * length
+        start = t[0] + r.uniform(lo, hi) * span - 0.5 * length
         keep &= ~((t >= start) & (t < start + length))
         gaps.append(f"{length:.1f} s at {start - t[0]:.1f} s")
     desc = d.description + f", gaps in {which}: " + ", ".join(gaps)
@@ -508,7 +515,7 @@ def _kind_inverted(rngs, s):
 
 def _kind_scalar_first(rngs, s):
     d = _continuous(rngs, s, label="scalar_first")
-    which = "a" if rngs["events"].random() < 0.5 else "b"
+    which = "b" if rngs["seed"] % 2 == 0 else "a"       # seeds take turns
     return replace(d, scalar_first_a=which == "a", scalar_first_b=which == "b",
                    description=d.description + f", file {which} writes quaternions w first")
 
@@ -522,7 +529,8 @@ def _kind_no_motion_b(rngs, s):
 
 KINDS: dict[str, Kind] = {
     "stations": Kind(_kind_stations, "robot arm stopping at 10..40 stations, one pose per "
-                     "station per stream (eye-in-hand)", False),
+                     "station per stream (eye-in-hand); stamps: the station index in even "
+                     "seeds, seconds apart in odd ones", False),
     "stations_short": Kind(_kind_stations_short, "the same with only 3..5 stations", False),
     "continuous": Kind(_kind_continuous, "smooth 6-DoF motion, a 100 Hz, b 30 Hz, stamp "
                        "jitter, dropped frames", True),
@@ -530,7 +538,8 @@ KINDS: dict[str, Kind] = {
                    "in seeds 2, 5, ...; 30..100 ppm drift in seeds 1, 4, ...", True),
     "outliers": Kind(_kind_outliers, "continuous with 5..20 % outlier poses in b and a 37 ms "
                      "offset", True),
-    "gaps": Kind(_kind_gaps, "continuous with one or two gaps of 1..3 s in one stream", True),
+    "gaps": Kind(_kind_gaps, "continuous with one or two gaps of 1..3 s in one stream (b in "
+                 "even seeds, a in odd ones)", True),
     "robot_error": Kind(_kind_robot_error, "stations with systematic robot kinematic error "
                         "and distance-dependent camera error", False),
     "planar": Kind(_kind_planar, "vehicle driving in a plane (yaw only): X's vertical "
@@ -539,7 +548,7 @@ KINDS: dict[str, Kind] = {
                   False, "degenerate"),
     "inverted": Kind(_kind_inverted, "continuous, file b written as T_sensor_world", True),
     "scalar_first": Kind(_kind_scalar_first, "continuous, one file with the quaternion "
-                         "scalar first", True),
+                         "scalar first (b in even seeds, a in odd ones)", True),
     "no_motion_b": Kind(_kind_no_motion_b, "bad input: b does not move", True, "data_error"),
 }
 
@@ -576,7 +585,7 @@ def generate(kind: str, seed: int, **overrides) -> Recording:
     if bad:
         raise ValueError(f"unknown override(s) {', '.join(bad)}; valid: {', '.join(valid)}")
     spec = KINDS[kind]
-    d = spec.make(_rngs(int(seed)), Settings(**overrides))
+    d = spec.make(_rngs(int(seed), kind), Settings(**overrides))
     na, nb = d.t_a.size, d.t_b.size
     oa = d.outliers_a if d.outliers_a is not None else np.zeros(na, dtype=bool)
     ob = d.outliers_b if d.outliers_b is not None else np.zeros(nb, dtype=bool)
@@ -740,7 +749,8 @@ def _run_cli(paths: dict, out: Path) -> tuple[int, str]:
         code = cli_main(["calibrate", f"a={paths['a']}", f"b={paths['b']}",
                          f"output={out}", "recording=false"])
     lines = [ln for ln in err.getvalue().splitlines() if ln.strip()]
-    return int(code), (lines[-1] if lines else "")
+    errors = [ln for ln in lines if "error:" in ln] or lines
+    return int(code), (errors[-1].replace(str(out.parent), "<dir>") if errors else "")
 
 
 def _inlier_scores(rec, report, motions) -> tuple[float, float]:
@@ -871,7 +881,8 @@ def summarise(outcomes: list[Outcome]) -> list[dict]:
             "park_trans_max_mm": _stat([o.park_trans_error_mm for o in os_], np.max),
             "offset_med_ms": _stat([abs(o.offset_error_ms) for o in os_], np.median),
             "offset_max_ms": _stat([abs(o.offset_error_ms) for o in os_], np.max),
-            "reading_ok": (f"{sum(read)}/{len(os_)}"),
+            "reading_ok": ("n/a" if KINDS[kind].expect == "data_error"
+                           else f"{sum(read)}/{len(os_)}"),
             "precision": _stat([o.precision for o in os_], np.mean),
             "recall": _stat([o.recall for o in os_], np.mean),
             "time_med_s": _stat([o.runtime_s for o in os_], np.median),
@@ -884,7 +895,7 @@ def markdown(rows: list[dict], outcomes: list[Outcome], command: str) -> str:
     """The markdown report: the per-kind table, then the failed runs' messages."""
     head = ["kind", "runs", "exit codes (code:count)", "rot med / max (deg)",
             "trans med / max (mm)", "Park rot med / max (deg)", "Park trans med / max (mm)",
-            "|offset err| med / max (ms)", "reading right", "inlier precision", "inlier recall",
+            "|offset err| med / max (ms)", "reading right (seeds)", "inlier precision", "inlier recall",
             "time med (s)", "acceptance fails (seeds)"]
     lines = [
         "# Benchmark recordings: calibrate defaults vs OpenCV Park",
@@ -928,7 +939,8 @@ def markdown(rows: list[dict], outcomes: list[Outcome], command: str) -> str:
                      f"{KINDS[name].expect})")
     failed = [o for o in outcomes if o.exit_code not in (0, 6)]
     if failed:
-        lines += ["", "Runs without an estimate (exit code: the command's error):", ""]
+        lines += ["", "Runs without an estimate (exit code: the command's error; `<dir>` is the "
+                  "run's folder):", ""]
         lines += [f"* {o.kind} seed {o.seed}: exit {o.exit_code}: {o.message}" for o in failed]
     return "\n".join(lines) + "\n"
 
