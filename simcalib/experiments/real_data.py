@@ -209,9 +209,10 @@ SETS: tuple = (
 DATA_NOTES = (
     "ETH pairs: robot_arm_sim_hand + robot_arm_sim_camera; *_vicon_prime_sense + "
     "*_W_camera_rgb_image_raw; robot_arm real base_link_sr300_hinge + target_ir; the three "
-    "Tango devices pairwise; 5_falcon vicon_falcon + odom_imu (falcon_vicon / imu_odom are "
-    "the same rotations with inverted poses; W_r, W_d, W_e, color_imu, fisheye_imu are "
-    "sparse, irregular camera tracks that correlate weakly with the Vicon body).",
+    "Tango devices pairwise; 5_falcon vicon_falcon + odom_imu (*_falcon_vicon / *_imu_odom "
+    "hold exactly the inverses of those poses, same stamps; W_r, W_d, W_e, color_imu, "
+    "fisheye_imu are sparse, irregular camera tracks that correlate weakly with the Vicon "
+    "body).",
     "Clock offsets t_b - t_a from the angular speed of the raw files (10 ms grid, "
     "cross-correlation): Tango CALIGULA->MARS +126.835 s, MARS->NERO +107.735 s, "
     "CALIGULA->NERO +234.575 s (r = 0.99; the loop closes within 5 ms): the three devices "
