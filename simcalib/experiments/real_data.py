@@ -1028,6 +1028,9 @@ def run_sets(names=None, *, cache_dir=None, progress=None) -> dict:
             r = out[e.name]
             progress(f"{e.name}: exit {r.exit_code} {r.verdict} {r.wall_time_s:.1f} s"
                      + (f" ({r.error[:120]})" if r.error else ""))
+    if not out:
+        raise DataError(f"no data set found under {real_dir()} or {eth_dir()} (set "
+                        f"{REAL_ENV} / {ETH_ENV})")
     return out
 
 
@@ -1079,11 +1082,12 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     cmd = "python -m simcalib.experiments.real_data --output " + args.output + (
         " --sets " + " ".join(args.sets) if args.sets else "")
+    from simcalib.errors import ConfigError
     try:
         path, results = write_document(args.output, args.sets or None, command=cmd)
-    except DataError as exc:
+    except (ConfigError, DataError) as exc:
         print(f"simcalib: error: {exc}", file=sys.stderr)
-        return 3
+        return exc.exit_code
     s = summarise(results)
     print(f"wrote {path}: {s.n_ran}/{s.n_sets} exit 0 or 6; {s.n_within_reference}/"
           f"{s.n_referenced} within reference; NEES within bound {s.n_nees_within}/"
