@@ -209,3 +209,13 @@ def test_the_document_reports_every_set_it_was_given(result):
     assert all(f"| {n} |" in text for n in results)
     assert f"**{s.n_ran} of {len(results)}** sets exit 0 or 6" in text
     assert "python -m simcalib.experiments.real_data" in text
+
+
+def test_missing_data_is_reported_with_the_variable_to_set(monkeypatch, tmp_path):
+    monkeypatch.setenv(rd.REAL_ENV, str(tmp_path / "none"))
+    monkeypatch.setenv(rd.ETH_ENV, str(tmp_path / "none"))
+    for entry in rd.SETS:
+        ok, why = rd.set_available(entry)
+        assert not ok and (rd.REAL_ENV in why or rd.ETH_ENV in why)
+    with pytest.raises(rd.DataError, match="SIMCALIB_REAL_DIR"):
+        rd.run_sets()
