@@ -151,6 +151,24 @@ def test_gaps_kind_has_gaps_of_1_to_3_s():
         assert 0.9 <= dts[gapped] <= 3.2 and dts[1 - gapped] < 0.5, dts
 
 
+def test_robot_error_is_systematic_and_camera_error_grows_with_distance():
+    for seed in (0, 1, 2):
+        bad, clean = R.generate("robot_error", seed), R.generate("robot_error", seed,
+                                                                  noise=False)
+        dA = invert_transform(clean.stream_a.T_world_sensor) @ bad.stream_a.T_world_sensor
+        rms_deg = np.degrees(np.sqrt(np.mean(rotation_angle_rad(dA[:, :3, :3]) ** 2)))
+        rms_mm = 1e3 * np.sqrt(np.mean(np.sum(dA[:, :3, 3] ** 2, axis=1)))
+        # (the white robot noise alone is ~0.035 deg / 0.35 mm rms)
+        assert 0.05 <= rms_deg <= 0.8 and 0.5 <= rms_mm <= 4.5, (rms_deg, rms_mm)
+        # the camera's distance error is biased (too far) and larger for far views
+        Tb, Tc = bad.stream_b.T_world_sensor, clean.stream_b.T_world_sensor
+        d = np.linalg.norm(Tc[:, :3, 3], axis=1)
+        err = np.linalg.norm(Tb[:, :3, 3], axis=1) - d
+        assert err.mean() > 3 * err.std() / np.sqrt(err.size), err
+        far = d > np.median(d)
+        assert np.abs(err[far]).mean() > np.abs(err[~far]).mean(), (d, err)
+
+
 def test_planar_and_scara_rotate_about_one_axis_only():
     for kind in ("planar", "scara"):
         rec = R.generate(kind, 0, noise=False)

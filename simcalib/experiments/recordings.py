@@ -417,15 +417,17 @@ def _kind_gaps(rngs, s):
 
 def _robot_error(rng, A, on: bool) -> np.ndarray:
     """A systematic, pose-dependent kinematic error: three random low-order (sinusoidal)
-    functions of the pose (position and rotation vector), 0.1..0.5 deg / 1..3 mm, applied
-    in the hand frame (correlated between nearby poses, not white)."""
+    functions of the pose (position and rotation vector) with an rms of 0.1..0.5 deg /
+    1..3 mm over the workspace, applied in the hand frame (correlated between nearby poses,
+    not white)."""
     f = np.concatenate([(A[:, :3, 3] - WORKSPACE_CENTRE) / 0.25,
                         rotvec_from_matrix(R_DOWN.T[None] @ A[:, :3, :3])], axis=1)
     w = rng.normal(0.0, 1.0, (3, 6))
     ph = rng.uniform(0.0, 2 * np.pi, 3)
     basis = np.sin(f @ w.T + ph)                                   # (N, 3)
-    amp_r = math.radians(rng.uniform(0.1, 0.5)) / math.sqrt(3)
-    amp_t = rng.uniform(0.001, 0.003) / math.sqrt(3)
+    # each sin term has mean square ~1/2, three terms along unit vectors: rms ~ amp
+    amp_r = math.radians(rng.uniform(0.1, 0.5)) / math.sqrt(1.5)
+    amp_t = rng.uniform(0.001, 0.003) / math.sqrt(1.5)
     e_r = basis @ (_unit(rng, 3) * amp_r)
     e_t = basis @ (_unit(rng, 3) * amp_t)
     if not on:
@@ -460,7 +462,7 @@ def _kind_robot_error(rngs, s):
     A = _robot_error(r, d.A, s.noise)
     B = _camera_error(r, d.B, s.noise)
     return replace(d, A=A, B=B, description=d.description + ", systematic pose-dependent "
-                   "robot error 0.1..0.5 deg / 1..3 mm, distance-dependent camera error")
+                   "robot error (rms 0.1..0.5 deg / 1..3 mm), distance-dependent camera error")
 
 
 def _vehicle_motion(rng, duration_s) -> Callable:
