@@ -206,6 +206,19 @@ class Kind:
     description: str
     offset_determined: bool
     expect: str = "determined"
+    extra: tuple = ()           # kind-specific Settings it reads (offset_s, ...)
+
+    @property
+    def settings(self) -> tuple:
+        """The :class:`Settings` fields this kind reads (the overrides it accepts)."""
+        return _COMMON_SETTINGS + (_CONTINUOUS_SETTINGS if self.offset_determined
+                                   else ("stations",)) + self.extra
+
+
+_COMMON_SETTINGS = ("noise", "sigma_rot_a_deg", "sigma_trans_a_m", "sigma_rot_b_deg",
+                    "sigma_trans_b_m")
+_CONTINUOUS_SETTINGS = ("duration_s", "rate_a_hz", "rate_b_hz", "drop_fraction",
+                        "jitter_a_s", "jitter_b_s")
 
 
 # --------------------------------------------------------------------- small helpers
@@ -435,18 +448,20 @@ def _robot_error(rng, A, on: bool) -> np.ndarray:
     return A @ transform_from_rotation_translation(matrix_from_rotvec(e_r), e_t)
 
 
-def _camera_error(rng, B, on: bool) -> np.ndarray:
+def _camera_error(rng, B, on: bool, sigma_rot_deg: float, sigma_trans_m: float
+                  ) -> np.ndarray:
     """Camera poses (``T_target_cam``) with errors that grow with the viewing distance d:
     a depth-scale bias of 0.2..0.8 % x (d / 0.5 m) along the line of sight and noise of
-    0.1 deg / 1 mm x (d / 0.5 m)^2."""
+    sigma (default 0.1 deg / 1 mm) x (d / 0.5 m)^2."""
     T_cam_target = invert_transform(B)
     p = T_cam_target[:, :3, 3]
     d = np.linalg.norm(p, axis=1)
     bias = rng.uniform(0.002, 0.008)
     scale = (d / 0.5)[:, None]
     n = B.shape[0]
-    rot = _unit(rng, n) * (rng.normal(0.0, math.radians(0.1), n) * (d / 0.5) ** 2)[:, None]
-    dt = rng.normal(0.0, 0.001, (n, 3)) * (scale ** 2)
+    rot = _unit(rng, n) * (rng.normal(0.0, math.radians(sigma_rot_deg), n)
+                           * (d / 0.5) ** 2)[:, None]
+    dt = rng.normal(0.0, sigma_trans_m, (n, 3)) * (scale ** 2)
     if not on:
         return B
     T_cam_target = T_cam_target.copy()
@@ -460,7 +475,7 @@ def _kind_robot_error(rngs, s):
     d = _stations_draft(rngs, clean, (10, 40), "robot_error")
     r = rngs["events"]
     A = _robot_error(r, d.A, s.noise)
-    B = _camera_error(r, d.B, s.noise)
+    B = _camera_error(r, d.B, s.noise, s.sigma_rot_b_deg, s.sigma_trans_b_m)
     return replace(d, A=A, B=B, description=d.description + ", systematic pose-dependent "
                    "robot error (rms 0.1..0.5 deg / 1..3 mm), distance-dependent camera error")
 
@@ -537,9 +552,10 @@ KINDS: dict[str, Kind] = {
     "continuous": Kind(_kind_continuous, "smooth 6-DoF motion, a 100 Hz, b 30 Hz, stamp "
                        "jitter, dropped frames", True),
     "offset": Kind(_kind_offset, "continuous with a clock offset: +-0.2 s, tens of seconds "
-                   "in seeds 2, 5, ...; 30..100 ppm drift in seeds 1, 4, ...", True),
+                   "in seeds 2, 5, ...; 30..100 ppm drift in seeds 1, 4, ...", True,
+                   extra=("offset_s", "drift_ppm")),
     "outliers": Kind(_kind_outliers, "continuous with 5..20 % outlier poses in b and a 37 ms "
-                     "offset", True),
+                     "offset", True, extra=("offset_s", "outlier_fraction")),
     "gaps": Kind(_kind_gaps, "continuous with one or two gaps of 1..3 s in one stream (b in "
                  "even seeds, a in odd ones)", True),
     "robot_error": Kind(_kind_robot_error, "stations with systematic robot kinematic error "
@@ -582,11 +598,15 @@ def generate(kind: str, seed: int, **overrides) -> Recording:
         raise ValueError(f"unknown recording kind {kind!r}; valid kinds: {', '.join(KINDS)}")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed must be a non-negative integer; received {seed!r}")
+    spec = KINDS[kind]
     valid = [f.name for f in fields(Settings)]
     bad = sorted(set(overrides) - set(valid))
     if bad:
         raise ValueError(f"unknown override(s) {', '.join(bad)}; valid: {', '.join(valid)}")
-    spec = KINDS[kind]
+    unused = sorted(set(overrides) - set(spec.settings))
+    if unused:
+        raise ValueError(f"kind {kind!r} does not use {', '.join(unused)}; its settings: "
+                         f"{', '.join(spec.settings)}")
     d = spec.make(_rngs(int(seed), kind), Settings(**overrides))
     na, nb = d.t_a.size, d.t_b.size
     oa = d.outliers_a if d.outliers_a is not None else np.zeros(na, dtype=bool)
