@@ -34,7 +34,8 @@ class StreamCalibration:
     :class:`~simcalib.estimation.motions.MotionSet`; ``consistency``: the jackknife check
     (:class:`~simcalib.estimation.consistency.Consistency`); ``covariance`` /
     ``covariance_determined``: the reported 6x6 (the model's, raised where the data are
-    less consistent than it says); ``robust_choice``: why that outlier handling.
+    less consistent than it says); ``robust_choice``: why that outlier handling;
+    ``weighting``: the :class:`~simcalib.estimation.consistency.WeightingCheck`.
     """
     X: np.ndarray
     X_plain: np.ndarray
@@ -57,6 +58,7 @@ class StreamCalibration:
     covariance: np.ndarray | None = field(default=None, repr=False)
     covariance_determined: np.ndarray | None = field(default=None, repr=False)
     robust_choice: str = ""
+    weighting: object = None
 
 
 def _errors_summary(C, H, X, mask=None):
@@ -84,19 +86,27 @@ def _read(s, fmt):
     return s if isinstance(s, PoseStreamData) else read_pose_stream(s, fmt)
 
 
-def _check_moves(stream, name):
-    """A stream that does not move cannot calibrate anything: a clear DataError."""
-    from simcalib.errors import DataError
+def _rotation_extent_deg(stream) -> float:
+    """How far a stream turns: the 90th percentile of its poses' angles from the first
+    pose (outlier poses do not count)."""
     from simcalib.geometry import rotation_angle_rad
-    T = np.asarray(stream.T_world_sensor)
-    R0 = T[0, :3, :3]
-    turn = float(np.degrees(rotation_angle_rad(R0.T[None] @ T[:, :3, :3]).max()))
-    shift = float(np.linalg.norm(T[:, :3, 3] - T[0, :3, 3], axis=-1).max())
-    if turn < 0.05:
-        raise DataError(f"stream {name} ({stream.source}) does not rotate: its poses turn by "
-                        f"at most {turn:.3g} deg from the first (moves {shift * 1e3:.3g} mm); "
-                        "a calibration needs motions that rotate both sensors by >= a few "
-                        "degrees")
+    R = np.asarray(stream.T_world_sensor)[:, :3, :3]
+    return float(np.degrees(np.percentile(rotation_angle_rad(R[0].T[None] @ R), 90)))
+
+
+def check_streams_move(sa, sb) -> None:
+    """A stream that does not rotate while the other does is bad input (a wrong topic or
+    file, a frozen tracker), not a degenerate motion: a clear DataError."""
+    from simcalib.errors import DataError
+    ext = {"a": _rotation_extent_deg(sa), "b": _rotation_extent_deg(sb)}
+    for name, other in (("a", "b"), ("b", "a")):
+        if ext[name] < 1.0 and ext[other] > 5.0 * max(ext[name], 0.2):
+            s = sa if name == "a" else sb
+            raise DataError(
+                f"stream {name} ({s.source}) does not rotate: 90 % of its poses lie within "
+                f"{ext[name]:.2g} deg of its first pose, while stream {other} turns by "
+                f"{ext[other]:.3g} deg; both sensors of a rigid rig turn alike (a wrong "
+                "file or topic, or a frozen tracker?)")
 
 
 def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift=False, alpha=1.0,
@@ -206,17 +216,29 @@ def _final_solve(motions, rob, *, method, alpha, prior, seed):
 
 
 def _consistency(motions, rob, n_poses, *, method, alpha, prior):
+    """``(Consistency, WeightingCheck, covariance, covariance_determined)``: the model's
+    covariance raised to the block jackknife, plus the move of X under a rotation-weighted
+    cost when that move is beyond the sigma."""
+    import dataclasses
+
     import simcalib
-    from simcalib.estimation.consistency import block_jackknife, combine
+    from simcalib.estimation.consistency import block_jackknife, combine, weighting_check
     sol = rob.solution
     if sol is None or sol.uncertainty is None:
-        return None, None, None
+        return None, None, None, None
     inl = motions.subset(rob.inlier_mask)
-    check = block_jackknife(inl, n_poses, lambda C, H: simcalib.solve(
-        C, H, method=method, alpha=alpha, prior=prior).X, sol.X)
+    solve_at = lambda C, H, a: simcalib.solve(C, H, method=method, alpha=a,  # noqa: E731
+                                             prior=prior).X
+    check = block_jackknife(inl, n_poses, lambda C, H: solve_at(C, H, alpha), sol.X)
     cov, cov_det, ratio = combine(sol.uncertainty, check)
-    import dataclasses
-    return dataclasses.replace(check, ratio=ratio), cov, cov_det
+    weighting = weighting_check(inl.C, inl.H, sol.X, sol.uncertainty, cov_det, solve_at,
+                                alpha)
+    if weighting is not None and weighting.significant:
+        fin = np.isfinite(cov)
+        cov = cov.copy()
+        cov[fin] = cov[fin] + weighting.covariance[fin]
+        cov_det = cov_det + weighting.covariance
+    return dataclasses.replace(check, ratio=ratio), weighting, cov, cov_det
 
 
 def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None = None,
@@ -244,8 +266,7 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     from simcalib.estimation.sampling import classify_sampling
     from simcalib.solvers.robust import robust_solve
     sa, sb = _read(a, format_a), _read(b, format_b)
-    _check_moves(sa, "a")
-    _check_moves(sb, "b")
+    check_streams_move(sa, sb)
     sampling = classify_sampling(sa, sb)
     forced = {"invert_a": invert_a, "invert_b": invert_b, "scalar_first_a": scalar_first_a,
               "scalar_first_b": scalar_first_b}
@@ -261,37 +282,56 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     rob, why = robust_fit(ms.C, ms.H, robust, alpha=alpha, method=method, seed=seed,
                           options=robust_options)
     rob = _final_solve(ms, rob, method=method, alpha=alpha, prior=prior, seed=seed)
-    check, cov, cov_det = _consistency(ms, rob, sp.n, method=method, alpha=alpha,
-                                       prior=prior)
+    check, weighting, cov, cov_det = _consistency(ms, rob, sp.n, method=method,
+                                                  alpha=alpha, prior=prior)
     C, H, i, j = ms.C, ms.H, ms.i, ms.j
-    # plain: offset 0, every motion, no rejection (what a solver given the files would do)
-    sp0 = synchronised(sa, sb, sampling, _zero()) if off.offset_s != 0 else sp
-    ms0 = ms if sp0 is sp else form_motions(
-        sp0, ms.policy, paired_by_stamp=sampling.paired_by_stamp, step_s=step_s,
-        min_rotation_deg=min_rotation_deg, max_rotation_deg=max_rotation_deg)
-    plain = robust_solve(ms0.C, ms0.H, "none", alpha=alpha)
+    ms0, plain = _plain(sa, sb, sampling, off, sp, ms, step_s=step_s, alpha=alpha,
+                        min_rotation_deg=min_rotation_deg, max_rotation_deg=max_rotation_deg)
     aligned = robust_solve(C, H, "none", alpha=alpha)     # offset applied, no rejection
     summary = {
         "a": sa.describe(), "b": sb.describe(), "conventions": conv.message,
         "offset_ms": 1e3 * off.offset_s, "offset_sigma_ms": 1e3 * off.uncertainty_s,
         "offset_message": off.message, "n_motions": int(C.shape[0]),
         "n_inliers": rob.n_inliers, "robust_message": rob.message,
-        "X": _pose_summary(rob.X), "X_plain": _pose_summary(plain.X),
+        "X": _pose_summary(rob.X),
+        "X_plain": None if plain is None else _pose_summary(plain.X),
         "residuals_inliers": _errors_summary(C, H, rob.X, rob.inlier_mask),
         "residuals_all": _errors_summary(C, H, rob.X),
-        "residuals_plain": _errors_summary(ms0.C, ms0.H, plain.X),
-        "n_motions_plain": int(ms0.C.shape[0]),
+        "residuals_plain": None if plain is None else _errors_summary(ms0.C, ms0.H, plain.X),
+        "n_motions_plain": None if plain is None else int(ms0.C.shape[0]),
         "X_aligned": _pose_summary(aligned.X),
         "residuals_aligned": _errors_summary(C, H, aligned.X),
-        "rot_diff_deg": float(np.degrees(_rot_angle(rob.X, plain.X))),
-        "trans_diff_mm": float(1e3 * np.linalg.norm(rob.X[:3, 3] - plain.X[:3, 3])),
+        "rot_diff_deg": None if plain is None else float(np.degrees(_rot_angle(rob.X,
+                                                                               plain.X))),
+        "trans_diff_mm": None if plain is None else float(
+            1e3 * np.linalg.norm(rob.X[:3, 3] - plain.X[:3, 3])),
         "degenerate": bool(rob.solution.degenerate) if rob.solution is not None else None,
     }
-    return StreamCalibration(rob.X, plain.X, off, conv, rob, plain, sa, sb, C, H, sp.time_s[i],
+    return StreamCalibration(rob.X, None if plain is None else plain.X, off, conv, rob, plain, sa, sb, C, H, sp.time_s[i],
                              summary, synced=sp, motion_index=(i, j),
                              X_aligned=aligned.X, sampling=sampling, motions=ms,
                              consistency=check, covariance=cov, covariance_determined=cov_det,
-                             robust_choice=why)
+                             robust_choice=why, weighting=weighting)
+
+
+def _plain(sa, sb, sampling, off, sp, ms, *, step_s, alpha, min_rotation_deg,
+           max_rotation_deg):
+    """``(MotionSet, RobustSolution)`` of the plain solve for comparison: offset 0, every
+    motion, no rejection (what a solver given the files would do); ``(None, None)`` when
+    offset 0 leaves too little overlap."""
+    from simcalib.errors import DataError
+    from simcalib.estimation.motions import form_motions
+    from simcalib.solvers.robust import robust_solve
+    try:
+        sp0 = synchronised(sa, sb, sampling, _zero()) if off.offset_s != 0 else sp
+        ms0 = ms if sp0 is sp else form_motions(
+            sp0, ms.policy, paired_by_stamp=sampling.paired_by_stamp, step_s=step_s,
+            min_rotation_deg=min_rotation_deg, max_rotation_deg=max_rotation_deg)
+        if ms0.n < 2:
+            return None, None
+        return ms0, robust_solve(ms0.C, ms0.H, "none", alpha=alpha)
+    except DataError:
+        return None, None
 
 
 def _zero():

@@ -87,8 +87,24 @@ class CalibrateOptions:
         "motions rotating more are dropped (tracking jumps)"))
     seed: int = field(default=0, metadata=_doc("seed of RANSAC and convention scoring"))
     recording: bool = field(default=True, metadata=_doc("write recording.rrd"))
+    bag: Path | None = field(default=None, metadata=_doc(
+        "a ROS bag (ROS 1 .bag; ROS 2 directory, .mcap or .db3): a and b are then stream "
+        "specs, '/tf:PARENT->CHILD' (pose of CHILD in PARENT through the tf tree) or a topic "
+        "of PoseStamped, PoseWithCovarianceStamped, Odometry or TransformStamped "
+        "(docs/ros.md); list a bag with list_bag=FILE"))
+    export: tuple[str, ...] = field(default=(), metadata=_doc(
+        "also write X for ROS into output: any of urdf, static_tf, launch, easy_handeye2, "
+        "kalibr, e.g. export=[urdf,launch] (docs/ros.md)"))
+    frame_a: str | None = field(default=None, metadata=_doc(
+        "frame name of sensor a in the exports (default with bag=: from a's spec)"))
+    frame_b: str | None = field(default=None, metadata=_doc(
+        "frame name of sensor b in the exports (default with bag=: from b's spec)"))
+    eye: Literal["in_hand", "on_base"] | None = field(default=None, metadata=_doc(
+        "for export=easy_handeye2: in_hand (frame_a is the robot effector) or on_base "
+        "(frame_a is the robot base); frame_b is the camera"))
 
     def __post_init__(self):
+        self._check_ros()
         from simcalib.importers import available
         from simcalib.solvers import registry
         for key in ("format", "format_a", "format_b"):
@@ -128,6 +144,22 @@ class CalibrateOptions:
         check_that(self.prior_weight_rotation > 0 or self.prior_weight_translation > 0,
                    "prior_weight_rotation", self.prior_weight_rotation,
                    "> 0 when prior_weight_translation is 0 (omit prior instead)")
+
+    def _check_ros(self):
+        from simcalib.exports import EXPORT_KINDS
+        for k in self.export:
+            if k not in EXPORT_KINDS:
+                raise unknown_choice("export kind", k, EXPORT_KINDS, key="export")
+        if self.bag is not None:
+            check_that(self.b is not None, "b", self.b,
+                       "a stream spec with bag= ('/tf:PARENT->CHILD' or a topic)")
+            check_that(not (self.format or self.format_a or self.format_b), "format",
+                       self.format or self.format_a or self.format_b, "omitted with bag=")
+        check_that("easy_handeye2" not in self.export or self.eye is not None, "eye",
+                   self.eye, "in_hand or on_base with export=easy_handeye2")
+        check_that(not self.export or self.bag is not None
+                   or (self.frame_a is not None and self.frame_b is not None), "frame_a",
+                   self.frame_a, "given with frame_b for export= without bag=")
 
     @property
     def formats(self) -> tuple[str | None, str | None]:
@@ -241,7 +273,7 @@ def assess(r) -> Assessment:
     if solution.uncertainty is None or r.covariance is None:
         return Assessment("FAILED", True, "the residuals of the estimate are not finite; "
                           "no uncertainty", "solver")
-    v = judge(solution, r.covariance, r.covariance_determined, r.consistency)
+    v = judge(solution, r.covariance, r.covariance_determined, r.consistency, r.weighting)
     fin = lambda vals: tuple(float(x) if math.isfinite(x) else None for x in vals)  # noqa
     source = ("the solver's covariance from the residuals"
               + (", raised to a block jackknife of the data" if r.consistency is not None
@@ -261,7 +293,10 @@ def calibrate(opts: CalibrateOptions):
     from simcalib.calibrate_streams import calibrate_streams
     from simcalib.importers import read_pose_stream, read_pose_streams
     fa, fb = opts.formats
-    if opts.b is None:
+    if opts.bag is not None:
+        from simcalib.importers.rosbag import read_bag_streams
+        a, b = read_bag_streams(opts.bag, str(opts.a), str(opts.b))
+    elif opts.b is None:
         streams = read_pose_streams(opts.a, fa)
         if len(streams) != 2:
             raise DataError(f"{str(opts.a)!r} holds {len(streams)} stream(s); give b=PATH "
@@ -348,6 +383,7 @@ def report_dict(opts: CalibrateOptions, r, a: Assessment,
         "motions": {"policy": r.motions.policy, "reason": r.motions.reason,
                     "counts": dict(r.motions.counts)},
         "consistency": None if r.consistency is None else r.consistency.to_dict(),
+        "weighting_check": None if r.weighting is None else r.weighting.to_dict(),
         "inliers": {"robust": rob.method, "n_motions": int(r.C.shape[0]),
                     "choice": r.robust_choice,
                     "n_inliers": rob.n_inliers, "threshold": _fin(rob.threshold),
@@ -363,9 +399,10 @@ def report_dict(opts: CalibrateOptions, r, a: Assessment,
                         "message": conv.message},
         "streams": {"a": _stream(r.stream_a), "b": _stream(r.stream_b),
                     "synchronised": dict(r.synced.counts), "reference": r.synced.reference},
-        "plain": {"description": "dqopt, offset 0, all motions, no rejection",
-                  "X": _pose(r.X_plain), "n_motions": s["n_motions_plain"],
-                  "residuals": s["residuals_plain"]},
+        "plain": None if r.X_plain is None else {
+            "description": "dqopt, offset 0, all motions, no rejection",
+            "X": _pose(r.X_plain), "n_motions": s["n_motions_plain"],
+            "residuals": s["residuals_plain"]},
         "aligned_no_rejection": {"description": "dqopt, offset as above, all "
                                  "motions, no rejection", "X": _pose(r.X_aligned),
                                  "residuals": s["residuals_aligned"]},
@@ -384,6 +421,8 @@ def write_outputs(opts: CalibrateOptions, r, a: Assessment,
     out = Path(opts.output)
     out.mkdir(parents=True, exist_ok=True)
     report = report_dict(opts, r, a, solver_kernels)
+    if opts.export:
+        report["files"]["exports"] = {k: p.name for k, p in write_ros_exports(opts, r).items()}
     (out / "calibration.json").write_text(json.dumps(report, indent=2) + "\n")
     rot, trans = constraint_errors(r.C, r.H, r.X)
     i, j = r.motion_index
@@ -406,6 +445,24 @@ def write_outputs(opts: CalibrateOptions, r, a: Assessment,
             cost_offsets_s=off.cost_offsets_s, cost=off.cost, offset_s=off.offset_s,
             summary=format_report(report))
     return report
+
+
+def write_ros_exports(opts: CalibrateOptions, r) -> dict:
+    """The exports ``opts.export`` of ``r.X`` into ``opts.output`` (docs/ros.md); the frames
+    come from the bag specs (the sensor end of each, as the conventions read it), overridden
+    by frame_a / frame_b."""
+    from simcalib.exports import ExportFrames, write_exports
+    conv = r.conventions
+    if opts.bag is not None:
+        from simcalib.importers.rosbag import export_frames
+        frames = export_frames(path=opts.bag, spec_a=str(opts.a), spec_b=str(opts.b),
+                               invert_a=conv.invert_a, invert_b=conv.invert_b, eye=opts.eye,
+                               frame_a=opts.frame_a, frame_b=opts.frame_b,
+                               name=Path(opts.output).name or "simcalib")
+    else:
+        frames = ExportFrames(opts.frame_a, opts.frame_b, eye=opts.eye,
+                              name=Path(opts.output).name or "simcalib")
+    return write_exports(opts.output, r.X, opts.export, frames)
 
 
 def _vec(v, scale=1.0, digits=3):
@@ -451,11 +508,14 @@ def format_report(rep: dict) -> str:
                      f" - {s['poses']} poses, {s['duration_s']:.2f} s, ~{s['rate_hz']:.1f} Hz,"
                      f" {s['detection']}; repairs: {rep_txt}")
     p = rep["plain"]
-    lines.append(f"plain solve (offset 0, no rejection, {p['n_motions']} motions): t = "
-                 f"{_vec(p['X']['translation_m'], 1e3, 2)} mm, rotvec "
-                 f"{_vec(p['X']['rotvec_deg'], digits=3)} deg, residual rms "
-                 f"{p['residuals']['rot_rms_deg']:.3f} deg / "
-                 f"{p['residuals']['trans_rms_mm']:.2f} mm")
+    if p is None:
+        lines.append("plain solve (offset 0): none, the streams do not overlap at offset 0")
+    else:
+        lines.append(f"plain solve (offset 0, no rejection, {p['n_motions']} motions): t = "
+                     f"{_vec(p['X']['translation_m'], 1e3, 2)} mm, rotvec "
+                     f"{_vec(p['X']['rotvec_deg'], digits=3)} deg, residual rms "
+                     f"{p['residuals']['rot_rms_deg']:.3f} deg / "
+                     f"{p['residuals']['trans_rms_mm']:.2f} mm")
     lines += [f"WARNING: {w}" for w in rep["warnings"]]
     lines.append(f"status: {rep['status']} (exit {rep['exit_code']})")
     return "\n".join(lines)
@@ -510,6 +570,13 @@ def main(args: list[str]) -> int:
         return 0
     if not args:
         raise UsageError("calibrate needs a=PATH b=PATH output=DIR (see calibrate --help)")
+    listing = [x for x in args if x.startswith("list_bag=")]
+    if listing:
+        from simcalib.importers.rosbag import list_bag
+        if len(args) != 1:
+            raise UsageError(f"list_bag=FILE takes no other keys; received {args}")
+        print(list_bag(listing[0].split("=", 1)[1]), end="")
+        return 0
     opts = parse_options(args)
     from simcalib.kernel_mode import INTERPRETED_NOTE, prepare_kernels
     plan = prepare_kernels()        # the first use on an installation: interpreted kernels
@@ -521,5 +588,6 @@ def main(args: list[str]) -> int:
     if plan.mode == "interpreted":
         print(INTERPRETED_NOTE)
     print(f"written: {Path(opts.output) / 'calibration.json'}, motions.npz"
-          + (", recording.rrd" if opts.recording else ""))
+          + (", recording.rrd" if opts.recording else "")
+          + "".join(f", {n}" for n in report["files"].get("exports", {}).values()))
     return a.exit_code

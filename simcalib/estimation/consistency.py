@@ -23,7 +23,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Consistency", "block_jackknife", "combine", "MIN_BLOCKS", "MAX_BLOCKS"]
+__all__ = ["Consistency", "block_jackknife", "combine", "MIN_BLOCKS", "MAX_BLOCKS",
+           "WeightingCheck", "weighting_check"]
 
 MIN_BLOCKS = 5          # fewer usable blocks: the data are too few to check themselves
 MAX_BLOCKS = 12
@@ -113,3 +114,62 @@ def combine(uncertainty, check: Consistency) -> tuple[np.ndarray, np.ndarray, fl
     fin = np.isfinite(out)
     out[fin] = out[fin] + add[fin]
     return out, cov_det + add, ratio
+
+
+@dataclass(frozen=True, eq=False)
+class WeightingCheck:
+    """Does X move when the rotation equations are weighted over the translation ones?
+
+    Both weightings estimate the same X; when the data are consistent the two agree within
+    the sigma. Systematic translation errors (a SLAM scale or drift, a target's size) pull
+    the translation-weighted rotation away: then ``d`` (``pose_error(X_rot, X)``, the move)
+    beyond its sigma (``mahalanobis2`` > chi-square 95 % on the determined dof) is added to
+    the covariance as ``covariance`` (``d d^T`` on the determined directions)."""
+    alpha_rotation: float
+    d: np.ndarray = field(repr=False)
+    mahalanobis2: float
+    dof: int
+    significant: bool
+    covariance: np.ndarray | None = field(default=None, repr=False)
+    message: str = ""
+
+    def to_dict(self) -> dict:
+        return {"alpha_rotation_weighted": self.alpha_rotation,
+                "rotation_move_deg": float(np.degrees(np.linalg.norm(self.d[:3]))),
+                "translation_move_m": float(np.linalg.norm(self.d[3:])),
+                "mahalanobis2": self.mahalanobis2, "dof": self.dof,
+                "significant": self.significant, "message": self.message}
+
+
+def weighting_check(C, H, X, uncertainty, covariance_determined, solve_fn, alpha: float,
+                    ratio: float = 100.0) -> WeightingCheck | None:
+    """:class:`WeightingCheck` of ``X`` (estimated at ``alpha``) against the estimate at
+    ``alpha / ratio`` (``solve_fn(C, H, alpha)`` returns X), with the reported covariance's
+    finite part ``covariance_determined`` on the determined basis of ``uncertainty``."""
+    from scipy.special import chdtri
+
+    from simcalib.solvers.diagnostics.uncertainty import pose_error
+    from simcalib.solvers.problem import ALPHA_MIN
+    B = np.asarray(uncertainty.determined_basis)
+    if B.shape[1] == 0:
+        return None
+    a_rot = max(alpha / ratio, ALPHA_MIN)
+    try:
+        X_rot = solve_fn(C, H, a_rot)
+    except (ValueError, RuntimeError):
+        return None
+    if not np.isfinite(X_rot).all():
+        return None
+    d = B @ (B.T @ pose_error(X_rot, X))
+    c = B.T @ d
+    S = B.T @ covariance_determined @ B
+    m2 = float(c @ np.linalg.lstsq(S, c, rcond=None)[0])
+    k = B.shape[1]
+    bound = float(chdtri(k, 0.05))
+    sig = m2 > bound
+    msg = (f"weighting rotation {1 / (a_rot / alpha):.0f}x more moves X by "
+           f"{np.degrees(np.linalg.norm(d[:3])):.3g} deg / {1e3 * np.linalg.norm(d[3:]):.3g} mm"
+           f" ({m2:.3g} on {k} dof, 95 % bound {bound:.3g}): ")
+    msg += ("beyond the sigma, so the translation equations carry systematic errors; the move "
+            "is added to the covariance" if sig else "within the sigma")
+    return WeightingCheck(a_rot, d, m2, k, sig, np.outer(d, d) if sig else None, msg)

@@ -66,16 +66,16 @@ def _consistency_directions(cov_det, B, tol_r, tol_m, flagged, ratio) -> list:
         if any(abs(float(np.dot(v, np.concatenate([d.rotation_axis_a, d.translation_dir_a]))))
                > 0.9 * np.linalg.norm(v) for v in seen if np.linalg.norm(v) > 0):
             continue
-        why = (f" by the data's own consistency (block jackknife: {ratio:.3g}x the model's "
-               "variance)")
+        why = " by the data's own consistency checks (block jackknife, weighting)"
         out.append(replace(d, description=d.description + why))
     return out
 
 
-def judge(solution, covariance, covariance_determined, consistency) -> Verdict:
+def judge(solution, covariance, covariance_determined, consistency,
+          weighting=None) -> Verdict:
     """The :class:`Verdict` of ``solution`` (a :class:`simcalib.Solution`) with the
     reported ``covariance`` (6x6, inf on undetermined axes) and its finite part, and the
-    ``consistency`` check (or None)."""
+    ``consistency`` check (or None) and the ``weighting`` check (or None)."""
     unc = solution.uncertainty
     cov = np.asarray(covariance, dtype=np.float64)
     s = np.sqrt(np.diag(cov))
@@ -96,6 +96,12 @@ def judge(solution, covariance, covariance_determined, consistency) -> Verdict:
                      f"jackknife over {consistency.blocks} blocks)")
     elif consistency is not None:
         notes.append("UNVERIFIED: " + consistency.message)
+    if weighting is not None and weighting.significant:
+        notes.append(weighting.message)
+        if not (checked and consistency.ratio > 1.0):
+            dirs += _consistency_directions(
+                np.asarray(covariance_determined), np.asarray(unc.determined_basis),
+                math.radians(unc.tolerance_deg), unc.tolerance_m, dirs, 1.0)
     dirs.sort(key=lambda d: d.reason != "undetermined")
     if not dirs:
         v = "determined"
