@@ -380,6 +380,13 @@ def _kind_continuous(rngs, s):
     return _continuous(rngs, s)
 
 
+def _small_offset(rngs, s) -> float:
+    """The clock offset of the kinds about something else (gaps, readings, planar): uniform
+    in +-50 ms (a real recording never has exactly 0), unless ``offset_s`` is given."""
+    drawn = float(rngs["clock"].uniform(-0.05, 0.05))     # always drawn: same arrays
+    return drawn if s.offset_s is None else float(s.offset_s)
+
+
 def _kind_offset(rngs, s):
     r = rngs["events"]
     large = rngs["seed"] % 3 == 2          # seeds 2, 5, 8, ...: tens of seconds
@@ -408,7 +415,7 @@ def _kind_outliers(rngs, s):
 
 
 def _kind_gaps(rngs, s):
-    d = _continuous(rngs, s, label="gaps")
+    d = _continuous(rngs, s, offset_s=_small_offset(rngs, s), label="gaps")
     r = rngs["events"]
     which = "b" if rngs["seed"] % 2 == 0 else "a"       # seeds take turns
     t = d.t_a if which == "a" else d.t_b
@@ -504,7 +511,7 @@ def _kind_planar(rngs, s):
     Y = transform_from_rotation_translation(random_rotation_matrices(rig),
                                             rig.normal(0.0, 2.0, 3))
     d = _continuous(rngs, s, hand=_vehicle_motion(rngs["motion"], s.duration_s), rig=(X, Y),
-                    label="planar")
+                    offset_s=_small_offset(rngs, s), label="planar")
     return replace(d, undetermined_a=np.array([0.0, 0.0, 1.0]),
                    description=d.description + ", vehicle (yaw only): X's translation along "
                    "the vertical is undetermined")
@@ -525,13 +532,13 @@ def _kind_scara(rngs, s):
 
 
 def _kind_inverted(rngs, s):
-    d = _continuous(rngs, s, label="inverted")
+    d = _continuous(rngs, s, offset_s=_small_offset(rngs, s), label="inverted")
     return replace(d, invert_b=True, description=d.description + ", file b holds "
                    "T_cam_target (inverted)")
 
 
 def _kind_scalar_first(rngs, s):
-    d = _continuous(rngs, s, label="scalar_first")
+    d = _continuous(rngs, s, offset_s=_small_offset(rngs, s), label="scalar_first")
     which = "b" if rngs["seed"] % 2 == 0 else "a"       # seeds take turns
     return replace(d, scalar_first_a=which == "a", scalar_first_b=which == "b",
                    description=d.description + f", file {which} writes quaternions w first")
@@ -550,23 +557,26 @@ KINDS: dict[str, Kind] = {
                      "seeds, seconds apart in odd ones", False),
     "stations_short": Kind(_kind_stations_short, "the same with only 3..5 stations", False),
     "continuous": Kind(_kind_continuous, "smooth 6-DoF motion, a 100 Hz, b 30 Hz, stamp "
-                       "jitter, dropped frames", True),
+                       "jitter, dropped frames, offset exactly 0", True),
     "offset": Kind(_kind_offset, "continuous with a clock offset: +-0.2 s, tens of seconds "
                    "in seeds 2, 5, ...; 30..100 ppm drift in seeds 1, 4, ...", True,
                    extra=("offset_s", "drift_ppm")),
     "outliers": Kind(_kind_outliers, "continuous with 5..20 % outlier poses in b and a 37 ms "
                      "offset", True, extra=("offset_s", "outlier_fraction")),
     "gaps": Kind(_kind_gaps, "continuous with one or two gaps of 1..3 s in one stream (b in "
-                 "even seeds, a in odd ones)", True),
+                 "even seeds, a in odd ones), offset +-50 ms", True, extra=("offset_s",)),
     "robot_error": Kind(_kind_robot_error, "stations with systematic robot kinematic error "
                         "and distance-dependent camera error", False),
     "planar": Kind(_kind_planar, "vehicle driving in a plane (yaw only): X's vertical "
-                   "translation undetermined", True, "degenerate"),
+                   "translation undetermined; offset +-50 ms", True, "degenerate",
+                   extra=("offset_s",)),
     "scara": Kind(_kind_scara, "4-DoF SCARA stations (vertical rotations, z on a grid)",
                   False, "degenerate"),
-    "inverted": Kind(_kind_inverted, "continuous, file b written as T_sensor_world", True),
+    "inverted": Kind(_kind_inverted, "continuous, file b written as T_sensor_world, offset "
+                     "+-50 ms", True, extra=("offset_s",)),
     "scalar_first": Kind(_kind_scalar_first, "continuous, one file with the quaternion "
-                         "scalar first (b in even seeds, a in odd ones)", True),
+                         "scalar first (b in even seeds, a in odd ones), offset +-50 ms", True,
+                         extra=("offset_s",)),
     "no_motion_b": Kind(_kind_no_motion_b, "bad input: b does not move", True, "data_error"),
 }
 
