@@ -90,6 +90,7 @@ try:  # the visual pose source (issue 4)
     from simcalib.vision import VisionConfig
 except ImportError:  # pragma: no cover
     VisionConfig = _placeholder("VisionConfig", "simcalib.vision")
+from simcalib.estimation.config import EstimationConfig  # noqa: E402
 from simcalib.sources.corruption import OutliersConfig  # noqa: E402  (issue 10 sections)
 from simcalib.sources.selection import StreamsConfig  # noqa: E402
 from simcalib.world.robot_error import RobotConfig  # noqa: E402
@@ -247,6 +248,9 @@ class ScenarioConfig:
     seed: int = field(default=0, metadata=_doc("seed of every random draw of the run"))
     output: str | None = field(default=None, metadata=_doc(
         "run directory (default runs/<scenario>-<timestamp>)"))
+    overwrite: bool = field(default=False, metadata=_doc(
+        "replace an earlier run's results in output (else an output holding results.json "
+        "or extrinsics.json is refused before any work)"))
     solvers: tuple[str, ...] = field(default=("dqopt", "dq2ndord", "dqconvrlx", "dq2steps",
                                               "daniilidis"), metadata=_doc(
         "methods to run (python -m simcalib list)"))
@@ -274,6 +278,8 @@ class ScenarioConfig:
         "injected outliers with ground-truth labels"))
     verdict: VerdictConfig = field(default_factory=VerdictConfig, metadata=_doc(
         "tolerances of the degeneracy verdict and the convergence curve"))
+    estimation: EstimationConfig = field(default_factory=EstimationConfig, metadata=_doc(
+        "streams -> motions: the paper's pairing, or calibrate's recorded-data path"))
 
     def __post_init__(self):
         set_fields(self, seed=check_int("seed", self.seed, lo=0),

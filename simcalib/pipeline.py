@@ -197,10 +197,19 @@ class RunState:
 
 
 def _output_dir(cfg: ScenarioConfig) -> Path:
+    """The run directory, checked before any work (:func:`simcalib.outputs.
+    check_output_dir`: not a file, no earlier results unless ``overwrite``); the default
+    ``runs/<scenario>-<timestamp>`` gets a ``-2``, ``-3``... suffix when taken."""
+    from simcalib.outputs import check_output_dir, earlier_results
     if cfg.output:
-        return Path(cfg.output)
+        return check_output_dir(cfg.output, cfg.overwrite)
     stamp = _dt.datetime.now().strftime("%Y%m%d-%H%M%S")
-    return Path("runs") / f"{cfg.scenario}-{stamp}"
+    base = Path("runs") / f"{cfg.scenario}-{stamp}"
+    out, n = base, 1
+    while out.exists() and (not out.is_dir() or earlier_results(out)):
+        n += 1
+        out = base.with_name(f"{base.name}-{n}")
+    return out
 
 
 def _stages():
@@ -395,16 +404,17 @@ def _corrupt_streams(st: RunState) -> None:
 
 
 def _stage_pairs(st: RunState) -> None:
-    from simcalib.pairing import make_pairs
+    from simcalib.estimation.streams import motions_from_streams
     from simcalib.sources.corruption import outlier_pairs
     cfg = st.cfg
     if st.motions_from_source is not None:
         st.pairs = st.motions_from_source
         st.pairing = dict(st.pairs.counts) | {"mode": st.pairing_mode}
         return
-    st.pairs = make_pairs(st.measured["cam_a"], st.measured["cam_b"], cfg.pairing,
-                          st.rngs["pairing"])
-    st.pairing = dict(st.pairs.counts) | {"mode": cfg.pairing.mode}
+    st.pairs, st.pairing, report = motions_from_streams(st.measured, cfg, st.rngs["pairing"],
+                                                        st.sensing)
+    if report is not None:
+        st.sensing["estimation"] = report
     if st.sensing.get("outliers", {}).get("enabled"):
         st.sensing["outliers"]["pairs"] = outlier_pairs(st.pairs, st.sensing["outliers"])
 
@@ -578,7 +588,8 @@ def correlation_lag(st) -> int:
     """Pairs ``(k, k + step)`` of consecutive datapoints of pose streams share poses up to
     lag ``step``: the uncertainty corrects for that serial correlation. Relative motions
     from a source (synthetic) or random pairing: independent (0)."""
-    if st.motions_from_source is not None or st.cfg.pairing.mode != "consecutive":
+    if st.motions_from_source is not None or st.cfg.pairing.mode != "consecutive" \
+            or st.cfg.estimation.recorded:
         return 0
     return int(st.cfg.pairing.step)
 
@@ -686,9 +697,10 @@ def _markers_used(st, world, cam, frame_index):
 
 def pose_pairs(st):
     """``(N, 2)`` datapoint indices (start, end) of the run's motions when they are pairs of
-    consecutive datapoints of the pose streams (they then share poses: the uncertainty tests
-    the pose noise for whiteness and, if white, simulates with that structure); else None."""
-    if correlation_lag(st) == 0 or st.pairs is None:
+    consecutive datapoints of the pose streams, or the recorded-data path's pairs of
+    synchronised instants (they then share poses: the uncertainty tests the pose noise for
+    whiteness and, if white, simulates with that structure); else None."""
+    if st.pairs is None or (correlation_lag(st) == 0 and not st.cfg.estimation.recorded):
         return None
     return np.stack([np.asarray(st.pairs.start), np.asarray(st.pairs.end)], axis=1)
 

@@ -69,6 +69,59 @@ def pose_dict(T: np.ndarray) -> dict:
             "rotvec_deg": np.rad2deg(rotvec_from_matrix(T[:3, :3])).tolist()}
 
 
+#: what the console shows for a number that is not a measurement (with a footnote)
+NOT_MEASURED = "—"
+#: the reasons, in the words of the console footnotes and of results.json
+REASON_ALL_PROJECTED = ("every translation direction is undetermined or poorly determined "
+                        "and was projected out: no translation error is left to measure")
+REASON_SIGMA_INFINITE = ("a direction of X is undetermined: its 1-sigma is infinite "
+                         "(no finite uncertainty to report)")
+
+
+def determined_translation(s) -> tuple[float | None, str | None]:
+    """``(translation_error_determined_m, None)``, or ``(None, reason)`` when every
+    translation direction was projected out (what is left is rounding, ~1e-15 m: not a
+    measurement)."""
+    axes = s.undetermined_translation_axes
+    if s.translation_error_determined_m is None or axes is None:
+        return s.translation_error_determined_m, None
+    axes = np.atleast_2d(np.asarray(axes, dtype=np.float64))
+    if axes.size and np.linalg.matrix_rank(axes, tol=1e-6) >= 3:
+        return None, REASON_ALL_PROJECTED
+    return s.translation_error_determined_m, None
+
+
+def _sigma_reason(sigma) -> str | None:
+    if sigma is not None and not math.isfinite(sigma):
+        return REASON_SIGMA_INFINITE
+    return None
+
+
+def direction_state_of(s, d: dict) -> str:
+    """The state of flagged direction ``d`` (an entry of ``s.undetermined_directions``) of
+    solver result ``s``, by the one rule of
+    :func:`simcalib.solvers.diagnostics.uncertainty.direction_state` (the words of
+    ``Direction.summary``): with a prior, a direction the motions leave undetermined is
+    bounded by the prior when the covariance is finite on the axes it touches."""
+    from simcalib.solvers.diagnostics.uncertainty import direction_state as state
+    if d.get("state"):
+        return str(d["state"])
+    with_prior = s.prior is not None
+    return state(d["reason"], bool(d.get("determined_by_prior")), with_prior,
+                 with_prior and _finite_along(s.covariance, d))
+
+
+def _finite_along(cov, d: dict) -> bool:
+    """True when ``cov`` (6x6, inf on undetermined axes) is finite on every axis that
+    direction ``d`` has a part along (rotation axis, translation direction; > 5 %)."""
+    if cov is None:
+        return False
+    part = np.concatenate([np.abs(d.get("rotation_axis_a", np.zeros(3))),
+                           np.abs(d.get("translation_dir_a", np.zeros(3)))])
+    var = np.diag(np.asarray(cov, dtype=np.float64))
+    return bool(np.isfinite(var[part > 0.05]).all())
+
+
 def solver_entry(s) -> dict:
     """results.json entry of one :class:`simcalib.pipeline.SolverResult`."""
     return {
@@ -78,13 +131,16 @@ def solver_entry(s) -> dict:
         "X": None if s.X is None else np.asarray(s.X).tolist(),
         "rotation_error_deg": s.rotation_error_deg,
         "translation_error_m": s.translation_error_m,
-        "translation_error_determined_m": s.translation_error_determined_m,
+        "translation_error_determined_m": determined_translation(s)[0],
+        # why translation_error_determined_m is null (not a measurement), else null
+        "translation_error_determined_reason": determined_translation(s)[1],
         "cost": s.cost,
         "runtime_s": s.runtime_s,
         "success": s.success,
         "degenerate": s.degenerate,
         "undetermined": list(s.undetermined),
-        "undetermined_directions": [dict(d) for d in s.undetermined_directions],
+        "undetermined_directions": [dict(d) | {"state": direction_state_of(s, d)}
+                                    for d in s.undetermined_directions],
         "undetermined_translation_axes": None if s.undetermined_translation_axes is None
         else np.asarray(s.undetermined_translation_axes).tolist(),
         "singular_values": None if s.singular_values is None
@@ -99,6 +155,9 @@ def solver_entry(s) -> dict:
                                                "translation_m": list(s.std_m)},
         "sigma_rotation_deg": s.sigma_rotation_deg,
         "sigma_translation_m": s.sigma_translation_m,
+        # why sigma_rotation_deg / sigma_translation_m is null (not a number), else null
+        "sigma_rotation_reason": _sigma_reason(s.sigma_rotation_deg),
+        "sigma_translation_reason": _sigma_reason(s.sigma_translation_m),
         "verdict": {"verdict": s.verdict, "directions": list(s.verdict_directions)},
         "alpha_choice": s.alpha_choice,
         "oracle_alpha": s.oracle,
@@ -148,7 +207,8 @@ def results_dict(result) -> dict:
         "timing_s": dict(result.timing_s),
         "solver_kernels": getattr(result, "solver_kernels", "compiled"),
         **{key: _plain(getattr(result, "sensing", {}).get(key))
-           for key in ("stream_sources", "robot", "clocks", "outliers", "calibration_bias")},
+           for key in ("stream_sources", "robot", "clocks", "outliers", "calibration_bias",
+                       "estimation")},
     }
 
 
@@ -204,28 +264,62 @@ def _fmt(v, scale=1.0, digits=3):
 
 
 def _pm(err, sigma, scale, digits):
-    """``error ± predicted sigma`` (sigma 'inf' when undetermined)."""
+    """``error ± predicted sigma`` (sigma :data:`NOT_MEASURED` when infinite: footnoted)."""
     e = _fmt(err, scale, digits)
     if sigma is None:
         return e
-    sg = "inf" if not math.isfinite(sigma) else _fmt(sigma, scale, digits)
+    sg = NOT_MEASURED if not math.isfinite(sigma) else _fmt(sigma, scale, digits)
     return f"{e} ± {sg}"
 
 
+def _direction_tag(d: dict) -> str:
+    word = d["kind"] if d["kind"] != "coupled" else "rot+trans"
+    ax = d["translation_dir_a"] if d["kind"] == "translation" else d["rotation_axis_a"]
+    i = int(np.argmax(np.abs(ax)))
+    return f"{word} {'xyz'[i]}" if abs(ax[i]) > 0.9 else word
+
+
 def _verdict_cell(s) -> str:
-    if s.verdict in ("determined", "unknown", "FAILED"):
+    """The flagged directions grouped by their state (worst first), each state in the words
+    of ``Direction.summary`` (:func:`direction_state_of`)."""
+    from simcalib.solvers.diagnostics.uncertainty import DIRECTION_STATES
+    if s.verdict in ("determined", "unknown", "FAILED") or not s.undetermined_directions:
         return s.verdict
-    kinds = []
+    by_state: dict[str, list[str]] = {}
     for d in s.undetermined_directions:
-        word = d["kind"] if d["kind"] != "coupled" else "rot+trans"
-        ax = d["translation_dir_a"] if d["kind"] == "translation" else d["rotation_axis_a"]
-        i = int(np.argmax(np.abs(ax)))
-        tag = f"{word} {'xyz'[i]}" if abs(ax[i]) > 0.9 else word
-        if tag not in kinds:
-            kinds.append(tag)
-    if len(kinds) > 3:
-        kinds = kinds[:3] + [f"+{len(kinds) - 3}"]
-    return f"{s.verdict}: {', '.join(kinds)}" if kinds else s.verdict
+        tags = by_state.setdefault(direction_state_of(s, d), [])
+        if _direction_tag(d) not in tags:
+            tags.append(_direction_tag(d))
+    order = sorted(by_state, key=lambda st: -DIRECTION_STATES.index(st)
+                   if st in DIRECTION_STATES else 1)
+    parts, shown = [], 0
+    for st in order:
+        tags = by_state[st][:max(0, 3 - shown)]
+        shown += len(tags)
+        if tags:
+            parts.append(f"{st}: {', '.join(tags)}")
+    hidden = sum(len(t) for t in by_state.values()) - shown
+    return "; ".join(parts) + (f", +{hidden}" if hidden else "")
+
+
+def _determined_cell(s) -> str:
+    value, reason = determined_translation(s)
+    return NOT_MEASURED if reason else _fmt(value, 100, 2)
+
+
+def _not_measured_notes(solvers) -> list[str]:
+    """One footnote per reason a number of the table is shown as :data:`NOT_MEASURED`."""
+    ok = [s for s in solvers if s.X is not None]
+    notes = []
+    projected = [s.label for s in ok if determined_translation(s)[1]]
+    if projected:
+        notes.append(f"{NOT_MEASURED} in 'determined [cm]' [{', '.join(projected)}]: "
+                     f"{REASON_ALL_PROJECTED}")
+    infinite = [s.label for s in ok if _sigma_reason(s.sigma_rotation_deg)
+                or _sigma_reason(s.sigma_translation_m)]
+    if infinite:
+        notes.append(f"{NOT_MEASURED} as σ [{', '.join(infinite)}]: {REASON_SIGMA_INFINITE}")
+    return notes
 
 
 def summary_table(result) -> str:
@@ -243,7 +337,7 @@ def summary_table(result) -> str:
         rows.append([s.label, _fmt(s.alpha, digits=3),
                      _pm(s.rotation_error_deg, s.sigma_rotation_deg, 1.0, 3),
                      _pm(s.translation_error_m, s.sigma_translation_m, 100, 2),
-                     _fmt(s.translation_error_determined_m, 100, 2),
+                     _determined_cell(s),
                      _fmt(s.runtime_s, 1e3, 2), _verdict_cell(s)])
     full = [r for r in rows if len(r) == len(head)]
     widths = [max(len(h), *(len(r[i]) for r in full)) if full else len(h)
@@ -268,8 +362,10 @@ def summary_table(result) -> str:
     for dirs, labels in undet.items():
         out.append(f"not determined within tolerance [{', '.join(labels)}]: " + "; ".join(dirs))
     if undet:
-        out.append("  -> those values are not measurements unless 'fixed by the prior'; "
-                   "'determined' = translation error with the undetermined axes projected out")
+        out.append("  -> along an undetermined direction the estimate is arbitrary (its error "
+                   "is not a measurement); 'determined [cm]' = the translation error with the "
+                   "flagged translation directions that no prior fixed projected out")
+    out += _not_measured_notes(result.solvers)
     choice = next((s.alpha_choice for s in result.solvers if s.alpha_choice), None)
     if choice:
         out.append(f"alpha = {_fmt(choice['alpha'], digits=3)} ({choice['source']}: "

@@ -20,7 +20,7 @@ or a tuple ``(timestamps_s, T_world_sensor)``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -640,6 +640,9 @@ def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = Non
                           message=msg + "; the overlap is too short to refine it",
                           peak_z=z, window_s=window)
     chosen, decision, evidence, j_zero = _decide(tried, half)
+    again = _refine_candidates(ta, Ta, tb, Tb, [chosen.best], half / 2, kw)
+    if again:     # centred on the estimate: the inliers chosen there, a narrower bracket
+        chosen = replace(again[0], centre=chosen.centre)
     best, sigma = _offset_and_sigma(chosen)
     if len(tried) > 1:
         msg += ("; refined around " + ", ".join(f"{t.centre * 1e3:.0f}" for t in tried)

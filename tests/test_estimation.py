@@ -1,0 +1,179 @@
+"""The estimation path's stages (simcalib.estimation): sampling, motion policies, the
+consistency checks, the verdict, and the run's recorded-data path scored against the
+simulation's truth."""
+
+import numpy as np
+import pytest
+
+from simcalib.errors import ConfigError, DataError
+from simcalib.estimation.consistency import Consistency, block_jackknife, combine
+from simcalib.estimation.motions import ALL_PAIRS_MAX, POLICIES, form_motions
+from simcalib.estimation.sampling import classify_sampling, pair_by_stamp
+from simcalib.geometry import invert_transform, rotation_error_rad
+from simcalib.importers import stream_from_arrays
+from simcalib.stream_sim import rig_streams
+
+
+def _streams(t_a, t_b, seed=0):
+    rs = rig_streams(duration_s=30.0, rng=np.random.default_rng(seed))
+    from simcalib.stream_sim import rig_path
+    X = rs.X
+    return (stream_from_arrays(t_a, rig_path(t_a)),
+            stream_from_arrays(t_b, rig_path(t_b) @ X), X)
+
+
+def test_sampling_kinds():
+    idx = np.arange(20.0)
+    a, b, _ = _streams(idx, idx)
+    s = classify_sampling(a, b)
+    assert s.kind == "index_stamps" and s.paired_by_stamp
+    t = 1000.0 + 0.37 * np.arange(40)
+    a, b, _ = _streams(t, t[::2])
+    s = classify_sampling(a, b)
+    assert s.kind == "shared_stamps" and s.paired_by_stamp and s.shared == 20
+    a, b, _ = _streams(np.arange(0, 10, 1 / 30), np.arange(0.013, 10, 1 / 20))
+    s = classify_sampling(a, b)
+    assert s.kind == "continuous" and not s.paired_by_stamp
+    assert "interpolated" in s.reason
+
+
+def test_pair_by_stamp_is_one_to_one_and_exact():
+    t = 5.0 + np.arange(30.0)
+    a, b, X = _streams(t, np.delete(t, [3, 7]))
+    sp = pair_by_stamp(a, b, classify_sampling(a, b))
+    assert sp.n == 28 and np.all(np.diff(sp.time_s) > 0)
+    assert np.abs(invert_transform(sp.T_a) @ sp.T_b - X).max() < 1e-12
+
+
+@pytest.mark.parametrize("policy", sorted(POLICIES))
+def test_every_policy_forms_motions_that_satisfy_CX_XH(policy):
+    t = np.arange(0, 20, 0.1)
+    a, b, X = _streams(t, t)
+    sp = pair_by_stamp(a, b, classify_sampling(a, b))
+    ms = form_motions(sp, policy, paired_by_stamp=True, step_s=1.0)
+    assert ms.n >= 3 and ms.policy == policy
+    assert np.abs(ms.C @ X - X @ ms.H).max() < 1e-9
+    assert np.all(ms.i < ms.j) and ms.pose_pairs.shape == (ms.n, 2)
+
+
+def test_auto_policy_stations_all_pairs_and_strides():
+    for n in (10, ALL_PAIRS_MAX + 30):
+        t = np.arange(float(n))
+        a, b, _ = _streams(t, t)
+        sp = pair_by_stamp(a, b, classify_sampling(a, b))
+        ms = form_motions(sp, "auto", paired_by_stamp=True, min_rotation_deg=0.0)
+        assert ms.policy == "stations"
+        if n <= ALL_PAIRS_MAX:
+            assert ms.n == n * (n - 1) // 2
+        else:
+            assert n < ms.n < n * (n - 1) // 2 and (ms.j - ms.i).max() > n // 2
+
+
+def test_unknown_policy_names_the_valid_ones():
+    t = np.arange(10.0)
+    a, b, _ = _streams(t, t)
+    sp = pair_by_stamp(a, b, classify_sampling(a, b))
+    with pytest.raises(ConfigError, match="stations"):
+        form_motions(sp, "stationz")
+
+
+class _Unc:
+    def __init__(self, cov):
+        self.covariance = cov
+        self.covariance_determined = cov
+        self.determined_basis = np.eye(6)
+
+
+def test_combine_keeps_the_larger_per_direction():
+    model = np.diag([1e-6] * 3 + [1e-4] * 3)
+    jack = np.diag([4e-6, 0.25e-6, 1e-6, 1e-4, 9e-4, 1e-6])
+    cov, cov_det, ratio = combine(_Unc(model), Consistency(True, 10, jack))
+    assert np.allclose(np.diag(cov), np.maximum(np.diag(model), np.diag(jack)))
+    assert ratio == pytest.approx(9.0)
+    unchecked = Consistency(False, 0, message="too few")
+    cov2, _, r2 = combine(_Unc(model), unchecked)
+    assert np.array_equal(cov2, model) and np.isnan(r2)
+
+
+def test_block_jackknife_sees_errors_that_vary_along_the_recording():
+    """Motions whose error drifts along the recording (not white): the jackknife spread
+    is larger than for the same motions without the drift."""
+    import simcalib
+    from simcalib.geometry import matrix_from_rotvec, transform_from_rotation_translation
+    rng = np.random.default_rng(3)
+    t = np.arange(40.0)
+    a, b, X = _streams(t, t)
+    sp = pair_by_stamp(a, b, classify_sampling(a, b))
+    ms = form_motions(sp, "stations", paired_by_stamp=True)
+    solve = lambda C, H: simcalib.solve(C, H).X  # noqa: E731
+    clean = block_jackknife(ms, sp.n, solve, X)
+    drift = np.linspace(-1, 1, sp.n)[:, None] * np.radians([0.5, -0.3, 0.2])
+    E = transform_from_rotation_translation(matrix_from_rotvec(drift),
+                                            0.002 * rng.standard_normal((sp.n, 3)))
+    from dataclasses import replace
+    sp2 = replace(sp, T_b=sp.T_b @ E)
+    ms2 = form_motions(sp2, "stations", paired_by_stamp=True)
+    X2 = solve(ms2.C, ms2.H)
+    noisy = block_jackknife(ms2, sp2.n, solve, X2)
+    assert clean.checked and noisy.checked
+    assert np.trace(noisy.covariance[:3, :3]) > 100 * np.trace(clean.covariance[:3, :3])
+    few = block_jackknife(ms.subset(ms.i < 3), 3, solve, X)
+    assert not few.checked and "too few" in few.message
+
+
+def test_a_stream_that_does_not_rotate_is_a_data_error():
+    from simcalib.calibrate_streams import calibrate_streams
+    t = np.arange(0, 10, 0.05)
+    a, _, _ = _streams(t, t)
+    T = np.repeat(np.eye(4)[None], t.size, axis=0)
+    T[:, 0, 3] = np.linspace(0, 1, t.size)
+    with pytest.raises(DataError, match="does not rotate"):
+        calibrate_streams(a, stream_from_arrays(t, T))
+
+
+def test_estimation_config_pairing_takes_the_streams_as_stamped():
+    from simcalib.estimation.config import EstimationConfig
+    with pytest.raises(ConfigError, match="motions=auto"):
+        EstimationConfig(time_offset="estimate")
+    assert EstimationConfig(motions="auto", time_offset=0.02).recorded
+
+
+@pytest.mark.parametrize("form", ["as_written", "inverted", "scalar_first",
+                                  "inverted_scalar_first"])
+def test_file_form_is_undone_by_the_reading_detection(form):
+    from simcalib.conventions import apply_conventions, detect_conventions
+    from simcalib.estimation.streams import file_form
+    from simcalib.streams import PoseStream
+    rs = rig_streams(duration_s=15.0, rng=np.random.default_rng(2))
+
+    def ps(cam, t, T):
+        return PoseStream(cam, "noisy", np.arange(t.size), t, T, t.size)
+    a = file_form(ps("cam_a", rs.t_a, rs.T_a), "as_written")
+    b = file_form(ps("cam_b", rs.t_b, rs.T_b), form)
+    rep = detect_conventions(a, b, offset=0.0)
+    assert rep.invert_b == form.startswith("inverted")
+    assert rep.swap_scalar_b == ("scalar_first" in form)
+    _, b2 = apply_conventions(a, b, rep)
+    assert np.abs(b2.T_world_sensor - rs.T_b).max() < 1e-9
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", range(3))
+def test_recorded_scenario_scores_each_choice_against_the_truth(seed, tmp_path):
+    """scenario 'recorded': offset within 3 ms, the right reading, the outliers found;
+    the solvers get the inliers and stay within 0.1 deg / 2 mm."""
+    import simcalib
+    from simcalib.config import load_config
+    cfg = load_config("recorded", [f"seed={seed}", "recording.enabled=false",
+                                   "progress=false", f"output={tmp_path}"])
+    r = simcalib.run(cfg, echo=False)
+    e = r.sensing["estimation"]
+    assert abs(e["time_offset"]["error_ms"]) < 3.0, e["time_offset"]
+    assert e["reading"]["correct"] and e["reading"]["clear"], e["reading"]
+    sc = e["robust"]["scores"]
+    assert sc["precision"] >= 0.95 and sc["recall"] >= 0.95, sc
+    for s in r.solvers:
+        assert s.rotation_error_deg < 0.1 and s.translation_error_m < 0.002, s.label
+    import json
+    saved = json.loads((tmp_path / "results.json").read_text())["estimation"]
+    assert saved["reading"]["correct"] and saved["time_offset"]["decision"] == "estimated"
