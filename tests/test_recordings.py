@@ -289,6 +289,24 @@ def test_no_worse_than_park_given_the_truth(kind, seed, outcome):
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("kind,seed", [c for c in _cases(lambda k: k.expect != "data_error")
+                                       if R.generate(*c).outliers_b.any()
+                                       or R.generate(*c).outliers_a.any()])
+def test_no_worse_than_park_on_the_inlier_poses(kind, seed, outcome):
+    """Park without rejection is wrecked by outlier poses, so that bar is empty there: the
+    outlier kinds are also held to Park on the outlier-free instants (true masks)."""
+    rec, o = outcome(kind, seed)
+    _estimate(o)
+    assert math.isfinite(o.park_oracle_rot_error_deg), "the Park baseline failed"
+    rot_bar = max(R.PARK_FACTOR * o.park_oracle_rot_error_deg, ROT_FLOOR_DEG)
+    trans_bar = max(R.PARK_FACTOR * o.park_oracle_trans_error_mm, TRANS_FLOOR_MM)
+    assert o.rot_error_deg <= rot_bar and o.trans_error_mm <= trans_bar, (
+        f"rotation {o.rot_error_deg:.4g} deg (bar {rot_bar:.4g}), translation "
+        f"{o.trans_error_mm:.4g} mm (bar {trans_bar:.4g}); Park on the inlier poses "
+        f"{o.park_oracle_rot_error_deg:.4g} deg / {o.park_oracle_trans_error_mm:.4g} mm")
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize("kind,seed", _cases(lambda k: k.offset_determined
                                              and k.expect != "data_error"))
 def test_offset_found(kind, seed, outcome):
