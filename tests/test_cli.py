@@ -208,3 +208,29 @@ def test_run_synthetic_end_to_end_via_cli(capsys, tmp_path):
     assert "dqopt" in stdout and "rot err ± σ [deg]" in stdout and "verdict" in stdout
     res = json.loads((out / "results.json").read_text())
     assert res["seed"] == 4 and set(res["solvers"]) == {"dqopt", "daniilidis"}
+
+
+RANDOM_SMALL = ["scenario=random", "synthetic.num_motions=40", "pairing.n_pairs=20",
+                "solvers=[dqopt]", "progress=false", "recording.enabled=false"]
+
+
+def test_output_naming_a_file_is_a_usage_error(tmp_path, capsys):
+    taken = tmp_path / "taken.txt"
+    taken.write_text("keep me")
+    assert main(["run", *RANDOM_SMALL, f"output={taken}"]) == 2
+    err = capsys.readouterr().err
+    assert str(taken) in err and "existing file" in err and "FileExistsError" not in err
+    assert taken.read_text() == "keep me"
+
+
+def test_run_refuses_an_earlier_run_unless_overwrite(tmp_path, capsys):
+    out = tmp_path / "r"
+    assert main(["run", *RANDOM_SMALL, f"output={out}"]) == 0
+    first = (out / "results.json").read_text()
+    capsys.readouterr()
+    assert main(["run", *RANDOM_SMALL, "seed=1", f"output={out}"]) == 2
+    err = capsys.readouterr().err
+    assert "earlier run's results" in err and "overwrite=true" in err and str(out) in err
+    assert (out / "results.json").read_text() == first     # untouched
+    assert main(["run", *RANDOM_SMALL, "seed=1", "overwrite=true", f"output={out}"]) == 0
+    assert (out / "results.json").read_text() != first

@@ -239,3 +239,15 @@ def test_simulation_round_trip_through_files(tmp_path):
     assert translation_error_m(r.X, rs.X) < 2e-3
     assert r.robust.n_inliers < r.C.shape[0]            # the outlier motions were rejected
     assert translation_error_m(r.X, rs.X) < translation_error_m(r.X_plain, rs.X)
+
+
+def test_standard_tum_header_alone_is_plain_tum_not_simcalib_output(tmp_path, rig):
+    # numpy (or any tool, or simcalib before its signature line) writing the standard
+    # TUM header is not simcalib's output: read as plain TUM, never labelled simcalib
+    p = tmp_path / "numpy.tum"
+    np.savetxt(p, _rows(rig.t_a, rig.T_a), fmt="%.10f",
+               header="timestamp tx ty tz qx qy qz qw")
+    assert p.read_text().startswith("# timestamp tx ty tz qx qy qz qw\n")
+    s = read_pose_stream(p)
+    assert s.format == "tum" and "simcalib" not in s.detection
+    _same(s, rig.t_a, rig.T_a)

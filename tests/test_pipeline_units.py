@@ -63,7 +63,8 @@ def test_tum_file_round_trip(tmp_path, rng):
     t = np.linspace(0, 1, 5)
     p = write_tum(tmp_path / "x.tum", t, T)
     lines = p.read_text().splitlines()
-    assert lines[0].startswith("#") and len(lines) == 6
+    assert lines[:2] == ["# simcalib TUM trajectory", "# timestamp tx ty tz qx qy qz qw"]
+    assert len(lines) == 7
     rows = np.loadtxt(p)
     np.testing.assert_allclose(rows[:, 0], t, atol=1e-9)
     np.testing.assert_allclose(rows[:, 1:4], T[:, :3, 3], atol=1e-9)

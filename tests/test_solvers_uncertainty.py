@@ -585,3 +585,37 @@ def test_null_test_false_alarm_rate_on_exactly_planar_noise():
         u = U.covariance(C, H, solve(C, H, alpha=1.0).X, 1.0)
         over += u.information_ratio[0] > u.ratio_threshold[0]
     assert over <= 1
+
+
+# ------------------------------------------- one rendering of a direction (issue 32)
+def _planar_directions(prior_weight):
+    from solver_cases import planar_case
+    rng = np.random.default_rng(27)
+    C, H, X, _ = planar_case(rng, n=25, axis=[0.0, 0.0, 1.0], sigma_r=0.005, sigma_t=0.005)
+    prior = None if prior_weight is None else simcalib.Prior(X=X, a=prior_weight,
+                                                             b=prior_weight)
+    sol = simcalib.solve(C, H, prior=prior)
+    (d,) = sol.undetermined
+    return sol, d
+
+
+def test_pure_translation_direction_gives_no_rotation_sigma():
+    sol, d = _planar_directions(None)
+    assert d.kind == "translation" and d.state == "undetermined"
+    words = d.summary()
+    assert "deg" not in words and "inf" not in words and "0 deg" not in sol.message
+    assert words.endswith("undetermined (no finite 1-sigma: the motions do not "
+                          "constrain it)")
+    assert "UNDETERMINED" not in sol.message       # the verdict word is not shouted twice
+
+
+@pytest.mark.parametrize("weight, state", [(1.0, "fixed by the prior"),
+                                           (1e-3, "poorly determined (prior only)")])
+def test_prior_direction_says_its_state_and_the_sigma_with_the_prior(weight, state):
+    sol, d = _planar_directions(weight)
+    assert d.with_prior and d.state == state
+    sigma_cm = 100 * d.std_with_prior_m
+    assert d.summary().endswith(f": {state} (1-sigma {sigma_cm:.3g} cm with the prior)")
+    assert d.summary() in sol.message
+    # the covariance the tables print agrees: finite along the direction
+    assert np.isfinite(sol.std[5]) and abs(sol.std[5] - d.std_with_prior_m) < 0.2 * d.std_with_prior_m

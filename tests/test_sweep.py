@@ -159,3 +159,40 @@ def test_sweep_cli(tmp_path, capsys):
     assert "unknown executor 'dask'" in err and "local, ray" in err
     assert main(["sweep", str(f)]) == 2          # no output
     assert main(["sweep", "status", str(tmp_path)]) == 3  # not a sweep directory
+
+
+def test_misspelled_key_is_reported_once_before_any_cell(tmp_path, capsys):
+    from simcalib.cli import main
+    out = tmp_path / "typo"
+    assert main(["sweep", "noise", "sigma_r_dg=1", f"output={out}", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("sigma_r_dg") == 1 and "did you mean 'noise.sigma_r_deg'" in err
+    assert "cell 0" not in err and len(err) < 800
+    assert not out.exists()
+
+
+def test_report_counts_the_cells_that_ran_not_the_file(tmp_path):
+    from simcalib.sweep.cells import resolve_cells
+    from simcalib.sweep.report import write_report
+    spec = load_sweep("noise", {"seeds": 2})
+    resolved = resolve_cells(spec, expand(spec), output=tmp_path)
+    store.write_manifest(tmp_path, spec, [c for c, _ in resolved])
+    report = write_report(tmp_path).read_text()
+    assert "20 seeds" not in report and "200 cells" not in report
+    assert "Cells: 20 = 10 combinations of the swept values x 2 seeds" in report
+
+
+def test_error_plots_use_a_log_scale(tmp_path, monkeypatch):
+    from matplotlib.figure import Figure
+    from simcalib.sweep.report import _plot
+    figures = []
+    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: figures.append(self))
+    st = lambda rot, tr: {"rot_med": rot, "rot_q1": rot, "rot_q3": rot, "tr_med": tr,
+                          "tr_q1": tr, "tr_q3": tr, "failed": 0.0, "degenerate": 0.0}
+    # good solvers at 1-2 cm, one bad one at 5 m: each line alone spans < 2x
+    per_axis = {"noise.sigma_r_deg": {
+        v: {"dqopt": st(0.1 * v, 0.01 * v), "dq2steps": st(0.12 * v, 0.012 * v),
+            "daniilidis": st(3 * v, 5.0 * v)} for v in (1.0, 1.5, 2.0)}}
+    _plot(per_axis, "noise.sigma_r_deg", tmp_path)
+    (fig,) = figures
+    assert [ax.get_yscale() for ax in fig.axes[:2]] == ["log", "log"]

@@ -126,7 +126,8 @@ def roundtrip(output, *, scenario: str = "3d", offset_s: float = 0.037,
     from simcalib.cli import main
     from simcalib.geometry import rotation_error_rad, translation_error_m
     out = Path(output)
-    cfg = simcalib.load_config(scenario, ROUNDTRIP_RUN + [f"output={out / 'run'}"])
+    cfg = simcalib.load_config(scenario, ROUNDTRIP_RUN + [f"output={out / 'run'}",
+                                                          "overwrite=true"])
     res = simcalib.run(cfg)
     run_dir = Path(res.output_dir)
     X_true = np.array(json.loads((run_dir / "extrinsics.json").read_text())["X_true"]["T"])

@@ -16,7 +16,7 @@ from typing import Any, Mapping
 
 from simcalib.sweep.spec import Cell, SweepSpec, cell_key
 
-__all__ = ["resolve_cells", "run_cell", "rows_from_results", "ROW_FIELDS"]
+__all__ = ["check_keys", "resolve_cells", "run_cell", "rows_from_results", "ROW_FIELDS"]
 
 #: scalar fields copied from a solver entry of results.json into a table row
 ROW_FIELDS = ("alpha", "rotation_error_deg", "translation_error_m",
@@ -30,12 +30,34 @@ def _base_of(spec: SweepSpec, cell: Cell) -> tuple[str, dict]:
     return base, overrides
 
 
+def check_keys(spec: SweepSpec) -> None:
+    """Every run key the sweep sets or sweeps is a key of the run configuration: an unknown
+    one is reported once (with the closest match and where it was given), before any cell
+    is built or run."""
+    from simcalib.config import ScenarioConfig, resolve_keys
+    from simcalib.errors import ConfigError
+    blocks = (("set", spec.set), ("grid", spec.grid), ("zip", spec.zip),
+              ("random.keys", spec.random))
+    for block, keys in blocks:
+        for key in keys:
+            if key == "scenario":   # the base of the cell, not a run key
+                continue
+            try:
+                resolve_keys(ScenarioConfig, str(key))
+            except ConfigError as exc:
+                where = ("on the command line or under 'set'" if block == "set"
+                         else f"under '{block}'")
+                raise ConfigError(f"sweep {spec.name}: {exc} (given {where}; no cell was "
+                                  f"run)", key=str(key)) from None
+
+
 def resolve_cells(spec: SweepSpec, cells: list[Cell], *, output: Path,
                   recording: bool = False) -> list[tuple[Cell, Any]]:
     """``(cell with its key, validated ScenarioConfig)`` for every cell. All cells are
     checked before any work; one ConfigError lists the failing cells. Cell outputs go to
     ``output/runs/<key>``; recordings are off unless ``recording``."""
     from simcalib.config import load_configs, to_dict
+    check_keys(spec)
     groups: dict[str, list[int]] = {}
     per_cell = []
     for i, cell in enumerate(cells):
@@ -43,6 +65,7 @@ def resolve_cells(spec: SweepSpec, cells: list[Cell], *, output: Path,
         ov.setdefault("progress", False)
         ov.setdefault("recording.enabled", recording)
         ov.setdefault("workers", 1)
+        ov.setdefault("overwrite", True)   # a cell re-run (failed, or recorded) replaces it
         per_cell.append(ov)
         groups.setdefault(base, []).append(i)
     configs: list[Any] = [None] * len(cells)

@@ -9,6 +9,7 @@ over the cells where both succeeded.
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 from typing import Any
@@ -120,13 +121,8 @@ def _plot(per_axis: dict, axis: str, out: Path) -> Path | None:
             hi = np.array([x[f"{what}_q3"] if x else np.nan for x in st]) * scale
             ax.plot(xs, med, "o-", label=s)
             ax.fill_between(xs, lo, hi, alpha=0.2)
-        if what != "failed":
-            finite = [ln.get_ydata() for ln in ax.get_lines()]
-            if any(np.nanmax(np.where(np.asarray(y) > 0, y, np.nan)) /
-                   max(np.nanmin(np.where(np.asarray(y) > 0, y, np.nan)), 1e-300) > 50
-                   for y in finite if np.isfinite(np.asarray(y, float)).any()
-                   and (np.asarray(y) > 0).any()):
-                ax.set_yscale("log")
+        if what != "failed" and _log_scale_wanted(ax):
+            ax.set_yscale("log")
         ax.set_xlabel(axis)
         ax.set_ylabel(label)
         if numeric and len(xs) > 2 and min(xs) > 0 and max(xs) / min(xs) > 20:
@@ -142,6 +138,25 @@ def _plot(per_axis: dict, axis: str, out: Path) -> Path | None:
     return path
 
 
+def _cells_text(manifest: dict) -> str:
+    """What ran, counted from the manifest's cells (not the sweep file's description):
+    ``20 = 10 combinations of the swept values x 2 seeds``."""
+    cells = manifest["cells"]
+    seeds = len({c["replicate"] for c in cells})
+    combos = len({json.dumps(c["values"], sort_keys=True, default=str) for c in cells})
+    return (f"{len(cells)} = {combos} combination{'s' if combos != 1 else ''} of the swept "
+            f"values x {seeds} seed{'s' if seeds != 1 else ''}")
+
+
+def _log_scale_wanted(ax) -> bool:
+    """Error panels are drawn on a log scale whenever they hold a positive value: errors
+    of good and bad solvers differ by decades, and on a linear axis one bad solver
+    flattens the others onto zero."""
+    ys = np.concatenate([np.asarray(ln.get_ydata(), dtype=float).ravel()
+                         for ln in ax.get_lines()] or [np.zeros(0)])
+    return bool((np.isfinite(ys) & (ys > 0)).any())
+
+
 def write_report(output: str | Path) -> Path:
     """Write ``report.md`` (+ ``plot_<axis>.png``) from the stored cells."""
     from simcalib.sweep.runner import status
@@ -153,9 +168,9 @@ def write_report(output: str | Path) -> Path:
     st = status(out)
     spec = manifest["spec"]
     lines = [f"# Sweep `{spec['name']}`", "", spec.get("description") or "", "",
-             f"Base scenario `{spec['base']}`, sweep seed {spec['seed']}, {spec['seeds']} "
-             f"seed(s) per cell; axes: {', '.join(f'`{a}`' for a in axes) or '(none)'}.",
-             f"Cells: {st['cells']} ({st['done']} done, {st['failed']} failed, "
+             f"Base scenario `{spec['base']}`, sweep seed {spec['seed']}; axes: "
+             f"{', '.join(f'`{a}`' for a in axes) or '(none)'}.",
+             f"Cells: {_cells_text(manifest)} ({st['done']} done, {st['failed']} failed, "
              f"{st['remaining']} remaining); mean cell time "
              f"{_fmt(st['cell_s_mean'])} s "
              f"(about {_fmt(3600 / st['cell_s_mean'], 4) if st['cell_s_mean'] else '–'} "

@@ -53,7 +53,7 @@ _TOP_KEYS = ("description", "base", "seed", "seeds", "set", "grid", "zip", "rand
              "record")
 DISTRIBUTIONS = ("uniform", "loguniform", "normal", "choice", "randint")
 #: keys of a resolved run config that do not change its results (excluded from the key)
-_NOT_IN_KEY = ("output", "progress", "workers", "recording")
+_NOT_IN_KEY = ("output", "overwrite", "progress", "workers", "recording")
 
 
 @dataclass(frozen=True)
@@ -301,6 +301,7 @@ def expand(spec: SweepSpec) -> list[Cell]:
 
 def cell_key(config_dict: Mapping) -> str:
     """16 hex characters of the SHA-256 of a resolved configuration (as ``to_dict``),
-    without the keys that do not change results (output, progress, workers, recording)."""
+    without the keys that do not change results (output, overwrite, progress, workers,
+    recording)."""
     data = {k: v for k, v in dict(config_dict).items() if k not in _NOT_IN_KEY}
     return hashlib.sha256(_canonical(data).encode()).hexdigest()[:16]

@@ -68,7 +68,8 @@ def vertical_error_table(speeds_mps=(3.0, 4.5, 6.0), bumps_m=(0.01, 0.04),
                                              f"world.duration_s={math.ceil(drive_s + 1.0)}",
                                              f"seed={seed}", "progress=false",
                                              "recording.enabled=false",
-                                             f"output={out_dir}/{tag}", *extra])
+                                             f"output={out_dir}/{tag}", "overwrite=true",
+                                             *extra])
                 up = vertical_axis_a(cfg.world)
                 t0 = time.perf_counter()
                 res = run(cfg, echo=False)

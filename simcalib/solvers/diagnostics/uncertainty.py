@@ -168,7 +168,7 @@ from simcalib.geometry import (
 
 __all__ = [
     "linear_model", "linear_model_jacobians", "noise_covariance_parts", "NoiseModel", "PoseBias", "pose_bias_jacobians", "pose_bias_covariance",
-    "Direction", "Uncertainty", "AlphaChoice", "covariance", "covariance_batch",
+    "Direction", "DIRECTION_STATES", "direction_state", "direction_sigma", "Uncertainty", "AlphaChoice", "covariance", "covariance_batch",
     "choose_alpha", "bootstrap_covariance", "pose_error", "check_tolerances",
     "check_pose_bias", "TOLERANCE_DEG", "TOLERANCE_M", "ROTATION_FLOOR_RAD",
     "TRANSLATION_FLOOR_REL", "NULL_LEVEL", "noise_jacobians"]
@@ -540,14 +540,65 @@ class Direction:
     determined_by_prior: bool
     description: str
 
+    with_prior: bool = False   # a prior was given (``std_with_prior_*`` are its sigma)
+
+    @property
+    def state(self) -> str:
+        """``fixed by the prior``, ``poorly determined``, ``undetermined`` (see
+        :func:`direction_state`)."""
+        return direction_state(self.reason, self.determined_by_prior, self.with_prior,
+                               math.isfinite(self.std_with_prior_deg)
+                               and math.isfinite(self.std_with_prior_m))
+
+    def sigma_text(self) -> str:
+        """The 1-sigma that applies to this direction, in words: with the prior when one
+        was given, else from the motions alone."""
+        if self.with_prior:
+            return direction_sigma(self.kind, self.std_with_prior_deg,
+                                   self.std_with_prior_m, with_prior=True)
+        return direction_sigma(self.kind, self.std_deg, self.std_m)
+
     def summary(self) -> str:
-        sd = (f"1-sigma {_fmt_std(self.std_deg, 'deg')}, {_fmt_std(self.std_m, 'm')}")
-        tail = (f"; fixed by the prior (1-sigma {_fmt_std(self.std_with_prior_deg, 'deg')}, "
-                f"{_fmt_std(self.std_with_prior_m, 'm')})" if self.determined_by_prior else "")
-        return f"{self.description}: {self.reason} ({sd}){tail}"
+        """``<description>: <state> (<sigma>)``: the one rendering of a direction (console
+        footnotes, results.json words, Solution.message)."""
+        return f"{self.description}: {self.state} ({self.sigma_text()})"
+
+
+#: the states a direction of X can be in, best first
+DIRECTION_STATES = ("determined", "fixed by the prior", "poorly determined",
+                    "poorly determined (prior only)", "undetermined")
+
+
+def direction_state(reason: str, determined_by_prior: bool, with_prior: bool = False,
+                    prior_sigma_finite: bool = False) -> str:
+    """The state of a flagged direction, in the words every report uses: ``fixed by the
+    prior`` (the prior brings it within tolerance), ``poorly determined (prior only)`` (the
+    motions do not determine it, the prior bounds it but not within tolerance), else the
+    motions' ``reason`` (``poorly determined`` / ``undetermined``)."""
+    if determined_by_prior:
+        return "fixed by the prior"
+    if reason == "undetermined" and with_prior and prior_sigma_finite:
+        return "poorly determined (prior only)"
+    return reason
+
+
+def direction_sigma(kind: str, std_deg: float, std_m: float, with_prior: bool = False
+                    ) -> str:
+    """``1-sigma 2.3 cm`` for a translation direction, ``1-sigma 0.5 deg`` for a rotation,
+    both for a coupled one (only the parts that apply); ``no finite 1-sigma: ...`` when it
+    is infinite."""
+    parts = [(std_deg, "deg")] if kind in ("rotation", "coupled") else []
+    parts += [(std_m, "m")] if kind in ("translation", "coupled") else []
+    if not all(math.isfinite(x) for x, _ in parts):
+        return ("no finite 1-sigma: neither the motions nor the prior constrain it"
+                if with_prior else "no finite 1-sigma: the motions do not constrain it")
+    return ("1-sigma " + ", ".join(_fmt_std(x, unit) for x, unit in parts)
+            + (" with the prior" if with_prior else ""))
 
 
 def _fmt_std(x, unit):
+    if unit == "m" and math.isfinite(x) and x < 1.0:
+        return f"{100 * x:.3g} cm"
     return "inf " + unit if not math.isfinite(x) else f"{x:.3g} {unit}"
 
 
@@ -645,8 +696,8 @@ class Uncertainty:
         if not self.directions:
             return (f"determined within {self.tolerance_deg:g} deg / {self.tolerance_m:g} m; "
                     + head)
-        return (f"{self.verdict.upper()}: " + "; ".join(d.summary() for d in self.directions)
-                + "; " + head)
+        return (f"the motions leave X {self.verdict}: "
+                + "; ".join(d.summary() for d in self.directions) + "; " + head)
 
     def mahalanobis2(self, X_candidate) -> float:
         """``d^T Sigma_det^+ d`` with ``d`` the error of ``X_candidate`` relative to ``X``,
@@ -1048,7 +1099,8 @@ def _data_direction(u, reason, s, dsc, tol_r, tol_m, st) -> Direction:
         swd, swm = _stds_along(u, st, tol_r, tol_m)
     else:
         by_prior, swd, swm = False, sdeg, sm
-    return _describe(u, dsc, reason, sdeg, sm, swd, swm, by_prior)
+    return dataclasses.replace(_describe(u, dsc, reason, sdeg, sm, swd, swm, by_prior),
+                               with_prior=st is not None)
 
 
 def _estimate_directions(cov_t, raw, dsc, tol_r, tol_m) -> list:
