@@ -77,3 +77,28 @@ def test_strip_timing_removes_only_timing_fields():
     d = {"timing_s": {"a": 1}, "solvers": {"x": {"runtime_s": 3, "cost": 1.0,
                                                   "sweep": [{"runtime_s": 1, "alpha": 1}]}}}
     assert strip_timing(d) == {"solvers": {"x": {"cost": 1.0, "sweep": [{"alpha": 1}]}}}
+
+
+def test_default_output_dir_never_lands_on_an_earlier_run(tmp_path, monkeypatch):
+    import dataclasses
+    from simcalib.config import load_config
+    from simcalib.pipeline import _output_dir
+    import datetime
+    from pathlib import Path
+    from types import SimpleNamespace
+    import simcalib.pipeline as pipeline
+    monkeypatch.chdir(tmp_path)
+    fixed = datetime.datetime(2026, 12, 2, 18, 0, 0)
+    monkeypatch.setattr(pipeline, "_dt", SimpleNamespace(datetime=SimpleNamespace(
+        now=lambda: fixed)))
+    cfg = load_config("random", [])
+    first = _output_dir(cfg)
+    assert first == Path("runs") / "random-20261202-180000"
+    first.mkdir(parents=True)
+    assert _output_dir(cfg) == first                       # empty: still usable
+    (first / "results.json").write_text("{}")
+    assert _output_dir(cfg) == Path("runs") / "random-20261202-180000-2"
+    from simcalib.errors import UsageError
+    with pytest.raises(UsageError, match="overwrite=true"):
+        _output_dir(dataclasses.replace(cfg, output=str(first)))
+    assert _output_dir(dataclasses.replace(cfg, output=str(first), overwrite=True)) == first

@@ -39,7 +39,7 @@ def run_once(scenario: str, variant: str, out: Path, root: Path = REPO, override
     env = dict(os.environ, PYTHONPATH=str(root))
     env.setdefault("MUJOCO_GL", "egl")
     cmd = [sys.executable, "-m", "simcalib", "run", f"scenario={scenario}", f"output={out}",
-           "progress=false", *VARIANTS[variant], *overrides]
+           "progress=false", "overwrite=true", *VARIANTS[variant], *overrides]
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, cwd=root, env=env, capture_output=True, text=True)
     wall = time.perf_counter() - t0
