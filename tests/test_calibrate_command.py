@@ -59,7 +59,8 @@ def test_round_trip_simulated_run(tmp_path, capsys):
         assert word in text, word
     from rerun.chunk import RrdReader
     summary = str(RrdReader(str(out / "recording.rrd")).store().summary())
-    assert "/time_offset/correlation" in summary and "/time_offset/cost" in summary
+    assert "/time_offset/window" in summary and "/time_offset/chosen" in summary
+    assert "/offset_cost" in summary
 
 
 def _rig_files(tmp_path, path="3d", offset_s=0.0, seed=1):
@@ -90,10 +91,10 @@ def test_outputs_schema_recording_and_given_offset(tmp_path, capsys):
     assert np.degrees(rotation_error_rad(np.array(rep["X"]["T_a_b"]), rs.X)) < 0.05
     from rerun.chunk import RrdReader
     summary = str(RrdReader(str(out / "recording.rrd")).store().summary())
-    for ent in ("/world/a/trajectory", "/world/b_measured/trajectory",
-                "/world/b_predicted/trajectory", "/residuals/rotation_deg",
-                "/time_offset/estimate", "/summary"):   # no curve: offset given
+    for ent in ("/world/b_from_a/trajectory", "/world/b_measured/trajectory",
+                "/world/rig/a", "/residuals/rotation_deg/inliers", "/summary"):
         assert ent in summary, ent
+    assert "/time_offset/window" not in summary         # no curve: offset given
 
 
 @pytest.mark.slow

@@ -434,16 +434,8 @@ def write_outputs(opts: CalibrateOptions, r, a: Assessment,
         translation_error_m=trans, X=r.X, synced_time_s=sp.time_s, synced_T_world_a=sp.T_a,
         synced_T_world_b=sp.T_b)
     if opts.recording:
-        from simcalib.calibrate_streams import align_worlds
         from simcalib.rerun_log import record_calibration
-        off = r.time_offset
-        record_calibration(
-            out / "recording.rrd", time_s=sp.time_s, T_world_a=sp.T_a, T_world_b=sp.T_b,
-            X=r.X, T_wa_wb=align_worlds(sp.T_a, sp.T_b, r.X), motion_time_s=sp.time_s[i],
-            rotation_error_deg=np.degrees(rot), translation_error_m=trans,
-            inlier=r.robust.inlier_mask, lags_s=off.lags_s, correlation=off.correlation,
-            cost_offsets_s=off.cost_offsets_s, cost=off.cost, offset_s=off.offset_s,
-            summary=format_report(report))
+        record_calibration(out / "recording.rrd", r, report, console=format_report(report))
     return report
 
 

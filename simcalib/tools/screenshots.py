@@ -3,6 +3,7 @@
     python -m simcalib.tools.screenshots                 # planar, 3d, line -> runs/screenshots
     python -m simcalib.tools.screenshots --docs          # also refresh docs/figures/recording_*.png
     python -m simcalib.tools.screenshots --scenario planar --override world.duration_s=6
+    python -m simcalib.tools.screenshots --calibrations --docs   # calibration recordings
 
 Each scenario is run (``python -m simcalib run``), its ``recording.rrd`` opened with
 ``rerun FILE --port auto --screenshot-to PNG --window-size 1600x1000`` under Xvfb (Mesa's
@@ -15,6 +16,13 @@ of the report:
 * simulated runs: the scene is framed on the room/platform (the scene shot is not a speck
   in an empty void: at least ``MIN_SCENE_FILL`` of its pixels differ from the background;
   synthetic runs have no room and draw only thin paths, so they are not held to it).
+
+``--calibrations`` (:func:`calibration_main`): ``simcalib calibrate``'s recording of each of
+:data:`CALIBRATION_SETS` (three shared real sets, a synthetic rig with outliers and an
+offset), the default layout and the 3D view alone, checked by :func:`check_calibration`: no
+"No data available", every pane shows pixels of its own colour, every summary line is read
+whole (not cut off), the 3D view framed on the trajectories; ``--docs`` writes
+``docs/figures/calibration_<set>.png``.
 
 Needs the Debian packages ``xvfb``, ``mesa-vulkan-drivers`` and ``tesseract-ocr``
 (:func:`missing_prerequisites` says which are absent); rerun-sdk provides the viewer.
@@ -38,7 +46,9 @@ import numpy as np
 from simcalib.rerun_log import CLOSEUP_BACKGROUND, SCENE_BACKGROUND
 
 __all__ = ["missing_prerequisites", "screenshot", "ocr_text", "check_recording",
-           "ShotReport", "text_contains", "DEFAULT_SCENARIOS", "WINDOW_SIZE", "MIN_SCENE_FILL", "main"]
+           "ShotReport", "text_contains", "DEFAULT_SCENARIOS", "WINDOW_SIZE", "MIN_SCENE_FILL", "main",
+           "CALIBRATION_SETS", "check_calibration", "run_calibration", "calibration_main",
+           "synthetic_calibration_input", "pane_pixels", "framing"]
 
 DEFAULT_SCENARIOS = ("planar", "3d", "line")
 WINDOW_SIZE = (1600, 1000)
@@ -230,6 +240,160 @@ def _docs_png(src: Path, dst: Path, width: int = 1400) -> None:
     im.quantize(colors=256, method=Image.Quantize.MEDIANCUT).save(dst, optimize=True)
 
 
+# ------------------------------------------------------------- calibration recordings
+#: the calibrations ``--calibrations`` screenshots: three shared real sets and a synthetic
+#: 60 s recording with 15 % outlier poses in b and a 100 ms clock offset
+CALIBRATION_SETS = ("rwhecalib_kuka_1", "tum_fr2_desk_orb", "scara_handeye4dof", "synthetic")
+#: a pane shows its data when at least this many pixels have its colour (3200x2000 shot)
+MIN_PANE_PIXELS = 400
+#: the 3D view alone: the kept trajectories' extent on screen (fraction of width or height)
+MIN_FRAMING = 0.35
+
+
+def synthetic_calibration_input(folder: Path, seed: int = 0) -> Path:
+    """Write ``a.txt``, ``b.txt`` (TUM) of :func:`simcalib.stream_sim.rig_streams` (60 s,
+    15 % outlier poses in b, offset 0.1 s) into ``folder`` and return it."""
+    from simcalib.reports import write_tum
+    from simcalib.stream_sim import rig_streams
+    s = rig_streams(offset_s=0.1, outlier_fraction=0.15, duration_s=60.0,
+                    rng=np.random.default_rng(seed))
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    write_tum(folder / "a.txt", s.t_a, s.T_a)
+    write_tum(folder / "b.txt", s.t_b, s.T_b)
+    return folder
+
+
+def _calibration_input(name: str, work: Path) -> Path:
+    if name == "synthetic":
+        return synthetic_calibration_input(work / "synthetic_input")
+    from simcalib.experiments.real_data import real_dir
+    d = real_dir() / name
+    if not (d / "a.txt").exists():
+        raise FileNotFoundError(f"real set {name!r}: no {d / 'a.txt'} (set SIMCALIB_REAL_DIR"
+                                " or see docs/real-data.md)")
+    return d
+
+
+def run_calibration(inp: Path, out: Path):
+    """Calibrate ``inp/a.txt``, ``inp/b.txt`` into ``out`` as ``simcalib calibrate`` does
+    (calibration.json, motions.npz, recording.rrd); returns ``(StreamCalibration,
+    seconds)``."""
+    import time
+    from simcalib.commands.calibrate import calibrate, parse_options, write_outputs
+    t0 = time.perf_counter()
+    opts = parse_options([f"a={inp / 'a.txt'}", f"b={inp / 'b.txt'}", f"output={out}"])
+    r, a = calibrate(opts)
+    write_outputs(opts, r, a)
+    return r, time.perf_counter() - t0
+
+
+def _color_pixels(a: np.ndarray, color) -> int:
+    """Pixels of ``color``'s hue, however the viewer shades it (bar charts are drawn
+    translucent): the chroma (RGB minus its smallest channel) points the same way
+    (cosine > 0.995) and is at least 0.4 of the colour's own."""
+    c = np.array(color, dtype=np.float64)
+    c -= c.min()
+    px = a.astype(np.float64)
+    px -= px.min(axis=2, keepdims=True)
+    norm = np.linalg.norm(px, axis=2)
+    cos = (px @ c) / np.maximum(norm * np.linalg.norm(c), 1e-9)
+    return int(((cos > 0.995) & (norm >= 0.4 * np.linalg.norm(c))).sum())
+
+
+def pane_pixels(png: Path, present: dict) -> dict:
+    """Pixels of each pane's own colour in ``png`` (``present``: pane -> colour names of
+    :data:`simcalib.rerun_log.CALIBRATION_COLORS`)."""
+    from PIL import Image
+    from simcalib.rerun_log import CALIBRATION_COLORS
+    a = np.asarray(Image.open(png).convert("RGB"), dtype=np.int16)
+    return {pane: min(_color_pixels(a, CALIBRATION_COLORS[c]) for c in colors)
+            for pane, colors in present.items()}
+
+
+def framing(png: Path) -> float:
+    """The drawn extent of a 3D view shot: the larger of the width and height fractions
+    spanned by pixels differing from the calibration background (below the title bar)."""
+    from PIL import Image
+    from simcalib.rerun_log import CALIBRATION_BACKGROUND
+    a = np.asarray(Image.open(png).convert("RGB"), dtype=np.int16)
+    h = a.shape[0]
+    body = a[int(0.05 * h):int(0.97 * h)]
+    drawn = np.abs(body - np.array(CALIBRATION_BACKGROUND)).sum(axis=2) > 30
+    if not drawn.any():
+        return 0.0
+    rows, cols = np.flatnonzero(drawn.any(axis=1)), np.flatnonzero(drawn.any(axis=0))
+    return float(max((rows[-1] - rows[0]) / drawn.shape[0], (cols[-1] - cols[0]) /
+                     drawn.shape[1]))
+
+
+def _line_ends(line: str, n: int = 18) -> list[str]:
+    """The first ``n`` letters/digits of a summary line and its last word (the last two
+    when the last is shorter than 4): both must be read for the line to be whole, not cut
+    at an edge (the pane wraps long lines at words, so only the last word is sure to stay
+    on the line's last row)."""
+    words = [_norm(x) for x in re.sub(r"[*`]", "", line).split()]
+    words = [x for x in words if x]
+    w = "".join(words)
+    tail = words[-1] if words and len(words[-1]) >= 4 else "".join(words[-2:])
+    return [w] if len(w) <= n else [w[:n], tail]
+
+
+def check_calibration(out: Path, r, shots: Path, name: str) -> ShotReport:
+    """Screenshot ``out/recording.rrd`` (default layout, the 3D view alone) and check:
+    no pane says "No data available", every pane shows its data (pixels of its colour),
+    every line of the summary is read whole (its first and last letters), the 3D view
+    is framed on the trajectories (:data:`MIN_FRAMING`)."""
+    from simcalib.rerun_log import (CALIBRATION_PANE_COLORS, calibration_summary,
+                                    save_calibration_blueprint)
+    rep = ShotReport(scenario=name)
+    rrd = Path(out) / "recording.rrd"
+    rep.shots["layout"] = screenshot(rrd, shots / f"calibration_{name}_layout.png")
+    rep.shots["world"] = screenshot(rrd, shots / f"calibration_{name}_world.png",
+                                    blueprint=save_calibration_blueprint(
+                                        r, shots / f"calibration_{name}_world.rbl", "world"))
+    panes = {k: v for k, v in CALIBRATION_PANE_COLORS.items()
+             if k != "correlation over lag" or _has_correlation(r)}
+    for pane, n in pane_pixels(rep.shots["layout"], panes).items():
+        if n < MIN_PANE_PIXELS:
+            rep.problems.append(f"pane {pane!r} shows no data ({n} px of its colour)")
+    text = ocr_text(rep.shots["layout"])
+    if "nodataavailable" in _norm(text):
+        rep.problems.append("a pane says 'No data available'")
+    report = json.loads((Path(out) / "calibration.json").read_text())
+    for line in calibration_summary(r, report).splitlines():
+        missing = [p for p in _line_ends(line) if not text_contains(text, p)]
+        if missing:
+            rep.problems.append(f"summary line not read whole (cut off?): {line[:60]!r}")
+    rep.scene_fill = framing(rep.shots["world"])
+    if rep.scene_fill < MIN_FRAMING:
+        rep.problems.append(f"3D view badly framed: the drawing spans {rep.scene_fill:.0%} "
+                            f"of the view (< {MIN_FRAMING:.0%})")
+    return rep
+
+
+def _has_correlation(r) -> bool:
+    from simcalib.rerun_log import _has_correlation as has
+    return has(r.time_offset)
+
+
+def calibration_main(names, output: Path, docs: bool) -> int:
+    """``--calibrations``: calibrate, screenshot and check each set; one line per set."""
+    failed = 0
+    for name in names:
+        out = output / "calibrations" / name
+        r, seconds = run_calibration(_calibration_input(name, output), out)
+        rep = check_calibration(out, r, output / "shots", name)
+        size_mb = (out / "recording.rrd").stat().st_size / 1e6
+        print(f"calibration {name}: recording {size_mb:.2f} MB, calibrate + outputs "
+              f"{seconds:.1f} s; 3D framing {rep.scene_fill:.0%}; "
+              + ("OK" if rep.ok else "PROBLEMS: " + "; ".join(rep.problems)), flush=True)
+        failed += not rep.ok
+        if docs:
+            _docs_png(rep.shots["layout"], REPO / "docs" / "figures" / f"calibration_{name}.png")
+    return 1 if failed else 0
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m simcalib.tools.screenshots",
                                  description=__doc__.split("\n\n")[0])
@@ -239,13 +403,19 @@ def main(argv=None) -> int:
                     help="key=value passed to every run")
     ap.add_argument("--output", default="runs/screenshots", help="runs and screenshots")
     ap.add_argument("--docs", action="store_true",
-                    help="write docs/figures/recording_<scenario>.png")
+                    help="write docs/figures/recording_<scenario>.png (calibration_<set>.png)")
+    ap.add_argument("--calibrations", action="store_true",
+                    help="calibration recordings instead: " + ", ".join(CALIBRATION_SETS))
+    ap.add_argument("--set", action="append", dest="sets",
+                    help="with --calibrations: a set (repeatable); default: all")
     args = ap.parse_args(argv)
     missing = missing_prerequisites()
     if missing:
         print("cannot take screenshots; missing: " + "; ".join(missing), file=sys.stderr)
         return 2
     out = Path(args.output)
+    if args.calibrations:
+        return calibration_main(args.sets or CALIBRATION_SETS, out, args.docs)
     failed = 0
     for name in args.scenario or DEFAULT_SCENARIOS:
         run_dir = _run_scenario(name, out / name, args.override)
