@@ -165,3 +165,30 @@ def test_calibration_screenshots(calibrated, tmp_path):
     for p in rep.shots.values():
         assert Path(p).stat().st_size > 10_000
     assert json.loads((out / "calibration.json").read_text())["files"]["recording"]
+
+
+def test_cut_summary_lines_are_found():
+    from simcalib.tools.screenshots import cut_lines
+    summary = ("- **verdict: DETERMINED** - sigma raised to the data's own consistency\n"
+               "- time offset t_b - t_a: 100.08 +- 0.22 ms (estimated)\n"
+               "- status: determined (exit 0)")
+    whole = ("verdict: DETERMINED - sigma raised to the data's\nown consistency\n"
+             "time offset t_b - t_a: 100.08 +- 0.22 ms (estimated)\nstatus: determined (exit 0)")
+    assert cut_lines(whole, summary) == []
+    cut = whole.replace("(estimated)", "(esti").replace("status: determined (exit 0)", "")
+    assert [x[:8] for x in cut_lines(cut, summary)] == ["- time o", "- status"]
+
+
+def test_pane_pixels_count_shaded_colours_and_framing_measures_the_drawing(tmp_path):
+    from PIL import Image
+    from simcalib.rerun_log import CALIBRATION_BACKGROUND, CALIBRATION_COLORS
+    from simcalib.tools.screenshots import framing, pane_pixels
+    a = np.tile(np.array(CALIBRATION_BACKGROUND, np.uint8), (200, 300, 1))
+    teal = np.array(CALIBRATION_COLORS["correlation"], float)
+    a[50:60, 20:70] = (0.7 * teal).astype(np.uint8)          # a translucent bar
+    a[100:110, 20:270] = (150, 150, 150)                      # grey: no pane's colour
+    p = tmp_path / "shot.png"
+    Image.fromarray(a).save(p)
+    n = pane_pixels(p, {"corr": ("correlation",), "traj": ("b_from_a",)})
+    assert n == {"corr": 500, "traj": 0}
+    assert framing(p) == pytest.approx(250 / 300, abs=0.01)

@@ -48,7 +48,8 @@ from simcalib.rerun_log import CLOSEUP_BACKGROUND, SCENE_BACKGROUND
 __all__ = ["missing_prerequisites", "screenshot", "ocr_text", "check_recording",
            "ShotReport", "text_contains", "DEFAULT_SCENARIOS", "WINDOW_SIZE", "MIN_SCENE_FILL", "main",
            "CALIBRATION_SETS", "check_calibration", "run_calibration", "calibration_main",
-           "synthetic_calibration_input", "pane_pixels", "framing"]
+           "synthetic_calibration_input", "pane_pixels", "framing", "cut_lines",
+           "calibration_pane_boxes"]
 
 DEFAULT_SCENARIOS = ("planar", "3d", "line")
 WINDOW_SIZE = (1600, 1000)
@@ -301,14 +302,35 @@ def _color_pixels(a: np.ndarray, color) -> int:
     return int(((cos > 0.995) & (norm >= 0.4 * np.linalg.norm(c))).sum())
 
 
-def pane_pixels(png: Path, present: dict) -> dict:
+def calibration_pane_boxes(panes) -> dict:
+    """Where each pane of :func:`simcalib.rerun_log.calibration_blueprint` lies in a
+    layout shot, as fractions ``(x0, x1, y0, y1)`` of the image (a margin inside the pane):
+    the trajectories top left (11/20 of the width, 5/8 of the body), the plots ``panes``
+    (in the layout's order) stacked evenly on the right."""
+    top, bottom = 0.035, 0.965
+    h = bottom - top
+    boxes = {"trajectories": (0.02, 0.53, top + 0.05 * h, top + 0.6 * h)}
+    plots = [p for p in panes if p != "trajectories"]
+    for k, p in enumerate(plots):
+        y0, y1 = top + h * k / len(plots), top + h * (k + 1) / len(plots)
+        boxes[p] = (0.57, 0.99, y0 + 0.02, y1 - 0.02)
+    return boxes
+
+
+def pane_pixels(png: Path, present: dict, boxes: dict | None = None) -> dict:
     """Pixels of each pane's own colour in ``png`` (``present``: pane -> colour names of
-    :data:`simcalib.rerun_log.CALIBRATION_COLORS`)."""
+    :data:`simcalib.rerun_log.CALIBRATION_COLORS`), counted inside the pane's box
+    (``boxes``: pane -> fractions ``(x0, x1, y0, y1)``; default the whole image)."""
     from PIL import Image
     from simcalib.rerun_log import CALIBRATION_COLORS
     a = np.asarray(Image.open(png).convert("RGB"), dtype=np.int16)
-    return {pane: min(_color_pixels(a, CALIBRATION_COLORS[c]) for c in colors)
-            for pane, colors in present.items()}
+    H, W = a.shape[:2]
+    out = {}
+    for pane, colors in present.items():
+        x0, x1, y0, y1 = (boxes or {}).get(pane, (0.0, 1.0, 0.0, 1.0))
+        sub = a[int(y0 * H):int(y1 * H), int(x0 * W):int(x1 * W)]
+        out[pane] = min(_color_pixels(sub, CALIBRATION_COLORS[c]) for c in colors)
+    return out
 
 
 def framing(png: Path) -> float:
@@ -339,6 +361,13 @@ def _line_ends(line: str, n: int = 18) -> list[str]:
     return [w] if len(w) <= n else [w[:n], tail]
 
 
+def cut_lines(text: str, summary: str) -> list[str]:
+    """The lines of ``summary`` that the OCR ``text`` does not hold whole
+    (:func:`_line_ends`)."""
+    return [line for line in summary.splitlines() if line.strip()
+            and not all(text_contains(text, p) for p in _line_ends(line))]
+
+
 def check_calibration(out: Path, r, shots: Path, name: str) -> ShotReport:
     """Screenshot ``out/recording.rrd`` (default layout, the 3D view alone) and check:
     no pane says "No data available", every pane shows its data (pixels of its colour),
@@ -354,17 +383,16 @@ def check_calibration(out: Path, r, shots: Path, name: str) -> ShotReport:
                                         r, shots / f"calibration_{name}_world.rbl", "world"))
     panes = {k: v for k, v in CALIBRATION_PANE_COLORS.items()
              if k != "correlation over lag" or _has_correlation(r)}
-    for pane, n in pane_pixels(rep.shots["layout"], panes).items():
+    for pane, n in pane_pixels(rep.shots["layout"], panes,
+                               calibration_pane_boxes(list(panes))).items():
         if n < MIN_PANE_PIXELS:
             rep.problems.append(f"pane {pane!r} shows no data ({n} px of its colour)")
     text = ocr_text(rep.shots["layout"])
     if "nodataavailable" in _norm(text):
         rep.problems.append("a pane says 'No data available'")
     report = json.loads((Path(out) / "calibration.json").read_text())
-    for line in calibration_summary(r, report).splitlines():
-        missing = [p for p in _line_ends(line) if not text_contains(text, p)]
-        if missing:
-            rep.problems.append(f"summary line not read whole (cut off?): {line[:60]!r}")
+    rep.problems += [f"summary line not read whole (cut off?): {line[:60]!r}"
+                     for line in cut_lines(text, calibration_summary(r, report))]
     rep.scene_fill = framing(rep.shots["world"])
     if rep.scene_fill < MIN_FRAMING:
         rep.problems.append(f"3D view badly framed: the drawing spans {rep.scene_fill:.0%} "
