@@ -273,7 +273,8 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     sa, sb, conv, off = align_and_read(sa, sb, sampling, time_offset=time_offset,
                                        drift=drift, alpha=alpha, seed=seed, forced=forced)
     sp = synchronised(sa, sb, sampling, off)
-    ms = form_motions(sp, motions, paired_by_stamp=sampling.paired_by_stamp, step_s=step_s,
+    ms = form_motions(sp, motions, paired_by_stamp=sampling.paired_by_stamp,
+                      index_stamps=sampling.kind == "index_stamps", step_s=step_s,
                       min_rotation_deg=min_rotation_deg, max_rotation_deg=max_rotation_deg)
     if ms.n < 2:
         from simcalib.errors import DataError
@@ -325,7 +326,8 @@ def _plain(sa, sb, sampling, off, sp, ms, *, step_s, alpha, min_rotation_deg,
     try:
         sp0 = synchronised(sa, sb, sampling, _zero()) if off.offset_s != 0 else sp
         ms0 = ms if sp0 is sp else form_motions(
-            sp0, ms.policy, paired_by_stamp=sampling.paired_by_stamp, step_s=step_s,
+            sp0, ms.policy, paired_by_stamp=sampling.paired_by_stamp,
+            index_stamps=sampling.kind == "index_stamps", step_s=step_s,
             min_rotation_deg=min_rotation_deg, max_rotation_deg=max_rotation_deg)
         if ms0.n < 2:
             return None, None

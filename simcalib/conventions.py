@@ -179,14 +179,24 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
                          "(do the streams overlap in time, and does the rig rotate?)")
     ranked = sorted(scores, key=scores.get)
     best = ranked[0]
-    sw_a, sw_b, inv_a, inv_b = best
     ratio = scores[ranked[1]] / max(scores[best], 1e-15) if len(ranked) > 1 else math.inf
     clear = ratio > CLEAR_RATIO
+    written = (False, False, parities[0][0], parities[0][1])
+    fallback = (not clear and best != written and written in scores
+                and scores[written] <= CLEAR_RATIO * scores[best])
+    if fallback:            # the data cannot tell: the files as written, and said so
+        ranked.remove(written)
+        ranked.insert(0, written)
+        best = written
+    sw_a, sw_b, inv_a, inv_b = best
 
     def desc(k):
         return (_label(k[0], k[2], "a", has_order_a) + "; "
                 + _label(k[1], k[3], "b", has_order_b))
     lines = [f"reading used: {desc(best)}"]
+    if fallback:
+        lines.append("no reading fits clearly better than the files as written (within "
+                     f"{CLEAR_RATIO:g}x): they are taken as written")
     if len(ranked) > 1:
         lines.append(f"median screw residual {scores[best]:.3g} vs {scores[ranked[1]]:.3g} "
                      f"for the runner-up ({desc(ranked[1])}): {_fmt_ratio(ratio)}, "

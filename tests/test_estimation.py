@@ -84,12 +84,24 @@ class _Unc:
         self.determined_basis = np.eye(6)
 
 
-def test_combine_keeps_the_larger_per_direction():
+def test_combine_raises_the_model_only_where_the_data_disagree_beyond_chance():
+    from simcalib.estimation.consistency import (estimated_covariance_factor,
+                                                 wishart_max_quantile)
     model = np.diag([1e-6] * 3 + [1e-4] * 3)
-    jack = np.diag([4e-6, 0.25e-6, 1e-6, 1e-4, 9e-4, 1e-6])
-    cov, cov_det, ratio = combine(_Unc(model), Consistency(True, 10, jack))
-    assert np.allclose(np.diag(cov), np.maximum(np.diag(model), np.diag(jack)))
-    assert ratio == pytest.approx(9.0)
+    f = estimated_covariance_factor(40)
+    assert 1.2 < f < 1.4 and estimated_covariance_factor(7) == np.inf
+    # within chance (whitened spread 1.5 < the Wishart 95 % quantile for 39 dof): unchanged
+    assert wishart_max_quantile(6, 39) > 1.5
+    cov, _, ratio = combine(_Unc(model), Consistency(True, 40, 1.5 * model, single_poses=True))
+    assert np.array_equal(cov, model) and ratio == pytest.approx(1.5 * f)
+    # 9x the model's variance along vy: raised there (to f x the jackknife), nowhere else
+    jack = model.copy()
+    jack[4, 4] = 9e-4
+    cov, cov_det, ratio = combine(_Unc(model), Consistency(True, 40, jack, single_poses=True))
+    assert cov[4, 4] == pytest.approx(f * 9e-4) and ratio == pytest.approx(9 * f)
+    assert np.allclose(np.delete(np.diag(cov), 4), np.delete(np.diag(model), 4) *
+                       np.maximum(1.0, f))
+    assert np.all(np.diag(cov) >= np.diag(model))
     unchecked = Consistency(False, 0, message="too few")
     cov2, _, r2 = combine(_Unc(model), unchecked)
     assert np.array_equal(cov2, model) and np.isnan(r2)

@@ -46,6 +46,9 @@ class CalibrateOptions:
     a: Path = field(metadata=_doc("pose file of sensor a (X = T_a_b); a two-stream file "
                                   "(easy_handeye, moveit) may give both, then omit b"))
     output: Path = field(metadata=_doc("output directory (created)"))
+    overwrite: bool = field(default=False, metadata=_doc(
+        "replace an earlier calibration's results in output (else an output holding "
+        "calibration.json, results.json or extrinsics.json is refused before any work)"))
     b: Path | None = field(default=None, metadata=_doc("pose file of sensor b"))
     format: str | None = field(default=None, metadata=_doc(
         "format of both files (default: detected); see format_a / format_b"))
@@ -570,6 +573,8 @@ def main(args: list[str]) -> int:
         print(list_bag(listing[0].split("=", 1)[1]), end="")
         return 0
     opts = parse_options(args)
+    from simcalib.outputs import check_output_dir
+    check_output_dir(opts.output, opts.overwrite)   # exit 2, before any work
     from simcalib.kernel_mode import INTERPRETED_NOTE, prepare_kernels
     plan = prepare_kernels()        # the first use on an installation: interpreted kernels
     with plan.context():            # (the report's diagnostics may solve too)

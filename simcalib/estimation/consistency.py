@@ -11,23 +11,28 @@ re-estimated without each block's poses (every motion touching one of them is dr
 
 is the jackknife covariance (Efron & Stein): it sees every error that differs between
 blocks, whatever its correlation within a block. :func:`combine` keeps the model's
-covariance where it is the larger and raises it to the jackknife's where the data are less
-consistent than the model says (per eigen-direction of the model-whitened jackknife), on
-the directions the motions determine; the undetermined ones stay undetermined.
+covariance when the jackknife's spread is what chance gives with the model right (its
+model-whitened largest eigenvalue below the Wishart 95 % quantile); otherwise it raises
+the model's covariance to the jackknife's, widened for having been estimated from few
+blocks (:func:`estimated_covariance_factor`), per eigen-direction, on the directions the
+motions determine; the undetermined ones stay undetermined.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 __all__ = ["Consistency", "block_jackknife", "combine", "MIN_BLOCKS", "MAX_BLOCKS",
+           "CONTIGUOUS_BLOCKS", "estimated_covariance_factor",
            "WeightingCheck", "weighting_check"]
 
-MIN_BLOCKS = 5          # fewer usable blocks: the data are too few to check themselves
-MAX_BLOCKS = 12
+MIN_BLOCKS = 8          # fewer usable blocks: the data are too few to check themselves
+MAX_BLOCKS = 64         # stop-and-go data: one pose a block up to this many poses
+CONTIGUOUS_BLOCKS = 40  # continuous recordings: long contiguous blocks (serial correlation)
 
 
 @dataclass(frozen=True, eq=False)
@@ -41,6 +46,10 @@ class Consistency:
     covariance: np.ndarray | None = field(default=None, repr=False)
     ratio: float = float("nan")
     message: str = ""
+    #: one pose a block (independent measurements): the spread is widened for having been
+    #: estimated from few blocks; contiguous blocks of a continuous recording are not (the
+    #: delete-a-block jackknife is conservative there already: Efron-Stein)
+    single_poses: bool = False
 
     def to_dict(self) -> dict:
         return {"checked": self.checked, "blocks": self.blocks,
@@ -53,12 +62,19 @@ def _block_of(n_poses: int, G: int) -> np.ndarray:
     return np.minimum((np.arange(n_poses) * G) // n_poses, G - 1)
 
 
-def block_jackknife(motions, n_poses: int, solve_fn, X: np.ndarray) -> Consistency:
+def block_jackknife(motions, n_poses: int, solve_fn, X: np.ndarray,
+                    blocks: int | None = None) -> Consistency:
     """The jackknife of ``X`` over blocks of the ``n_poses`` synchronised poses that
     ``motions`` (:class:`simcalib.estimation.motions.MotionSet`) join. ``solve_fn(C, H)``
-    returns the X of a subset (the same estimator as X)."""
+    returns the X of a subset (the same estimator as X). ``blocks``: how many (default:
+    one pose a block up to :data:`MAX_BLOCKS` for ``stations`` motions, where every pose is
+    its own measurement; :data:`CONTIGUOUS_BLOCKS` contiguous blocks otherwise, long
+    against the serial correlation of a continuous recording)."""
     from simcalib.solvers.diagnostics.uncertainty import pose_error
-    G = int(min(MAX_BLOCKS, n_poses))
+    if blocks is None:
+        blocks = MAX_BLOCKS if motions.policy == "stations" else CONTIGUOUS_BLOCKS
+    G = int(min(blocks, n_poses))
+
     if G < MIN_BLOCKS:
         return Consistency(False, 0, message=f"{n_poses} poses are too few for the data to "
                            f"check their own consistency (>= {MIN_BLOCKS} needed): sigma is "
@@ -83,8 +99,34 @@ def block_jackknife(motions, n_poses: int, solve_fn, X: np.ndarray) -> Consisten
     D = D - D.mean(axis=0)
     k = D.shape[0]
     cov = (k - 1) / k * (D.T @ D)
-    return Consistency(True, k, cov, message=f"X re-estimated without each of {k} blocks "
-                       "of poses")
+    single = G == n_poses
+    return Consistency(True, k, cov, single_poses=single, message=(
+        f"X re-estimated without each of {k} " + ("poses" if single else "blocks of poses")
+        + (f" (the spread widened x{estimated_covariance_factor(k):.2f} for its own "
+           "uncertainty)" if single else "")))
+
+
+@functools.lru_cache(maxsize=64)
+def wishart_max_quantile(p: int, dof: int, level: float = 0.95, draws: int = 4000) -> float:
+    """The ``level`` quantile of the largest eigenvalue of ``W / dof``, ``W ~ Wishart_p(I,
+    dof)``: how large the jackknife's whitened spread gets by chance when the model's
+    covariance is right (a fixed table: drawn once from ``default_rng(0)``)."""
+    rng = np.random.default_rng(0)
+    Z = rng.standard_normal((draws, dof, p))
+    lam = np.linalg.eigvalsh(np.einsum("nkp,nkq->npq", Z, Z) / dof)[:, -1]
+    return float(np.quantile(lam, level))
+
+
+def estimated_covariance_factor(blocks: int, dof: int = 6, level: float = 0.95) -> float:
+    """How much wider a covariance estimated from ``blocks`` jackknife replicates must be
+    for its ``level`` region to hold ``level`` of the estimates: the Hotelling T^2 quantile
+    ``p (n - 1) / (n - p) F(p, n - p)`` over the chi-square one (p = ``dof``, n = blocks);
+    1 for many blocks, ~1.3 for 40, ~1.8 for 20."""
+    from scipy.stats import chi2, f
+    n, p = int(blocks), int(dof)
+    if n <= p + 1:
+        return float("inf")
+    return float(p * (n - 1) / (n - p) * f.ppf(level, p, n - p) / chi2.ppf(level, p))
 
 
 def combine(uncertainty, check: Consistency) -> tuple[np.ndarray, np.ndarray, float]:
@@ -103,9 +145,15 @@ def combine(uncertainty, check: Consistency) -> tuple[np.ndarray, np.ndarray, fl
     w, V = np.linalg.eigh(0.5 * (S_m + S_m.T))
     w = np.maximum(w, 1e-30 * max(float(w.max()), 1e-300))
     Wh = V / np.sqrt(w)                              # whitening: Wh^T S_m Wh = I
-    S_j = Wh.T @ (B.T @ check.covariance @ B) @ Wh
+    factor = estimated_covariance_factor(check.blocks, B.shape[1]) if check.single_poses \
+        else 1.0
+    if not np.isfinite(factor):
+        return cov, cov_det, float("nan")
+    S_j = factor * (Wh.T @ (B.T @ check.covariance @ B) @ Wh)
     lam, U = np.linalg.eigh(0.5 * (S_j + S_j.T))
     ratio = float(lam.max())
+    if ratio / factor <= wishart_max_quantile(B.shape[1], check.blocks - 1):
+        return cov, cov_det, ratio        # the spread is what the model's sigma predicts
     Dh = V * np.sqrt(w)                              # de-whitening
     extra = Dh @ U @ np.diag(np.maximum(lam - 1.0, 0.0)) @ U.T @ Dh.T
     add = B @ extra @ B.T

@@ -12,8 +12,10 @@ A policy is a small function ``(synced, options) -> MotionSet`` in :data:`POLICI
 * ``keyframes`` — non-overlapping motions, each ending where stream a has turned by
   ``min_rotation_deg`` since the last keyframe.
 
-``auto`` (the default) takes ``stations`` for stamp-paired recordings of at most
-:data:`STATIONS_MAX` poses and ``consecutive`` otherwise, and says why. Motions whose
+``auto`` (the default) takes ``stations`` for sample-index data and stamp-paired
+stop-and-go data (consecutive poses far apart) of at most :data:`STATIONS_MAX` poses, and
+``consecutive`` otherwise (continuous tracks, even when they share their stamps), and says
+why. Motions whose
 rotation (mean of the two streams' angles) is below ``min_rotation_deg`` are dropped (they
 carry no information) unless fewer than 3 would remain; above ``max_rotation_deg`` too.
 
@@ -119,11 +121,32 @@ def _keyframes(t, options, T_a):
 POLICIES = {"stations": _stations, "consecutive": _consecutive, "keyframes": _keyframes}
 
 
-def auto_policy(synced, paired_by_stamp: bool) -> tuple[str, str]:
-    """``(policy, reason)`` chosen from the data."""
+#: a stamp-paired recording whose consecutive poses turn by less than this (median) is a
+#: continuous track that happens to share its stamps, not stop-and-go stations
+STATION_STEP_DEG = 5.0
+
+
+def _median_step_deg(synced) -> float:
+    R = synced.T_a[:, :3, :3]
+    return float(np.degrees(np.median(rotation_angle_rad(np.swapaxes(R[:-1], 1, 2) @ R[1:]))))
+
+
+def auto_policy(synced, paired_by_stamp: bool, index_stamps: bool = False
+                ) -> tuple[str, str]:
+    """``(policy, reason)`` chosen from the data: ``stations`` for sample-index data and
+    for stamp-paired data whose consecutive poses are far apart (median turn >=
+    :data:`STATION_STEP_DEG`), up to :data:`STATIONS_MAX` poses; ``consecutive`` else."""
+    step = _median_step_deg(synced) if synced.n > 1 else 0.0
+    if paired_by_stamp and synced.n <= STATIONS_MAX and (index_stamps
+                                                         or step >= STATION_STEP_DEG):
+        return "stations", (f"{synced.n} stamp-paired poses ("
+                            + ("sample-index stamps" if index_stamps else
+                               f"stop-and-go: consecutive poses {step:.3g} deg apart")
+                            + "): pairs of poses far apart")
     if paired_by_stamp and synced.n <= STATIONS_MAX:
-        return "stations", (f"{synced.n} stamp-paired poses (stop-and-go or sample-index "
-                            "data): pairs of poses far apart")
+        return "consecutive", (f"{synced.n} stamp-paired poses of a continuous track "
+                               f"(consecutive poses {step:.3g} deg apart): motions over a "
+                               "time step")
     if paired_by_stamp:
         return "consecutive", (f"{synced.n} stamp-paired poses, too many for pairs: "
                                "motions over a time step")
@@ -131,16 +154,18 @@ def auto_policy(synced, paired_by_stamp: bool) -> tuple[str, str]:
 
 
 def form_motions(synced, policy: str = "auto", *, paired_by_stamp: bool = False,
-                 step_s: float = 1.0, min_rotation_deg: float | None = 2.0,
+                 index_stamps: bool = False, step_s: float = 1.0,
+                 min_rotation_deg: float | None = 2.0,
                  max_rotation_deg: float | None = None) -> MotionSet:
     """The :class:`MotionSet` of ``synced`` (:class:`simcalib.timesync.SyncedPoses`) under
-    ``policy`` (``auto`` or a name of :data:`POLICIES`)."""
+    ``policy`` (``auto`` or a name of :data:`POLICIES`); ``paired_by_stamp`` /
+    ``index_stamps`` from the sampling (:mod:`simcalib.estimation.sampling`)."""
     if synced.n < 2:
         raise DataError(f"only {synced.n} synchronised pose(s); at least 2 are needed (do "
                         "the streams overlap in time?)")
     reason = "given"
     if policy == "auto":
-        policy, reason = auto_policy(synced, paired_by_stamp)
+        policy, reason = auto_policy(synced, paired_by_stamp, index_stamps)
     if policy not in POLICIES:
         raise unknown_choice("motion policy", policy, list(POLICIES) + ["auto"], key="motions")
     opts = {"step_s": step_s, "min_rotation_deg": min_rotation_deg}

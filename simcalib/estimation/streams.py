@@ -149,7 +149,8 @@ def motions_from_streams(streams: dict, cfg, rng, sensing: dict):
                                      forced=forced)
     synced = synchronised(a, b, sampling, off)
     ms = form_motions(synced, est.motions, paired_by_stamp=sampling.paired_by_stamp,
-                      step_s=est.step_s, min_rotation_deg=est.min_rotation_deg)
+                      index_stamps=sampling.kind == "index_stamps", step_s=est.step_s,
+                      min_rotation_deg=est.min_rotation_deg)
     if est.robust == "none":
         keep, why = np.ones(ms.n, dtype=bool), "none (given)"
     else:

@@ -786,7 +786,7 @@ def _run_cli(paths: dict, out: Path) -> tuple[int, str]:
     err = io.StringIO()
     with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
         code = cli_main(["calibrate", f"a={paths['a']}", f"b={paths['b']}",
-                         f"output={out}", "recording=false"])
+                         f"output={out}", "recording=false", "overwrite=true"])
     lines = [ln for ln in err.getvalue().splitlines() if ln.strip()]
     errors = [ln for ln in lines if "error:" in ln] or lines
     return int(code), (errors[-1].replace(str(out.parent), "<dir>") if errors else "")

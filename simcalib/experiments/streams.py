@@ -133,7 +133,8 @@ def roundtrip(output, *, scenario: str = "3d", offset_s: float = 0.037,
     X_true = np.array(json.loads((run_dir / "extrinsics.json").read_text())["X_true"]["T"])
     pa, pb = export_run_streams(run_dir, out / "files", offset_s=offset_s,
                                 outlier_fraction=outlier_fraction)
-    code = main(["calibrate", f"a={pa}", f"b={pb}", f"output={out / 'calibration'}"])
+    code = main(["calibrate", f"a={pa}", f"b={pb}", f"output={out / 'calibration'}",
+                 "overwrite=true"])
     rep = json.loads((out / "calibration" / "calibration.json").read_text())
     X = np.array(rep["X"]["T_a_b"])
     Xp = np.array(rep["plain"]["X"]["T_a_b"])
@@ -181,7 +182,7 @@ def calibrate_eth(eth_dir, output) -> dict:
     results = {}
     for name, (fa, fb) in eth_files(eth_dir, out / "data").items():
         d = out / name
-        code = main(["calibrate", f"a={fa}", f"b={fb}", f"output={d}"])
+        code = main(["calibrate", f"a={fa}", f"b={fb}", f"output={d}", "overwrite=true"])
         results[name] = (code, json.loads((d / "calibration.json").read_text()))
     return results
 
