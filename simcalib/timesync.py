@@ -417,6 +417,10 @@ def peak_z(r: np.ndarray, peak: float) -> float:
 #: instead of 0 (the log-likelihood-ratio statistic of Gaussian residuals, ~chi2(1) when
 #: there is no offset: 9 is a 3-sigma decision)
 EVIDENCE_MIN = 9.0
+#: independent residual components per motion in the cost (the screw residual of one
+#: motion: 3 of rotation, 3 of translation): the cost's degrees of freedom are this many
+#: per independent motion
+RESIDUALS_PER_MOTION = 6
 
 
 class OffsetCost:
@@ -588,7 +592,7 @@ def _decide(tried, half):
         return chosen, "estimated", float("nan"), float("nan")
     z = zero[0]
     j_zero = z.cost(0.0)
-    n_eff = chosen.cost.n / chosen.cost.thin
+    n_eff = RESIDUALS_PER_MOTION * chosen.cost.n / chosen.cost.thin
     if not (math.isfinite(j_zero) and chosen.cost_best > 0):
         return chosen, "estimated", float("nan"), j_zero
     evidence = n_eff * math.log(j_zero / chosen.cost_best)
@@ -671,10 +675,12 @@ def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = Non
 
 
 def _offset_and_sigma(r: _Refined) -> tuple[float, float]:
-    """The refined offset and its 1-sigma from the cost's curvature (residuals treated as
-    independent after thinning by the motion step)."""
+    """The refined offset and its 1-sigma from the cost's curvature: ``2 J / (m J'')`` for
+    ``m`` independent residual components (:data:`RESIDUALS_PER_MOTION` per motion, the
+    motions counted once per pose they share)."""
     if r.curvature > 0 and r.cost.n > 0:
-        return r.best, math.sqrt(2.0 * r.cost_best / (r.cost.n * r.curvature) * r.cost.thin)
+        return r.best, math.sqrt(2.0 * r.cost_best * r.cost.thin
+                                 / (RESIDUALS_PER_MOTION * r.cost.n * r.curvature))
     return r.best, float("nan")
 
 
