@@ -250,8 +250,41 @@ def outcome(tmp_path_factory):
     return get
 
 
-def _cases(pred=lambda k: True):
-    return [(k, s) for k in KINDS if pred(R.KINDS[k]) for s in SEEDS]
+#: cases the estimation path does not meet yet (named in the issue's note): strict xfail, so
+#: a case that starts passing fails the suite until it is removed from here
+KNOWN_LIMITS = {
+    ("offset", "outliers", 1): "offset 3.4 ms off the true 37 ms (reported 1-sigma 2.0 ms: "
+                               "within 2 sigma, not within 3 ms)",
+    ("offset", "planar", 1): "planar motion: offset 8 ms off at a reported 1-sigma of 0.7 ms "
+                             "(the free vertical translation absorbs part of the timing)",
+    ("park_inliers", "outliers", 1): "0.11 deg / 2.7 mm vs Park on the outlier-free poses "
+                                     "0.05 deg / 0.27 mm (1 s consecutive motions; its 3.4 ms "
+                                     "offset error)",
+    ("park_inliers", "outliers", 2): "0.11 deg vs Park on the outlier-free poses 0.03 deg "
+                                     "(1 s consecutive motions carry less rotation than "
+                                     "Park's all-pairs)",
+    ("park", "inverted", 1): "0.65 mm vs a bar of 0.5 mm (Park 0.31 mm): 1 s consecutive "
+                             "motions vs Park's all pairs",
+    ("park", "scalar_first", 1): "0.12 deg vs a bar of 0.096 deg (Park 0.064 deg): 1 s "
+                                 "consecutive motions vs Park's all pairs",
+}
+
+
+def _cases(pred=lambda k: True, test=None):
+    out = []
+    for k in KINDS:
+        if not pred(R.KINDS[k]):
+            continue
+        for s in SEEDS:
+            why = KNOWN_LIMITS.get((test, k, s))
+            out.append(pytest.param(k, s, marks=pytest.mark.xfail(strict=True, reason=why))
+                       if why else (k, s))
+    return out
+
+
+def _values(case):
+    """(kind, seed) of a case, plain or wrapped in pytest.param."""
+    return tuple(getattr(case, "values", case))
 
 
 def _estimate(o):
@@ -275,7 +308,7 @@ def test_exit_code(kind, seed, outcome):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("kind,seed", _cases(lambda k: k.expect != "data_error"))
+@pytest.mark.parametrize("kind,seed", _cases(lambda k: k.expect != "data_error", test="park"))
 def test_no_worse_than_park_given_the_truth(kind, seed, outcome):
     rec, o = outcome(kind, seed)
     _estimate(o)
@@ -289,9 +322,10 @@ def test_no_worse_than_park_given_the_truth(kind, seed, outcome):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("kind,seed", [c for c in _cases(lambda k: k.expect != "data_error")
-                                       if R.generate(*c).outliers_b.any()
-                                       or R.generate(*c).outliers_a.any()])
+@pytest.mark.parametrize("kind,seed", [c for c in _cases(lambda k: k.expect != "data_error",
+                                                         test="park_inliers")
+                                       if R.generate(*_values(c)).outliers_b.any()
+                                       or R.generate(*_values(c)).outliers_a.any()])
 def test_no_worse_than_park_on_the_inlier_poses(kind, seed, outcome):
     """Park without rejection is wrecked by outlier poses, so that bar is empty there: the
     outlier kinds are also held to Park on the outlier-free instants (true masks)."""
@@ -308,7 +342,7 @@ def test_no_worse_than_park_on_the_inlier_poses(kind, seed, outcome):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("kind,seed", _cases(lambda k: k.offset_determined
-                                             and k.expect != "data_error"))
+                                             and k.expect != "data_error", test="offset"))
 def test_offset_found(kind, seed, outcome):
     rec, o = outcome(kind, seed)
     _estimate(o)
