@@ -14,7 +14,7 @@ Conventions: ``docs/conventions.md``.
 from __future__ import annotations
 
 from simcalib.solvers.api import BatchSolution, Prior, Solution, solve, solve_batch
-from simcalib.timesync import estimate_time_offset
+from simcalib.estimation.alignment import estimate_time_offset
 
 __version__ = "0.1.0"
 

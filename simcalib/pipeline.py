@@ -37,7 +37,7 @@ from simcalib.geometry import (matrix_from_rotvec, rotation_error_rad,
                                transform_from_rotation_translation)
 
 if TYPE_CHECKING:  # types of the state only; the stages import lazily
-    from simcalib.pairing import MotionPairs
+    from simcalib.estimation.pairing import MotionPairs
     from simcalib.sources import GroundTruth
     from simcalib.streams import PoseStream
 
@@ -584,12 +584,19 @@ def calibration_bias(st) -> tuple:
     return PoseBias(*covs), report
 
 
+def _recorded(st) -> bool:
+    """The run's motions came through the recorded-data path (``estimation.motions`` not
+    ``pairing``)."""
+    est = getattr(st.cfg, "estimation", None)
+    return bool(est is not None and est.recorded)
+
+
 def correlation_lag(st) -> int:
     """Pairs ``(k, k + step)`` of consecutive datapoints of pose streams share poses up to
     lag ``step``: the uncertainty corrects for that serial correlation. Relative motions
     from a source (synthetic) or random pairing: independent (0)."""
     if st.motions_from_source is not None or st.cfg.pairing.mode != "consecutive" \
-            or st.cfg.estimation.recorded:
+            or _recorded(st):
         return 0
     return int(st.cfg.pairing.step)
 
@@ -700,7 +707,7 @@ def pose_pairs(st):
     consecutive datapoints of the pose streams, or the recorded-data path's pairs of
     synchronised instants (they then share poses: the uncertainty tests the pose noise for
     whiteness and, if white, simulates with that structure); else None."""
-    if st.pairs is None or (correlation_lag(st) == 0 and not st.cfg.estimation.recorded):
+    if st.pairs is None or (correlation_lag(st) == 0 and not _recorded(st)):
         return None
     return np.stack([np.asarray(st.pairs.start), np.asarray(st.pairs.end)], axis=1)
 

@@ -1326,11 +1326,11 @@ class CalibrationScene:
 
 
 def calibration_scene(r) -> CalibrationScene:
-    """:class:`CalibrationScene` of a :class:`simcalib.calibrate_streams.StreamCalibration`:
+    """:class:`CalibrationScene` of a :class:`simcalib.estimation.path.StreamCalibration`:
     the synchronised poses (at the estimated offset) through X and through the world-to-world
     transform X implies; the eye frames the kept poses' 2..98 % box (rejected poses, which
     may lie far off, do not zoom it out)."""
-    from simcalib.calibrate_streams import align_worlds
+    from simcalib.estimation.path import align_worlds
     sp, ms = r.synced, r.motions
     T_a, T_b = np.asarray(sp.T_a, np.float64), np.asarray(sp.T_b, np.float64)
     X = np.asarray(r.X, dtype=np.float64)
@@ -1570,7 +1570,7 @@ def calibration_summary(r, report: dict) -> str:
 
 def record_calibration(path, r, report: dict, console: str = "") -> Path:
     """The recording of ``simcalib calibrate`` (self-contained; headless, no viewer):
-    ``r`` a :class:`simcalib.calibrate_streams.StreamCalibration`, ``report`` its
+    ``r`` a :class:`simcalib.estimation.path.StreamCalibration`, ``report`` its
     calibration.json content, ``console`` the console report.
 
     Entities (timeline ``time`` = synchronised instants, seconds since the first, clock a),

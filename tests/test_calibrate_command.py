@@ -172,7 +172,7 @@ def test_assess_uses_the_uncertainty_and_its_consistency_check():
     """The one quality function takes the verdict and the sigmas from the solution's
     uncertainty raised to the block jackknife (never below the model's); degenerate motion
     exits with EXIT_DEGENERATE (6) and names the direction."""
-    from simcalib.calibrate_streams import calibrate_streams
+    from simcalib.estimation.path import calibrate_streams
     from simcalib.commands.calibrate import assess
     from simcalib.importers import stream_from_arrays
     rs = rig_streams(duration_s=15.0, rng=np.random.default_rng(0))
@@ -215,7 +215,7 @@ def test_two_stream_sample_file_alone(tmp_path, capsys):
     tracking stream is found inverted; sample index as time, no offset estimated."""
     import yaml
     rs = rig_streams(duration_s=15.0, rng=np.random.default_rng(3))
-    from simcalib.timesync import synchronise
+    from simcalib.estimation.alignment import synchronise
     sp = synchronise(rs.a, rs.b, 0.0)
     k = np.linspace(0, sp.n - 1, 30).round().astype(int)
 

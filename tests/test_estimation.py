@@ -134,7 +134,7 @@ def test_block_jackknife_sees_errors_that_vary_along_the_recording():
 
 
 def test_a_stream_that_does_not_rotate_is_a_data_error():
-    from simcalib.calibrate_streams import calibrate_streams
+    from simcalib.estimation.path import calibrate_streams
     t = np.arange(0, 10, 0.05)
     a, _, _ = _streams(t, t)
     T = np.repeat(np.eye(4)[None], t.size, axis=0)
@@ -153,7 +153,7 @@ def test_estimation_config_pairing_takes_the_streams_as_stamped():
 @pytest.mark.parametrize("form", ["as_written", "inverted", "scalar_first",
                                   "inverted_scalar_first"])
 def test_file_form_is_undone_by_the_reading_detection(form):
-    from simcalib.conventions import apply_conventions, detect_conventions
+    from simcalib.estimation.readings import apply_conventions, detect_conventions
     from simcalib.estimation.streams import file_form
     from simcalib.streams import PoseStream
     rs = rig_streams(duration_s=15.0, rng=np.random.default_rng(2))

@@ -1,4 +1,4 @@
-"""Pose-file formats (simcalib.importers) and convention detection (simcalib.conventions)."""
+"""Pose-file formats (simcalib.importers) and convention detection (simcalib.estimation.readings)."""
 
 import os
 from pathlib import Path
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import yaml
 
-from simcalib.conventions import apply_conventions, detect_conventions
+from simcalib.estimation.readings import apply_conventions, detect_conventions
 from simcalib.geometry import invert_transform, quat_from_matrix
 from simcalib.importers import (PoseStreamData, available, detect_format, read_pose_stream,
                                 read_pose_streams, stream_from_arrays)
@@ -203,7 +203,7 @@ def test_stream_from_arrays(rig):
 @pytest.mark.skipif(not ETH.is_dir(), reason=f"ETH data sets not present at {ETH} "
                     "(set SIMCALIB_ETH_DIR)")
 def test_eth_data_conventions_and_calibration():
-    from simcalib.calibrate_streams import calibrate_streams
+    from simcalib.estimation.path import calibrate_streams
     from simcalib.experiments.streams import eth_files
     files = eth_files(ETH)
     assert set(files) == {"robot_arm_w_color_camera_sim", "prime_sense_1"}
@@ -223,7 +223,7 @@ def test_eth_data_conventions_and_calibration():
 def test_simulation_round_trip_through_files(tmp_path):
     """Export a rig's streams with a clock offset, outlier poses and b written inverted and
     scalar-first; read them back and calibrate: the truth is recovered."""
-    from simcalib.calibrate_streams import calibrate_streams
+    from simcalib.estimation.path import calibrate_streams
     from simcalib.geometry import rotation_error_rad, translation_error_m
     rs = rig_streams(offset_s=0.037, duration_s=30.0, outlier_fraction=0.03,
                      rng=np.random.default_rng(11))

@@ -435,7 +435,7 @@ def test_calibration_from_a_bag_recovers_X_and_exports_it(tmp_path, eye):
     b=/tf:camera_link->board (read inverted by the conventions) give X = T_tool0_camera;
     eye on base, a=/tf:tool0->base_link and b=/tf:marker->camera_link give
     X = T_base_link_camera. Both exported to easy_handeye2 and URDF with the right frames."""
-    from simcalib.calibrate_streams import calibrate_streams
+    from simcalib.estimation.path import calibrate_streams
     from simcalib.exports import parse_easy_handeye2, parse_urdf_joint, write_exports
     from simcalib.importers.rosbag import export_frames
     rig = Rig(seed=5, n=40)

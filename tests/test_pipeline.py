@@ -135,8 +135,10 @@ def test_same_config_and_seed_give_identical_results(tmp_path):
     args = ["scenario=planar", "source=noisy", SOLVERS, *SIM_SHORT, f"output={tmp_path / 'r'}"]
     assert main(["run", *args]) == 0
     first = json.loads((tmp_path / "r" / "results.json").read_text())
-    assert main(["run", *args]) == 0
+    assert main(["run", *args, "overwrite=true"]) == 0
     second = json.loads((tmp_path / "r" / "results.json").read_text())
+    for res in (first, second):      # the only difference: the second run may overwrite
+        res["config"].pop("overwrite")
     assert strip_timing(first) == strip_timing(second)
     assert main(["run", *args[:-1], "seed=1", f"output={tmp_path / 's'}"]) == 0
     third = json.loads((tmp_path / "s" / "results.json").read_text())

@@ -145,7 +145,7 @@ def test_residual_plots_are_on_the_inliers_scale(calibrated):
 
 def test_stamp_paired_calibration_has_no_correlation_pane():
     from simcalib.rerun_log import _has_correlation
-    from simcalib.timesync import TimeOffset
+    from simcalib.estimation.alignment import TimeOffset
     off = TimeOffset(0.0, 0.0, 0.0, float("nan"), np.zeros(0), np.zeros(0),
                      decision="shared_stamps")
     assert not _has_correlation(off)

@@ -1,7 +1,7 @@
 """``simcalib calibrate a=PATH b=PATH output=DIR [key=value ...]``: calibrate ``X = T_a_b``
 from two recorded pose files (docs/calibrate.md).
 
-A thin layer over :func:`simcalib.calibrate_streams.calibrate_streams` (read -> conventions
+A thin layer over :func:`simcalib.estimation.path.calibrate_streams` (read -> conventions
 -> clock offset -> synchronise -> motions -> robust solve). The options are the typed
 dataclass :class:`CalibrateOptions`, built by the config engine (``simcalib.config``): the
 same value syntax as ``run``, unknown keys rejected with the closest match. The result's
@@ -264,7 +264,7 @@ class Assessment:
 
 
 def assess(r) -> Assessment:
-    """The verdict on a calibration ``r`` (:class:`simcalib.calibrate_streams.
+    """The verdict on a calibration ``r`` (:class:`simcalib.estimation.path.
     StreamCalibration`): :func:`simcalib.estimation.verdict.judge` on its solution with the
     reported covariance (the model's, raised to the data's own consistency). A failed
     solve, or one whose uncertainty cannot be computed, is FAILED."""
@@ -293,7 +293,7 @@ def calibrate(opts: CalibrateOptions):
     """Run the calibration for ``opts``; returns ``(StreamCalibration, Assessment)``.
     Raises DataError (bad files) or SolverError (no estimate)."""
     import simcalib
-    from simcalib.calibrate_streams import calibrate_streams
+    from simcalib.estimation.path import calibrate_streams
     from simcalib.importers import read_pose_stream, read_pose_streams
     fa, fb = opts.formats
     if opts.bag is not None:

@@ -1,9 +1,18 @@
-"""The one estimation path from two pose streams to X, its uncertainty and its verdict:
+"""The one estimation path from two pose streams to X, its uncertainty and its verdict —
+what ``simcalib calibrate`` runs on recorded files and ``simcalib run`` on its simulated
+streams (``estimation.*``):
 
-sampling (how the streams were stamped) -> reading and clock offset -> synchronised poses
--> motions -> outliers -> solve -> uncertainty, its consistency check, verdict.
-
-:func:`simcalib.calibrate_streams.calibrate_streams` runs it; the modules here are its
-stages: :mod:`~simcalib.estimation.sampling`, :mod:`~simcalib.estimation.motions`,
-:mod:`~simcalib.estimation.consistency`, :mod:`~simcalib.estimation.verdict`.
+* :mod:`~simcalib.estimation.sampling` — how the streams were stamped (paired by stamp, or
+  two clocks);
+* :mod:`~simcalib.estimation.readings` — which reading of the files (inverse poses,
+  quaternion order) makes them consistent;
+* :mod:`~simcalib.estimation.alignment` — the clock offset where the data tell it,
+  interpolation, synchronised poses;
+* :mod:`~simcalib.estimation.motions` — motion policies (stations, consecutive, keyframes)
+  and :mod:`~simcalib.estimation.pairing` — the paper's D.1 pairing;
+* :mod:`~simcalib.estimation.consistency` — the data's own check of the covariance (block
+  jackknife, weighting check); :mod:`~simcalib.estimation.verdict` — the verdict;
+* :mod:`~simcalib.estimation.path` — the stages in order (:func:`calibrate_streams`);
+  :mod:`~simcalib.estimation.streams` — a run's streams through it, scored against the
+  truth; :mod:`~simcalib.estimation.config` — the scenario section ``estimation.*``.
 """

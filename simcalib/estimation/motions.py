@@ -157,7 +157,7 @@ def form_motions(synced, policy: str = "auto", *, paired_by_stamp: bool = False,
                  index_stamps: bool = False, step_s: float = 1.0,
                  min_rotation_deg: float | None = 2.0,
                  max_rotation_deg: float | None = None) -> MotionSet:
-    """The :class:`MotionSet` of ``synced`` (:class:`simcalib.timesync.SyncedPoses`) under
+    """The :class:`MotionSet` of ``synced`` (:class:`simcalib.estimation.alignment.SyncedPoses`) under
     ``policy`` (``auto`` or a name of :data:`POLICIES`); ``paired_by_stamp`` /
     ``index_stamps`` from the sampling (:mod:`simcalib.estimation.sampling`)."""
     if synced.n < 2:

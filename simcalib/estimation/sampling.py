@@ -117,9 +117,9 @@ def classify_sampling(stream_a, stream_b) -> Sampling:
 
 
 def pair_by_stamp(stream_a, stream_b, sampling: Sampling, offset_s: float = 0.0):
-    """:class:`simcalib.timesync.SyncedPoses` of the poses whose stamps (b shifted by
+    """:class:`simcalib.estimation.alignment.SyncedPoses` of the poses whose stamps (b shifted by
     ``-offset_s``) agree within the sampling's tolerance, one-to-one."""
-    from simcalib.timesync import SyncedPoses
+    from simcalib.estimation.alignment import SyncedPoses
     t_a = np.asarray(stream_a.timestamps_s, dtype=np.float64)
     t_b = np.asarray(stream_b.timestamps_s, dtype=np.float64) - offset_s
     ia, ib = _partners(t_a, t_b, sampling.tolerance_s)

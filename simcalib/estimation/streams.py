@@ -1,10 +1,10 @@
 """A run's measured pose streams -> the motions its solvers get, through the same stages
-that calibrate a recording (:func:`simcalib.calibrate_streams.calibrate_streams`), with
+that calibrate a recording (:func:`simcalib.estimation.path.calibrate_streams`), with
 every decision scored against the simulation's truth.
 
 :func:`motions_from_streams` is what the run's ``pairs`` stage calls: with
 ``estimation.motions=pairing`` the paper's D.1 pairing of the streams as stamped
-(:func:`simcalib.pairing.make_pairs`); otherwise the streams are handed over as files would
+(:func:`simcalib.estimation.pairing.make_pairs`); otherwise the streams are handed over as files would
 hold them (``estimation.b_file``) and go through sampling, reading, clock offset, motion
 policy and outlier handling; the solvers then get the inlier motions. The report
 (results.json ``estimation``) gives each choice and its score: the offset error against
@@ -102,9 +102,9 @@ def _reading_scores(conv, form) -> dict:
 
 
 def _pairs(ms, keep, synced, streams, off):
-    """:class:`simcalib.pairing.MotionPairs` of the kept motions; datapoints are the
+    """:class:`simcalib.estimation.pairing.MotionPairs` of the kept motions; datapoints are the
     synchronised instants (frame of each stream: the nearest sample)."""
-    from simcalib.pairing import MotionPairs
+    from simcalib.estimation.pairing import MotionPairs
     t_a, t_b = synced.time_s, off.b_from_a(synced.time_s)
     nearest = {}
     for cam, t_q in (("cam_a", t_a), ("cam_b", t_b)):
@@ -130,12 +130,12 @@ def motions_from_streams(streams: dict, cfg, rng, sensing: dict):
     ``streams`` (camera -> PoseStream) under ``cfg`` (the ScenarioConfig: ``estimation``,
     ``pairing``, ``seed``); ``rng`` the run's pairing generator; ``sensing`` the run's
     clocks and outlier labels (the truth the report scores against)."""
-    from simcalib.pairing import make_pairs
+    from simcalib.estimation.pairing import make_pairs
     est = cfg.estimation
     if not est.recorded:
         pairs = make_pairs(streams["cam_a"], streams["cam_b"], cfg.pairing, rng)
         return pairs, dict(pairs.counts) | {"mode": cfg.pairing.mode}, None
-    from simcalib.calibrate_streams import align_and_read, robust_fit, synchronised
+    from simcalib.estimation.path import align_and_read, robust_fit, synchronised
     from simcalib.estimation.motions import form_motions
     from simcalib.estimation.sampling import classify_sampling
     a = file_form(streams["cam_a"], "as_written")

@@ -636,7 +636,7 @@ def generate(kind: str, seed: int, **overrides) -> Recording:
 
 def true_streams(rec: Recording) -> tuple[PoseStreamData, PoseStreamData]:
     """Both streams read the TRUE way (``T_world_sensor``, quaternion order fixed), in the
-    order simcalib.conventions applies a reading (swap, then invert)."""
+    order simcalib.estimation.readings applies a reading (swap, then invert)."""
     out = []
     for s, inv, sf in ((rec.stream_a, rec.invert_a, rec.scalar_first_a),
                        (rec.stream_b, rec.invert_b, rec.scalar_first_b)):
@@ -678,9 +678,9 @@ def read_truth(folder) -> dict:
 def synchronised_truth(rec: Recording) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """True-reading poses ``(T_a, T_b, clean)`` of a and b at common instants: station
     kinds pair by stamp; continuous kinds interpolate b at a's stamps shifted by the TRUE
-    offset (:func:`simcalib.timesync.interpolate_poses`, not across gaps). ``clean``: the
+    offset (:func:`simcalib.estimation.alignment.interpolate_poses`, not across gaps). ``clean``: the
     instant uses no outlier pose."""
-    from simcalib.timesync import interpolate_poses
+    from simcalib.estimation.alignment import interpolate_poses
     sa, sb = true_streams(rec)
     ta, Ta, tb, Tb = sa.timestamps_s, sa.T_world_sensor, sb.timestamps_s, sb.T_world_sensor
     if ta.shape == tb.shape and np.array_equal(ta, tb):

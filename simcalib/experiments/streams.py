@@ -141,7 +141,7 @@ def roundtrip(output, *, scenario: str = "3d", offset_s: float = 0.037,
     # reference: the same poses (b subsampled alike) synchronous, without outliers, same
     # motion rule, dqopt
     from simcalib.importers import read_pose_stream
-    from simcalib.timesync import make_motions, synchronise
+    from simcalib.estimation.alignment import make_motions, synchronise
     sa, sb = (read_pose_stream(run_dir / "tum" / f"cam_{c}_noisy.tum") for c in "ab")
     sb = (sb.timestamps_s[::2], sb.T_world_sensor[::2])
     C, H, _, _ = make_motions(synchronise(sa, sb, 0.0), step_s=1.0, min_rotation_deg=2.0)
@@ -228,7 +228,7 @@ def sync_table(runs: int = 5) -> str:
     import simcalib
     from simcalib.geometry import rotation_error_rad, translation_error_m
     from simcalib.stream_sim import rig_streams
-    from simcalib.timesync import estimate_time_offset, make_motions, synchronise
+    from simcalib.estimation.alignment import estimate_time_offset, make_motions, synchronise
 
     def x_err(rs, off):
         C, H, _, _ = make_motions(synchronise(rs.a, rs.b, off), step_s=0.5)

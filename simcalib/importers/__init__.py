@@ -7,7 +7,7 @@
 
 Every stream is a :class:`PoseStreamData`: timestamps (s), ``T_world_sensor`` (N, 4, 4) as the
 file states it (whether the file really holds ``T_world_sensor`` or its inverse, and whether a
-quaternion was scalar-first, is decided from the data by :mod:`simcalib.conventions`), the
+quaternion was scalar-first, is decided from the data by :mod:`simcalib.estimation.readings`), the
 source file, the format and the repairs made (counted, named).
 
 Formats (``available()``): ``tum``, ``simcalib_tum`` (simcalib's own TUM output), ``eth``,
@@ -70,7 +70,7 @@ class PoseStreamData:
     """One pose stream read from a file.
 
     ``timestamps_s`` (N,) strictly increasing; ``T_world_sensor`` (N, 4, 4) rigid, as read
-    (see :mod:`simcalib.conventions` for the reading actually used); ``source`` the file;
+    (see :mod:`simcalib.estimation.readings` for the reading actually used); ``source`` the file;
     ``format`` the format name; ``detection`` how the format was chosen; ``repairs`` maps a
     repair name to its count (e.g. ``{"duplicate_rows_dropped": 3}``); ``quat_order`` the
     file's quaternion order (``xyzw``/``wxyz``) or ``matrix``; ``name`` the stream label;

@@ -10,7 +10,7 @@ where ``TF`` is ``{translation: {x, y, z}, rotation: {x, y, z, w}}`` (optionally
 ``transform:``). ``robot`` holds the robot base -> effector lookup (pose of the effector in
 the base), ``tracking`` the tracking base -> marker lookup (pose of the marker in the tracker,
 the inverse of the sensor pose for an eye-in-hand camera): both are read as stored, and
-:mod:`simcalib.conventions` decides from the data which reading makes the pair consistent.
+:mod:`simcalib.estimation.readings` decides from the data which reading makes the pair consistent.
 Samples carry no usable timestamps: the sample index is the time (synchronous pairs).
 """
 

@@ -5,7 +5,7 @@ A list of samples (or ``{samples: [...]}``), each with ``effector_wrt_world`` an
 ``object_wrt_sensor`` as a 4x4 transform: 16 numbers row-major (flat list) or 4 rows of 4.
 ``effector_wrt_world`` is the pose of the effector in the robot base (``T_world_effector``);
 ``object_wrt_sensor`` the pose of the target in the camera (``T_sensor_object``, the inverse
-of a sensor pose). Both are read as stored; :mod:`simcalib.conventions` decides the reading.
+of a sensor pose). Both are read as stored; :mod:`simcalib.estimation.readings` decides the reading.
 The sample index is the time (synchronous pairs).
 """
 

@@ -75,7 +75,7 @@ class SourceOutput:
     ``streams``: camera -> :class:`~simcalib.streams.PoseStream` (``T_world_cam`` at the
     camera's timestamps; dropped frames absent and counted) for every requested camera;
     sources that measure relative motions directly leave it empty and fill ``motions``.
-    ``motions``: a :class:`simcalib.pairing.MotionPairs` already paired (the ``pairs``
+    ``motions``: a :class:`simcalib.estimation.pairing.MotionPairs` already paired (the ``pairs``
     stage uses it instead of pairing ``streams``), else ``None``.
     ``pose_errors``: camera -> :class:`simcalib.evaluation.PoseErrors` when the source
     computed its errors itself (motions), else ``None`` (evaluation compares ``streams``

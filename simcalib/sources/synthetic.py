@@ -23,7 +23,7 @@ class SyntheticSource:
     def measure(self, truth: GroundTruth, cfg, rng, cameras) -> SourceOutput:
         from simcalib.evaluation import PoseErrors
         from simcalib.geometry import rotation_error_rad
-        from simcalib.pairing import pairs_from_motions
+        from simcalib.estimation.pairing import pairs_from_motions
         syn = truth.synthetic
         ds = syn.dataset
         idx = np.asarray(syn.indices)

@@ -6,7 +6,7 @@ import pytest
 from simcalib.config import PairingConfig
 from simcalib.geometry import (invert_transform, matrix_from_rotvec, random_rotation_matrices,
                                transform_from_rotation_translation)
-from simcalib.pairing import make_pairs, match_by_timestamp, pairs_from_motions
+from simcalib.estimation.pairing import make_pairs, match_by_timestamp, pairs_from_motions
 from simcalib.streams import PoseStream
 
 

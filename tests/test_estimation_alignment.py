@@ -1,4 +1,4 @@
-"""Time alignment (simcalib.timesync) validated in simulation (simcalib.stream_sim) and on
+"""Time alignment (simcalib.estimation.alignment) validated in simulation (simcalib.stream_sim) and on
 the ETH data (skipped when ../shared/data/eth is absent)."""
 
 import os
@@ -10,7 +10,7 @@ import pytest
 import simcalib
 from simcalib.geometry import rotation_error_rad, translation_error_m
 from simcalib.stream_sim import rig_streams
-from simcalib.timesync import (TimeOffset, angular_speed, estimate_time_offset,
+from simcalib.estimation.alignment import (TimeOffset, angular_speed, estimate_time_offset,
                                interpolate_poses, make_motions, synchronise)
 
 # ../shared/data/eth relative to the repo root; SIMCALIB_ETH_DIR overrides (git worktrees)
@@ -108,9 +108,9 @@ def test_bad_inputs():
                     reason=f"ETH data sets not present at {ETH} (set SIMCALIB_ETH_DIR)")
 def test_eth_offsets_refine_the_cost():
     from simcalib.experiments.streams import eth_files
-    from simcalib.conventions import apply_conventions, detect_conventions
+    from simcalib.estimation.readings import apply_conventions, detect_conventions
     from simcalib.importers import read_pose_stream
-    from simcalib.timesync import OffsetCost, as_time_poses
+    from simcalib.estimation.alignment import OffsetCost, as_time_poses
     for name, (fa, fb) in eth_files(ETH).items():
         a, b = read_pose_stream(fa), read_pose_stream(fb)
         a, b = apply_conventions(a, b, detect_conventions(a, b))

@@ -1,8 +1,8 @@
 """Calibrate two recorded pose streams end to end (the library core of
 ``python -m simcalib calibrate``, :mod:`simcalib.commands.calibrate`):
 
-    read (simcalib.importers) -> conventions (simcalib.conventions) -> clock offset
-    (simcalib.timesync) -> synchronise + motions -> robust solve (RANSAC + dqopt) and, for
+    read (simcalib.importers) -> conventions (simcalib.estimation.readings) -> clock offset
+    (simcalib.estimation.alignment) -> synchronise + motions -> robust solve (RANSAC + dqopt) and, for
     comparison, a plain solve without rejection.
 
 The validation in simulation and on the ETH data sets is the experiment
@@ -23,11 +23,11 @@ class StreamCalibration:
     """Everything one calibration of two streams produced.
 
     ``X``: ``T_a_b`` (robust); ``X_plain``: the synchronous solve without rejection (offset 0,
-    all motions); ``time_offset``: :class:`simcalib.timesync.TimeOffset`; ``conventions``:
-    :class:`simcalib.conventions.ConventionReport`; ``robust`` / ``plain``:
+    all motions); ``time_offset``: :class:`simcalib.estimation.alignment.TimeOffset`; ``conventions``:
+    :class:`simcalib.estimation.readings.ConventionReport`; ``robust`` / ``plain``:
     :class:`simcalib.solvers.robust.RobustSolution`; ``C``, ``H`` the motions used,
     ``motion_time_s`` their start instants (clock a); ``summary``: numbers for reports;
-    ``synced``: the synchronised poses (:class:`simcalib.timesync.SyncedPoses`) the motions
+    ``synced``: the synchronised poses (:class:`simcalib.estimation.alignment.SyncedPoses`) the motions
     were formed from; ``motion_index``: ``(i, j)``, motion k runs from ``synced`` instant
     ``i[k]`` to ``j[k]``; ``X_aligned``: dqopt on the same motions without rejection;
     ``sampling``: :class:`simcalib.estimation.sampling.Sampling`; ``motions``: the
@@ -115,8 +115,8 @@ def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift=False, alp
     again: the reading at the correlation's (reading-free) offset, the offset refined with
     that reading, then the reading decided again at the final offset (it is what the run
     reports). Returns ``(stream_a, stream_b, ConventionReport, TimeOffset)``."""
-    from simcalib.conventions import apply_conventions, detect_conventions
-    from simcalib.timesync import TimeOffset, _as_offset, estimate_time_offset
+    from simcalib.estimation.readings import apply_conventions, detect_conventions
+    from simcalib.estimation.alignment import TimeOffset, _as_offset, estimate_time_offset
     forced = forced or {}
     detect = lambda off: detect_conventions(  # noqa: E731
         sa, sb, offset=off, alpha=alpha, seed=seed, sampling=sampling, **forced)
@@ -149,7 +149,7 @@ def _offset_candidates(sa, sb) -> list[float]:
     """Offsets at which to decide the reading: the angular-speed correlation's peak (it
     does not depend on the reading), its other peaks of similar height (a periodic motion)
     and 0."""
-    from simcalib.timesync import _other_peaks, as_time_poses, estimate_time_offset
+    from simcalib.estimation.alignment import _other_peaks, as_time_poses, estimate_time_offset
     coarse = estimate_time_offset(sa, sb, refine=False)
     ta, tb = as_time_poses(sa)[0], as_time_poses(sb)[0]
     slow = max(float(np.median(np.diff(ta))), float(np.median(np.diff(tb))))
@@ -165,7 +165,7 @@ def _offset_candidates(sa, sb) -> list[float]:
 def synchronised(sa, sb, sampling, off):
     """The synchronised poses: paired by stamp, or b interpolated at a's shifted stamps."""
     from simcalib.estimation.sampling import pair_by_stamp
-    from simcalib.timesync import synchronise
+    from simcalib.estimation.alignment import synchronise
     if sampling.paired_by_stamp:
         return pair_by_stamp(sa, sb, sampling, off.offset_s)
     return synchronise(sa, sb, off)
@@ -337,7 +337,7 @@ def _plain(sa, sb, sampling, off, sp, ms, *, step_s, alpha, min_rotation_deg,
 
 
 def _zero():
-    from simcalib.timesync import _as_offset
+    from simcalib.estimation.alignment import _as_offset
     return _as_offset(0.0)
 
 

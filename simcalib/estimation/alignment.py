@@ -619,7 +619,7 @@ def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = Non
     "estimated"); otherwise the data do not tell an offset and 0 is used ("zero").
     ``drift=True``: the offset refined on both halves of the overlap, a linear drift
     fitted. Needs the streams' readings resolved for the refinement
-    (:mod:`simcalib.conventions`); the coarse step does not.
+    (:mod:`simcalib.estimation.readings`); the coarse step does not.
     """
     ta, Ta = as_time_poses(stream_a, "stream_a")
     tb, Tb = as_time_poses(stream_b, "stream_b")

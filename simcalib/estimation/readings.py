@@ -83,7 +83,7 @@ def _motions(sa, sb, offset, n_pairs, rng, sampling=None):
     readings best; consecutive steps are too small to tell them apart). ``sampling``: a
     :class:`simcalib.estimation.sampling.Sampling` that pairs by stamp."""
     from simcalib.geometry import invert_transform
-    from simcalib.timesync import synchronise
+    from simcalib.estimation.alignment import synchronise
     if sampling is not None and sampling.paired_by_stamp:
         from simcalib.estimation.sampling import pair_by_stamp
         sp = pair_by_stamp(sa, sb, sampling, float(getattr(offset, "offset_s", offset)))
@@ -134,7 +134,7 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
     interpolated); None: interpolated at the offset.
     """
     from simcalib.solvers.robust import ransac, screw_residuals
-    from simcalib.timesync import _coarse_offset, as_time_poses
+    from simcalib.estimation.alignment import _coarse_offset, as_time_poses
     import simcalib
     forced = tuple(name for name, v in (("invert_a", invert_a), ("invert_b", invert_b),
                                         ("scalar_first_a", scalar_first_a),
