@@ -300,18 +300,8 @@ def make_motions(synced: SyncedPoses, *, step_s: float | None = None, step: int 
         i = np.asarray(ii, dtype=np.int64)
         j = np.asarray(jj, dtype=np.int64)
     elif step_s is not None:
-        if not (step_s > 0 and math.isfinite(step_s)):
-            raise ValueError(f"step_s must be finite and > 0; received {step_s}")
-        # tolerance: a step of exactly k sample periods must give j = i + k whatever the
-        # rounding of the stamps (files print 6-9 decimals) and of the offset shift
-        tol = 0.01 * float(np.median(np.diff(t))) + 1e-9
-        j = np.searchsorted(t, t + step_s - tol, side="left")
-        i = np.arange(n)
-        ok = j < n
-        i, j = i[ok], j[ok]
-        dt = t[j] - t[i]
-        ok = dt <= 2.0 * step_s + tol
-        i, j = i[ok], j[ok]
+        from simcalib.estimation.motions import span_pairs
+        i, j = span_pairs(t, step_s)
     else:
         if isinstance(step, bool) or not isinstance(step, (int, np.integer)) or step < 1:
             raise ValueError(f"step must be an integer >= 1; received {step!r}")
@@ -462,7 +452,8 @@ class OffsetCost:
         self.t_ref = own[keep]
         self.window = (float(self.t_ref[0]), float(self.t_ref[-1])) if keep.any() else (lo, hi)
         self.T_ref = smooth_poses(own, T_own, self.t_ref, smooth_s)
-        self.i, self.j = self._pairs(self.t_ref, step_s)
+        from simcalib.estimation.motions import span_pairs
+        self.i, self.j = span_pairs(self.t_ref, step_s)
         grid = np.linspace(lo_o, hi_o, n_grid)
         valid = np.ones(self.t_ref.size, dtype=bool)
         for o in grid:
@@ -481,15 +472,6 @@ class OffsetCost:
         # spans less than a reference period)
         self.thin = 2.0
 
-    @staticmethod
-    def _pairs(t, step_s):
-        tol = 0.01 * float(np.median(np.diff(t))) + 1e-9 if t.size > 1 else 1e-9
-        j = np.searchsorted(t, t + step_s - tol, side="left")
-        i = np.arange(t.size)
-        ok = j < t.size
-        i, j = i[ok], j[ok]
-        ok = t[j] - t[i] <= 2.0 * step_s + tol
-        return i[ok], j[ok]
 
     def _query(self, offset):
         return self.t_ref + offset if self.reference == "a" else self.t_ref - offset

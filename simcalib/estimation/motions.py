@@ -33,7 +33,8 @@ import numpy as np
 from simcalib.errors import DataError, unknown_choice
 from simcalib.geometry import invert_transform, rotation_angle_rad
 
-__all__ = ["MotionSet", "form_motions", "POLICIES", "ALL_PAIRS_MAX", "STATIONS_MAX"]
+__all__ = ["MotionSet", "form_motions", "span_pairs", "POLICIES", "ALL_PAIRS_MAX",
+           "STATIONS_MAX"]
 
 ALL_PAIRS_MAX = 64          # up to this many poses: every pair
 STATIONS_MAX = 600          # stamp-paired recordings up to this many poses: stations
@@ -90,17 +91,25 @@ def _stations(t, options):
     return i.astype(np.int64), j.astype(np.int64), how
 
 
-def _consecutive(t, options):
-    step_s = options.get("step_s", 1.0)
+def span_pairs(t: np.ndarray, step_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(i, j)``: from every stamp ``t[i]`` to the first ``t[j]`` at least ``step_s`` later
+    (a step of exactly k periods gives ``j = i + k`` whatever the rounding of the stamps),
+    never across a gap (``t[j] - t[i] <= 2 step_s``)."""
     if not (step_s > 0 and math.isfinite(step_s)):
         raise ValueError(f"step_s must be finite and > 0; received {step_s}")
-    tol = 0.01 * float(np.median(np.diff(t))) + 1e-9
+    tol = (0.01 * float(np.median(np.diff(t))) if t.size > 1 else 0.0) + 1e-9
     j = np.searchsorted(t, t + step_s - tol, side="left")
     i = np.arange(t.size)
     ok = j < t.size
     i, j = i[ok], j[ok]
-    ok = t[j] - t[i] <= 2.0 * step_s + tol          # not across a gap
-    return i[ok], j[ok], f"from every instant to the first {step_s:g} s later"
+    ok = t[j] - t[i] <= 2.0 * step_s + tol
+    return i[ok], j[ok]
+
+
+def _consecutive(t, options):
+    step_s = options.get("step_s", 1.0)
+    i, j = span_pairs(t, step_s)
+    return i, j, f"from every instant to the first {step_s:g} s later"
 
 
 def _keyframes(t, options, T_a):
