@@ -1,12 +1,17 @@
-"""Calibrate two recorded pose streams end to end (the library core of
-``python -m simcalib calibrate``, :mod:`simcalib.commands.calibrate`):
+"""The one estimation path, stage by stage (:func:`calibrate_streams`; the library core of
+``python -m simcalib calibrate`` and, through :mod:`simcalib.estimation.streams`, of a run's
+``estimation.*``):
 
-    read (simcalib.importers) -> conventions (simcalib.estimation.readings) -> clock offset
-    (simcalib.estimation.alignment) -> synchronise + motions -> robust solve (RANSAC + dqopt) and, for
-    comparison, a plain solve without rejection.
+    read (simcalib.importers) -> sampling (estimation.sampling) -> reading and clock offset
+    (:func:`align_and_read`: estimation.readings, estimation.alignment) -> synchronised poses
+    -> motions (estimation.motions) -> outliers (:func:`robust_fit`) -> the final solve with
+    the motions' shared poses -> the covariance checked by the data (estimation.consistency)
+    -> (the verdict: estimation.verdict); and, for comparison, a plain solve (offset 0, no
+    rejection).
 
-The validation in simulation and on the ETH data sets is the experiment
-``python -m simcalib experiment streams`` (:mod:`simcalib.experiments.streams`).
+Measured on public recordings by ``python -m simcalib.experiments.real_data``, on generated
+ones by ``python -m simcalib.experiments.recordings``, in simulation by ``python -m simcalib
+experiment streams``.
 """
 
 from __future__ import annotations
