@@ -258,3 +258,27 @@ def test_first_use_calibrates_with_interpreted_kernels(tmp_path, capsys):
     assert c["solver_kernels"] == "compiled" and i["solver_kernels"] == "interpreted"
     np.testing.assert_allclose(np.array(i["X"]["T_a_b"]), np.array(c["X"]["T_a_b"]),
                                atol=1e-10)
+
+
+def test_verdict_tolerances_are_keys_of_calibrate(tmp_path, capsys):
+    """verdict.tolerance_deg / tolerance_m set what 'poorly determined' means (as in a
+    scenario): the same planar files are degenerate at 1 cm and say so in words, and a
+    bad tolerance is a usage error naming the key."""
+    from simcalib.commands.calibrate import parse_options
+    from simcalib.errors import ConfigError
+    opts = parse_options(["a=x", "b=y", "output=o", "verdict.tolerance_deg=2.5",
+                          "verdict.tolerance_m=0.05"])
+    assert opts.verdict.tolerance_deg == 2.5 and opts.verdict.tolerance_m == 0.05
+    with pytest.raises(ConfigError, match="tolerance_m"):
+        parse_options(["a=x", "b=y", "output=o", "verdict.tolerance_m=-1"])
+    _, pa, pb = _rig_files(tmp_path)
+    tight, loose = tmp_path / "tight", tmp_path / "loose"
+    base = [f"a={pa}", f"b={pb}", "time_offset=0", "recording=false"]
+    _calibrate(capsys, *base, f"output={tight}", "verdict.tolerance_m=1e-5")
+    _calibrate(capsys, *base, f"output={loose}", "verdict.tolerance_m=1.0",
+               "verdict.tolerance_deg=10")
+    rt = json.loads((tight / "calibration.json").read_text())
+    rl = json.loads((loose / "calibration.json").read_text())
+    assert rt["verdict"]["verdict"] == "poorly determined" and rt["exit_code"] == 6
+    assert rl["verdict"]["verdict"] == "determined" and rl["exit_code"] == 0
+    assert rl["options"]["verdict"] == {"tolerance_deg": 10.0, "tolerance_m": 1.0}

@@ -27,6 +27,7 @@ from typing import Literal
 import numpy as np
 
 from simcalib.checks import check_positive, check_range, check_that, set_fields
+from simcalib.estimation.verdict import Tolerances
 from simcalib.errors import (EXIT_DEGENERATE, EXIT_OK, EXIT_SOLVER, ConfigError, DataError,
                              SolverError, UsageError, unknown_choice)
 
@@ -90,6 +91,9 @@ class CalibrateOptions:
         "motions rotating more are dropped (tracking jumps)"))
     seed: int = field(default=0, metadata=_doc("seed of RANSAC and convention scoring"))
     recording: bool = field(default=True, metadata=_doc("write recording.rrd"))
+    verdict: Tolerances = field(default_factory=Tolerances, metadata=_doc(
+        "verdict.tolerance_deg / verdict.tolerance_m: 1-sigma above which a direction is "
+        "poorly determined"))
     bag: Path | None = field(default=None, metadata=_doc(
         "a ROS bag (ROS 1 .bag; ROS 2 directory, .mcap or .db3): a and b are then stream "
         "specs, '/tf:PARENT->CHILD' (pose of CHILD in PARENT through the tf tree) or a topic "
@@ -314,7 +318,7 @@ def calibrate(opts: CalibrateOptions):
     robust_options = {"threshold": opts.threshold} if opts.threshold is not None else {}
     try:
         r = calibrate_streams(a, b, time_offset=opts.time_offset, robust=opts.robust,
-                              motions=opts.motions,
+                              motions=opts.motions, tolerances=opts.verdict,
                               alpha=opts.alpha, step_s=opts.step_s,
                               min_rotation_deg=opts.min_rotation_deg,
                               max_rotation_deg=opts.max_rotation_deg,

@@ -203,7 +203,7 @@ def robust_fit(C, H, robust, *, alpha, method, seed, options):
     return robust_solve(C, H, robust, alpha=alpha, **opts), f"{robust} (given)"
 
 
-def _final_solve(motions, rob, *, method, alpha, prior, seed):
+def _final_solve(motions, rob, *, method, alpha, prior, seed, tolerances=None):
     """The estimate on the inliers, with the motions' shared poses known to the
     uncertainty (``pose_pairs``) when there is no prior; its residuals on every motion."""
     import dataclasses
@@ -213,6 +213,9 @@ def _final_solve(motions, rob, *, method, alpha, prior, seed):
     m = rob.inlier_mask
     C, H = motions.C[m], motions.H[m]
     kw = {} if prior is not None else {"pose_pairs": motions.pose_pairs[m]}
+    if tolerances is not None:
+        kw |= {"tolerance_deg": tolerances.tolerance_deg,
+               "tolerance_m": tolerances.tolerance_m}
     sol = simcalib.solve(C, H, method=method, alpha=alpha, prior=prior,
                          rng=np.random.default_rng(seed), **kw)
     msg = rob.message + (f"; final {method} with the prior" if prior is not None else "")
@@ -253,7 +256,8 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
                       invert_b: bool | None = None, scalar_first_a: bool | None = None,
                       scalar_first_b: bool | None = None, drift: bool = False,
                       robust_options: dict | None = None, method: str = "dqopt",
-                      prior=None, seed: int = 0, motions: str = "auto") -> StreamCalibration:
+                      prior=None, seed: int = 0, motions: str = "auto",
+                      tolerances=None) -> StreamCalibration:
     """Calibrate ``X = T_a_b`` from two pose streams (paths or PoseStreamData): the one
     estimation path (docs/calibrate.md).
 
@@ -264,7 +268,8 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     ``consecutive``; rotation below ``min_rotation_deg`` / above ``max_rotation_deg``
     dropped) -> outliers (``robust``: ``auto``, ``ransac``, ``irls``, ``none``) -> ``method``
     on the inliers (with ``prior``, a :class:`simcalib.Prior`, if given) -> uncertainty and
-    its consistency check (:mod:`simcalib.estimation.consistency`). Bad files and streams
+    its consistency check (:mod:`simcalib.estimation.consistency`); ``tolerances``: a
+    :class:`simcalib.estimation.verdict.Tolerances` (default 1 deg / 1 cm). Bad files and streams
     that cannot calibrate raise :class:`simcalib.errors.DataError`.
     """
     from simcalib.estimation.motions import form_motions
@@ -287,7 +292,8 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
                         f" {ms.counts}); at least 2 rotating motions are needed")
     rob, why = robust_fit(ms.C, ms.H, robust, alpha=alpha, method=method, seed=seed,
                           options=robust_options)
-    rob = _final_solve(ms, rob, method=method, alpha=alpha, prior=prior, seed=seed)
+    rob = _final_solve(ms, rob, method=method, alpha=alpha, prior=prior, seed=seed,
+                       tolerances=tolerances)
     check, weighting, cov, cov_det = _consistency(ms, rob, sp.n, method=method,
                                                   alpha=alpha, prior=prior)
     C, H, i, j = ms.C, ms.H, ms.i, ms.j

@@ -12,11 +12,30 @@ the model's sigma as checked.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-__all__ = ["Verdict", "judge"]
+__all__ = ["Verdict", "judge", "Tolerances"]
+
+
+def _doc(text: str) -> dict:
+    return {"help": text}
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    """``verdict.*`` of ``calibrate``: a direction of X whose 1-sigma exceeds a tolerance is
+    "poorly determined" (the same meaning as a scenario's ``verdict.tolerance_*``)."""
+    tolerance_deg: float = field(default=1.0, metadata=_doc(
+        "1-sigma rotation tolerance, degrees (above it: poorly determined)"))
+    tolerance_m: float = field(default=0.01, metadata=_doc(
+        "1-sigma translation tolerance, metres (above it: poorly determined)"))
+
+    def __post_init__(self):
+        from simcalib.checks import check_positive, set_fields
+        set_fields(self, tolerance_deg=check_positive("tolerance_deg", self.tolerance_deg),
+                   tolerance_m=check_positive("tolerance_m", self.tolerance_m))
 
 
 @dataclass(frozen=True)
