@@ -284,7 +284,7 @@ def assess(r) -> Assessment:
     fin = lambda vals: tuple(float(x) if math.isfinite(x) else None for x in vals)  # noqa
     source = ("the solver's covariance from the residuals"
               + (", raised to a block jackknife of the data" if r.consistency is not None
-                 and r.consistency.checked and r.consistency.ratio > 1 else
+                 and r.consistency.raised else
                  ", checked by a block jackknife" if r.consistency is not None and
                  r.consistency.checked else " (not checked: too few poses)"))
     return Assessment(v.verdict, v.degenerate, v.summary(), source, fin(v.std_deg),

@@ -50,9 +50,12 @@ class Consistency:
     #: estimated from few blocks; contiguous blocks of a continuous recording are not (the
     #: delete-a-block jackknife is conservative there already: Efron-Stein)
     single_poses: bool = False
+    #: the reported covariance was raised to the jackknife's (set by the path after
+    #: :func:`combine`; False when the spread was within chance)
+    raised: bool = False
 
     def to_dict(self) -> dict:
-        return {"checked": self.checked, "blocks": self.blocks,
+        return {"checked": self.checked, "blocks": self.blocks, "raised": self.raised,
                 "variance_ratio": None if not math.isfinite(self.ratio) else self.ratio,
                 "method": "delete-a-block jackknife over the poses (recording order)",
                 "message": self.message}

@@ -239,6 +239,8 @@ def _consistency(motions, rob, n_poses, *, method, alpha, prior):
                                              prior=prior).X
     check = block_jackknife(inl, n_poses, lambda C, H: solve_at(C, H, alpha), sol.X)
     cov, cov_det, ratio = combine(sol.uncertainty, check)
+    raised = bool(check.checked and not np.array_equal(
+        cov_det, np.asarray(sol.uncertainty.covariance_determined)))
     weighting = weighting_check(inl.C, inl.H, sol.X, sol.uncertainty, cov_det, solve_at,
                                 alpha)
     if weighting is not None and weighting.significant:
@@ -246,7 +248,7 @@ def _consistency(motions, rob, n_poses, *, method, alpha, prior):
         cov = cov.copy()
         cov[fin] = cov[fin] + weighting.covariance[fin]
         cov_det = cov_det + weighting.covariance
-    return dataclasses.replace(check, ratio=ratio), weighting, cov, cov_det
+    return dataclasses.replace(check, ratio=ratio, raised=raised), weighting, cov, cov_det
 
 
 def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None = None,

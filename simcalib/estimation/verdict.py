@@ -103,21 +103,21 @@ def judge(solution, covariance, covariance_determined, consistency,
     dirs = list(unc.directions)
     notes = []
     checked = consistency is not None and consistency.checked
-    if checked and math.isfinite(consistency.ratio) and consistency.ratio > 1.0:
+    if checked and consistency.raised:
         dirs += _consistency_directions(
             np.asarray(covariance_determined), np.asarray(unc.determined_basis),
             math.radians(unc.tolerance_deg), unc.tolerance_m, dirs, consistency.ratio)
         notes.append(f"sigma raised to the data's own consistency (block jackknife over "
-                     f"{consistency.blocks} blocks of poses: up to "
+                     f"{consistency.blocks} blocks of poses: its spread up to "
                      f"{math.sqrt(consistency.ratio):.3g}x the model's 1-sigma)")
     elif checked:
         notes.append(f"the model's sigma agrees with the data's own consistency (block "
-                     f"jackknife over {consistency.blocks} blocks)")
+                     f"jackknife over {consistency.blocks} blocks: its spread within chance)")
     elif consistency is not None:
         notes.append("UNVERIFIED: " + consistency.message)
     if weighting is not None and weighting.significant:
         notes.append(weighting.message)
-        if not (checked and consistency.ratio > 1.0):
+        if not (checked and consistency.raised):
             dirs += _consistency_directions(
                 np.asarray(covariance_determined), np.asarray(unc.determined_basis),
                 math.radians(unc.tolerance_deg), unc.tolerance_m, dirs, 1.0)
