@@ -13,37 +13,12 @@ import pytest
 
 from simcalib.cli import main
 from simcalib.rerun_log import closeup_bound_m
+from rrd_reading import chunks, points
 
 SIM_SHORT = ("world.duration_s=4", "pairing.step=1", "progress=false",
              "solvers=[dqopt,daniilidis,dq2steps]")
 
 
-def _chunks(rrd):
-    """{entity: {column: [values...]}} of the recording (not the blueprint)."""
-    from rerun.chunk import RrdReader
-    out: dict[str, dict[str, list]] = {}
-    for ch in RrdReader(str(rrd)).store().stream():
-        rb = ch.to_record_batch()
-        cols = out.setdefault(str(ch.entity_path), {})
-        for name in rb.schema.names:
-            if ":" in name:
-                cols.setdefault(name, []).extend(rb.column(name).to_pylist())
-    return out
-
-
-def _points(values) -> np.ndarray:
-    """All 3-vectors inside a nested list of component values."""
-    flat = []
-
-    def walk(v):
-        if isinstance(v, (list, tuple)):
-            if len(v) == 3 and all(isinstance(x, (int, float)) for x in v):
-                flat.append(v)
-            else:
-                for x in v:
-                    walk(x)
-    walk(values)
-    return np.array(flat, dtype=np.float64).reshape(-1, 3)
 
 
 def _world_positions(ents: dict) -> np.ndarray:
@@ -56,7 +31,7 @@ def _world_positions(ents: dict) -> np.ndarray:
         for c in ("Transform3D:translation", "Points3D:positions", "LineStrips3D:strips",
                   "Boxes3D:centers", "Mesh3D:vertex_positions"):
             if c in cols:
-                pts.append(_points(cols[c]))
+                pts.append(points(cols[c]))
     return np.concatenate(pts) if pts else np.zeros((0, 3))
 
 
@@ -68,7 +43,7 @@ def _run(tmp_path, scenario, *args):
 
 def test_sim_recording_entities_and_bounds(tmp_path):
     out, res = _run(tmp_path, "planar", "source=noisy", *SIM_SHORT)
-    ents = _chunks(out / "recording.rrd")
+    ents = chunks(out / "recording.rrd")
     names = set(ents)
     assert {"/world/room/floor", "/world/room/wall_px", "/summary", "/closeup/cam_a",
             "/closeup/true_cam_b", "/pose_error/rotation_deg/cam_a",
@@ -77,7 +52,7 @@ def test_sim_recording_entities_and_bounds(tmp_path):
     cart_body = next(b for b in bodies if b.endswith("cart"))   # MjSpec prefixes: cart_cart
     assert any(b.startswith("rig") for b in bodies), bodies
     cart = ents[f"/world/platform/{cart_body}"]
-    assert len(_points(cart["Transform3D:translation"])) == res["frames"]["rendered"]
+    assert len(points(cart["Transform3D:translation"])) == res["frames"]["rendered"]
     assert any(e.startswith(f"/world/platform/{cart_body}/geoms/") for e in names)
     assert sum(e.startswith("/world/markers/") for e in names) > 10
     # no image panes' data for a source without images
@@ -90,7 +65,7 @@ def test_sim_recording_entities_and_bounds(tmp_path):
     assert (p[:, 2] >= -0.1).all() and (p[:, 2] <= room[2] + 0.1).all()
     # the close-up stays within its bound (labels stack a little beyond the estimates)
     bound = closeup_bound_m(np.linalg.norm(np.asarray(res["X_true"])[:3, 3]))
-    q = np.concatenate([_points(v) for e, cols in ents.items() if e.startswith("/closeup/")
+    q = np.concatenate([points(v) for e, cols in ents.items() if e.startswith("/closeup/")
                         for k, v in cols.items() if k in ("Transform3D:translation",
                                                           "Points3D:positions")])
     assert np.linalg.norm(q, axis=1).max() <= 1.5 * bound
@@ -110,7 +85,7 @@ def test_sim_recording_entities_and_bounds(tmp_path):
 def test_synthetic_recording_has_no_room_or_images(tmp_path):
     out, res = _run(tmp_path, "line", "progress=false", "synthetic.num_motions=100",
                     "pairing.n_pairs=30", "solvers=[dqopt,daniilidis]")
-    ents = _chunks(out / "recording.rrd")
+    ents = chunks(out / "recording.rrd")
     assert not any(e.startswith(("/world/room", "/world/platform", "/world/markers"))
                    for e in ents)
     assert not any(e.endswith("/image") for e in ents)
@@ -125,7 +100,7 @@ def test_synthetic_recording_has_no_room_or_images(tmp_path):
 def test_arm_recording_draws_the_arm_links_and_images(tmp_path):
     out, res = _run(tmp_path, "3d", "world.duration_s=4", "progress=false",
                     "solvers=[dqopt]")
-    ents = _chunks(out / "recording.rrd")
+    ents = chunks(out / "recording.rrd")
     links = {e.split("/")[3] for e in ents if e.startswith("/world/platform/")}
     assert {f"link{i}" for i in range(1, 7)} <= {b.split("_")[-1] for b in links}, links
     link2 = next(b for b in links if b.endswith("link2"))
@@ -162,26 +137,26 @@ def test_closeup_offscale_failed_and_uncertainty(tmp_path):
     rec.log_estimates([_solver("good", near, cov=cov), _solver("wild", far, trans=1.7e5),
                        _solver("broken", None)], X)
     rec.close()
-    ents = _chunks(tmp_path / "r.rrd")
+    ents = chunks(tmp_path / "r.rrd")
     assert "/closeup/estimates/good" in ents and "/closeup/estimates/wild" not in ents
     assert not any("broken" in e for e in ents)
     bound = closeup_bound_m(0.2)
     off = [c for e, c in ents.items() if e.startswith("/closeup/offscale/")]
-    pos = np.concatenate([_points(c["Points3D:positions"]) for c in off])
+    pos = np.concatenate([points(c["Points3D:positions"]) for c in off])
     np.testing.assert_allclose(np.linalg.norm(pos, axis=1), bound, rtol=1e-6)
     labels = " ".join(str(c.get("Points3D:labels")) for e, c in ents.items()
                       if e.startswith("/closeup/labels/offscale"))
     assert "wild" in labels and "1.7e+07 cm" in labels
     cam_label = str(ents["/closeup/labels/cam_a"]["Points3D:labels"])
     assert "FAILED" in cam_label and "broken" in cam_label
-    half = np.sort(_points(ents["/closeup/uncertainty/good"]["Ellipsoids3D:half_sizes"])[0])
+    half = np.sort(points(ents["/closeup/uncertainty/good"]["Ellipsoids3D:half_sizes"])[0])
     # 3 sigma of 1 cm and 2 cm; the undetermined (infinite) axis is no part of the ellipsoid
     np.testing.assert_allclose(half, [1e-4, 0.03, 0.06], rtol=1e-6)
     # ... but an off-scale marker: red arrows along z through the estimate, and a label note
     arrows = ents["/closeup/uncertainty/good/offscale"]
-    v = _points(arrows["Arrows3D:vectors"])
+    v = points(arrows["Arrows3D:vectors"])
     assert len(v) == 2 and np.allclose(np.abs(v[:, :2]), 0.0) and (np.abs(v[:, 2]) > 0).all()
-    o = _points(arrows["Arrows3D:origins"])
+    o = points(arrows["Arrows3D:origins"])
     assert (np.linalg.norm(o + v, axis=1) <= bound).all()
     assert any("σ = ∞ along z" in str(c.get("Points3D:labels")) for e, c in ents.items()
                if e.startswith("/closeup/labels/"))
@@ -199,14 +174,14 @@ def test_closeup_clips_huge_ellipsoids_inside_the_bound(tmp_path):
     rec = RunRecorder(tmp_path / "r.rrd", cfg)
     rec.log_estimates([_solver("wide", X, cov=cov), _solver("nothing", X, cov=allinf)], X)
     rec.close()
-    ents = _chunks(tmp_path / "r.rrd")
+    ents = chunks(tmp_path / "r.rrd")
     bound = closeup_bound_m(0.2)
-    half = _points(ents["/closeup/uncertainty/wide"]["Ellipsoids3D:half_sizes"])[0]
+    half = points(ents["/closeup/uncertainty/wide"]["Ellipsoids3D:half_sizes"])[0]
     assert np.isclose(half.max(), bound - 0.2) and np.isclose(np.sort(half)[0], 0.03)
     assert "/closeup/uncertainty/wide/offscale" in ents
     # all axes undetermined: no ellipsoid at all, only the off-scale marker
     assert "Ellipsoids3D:half_sizes" not in ents.get("/closeup/uncertainty/nothing", {})
-    assert len(_points(ents["/closeup/uncertainty/nothing/offscale"]["Arrows3D:vectors"])) == 6
+    assert len(points(ents["/closeup/uncertainty/nothing/offscale"]["Arrows3D:vectors"])) == 6
     text = " ".join(str(c.get("Points3D:labels")) for e, c in ents.items()
                     if e.startswith("/closeup/labels/"))
     assert "3σ 1.5 m along y: off-scale" in text and "σ = ∞ along" in text
@@ -259,7 +234,7 @@ def test_record_sweep_and_experiment(tmp_path):
     summary = {"per_axis": {"noise.sigma_r_deg": {v: {"dqopt": st(v), "daniilidis": st(3 * v)}
                                                   for v in (0.1, 0.5, 1.0)}}}
     p = record_sweep(tmp_path / "sweep.rrd", summary)
-    ents = _chunks(p)
+    ents = chunks(p)
     med = ents["/sweep/noise_sigma_r_deg/log10_rotation_deg/dqopt/median"]["Scalars:scalars"]
     np.testing.assert_allclose(np.ravel(med), np.log10([0.1, 0.5, 1.0]))
     assert "/sweep/noise_sigma_r_deg/values" in ents
@@ -270,7 +245,7 @@ def test_record_sweep_and_experiment(tmp_path):
     Image.new("RGB", (8, 8)).save(png)
     q = log_experiment(tmp_path / "exp.rrd", "table2", {"table2_sweep": png},
                        {"table2": "| a |\n|---|\n| 1 |"})
-    ents = _chunks(q)
+    ents = chunks(q)
     assert "/figures/table2_sweep" in ents and "/tables/table2" in ents
     from rerun.chunk import RrdReader
     assert RrdReader(str(q)).blueprints() and RrdReader(str(p)).blueprints()
@@ -357,7 +332,7 @@ def test_worker_and_in_process_recordings_match(tmp_path):
         rec.log_estimates([_solver("good", X, cov=cov), _solver("broken", None)], X)
         rec.log_summary("**hello**")
         rec.close()
-        got[background] = _chunks(tmp_path / f"{background}.rrd")
+        got[background] = chunks(tmp_path / f"{background}.rrd")
         view = json.loads((tmp_path / "recording_view.json").read_text())
         assert (view["worker"] is not None) is background
     assert set(got[True]) == set(got[False])
@@ -381,7 +356,7 @@ def test_prestarted_worker_is_adopted_or_stopped(tmp_path):
     rec = R.RunRecorder(tmp_path / "r.rrd", cfg, background=True)
     assert rec.rec is w and not R._PRESTARTED
     rec.close()
-    assert "/closeup" in _chunks(tmp_path / "r.rrd")
+    assert "/closeup" in chunks(tmp_path / "r.rrd")
     R._PRESTARTED.append(R._WorkerStream())
     w = R._PRESTARTED[0]
     R.cancel_prestarted_worker()

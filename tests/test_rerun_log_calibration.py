@@ -12,33 +12,9 @@ import numpy as np
 import pytest
 
 from simcalib.rerun_log import rejected_instants, trajectory_strips
+from rrd_reading import chunks, points
 
 
-def _chunks(rrd):
-    """{entity: {column: [values...]}} of the recording (not the blueprint)."""
-    from rerun.chunk import RrdReader
-    out: dict[str, dict[str, list]] = {}
-    for ch in RrdReader(str(rrd)).store().stream():
-        rb = ch.to_record_batch()
-        cols = out.setdefault(str(ch.entity_path), {})
-        for name in rb.schema.names:
-            if ":" in name:
-                cols.setdefault(name, []).extend(rb.column(name).to_pylist())
-    return out
-
-
-def _xyz(values) -> np.ndarray:
-    flat = []
-
-    def walk(v):
-        if isinstance(v, (list, tuple)):
-            if len(v) == 3 and all(isinstance(x, (int, float)) for x in v):
-                flat.append(v)
-            else:
-                for x in v:
-                    walk(x)
-    walk(values)
-    return np.array(flat, dtype=np.float64).reshape(-1, 3)
 
 
 def _strips(values) -> list[np.ndarray]:
@@ -86,7 +62,7 @@ def test_trajectory_strips_join_single_rejections_and_break_at_long_runs():
 
 def test_calibration_recording_entities(calibrated):
     _, r, out = calibrated
-    ents = _chunks(out / "recording.rrd")
+    ents = chunks(out / "recording.rrd")
     for e in ("/world/b_from_a/trajectory", "/world/b_measured/trajectory",
               "/world/rejected/poses", "/world/rig/a", "/world/rig/a/b_through_X",
               "/world/rig/a/link", "/world/rig/b_measured", "/residuals/rotation_deg/inliers",
@@ -110,7 +86,7 @@ def test_outlier_poses_are_marks_not_part_of_the_trajectory_strips(calibrated):
     matched = np.abs(t_synced[k] - t_out) < 1e-3
     assert matched.sum() >= 0.9 * s.outlier_b.sum()
     assert sc.rejected[k[matched]].all()
-    ents = _chunks(out / "recording.rrd")
+    ents = chunks(out / "recording.rrd")
     strips = _strips(ents["/world/b_measured/trajectory"]["LineStrips3D:strips"])
     P = np.concatenate(strips)
     bad = sc.b_measured[sc.rejected, :3, 3]
@@ -122,7 +98,7 @@ def test_outlier_poses_are_marks_not_part_of_the_trajectory_strips(calibrated):
     assert max(np.linalg.norm(p - q, axis=1).max() for p, q in zip(strips, ref)) < 0.02
     off = np.linalg.norm(bad - sc.b_from_a[sc.rejected, :3, 3], axis=1)
     assert np.median(off) > 0.05
-    marks = _xyz(ents["/world/rejected/poses"]["Points3D:positions"])
+    marks = points(ents["/world/rejected/poses"]["Points3D:positions"])
     assert marks.shape[0] == int(sc.rejected.sum())
     # b measured and b through X agree along the kept path (mm, not cm)
     keep = ~sc.rejected
@@ -133,7 +109,7 @@ def test_outlier_poses_are_marks_not_part_of_the_trajectory_strips(calibrated):
 def test_residual_plots_are_on_the_inliers_scale(calibrated):
     from simcalib.rerun_log import _residual_caps, _residuals
     _, r, out = calibrated
-    ents = _chunks(out / "recording.rrd")
+    ents = chunks(out / "recording.rrd")
     caps, res = _residual_caps(r), _residuals(r)
     inl = np.asarray(r.robust.inlier_mask)
     for q in ("rotation_deg", "translation_mm"):
