@@ -1,5 +1,5 @@
 """Certificates of global optimality for DQ solutions (paper section 3.1.2); moved here
-from the former ``simcalib.solvers.observability`` (issue 8)."""
+from the former ``simcalib.solvers.observability``."""
 
 from __future__ import annotations
 

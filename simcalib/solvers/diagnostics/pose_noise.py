@@ -59,7 +59,7 @@ import numpy as np
 
 from simcalib.geometry import (dual_quat_from_transform, matrix_from_rotvec, quat_conjugate,
                                quat_left_matrix, quat_multiply, quat_right_matrix)
-from simcalib.solvers.diagnostics.uncertainty import pose_error
+from simcalib.solvers.diagnostics.inputs import pose_error
 
 __all__ = ["WhiteNoiseTest", "check_pose_pairs", "expected_autocorrelation",
            "white_noise_test", "simulate_error", "check_systematic", "systematic_residual_power",

@@ -1,7 +1,7 @@
 """Uncertainty of a hand-eye estimate, the degeneracy verdict that follows from it, and a
 data-driven choice of alpha. Pure numpy/scipy; no solver imports (any estimate ``X`` works).
 
-Error convention (issue 9): ``delta = (omega, v)`` with ``omega`` the rotation vector of
+Error convention: ``delta = (omega, v)`` with ``omega`` the rotation vector of
 ``R_true @ R_est.T`` (rad) and ``v = t_true - t_est`` (m), both in frame a (``X = T_a_b``),
 order ``(wx, wy, wz, vx, vy, vz)``.
 
@@ -89,7 +89,7 @@ Verdict
 Coordinates are scaled by the tolerances (``omega / tolerance_deg``, ``v / tolerance_m``).
 Every rank decision is relative to the noise, never to the largest singular value.
 
-**Noise-made information (issues 9, 14).** ``F`` is evaluated at the *measured* motions.
+**Noise-made information.** ``F`` is evaluated at the *measured* motions.
 When the true motion is exactly degenerate along a direction ``g`` (planar: ``K_i g = 0``
 for the vertical translation), the noise of ``H_i`` tilts the measured rotation axes and
 ``g^T F g`` is not 0 but a quadratic form in that noise: with ``dK_ij = dK_i/dxi_j``
@@ -149,7 +149,6 @@ chi-square of ``k`` = number of determined directions degrees of freedom.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -157,13 +156,87 @@ import numpy as np
 
 from simcalib.geometry import (
     check_transforms,
-    dual_quat_from_transform,
-    invert_transform,
-    quat_conjugate,
-    quat_left_matrix,
-    quat_right_matrix,
-    rotvec_from_matrix,
-    skew_matrix,
+)
+
+
+from simcalib.solvers.diagnostics.inputs import (  # noqa: F401
+    NULL_LEVEL,
+    NoiseModel,
+    PoseBias,
+    ROTATION_FLOOR_RAD,
+    TOLERANCE_DEG,
+    TOLERANCE_M,
+    TRANSLATION_FLOOR_REL,
+    _PURE,
+    _UNDETERMINED_ROT_RAD,
+    _check_X,
+    _check_cov6,
+    _check_noise,
+    _check_weights,
+    _coerce_pair,
+    _real,
+    _woodbury_information,
+    check_pose_bias,
+    check_tolerances,
+    pose_bias_covariance,
+    pose_bias_jacobians,
+    pose_error,
+)
+from simcalib.solvers.diagnostics.linear_model import (  # noqa: F401
+    _NullTest,
+    _complement,
+    _dq_map,
+    _noise_null_test,
+    _prior_jacobians,
+    _span,
+    linear_model,
+    linear_model_jacobians,
+    noise_covariance_parts,
+    noise_jacobians,
+)
+from simcalib.solvers.diagnostics.results import (  # noqa: F401
+    DIRECTION_STATES,
+    Direction,
+    Uncertainty,
+    _fmt_std,
+    _fmt_vec,
+    _fmt_vec3,
+    direction_sigma,
+    direction_state,
+)
+from simcalib.solvers.diagnostics.covariance_steps import (  # noqa: F401
+    WHITE_SHARE_FLOOR,
+    _check_lag,
+    _checked_inputs,
+    _counting_information,
+    _data_direction,
+    _data_directions,
+    _data_undetermined,
+    _describe,
+    _estimate_directions,
+    _minimiser_step,
+    _modes,
+    _noise_level,
+    _physical_basis,
+    _pinv_cov,
+    _pose_simulation,
+    _range_ratio,
+    _reported_covariances,
+    _rescale_meat,
+    _restricted_sandwich,
+    _sandwich,
+    _score_meats,
+    _serial_correlation_corrected,
+    _stacked_information,
+    _std_with_prior,
+    _stds_along,
+    _sym_inv,
+    _total_undetermined,
+    _translation_scale,
+    _whitened_rows,
+    _with_offset,
+    _with_pose_bias,
+    _with_prior,
 )
 
 __all__ = [
@@ -173,562 +246,6 @@ __all__ = [
     "check_pose_bias", "TOLERANCE_DEG", "TOLERANCE_M", "ROTATION_FLOOR_RAD",
     "TRANSLATION_FLOOR_REL", "NULL_LEVEL", "noise_jacobians"]
 
-TOLERANCE_DEG = 1.0
-TOLERANCE_M = 0.01
-ROTATION_FLOOR_RAD = math.sqrt(np.finfo(float).eps)
-TRANSLATION_FLOOR_REL = 1e-9
-_UNDETERMINED_ROT_RAD = 1.0
-NULL_LEVEL = 1e-3
-_PURE = 0.05
-
-
-# ----------------------------------------------------------------------------- inputs
-def _real(name, val, *, positive=True, allow_zero=False) -> float:
-    if isinstance(val, np.ndarray) and val.ndim == 0:
-        val = val.item()
-    if isinstance(val, bool) or not isinstance(val, (int, float, np.integer, np.floating)):
-        raise TypeError(f"{name} must be a real number; received {type(val).__name__} {val!r}")
-    val = float(val)
-    ok = math.isfinite(val) and (val > 0 or (allow_zero and val == 0))
-    if not ok:
-        raise ValueError(f"{name} must be finite and {'>= 0' if allow_zero else '> 0'}; "
-                         f"received {val}")
-    return val
-
-
-def check_tolerances(tolerance_deg, tolerance_m) -> tuple[float, float]:
-    """Validate the verdict tolerances (finite, > 0); returns them as floats."""
-    return _real("tolerance_deg", tolerance_deg), _real("tolerance_m", tolerance_m)
-
-
-@dataclass(frozen=True)
-class NoiseModel:
-    """Eq. 38 noise on every motion of both sensors: rotation angle std ``sigma_r_rad``
-    (about a uniform random axis), translation std per axis ``sigma_t_m``.
-    ``estimated``: True when fitted to the residuals (then ``n_motions`` is the sample)."""
-    sigma_r_rad: float
-    sigma_t_m: float
-    estimated: bool = False
-
-    def __post_init__(self):
-        object.__setattr__(self, "sigma_r_rad",
-                           _real("sigma_r_rad", self.sigma_r_rad, allow_zero=True))
-        object.__setattr__(self, "sigma_t_m", _real("sigma_t_m", self.sigma_t_m, allow_zero=True))
-
-
-def _coerce_pair(value, cls, name: str, pair: str):
-    """``value`` as a ``cls``: None and ``cls`` pass, a 2-sequence builds one, else
-    TypeError naming what ``name`` allows."""
-    if value is None or isinstance(value, cls):
-        return value
-    if isinstance(value, (tuple, list)) and len(value) == 2:
-        return cls(value[0], value[1])
-    raise TypeError(f"{name} must be a {cls.__name__}, a {pair} pair or None; "
-                    f"received {type(value).__name__}")
-
-
-def _check_noise(noise) -> NoiseModel | None:
-    return _coerce_pair(noise, NoiseModel, "noise", "(sigma_r_rad, sigma_t_m)")
-
-
-def _check_cov6(name, P) -> np.ndarray:
-    if P is None:
-        return np.zeros((6, 6))
-    try:
-        A = np.array(P, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise TypeError(f"{name} must be a 6x6 covariance matrix (array of numbers) or None; "
-                        f"received {type(P).__name__}") from None
-    if A.shape != (6, 6):
-        raise ValueError(f"{name} must be a 6x6 covariance (rotvec rad, translation m); "
-                         f"received shape {A.shape}")
-    if not np.isfinite(A).all():
-        raise ValueError(f"{name} must be finite; received non-finite entries")
-    scale = float(np.max(np.abs(A)))
-    if np.max(np.abs(A - A.T)) > 1e-9 * scale:
-        raise ValueError(f"{name} must be symmetric; max |P - P^T| = "
-                         f"{np.max(np.abs(A - A.T)):.3g} (max |P| = {scale:.3g})")
-    A = 0.5 * (A + A.T)
-    lam = np.linalg.eigvalsh(A) if scale > 0 else np.zeros(6)
-    if lam[0] < -1e-9 * max(lam[-1], 0.0) or (lam[-1] <= 0 and lam[0] < 0):
-        raise ValueError(f"{name} must be positive semi-definite; smallest eigenvalue "
-                         f"{lam[0]:.3g}")
-    A.setflags(write=False)
-    return A
-
-
-@dataclass(frozen=True, eq=False)
-class PoseBias:
-    """Known covariance of each camera's pose error that is constant over the run (a
-    calibration error of the camera, e.g. its intrinsics): ``cov_a``, ``cov_b`` (6x6, or
-    None for none), of ``n_c = (rotvec rad, translation m)`` with
-    ``T_world_cam measured = T_world_cam true @ exp(n_c)`` (right-multiplied, camera frame,
-    the order of the error ``delta``). Symmetric, positive semi-definite, finite."""
-    cov_a: np.ndarray | None = None
-    cov_b: np.ndarray | None = None
-
-    def __post_init__(self):
-        object.__setattr__(self, "cov_a", _check_cov6("pose_bias cov_a", self.cov_a))
-        object.__setattr__(self, "cov_b", _check_cov6("pose_bias cov_b", self.cov_b))
-
-    @property
-    def is_zero(self) -> bool:
-        return not (np.any(self.cov_a) or np.any(self.cov_b))
-
-
-def check_pose_bias(pose_bias) -> PoseBias | None:
-    """``pose_bias`` as a :class:`PoseBias` (None, a PoseBias or ``(cov_a, cov_b)``)."""
-    return _coerce_pair(pose_bias, PoseBias, "pose_bias", "(cov_a, cov_b) of 6x6 covariances")
-
-
-def pose_bias_jacobians(X) -> tuple[np.ndarray, np.ndarray]:
-    """``(Ja, Jb)`` (6x6 each): first-order error ``delta`` of ``X`` (convention of
-    :func:`pose_error`, vs the true ``X``) when the estimate converges to
-    ``X' = exp(n_a)^-1 X exp(n_b)`` (run-constant pose errors ``n_a``, ``n_b`` of the
-    cameras, right-multiplied): ``delta = Ja n_a + Jb n_b``."""
-    X = _check_X(X)
-    R, t = X[:3, :3], X[:3, 3]
-    Ja = np.eye(6)
-    Ja[3:, :3] = -skew_matrix(t)
-    Jb = np.zeros((6, 6))
-    Jb[:3, :3] = -R
-    Jb[3:, 3:] = -R
-    return Ja, Jb
-
-
-def pose_bias_covariance(X, cov_a, cov_b) -> np.ndarray:
-    """Covariance (6x6) of the error ``delta`` of ``X`` caused by run-constant camera pose
-    errors with covariances ``cov_a``, ``cov_b`` (see :class:`PoseBias`)."""
-    pb = PoseBias(cov_a, cov_b)
-    Ja, Jb = pose_bias_jacobians(X)
-    S = Ja @ pb.cov_a @ Ja.T + Jb @ pb.cov_b @ Jb.T
-    return 0.5 * (S + S.T)
-
-
-def _woodbury_information(F, Sig):
-    """``(F^-1 + Sig)^-1`` for PSD ``F`` (possibly singular) and PSD ``Sig``:
-    ``F - F G (I + G^T F G)^-1 G^T F`` with ``Sig = G G^T``."""
-    lam, V = np.linalg.eigh(0.5 * (Sig + Sig.T))
-    G = V * np.sqrt(np.clip(lam, 0.0, None))
-    FG = F @ G
-    out = F - FG @ np.linalg.solve(np.eye(G.shape[1]) + G.T @ FG, FG.T)
-    return 0.5 * (out + out.T)
-
-
-def _check_X(X, name="X") -> np.ndarray:
-    X = check_transforms(X, name)
-    if X.shape != (4, 4):
-        raise ValueError(f"{name} must be one 4x4 transform; received shape {X.shape}")
-    return X
-
-
-def _check_weights(weights, n) -> np.ndarray:
-    if weights is None:
-        return np.ones(n)
-    try:
-        w = np.asarray(weights, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise TypeError(f"weights must be {n} non-negative numbers; received "
-                        f"{type(weights).__name__}") from None
-    if w.shape != (n,) or not np.isfinite(w).all() or (w < 0).any() or not (w > 0).any():
-        raise ValueError(f"weights must be {n} finite numbers >= 0, not all 0; received "
-                         f"shape {w.shape}")
-    return w
-
-
-
-
-def pose_error(X_true, X_est) -> np.ndarray:
-    """``delta = (omega, v)``: rotvec of ``R_true R_est^T`` (rad) and ``t_true - t_est`` (m),
-    batched over ``(..., 4, 4)``."""
-    X_true = np.asarray(X_true, dtype=np.float64)
-    X_est = np.asarray(X_est, dtype=np.float64)
-    om = rotvec_from_matrix(X_true[..., :3, :3] @ np.swapaxes(X_est[..., :3, :3], -1, -2))
-    return np.concatenate([om, X_true[..., :3, 3] - X_est[..., :3, 3]], axis=-1)
-
-
-# ------------------------------------------------------------------------ linear model
-def linear_model(C, H, X):
-    """Residuals e (N,6), Jacobians K (N,6,6) w.r.t. delta, and the two noise-covariance
-    parts Qr, Qt (N,6,6) with Cov(e_i) = sigma_r^2 Qr_i + sigma_t^2 Qt_i."""
-    e, K, J_c, J_h = linear_model_jacobians(C, H, X)
-    return (e, K, *noise_covariance_parts(J_c, J_h))
-
-
-def noise_covariance_parts(J_c, J_h):
-    """``(Qr, Qt)`` (N,6,6) of :func:`linear_model` from the noise Jacobians of
-    :func:`linear_model_jacobians` (isotropic eq. 38 noise: per-component variance
-    ``sigma_r^2 / 3`` on the rotation columns, ``sigma_t^2`` on the translation ones)."""
-    def outer(J):
-        return J @ np.swapaxes(J, -1, -2)
-    Qr = (outer(J_c[..., :3]) + outer(J_h[..., :3])) / 3.0
-    Qt = outer(J_c[..., 3:]) + outer(J_h[..., 3:])
-    return Qr, Qt
-
-
-def linear_model_jacobians(C, H, X):
-    """Residuals e (N,6), Jacobians K (N,6,6) w.r.t. delta, and the first-order response
-    of the residuals to the eq. 38 noise right-multiplied on C_i and on H_i: ``J_c``,
-    ``J_h`` (N,6,6), columns (rotation eps, translation n)."""
-    N = C.shape[0]
-    RX, tX = X[:3, :3], X[:3, 3]
-    Cp = X @ H @ invert_transform(X)                       # C_i' = X H_i X^-1
-    RCp, tCp = Cp[:, :3, :3], Cp[:, :3, 3]
-    RC, tC = C[:, :3, :3], C[:, :3, 3]
-    rho = rotvec_from_matrix(RC @ np.swapaxes(RCp, -1, -2))
-    tau = tC - tCp
-    e = np.concatenate([rho, tau], axis=1)
-    I3 = np.eye(3)
-    K = np.zeros((N, 6, 6))
-    K[:, :3, :3] = RCp - I3
-    K[:, 3:, :3] = skew_matrix(tCp) - skew_matrix(np.broadcast_to(tX, (N, 3))) + RCp @ skew_matrix(tX)
-    K[:, 3:, 3:] = RCp - I3
-    # noise Jacobians (eq. 38 right-multiplied noise on C_i and H_i)
-    u_map = RX @ H[:, :3, :3]                              # eps_h -> u = R_X R_H eps_h
-    J_c = np.zeros((N, 6, 6))
-    J_c[:, :3, :3] = RC
-    J_c[:, 3:, 3:] = RC
-    J_h = np.zeros((N, 6, 6))
-    J_h[:, :3, :3] = -u_map
-    J_h[:, 3:, :3] = -skew_matrix(RCp @ tX) @ u_map
-    J_h[:, 3:, 3:] = -u_map
-    return e, K, J_c, J_h
-
-
-def noise_jacobians(H, X) -> np.ndarray:
-    """``dK_i / dxi_j`` (N, 6, 6, 6): derivative of the Jacobian ``K_i`` of
-    :func:`linear_model` w.r.t. the six noise components ``xi = (u, m)`` of ``H_i`` (eq. 38
-    noise right-multiplied on ``H_i``, expressed in frame a: ``u = R_X R_Hi eps``,
-    ``m = R_X R_Hi n``; isotropic, per-component variance ``sigma_r^2 / 3`` and
-    ``sigma_t^2``). ``K_i`` depends on ``H_i`` only through ``C_i' = X H_i X^-1``:
-    ``dR_Ci' = [u]x R_Ci'``, ``dt_Ci' = m - [u]x R_Ci' t_X``; ``K`` is affine in both, so
-    the derivative is exact."""
-    N = H.shape[0]
-    RX, tX = X[:3, :3], X[:3, 3]
-    RCp = RX @ H[:, :3, :3] @ RX.T
-    E = skew_matrix(np.eye(3))                             # E[j] = [e_j]x
-    a = E[None] @ RCp[:, None]                             # (N, 3, 3, 3): [e_j]x R_Ci'
-    dK = np.zeros((N, 6, 6, 6))
-    dK[:, :3, :3, :3] = a
-    dK[:, :3, 3:, 3:] = a
-    dK[:, :3, 3:, :3] = skew_matrix(-(a @ tX)) + a @ skew_matrix(tX)
-    dK[:, 3:, 3:, :3] = E[None]
-    return dK
-
-
-@dataclass(frozen=True)
-class _NullTest:
-    ratio: np.ndarray          # (6,) generalised eigenvalues of (F, F_noise), ascending
-    directions: np.ndarray     # (6, 6) unit columns, tolerance coordinates
-    dof: np.ndarray            # (6,) effective chi-square degrees of freedom
-    threshold: np.ndarray      # (6,) F(dof, dof_noise) quantile 1 - NULL_LEVEL
-    undetermined: np.ndarray   # (6,) bool: ratio <= threshold
-
-
-def _noise_null_test(Kw, Bw, dsc, lag, dof_noise) -> _NullTest:
-    """Generalised eigenproblem ``F g = r F_noise g`` (whitened stacks ``Kw`` (N,6,6) and
-    ``Bw`` (N,6,6,6), tolerance scaling ``dsc``) as the SVD of the stacked data rows times
-    ``R^-1`` (``F_noise = R^T R``; ``F_noise`` is well conditioned, noise over noise): small
-    ratios keep their accuracy even when ``F`` spans 30 orders of magnitude (noise-free data
-    at the floors), which ``eigh(F)`` would not."""
-    # scipy.special, not scipy.stats: the same quantiles without ~0.5 s of import per process
-    from scipy.special import chdtri, fdtri
-    A = Kw.reshape(-1, 6) * dsc
-    B = Bw.reshape(-1, 6) * dsc
-    Fn = B.T @ B
-    try:
-        R = np.linalg.cholesky(0.5 * (Fn + Fn.T)).T       # Fn = R^T R
-    except np.linalg.LinAlgError:
-        R = np.linalg.qr(B, mode="r")
-    M = np.linalg.solve(R.T, A.T).T                        # A R^-1
-    _, s, Vt = np.linalg.svd(M, full_matrices=False)
-    order = np.argsort(s)
-    r = s[order] ** 2
-    G = np.linalg.solve(R, Vt[order].T)                    # g = R^-1 v (F_noise-normalised)
-    # Satterthwaite: g^T F g = sum_i |sum_j xi_ij b_ij|^2 under the null, a quadratic form
-    # in Gaussian noise with per-motion Gram matrices M_i = [b_ij . b_il]
-    b = (B @ G).reshape(Bw.shape[0], 6, 6, 6)              # (N, 6 noise, 6 rows, 6 dirs)
-    b = np.moveaxis(b, 3, 0)                               # (6 dirs, N, 6 noise, 6 rows)
-    gram = b @ np.swapaxes(b, -1, -2)                      # (6, N, 6, 6)
-    mean = np.trace(gram, axis1=2, axis2=3).sum(axis=1)
-    dof = mean ** 2 / np.maximum(np.sum(gram * gram, axis=(1, 2, 3)), 1e-300)
-    dof = np.maximum(dof / (1.0 + lag), 1.0)
-    if math.isfinite(dof_noise):
-        thr = fdtri(dof, max(dof_noise / (1.0 + lag), 1.0), 1.0 - NULL_LEVEL)
-    else:
-        thr = chdtri(dof, NULL_LEVEL) / dof
-    G = G / np.linalg.norm(G, axis=0)
-    return _NullTest(r, G, dof, thr, r <= thr)
-
-
-def _span(blocks, tol: float = _PURE) -> np.ndarray:
-    """Orthonormal basis (6, k) of the span of the columns of ``blocks`` (normalised first;
-    singular values below ``tol`` dropped: nearly parallel columns count once)."""
-    V = np.concatenate([np.zeros((6, 0)), *blocks], axis=1)
-    if V.shape[1] == 0:
-        return np.zeros((6, 0))
-    V = V / np.linalg.norm(V, axis=0)
-    U, s, _ = np.linalg.svd(V, full_matrices=False)
-    return U[:, s > tol]
-
-
-def _complement(U) -> np.ndarray:
-    """Orthonormal basis of the orthogonal complement of the orthonormal columns ``U``."""
-    if U.shape[1] == 0:
-        return np.eye(6)
-    Q, _ = np.linalg.qr(np.concatenate([U, np.eye(6)], axis=1))
-    return Q[:, U.shape[1]:6]
-
-def _dq_map(C, X, alpha):
-    """T_i (N,8,6): DQ residual of cost (8), [A q; alpha (B q + A q')], as a linear function
-    of the geometric residual e_i (sign of the DQ pair irrelevant: only T^T T is used)."""
-    N = C.shape[0]
-    qC, qCd = dual_quat_from_transform(C)
-    qX, qXd = dual_quat_from_transform(X)
-    Rq = quat_right_matrix(qC)[:, :, :3]                   # (rho,0) -> q_C-ish: 1/2 R(q_C)
-    dq_rho = 0.5 * Rq                                      # d q_C / d rho
-    tq = np.concatenate([C[:, :3, 3], np.zeros((N, 1))], axis=1)
-    dqd_rho = 0.5 * quat_left_matrix(tq) @ dq_rho          # d q_C' / d rho
-    dqd_tau = 0.5 * Rq                                     # d q_C' / d tau
-    RqX = quat_right_matrix(qX)
-    RqXd = quat_right_matrix(qXd)
-    T = np.zeros((N, 8, 6))
-    T[:, :4, :3] = RqX @ dq_rho
-    T[:, 4:, :3] = alpha * (RqXd @ dq_rho + RqX @ dqd_rho)
-    T[:, 4:, 3:] = alpha * (RqX @ dqd_tau)
-    return T
-
-
-def _prior_jacobians(X, prior):
-    """Jacobians (3x6, 4x6) of vec(dq) and dq' (dq + eps dq' = Q_prior^* Q_X) w.r.t. delta."""
-    q, _ = dual_quat_from_transform(X)
-    qh, qhd = dual_quat_from_transform(prior.X)
-    dq_dw = 0.5 * quat_right_matrix(q)[:, :3]              # d q / d omega
-    tq = np.concatenate([X[:3, 3], [0.0]])
-    dqd_dw = 0.5 * quat_left_matrix(tq) @ dq_dw
-    dqd_dv = 0.5 * quat_right_matrix(q)[:, :3]
-    Lh = quat_left_matrix(quat_conjugate(qh))
-    Lhd = quat_left_matrix(quat_conjugate(qhd))
-    Ja = np.zeros((4, 6))
-    Ja[:, :3] = Lh @ dq_dw
-    Jb = np.zeros((4, 6))
-    Jb[:, :3] = Lhd @ dq_dw + Lh @ dqd_dw
-    Jb[:, 3:] = Lh @ dqd_dv
-    return Ja[:3], Jb
-
-
-# ----------------------------------------------------------------------------- results
-@dataclass(frozen=True)
-class Direction:
-    """An eigen-direction of the (tolerance-scaled) information the data do not pin down.
-
-    ``reason``: "undetermined" or "poorly determined"; ``rotation_axis_a`` /
-    ``translation_dir_a``: unit 3-vectors in camera-a coordinates (zeros if that part is
-    < 5 % of the direction); ``std_deg`` / ``std_m``: 1-sigma of the rotation / translation
-    part along it from the data alone (inf when undetermined); ``std_with_prior_deg/_m``:
-    the same with the prior; ``determined_by_prior``: the prior brings it within tolerance;
-    ``description``: words.
-    """
-    reason: str
-    kind: str
-    rotation_axis_a: np.ndarray
-    translation_dir_a: np.ndarray
-    std_deg: float
-    std_m: float
-    std_with_prior_deg: float
-    std_with_prior_m: float
-    determined_by_prior: bool
-    description: str
-
-    with_prior: bool = False   # a prior was given (``std_with_prior_*`` are its sigma)
-
-    @property
-    def state(self) -> str:
-        """``fixed by the prior``, ``poorly determined``, ``undetermined`` (see
-        :func:`direction_state`)."""
-        return direction_state(self.reason, self.determined_by_prior, self.with_prior,
-                               math.isfinite(self.std_with_prior_deg)
-                               and math.isfinite(self.std_with_prior_m))
-
-    def sigma_text(self) -> str:
-        """The 1-sigma that applies to this direction, in words: with the prior when one
-        was given, else from the motions alone."""
-        if self.with_prior:
-            return direction_sigma(self.kind, self.std_with_prior_deg,
-                                   self.std_with_prior_m, with_prior=True)
-        return direction_sigma(self.kind, self.std_deg, self.std_m)
-
-    def summary(self) -> str:
-        """``<description>: <state> (<sigma>)``: the one rendering of a direction (console
-        footnotes, results.json words, Solution.message)."""
-        return f"{self.description}: {self.state} ({self.sigma_text()})"
-
-
-#: the states a direction of X can be in, best first
-DIRECTION_STATES = ("determined", "fixed by the prior", "poorly determined",
-                    "poorly determined (prior only)", "undetermined")
-
-
-def direction_state(reason: str, determined_by_prior: bool, with_prior: bool = False,
-                    prior_sigma_finite: bool = False) -> str:
-    """The state of a flagged direction, in the words every report uses: ``fixed by the
-    prior`` (the prior brings it within tolerance), ``poorly determined (prior only)`` (the
-    motions do not determine it, the prior bounds it but not within tolerance), else the
-    motions' ``reason`` (``poorly determined`` / ``undetermined``)."""
-    if determined_by_prior:
-        return "fixed by the prior"
-    if reason == "undetermined" and with_prior and prior_sigma_finite:
-        return "poorly determined (prior only)"
-    return reason
-
-
-def direction_sigma(kind: str, std_deg: float, std_m: float, with_prior: bool = False
-                    ) -> str:
-    """``1-sigma 2.3 cm`` for a translation direction, ``1-sigma 0.5 deg`` for a rotation,
-    both for a coupled one (only the parts that apply); ``no finite 1-sigma: ...`` when it
-    is infinite."""
-    parts = [(std_deg, "deg")] if kind in ("rotation", "coupled") else []
-    parts += [(std_m, "m")] if kind in ("translation", "coupled") else []
-    if not all(math.isfinite(x) for x, _ in parts):
-        return ("no finite 1-sigma: neither the motions nor the prior constrain it"
-                if with_prior else "no finite 1-sigma: the motions do not constrain it")
-    return ("1-sigma " + ", ".join(_fmt_std(x, unit) for x, unit in parts)
-            + (" with the prior" if with_prior else ""))
-
-
-def _fmt_std(x, unit):
-    if unit == "m" and math.isfinite(x) and x < 1.0:
-        return f"{100 * x:.3g} cm"
-    return "inf " + unit if not math.isfinite(x) else f"{x:.3g} {unit}"
-
-
-def _fmt_vec(v) -> str:
-    return "[" + ", ".join(f"{x:+.3f}" for x in v) + "]"
-
-
-@dataclass(frozen=True, eq=False)
-class Uncertainty:
-    """Uncertainty of estimate ``X`` (see module doc). Arrays are 6x6 in the order
-    ``(wx, wy, wz, vx, vy, vz)``, rad and m, frame a."""
-    X: np.ndarray
-    covariance: np.ndarray
-    covariance_determined: np.ndarray
-    determined_basis: np.ndarray
-    information: np.ndarray
-    prior_covariance: np.ndarray | None
-    noise: NoiseModel
-    alpha: float
-    tolerance_deg: float
-    tolerance_m: float
-    directions: tuple
-    translation_scale_m: float
-    n_motions: int
-    method: str = "sandwich"
-    offset: np.ndarray | None = None   # Gauss-Newton step from X to the alpha-cost minimiser
-    bias_covariance: np.ndarray | None = None   # part of covariance from pose_bias (6x6)
-    # the noise-only information (verdict null, 6x6 like ``information``), the generalised
-    # eigenvalues of (information, noise_information) ascending, and their thresholds
-    noise_information: np.ndarray | None = None
-    information_ratio: np.ndarray | None = None
-    ratio_threshold: np.ndarray | None = None
-    # motions from pose streams (``pose_pairs``): the white pose-noise test and, when it
-    # passed, the simulated bias of the alpha-cost minimiser (delta coordinates, estimate
-    # minus truth; its outer product is part of ``covariance``)
-    pose_noise_test: object = None
-    simulated_bias: np.ndarray | None = None
-    # with ``pose_error_basis``: the number of systematic parameters the simulation drew
-    # (0: none) and the white pose noise it added beyond them (per pose: rad, m)
-    systematic_parameters: int = 0
-    white_pose_noise: tuple | None = None
-    # the simulation itself (pose_noise.SimulatedError), to reuse for other estimates of
-    # the same motions (``covariance(..., pose_simulation=...)``)
-    simulation: object = None
-
-    @property
-    def std(self) -> np.ndarray:
-        """1-sigma per axis: (wx, wy, wz) in deg, (vx, vy, vz) in m (inf if undetermined)."""
-        s = np.sqrt(np.diag(self.covariance))
-        return np.concatenate([np.degrees(s[:3]), s[3:]])
-
-    @property
-    def simulated_bias_determined(self) -> np.ndarray | None:
-        """``simulated_bias`` with NaN along the undetermined axes (a bias along a direction
-        the data cannot determine means nothing); None without a simulation."""
-        if self.simulated_bias is None:
-            return None
-        return np.where(np.isfinite(np.diag(self.covariance)), self.simulated_bias, np.nan)
-
-    @property
-    def std_deg(self) -> np.ndarray:
-        return self.std[:3]
-
-    @property
-    def std_m(self) -> np.ndarray:
-        return self.std[3:]
-
-    @property
-    def undetermined(self) -> tuple:
-        return tuple(d for d in self.directions if d.reason == "undetermined")
-
-    @property
-    def poorly_determined(self) -> tuple:
-        return tuple(d for d in self.directions if d.reason == "poorly determined")
-
-    @property
-    def degenerate(self) -> bool:
-        """True when the motions leave any direction undetermined or poorly determined
-        (even if a prior fixes it; see ``Direction.determined_by_prior``)."""
-        return bool(self.directions)
-
-    @property
-    def verdict(self) -> str:
-        if not self.directions:
-            return "determined"
-        if self.undetermined:
-            return "undetermined"
-        return "poorly determined"
-
-    def summary(self) -> str:
-        s = self.std
-        head = (f"1-sigma rot {_fmt_vec3(s[:3])} deg, trans {_fmt_vec3(s[3:])} m "
-                f"(noise {'estimated' if self.noise.estimated else 'given'}: "
-                f"{math.degrees(self.noise.sigma_r_rad):.3g} deg, {self.noise.sigma_t_m:.3g} m)")
-        if not self.directions:
-            return (f"determined within {self.tolerance_deg:g} deg / {self.tolerance_m:g} m; "
-                    + head)
-        return (f"the motions leave X {self.verdict}: "
-                + "; ".join(d.summary() for d in self.directions) + "; " + head)
-
-    def mahalanobis2(self, X_candidate) -> float:
-        """``d^T Sigma_det^+ d`` with ``d`` the error of ``X_candidate`` relative to ``X``,
-        over the determined directions only."""
-        d = pose_error(_check_X(X_candidate, "X_candidate"), self.X)
-        B = self.determined_basis
-        if B.shape[1] == 0:
-            return 0.0
-        c = B.T @ d
-        S = B.T @ self.covariance_determined @ B
-        return float(c @ np.linalg.lstsq(S, c, rcond=None)[0])
-
-    @property
-    def dof(self) -> int:
-        return int(self.determined_basis.shape[1])
-
-    def inside_region(self, X_candidate, level: float = 0.95) -> bool:
-        """True if ``X_candidate`` lies in the ``level`` confidence region of ``X``: its
-        squared Mahalanobis distance over the ``k`` determined directions is at most the
-        chi-square(k) quantile. Undetermined directions are unconstrained."""
-        level = _real("level", level)
-        if not level < 1:
-            raise ValueError(f"level must be in (0, 1); received {level}")
-        if self.dof == 0:
-            return True
-        from scipy.special import chdtri
-        return self.mahalanobis2(X_candidate) <= chdtri(self.dof, 1.0 - level)
-
-
-def _fmt_vec3(v):
-    return "[" + ", ".join("inf" if not math.isfinite(x) else f"{x:.3g}" for x in v) + "]"
 
 
 # -------------------------------------------------------------------------- main entry
@@ -825,415 +342,6 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
                        systematic_parameters=0 if sim is None else sim.systematic_parameters,
                        white_pose_noise=None if sim is None else sim.white, simulation=sim,
                        method="pose_simulation" if sim_bias is not None else "sandwich")
-
-
-# ------------------------------------------------------------------- covariance steps
-def _checked_inputs(C, H, X, alpha, tolerance_deg, tolerance_m, noise, pose_bias, prior):
-    """Validated ``(C, H, X, alpha, tol_r, tol_m, noise, bias)`` of :func:`covariance`."""
-    C = check_transforms(C, "C", min_count=2)
-    H = check_transforms(H, "H", min_count=2)
-    if C.shape != H.shape:
-        raise ValueError(f"C and H must hold the same number of motions; received "
-                         f"{C.shape[0]} and {H.shape[0]}")
-    X = _check_X(X)
-    alpha = _real("alpha", alpha)
-    tol_r = math.radians(_real("tolerance_deg", tolerance_deg))
-    tol_m = _real("tolerance_m", tolerance_m)
-    noise = _check_noise(noise)
-    bias = check_pose_bias(pose_bias)
-    if prior is not None and not all(hasattr(prior, k) for k in ("X", "a", "b")):
-        raise TypeError(f"prior must be a simcalib.Prior or None; received "
-                        f"{type(prior).__name__}")
-    return C, H, X, alpha, tol_r, tol_m, noise, bias
-
-
-def _translation_scale(C, H, X, tol_m) -> float:
-    """Translation scale ``L`` of the data (units follow the input)."""
-    return float(max(np.sqrt(np.mean(np.sum(C[:, :3, 3] ** 2, axis=1))),
-                     np.sqrt(np.mean(np.sum(H[:, :3, 3] ** 2, axis=1))),
-                     np.linalg.norm(X[:3, 3]), tol_m))
-
-
-def _noise_level(e, Qr, Qt, w, noise, L):
-    """``(s_r2, s_t2, noise_out, fit, dof_noise)``: fitted or given noise variances, floors in."""
-    n_eff = float(w.sum() ** 2 / np.sum(w * w))
-    # degrees of freedom of the fitted rotation noise (3 residual components per motion)
-    dof_noise = math.inf if noise is not None else max(3.0 * (n_eff - 1.0), 1.0)
-    if noise is None:
-        dof = n_eff / max(n_eff - 1.0, 1.0)
-        wn = w / w.sum()
-        rot2 = np.sum(wn * np.sum(e[:, :3] ** 2, axis=1)) * dof
-        tr2 = np.sum(wn * np.sum(e[:, 3:] ** 2, axis=1)) * dof
-        qr_rot = np.sum(wn * np.trace(Qr[:, :3, :3], axis1=1, axis2=2))
-        qr_tr = np.sum(wn * np.trace(Qr[:, 3:, 3:], axis1=1, axis2=2))
-        qt_tr = np.sum(wn * np.trace(Qt[:, 3:, 3:], axis1=1, axis2=2))
-        s_r2 = rot2 / qr_rot
-        # rotation noise leaks into tau through R_Ci' t_X; at least 10 % of the translation
-        # residual is attributed to translation noise (a wrong X with a large t_X would
-        # otherwise explain all of it by rotation noise and claim a perfect translation)
-        s_t2 = max(tr2 - s_r2 * qr_tr, 0.1 * tr2) / qt_tr
-        if not (math.isfinite(s_r2) and math.isfinite(s_t2)):
-            raise ValueError("residuals of X are not finite; X is not a usable estimate")
-        noise_out = NoiseModel(math.sqrt(s_r2), math.sqrt(s_t2), estimated=True)
-        fit = (qr_rot, qr_tr, qt_tr)
-    else:
-        s_r2, s_t2 = noise.sigma_r_rad ** 2, noise.sigma_t_m ** 2
-        noise_out = noise
-        fit = None
-    s_r2 += ROTATION_FLOOR_RAD ** 2
-    s_t2 += (TRANSLATION_FLOOR_REL * L) ** 2
-    return s_r2, s_t2, noise_out, fit, dof_noise
-
-
-def _whitened_rows(H, X, K, Q, w, s_r2, s_t2):
-    """``(Linv, Qinv, Kw, Bw)``: whitening of ``Q`` and the whitened data and null rows."""
-    # whitened rows: Kw_i = sqrt(w_i) L_i^-1 K_i (Q_i = L_i L_i^T), F = sum Kw^T Kw; Bw: the
-    # same for the derivatives of K_i w.r.t. the noise of H_i, scaled by its std (the null)
-    Linv = np.linalg.inv(np.linalg.cholesky(0.5 * (Q + np.swapaxes(Q, -1, -2))))
-    Qinv = np.swapaxes(Linv, -1, -2) @ Linv
-    sw = np.sqrt(w)
-    Kw = (Linv @ K) * sw[:, None, None]
-    std_xi = np.sqrt(np.array([s_r2 / 3.0] * 3 + [s_t2] * 3))
-    Bw = ((Linv[:, None] @ noise_jacobians(H, X))
-          * (sw[:, None, None, None] * std_xi[None, :, None, None]))
-    return Linv, Qinv, Kw, Bw
-
-
-def _stacked_information(Aw) -> np.ndarray:
-    """``A^T A`` (6x6) of the whitened rows ``Aw`` stacked into one (-1, 6) matrix ``A``."""
-    Af = Aw.reshape(-1, 6)
-    return Af.T @ Af
-
-
-def _sandwich(C, X, alpha, K, Q, w):
-    """``(T, S, Hs, Ms)``: DQ map, its ``T^T T``, and the bread and meat of the alpha cost."""
-    T = _dq_map(C, X, alpha)
-    S = np.einsum("nki,nkj->nij", T, T)                    # (N,6,6)
-    Hs = np.einsum("n,nki,nkl,nlj->ij", w, K, S, K)
-    SQS = S @ Q @ S
-    Ms = np.einsum("n,nki,nkl,nlj->ij", w * w, K, SQS, K)
-    return T, S, Hs, Ms
-
-
-def _serial_correlation_corrected(Ms, F, e, K, S, Qinv, w, lag):
-    """``(Ms, F)`` corrected for the serial correlation of motions sharing poses up to ``lag``."""
-    # motions in time order that share poses (pairs (k, k + step) of one pose stream):
-    # their noise is correlated up to lag = step. The model meat is rescaled, per
-    # direction, by the ratio of the empirical meat with the cross terms up to the lag
-    # (truncated kernel) to the one without (serial-correlation, HAC-type correction).
-    Ms = _rescale_meat(Ms, *_score_meats(np.einsum("n,nki,nkl,nl->ni", w, K, S, e), lag))
-    # the same correction of the alpha-free information (efficient weighting: the
-    # meat is F itself, so the information becomes F Mc^-1 F)
-    Fc = _rescale_meat(F, *_score_meats(np.einsum("n,nki,nkl,nl->ni", w, K, Qinv, e), lag))
-    F = F @ _sym_inv(Fc) @ F
-    F = 0.5 * (F + F.T)
-    return Ms, F
-
-
-def _with_pose_bias(X, bias, Hs, Ms, F, in_simulation):
-    """``(Sig_bias, Ms, F)``: the calibration bias added to the meat and the information."""
-    # none given, or its run-constant errors already drawn by a systematic simulation
-    if bias is None or bias.is_zero or in_simulation:
-        return None, Ms, F
-    Sig_bias = pose_bias_covariance(X, bias.cov_a, bias.cov_b)
-    Ms = Ms + Hs @ Sig_bias @ Hs
-    F = _woodbury_information(F, Sig_bias)
-    return Sig_bias, Ms, F
-
-
-def _with_prior(X, prior, T, Q, alpha, Hs, Ms):
-    """``(Hs, Ms, F_prior, prior_cov)`` with the prior's pseudo-measurements (if any) added."""
-    if prior is None:
-        return Hs, Ms, np.zeros((6, 6)), None
-    Ja, Jb = _prior_jacobians(X, prior)
-    TQT = T @ Q @ np.swapaxes(T, -1, -2)
-    nu_a = float(np.mean(np.trace(TQT[:, :4, :4], axis1=1, axis2=2)) / 3.0)
-    nu_b = float(np.mean(np.trace(TQT[:, 4:, 4:], axis1=1, axis2=2)) / 3.0) / alpha**2
-    A = Ja.T @ Ja
-    Bm = Jb.T @ Jb
-    F_prior = prior.a * A / nu_a + prior.b * Bm / nu_b
-    Hs = Hs + prior.a * A + prior.b * Bm
-    Ms = Ms + prior.a * nu_a * A + prior.b * nu_b * Bm
-    return Hs, Ms, F_prior, _pinv_cov(F_prior)
-
-
-def _range_ratio(U, sig, range_sc) -> np.ndarray:
-    """1-sigma along the columns of U relative to the range of rotation/translation."""
-    return sig * np.sqrt(np.sum((U / range_sc[:, None]) ** 2, axis=0))
-
-
-def _modes(Fm, range_sc):
-    """``(lam, U, sig, range ratio)``: eigen-directions of ``Fm`` and their 1-sigma."""
-    lam, U = np.linalg.eigh(0.5 * (Fm + Fm.T))
-    sig = np.where(lam > 0, 1.0 / np.sqrt(np.maximum(lam, 1e-300)), np.inf)
-    return lam, U, sig, _range_ratio(U, sig, range_sc)
-
-
-def _data_undetermined(null, Ft, range_sc) -> np.ndarray:
-    """Basis ``Ud`` of the directions the data leave to the noise or beyond the range."""
-    _, U_d, _, rr_d = _modes(Ft, range_sc)
-    return _span([null.directions[:, null.undetermined], U_d[:, rr_d > 1.0]])
-
-
-def _total_undetermined(Ud, Fp_t, Ftot, range_sc) -> np.ndarray:
-    """Basis ``Ut`` of the directions neither the prior (within ``Ud``) nor all determine."""
-    if Ud.shape[1]:
-        lam_p, V_p = np.linalg.eigh(0.5 * (Ud.T @ Fp_t @ Ud + (Ud.T @ Fp_t @ Ud).T))
-        sig_p = np.where(lam_p > 0, 1.0 / np.sqrt(np.maximum(lam_p, 1e-300)), np.inf)
-        Up = Ud @ V_p
-        still = Up[:, _range_ratio(Up, sig_p, range_sc) > 1.0]
-    else:
-        still = np.zeros((6, 0))
-    _, U_tt, _, rr_t = _modes(Ftot, range_sc)
-    return _span([still, U_tt[:, rr_t > 1.0]])
-
-
-def _counting_information(Bd, Ud, Ft, Fp_t):
-    """``(W, Blk)``: basis ``[Bd, Ud]`` and the prior plus the data outside ``Ud`` in it."""
-    # information that counts, in the basis W = [Bd, Ud]: data (outside Ud) plus prior
-    W = np.concatenate([Bd, Ud], axis=1)
-    kb = Bd.shape[1]
-    Blk = W.T @ Fp_t @ W
-    Blk[:kb, :kb] += Bd.T @ Ft @ Bd
-    return W, Blk
-
-
-def _restricted_sandwich(Bt, Ht, Mt):
-    """``(Sig_b, Hb_inv)``: the sandwich restricted to ``Bt`` (PSD), its bread inverse."""
-    if not Bt.shape[1]:
-        return None, None
-    Hb = Bt.T @ Ht @ Bt
-    Mb = Bt.T @ Mt @ Bt
-    Hb_inv = _sym_inv(Hb)
-    Sig_b = Hb_inv @ Mb @ Hb_inv
-    lb, Vb = np.linalg.eigh(0.5 * (Sig_b + Sig_b.T))
-    Sig_b = (Vb * np.clip(lb, 0.0, None)) @ Vb.T        # PSD despite rounding
-    return Sig_b, Hb_inv
-
-
-def _minimiser_step(C, H, X, alpha, w, K, S, e, dsc, Bt, Hb_inv, sim_bias) -> np.ndarray:
-    """Step from ``X`` to the alpha-cost minimiser in ``Bt`` coordinates (tol units)."""
-    # X need not be the minimiser of the alpha cost (daniilidis, opencv, dq2steps,
-    # an early stop): its Gauss-Newton offset from the minimiser is a bias of X
-    # that the sandwich does not see; added as step step^T (mean squared error).
-    if sim_bias is not None:   # the exact offset (the linearised one errs by
-        # terms of second order in the noise, here as large as the bias itself)
-        from simcalib.solvers.diagnostics.pose_noise import minimiser_offset
-        return Bt.T @ (minimiser_offset(C, H, X, alpha, w) / dsc)
-    g = np.einsum("n,nki,nkl,nl->i", w, K, S, e) * dsc
-    return -Hb_inv @ (Bt.T @ g)
-
-
-def _with_offset(Bt, Sig_b, step):
-    """``(cov_t, offset_t)`` (tol units): ``Sig_b`` plus ``step step^T``, back from ``Bt``."""
-    if Sig_b is None:
-        return np.zeros((6, 6)), np.zeros(6)
-    if step is None:
-        return Bt @ Sig_b @ Bt.T, np.zeros(6)
-    Sig_b = Sig_b + np.outer(step, step)
-    return Bt @ Sig_b @ Bt.T, Bt @ step
-
-
-def _reported_covariances(cov_t, dsc, Ut):
-    """``(cov_det, cov)``: the finite part, and it with ``inf`` on the axes touching ``Ut``."""
-    cov_det = cov_t * np.outer(dsc, dsc)
-    cov_det = 0.5 * (cov_det + cov_det.T)
-    cov = cov_det.copy()
-    if Ut.shape[1]:
-        touched = np.linalg.norm(Ut, axis=1) > _PURE
-        cov[touched, :] = 0.0
-        cov[:, touched] = 0.0
-        cov[touched, touched] = np.inf
-    return cov_det, cov
-
-
-def _physical_basis(Bt, dsc) -> np.ndarray:
-    """Determined basis orthonormalised in delta coordinates (6, k)."""
-    if Bt.shape[1]:
-        Bp, _ = np.linalg.qr(Bt * dsc[:, None])
-    else:
-        Bp = np.zeros((6, 0))
-    return Bp
-
-
-def _std_with_prior(u, Ut, W, Bt, Blk) -> float:
-    """1-sigma (tol units) along u from the information that counts; inf if in Ut."""
-    if Ut.shape[1] and np.linalg.norm(Ut.T @ u) > _PURE:
-        return math.inf
-    Bb = W.T @ Bt
-    Sb = Bb @ _sym_inv(Bb.T @ Blk @ Bb) @ Bb.T
-    ew = W.T @ u
-    return math.sqrt(max(float(ew @ Sb @ ew), 0.0))
-
-
-def _data_directions(Ud, Bd, Ft) -> list:
-    """``(u, reason, 1-sigma tol units)`` of the undetermined and poorly determined directions."""
-    dirs = []
-    if Ud.shape[1]:                                       # undetermined: basis of Ud
-        _, Vu = np.linalg.eigh(0.5 * (Ud.T @ Ft @ Ud + (Ud.T @ Ft @ Ud).T))
-        for u in (Ud @ Vu).T:
-            dirs.append((u, "undetermined", math.inf))
-    if Bd.shape[1]:                                       # poorly determined: outside Ud
-        lb_, Vb_ = np.linalg.eigh(0.5 * (Bd.T @ Ft @ Bd + (Bd.T @ Ft @ Bd).T))
-        for k in range(Bd.shape[1]):
-            s = 1.0 / math.sqrt(lb_[k]) if lb_[k] > 0 else math.inf
-            if s > 1.0:
-                dirs.append((Bd @ Vb_[:, k], "poorly determined", s))
-    return dirs
-
-
-def _stds_along(u, s, tol_r, tol_m) -> tuple[float, float]:
-    """(deg, m) 1-sigma of u's rotation / translation parts at ``s`` (inf: parts over 5 %)."""
-    nw, nt = np.linalg.norm(u[:3]), np.linalg.norm(u[3:])
-    tot = math.hypot(nw, nt)
-    if math.isfinite(s):
-        return math.degrees(s * tol_r * nw), s * tol_m * nt
-    return (math.inf if nw > _PURE * tot else 0.0), (math.inf if nt > _PURE * tot else 0.0)
-
-
-def _data_direction(u, reason, s, dsc, tol_r, tol_m, st) -> Direction:
-    """The :class:`Direction` of ``u`` at 1-sigma ``s``, ``st`` with the prior (None: none)."""
-    sdeg, sm = _stds_along(u, s, tol_r, tol_m)
-    if st is not None:
-        by_prior = st <= 1.0
-        swd, swm = _stds_along(u, st, tol_r, tol_m)
-    else:
-        by_prior, swd, swm = False, sdeg, sm
-    return dataclasses.replace(_describe(u, dsc, reason, sdeg, sm, swd, swm, by_prior),
-                               with_prior=st is not None)
-
-
-def _estimate_directions(cov_t, raw, dsc, tol_r, tol_m) -> list:
-    """Directions this estimate leaves beyond the tolerance that the motions would not."""
-    # directions this estimate (covariance of the alpha-cost minimiser) leaves beyond the
-    # tolerance although the information would allow better (a poorly chosen alpha or an
-    # estimator that ignores part of the data); ``raw``: those already flagged
-    flagged = np.array([u for u, _, _ in raw]).reshape(-1, 6).T
-    dirs = []
-    le, Ve = np.linalg.eigh(0.5 * (cov_t + cov_t.T))
-    for k in range(6):
-        if not le[k] > 1.0:
-            continue
-        u = Ve[:, k]
-        if flagged.shape[1] and np.linalg.norm(u - flagged @ (flagged.T @ u)) < 0.5:
-            continue
-        sg = math.sqrt(le[k])
-        sdeg = math.degrees(sg * tol_r * np.linalg.norm(u[:3]))
-        sm = sg * tol_m * np.linalg.norm(u[3:])
-        d = _describe(u, dsc, "poorly determined", sdeg, sm, sdeg, sm, False)
-        dirs.append(dataclasses.replace(d, description=d.description + " by this estimate "
-                                        "(the motions would determine it better)"))
-        flagged = np.concatenate([flagged, u[:, None]], axis=1)
-    return dirs
-
-
-def _pose_simulation(C, X, alpha, pose_pairs, Linv, e, Hs, Ms, s_r2, s_t2, w, prior, rng,
-                     systematic=None, fit=None, shared=None):
-    """``(Ms, test, sim)``: the meat replaced by ``Hs (S + b b^T) Hs`` from the pose-noise
-    simulation (``sim``, a ``pose_noise.SimulatedError``) when the test accepts white pose
-    noise or a systematic basis explains the correlation (and there is no prior, whose cost
-    the simulation does not model); otherwise ``Ms`` unchanged and ``sim`` None. With
-    ``systematic`` the white level is what the residuals leave beyond the systematic
-    errors' expected share (``fit``: the noise fit's ``(qr_rot, qr_tr, qt_tr)``; None when
-    the noise was given). ``shared``: a SimulatedError of the same motions at the same
-    alpha, used instead of simulating. ``pose_pairs``, ``systematic``, ``shared`` as
-    checked by :func:`~simcalib.solvers.diagnostics.pose_noise.check_pose_inputs`."""
-    from simcalib.solvers.diagnostics.pose_noise import (SimulatedError, simulate_error,
-                                                          systematic_residual_power,
-                                                          white_noise_test)
-    P = pose_pairs
-    test = white_noise_test(np.einsum("nij,nj->ni", Linv, e), P)
-    if prior is not None or not (test.accepted or systematic is not None
-                                 or shared is not None):
-        return Ms, test, None
-    if shared is not None:
-        sim = shared
-    else:
-        if systematic is not None and fit is not None:
-            qr_rot, qr_tr, qt_tr = fit
-            rot2_s, tr2_s = systematic_residual_power(C, X, alpha, P, systematic, weights=w)
-            sr2_s = rot2_s / qr_rot
-            st2_s = max(tr2_s - sr2_s * qr_tr, 0.0) / qt_tr
-            s_r2 = max(s_r2 - sr2_s, WHITE_SHARE_FLOOR * s_r2)
-            s_t2 = max(s_t2 - st2_s, WHITE_SHARE_FLOOR * s_t2)
-        white = (math.sqrt(s_r2 / 2.0), math.sqrt(s_t2 / 2.0))
-        out = simulate_error(C, X, alpha, P, *white, weights=w, rng=rng, systematic=systematic)
-        if out is None:
-            return Ms, test, None
-        sim = SimulatedError(out[0], out[1], float(alpha), white,
-                             0 if systematic is None else int(systematic[0].shape[2]))
-    Ms = Hs @ (sim.covariance + np.outer(sim.bias, sim.bias)) @ Hs
-    return 0.5 * (Ms + Ms.T), test, sim
-
-
-#: with a systematic pose-error basis, the white pose noise keeps at least this share of the
-#: fitted noise variance (the basis never explains all of the residuals)
-WHITE_SHARE_FLOOR = 0.05
-
-
-def _check_lag(lag, n) -> int:
-    if isinstance(lag, bool) or not isinstance(lag, (int, np.integer)) or lag < 0:
-        raise ValueError(f"correlation_lag must be an integer >= 0; received {lag!r}")
-    return int(min(lag, max(n - 1, 0)))
-
-
-
-def _score_meats(g, lag):
-    """``(M0, Mh)`` of the per-motion scores ``g`` (N, 6): the meat without and with the
-    cross terms up to ``lag`` (truncated kernel)."""
-    M0 = g.T @ g
-    Mh = M0.copy()
-    for lg in range(1, lag + 1):
-        cross = g[:-lg].T @ g[lg:]
-        Mh += cross + cross.T
-    return M0, Mh
-
-def _rescale_meat(Ms, M0, Mh):
-    """``Ms`` with its spectrum rescaled, direction by direction (eigenvectors of ``M0``
-    whitened by ``Ms``), by the ratio of the serial-correlated empirical meat ``Mh`` to the
-    uncorrelated one ``M0``; ratios clipped to [0.05, 20]."""
-    lam, V = np.linalg.eigh(0.5 * (Ms + Ms.T))
-    lam = np.maximum(lam, 1e-300)
-    W = V / np.sqrt(lam)                                   # whitening: W^T Ms W = I
-    A0 = W.T @ M0 @ W
-    Ah = W.T @ Mh @ W
-    l0, U0 = np.linalg.eigh(0.5 * (A0 + A0.T))
-    ratio = np.clip(np.einsum("ki,kl,li->i", U0, Ah, U0) / np.maximum(l0, 1e-300), 0.05, 20.0)
-    Wi = V * np.sqrt(lam)                                  # inverse whitening
-    R = U0 @ np.diag(ratio) @ U0.T
-    out = Wi @ R @ Wi.T
-    return 0.5 * (out + out.T)
-
-
-def _sym_inv(A):
-    lam, V = np.linalg.eigh(0.5 * (A + A.T))
-    lam_inv = np.where(lam > 1e-300, 1.0 / np.maximum(lam, 1e-300), 0.0)
-    return (V * lam_inv) @ V.T
-
-
-def _pinv_cov(F):
-    lam, V = np.linalg.eigh(0.5 * (F + F.T))
-    lam_inv = np.where(lam > 1e-14 * max(lam[-1], 1e-300), 1.0 / np.maximum(lam, 1e-300), 0.0)
-    return (V * lam_inv) @ V.T
-
-
-def _describe(u, dsc, reason, sdeg, sm, swd, swm, by_prior) -> Direction:
-    """Words for eigen-direction ``u`` (tolerance coordinates) in camera-a frame."""
-    w, t = u[:3], u[3:]
-    nw, nt = np.linalg.norm(w), np.linalg.norm(t)
-    tot = math.hypot(nw, nt)
-    ax = w / nw if nw > _PURE * tot else np.zeros(3)
-    td = t / nt if nt > _PURE * tot else np.zeros(3)
-    if not td.any():
-        kind, desc = "rotation", f"rotation of X about {_fmt_vec(ax)} (camera-a frame)"
-    elif not ax.any():
-        kind, desc = "translation", f"translation of X along {_fmt_vec(td)} (camera-a frame)"
-    else:
-        kind = "coupled"
-        desc = (f"rotation of X about {_fmt_vec(ax)} coupled with translation along "
-                f"{_fmt_vec(td)} (camera-a frame)")
-    return Direction(reason, kind, ax, td, float(sdeg), float(sm), float(swd), float(swm),
-                     bool(by_prior), desc)
 
 
 def covariance_batch(C, H, X, alpha=1.0, prior=None, noise=None, *,
