@@ -1,0 +1,157 @@
+"""``solve_batch``: ``B`` problems at once (one compiled kernel for the DQ methods, else
+problem by problem through the method's solver function)."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from simcalib.geometry import as_real_array, check_transforms, dual_quat_from_transform
+from simcalib.solvers import registry
+from simcalib.solvers.kernels.batch import warm_up
+from simcalib.solvers.kernels.gram import prior_penalty
+from simcalib.solvers.problem import (ALPHA_MAX, ALPHA_MIN, alpha_range_error, batch_cost,
+    check_weights, prepare_problem, problem_cost)
+from simcalib.solvers.validation import (
+    Prior,
+    _check_prior,
+    _check_prior_supported,
+    _check_rng,
+    _check_weights_supported,
+    _finish_output,
+)
+from simcalib.solvers.solution import (
+    BatchSolution,
+)
+
+def solve_batch(C, H, method: str = "dqopt", alpha=1.0, prior: Prior | None = None,
+                rng: np.random.Generator | None = None, weights=None, *,
+                tolerance_deg: float = 1.0, tolerance_m: float = 0.01) -> BatchSolution:
+    """Solve ``B`` problems at once: ``C``, ``H`` of shape ``(B, N, 4, 4)``; ``alpha`` a
+    scalar or ``(B,)``; one optional ``prior`` for all; ``weights`` optional ``(B, N)``
+    per-motion weights. Methods with a registered batch function run vectorised (DQ
+    methods: one compiled kernel, parallel over problems); others loop over the method's
+    solver function. ``X[b]`` equals ``solve(C[b], H[b], ...).X``. A problem whose solve
+    fails or gives a non-finite X has ``success[b] = False`` (and
+    ``diagnostics["failure_reason"][b]``).
+    """
+    info = registry.get(method)
+    from simcalib.solvers.diagnostics.uncertainty import check_tolerances
+    tolerance_deg, tolerance_m = check_tolerances(tolerance_deg, tolerance_m)
+    prior = _check_prior(prior)
+    _check_prior_supported(info, prior)
+    _check_weights_supported(info, weights)
+    rng = _check_rng(rng)
+    C = _as_float_array(C, "C")
+    H = _as_float_array(H, "H")
+    for arr, name in ((C, "C"), (H, "H")):
+        if arr.ndim != 4 or arr.shape[-2:] != (4, 4):
+            raise ValueError(f"{name} must have shape (B, N, 4, 4); received shape {arr.shape}")
+    if H.shape != C.shape:
+        raise ValueError(f"C and H must have the same shape (B, N, 4, 4); received "
+                         f"{C.shape} and {H.shape}")
+    B, N = C.shape[:2]
+    if B < 1:
+        raise ValueError(f"C must hold at least one problem; received shape {C.shape}")
+    if N < 2:
+        raise ValueError(f"each problem needs at least 2 motions; received N = {N}")
+    alphas = _check_alphas(alpha, B)
+    w = check_weights(weights, (B, N))
+    compile_s = warm_up(parallel=B > 1)
+    t0 = time.perf_counter()
+    if info.batch_fn is not None and info.extra.get("batch_validates", False):
+        out = info.batch_fn(C, H, alphas, prior, w)
+        bad = out["bad"]
+        if (bad >= 0).any():
+            b = int(np.argmax(bad >= 0))
+            check_transforms(C[b], f"C[{b}]")
+            check_transforms(H[b], f"H[{b}]")
+            raise ValueError(f"problem {b}, motion {int(bad[b])}: C or H is not a rigid "
+                             "transform")
+    else:
+        check_transforms(C, "C")
+        check_transforms(H, "H")
+        if info.batch_fn is not None:
+            out = info.batch_fn(C, H, alphas, prior)
+            if isinstance(out, np.ndarray):
+                out = {"X": out}
+        else:
+            out = _loop(info, C, H, alphas, prior, rng, w)
+    runtime = time.perf_counter() - t0
+    X = np.asarray(out["X"], dtype=np.float64)
+    finite = np.isfinite(X).all(axis=(-2, -1))
+    success = np.asarray(out.get("success", finite), dtype=bool) & finite
+    reason = np.asarray(out.get("failure_reason", np.full(B, "", dtype=object)), dtype=object)
+    reason = np.where(~finite & (reason == ""), "non-finite X", reason)
+    cost = out.get("cost")
+    if cost is None:
+        from simcalib.solvers.problem import prepare_batch
+        cost = batch_cost(prepare_batch(C, H, alphas, w)[0], X, alphas, w)
+    cost = np.where(success, cost, np.inf)
+    X = np.where(success[:, None, None], X, np.nan) if not success.all() else X
+    objective = cost.copy()
+    if prior is not None:
+        objective = objective + _prior_penalty_batch(X, prior)
+    diagnostics = {k: v for k, v in out.items()
+                   if k not in ("X", "cost", "success", "bad", "failure_reason")}
+    diagnostics["failure_reason"] = np.where(success, "", reason)
+    diagnostics["compile_s"] = compile_s
+    return BatchSolution(X=X, cost=cost, objective=objective, success=success, alpha=alphas,
+                         method=method, runtime_s=runtime, prior=prior,
+                         diagnostics=diagnostics, C=C, H=H, weights=w,
+                         tolerance_deg=tolerance_deg, tolerance_m=tolerance_m)
+
+
+def _loop(info, C, H, alphas, prior, rng, w) -> dict:
+    """Problem by problem through the method's solver function."""
+    B = C.shape[0]
+    X = np.full((B, 4, 4), np.nan)
+    ok = np.zeros(B, dtype=bool)
+    cost = np.full(B, np.inf)
+    flips = np.zeros(B, dtype=np.int64)
+    reason = np.full(B, "", dtype=object)
+    for b in range(B):
+        problem = prepare_problem(C[b], H[b], float(alphas[b]), None if w is None else w[b])
+        flips[b] = problem.sign_flips
+        try:
+            res = info.fn(problem, float(alphas[b]), prior, rng)
+        except Exception as exc:  # noqa: BLE001 - reported as a failed problem
+            reason[b] = f"solver raised {type(exc).__name__}: {exc}"
+            continue
+        X[b], ok[b], msg, _ = _finish_output(res, info.name)
+        if not ok[b]:
+            reason[b] = msg or "failed"
+        if np.isfinite(X[b]).all():
+            cost[b] = problem_cost(problem, *dual_quat_from_transform(X[b]), float(alphas[b]))
+    return {"X": X, "success": ok, "cost": cost, "sign_flips": flips, "failure_reason": reason}
+
+
+def _as_float_array(a, name):
+    return np.ascontiguousarray(as_real_array(a, name, "an array of 4x4 rigid transforms"))
+
+
+def _prior_penalty_batch(X, prior: Prior) -> np.ndarray:
+    finite = np.isfinite(X).all(axis=(-2, -1))
+    q, qd = dual_quat_from_transform(np.where(finite[:, None, None], X, np.eye(4)))
+    return np.where(finite, prior_penalty(q, qd, prior), np.inf)
+
+
+def _check_alphas(alpha, B: int) -> np.ndarray:
+    """alpha as (B,): a real scalar or (B,) array, every value in [ALPHA_MIN, ALPHA_MAX]."""
+    raw = None if isinstance(alpha, (bool, str, bytes)) else np.asarray(alpha)
+    if raw is None or raw.dtype.kind not in "iuf":
+        kind = "complex" if raw is not None and raw.dtype.kind == "c" else type(alpha).__name__
+        raise TypeError(f"alpha must be a real number or a real array of shape ({B},); "
+                        f"received {kind} {alpha!r}")
+    if raw.ndim > 1 or (raw.ndim == 1 and raw.shape[0] != B):
+        raise ValueError(f"alpha must be a scalar or an array of shape ({B},); received "
+                         f"shape {raw.shape}")
+    arr = raw.astype(np.float64)
+    bad = ~np.isfinite(arr) | (arr <= 0)
+    if bad.any():
+        raise ValueError(f"alpha must be finite and > 0; received {arr[bad].ravel()[0]}")
+    out_of = (arr < ALPHA_MIN) | (arr > ALPHA_MAX)
+    if out_of.any():
+        raise ValueError(alpha_range_error(arr[out_of].ravel()[0]))
+    return np.broadcast_to(arr, (B,)).astype(np.float64)
