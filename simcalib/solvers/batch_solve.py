@@ -43,41 +43,13 @@ def solve_batch(C, H, method: str = "dqopt", alpha=1.0, prior: Prior | None = No
     _check_prior_supported(info, prior)
     _check_weights_supported(info, weights)
     rng = _check_rng(rng)
-    C = _as_float_array(C, "C")
-    H = _as_float_array(H, "H")
-    for arr, name in ((C, "C"), (H, "H")):
-        if arr.ndim != 4 or arr.shape[-2:] != (4, 4):
-            raise ValueError(f"{name} must have shape (B, N, 4, 4); received shape {arr.shape}")
-    if H.shape != C.shape:
-        raise ValueError(f"C and H must have the same shape (B, N, 4, 4); received "
-                         f"{C.shape} and {H.shape}")
+    C, H = _checked_batch_arrays(C, H)
     B, N = C.shape[:2]
-    if B < 1:
-        raise ValueError(f"C must hold at least one problem; received shape {C.shape}")
-    if N < 2:
-        raise ValueError(f"each problem needs at least 2 motions; received N = {N}")
     alphas = _check_alphas(alpha, B)
     w = check_weights(weights, (B, N))
     compile_s = warm_up(parallel=B > 1)
     t0 = time.perf_counter()
-    if info.batch_fn is not None and info.extra.get("batch_validates", False):
-        out = info.batch_fn(C, H, alphas, prior, w)
-        bad = out["bad"]
-        if (bad >= 0).any():
-            b = int(np.argmax(bad >= 0))
-            check_transforms(C[b], f"C[{b}]")
-            check_transforms(H[b], f"H[{b}]")
-            raise ValueError(f"problem {b}, motion {int(bad[b])}: C or H is not a rigid "
-                             "transform")
-    else:
-        check_transforms(C, "C")
-        check_transforms(H, "H")
-        if info.batch_fn is not None:
-            out = info.batch_fn(C, H, alphas, prior)
-            if isinstance(out, np.ndarray):
-                out = {"X": out}
-        else:
-            out = _loop(info, C, H, alphas, prior, rng, w)
+    out = _run_method(info, C, H, alphas, prior, rng, w)
     runtime = time.perf_counter() - t0
     X = np.asarray(out["X"], dtype=np.float64)
     finite = np.isfinite(X).all(axis=(-2, -1))
@@ -101,6 +73,47 @@ def solve_batch(C, H, method: str = "dqopt", alpha=1.0, prior: Prior | None = No
                          method=method, runtime_s=runtime, prior=prior,
                          diagnostics=diagnostics, C=C, H=H, weights=w,
                          tolerance_deg=tolerance_deg, tolerance_m=tolerance_m)
+
+
+def _checked_batch_arrays(C, H) -> tuple:
+    """``C``, ``H`` as C-contiguous float64 ``(B, N, 4, 4)`` of one shape, ``B >= 1``,
+    ``N >= 2`` (ValueError saying what was received)."""
+    C = _as_float_array(C, "C")
+    H = _as_float_array(H, "H")
+    for arr, name in ((C, "C"), (H, "H")):
+        if arr.ndim != 4 or arr.shape[-2:] != (4, 4):
+            raise ValueError(f"{name} must have shape (B, N, 4, 4); received shape {arr.shape}")
+    if H.shape != C.shape:
+        raise ValueError(f"C and H must have the same shape (B, N, 4, 4); received "
+                         f"{C.shape} and {H.shape}")
+    B, N = C.shape[:2]
+    if B < 1:
+        raise ValueError(f"C must hold at least one problem; received shape {C.shape}")
+    if N < 2:
+        raise ValueError(f"each problem needs at least 2 motions; received N = {N}")
+    return C, H
+
+
+def _run_method(info, C, H, alphas, prior, rng, w) -> dict:
+    """The method's batch output: its batch function (a validating one checks rigidity in
+    the kernel; the first bad problem is then checked again for the error's words), else
+    the checked transforms problem by problem through its solver function."""
+    if info.batch_fn is not None and info.extra.get("batch_validates", False):
+        out = info.batch_fn(C, H, alphas, prior, w)
+        bad = out["bad"]
+        if (bad >= 0).any():
+            b = int(np.argmax(bad >= 0))
+            check_transforms(C[b], f"C[{b}]")
+            check_transforms(H[b], f"H[{b}]")
+            raise ValueError(f"problem {b}, motion {int(bad[b])}: C or H is not a rigid "
+                             "transform")
+        return out
+    check_transforms(C, "C")
+    check_transforms(H, "H")
+    if info.batch_fn is None:
+        return _loop(info, C, H, alphas, prior, rng, w)
+    out = info.batch_fn(C, H, alphas, prior)
+    return {"X": out} if isinstance(out, np.ndarray) else out
 
 
 def _loop(info, C, H, alphas, prior, rng, w) -> dict:
