@@ -692,9 +692,9 @@ def _markers_used(st, world, cam, frame_index):
     visual log's ``ids_used``), or None without a visual log for the camera."""
     log = st.source_logs.get("aruco")
     frames = getattr(log, "frames", {}).get(cam) if log is not None else None
-    if not frames:
-        return None
     field = world.marker_field
+    if not frames or field.T_world_marker.shape[0] == 0:   # no map (a board target)
+        return None
     vis = np.zeros((len(frame_index), field.T_world_marker.shape[0]), dtype=bool)
     for k, f in enumerate(frame_index):
         rows = field.index_of(np.asarray(frames[int(f)].ids_used))
