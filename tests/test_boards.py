@@ -16,9 +16,10 @@ from simcalib.errors import ConfigError
 from simcalib.resources import scenarios_dir
 from simcalib.world import WorldConfig
 
-#: Expected board pose error on renders of the handeye wrist camera (median over frames,
-#: ideal preset; docs/vision.md table: ~0.7 mm / 0.03 deg measured for both kinds).
-IDEAL_MEDIAN_MM, IDEAL_MEDIAN_DEG = 2.0, 0.1
+#: Expected board pose error (median over frames, mm / deg) on renders of the handeye
+#: wrist camera per preset: ~3x the docs/vision.md table (ideal ~0.5-0.7 mm / 0.02-0.03
+#: deg, realistic ~2.7-2.9 mm / 0.12-0.15 deg over 201 frames; here 11 frames).
+EXPECTED_MEDIAN = {"ideal": (2.0, 0.1), "realistic": (9.0, 0.45)}
 
 
 @pytest.fixture(scope="module")
@@ -97,28 +98,30 @@ def test_add_board_places_the_board_frame(gl):
     assert np.allclose(T_wg @ T_geom_board(board), T_wf @ T, atol=1e-9)
 
 
-def _handeye_world(target, duration_s=2.0, fps=5.0):
+def _handeye_world(target, duration_s=20.0, fps=0.5):   # 11 frames, the path's own speed
     w = yaml.safe_load((scenarios_dir() / "handeye.yaml").read_text())["world"]
     w.update(target=target, duration_s=duration_s, fps=fps)
     return WorldConfig(**w)
 
 
+@pytest.mark.parametrize("preset", sorted(EXPECTED_MEDIAN))
 @pytest.mark.parametrize("kind", sorted(BOARD_KINDS))
-def test_rendered_board_detected_at_its_pose(gl, kind):
+def test_rendered_board_detected_at_its_pose(gl, kind, preset):
     from simcalib.geometry import rotation_error_rad, translation_error_m
     from simcalib.vision import VisionConfig, visual_streams
     from simcalib.world import build_world
     world = build_world(_handeye_world(kind), np.random.default_rng(0))
     assert world.scene.board.kind == kind and world.marker_field.ids.size == 0
-    streams, log = visual_streams(world, VisionConfig(preset="ideal", log_every=0),
+    streams, log = visual_streams(world, VisionConfig(preset=preset, log_every=0),
                                   np.random.default_rng(1), workers=1)
     st = streams["cam_b"]
     assert st.n_used >= st.n_frames - 1
     T_true = world.frames("cam_b").T_world_cam[st.frame_index]
     e_mm = translation_error_m(st.T_world_cam, T_true) * 1e3
     e_deg = np.rad2deg(rotation_error_rad(st.T_world_cam, T_true))
-    assert np.median(e_mm) < IDEAL_MEDIAN_MM and np.median(e_deg) < IDEAL_MEDIAN_DEG
-    assert np.max(e_mm) < 5 * IDEAL_MEDIAN_MM
+    tol_mm, tol_deg = EXPECTED_MEDIAN[preset]
+    assert np.median(e_mm) < tol_mm and np.median(e_deg) < tol_deg
+    assert np.mean(e_mm < 5 * tol_mm) >= 0.8       # a rare bad frame (docs: p95 column)
     used = [f.ids_used.size for f in log.frames["cam_b"] if f.status == "ok"]
     assert min(used) >= 6
 
