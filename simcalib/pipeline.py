@@ -399,8 +399,11 @@ def _corrupt_streams(st: RunState) -> None:
     if cfg.outliers.active and not st.measured:
         raise ValueError("outliers.* needs pose streams; a source of relative motions "
                          f"({', '.join(sorted(set(st.camera_sources.values())))}) has none")
+    field = truth.marker_field      # a board target has no marker map (no marker to flip)
+    if field is not None and len(getattr(field, "ids", ())) == 0:
+        field = None
     st.measured, st.sensing["outliers"] = inject_outliers(
-        st.measured, cfg.outliers, st.rngs["outliers"], truth.marker_field)
+        st.measured, cfg.outliers, st.rngs["outliers"], field)
 
 
 def _stage_pairs(st: RunState) -> None:
