@@ -13,8 +13,6 @@ import json
 import os
 import sys
 
-import numpy as np
-
 __all__ = ["bench_targets", "main_targets", "targets_markdown", "PRESET_NAMES"]
 
 PRESET_NAMES = ("ideal", "realistic", "harsh")

@@ -34,7 +34,7 @@ from simcalib.checks import check_in, check_int, check_range, check_that, set_fi
 
 __all__ = ["BOARD_KINDS", "TARGETS", "BoardConfig", "cv_board", "board_image", "board_png",
            "board_corners", "T_geom_board", "add_board", "BoardPose", "BoardPoseEstimator",
-           "board_pose_estimator", "check_target", "board_config",
+           "board_pose_estimator", "check_target", "board_config", "solve_board_pnp",
            "T_world_wall_board", "board_for_target"]
 
 #: Board kinds and their default dictionaries.
@@ -322,7 +322,7 @@ def _angle_rad(Ra: np.ndarray, Rb: np.ndarray) -> float:
 
 
 def solve_board_pnp(obj: np.ndarray, img: np.ndarray, K: np.ndarray, *,
-                    max_point_reproj_px: float = 2.0) -> tuple[np.ndarray, float, float, np.ndarray]:
+                    max_point_reproj_px: float = 2.0) -> tuple:
     """Planar PnP on all board corners: both ``SOLVEPNP_IPPE`` solutions refined with
     ``solvePnPRefineLM``, the better kept; corners off by more than
     ``max_point_reproj_px`` dropped (worst first) and the fit redone. Returns ``(T_cam_board,

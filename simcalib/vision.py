@@ -17,6 +17,7 @@ reprojection errors and status of every frame, and timings.
 from __future__ import annotations
 
 import time
+from functools import partial
 from dataclasses import dataclass, fields
 from typing import Any
 
@@ -382,8 +383,7 @@ class FrameProcessor:
         if opt is not None:
             K = opt.K_est
             if np.any(opt.dist_est != 0):
-                def undistort(px, _K=K, _d=opt.dist_est):
-                    return undistort_points(px, _K, _d)
+                undistort = partial(undistort_points, K=K, dist=opt.dist_est)
         t0 = time.perf_counter()
         pose = self._board_est(gray, K, undistort)
         t1 = time.perf_counter()
@@ -839,7 +839,6 @@ def calibration_pose_bias(world, cfg: "VisionConfig | None" = None, cameras=None
     terms are correlated where they see the same markers; that cross term is not kept.
     Empty when the configuration has neither a calibration nor a map error."""
     from .markers import intrinsics_pose_sensitivity, map_pose_covariance  # noqa: PLC0415
-    from .world.layout import visible_markers  # noqa: PLC0415
     cfg = VisionConfig() if cfg is None else cfg
     if not isinstance(cfg, VisionConfig):
         raise TypeError(f"cfg must be a VisionConfig; received {type(cfg).__name__}")
@@ -891,7 +890,6 @@ def pose_error_basis(world, camera: str, T_world_cam, cfg: "VisionConfig | None"
     rendered."""
     from .markers import (check_camera_poses, intrinsics_pose_jacobians,  # noqa: PLC0415
                           map_error_variances, map_pose_jacobians)
-    from .world.layout import visible_markers  # noqa: PLC0415
     cfg = VisionConfig() if cfg is None else cfg
     if not isinstance(cfg, VisionConfig):
         raise TypeError(f"cfg must be a VisionConfig; received {type(cfg).__name__}")
