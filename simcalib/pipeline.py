@@ -374,6 +374,8 @@ def _stage_streams(st: RunState) -> None:
             st.motions_from_source = out.motions
             st.pairing_mode = out.pairing_mode
         frames |= dict(out.frames) if out.frames is not None else {}
+    from simcalib.world.eyetohand import express_in_fixed_camera
+    st.truth, st.measured = express_in_fixed_camera(st.truth, st.measured, st.cfg.world)
     _corrupt_streams(st)
     if not frames:
         frames = {"rendered": max(int(s.n_frames) for s in st.measured.values())}
@@ -879,8 +881,12 @@ def _stage_reports(st: RunState) -> None:
     """Summary table, TUM files, extrinsics.json, results.json."""
     from simcalib import reports
     from simcalib.sources import get_source
+    from simcalib.world.eyetohand import eye_to_hand_report
     t0 = time.perf_counter()
     out = st.out
+    e2h = eye_to_hand_report(st)
+    if e2h is not None:
+        st.sensing["eye_to_hand"] = e2h
     st.summary = reports.summary_table(st.result())
     tum = out / "tum"
     tum.mkdir(exist_ok=True)

@@ -266,15 +266,21 @@ class ArmControlConfig:
     * ``gain_scale``: multiplies the default servo stiffness ``kp`` (``kd`` by its square
       root, keeping the damping ratio); ``settle_tol_rad`` / ``settle_max_s``: when a
       stop-and-go capture is taken (every joint within the tolerance of its target and
-      slower than 1e-3 rad/s, or after ``settle_max_s``)."""
+      slower than 1e-3 rad/s, or after ``settle_max_s``).
+    * ``mount``: ``"eye_in_hand"`` (default: the rig's cameras on the flange) or
+      ``"eye_to_hand"`` (a camera on a stand sees a board on the flange; cam_a = the flange,
+      cam_b = the board in the fixed camera's frame: :mod:`simcalib.world.eyetohand`)."""
     control: str = "kinematic"
     capture: str = "continuous"
     gain_scale: float = 1.0
     settle_tol_rad: float = 1e-4
     settle_max_s: float = 3.0
+    mount: str = "eye_in_hand"
 
     def __post_init__(self):
+        from simcalib.world.eyetohand import MOUNTS
         check_in("control", self.control, ("kinematic", "physics"))
+        check_in("mount", self.mount, MOUNTS)
         check_in("capture", self.capture, ("continuous", "stop_and_go"))
         set_fields(self,
                    gain_scale=check_range("gain_scale", self.gain_scale, lo=0.01, hi=100.0),
