@@ -23,7 +23,7 @@ import dataclasses
 import numpy as np
 
 __all__ = ["MOUNTS", "FIXED_CAMERA", "STAND_OFFSET_M", "T_world_fixed_camera",
-           "add_fixed_camera", "express_in_fixed_camera", "base_camera_estimate",
+           "add_fixed_camera", "add_flange_board", "express_in_fixed_camera", "base_camera_estimate",
            "eye_to_hand_report", "board_visibility"]
 
 #: ``world.arm.mount`` values: the rig on the flange seen from the flange
@@ -33,7 +33,7 @@ MOUNTS = ("eye_in_hand", "eye_to_hand")
 FIXED_CAMERA = "fixed_cam"
 #: The stand camera's position relative to the arm's home flange position (world axes):
 #: in front of the arm (towards the +x wall, which the home flange faces), a little higher.
-STAND_OFFSET_M = np.array([0.85, 0.05, 0.12])
+STAND_OFFSET_M = np.array([0.6, 0.05, 0.1])
 
 
 def _eye_to_hand(cfg) -> bool:
@@ -47,7 +47,7 @@ def T_world_fixed_camera(cfg) -> np.ndarray:
     target = arm_base_position(cfg.room.size_m) + ARM_HOME_OFFSET_M
     eye = target + STAND_OFFSET_M
     z = (target - eye) / np.linalg.norm(target - eye)
-    x = np.cross(z, [0.0, 0.0, -1.0])            # image x: y_cv ~ world down
+    x = np.cross([0.0, 0.0, -1.0], z)            # x = y × z with y_cv ~ world down
     x /= np.linalg.norm(x)
     y = np.cross(z, x)
     T = np.eye(4)
@@ -72,6 +72,23 @@ def add_fixed_camera(spec, cfg) -> None:
     stand.add_camera(name=FIXED_CAMERA, pos=[0.0, 0.0, float(pos[2])],
                      quat=[float(w), float(x), float(y), float(z)],
                      fovy=float(cfg.cam_b.fovy_deg) if hasattr(cfg.cam_b, "fovy_deg") else 60.0)
+
+
+def add_flange_board(spec, cfg, mount_site: str) -> str | None:
+    """Add ``cfg.board`` (the world's board, when ``world.target`` is one) on the flange at
+    the board frame ``T_flange_board = rig T_rig_cam_a · T_a_b`` (cam_b's frame): call after
+    the arm is attached. Returns the board geom's name, ``None`` without a board."""
+    board = getattr(cfg, "board", None)
+    if board is None or cfg.target == "marker_wall":
+        return None
+    from simcalib.boards import add_board
+    from simcalib.geometry import matrix_from_quat, quat_xyzw_from_wxyz
+    site = spec.site(mount_site)
+    T_body_site = np.eye(4)
+    T_body_site[:3, :3] = matrix_from_quat(quat_xyzw_from_wxyz(np.asarray(site.quat, float)))
+    T_body_site[:3, 3] = site.pos
+    T_body_board = T_body_site @ cfg.rig.T_rig_cam_a() @ cfg.rig.T_a_b()
+    return add_board(spec, site.parent.name, T_body_board, board, name="flange_board")
 
 
 def _in_camera(stream, T_cam_world):
