@@ -63,17 +63,16 @@ class FixedBoardSource:
         (w, h), = V._render_sizes((FIXED_CAMERA,), intr, optics)
         settings = V._render_settings(w, h, (FIXED_CAMERA,), intr, vcfg)
         results, _, interrupted = V._render_pass(world.model, settings, jobs, proc,
-                                                 cfg.workers if hasattr(cfg, "workers")
-                                                 else None, None, 0, len(jobs))
+                                                 cfg.workers, None, 0, len(jobs))
         if interrupted is not None:
             raise interrupted
         T_world_cam = T_world_fixed_camera(world.config)
         fixed = [dataclasses.replace(r, T_world_cam=T_world_cam @ invert_transform(
             r.T_world_cam)) if r.T_world_cam is not None else r for r in results]
-        stream, frames, _ = V._camera_outputs("cam_b", fr, fixed, {})
+        stream, _, _ = V._camera_outputs("cam_b", fr, fixed, {})
         stream = dataclasses.replace(stream, source="fixed_board")
-        drops = dict(stream.drop_reasons)
-        log = {"camera": FIXED_CAMERA, "used": int(stream.n_used), "drop_reasons": drops,
+        log = {"camera": FIXED_CAMERA, "used": int(stream.n_used),
+               "drop_reasons": dict(stream.drop_reasons),
                "reproj_rmse_px_median": float(np.median(stream.info["reproj_rmse_px"]))
                if stream.n_used else None}
         return SourceOutput(streams={"cam_b": stream}, log=log)

@@ -23,8 +23,8 @@ import dataclasses
 import numpy as np
 
 __all__ = ["MOUNTS", "FIXED_CAMERA", "STAND_OFFSET_M", "T_world_fixed_camera",
-           "add_fixed_camera", "add_flange_board", "express_in_fixed_camera", "base_camera_estimate",
-           "eye_to_hand_report", "board_visibility"]
+           "add_fixed_camera", "add_flange_board", "express_in_fixed_camera",
+           "base_camera_estimate", "eye_to_hand_report", "board_visibility"]
 
 #: ``world.arm.mount`` values: the rig on the flange seen from the flange
 #: (``eye_in_hand``, default) or a fixed camera seeing the flange's board (``eye_to_hand``).
