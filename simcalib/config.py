@@ -231,7 +231,7 @@ class VerdictConfig:
                                                 self.convergence_points, lo=0, hi=100))
 
 
-SOURCES = ("ground_truth", "noisy", "aruco", "robot_fk")
+SOURCES = ("ground_truth", "noisy", "aruco", "robot_fk", "fixed_board")
 KINDS = ("sim", "synthetic")
 
 
@@ -242,7 +242,7 @@ class ScenarioConfig:
     description: str = field(default="", metadata=_doc("one-line description"))
     kind: Literal["sim", "synthetic"] = field(default="sim", metadata=_doc(
         "sim: MuJoCo world (world.*, vision.*); synthetic: paper appendix D.2 (synthetic.*)"))
-    source: Literal["ground_truth", "noisy", "aruco", "robot_fk"] = field(
+    source: Literal["ground_truth", "noisy", "aruco", "robot_fk", "fixed_board"] = field(
         default="aruco", metadata=_doc("pose source of both streams (unless streams.a/b.source "
                                        "says otherwise)"))
     seed: int = field(default=0, metadata=_doc("seed of every random draw of the run"))
@@ -284,7 +284,7 @@ class ScenarioConfig:
     def __post_init__(self):
         set_fields(self, seed=check_int("seed", self.seed, lo=0),
                    workers=check_int("workers", self.workers, lo=1))
-        if self.kind == "synthetic" and self.source in ("aruco", "robot_fk"):
+        if self.kind == "synthetic" and self.source in ("aruco", "robot_fk", "fixed_board"):
             raise ConfigError(f"source={self.source} needs a simulated world (kind=sim); a "
                               "synthetic scenario allows source=ground_truth or source=noisy",
                               key="source", value=self.source)

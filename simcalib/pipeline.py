@@ -374,6 +374,8 @@ def _stage_streams(st: RunState) -> None:
             st.motions_from_source = out.motions
             st.pairing_mode = out.pairing_mode
         frames |= dict(out.frames) if out.frames is not None else {}
+    from simcalib.world.eyetohand import express_in_fixed_camera
+    st.truth, st.measured = express_in_fixed_camera(st.truth, st.measured, st.cfg.world)
     _corrupt_streams(st)
     if not frames:
         frames = {"rendered": max(int(s.n_frames) for s in st.measured.values())}
@@ -399,8 +401,11 @@ def _corrupt_streams(st: RunState) -> None:
     if cfg.outliers.active and not st.measured:
         raise ValueError("outliers.* needs pose streams; a source of relative motions "
                          f"({', '.join(sorted(set(st.camera_sources.values())))}) has none")
+    field = truth.marker_field      # a board target has no marker map (no marker to flip)
+    if field is not None and len(getattr(field, "ids", ())) == 0:
+        field = None
     st.measured, st.sensing["outliers"] = inject_outliers(
-        st.measured, cfg.outliers, st.rngs["outliers"], truth.marker_field)
+        st.measured, cfg.outliers, st.rngs["outliers"], field)
 
 
 def _stage_pairs(st: RunState) -> None:
@@ -692,9 +697,9 @@ def _markers_used(st, world, cam, frame_index):
     visual log's ``ids_used``), or None without a visual log for the camera."""
     log = st.source_logs.get("aruco")
     frames = getattr(log, "frames", {}).get(cam) if log is not None else None
-    if not frames:
-        return None
     field = world.marker_field
+    if not frames or field.T_world_marker.shape[0] == 0:   # no map (a board target)
+        return None
     vis = np.zeros((len(frame_index), field.T_world_marker.shape[0]), dtype=bool)
     for k, f in enumerate(frame_index):
         rows = field.index_of(np.asarray(frames[int(f)].ids_used))
@@ -876,8 +881,12 @@ def _stage_reports(st: RunState) -> None:
     """Summary table, TUM files, extrinsics.json, results.json."""
     from simcalib import reports
     from simcalib.sources import get_source
+    from simcalib.world.eyetohand import eye_to_hand_report
     t0 = time.perf_counter()
     out = st.out
+    e2h = eye_to_hand_report(st)
+    if e2h is not None:
+        st.sensing["eye_to_hand"] = e2h
     st.summary = reports.summary_table(st.result())
     tum = out / "tum"
     tum.mkdir(exist_ok=True)

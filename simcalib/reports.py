@@ -208,7 +208,7 @@ def results_dict(result) -> dict:
         "solver_kernels": getattr(result, "solver_kernels", "compiled"),
         **{key: _plain(getattr(result, "sensing", {}).get(key))
            for key in ("stream_sources", "robot", "clocks", "outliers", "calibration_bias",
-                       "estimation")},
+                       "estimation", "eye_to_hand")},
     }
 
 

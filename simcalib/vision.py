@@ -17,6 +17,7 @@ reprojection errors and status of every frame, and timings.
 from __future__ import annotations
 
 import time
+from functools import partial
 from dataclasses import dataclass, fields
 from typing import Any
 
@@ -276,8 +277,11 @@ class FrameProcessor:
     """
 
     def __init__(self, field: MarkerField, K_by_camera: dict, cam_index: dict, cfg: VisionConfig,
-                 entropy: int, optics: dict | None = None):
+                 entropy: int, optics: dict | None = None, board=None, T_world_board=None):
         self.field = field
+        self.board = board                 # a simcalib.boards.BoardConfig, or None
+        self.T_world_board = None if board is None else np.asarray(T_world_board, dtype=float)
+        self._board_est = None
         self.K_by_camera = {c: np.asarray(K, dtype=np.float64) for c, K in K_by_camera.items()}
         self.cam_index = dict(cam_index)
         self.cfg = cfg
@@ -290,6 +294,7 @@ class FrameProcessor:
     def __getstate__(self):
         state = dict(self.__dict__)
         state["_detector"] = None  # OpenCV objects do not pickle; rebuilt per process
+        state["_board_est"] = None
         state["_maps"] = {}        # remap tables are rebuilt per process (cheap, large)
         return state
 
@@ -351,10 +356,51 @@ class FrameProcessor:
         gray = jpeg_roundtrip(gray, eff.jpeg_quality)
         return self.degrade(gray, job.camera, job.frame_index)
 
+    def _jpeg(self, gray: np.ndarray, frame_index: int) -> bytes | None:
+        import cv2  # noqa: PLC0415
+        cfg = self.cfg
+        if cfg.log_every and frame_index % cfg.log_every == 0:
+            ok, buf = cv2.imencode(".jpg", gray, [cv2.IMWRITE_JPEG_QUALITY, int(cfg.jpeg_quality)])
+            return buf.tobytes() if ok else None
+        return None
+
+    def _board_frame(self, rendered: np.ndarray, job) -> _FrameOut:
+        """A board target: detect the board, PnP on all its corners, and
+        ``T_world_cam = T_world_board @ inv(T_cam_board)``."""
+        from .boards import board_pose_estimator  # noqa: PLC0415
+        from .camera_effects import undistort_points  # noqa: PLC0415
+        cfg = self.cfg
+        if self._board_est is None:
+            self._board_est = board_pose_estimator(
+                self.board, corner_refinement=cfg.corner_refinement,
+                edge_refinement=cfg.edge_refinement, max_reproj_rmse_px=cfg.max_reproj_rmse_px,
+                max_point_reproj_px=cfg.max_marker_reproj_px,
+                ambiguity_ratio=cfg.ambiguity_ratio)
+        gray = self.camera_image(rendered, job)
+        K = self.K_by_camera[job.camera]
+        opt = self.optics.get(job.camera)
+        undistort = None
+        if opt is not None:
+            K = opt.K_est
+            if np.any(opt.dist_est != 0):
+                undistort = partial(undistort_points, K=K, dist=opt.dist_est)
+        t0 = time.perf_counter()
+        pose = self._board_est(gray, K, undistort)
+        t1 = time.perf_counter()
+        T = None
+        if pose.ok:
+            from .geometry import invert_transform  # noqa: PLC0415
+            T = self.T_world_board @ invert_transform(pose.T_cam_board)
+        return _FrameOut(pose.status, T, pose.marker_ids, pose.marker_corners_px,
+                         pose.corner_ids, float(pose.reproj_rmse_px), float(pose.ambiguity),
+                         self._jpeg(gray, job.frame_index), t1 - t0, 0.0)
+
     def __call__(self, rendered: np.ndarray, job) -> _FrameOut:
         import cv2  # noqa: PLC0415
         from .camera_effects import undistort_points  # noqa: PLC0415
         from .markers import Detections, detect_markers, estimate_camera_pose, make_detector  # noqa: PLC0415,E501
+        if self.board is not None:
+            return self._board_frame(rendered, job)
         cfg = self.cfg
         dsettings = cfg.detector_settings(self.field.dictionary)
         if self._detector is None:
@@ -507,7 +553,8 @@ def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Genera
     optics = _camera_optics(cameras, intr, eff, rig)
     proc = FrameProcessor(_estimator_map(world.marker_field, eff, rig),
                           {c: intr[c].K for c in cameras},
-                          {c: i for i, c in enumerate(cameras)}, cfg, entropy, optics)
+                          {c: i for i, c in enumerate(cameras)}, cfg, entropy, optics,
+                          *_board_of(world))
     t_start = time.perf_counter()
     outs, occl, timings, n_jobs_total, interrupted = _render_all(
         world, cameras, cfg, eff, frames, intr, optics, proc, rig, workers, progress)
@@ -521,6 +568,12 @@ def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Genera
     if interrupted is not None:
         raise VisualStreamsInterrupted(streams, log, len(timings), n_jobs_total) from None
     return streams, log
+
+
+def _board_of(world) -> tuple:
+    """``(BoardConfig, T_world_board)`` of a world whose target is a board, else (None, None)."""
+    scene = getattr(world, "scene", None)
+    return getattr(scene, "board", None), getattr(scene, "T_world_board", None)
 
 
 def _check_inputs(world, cfg, rng, progress) -> None:
@@ -786,7 +839,6 @@ def calibration_pose_bias(world, cfg: "VisionConfig | None" = None, cameras=None
     terms are correlated where they see the same markers; that cross term is not kept.
     Empty when the configuration has neither a calibration nor a map error."""
     from .markers import intrinsics_pose_sensitivity, map_pose_covariance  # noqa: PLC0415
-    from .world.layout import visible_markers  # noqa: PLC0415
     cfg = VisionConfig() if cfg is None else cfg
     if not isinstance(cfg, VisionConfig):
         raise TypeError(f"cfg must be a VisionConfig; received {type(cfg).__name__}")
@@ -806,16 +858,15 @@ def calibration_pose_bias(world, cfg: "VisionConfig | None" = None, cameras=None
         if idx.size > max_frames:
             idx = idx[np.round(np.linspace(0, idx.size - 1, max_frames)).astype(int)]
         T = np.asarray(fr.T_world_cam, dtype=np.float64)[idx]
-        vis = visible_markers(world.marker_field, T, intr, distortion=eff.distortion)
-        corners = world.marker_field.corners_world()
-        pts = [corners[v].reshape(-1, 3) for v in vis]
+        vis, pts = _visible_target_points(world, T, intr, eff)
         if np.any(sig > 0):
             J = intrinsics_pose_sensitivity(pts, T, intr.K, eff.distortion, sig)
         else:
             J = np.zeros((6, sig.size))
         S_map = map_pose_covariance(world.marker_field, vis, T, intr.K,
                                     eff.map_position_std_m,
-                                    float(np.radians(eff.map_rotation_std_deg)))
+                                    float(np.radians(eff.map_rotation_std_deg))) \
+            if vis.shape[1] else np.zeros((6, 6))    # a board: rigid, no map error
         n = int(sum(p.shape[0] >= 4 for p in pts))
         out[cam] = CalibrationBias(cam, J @ J.T + S_map, J, sig, n, S_map)
     return out
@@ -839,7 +890,6 @@ def pose_error_basis(world, camera: str, T_world_cam, cfg: "VisionConfig | None"
     rendered."""
     from .markers import (check_camera_poses, intrinsics_pose_jacobians,  # noqa: PLC0415
                           map_error_variances, map_pose_jacobians)
-    from .world.layout import visible_markers  # noqa: PLC0415
     cfg = VisionConfig() if cfg is None else cfg
     if not isinstance(cfg, VisionConfig):
         raise TypeError(f"cfg must be a VisionConfig; received {type(cfg).__name__}")
@@ -848,7 +898,7 @@ def pose_error_basis(world, camera: str, T_world_cam, cfg: "VisionConfig | None"
     intr, _ = _camera_intrinsics(world, camera, cfg)
     field = world.marker_field
     if visible is None:
-        vis = visible_markers(field, T, intr, distortion=eff.distortion)
+        vis, pts = _visible_target_points(world, T, intr, eff)
     else:
         vis = np.asarray(visible)
         if vis.shape != (T.shape[0], field.T_world_marker.shape[0]) or vis.dtype != bool:
@@ -857,12 +907,36 @@ def pose_error_basis(world, camera: str, T_world_cam, cfg: "VisionConfig | None"
                              f"{vis.dtype}")
     D = map_error_variances(eff.map_position_std_m, float(np.radians(eff.map_rotation_std_deg)))
     Jm = map_pose_jacobians(field, vis, T, intr.K) * np.sqrt(D)          # (F, M, 6, 6)
-    corners = field.corners_world()
+    if visible is not None:
+        corners = field.corners_world()
+        pts = [corners[v].reshape(-1, 3) for v in vis]
     sig = calibration_sigmas(eff)
-    Ji = intrinsics_pose_jacobians([corners[v].reshape(-1, 3) for v in vis], T, intr.K,
-                                   eff.distortion, sig)
+    Ji = intrinsics_pose_jacobians(pts, T, intr.K, eff.distortion, sig)
     F, M = Jm.shape[:2]
     return np.concatenate([Jm.transpose(0, 2, 1, 3).reshape(F, 6, 6 * M), Ji], axis=2)
+
+
+def _visible_target_points(world, T: np.ndarray, intr, eff) -> tuple[np.ndarray, list]:
+    """``(visible (F, M) markers, [points (n_f, 3) per pose])``: the map markers fully in
+    view (:func:`simcalib.world.layout.visible_markers` in the distorted image) and their
+    corners; for a board target no map marker (M = 0) and the board corners in view."""
+    from .world.layout import project_points, visible_markers  # noqa: PLC0415
+    board, T_wb = _board_of(world)
+    if board is None:
+        vis = visible_markers(world.marker_field, T, intr, distortion=eff.distortion)
+        corners = world.marker_field.corners_world()
+        return vis, [corners[v].reshape(-1, 3) for v in vis]
+    from .boards import board_corners  # noqa: PLC0415
+    from .geometry import distort_pixels  # noqa: PLC0415
+    p_world = board_corners(board)[1] @ T_wb[:3, :3].T + T_wb[:3, 3]
+    uv, z = project_points(T, intr, p_world)                          # (F, N, 2), (F, N)
+    ok = z > 0.05
+    if np.any(np.asarray(eff.distortion, dtype=np.float64) != 0):
+        uv, one_to_one = distort_pixels(uv, intr.K, eff.distortion)
+        ok &= one_to_one
+    ok &= ((uv[..., 0] >= 2) & (uv[..., 0] <= intr.width - 3) & (uv[..., 1] >= 2)
+           & (uv[..., 1] <= intr.height - 3))
+    return np.zeros((T.shape[0], 0), dtype=bool), [p_world[m] for m in ok]
 
 
 def rig_entropy_of(rng: np.random.Generator) -> int:

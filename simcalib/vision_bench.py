@@ -22,13 +22,14 @@ __all__ = ["main", "bench_path"]
 
 def bench_path(path: str, *, platform: str | None = None, duration_s: float | None = None,
                fps: float | None = None, vision_cfg=None, seed: int = 0,
-               workers: int | None = None) -> dict:
-    """Run the visual stage on one path; returns plain numbers (see module docstring)."""
+               workers: int | None = None, world_kw: dict | None = None) -> dict:
+    """Run the visual stage on one path; returns plain numbers (see module docstring).
+    ``world_kw``: further ``WorldConfig`` fields (e.g. ``target``, ``rig``)."""
     from .geometry import rotation_error_rad, translation_error_m  # noqa: PLC0415
     from .vision import VisionConfig, visual_streams  # noqa: PLC0415
     from .world import WorldConfig, build_world  # noqa: PLC0415
 
-    kw = {"path": path, "platform": platform}
+    kw = {"path": path, "platform": platform, **(world_kw or {})}
     if duration_s is not None:
         kw["duration_s"] = duration_s
     if fps is not None:
@@ -219,6 +220,14 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--markdown", default=None, metavar="FILE",
                    help="with --effects: write the table as Markdown to FILE, or replace "
                         "the generated table in FILE if it has one (e.g. docs/vision.md)")
+    p.add_argument("--targets", nargs="+", default=None, metavar="TARGET",
+                   help="board accuracy: every target (marker_wall, charuco, apriltag_grid) "
+                        "x preset (ideal, realistic, harsh) in the world of --scenario; "
+                        "with --markdown FILE the table replaces the generated one there")
+    p.add_argument("--scenario", default="handeye",
+                   help="with --targets: the scenario whose world is used (default handeye)")
+    p.add_argument("--camera", default="cam_b",
+                   help="with --targets: the camera reported (default cam_b, the wrist camera)")
     p.add_argument("--seed", type=int, default=0, help="seed (default 0)")
     p.add_argument("--json", default=None, help="write the results to this JSON file")
     return p
@@ -244,6 +253,9 @@ def main(argv=None) -> int:
         return 2
     if args.effects:
         return _main_effects(args, paths, argv)
+    if args.targets:
+        from .board_bench import main_targets  # noqa: PLC0415
+        return main_targets(args, argv)
     results = []
     for path in paths:
         r = bench_path(path, platform=args.platform, duration_s=args.duration, fps=args.fps,

@@ -27,6 +27,9 @@ def _small_cfg(source):
     if source == "robot_fk":     # needs the arm; a robot with ~1 mm / 1 mrad DH error
         return load_config("handeye", ["source=robot_fk", "streams.a.source=null",
                                        "streams.b.source=null", *SMALL_SIM])
+    if source == "fixed_board":  # eye-to-hand's board seen by the stand camera (cam_b only)
+        return load_config("eyetohand", ["streams.a.source=null", "streams.b.source=null",
+                                         *SMALL_SIM])
     return load_config("planar", [f"source={source}", *SMALL_SIM,
                                   "world.cam_a.width=320", "world.cam_a.height=240",
                                   "world.cam_b.width=320", "world.cam_b.height=240"])
@@ -40,10 +43,10 @@ def _rngs(seed=0):
 
 def test_registry_lists_the_builtin_sources_and_rejects_unknown_names():
     assert set(available_sources()) == {"ground_truth", "noisy", "aruco", "robot_fk",
-                                        "synthetic"}
+                                        "fixed_board", "synthetic"}
     assert set(sources_for_kind("sim")) == set(SOURCES)  # the config's names are served
     with pytest.raises(ValueError, match=r"unknown pose source 'nosy'.*did you mean 'noisy'"
-                                         r".*available: aruco, ground_truth"):
+                                         r".*available: aruco, .*ground_truth"):
         get_source("nosy")
     with pytest.raises(ValueError, match=r"'aruco' cannot measure kind='synthetic'.*"
                                          r"synthetic: \['synthetic'\]"):
@@ -61,13 +64,14 @@ def test_every_source_builds_and_measures_a_small_world(name):
     truth = build_truth(cfg, rngs)
     assert isinstance(truth, GroundTruth) and truth.kind == kind
     assert camera_sources(cfg, kind) == {c: name for c in CAMERAS}
-    out = src.measure(truth, cfg, rngs[src.info.rng_stream], CAMERAS)
+    cams = ("cam_b",) if name == "fixed_board" else CAMERAS   # it measures the board only
+    out = src.measure(truth, cfg, rngs[src.info.rng_stream], cams)
     assert isinstance(out, SourceOutput)
     if out.motions is not None:      # a source of relative motions
         assert out.motions.C.shape == out.motions.H.shape and out.motions.n >= 2
         assert set(out.pose_errors) == set(CAMERAS)
         return
-    for cam in CAMERAS:
+    for cam in cams:
         s = out.streams[cam]
         assert isinstance(s, PoseStream) and s.camera == cam and s.n_used >= 2
         assert s.T_world_cam.shape == (s.n_used, 4, 4) and np.isfinite(s.T_world_cam).all()

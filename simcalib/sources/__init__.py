@@ -13,7 +13,8 @@ from simcalib.sources.registry import (available_sources, camera_sources, get_so
                                        register, sources_for_kind)
 # the built-in sources register themselves on import (each file is light: heavy imports
 # happen inside measure())
-from simcalib.sources import aruco, ground_truth, noisy, robot_fk, synthetic  # noqa: E402,F401
+from simcalib.sources import (aruco, fixed_board, ground_truth, noisy, robot_fk,  # noqa: E402,F401
+                              synthetic)
 from simcalib.sources.truth import KINDS, build_truth  # noqa: E402
 
 __all__ = ["CAMERAS", "GroundTruth", "PoseSource", "SourceInfo", "SourceOutput", "KINDS",

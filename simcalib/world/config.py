@@ -25,6 +25,7 @@ from simcalib.checks import (check_in, check_int, check_range, check_that,
 from simcalib.errors import ConfigError, did_you_mean
 from simcalib.synthetic import PAPER_X_ROTVEC_RAD, PAPER_X_TRANSLATION_M
 from simcalib.world.vehicle import VehicleConfig
+from simcalib.boards import BoardConfig, board_for_target, check_target
 
 #: The paper's X rotation in degrees (rounded back to the published decimals).
 PAPER_X_ROTVEC_DEG = tuple(round(math.degrees(v), 10) for v in PAPER_X_ROTVEC_RAD)
@@ -265,15 +266,21 @@ class ArmControlConfig:
     * ``gain_scale``: multiplies the default servo stiffness ``kp`` (``kd`` by its square
       root, keeping the damping ratio); ``settle_tol_rad`` / ``settle_max_s``: when a
       stop-and-go capture is taken (every joint within the tolerance of its target and
-      slower than 1e-3 rad/s, or after ``settle_max_s``)."""
+      slower than 1e-3 rad/s, or after ``settle_max_s``).
+    * ``mount``: ``"eye_in_hand"`` (default: the rig's cameras on the flange) or
+      ``"eye_to_hand"`` (a camera on a stand sees a board on the flange; cam_a = the flange,
+      cam_b = the board in the fixed camera's frame: :mod:`simcalib.world.eyetohand`)."""
     control: str = "kinematic"
     capture: str = "continuous"
     gain_scale: float = 1.0
     settle_tol_rad: float = 1e-4
     settle_max_s: float = 3.0
+    mount: str = "eye_in_hand"
 
     def __post_init__(self):
+        from simcalib.world.eyetohand import MOUNTS
         check_in("control", self.control, ("kinematic", "physics"))
+        check_in("mount", self.mount, MOUNTS)
         check_in("capture", self.capture, ("continuous", "stop_and_go"))
         set_fields(self,
                    gain_scale=check_range("gain_scale", self.gain_scale, lo=0.01, hi=100.0),
@@ -303,6 +310,11 @@ class WorldConfig:
     * ``vehicle``: the physics car of platform ``car`` (``world.vehicle.*``: the fields and
       checks of :class:`simcalib.world.vehicle.VehicleConfig`, reused as they are).
     * ``arm``: how the arm executes its path (:class:`ArmControlConfig`).
+    * ``target``: what the cameras see: ``"marker_wall"`` (default: the ArUco marker field
+      of ``markers``) or one board, ``"charuco"`` / ``"apriltag_grid"``
+      (:mod:`simcalib.boards`), on the wall given by ``board`` (no marker field then).
+    * ``board``: the board's :class:`simcalib.boards.BoardConfig` (its kind follows
+      ``target``).
     """
     platform: str | None = None
     path: str = "planar"
@@ -320,9 +332,13 @@ class WorldConfig:
     arm_dh_error: tuple | None = None
     vehicle: VehicleConfig = field(default_factory=VehicleConfig)
     arm: ArmControlConfig = field(default_factory=ArmControlConfig)
+    target: str = "marker_wall"
+    board: BoardConfig = field(default_factory=BoardConfig)
 
     def __post_init__(self):
         from simcalib.world.paths import get_path, resolve_platform
+        check_target(self.target)
+        set_fields(self, board=board_for_target(self.board, self.target))
         check_in("platform", self.platform, PLATFORMS, optional=True)
         check_that(self.arm_model in ("builtin", "menagerie"), "arm_model", self.arm_model,
                    "'builtin' (models/ur5e.xml) or 'menagerie' (UR5e from $MENAGERIE_ROOT)")

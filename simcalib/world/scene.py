@@ -50,7 +50,9 @@ class Scene:
     ``marker_field``: the known map; ``T_world_home``: the target frame's home pose
     (cart base or arm flange); ``home_qpos``: the matching ``qpos``; ``mount_site``: name
     of the site carrying the rig; ``T_target_cam``: per camera, pose of its OpenCV frame in
-    the target frame (cart: cart base; arm: flange)."""
+    the target frame (cart: cart base; arm: flange); ``board`` / ``T_world_board``: the
+    board target (:class:`simcalib.boards.BoardConfig` and its board frame in the world)
+    when ``world.target`` is a board, else ``None``."""
     model: object
     platform: str
     intrinsics: dict
@@ -61,6 +63,8 @@ class Scene:
     T_target_cam: dict
     T_a_b: np.ndarray
     xml: str
+    board: object = None
+    T_world_board: np.ndarray | None = None
 
 
 
@@ -141,7 +145,7 @@ def build_scene(cfg) -> Scene:
     _resize_room(spec, cfg.room.size_m)
     from simcalib.world.platforms import get_platform
     platform = get_platform(cfg.platform)
-    if platform.info.outdoor:     # no room, no marker field (the platform edits the scene)
+    if platform.info.outdoor or cfg.target != "marker_wall":  # no marker field
         field = MarkerField(cfg.markers.dictionary, np.zeros(0, dtype=np.int64),
                             cfg.markers.side_m, np.zeros((0, 4, 4)))
     else:
@@ -154,6 +158,12 @@ def build_scene(cfg) -> Scene:
     for name in CAMERA_NAMES:           # exact camera names for the renderer
         spec.camera(f"rig/{name}").name = name
     _add_markers(spec, field, cfg.markers)   # after attaching (assets dict on the parent)
+    board, T_world_board = None, None
+    if cfg.target != "marker_wall" and not platform.info.outdoor:
+        from simcalib.boards import T_world_wall_board, add_board
+        board = cfg.board
+        T_world_board = T_world_wall_board(board, cfg.room.size_m)
+        add_board(spec, "world", T_world_board, board)
     model = spec.compile()
     xml = spec.to_xml()
 
@@ -172,7 +182,8 @@ def build_scene(cfg) -> Scene:
             for n, c in (("cam_a", cfg.cam_a), ("cam_b", cfg.cam_b))}
     return Scene(model=model, platform=cfg.platform, intrinsics=intr, marker_field=field,
                  T_world_home=T_world_home, home_qpos=home_qpos, mount_site=mount,
-                 T_target_cam=T_target_cam, T_a_b=cfg.rig.T_a_b(), xml=xml)
+                 T_target_cam=T_target_cam, T_a_b=cfg.rig.T_a_b(), xml=xml, board=board,
+                 T_world_board=T_world_board)
 
 
 def build_model(cfg):

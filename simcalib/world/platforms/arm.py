@@ -140,6 +140,10 @@ class ArmPlatform:
             foot = foot + [0.0, 0.0, PEDESTAL_HEIGHT_M]
         frame = spec.worldbody.add_frame(pos=[float(v) for v in foot])
         spec.attach(arm, prefix="arm/", frame=frame)
+        if cfg.arm.mount == "eye_to_hand":   # the camera on a stand (eyetohand.py)
+            from simcalib.world.eyetohand import add_fixed_camera, add_flange_board
+            add_fixed_camera(spec, cfg)
+            add_flange_board(spec, cfg, f"arm/{site_name}")
         return f"arm/{site_name}"
 
     def home(self, model, data, mount_site, cfg):
