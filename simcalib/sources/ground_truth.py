@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-from simcalib.sources.base import GroundTruth, SourceInfo, SourceOutput
+from simcalib.sources.base import GroundTruth, SourceHooks, SourceInfo, SourceOutput
 from simcalib.sources.registry import register
 
 __all__ = ["GroundTruthSource"]
 
 
-class GroundTruthSource:
+class GroundTruthSource(SourceHooks):
     info = SourceInfo(name="ground_truth", kinds=("sim",), rng_stream="noise", exact=True,
                       description="the exact poses of the simulated cameras (no noise)")
 
