@@ -194,7 +194,10 @@ class VerdictConfig:
                                                 self.convergence_points, lo=0, hi=100))
 
 
-SOURCES = ("ground_truth", "noisy", "aruco", "robot_fk")
+from simcalib.sources import available_sources, sources_for_kind  # noqa: E402
+
+#: the pose sources of a simulated world: whatever registered itself (simcalib.sources)
+SOURCES = sources_for_kind("sim")
 KINDS = ("sim", "synthetic")
 
 
@@ -205,9 +208,10 @@ class ScenarioConfig:
     description: str = field(default="", metadata=_doc("one-line description"))
     kind: Literal["sim", "synthetic"] = field(default="sim", metadata=_doc(
         "sim: MuJoCo world (world.*, vision.*); synthetic: paper appendix D.2 (synthetic.*)"))
-    source: Literal["ground_truth", "noisy", "aruco", "robot_fk"] = field(
+    source: str = field(
         default="aruco", metadata=_doc("pose source of both streams (unless streams.a/b.source "
-                                       "says otherwise)"))
+                                       "says otherwise): a registered source "
+                                       "(simcalib.sources)"))
     seed: int = field(default=0, metadata=_doc("seed of every random draw of the run"))
     output: str | None = field(default=None, metadata=_doc(
         "run directory (default runs/<scenario>-<timestamp>)"))
@@ -247,10 +251,7 @@ class ScenarioConfig:
     def __post_init__(self):
         set_fields(self, seed=check_int("seed", self.seed, lo=0),
                    workers=check_int("workers", self.workers, lo=1))
-        if self.kind == "synthetic" and self.source in ("aruco", "robot_fk"):
-            raise ConfigError(f"source={self.source} needs a simulated world (kind=sim); a "
-                              "synthetic scenario allows source=ground_truth or source=noisy",
-                              key="source", value=self.source)
+        self._check_source()
         for key in ("a", "b"):
             name = getattr(self.streams, key).source
             check_in(f"streams.{key}.source", name, SOURCES, optional=True)
@@ -283,14 +284,27 @@ class ScenarioConfig:
         if missing:
             raise ConfigError(f"kind={self.kind} needs {missing}, which is not available "
                               "in this installation", key="kind", value=self.kind)
-        if self.kind == "sim" and self.source == "aruco" and getattr(
+        if self.kind == "sim" and available_sources()[self.source].needs_markers and getattr(
                 type(self.vision), "_simcalib_missing", None):
-            raise ConfigError("source=aruco needs simcalib.vision, which is not available "
+            raise ConfigError(f"source={self.source} needs simcalib.vision, which is not available "
                               "in this installation", key="source", value=self.source)
         if self.kind == "sim":
             from simcalib.config.feasibility import check_outdoor_source, check_path_feasible
             check_outdoor_source(self)
             check_path_feasible(self)
+
+    def _check_source(self):
+        """``source`` names a registered source that can measure this ``kind`` (a
+        synthetic scenario stands in for a source whose ``SourceInfo.synthetic_stand_in``)."""
+        infos = available_sources()
+        if self.source not in infos or (self.kind == "sim" and "sim" not in
+                                        infos[self.source].kinds):
+            raise unknown_choice("pose source", self.source, list(SOURCES), key="source")
+        if self.kind == "synthetic" and not infos[self.source].synthetic_stand_in:
+            ok = " or ".join(f"source={n}" for n, i in infos.items() if i.synthetic_stand_in)
+            raise ConfigError(f"source={self.source} needs a simulated world (kind=sim); a "
+                              f"synthetic scenario allows {ok}", key="source",
+                              value=self.source)
 
     def _sync_synthetic_noise(self):
         """``noise.*`` is the one place measurement noise is set: the synthetic generator's
@@ -298,7 +312,7 @@ class ScenarioConfig:
         them to something else is a conflict."""
         syn = self.synthetic
         base = type(syn)()
-        if self.source == "ground_truth":
+        if available_sources()[self.source].exact:
             want_r, want_t = 0.0, 0.0
         else:
             want_r, want_t = math.radians(self.noise.sigma_r_deg), self.noise.sigma_t_m

@@ -72,6 +72,7 @@ class SourceInfo:
     renders: bool = False
     needs_markers: bool = False
     reads_joints: bool = False
+    synthetic_stand_in: bool = False
 
 
 @dataclass(frozen=True)

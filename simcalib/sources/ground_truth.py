@@ -9,7 +9,7 @@ __all__ = ["GroundTruthSource"]
 
 
 class GroundTruthSource(SourceHooks):
-    info = SourceInfo(name="ground_truth", kinds=("sim",), rng_stream="noise", exact=True,
+    info = SourceInfo(name="ground_truth", synthetic_stand_in=True, kinds=("sim",), rng_stream="noise", exact=True,
                       description="the exact poses of the simulated cameras (no noise)")
 
     def measure(self, truth: GroundTruth, cfg, rng, cameras) -> SourceOutput:

@@ -13,7 +13,7 @@ __all__ = ["NoisySource"]
 
 
 class NoisySource(SourceHooks):
-    info = SourceInfo(name="noisy", kinds=("sim",), rng_stream="noise",
+    info = SourceInfo(name="noisy", synthetic_stand_in=True, kinds=("sim",), rng_stream="noise",
                       description="ground truth with Gaussian pose noise (paper eq. 38; "
                                   "noise.sigma_r_deg, noise.sigma_t_m)")
 
