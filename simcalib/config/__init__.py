@@ -19,9 +19,9 @@ import importlib
 #: public name -> the module that defines it
 _FACE = {
     **{name: "engine" for name in (
-        "build", "describe_yaml_files", "find_yaml", "leaf_paths",
-        "parse_override", "parse_overrides", "resolve_key", "to_dict", "_parse_value",
-        "_yaml_error_text")},
+        "build", "leaf_paths", "parse_override", "parse_overrides", "resolve_key",
+        "to_dict", "_parse_value")},
+    **{name: "files" for name in ("describe_yaml_files", "find_yaml", "_yaml_error_text")},
     **{name: "scenario" for name in (
         "ALIASES", "KINDS", "SOURCES", "NoiseConfig", "PairingConfig", "PriorConfig",
         "RecordingConfig", "ScenarioConfig", "VerdictConfig", "apply_overrides",

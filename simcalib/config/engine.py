@@ -23,16 +23,14 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-import os
 import types
 import typing
 from pathlib import Path
 from typing import Any, Literal, Mapping, Sequence
 
-from simcalib.errors import ConfigError, did_you_mean, unknown_choice
+from simcalib.errors import ConfigError, did_you_mean
 
-__all__ = ["apply_overrides", "build", "describe_keys", "describe_yaml_files", "find_yaml",
-           "leaf_paths", "parse_override", "parse_overrides", "resolve_key", "resolve_keys",
+__all__ = ["apply_overrides", "build", "describe_keys", "leaf_paths", "parse_override", "parse_overrides", "resolve_key", "resolve_keys",
            "to_dict"]
 
 
@@ -550,55 +548,7 @@ def _deep_copy(data):
     return data
 
 
-# ------------------------------------------------------------ YAML files, key help
-def describe_yaml_files(folder: Path) -> dict[str, str]:
-    """``{stem: one-line description}`` of the YAML files in ``folder``, sorted (scenarios,
-    sweeps); a broken file is listed with its problem."""
-    import yaml
-    out = {}
-    if not folder.is_dir():
-        return out
-    for p in sorted(folder.glob("*.yaml")):
-        try:
-            data = yaml.safe_load(p.read_text()) or {}
-            desc = str(data.get("description", "")).strip().splitlines()
-            out[p.stem] = desc[0] if desc else ""
-        except Exception as exc:  # a broken file is listed with its problem
-            out[p.stem] = f"(unreadable: {exc})"
-    return out
-
-
-def find_yaml(name: str, folder: Path, kind: str) -> Path:
-    """The YAML file of ``kind`` (``"scenario"``, ``"sweep"``) called ``name`` in
-    ``folder``, or ``name`` itself when it is a YAML path; unknown names list the valid
-    ones with the closest match."""
-    if not isinstance(name, str) or not name:
-        raise ConfigError(f"{kind} must be a non-empty name; received {name!r}")
-    if name.endswith((".yaml", ".yml")) or os.sep in name:
-        p = Path(name)
-        if not p.is_file():
-            raise ConfigError(f"{kind} file {name!r} does not exist")
-        return p
-    p = folder / f"{name}.yaml"
-    if p.is_file():
-        return p
-    names = list(describe_yaml_files(folder))
-    if not names:
-        raise ConfigError(f"unknown {kind} {name!r}; no {kind} files found in {folder}"
-                          + (" (set SIMCALIB_SCENARIOS)" if kind == "scenario" else ""),
-                          key=kind, value=name)
-    raise unknown_choice(kind, name, names)
-
-
-def _yaml_error_text(exc) -> str:
-    """``"line 3, column 7: mapping values are not allowed here"`` from a YAML error."""
-    mark = getattr(exc, "problem_mark", None) or getattr(exc, "context_mark", None)
-    problem = getattr(exc, "problem", None) or str(exc).strip().splitlines()[0]
-    if mark is not None:
-        return f"line {mark.line + 1}, column {mark.column + 1}: {problem}"
-    return str(problem)
-
-
+# ------------------------------------------------------------------------ key help
 def describe_keys(cls) -> list[str]:
     """One line per leaf key: ``path  type  = default   help`` (for ``run --help``)."""
     lines = []

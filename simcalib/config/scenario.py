@@ -26,8 +26,8 @@ from typing import Any, Literal, Mapping, Sequence
 from simcalib.config import engine
 from simcalib.config.checks import (check_in, check_int, check_names, check_positive,
                                     check_range, check_that, check_vector, set_fields)
-from simcalib.config.engine import (build, describe_yaml_files, find_yaml, to_dict,
-                                    _yaml_error_text)
+from simcalib.config.engine import build, to_dict
+from simcalib.config.files import _yaml_error_text, describe_yaml_files, find_yaml
 from simcalib.errors import ConfigError, unknown_choice
 
 __all__ = ["ALIASES", "NoiseConfig", "PairingConfig", "PriorConfig", "RecordingConfig",
