@@ -1,6 +1,6 @@
 """Package data: the repository keeps ``models/`` (MJCF) and ``scenarios/`` (YAML) at its top
 level; the wheel ships them inside the package as ``simcalib/models`` and
-``simcalib/scenarios`` (found by ``simcalib.resources``). Everything else is in pyproject.toml.
+``simcalib/scenarios`` (found by ``simcalib.config.resources``). Everything else is in pyproject.toml.
 
 This file exists only because pyproject's ``packages.find`` cannot add mapped packages to the
 ones it finds: new ``simcalib.*`` subpackages are picked up here automatically.

@@ -22,7 +22,7 @@ MARK_END = "<!-- bench-vision targets table: end -->"
 
 def _scenario_world(name: str) -> dict:
     import yaml  # noqa: PLC0415
-    from simcalib.resources import scenarios_dir  # noqa: PLC0415
+    from simcalib.config.resources import scenarios_dir  # noqa: PLC0415
     path = scenarios_dir() / f"{name}.yaml"
     if not path.exists():
         valid = sorted(p.stem for p in scenarios_dir().glob("*.yaml"))

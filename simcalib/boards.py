@@ -30,7 +30,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from simcalib.checks import check_in, check_int, check_range, check_that, set_fields
+from simcalib.config.checks import check_in, check_int, check_range, check_that, set_fields
 
 __all__ = ["BOARD_KINDS", "TARGETS", "BoardConfig", "cv_board", "board_image", "board_png",
            "board_corners", "T_geom_board", "add_board", "BoardPose", "BoardPoseEstimator",
@@ -48,6 +48,16 @@ BOARD_THICKNESS_M = 0.004
 def check_target(value) -> str:
     """``value`` if it is a valid target name, else a ConfigError listing the valid ones."""
     return check_in("target", value, TARGETS)
+
+
+#: OpenCV's predefined dictionaries and their number of ids (``cv2.aruco.DICT_*``; checked
+#: against OpenCV in tests/test_boards.py), so that a config is validated without importing
+#: OpenCV.
+DICTIONARY_SIZES = {
+    **{f"DICT_{b}X{b}_{n}": n for b in (4, 5, 6, 7) for n in (50, 100, 250, 1000)},
+    "DICT_ARUCO_ORIGINAL": 1024, "DICT_APRILTAG_16h5": 30, "DICT_APRILTAG_25h9": 35,
+    "DICT_APRILTAG_36h10": 2320, "DICT_APRILTAG_36h11": 587, "DICT_ARUCO_MIP_36h12": 250,
+}
 
 
 @dataclass(frozen=True)
@@ -79,9 +89,7 @@ class BoardConfig:
         check_in("kind", self.kind, sorted(BOARD_KINDS))
         check_in("wall", self.wall, ("+x", "-x", "+y", "-y"))
         dictionary = self.dictionary or BOARD_KINDS[self.kind]
-        import cv2  # noqa: PLC0415
-        valid = sorted(n for n in dir(cv2.aruco) if n.startswith("DICT_"))
-        check_in("dictionary", dictionary, valid)
+        check_in("dictionary", dictionary, sorted(DICTIONARY_SIZES))
         center = tuple(float(v) for v in np.ravel(np.asarray(self.center_m, dtype=float)))
         check_that(len(center) == 2, "center_m", self.center_m, "(along the wall, height) in m")
         set_fields(
@@ -98,8 +106,7 @@ class BoardConfig:
             check_that(self.marker_m < self.square_m, "marker_m", self.marker_m,
                        f"< square_m ({self.square_m:g})")
         n_ids = self.n_markers
-        have = int(cv2.aruco.getPredefinedDictionary(
-            getattr(cv2.aruco, dictionary)).bytesList.shape[0])
+        have = DICTIONARY_SIZES[dictionary]
         check_that(n_ids <= have, "dictionary", dictionary,
                    f"a dictionary with at least {n_ids} ids (this one has {have})")
 

@@ -31,7 +31,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from simcalib.config import ScenarioConfig
+from simcalib.config.scenario import ScenarioConfig
+from simcalib.sources import get_source
 from simcalib.evaluation import estimate_errors, pose_source_errors
 from simcalib.geometry import (matrix_from_rotvec, rotation_error_rad,
                                transform_from_rotation_translation)
@@ -48,7 +49,7 @@ STAGES = ("world", "streams", "pairs", "solvers", "evaluation", "reports")
 CAMERAS = ("cam_a", "cam_b")
 # order of the child generators spawned from the run's seed (never reorder: determinism)
 RNG_STREAMS = ("world", "noise", "vision", "synthetic", "pairing", "solvers", "prior",
-               "robot", "robot_fk", "outliers")
+               "robot", "encoders", "outliers")
 
 
 @dataclass(frozen=True)
@@ -353,7 +354,7 @@ def _stage_world(st: RunState) -> None:
 def _stage_streams(st: RunState) -> None:
     """Each camera's pose source measures the truth (sources grouped so a source that
     serves both cameras runs once)."""
-    from simcalib.sources import camera_sources, get_source
+    from simcalib.sources import camera_sources
     kind = st.truth.kind
     st.camera_sources = camera_sources(st.cfg, kind)
     by_source: dict[str, list] = {}
@@ -396,7 +397,9 @@ def _corrupt_streams(st: RunState) -> None:
     cfg, truth = st.cfg, st.truth
     st.sensing["stream_sources"] = dict(st.camera_sources)
     if truth.world is not None:
-        st.sensing["robot"] = robot_report(truth.world, cfg, st.source_logs.get("robot_fk"))
+        robot_log = next((log for name, log in st.source_logs.items()
+                          if get_source(name).info.reads_joints), None)
+        st.sensing["robot"] = robot_report(truth.world, cfg, robot_log)
         st.sensing["clocks"] = clock_report(truth.world)
     if cfg.outliers.active and not st.measured:
         raise ValueError("outliers.* needs pose streams; a source of relative motions "
@@ -570,17 +573,18 @@ def calibration_bias(st) -> tuple:
     ``included`` and per camera its 1-sigma (deg, m) and inputs."""
     from simcalib.solvers.diagnostics.uncertainty import PoseBias
     truth = st.truth
-    cams = [c for c in CAMERAS if st.camera_sources.get(c) == "aruco"]
     report = {"included": False, "source": "vision.intrinsics_error (1-sigma of the "
               "calibration) and vision.map_position_std_m / map_rotation_std_deg (marker "
               "map) through PnP of the marker corners seen from the true poses",
               "cameras": {}}
-    if not cams or truth is None or truth.world is None:
+    if truth is None or truth.world is None:
         return None, report
-    from simcalib.vision import calibration_pose_bias
-    world = truth.world
-    cams = [c for c in cams if c in world.camera_names]
-    bias = calibration_pose_bias(world, st.cfg.vision, cameras=cams) if cams else {}
+    bias = {}
+    for name in dict.fromkeys(st.camera_sources.get(c) for c in CAMERAS):
+        if name is None:
+            continue
+        cams = [c for c in CAMERAS if st.camera_sources.get(c) == name]
+        bias.update(get_source(name, "sim").calibration_bias(truth.world, st.cfg, cams))
     if not bias:
         return None, report
     report["included"] = True
@@ -626,29 +630,11 @@ def stop_error_basis(world, cfg, cam: str, source: str, T_world_cam, qpos=None,
     arm's DH deviation (``robot.kinematic_error``, :func:`simcalib.world.robot_error.
     fk_pose_error_basis`; ``qpos`` (F, nq) the MuJoCo joint state at each pose). None for
     other sources or when the configuration has no such error."""
-    if source not in ("aruco", "robot_fk"):
+    if source is None:
         return None
-    lay = basis_layout(world)
-    T = np.asarray(T_world_cam, dtype=np.float64)
-    if source == "aruco" and world.marker_field is not None:
-        from simcalib.vision import pose_error_basis as vision_basis
-        V = vision_basis(world, cam, T, cfg.vision, visible=visible)
-        if not V.any():
-            return None
-        B = np.zeros((T.shape[0], 6, lay["P"]))
-        B[:, :, lay["map"]] = V[:, :, :lay["map"].stop]
-        B[:, :, lay["cal_a" if cam == "cam_a" else "cal_b"]] = V[:, :, lay["map"].stop:]
-        return B
-    if source == "robot_fk" and qpos is not None and cfg.robot.kinematic_error.active:
-        from simcalib.sources.robot_fk import T_flange_cam, arm_state
-        from simcalib.world.robot_error import fk_pose_error_basis
-        adr, _ = arm_state(world)
-        B = np.zeros((T.shape[0], 6, lay["P"]))
-        B[:, :, lay["dh"]] = fk_pose_error_basis(np.asarray(qpos)[:, adr],
-                                                 T_flange_cam(world.config.rig, cam),
-                                                 cfg.robot.kinematic_error.sigmas)
-        return B
-    return None
+    return get_source(source, "sim").error_basis(world, cfg, cam, T_world_cam,
+                                                 basis_layout(world), qpos=qpos,
+                                                 visible=visible)
 
 
 def pose_error_basis(st, compress: bool = True):
@@ -671,18 +657,15 @@ def pose_error_basis(st, compress: bool = True):
     for cam in CAMERAS:
         src = st.camera_sources.get(cam)
         B = None
-        if src in ("aruco", "robot_fk") and cam in world.camera_names and cam in st.measured:
+        if src is not None and get_source(src, "sim").has_error_basis \
+                and cam in world.camera_names and cam in st.measured:
             m = st.measured[cam]
             pos = {int(f): k for k, f in enumerate(np.asarray(m.frame_index))}
             if not all(int(f) in pos for f in frames[cam]):
                 return None
             T = np.asarray(m.T_world_cam)[[pos[int(f)] for f in frames[cam]]]
-            if src == "aruco":
-                B = stop_error_basis(world, st.cfg, cam, src, T,
-                                     visible=_markers_used(st, world, cam, frames[cam]))
-            elif st.cfg.robot.kinematic_error.active:
-                qpos = np.asarray(world.frames(cam).qpos)[frames[cam]]
-                B = stop_error_basis(world, st.cfg, cam, src, T, qpos=qpos)
+            B = get_source(src, "sim").datapoint_error_basis(st, world, cam, T, frames[cam],
+                                                              basis_layout(world))
         out.append(np.zeros((D, 6, basis_layout(world)["P"])) if B is None else B)
     used = np.any(out[0] != 0, axis=(0, 1)) | np.any(out[1] != 0, axis=(0, 1))
     if not used.any():
@@ -690,21 +673,6 @@ def pose_error_basis(st, compress: bool = True):
     if not compress:
         return tuple(out)
     return tuple(B[:, :, used] for B in out)     # markers never seen carry nothing
-
-
-def _markers_used(st, world, cam, frame_index):
-    """``(F, M)`` bool: the map markers the PnP of ``cam`` rested on at each frame (the
-    visual log's ``ids_used``), or None without a visual log for the camera."""
-    log = st.source_logs.get("aruco")
-    frames = getattr(log, "frames", {}).get(cam) if log is not None else None
-    field = world.marker_field
-    if not frames or field.T_world_marker.shape[0] == 0:   # no map (a board target)
-        return None
-    vis = np.zeros((len(frame_index), field.T_world_marker.shape[0]), dtype=bool)
-    for k, f in enumerate(frame_index):
-        rows = field.index_of(np.asarray(frames[int(f)].ids_used))
-        vis[k, rows[rows >= 0]] = True
-    return vis
 
 
 def pose_pairs(st):

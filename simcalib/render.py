@@ -298,7 +298,7 @@ class RenderSettings:
     coarse_meshes: bool = True
 
     def __post_init__(self):
-        from simcalib.checks import check_bool, check_int, check_range, fail, set_fields
+        from simcalib.config.checks import check_bool, check_int, check_range, fail, set_fields
         if not isinstance(self.fovy_deg, dict):
             raise fail("fovy_deg", self.fovy_deg, "a dict camera -> degrees", type_error=True)
         set_fields(

@@ -121,7 +121,7 @@ class SyntheticConfig:
     X_rotvec_rad: tuple[float, float, float] = PAPER_X_ROTVEC_RAD
 
     def __post_init__(self):
-        from simcalib.checks import check_in, check_int, check_positive, check_vector, set_fields
+        from simcalib.config.checks import check_in, check_int, check_positive, check_vector, set_fields
         set_fields(
             self,
             motion=check_in("motion", self.motion, MOTIONS),

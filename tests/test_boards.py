@@ -13,7 +13,7 @@ import yaml
 from simcalib.boards import (BOARD_KINDS, TARGETS, BoardConfig, T_geom_board, add_board,
                              board_corners, board_image, board_pose_estimator, cv_board)
 from simcalib.errors import ConfigError
-from simcalib.resources import scenarios_dir
+from simcalib.config.resources import scenarios_dir
 from simcalib.world import WorldConfig
 
 #: Expected board pose error (median over frames, mm / deg) on renders of the handeye
@@ -157,3 +157,10 @@ def test_marker_wall_unchanged(gl):
     assert default.marker_field.ids.size > 0 and "board" not in default.xml
     boarded = build_scene(WorldConfig(target="charuco"))
     assert boarded.marker_field.ids.size == 0 and 'name="board"' in boarded.xml
+
+
+def test_dictionary_sizes_match_opencv():
+    import cv2
+    from simcalib.boards import DICTIONARY_SIZES
+    for name, n in DICTIONARY_SIZES.items():
+        assert cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, name)).bytesList.shape[0] == n

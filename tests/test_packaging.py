@@ -64,7 +64,7 @@ def test_wheel_ships_data_and_runs_outside_the_source_tree(tmp_path):
         assert f"  {name} " in out, out
     probe = _run([sys.executable, "-c", textwrap.dedent("""
         import simcalib
-        from simcalib.resources import model_path
+        from simcalib.config.resources import model_path
         simcalib.load_config("planar")
         print(simcalib.__file__)
         for m in ("room", "cart", "ur5e", "rig"):
@@ -83,7 +83,7 @@ def test_wheel_ships_data_and_runs_outside_the_source_tree(tmp_path):
 
 
 def test_resources_find_the_checkout_data(monkeypatch):
-    from simcalib import resources
+    from simcalib.config import resources
     monkeypatch.delenv("SIMCALIB_SCENARIOS", raising=False)
     assert resources.models_dir() == REPO / "models"
     assert resources.scenarios_dir() == REPO / "scenarios"

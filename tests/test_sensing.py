@@ -32,7 +32,7 @@ def _rngs(seed=0):
 def _fk_stream(cfg, seed=0):
     rngs = _rngs(seed)
     truth = build_truth(cfg, rngs)
-    out = get_source("robot_fk", "sim").measure(truth, cfg, rngs["robot_fk"], ("cam_a",))
+    out = get_source("robot_fk", "sim").measure(truth, cfg, rngs[get_source("robot_fk").info.rng_stream], ("cam_a",))
     return truth, out.streams["cam_a"]
 
 
@@ -116,7 +116,7 @@ def test_robot_fk_needs_the_builtin_arm():
     rngs = _rngs()
     truth = build_truth(cfg, rngs)
     with pytest.raises(ValueError, match="robot_fk needs world.platform='arm'"):
-        get_source("robot_fk").measure(truth, cfg, rngs["robot_fk"], ("cam_a",))
+        get_source("robot_fk").measure(truth, cfg, rngs[get_source("robot_fk").info.rng_stream], ("cam_a",))
 
 
 # -------------------------------------------------------------------- stream sources

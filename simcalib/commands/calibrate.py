@@ -26,7 +26,7 @@ from typing import Literal
 
 import numpy as np
 
-from simcalib.checks import check_positive, check_range, check_that, set_fields
+from simcalib.config.checks import check_positive, check_range, check_that, set_fields
 from simcalib.estimation.verdict import Tolerances
 from simcalib.errors import (EXIT_DEGENERATE, EXIT_OK, EXIT_SOLVER, ConfigError, DataError,
                              SolverError, UsageError, unknown_choice)

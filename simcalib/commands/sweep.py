@@ -40,7 +40,7 @@ def main(args: list[str]) -> int:
 
 def _parse(args: list[str]):
     from simcalib.config import parse_override
-    from simcalib.checks import check_int
+    from simcalib.config.checks import check_int
     flags = {a for a in args if a.startswith("--")}
     if flags - {"--quiet"}:
         raise UsageError(f"unknown option {sorted(flags - {'--quiet'})[0]!r}; options: --quiet")

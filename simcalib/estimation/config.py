@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Literal
 
-from simcalib.checks import check_positive, check_range, check_that, set_fields
+from simcalib.config.checks import check_positive, check_range, check_that, set_fields
 
 __all__ = ["EstimationConfig", "FILE_FORMS"]
 

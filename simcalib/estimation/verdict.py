@@ -33,7 +33,7 @@ class Tolerances:
         "1-sigma translation tolerance, metres (above it: poorly determined)"))
 
     def __post_init__(self):
-        from simcalib.checks import check_positive, set_fields
+        from simcalib.config.checks import check_positive, set_fields
         set_fields(self, tolerance_deg=check_positive("tolerance_deg", self.tolerance_deg),
                    tolerance_m=check_positive("tolerance_m", self.tolerance_m))
 

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from simcalib.checks import check_int, check_names, check_positive, check_that
+from simcalib.config.checks import check_int, check_names, check_positive, check_that
 from simcalib.errors import unknown_choice
 from simcalib.geometry import rotation_error_rad, translation_error_m
 
@@ -80,12 +80,12 @@ def build_config(cls, values: dict):
 
 
 def check_positive_int(name: str, value, minimum: int = 1) -> int:
-    """An integer >= ``minimum`` (:func:`simcalib.checks.check_int`)."""
+    """An integer >= ``minimum`` (:func:`simcalib.config.checks.check_int`)."""
     return check_int(name, value, lo=minimum)
 
 
 def check_positive_float(name: str, value, allow_zero: bool = False) -> float:
-    """A finite number > 0 (>= 0 with ``allow_zero``; :func:`simcalib.checks.check_positive`)."""
+    """A finite number > 0 (>= 0 with ``allow_zero``; :func:`simcalib.config.checks.check_positive`)."""
     return check_positive(name, value, allow_zero=allow_zero)
 
 
@@ -110,7 +110,7 @@ def noise_grid_fields(cfg) -> dict:
     """Checked values of the fields the noise-grid experiments (figure3, figure6) share:
     ``samples``/``num_alphas``/``chunk`` >= 1, ``workers`` >= 0, ``n``/``num_motions`` >= 2,
     ``seed`` >= 0, and the non-negative ``sigma_r_rad``/``sigma_t_m`` grids (as tuples).
-    Pass the result to :func:`simcalib.checks.set_fields`."""
+    Pass the result to :func:`simcalib.config.checks.set_fields`."""
     fields = {name: check_int(name, getattr(cfg, name), lo=1)
               for name in ("samples", "num_alphas", "chunk")}
     fields.update(workers=check_int("workers", cfg.workers, lo=0),

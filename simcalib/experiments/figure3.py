@@ -50,7 +50,7 @@ class Figure3Config:
     output: str = "results/figure3"
 
     def __post_init__(self):
-        from simcalib.checks import check_that, set_fields
+        from simcalib.config.checks import check_that, set_fields
         set_fields(self, **common.noise_grid_fields(self))
         common.alpha_grid(self.num_alphas, self.alpha_min, self.alpha_max)
         common.check_scenarios("scenarios", self.scenarios)

@@ -46,7 +46,7 @@ class Figure6Config:
     output: str = "results/figure6"
 
     def __post_init__(self):
-        from simcalib.checks import check_positive, check_that, set_fields
+        from simcalib.config.checks import check_positive, check_that, set_fields
         set_fields(self, **common.noise_grid_fields(self),
                    fixed_sigma_r_rad=check_positive("fixed_sigma_r_rad",
                                                     self.fixed_sigma_r_rad, allow_zero=True),

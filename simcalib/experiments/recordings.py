@@ -1040,7 +1040,7 @@ class RecordingsConfig:
     output: str = "results/recordings"
 
     def __post_init__(self):
-        from simcalib.checks import check_int, check_names, set_fields
+        from simcalib.config.checks import check_int, check_names, set_fields
         set_fields(self, kinds=check_names("kinds", self.kinds, tuple(KINDS)),
                    seeds=check_int("seeds", self.seeds, lo=1))
 

@@ -51,7 +51,7 @@ class StreamsConfig:
     output: str = "results/streams"
 
     def __post_init__(self):
-        from simcalib.checks import check_int, check_names, set_fields
+        from simcalib.config.checks import check_int, check_names, set_fields
         set_fields(self, parts=check_names("parts", self.parts, PARTS),
                    runs=check_int("runs", self.runs, lo=1),
                    ransac_runs=check_int("ransac_runs", self.ransac_runs, lo=1))

@@ -60,7 +60,7 @@ class Table1Config:
     output: str = "results/table1"
 
     def __post_init__(self):
-        from simcalib.checks import check_int, check_positive, check_that, set_fields
+        from simcalib.config.checks import check_int, check_positive, check_that, set_fields
         set_fields(self,
                    **{name: check_int(name, getattr(self, name), lo=1)
                       for name in ("samples", "slow_samples", "timing_runs",

@@ -75,7 +75,7 @@ class Table2Config:
                                X_rotvec_rad=self.X_rotvec_rad)
 
     def __post_init__(self):
-        from simcalib.checks import check_int, check_positive, check_that, set_fields
+        from simcalib.config.checks import check_int, check_positive, check_that, set_fields
         set_fields(self,
                    **{name: check_int(name, getattr(self, name), lo=1)
                       for name in ("samples", "num_alphas", "slow_samples", "slow_alphas",

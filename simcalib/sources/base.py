@@ -17,7 +17,8 @@ from typing import Mapping, Protocol, runtime_checkable
 
 import numpy as np
 
-__all__ = ["CAMERAS", "GroundTruth", "SourceInfo", "SourceOutput", "PoseSource"]
+__all__ = ["CAMERAS", "GroundTruth", "SourceInfo", "SourceOutput", "PoseSource",
+           "SourceHooks"]
 
 #: The cameras (streams) of a run, in the order rng children are assigned to them.
 CAMERAS = ("cam_a", "cam_b")
@@ -58,7 +59,10 @@ class SourceInfo:
     ``rng_stream``: which child generator of the run's seed it draws from (a name of
     ``simcalib.pipeline.RNG_STREAMS``; never share one between sources);
     ``exact``: its poses are the ground truth (no TUM file / no separate trajectory);
-    ``renders``: it renders images (slow; ``workers`` applies).
+    ``renders``: it renders images (slow; ``workers`` applies);
+    ``needs_markers``: it measures against the marker field (no source for an outdoor
+    platform); ``reads_joints``: it reads the arm's joint encoders (its log is the robot
+    report's input, results.json ``sensing.robot``).
     """
     name: str
     description: str
@@ -66,6 +70,9 @@ class SourceInfo:
     rng_stream: str = "noise"
     exact: bool = False
     renders: bool = False
+    needs_markers: bool = False
+    reads_joints: bool = False
+    synthetic_stand_in: bool = False
 
 
 @dataclass(frozen=True)
@@ -108,3 +115,39 @@ class PoseSource(Protocol):
 
     def measure(self, truth: GroundTruth, cfg, rng: np.random.Generator,
                 cameras: tuple[str, ...]) -> SourceOutput: ...
+
+
+class SourceHooks:
+    """What the pipeline and the config's feasibility check ask a source, with the answers
+    of a source that has none of these facts (every built-in source derives from it, a new
+    one overrides what applies).
+
+    * ``pose_margins(cfg) -> (m, deg)``: how far a measured relative motion may fall below
+      the true one (the pre-filter prediction of :mod:`simcalib.config.feasibility`).
+    * ``error_basis(world, cfg, cam, T_world_cam, layout, qpos=None, visible=None)``:
+      ``(F, 6, P)`` systematic pose errors in the columns of ``layout``
+      (:func:`simcalib.pipeline.basis_layout`), or None.
+    * ``datapoint_error_basis(st, world, cam, T_world_cam, frame_index, layout)``: the same
+      at a run's measured datapoints (the source reads what its log recorded), or None.
+    * ``calibration_bias(world, cfg, cameras) -> {cam: bias}``: the fixed pose bias its
+      calibration inputs cause per camera (:class:`simcalib.vision.CalibrationBias`),
+      empty when it has none.
+    """
+
+    def pose_margins(self, cfg) -> tuple[float, float]:
+        return 0.0, 0.0
+
+    @property
+    def has_error_basis(self) -> bool:
+        """The source models systematic pose errors (it overrides
+        :meth:`datapoint_error_basis`)."""
+        return type(self).datapoint_error_basis is not SourceHooks.datapoint_error_basis
+
+    def error_basis(self, world, cfg, cam, T_world_cam, layout, qpos=None, visible=None):
+        return None
+
+    def datapoint_error_basis(self, st, world, cam, T_world_cam, frame_index, layout):
+        return None
+
+    def calibration_bias(self, world, cfg, cameras) -> dict:
+        return {}

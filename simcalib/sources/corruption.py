@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from simcalib.checks import check_in, check_names, check_range, set_fields
+from simcalib.config.checks import check_in, check_names, check_range, set_fields
 
 __all__ = ["OUTLIER_KINDS", "OutliersConfig", "inject_outliers", "outlier_pairs",
            "clock_report"]
@@ -178,7 +178,7 @@ def inject_outliers(streams: dict, cfg: OutliersConfig, rng: np.random.Generator
     ``n_outliers``, ``by_kind`` and ``labels`` — one dict per outlier: ``frame_index``,
     ``timestamp_s``, ``kind``, ``rotation_deg`` / ``translation_m`` from the clean pose).
     The generator is split per camera (``cam_a``, ``cam_b``) whatever is selected."""
-    from simcalib.config import to_dict
+    from simcalib.config.engine import to_dict
     from simcalib.sources.base import CAMERAS
     from simcalib.sources.selection import STREAM_CAMERAS
     rngs = dict(zip(CAMERAS, rng.spawn(len(CAMERAS))))

@@ -17,7 +17,7 @@ import dataclasses
 
 import numpy as np
 
-from simcalib.sources.base import GroundTruth, SourceInfo, SourceOutput
+from simcalib.sources.base import GroundTruth, SourceHooks, SourceInfo, SourceOutput
 from simcalib.sources.registry import register
 
 __all__ = ["FixedBoardSource"]
@@ -35,7 +35,7 @@ def _check(world, cameras) -> None:
                          f"streams.b.source; it was asked for {list(cameras)}")
 
 
-class FixedBoardSource:
+class FixedBoardSource(SourceHooks):
     info = SourceInfo(name="fixed_board", kinds=("sim",), rng_stream="vision", renders=True,
                       description="eye-to-hand: the fixed stand camera's rendered images -> "
                                   "detection of the board on the flange -> its pose by PnP")

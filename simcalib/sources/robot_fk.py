@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from simcalib.sources.base import CAMERAS, GroundTruth, SourceInfo, SourceOutput
+from simcalib.sources.base import CAMERAS, GroundTruth, SourceHooks, SourceInfo, SourceOutput
 from simcalib.sources.registry import register
 
 __all__ = ["RobotFKSource", "ARM_JOINTS", "arm_state"]
@@ -58,12 +58,33 @@ def arm_state(world) -> tuple[np.ndarray, np.ndarray]:
     return np.array(adr), T
 
 
-class RobotFKSource:
-    info = SourceInfo(name="robot_fk", kinds=("sim",), rng_stream="robot_fk",
+class RobotFKSource(SourceHooks):
+    info = SourceInfo(name="robot_fk", kinds=("sim",), rng_stream="encoders", reads_joints=True,
                       description="arm joint encoders (robot.encoder) through the nominal DH "
                                   "kinematics while the world moves the true arm "
                                   "(robot.kinematic_error): the flange / mounted camera pose "
                                   "as the robot reports it")
+
+    def error_basis(self, world, cfg, cam, T_world_cam, layout, qpos=None, visible=None):
+        """The arm's DH deviation (``robot.kinematic_error``) at the joint states ``qpos``
+        ``(F, nq)`` (:func:`simcalib.world.robot_error.fk_pose_error_basis`), in the
+        ``dh`` columns; None without a joint state or a kinematic error."""
+        if qpos is None or not cfg.robot.kinematic_error.active:
+            return None
+        from simcalib.world.robot_error import fk_pose_error_basis
+        adr, _ = arm_state(world)
+        B = np.zeros((np.shape(T_world_cam)[0], 6, layout["P"]))
+        B[:, :, layout["dh"]] = fk_pose_error_basis(np.asarray(qpos)[:, adr],
+                                                    T_flange_cam(world.config.rig, cam),
+                                                    cfg.robot.kinematic_error.sigmas)
+        return B
+
+    def datapoint_error_basis(self, st, world, cam, T_world_cam, frame_index, layout):
+        """:meth:`error_basis` at the joint state of each datapoint's frame."""
+        if not st.cfg.robot.kinematic_error.active:
+            return None
+        qpos = np.asarray(world.frames(cam).qpos)[frame_index]
+        return self.error_basis(world, st.cfg, cam, T_world_cam, layout, qpos=qpos)
 
     def measure(self, truth: GroundTruth, cfg, rng, cameras) -> SourceOutput:
         from simcalib.geometry import rotation_error_rad, translation_error_m

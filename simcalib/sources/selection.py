@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from simcalib.checks import check_that
+from simcalib.config.checks import check_that
 
 __all__ = ["StreamSourceConfig", "StreamsConfig", "STREAM_CAMERAS"]
 

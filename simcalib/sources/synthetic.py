@@ -8,13 +8,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from simcalib.sources.base import GroundTruth, SourceInfo, SourceOutput
+from simcalib.sources.base import GroundTruth, SourceHooks, SourceInfo, SourceOutput
 from simcalib.sources.registry import register
 
 __all__ = ["SyntheticSource"]
 
 
-class SyntheticSource:
+class SyntheticSource(SourceHooks):
     # draws nothing: the motions' noise was drawn with the problem (world stage)
     info = SourceInfo(name="synthetic", kinds=("synthetic",), rng_stream="noise",
                       description="relative motions of a paper appendix D.2 problem "

@@ -90,7 +90,7 @@ def run_sweep(spec: SweepSpec, output: str | Path, *, executor: str = "local",
     """Run every unfinished cell of ``spec`` into ``output`` and write the table (and the
     report). All cells are validated before any work. Cells keep going when one fails."""
     from simcalib.executors import get as get_executor
-    from simcalib.checks import check_int
+    from simcalib.config.checks import check_int
     out = Path(output)
     if workers is not None:
         workers = check_int("workers", workers, lo=1)

@@ -3,7 +3,7 @@
 Every field has a documented default; bad values raise :class:`~simcalib.errors.ConfigError`
 (a ``ValueError``; :class:`~simcalib.errors.ConfigTypeError`, also a ``TypeError``, for a
 wrong type) naming the field, the received value and what is allowed (checks written with
-:mod:`simcalib.checks`). Nested dataclasses group the settings::
+:mod:`simcalib.config.checks`). Nested dataclasses group the settings::
 
     WorldConfig(platform="cart", path="planar", duration_s=20.0, fps=10.0,
                 path_params={}, perturbation=PerturbationConfig(),
@@ -20,11 +20,11 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from simcalib.checks import (check_in, check_int, check_range, check_that,
+from simcalib.config.checks import (check_in, check_int, check_range, check_that,
                              check_vector, fail, set_fields)
 from simcalib.errors import ConfigError, did_you_mean
 from simcalib.synthetic import PAPER_X_ROTVEC_RAD, PAPER_X_TRANSLATION_M
-from simcalib.world.vehicle import VehicleConfig
+from simcalib.world.vehicle_config import VehicleConfig
 from simcalib.boards import BoardConfig, board_for_target, check_target
 
 #: The paper's X rotation in degrees (rounded back to the published decimals).

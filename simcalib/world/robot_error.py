@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from simcalib.checks import check_int, check_range, set_fields
+from simcalib.config.checks import check_int, check_range, set_fields
 
 __all__ = ["UR5E_DH", "DH_COLUMNS", "KinematicErrorConfig", "EncoderConfig", "RobotConfig",
            "dh_fk", "draw_dh_error", "true_dh", "check_dh_error", "apply_dh_to_spec",
@@ -278,7 +278,7 @@ def robot_report(world, cfg, fk_log=None) -> dict | None:
     """results.json ``robot``: the nominal DH table, the true arm's deviation, the error and
     encoder settings, and (with ``robot_fk``) its FK error against the truth per camera.
     ``None`` when the world has no built-in arm."""
-    from simcalib.config import to_dict
+    from simcalib.config.engine import to_dict
     w = world.config
     if w.platform != "arm" or w.arm_model != "builtin":
         return None

@@ -20,7 +20,7 @@ from simcalib.render import import_mujoco as _mujoco
 from simcalib.geometry import (invert_transform, quat_from_matrix, quat_wxyz_from_xyzw,
                                transform_from_rotation_translation)
 from simcalib.markers import MarkerField, marker_png
-from simcalib.resources import models_dir
+from simcalib.config.resources import models_dir
 from simcalib.streams import CameraIntrinsics
 
 __all__ = ["Scene", "build_scene", "build_model", "MODELS_DIR", "CAMERA_NAMES", "MJ_FROM_CV",

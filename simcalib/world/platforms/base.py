@@ -24,10 +24,18 @@ class PlatformInfo:
     """``name`` (``world.platform=<name>``) and a one-line ``description``.
     ``outdoor``: the platform needs more space than a room (car scale): its scene has no
     walls, no ceiling and no marker field (so no ArUco source), and cameras may go
-    anywhere."""
+    anywhere.
+    Facts the config's feasibility check predicts the cameras' paths from (no scene):
+    ``clocked_by_path``: the scripted path's clock sets the motion (False: physics sets the
+    speed, e.g. the car; no prediction is made); ``rig_mount_m``: the rig mount in the
+    target frame, metres, rig +z = forward (cart: ``models/cart.xml`` site ``rig_mount``),
+    or ``None`` when the target frame IS the rig mount and its home pose faces forward
+    (the arm's flange)."""
     name: str
     description: str
     outdoor: bool = False
+    clocked_by_path: bool = True
+    rig_mount_m: tuple[float, float, float] | None = None
 
 
 @dataclass(frozen=True)

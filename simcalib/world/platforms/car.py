@@ -111,7 +111,8 @@ def car_path(target_fn, cfg):
 
 
 class CarPlatform:
-    info = PlatformInfo(name="car", outdoor=True,
+    info = PlatformInfo(name="car", outdoor=True, clocked_by_path=False,
+                        rig_mount_m=(0.16, 0.0, 1.10),
                         description="car-scale vehicle in MuJoCo physics (Ackermann or "
                                     "differential, sprung or rigid, flat/slope/uneven ground: "
                                     "world.vehicle.*) following the path's geometry; "

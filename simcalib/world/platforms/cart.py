@@ -11,7 +11,7 @@ __all__ = ["CartPlatform"]
 
 
 class CartPlatform:
-    info = PlatformInfo(name="cart", description="kinematic cart (mocap body) sliding on the "
+    info = PlatformInfo(name="cart", rig_mount_m=(0.16, 0.0, 1.10), description="kinematic cart (mocap body) sliding on the "
                                                  "flat floor; its base is the target frame")
 
     def attach(self, spec, cfg) -> str:

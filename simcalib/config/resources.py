@@ -20,7 +20,7 @@ __all__ = ["models_dir", "scenarios_dir", "model_path", "SCENARIOS_ENV"]
 #: Environment variable naming a user's own scenario folder.
 SCENARIOS_ENV = "SIMCALIB_SCENARIOS"
 
-_PACKAGE_DIR = Path(__file__).resolve().parent
+_PACKAGE_DIR = Path(__file__).resolve().parents[1]   # simcalib/
 
 
 def _data_dir(name: str) -> Path:
