@@ -121,3 +121,24 @@ def test_eth_offsets_refine_the_cost():
         cost = OffsetCost(*as_time_poses(a), *as_time_poses(b), (lo, hi), step_s=0.2,
                           alpha=1.0, smooth_s=0.01)
         assert cost(est.offset_s) <= cost(est.coarse_offset_s) * (1 + 1e-9), name
+
+
+def _stream_rotating(n, t0=0.0, dt=0.05):
+    t = t0 + dt * np.arange(n)
+    ang = np.sin(1.3 * t) + 0.5 * np.sin(3.1 * t)
+    c, s = np.cos(ang), np.sin(ang)
+    T = np.tile(np.eye(4), (n, 1, 1))
+    T[:, 0, 0], T[:, 0, 1], T[:, 1, 0], T[:, 1, 1] = c, -s, s, c
+    T[:, 0, 3] = 0.1 * t
+    return t, T
+
+
+def test_offset_of_static_stream_does_not_blame_the_timestamps():
+    from simcalib.errors import DataError
+    from simcalib.estimation.alignment import estimate_time_offset
+    a = _stream_rotating(200)
+    static = (a[0].copy(), np.tile(np.eye(4), (200, 1, 1)))
+    with pytest.raises(DataError) as e:
+        estimate_time_offset(a, static)
+    assert "stream b does not rotate" in str(e.value)
+    assert "units and clocks" not in str(e.value)

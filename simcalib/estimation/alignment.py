@@ -361,6 +361,23 @@ def _despike(w: np.ndarray, size: int = 9) -> np.ndarray:
     return median_filter(w, size=3, mode="nearest")
 
 
+def _raise_if_unmeasurable(ta, tb, x, y, min_overlap):
+    """The stamps overlap but the offset cannot be measured: too few poses, or a stream
+    that does not rotate (its angular speed is flat, so nothing correlates)."""
+    lo, hi = max(ta[0], tb[0]), min(ta[-1], tb[-1])
+    if hi <= lo:
+        return
+    span = (f"their stamps overlap for {hi - lo:.3f} s (a: {ta[0]:.3f}..{ta[-1]:.3f} s, "
+            f"b: {tb[0]:.3f}..{tb[-1]:.3f} s)")
+    if min(ta.size, tb.size) < 4 or min(x.size, y.size) < min_overlap:
+        raise DataError(f"the time offset cannot be estimated: a has {ta.size} poses, b has "
+                        f"{tb.size}, too few to correlate; {span}; give time_offset=")
+    flat = [n for n, w in (("a", x), ("b", y)) if np.ptp(w) <= 1e-12 * max(1.0, np.abs(w).max())]
+    if flat:
+        raise DataError(f"the time offset cannot be estimated: stream {' and '.join(flat)} does "
+                        f"not rotate (its angular speed is constant); {span}; give time_offset=")
+
+
 def _coarse_offset(ta, Ta, tb, Tb, max_offset_s, min_overlap_frac, robust=True):
     tma, wa = angular_speed((ta, Ta))
     tmb, wb = angular_speed((tb, Tb))
@@ -377,6 +394,7 @@ def _coarse_offset(ta, Ta, tb, Tb, max_offset_s, min_overlap_frac, robust=True):
     if max_offset_s is not None:
         r = np.where(np.abs(offsets) <= max_offset_s, r, np.nan)
     if not np.isfinite(r).any():
+        _raise_if_unmeasurable(ta, tb, x, y, min_overlap)
         raise DataError(
             f"the streams do not overlap by {min_overlap_frac:.0%} of the shorter one at any "
             f"allowed offset (a: {ta[0]:.3f}..{ta[-1]:.3f} s, b: {tb[0]:.3f}..{tb[-1]:.3f} s"
