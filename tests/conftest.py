@@ -14,3 +14,13 @@ import pytest  # noqa: E402
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)
+
+
+@pytest.fixture(scope="module")
+def gl():
+    """The MuJoCo rendering backend; a test that renders skips, naming why, where none exists."""
+    from simcalib.render import RenderBackendError, available_backend
+    try:
+        return available_backend()
+    except RenderBackendError as exc:
+        pytest.skip(f"no MuJoCo rendering backend: {exc}")

@@ -22,15 +22,6 @@ from simcalib.world import WorldConfig
 EXPECTED_MEDIAN = {"ideal": (2.0, 0.1), "realistic": (9.0, 0.45)}
 
 
-@pytest.fixture(scope="module")
-def gl():
-    from simcalib.render import RenderBackendError, available_backend
-    try:
-        return available_backend()
-    except RenderBackendError as exc:
-        pytest.skip(f"no MuJoCo rendering backend: {exc}")
-
-
 def _texture_camera(board):
     """Camera that sees the flat texture image pixel for pixel at z = 1 m."""
     p = board.texture_px_per_m

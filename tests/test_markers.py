@@ -21,15 +21,6 @@ W, H, FOVY = 640, 480, 60.0
 K = CameraIntrinsics.from_fovy(W, H, FOVY).K
 
 
-@pytest.fixture(scope="module")
-def gl():
-    from simcalib.render import RenderBackendError, available_backend
-    try:
-        return available_backend()
-    except RenderBackendError as exc:
-        pytest.skip(f"no MuJoCo rendering backend: {exc}")
-
-
 def _quat_wxyz(R):
     return g.quat_wxyz_from_xyzw(g.quat_from_matrix(R))
 

@@ -20,15 +20,6 @@ from simcalib.vision import VisionConfig, visual_streams  # noqa: E402
 W, H, FOVY = 640, 480, 60.0
 
 
-@pytest.fixture(scope="module")
-def gl():
-    from simcalib.render import RenderBackendError, available_backend
-    try:
-        return available_backend()
-    except RenderBackendError as exc:
-        pytest.skip(f"no MuJoCo rendering backend: {exc}")
-
-
 def _mini_world(n_frames=12, look_away=(3,), delivered=None, stamps=None):
     """Wall of 3x4 markers (10 cm) in the plane z=0 facing +z; a mocap rig with cam_a and
     cam_b (10 cm apart, 11 deg apart) moving about 1 m above it; frames in ``look_away``
