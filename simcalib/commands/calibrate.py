@@ -259,12 +259,17 @@ class Assessment:
     covariance: tuple | None = None
     undetermined: tuple = ()
     unverified: bool = False
+    plausibility: object = None     # simcalib.estimation.plausibility.Plausibility
+
+    @property
+    def implausible(self) -> bool:
+        return self.plausibility is not None and not self.plausibility.plausible
 
     @property
     def exit_code(self) -> int:
         if self.verdict == "FAILED":
             return EXIT_SOLVER
-        return EXIT_DEGENERATE if self.degenerate else EXIT_OK
+        return EXIT_DEGENERATE if self.degenerate or self.implausible else EXIT_OK
 
 
 def assess(r) -> Assessment:
@@ -272,6 +277,7 @@ def assess(r) -> Assessment:
     StreamCalibration`): :func:`simcalib.estimation.verdict.judge` on its solution with the
     reported covariance (the model's, raised to the data's own consistency). A failed
     solve, or one whose uncertainty cannot be computed, is FAILED."""
+    from simcalib.estimation.plausibility import check_plausibility
     from simcalib.estimation.verdict import judge
     solution = r.robust.solution
     if solution is None or not solution.success or not np.isfinite(solution.X).all():
@@ -287,9 +293,10 @@ def assess(r) -> Assessment:
                  and r.consistency.raised else
                  ", checked by a block jackknife" if r.consistency is not None and
                  r.consistency.checked else " (not checked: too few poses)"))
+    plaus = check_plausibility(r.X, r.synced.T_a, r.synced.T_b, r.conventions)
     return Assessment(v.verdict, v.degenerate, v.summary(), source, fin(v.std_deg),
                       fin(v.std_m), tuple(fin(row) for row in np.asarray(r.covariance)),
-                      tuple(d.summary() for d in v.directions), v.unverified)
+                      tuple(d.summary() for d in v.directions), v.unverified, plaus)
 
 
 # ---------------------------------------------------------------------- the calibration
@@ -363,6 +370,8 @@ def report_dict(opts: CalibrateOptions, r, a: Assessment,
     off, conv, rob, s = r.time_offset, r.conventions, r.robust, r.summary
     status = {EXIT_OK: "determined", EXIT_DEGENERATE: "degenerate"}.get(a.exit_code,
                                                                         "failed")
+    if a.implausible and not a.degenerate and a.verdict != "FAILED":
+        status = "implausible"
     return {
         "schema": SCHEMA,
         "status": status,
@@ -415,7 +424,9 @@ def report_dict(opts: CalibrateOptions, r, a: Assessment,
                                  "residuals": s["residuals_aligned"]},
         "solution": rob.solution.to_dict() if rob.solution is not None else None,
         "options": to_dict(opts),
-        "warnings": warnings(r),
+        "plausibility": None if a.plausibility is None else a.plausibility.to_dict(),
+        "warnings": warnings(r) + ([] if a.plausibility is None
+                                   else list(a.plausibility.warnings)),
         "files": {"motions": "motions.npz",
                   "recording": "recording.rrd" if opts.recording else None},
     }

@@ -1,0 +1,74 @@
+"""Plausibility of a calibration's answer: what the poses can say beyond the fit.
+
+Every reading of two pose files has a twin that fits exactly as well: inverting *both*
+streams turns ``C X = X H`` into the same equations for ``X' = T_wa_wb`` (the pose of
+world b in world a), because ``T_wa_a X T_b_wb`` is constant along a rigid pair. The fit
+cannot choose between the two; their sizes can. A sensor pair is usually mounted within
+decimetres, while two worlds (a robot base and a target, two odometry origins) are often
+metres apart; an answer whose translation is many times the twin's is therefore most likely
+the twin — the classic sign of a file that holds the inverse poses (``T_tool_base`` for
+``T_base_tool``). It stays a warning (exit 6), never a silent switch: a rig whose sensors
+really are far apart (a tag on a robot seen by a far camera) has exactly that shape.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from simcalib.geometry import invert_transform
+
+__all__ = ["Plausibility", "check_plausibility", "TWIN_RATIO", "TWIN_MARGIN_M"]
+
+#: An answer is flagged when its translation is at least this many times the twin's ...
+TWIN_RATIO = 3.0
+#: ... and longer than the twin's by at least this much (metres): a few centimetres on
+#: both sides say nothing.
+TWIN_MARGIN_M = 0.25
+
+
+@dataclass(frozen=True)
+class Plausibility:
+    """``translation_m``: |t| of X; ``twin_translation_m``: |t| of the both-inverted
+    reading's answer ``T_wa_wb`` (the mean of ``T_wa_a X T_b_wb`` over the synchronised
+    poses); ``twin_hint``: the keys that would select the twin; ``warnings``: sentences
+    for people (empty: nothing implausible)."""
+    translation_m: float
+    twin_translation_m: float
+    twin_hint: str
+    warnings: tuple = ()
+
+    @property
+    def plausible(self) -> bool:
+        return not self.warnings
+
+    def to_dict(self) -> dict:
+        return {"translation_m": self.translation_m,
+                "twin_translation_m": self.twin_translation_m,
+                "twin_hint": self.twin_hint, "plausible": self.plausible,
+                "warnings": list(self.warnings)}
+
+
+def check_plausibility(X, T_wa_a, T_wb_b, conventions) -> Plausibility:
+    """The :class:`Plausibility` of ``X = T_a_b`` estimated from the synchronised poses
+    ``T_wa_a``, ``T_wb_b`` (``(N, 4, 4)``, in the reading used) and the reading chosen
+    (``conventions``: :class:`simcalib.estimation.readings.ConventionReport`)."""
+    X = np.asarray(X, dtype=np.float64)
+    T_wa_a, T_wb_b = np.asarray(T_wa_a, np.float64), np.asarray(T_wb_b, np.float64)
+    if X.shape != (4, 4) or T_wa_a.ndim != 3 or T_wa_a.shape != T_wb_b.shape:
+        raise ValueError(f"check_plausibility needs X (4, 4) and two (N, 4, 4) pose arrays "
+                         f"of one shape; received {X.shape}, {T_wa_a.shape}, {T_wb_b.shape}")
+    T_wa_wb = T_wa_a @ X @ invert_transform(T_wb_b)
+    t = float(np.linalg.norm(X[:3, 3]))
+    t_twin = float(np.linalg.norm(T_wa_wb[:, :3, 3].mean(axis=0)))
+    hint = (f"invert_a={str(not conventions.invert_a).lower()} "
+            f"invert_b={str(not conventions.invert_b).lower()}")
+    warnings = ()
+    if t >= TWIN_RATIO * t_twin and t - t_twin >= TWIN_MARGIN_M:
+        warnings = (f"X's translation ({t:.3g} m) is {t / max(t_twin, 1e-12):.3g}x the one "
+                    f"the reading with both streams inverted gives ({t_twin:.3g} m), and "
+                    "both readings fit the poses exactly alike: if sensor b sits closer "
+                    "to a than that, the files hold the inverse poses (T_sensor_world) - "
+                    f"rerun with {hint}",)
+    return Plausibility(t, t_twin, hint, warnings)

@@ -1,0 +1,76 @@
+"""The plausibility check of calibrate's answer (simcalib.estimation.plausibility): the
+both-inverted twin of a reading fits exactly alike; an answer many times longer than its
+twin is flagged (exit 6 through the command), a plausible one is not."""
+
+import json
+
+import numpy as np
+import pytest
+
+from simcalib.cli import main
+from simcalib.errors import EXIT_DEGENERATE, EXIT_OK
+from simcalib.estimation.plausibility import check_plausibility
+from simcalib.estimation.readings import ConventionReport
+from simcalib.geometry import invert_transform, matrix_from_rotvec, \
+    transform_from_rotation_translation
+from simcalib.reports import write_tum
+from simcalib.stream_sim import rig_streams
+
+
+def _pair(rng, n=20, lever_m=0.1, worlds_m=2.0):
+    """Poses of a rigid pair: a random trajectory of a, X of ``lever_m``, world b
+    ``worlds_m`` away from world a."""
+    X = transform_from_rotation_translation(matrix_from_rotvec(rng.normal(size=3)),
+                                            lever_m * np.array([1.0, 0.0, 0.0]))
+    T_wa_wb = transform_from_rotation_translation(matrix_from_rotvec(rng.normal(size=3)),
+                                                  worlds_m * np.array([0.0, 0.6, 0.8]))
+    T_wa_a = transform_from_rotation_translation(
+        matrix_from_rotvec(rng.normal(size=(n, 3))), rng.uniform(-0.5, 0.5, (n, 3)))
+    T_wb_b = invert_transform(T_wa_wb) @ T_wa_a @ X
+    return X, T_wa_wb, T_wa_a, T_wb_b
+
+
+AS_WRITTEN = ConventionReport(False, False, False, False)
+
+
+def test_plausible_answer_and_its_twin_is_flagged():
+    X, T_wa_wb, T_wa_a, T_wb_b = _pair(np.random.default_rng(0))
+    p = check_plausibility(X, T_wa_a, T_wb_b, AS_WRITTEN)
+    assert p.plausible and p.warnings == ()
+    assert p.translation_m == pytest.approx(0.1) and p.twin_translation_m == pytest.approx(2.0)
+    # the twin: both streams read inverted; its answer is T_wa_wb, and its twin is X
+    twin = check_plausibility(T_wa_wb, invert_transform(T_wa_a), invert_transform(T_wb_b),
+                              AS_WRITTEN)
+    assert not twin.plausible and twin.twin_translation_m == pytest.approx(0.1)
+    assert "invert_a=true invert_b=true" in twin.warnings[0]
+
+
+def test_far_apart_sensors_with_near_worlds_are_not_flagged_by_a_short_twin_margin():
+    X, _, T_wa_a, T_wb_b = _pair(np.random.default_rng(1), lever_m=0.3, worlds_m=0.1)
+    assert check_plausibility(X, T_wa_a, T_wb_b, AS_WRITTEN).plausible   # 0.2 m < margin
+
+
+def test_bad_shapes_are_a_clear_error():
+    with pytest.raises(ValueError, match=r"received \(3, 3\)"):
+        check_plausibility(np.eye(3), np.zeros((2, 4, 4)), np.zeros((2, 4, 4)), AS_WRITTEN)
+
+
+def test_command_flags_a_hand_file_holding_the_inverse_poses(tmp_path, capsys):
+    """The issue's case: the hand file holds T_tool_base. The poses fit the twin exactly, so
+    calibrate answers T_wa_wb (metres); the check turns it into a warning and exit 6, and
+    following its hint gives the right X."""
+    rs = rig_streams(duration_s=15.0, rng=np.random.default_rng(3))
+    pa = write_tum(tmp_path / "hand_inv.tum", rs.t_a, invert_transform(rs.T_a))
+    pb = write_tum(tmp_path / "cam.tum", rs.t_b, rs.T_b)
+    code = main(["calibrate", f"a={pa}", f"b={pb}", f"output={tmp_path / 'out'}"])
+    text = capsys.readouterr().out
+    rep = json.loads((tmp_path / "out" / "calibration.json").read_text())
+    assert code == EXIT_DEGENERATE and rep["status"] == "implausible", text
+    assert not rep["plausibility"]["plausible"] and "WARNING: X's translation" in text
+    hint = rep["plausibility"]["twin_hint"].split()
+    code = main(["calibrate", f"a={pa}", f"b={pb}", f"output={tmp_path / 'fixed'}", *hint])
+    capsys.readouterr()
+    rep = json.loads((tmp_path / "fixed" / "calibration.json").read_text())
+    assert code == EXIT_OK and rep["plausibility"]["plausible"]
+    t = np.asarray(rep["X"]["translation_m"])
+    assert np.linalg.norm(t - rs.X[:3, 3]) < 0.01
