@@ -6,6 +6,7 @@ import shutil
 import pytest
 
 from simcalib.errors import ConfigError
+from simcalib.executors import available as available_executors
 from simcalib.sweep import expand, load_sweep, run_sweep, status
 from simcalib.sweep import store
 
@@ -131,13 +132,17 @@ def test_failed_cell_is_recorded_and_does_not_sink_the_sweep(tmp_path):
 
 
 @pytest.mark.slow
-def test_executors_and_worker_counts_give_identical_tables(tmp_path):
-    pytest.importorskip("ray", reason="executor=ray needs the [cluster]/[test] extra")
+@pytest.mark.parametrize("name", [n for n in available_executors() if n != "local"])
+def test_executors_and_worker_counts_give_identical_tables(tmp_path, name):
+    import importlib.util
+    extra = available_executors()[name].extra
+    if extra and importlib.util.find_spec(name) is None:
+        pytest.skip(f"executor={name} needs the [{extra}] extra")
     spec = load_sweep(SMALL)
     run_sweep(spec, tmp_path / "w1", workers=1, progress=False, report=False)
-    run_sweep(spec, tmp_path / "ray", executor="ray", workers=2, progress=False,
+    run_sweep(spec, tmp_path / name, executor=name, workers=2, progress=False,
               report=False)
-    a, b = _rows(tmp_path / "w1"), _rows(tmp_path / "ray")
+    a, b = _rows(tmp_path / "w1"), _rows(tmp_path / name)
     assert a == b and len(a) == 8
 
 
@@ -156,7 +161,7 @@ def test_sweep_cli(tmp_path, capsys):
     capsys.readouterr()
     assert main(["sweep", str(f), f"output={tmp_path / 'x'}", "executor=dask"]) == 2
     err = capsys.readouterr().err
-    assert "unknown executor 'dask'" in err and "local, ray" in err
+    assert "unknown executor 'dask'" in err and ", ".join(available_executors()) in err
     assert main(["sweep", str(f)]) == 2          # no output
     assert main(["sweep", "status", str(tmp_path)]) == 3  # not a sweep directory
 

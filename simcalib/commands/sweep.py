@@ -1,11 +1,11 @@
-"""``simcalib sweep FILE [key=value ...] [executor=local|ray] [workers=N] [address=...]
+"""``simcalib sweep FILE [key=value ...] [executor=NAME] [workers=N] [address=...]
 output=DIR``; ``simcalib sweep report DIR``; ``simcalib sweep status DIR``."""
 
 from __future__ import annotations
 
 from simcalib.errors import UsageError
 
-USAGE = """usage: python -m simcalib sweep FILE [key=value ...] [executor=local|ray] [workers=N]
+USAGE = """usage: python -m simcalib sweep FILE [key=value ...] [executor=NAME] [workers=N]
                                    [address=auto|ray://host:port] [seeds=N] output=DIR
        python -m simcalib sweep report DIR      # rebuild results.parquet and report.md
        python -m simcalib sweep status DIR      # cells done / failed / remaining
@@ -16,6 +16,7 @@ Other key=value pairs are run-config overrides applied to every cell (checked fo
 cell before any work). executor=local (default) runs a process pool on this machine
 (workers = its cores by default); executor=ray runs Ray tasks on a local Ray instance, or
 on a cluster with address=auto / address=ray://host:port (pip install -e '.[cluster]').
+Executors: {executors}.
 Re-running into the same output skips finished cells. Options: --quiet (no progress).
 """
 
@@ -25,7 +26,10 @@ _OWN = ("executor", "workers", "address", "output", "seeds", "seed")
 def main(args: list[str]) -> int:
     from simcalib.sweep import list_sweeps
     if not args or args[0] in ("-h", "--help"):
-        print(USAGE.format(sweeps=", ".join(list_sweeps()) or "none"), end="")
+        from simcalib.executors import available as executors
+        print(USAGE.format(sweeps=", ".join(list_sweeps()) or "none",
+                           executors="; ".join(f"{n} ({i.description})"
+                                               for n, i in executors().items())), end="")
         return 0 if args else 2
     if args[0] == "list":
         for name, desc in list_sweeps().items():

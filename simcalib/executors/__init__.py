@@ -1,11 +1,20 @@
 """Executors: where the cells of a sweep run. One file per executor, one registry.
 
-An executor is a class with ``name``, ``description`` and ``map(fn, tasks, workers)``: it
-calls ``fn(*task)`` for every task and yields ``(index, result)`` as each finishes (in any
-order) or ``(index, exc)`` when the task could not be run at all (a lost worker after its
-retries). ``fn`` must be a module-level function (it is pickled); it handles its own errors.
-The results must not depend on the executor or on ``workers`` — each task carries its own
-seed. ``get(name)`` looks one up; an unknown name lists the valid ones.
+An executor is a class with ``name`` and ``map(fn, tasks, workers)``: it calls
+``fn(*task)`` for every task and yields ``(index, result)`` as each finishes (in any order)
+or ``(index, exc)`` when the task could not be run at all (a lost worker after its
+retries). ``fn`` must be a module-level function (a process executor pickles it); it
+handles its own errors. The results must not depend on the executor or on ``workers`` —
+each task carries its own seed.
+
+A file of this folder registers its class (discovered on the first lookup, no list to
+edit)::
+
+    @register("local", description="a process pool on this machine")
+    class LocalExecutor: ...
+
+``get(name, **options)`` builds one; an unknown name lists the valid ones; ``available()``
+maps each name to its :class:`ExecutorInfo`.
 """
 
 from __future__ import annotations
@@ -13,9 +22,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Callable, Iterator, Protocol, Sequence
 
-from simcalib.errors import ConfigError, unknown_choice
+from simcalib.registry import Registry
 
-__all__ = ["Executor", "ExecutorInfo", "available", "get", "register"]
+__all__ = ["EXECUTORS", "Executor", "ExecutorInfo", "available", "get", "register"]
 
 
 class Executor(Protocol):
@@ -27,42 +36,35 @@ class Executor(Protocol):
 
 @dataclass(frozen=True)
 class ExecutorInfo:
+    """A registered executor: ``cls`` is built with the caller's options; ``extra`` is
+    the pip extra that brings its dependency ("" = none)."""
     name: str
+    cls: type
     description: str
-    target: str          # "module:Class", imported when used (Ray only when asked for)
-    extra: str = ""      # the pip extra that brings its dependency
-
-    def load(self, **options) -> Executor:
-        import importlib
-        module, _, cls = self.target.partition(":")
-        return getattr(importlib.import_module(module), cls)(**options)
+    extra: str = ""
 
 
-_REGISTRY: dict[str, ExecutorInfo] = {}
+def _info(name: str, cls: type, *, description: str, extra: str = "") -> ExecutorInfo:
+    if not callable(getattr(cls, "map", None)):
+        raise TypeError(f"executor {name!r} needs a map(fn, tasks, workers) method; "
+                        f"received {cls!r}")
+    return ExecutorInfo(name, cls, description, extra)
 
 
-def register(info: ExecutorInfo) -> None:
-    if info.name in _REGISTRY:
-        raise ValueError(f"executor {info.name!r} registered twice")
-    _REGISTRY[info.name] = info
+EXECUTORS: Registry[type] = Registry("executor", key="executor",
+                                     package="simcalib.executors", info=_info)
 
 
-register(ExecutorInfo("local", "a process pool on this machine (one renderer per process)",
-                      "simcalib.executors.local:LocalExecutor"))
-register(ExecutorInfo("ray", "Ray tasks: a local Ray instance, or a cluster (address=auto | "
-                      "ray://host:port)", "simcalib.executors.ray:RayExecutor",
-                      extra="cluster"))
+def register(name: str, *, description: str, extra: str = ""):
+    """Class decorator adding an executor under ``name``."""
+    return EXECUTORS.register(name, description=description, extra=extra)
 
 
-def available() -> list[str]:
-    return list(_REGISTRY)
+def available() -> dict[str, ExecutorInfo]:
+    """name -> :class:`ExecutorInfo` of every executor."""
+    return EXECUTORS.available()
 
 
 def get(name: str, **options) -> Executor:
     """The executor ``name`` built with ``options`` (e.g. ``address`` for Ray)."""
-    try:
-        info = _REGISTRY[name]
-    except (KeyError, TypeError):
-        raise unknown_choice("executor", name, _REGISTRY, key="executor",
-                             error=ConfigError) from None
-    return info.load(**options)
+    return EXECUTORS.get(name)(**options)

@@ -12,11 +12,13 @@ from concurrent.futures import FIRST_COMPLETED, wait
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Callable, Iterator, Sequence
 
+from simcalib.executors import register
 from simcalib.parallel import default_workers, deferred_interrupt, worker_pool
 
 __all__ = ["LocalExecutor"]
 
 
+@register("local", description="a process pool on this machine (one renderer per process)")
 class LocalExecutor:
     name = "local"
 

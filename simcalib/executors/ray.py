@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any, Callable, Iterator, Sequence
 
 from simcalib.errors import BackendError, ConfigError
+from simcalib.executors import register
 
 __all__ = ["RayExecutor"]
 
@@ -30,6 +31,8 @@ def _import_ray():
     return ray
 
 
+@register("ray", description="Ray tasks: a local Ray instance, or a cluster (address=auto | "
+                "ray://host:port)", extra="cluster")
 class RayExecutor:
     name = "ray"
 

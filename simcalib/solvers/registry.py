@@ -16,11 +16,12 @@ used by ``simcalib.solve_batch``; without one, ``solve_batch`` loops.
 
 from __future__ import annotations
 
-import difflib
 from dataclasses import dataclass, field
 from typing import Callable
 
-__all__ = ["SolverInfo", "register", "get", "available", "infos"]
+from simcalib.registry import Registry
+
+__all__ = ["SOLVERS", "SolverInfo", "register", "get", "available", "infos"]
 
 
 @dataclass(frozen=True)
@@ -55,61 +56,39 @@ class SolverInfo:
         return self.uses_alpha and not self.alpha_independent
 
 
-_REGISTRY: dict[str, SolverInfo] = {}
-_LOADED = False
+def _make_info(name: str, fn: Callable, *, family: str, description: str,
+               uses_alpha: bool = True, supports_prior: bool = False, certified: bool = False,
+               stochastic: bool = False, batch: Callable | None = None,
+               supports_weights: bool = False, alpha_independent: bool = False,
+               slow: bool = False, expected_cost_us: float = 100.0, **extra) -> SolverInfo:
+    return SolverInfo(name, fn, family, description, uses_alpha, supports_prior, certified,
+                      stochastic, batch, supports_weights, alpha_independent, slow,
+                      float(expected_cost_us), dict(extra))
 
 
-def register(name: str, *, family: str, description: str, uses_alpha: bool = True,
-             supports_prior: bool = False, certified: bool = False, stochastic: bool = False,
-             batch: Callable | None = None, supports_weights: bool = False,
-             alpha_independent: bool = False, slow: bool = False,
-             expected_cost_us: float = 100.0, **extra):
-    """Decorator adding a solver function to the registry under ``name``."""
-    def deco(fn):
-        if name in _REGISTRY:
-            raise ValueError(f"solver {name!r} registered twice")
-        _REGISTRY[name] = SolverInfo(name, fn, family, description, uses_alpha,
-                                     supports_prior, certified, stochastic, batch,
-                                     supports_weights, alpha_independent, slow,
-                                     float(expected_cost_us), dict(extra))
-        return fn
-    return deco
+#: every module of :mod:`simcalib.solvers` is imported on the first lookup (a new solver
+#: file registers itself; no import list here, so no import circle with the solver modules)
+SOLVERS: Registry[Callable] = Registry("method", key="method", package="simcalib.solvers",
+                                       info=_make_info)
 
 
-def _load_all() -> None:
-    """Import the modules that register solvers (once, on first lookup)."""
-    global _LOADED
-    if _LOADED:
-        return
-    _LOADED = True
-    # each module registers its methods at import (cv2, scipy are imported lazily inside)
-    from simcalib.solvers import dq  # noqa: F401  dqopt, dq2steps, dqconvrlx, dq2ndord, ...
-    from simcalib.solvers import dqpoly  # noqa: F401  dqoptpoly
-    from simcalib.solvers import classic  # noqa: F401  daniilidis
-    from simcalib.solvers import nonlinear  # noqa: F401  chvecopt, quatvecopt, dqnlopt, ...
-    from simcalib.solvers import opencv  # noqa: F401  opencv_tsai, opencv_park, ...
+def register(name: str, *, family: str, description: str, **metadata):
+    """Decorator adding a solver function to the registry under ``name`` (keywords: the
+    fields of :class:`SolverInfo`, ``batch=`` the vectorised function, others go to
+    ``extra``)."""
+    return SOLVERS.register(name, family=family, description=description, **metadata)
 
 
 def available() -> list[str]:
-    """Names of all registered solvers, in registration order."""
-    _load_all()
-    return list(_REGISTRY)
+    """Names of all registered solvers (modules in file-name order, then registration
+    order within a module)."""
+    return SOLVERS.names()
 
 
 def infos() -> list[SolverInfo]:
-    _load_all()
-    return list(_REGISTRY.values())
+    return list(SOLVERS.available().values())
 
 
 def get(name: str) -> SolverInfo:
     """Look up a solver by name; an unknown name lists the valid ones."""
-    _load_all()
-    if not isinstance(name, str):
-        raise TypeError(f"method must be a string; received {type(name).__name__}")
-    try:
-        return _REGISTRY[name]
-    except KeyError:
-        close = difflib.get_close_matches(name, list(_REGISTRY), n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
-        raise ValueError(f"unknown method {name!r}{hint}; available: "
-                         f"{', '.join(_REGISTRY)}") from None
+    return SOLVERS.info(name)
