@@ -562,7 +562,7 @@ formats: {formats}
 keys (type = default):
 {keys}
 
-exit status: 0 determined, 6 degenerate (outputs written), 5 solver failed, 3 bad data,
+exit status: 0 determined, 6 degenerate or implausible (outputs written), 5 solver failed, 3 bad data,
 2 bad options.
 """
 
