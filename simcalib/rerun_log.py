@@ -549,6 +549,7 @@ class RunRecorder:
         self._closed = False
         self.kind = getattr(cfg, "kind", "sim")
         self.images = False
+        self.image_cameras: set = set()   # the cameras that logged images (their panes)
         self.eye = None
         self.closeup_eye = None
         self.room = None                 # (min, max) corners of the room, sim runs
@@ -765,6 +766,7 @@ class RunRecorder:
             ent = f"world/{cam}/image"
             if image is not None:
                 self.images = True
+                self.image_cameras.add(cam)
                 if isinstance(image, (bytes, bytearray, memoryview)):
                     self.rec.log(ent, rr.EncodedImage(contents=bytes(image),
                                                       media_type="image/jpeg"))
@@ -975,8 +977,9 @@ class RunRecorder:
                      static=True)
 
     def blueprint(self):
-        return default_blueprint(kind=self.kind, images=self.images, eye=self.eye,
-                                 closeup_eye=self.closeup_eye, present=self.present,
+        cameras = tuple(c for c in ("cam_a", "cam_b") if c in self.image_cameras)
+        return default_blueprint(kind=self.kind, images=self.images, cameras=cameras,
+                                 eye=self.eye, closeup_eye=self.closeup_eye, present=self.present,
                                  rrb=self.rr.blueprint if self.background else None)
 
     def close(self) -> None:

@@ -316,6 +316,26 @@ def test_blueprint_per_kind_shows_only_views_with_data():
     assert not any(o.startswith("pose_error") for o in partial)
 
 
+def test_only_cameras_that_logged_images_get_an_image_pane(tmp_path):
+    """handeye / scara: cam_a is the flange pose from forward kinematics and logs no image,
+    so its pane must not be in the layout (it said "No data available")."""
+    import cv2
+    from simcalib.rerun_log import RunRecorder
+    from simcalib.streams import CameraIntrinsics
+    cfg = SimpleNamespace(kind="sim", recording=SimpleNamespace(max_images=2,
+                                                                jpeg_quality=70))
+    jpeg = cv2.imencode(".jpg", np.zeros((48, 64, 3), np.uint8))[1].tobytes()
+    log = SimpleNamespace(frames={"cam_b": [{"frame_index": 0, "corners_px": None,
+                                              "ids": None}]},
+                          images_jpeg={"cam_b": {0: jpeg}}, intrinsics=None)
+    K = CameraIntrinsics.from_fovy(64, 48, 60.0)
+    rec = RunRecorder(tmp_path / "r.rrd", cfg, background=False)
+    rec.log_cameras({"cam_a": K, "cam_b": K}, {}, log)
+    origins = _view_origins(rec.blueprint())
+    rec.close()
+    assert "world/cam_b/image" in origins and "world/cam_a/image" not in origins
+
+
 def test_worker_and_in_process_recordings_match(tmp_path):
     """The recording worker (rerun imported and the file written in another process)
     writes what logging in-process writes; its errors surface at close."""
