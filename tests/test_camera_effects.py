@@ -14,7 +14,7 @@ from simcalib import geometry as g  # noqa: E402
 from simcalib.streams import CameraIntrinsics  # noqa: E402
 from simcalib.vision import VisionConfig, visual_streams  # noqa: E402
 
-from test_vision import _mini_world, gl  # noqa: E402,F401  (shared fixture)
+from test_vision import _mini_world  # noqa: E402
 
 W, H = 640, 480
 K = CameraIntrinsics.from_fovy(W, H, 60.0).K
