@@ -77,7 +77,7 @@ class SolverResult:
     message: str = ""
     error: str | None = None
     sweep: tuple[dict, ...] = ()
-    # issue 9: uncertainty of the headline estimate and how its alpha was chosen
+    # uncertainty of the headline estimate and how its alpha was chosen
     covariance: np.ndarray | None = None      # 6x6 (wx,wy,wz,vx,vy,vz) rad/m; inf: undetermined
     std_deg: tuple[float, ...] | None = None  # 1-sigma rotation about x, y, z (frame a)
     std_m: tuple[float, ...] | None = None    # 1-sigma translation along x, y, z (frame a)

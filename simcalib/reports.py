@@ -148,7 +148,7 @@ def solver_entry(s) -> dict:
         "message": s.message,
         "error": s.error,
         "sweep": [dict(e) for e in s.sweep],
-        # issue 9 (docs/results-schema.md): covariance entries that are infinite
+        # docs/results-schema.md: covariance entries that are infinite
         # (undetermined directions) are written as null, like every non-finite number
         "covariance": None if s.covariance is None else np.asarray(s.covariance).tolist(),
         "std": None if s.std_deg is None else {"rotation_deg": list(s.std_deg),

@@ -43,7 +43,7 @@ Entity layout (timeline ``frame`` = simulated frame index, plus ``sim_time``):
 * ``pose_error/rotation_deg/<cam>``, ``pose_error/translation_mm/<cam>`` — per-frame
   pose-source error, one unit per plot, a colour per camera.
 * ``convergence/<rotation_deg|translation_cm>/<solver>/<error|sigma>`` — error and
-  predicted 1-sigma against the number of motions used (timeline ``motions``; issue 9).
+  predicted 1-sigma against the number of motions used (timeline ``motions``).
 * ``summary`` — the console summary as a markdown document: per-solver errors with
   log-scale bars, FAILED and degenerate rows, undetermined directions, frames, pairs.
 """
@@ -1266,7 +1266,7 @@ def _get(entry, *names):
     return None
 
 
-# ------------------------------------------------ calibrate command (issues 11 and 31)
+# ------------------------------------------------ calibrate command
 #: colours of the calibration recording, one per pane (the screenshot check counts them)
 CALIBRATION_COLORS = {
     "b_from_a": (240, 150, 40),        # a's poses through X: where b should be

@@ -45,20 +45,20 @@ def _placeholder(name: str, module: str):
     return cls
 
 
-try:  # the simulated world (issue 4)
+try:  # the simulated world
     from simcalib.world.config import WorldConfig
 except ImportError:  # pragma: no cover - only while the world branch is missing
     WorldConfig = _placeholder("WorldConfig", "simcalib.world")
-try:  # the visual pose source (issue 4)
+try:  # the visual pose source
     from simcalib.sources.vision_config import VisionConfig
 except ImportError:  # pragma: no cover
     VisionConfig = _placeholder("VisionConfig", "simcalib.vision")
 from simcalib.estimation.config import EstimationConfig  # noqa: E402
-from simcalib.sources.corruption import OutliersConfig  # noqa: E402  (issue 10 sections)
+from simcalib.sources.corruption import OutliersConfig  # noqa: E402
 from simcalib.sources.selection import StreamsConfig  # noqa: E402
 from simcalib.world.robot_error import RobotConfig  # noqa: E402
 
-try:  # the synthetic generator of appendix D.2 (issue 3)
+try:  # the synthetic generator of appendix D.2
     from simcalib.synthetic import SyntheticConfig
 except ImportError:  # pragma: no cover
     SyntheticConfig = _placeholder("SyntheticConfig", "simcalib.synthetic")
@@ -176,7 +176,7 @@ class RecordingConfig:
 
 @dataclass(frozen=True)
 class VerdictConfig:
-    """When an estimate is trusted (issue 9): a direction of X whose predicted 1-sigma
+    """When an estimate is trusted: a direction of X whose predicted 1-sigma
     exceeds a tolerance is "poorly determined" (``Solution.verdict``), and the curve of
     error and predicted sigma against the number of motions used (``convergence``)."""
     tolerance_deg: float = field(default=1.0, metadata=_doc(

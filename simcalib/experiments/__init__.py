@@ -1,6 +1,6 @@
 """The paper's experiments (Dekel et al., CVPR 2020): ``table1``, ``table2``, ``figure3``,
-``figure6``; ``streams``, the validation of the stream calibration (issue 11); and
-``real_data``, the regression table on public real recordings (issue 28).
+``figure6``; ``streams``, the validation of the stream calibration; and
+``real_data``, the regression table on public real recordings.
 
 Command line::
 

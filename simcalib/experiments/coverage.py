@@ -1,4 +1,4 @@
-"""Monte-Carlo check of the predicted uncertainty and of the degeneracy verdict (issue 9);
+"""Monte-Carlo check of the predicted uncertainty and of the degeneracy verdict;
 writes ``docs/uncertainty.md``.
 
     python -m simcalib.experiments.coverage --trials 500 --flag-trials 200 \
@@ -535,7 +535,7 @@ def render(cov_rows, flag_rows, alpha_rows, args, runtime_s, sim=None) -> str:
     for r in cov_rows:
         L.append(f"| {r['method']} | {r['alpha']:g} | {'yes' if r['prior'] else 'no'} | "
                  + _coverage_cells(r))
-    L += ["", "Target (issue 9): coverage in [0.92, 0.98] and pred/RMS in [1/1.5, 1.5] for "
+    L += ["", "Target: coverage in [0.92, 0.98] and pred/RMS in [1/1.5, 1.5] for "
           "dqopt at alpha 0.3, 1, 3. The covariance is that of the minimiser of the alpha "
           "cost; for dq2steps and daniilidis it is an approximation. The prior row: prior "
           f"weights a, b = {PRIOR_AB}, the prior's own error drawn from "

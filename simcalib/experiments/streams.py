@@ -1,4 +1,4 @@
-"""Validation of the stream calibration (issue 11): ``python -m simcalib experiment streams``.
+"""Validation of the stream calibration: ``python -m simcalib experiment streams``.
 
 Parts (``parts=[sync,ransac,roundtrip,eth]``):
 

@@ -69,7 +69,7 @@ class Solution:
     ``uncertainty`` (covariance of the error, the verdict), ``certificate`` (DQ methods
     only, else None), ``observability`` (motion geometry, descriptive). ``degenerate``,
     ``undetermined``, ``verdict``, ``covariance``, ``std`` follow from ``uncertainty``
-    (issue 9); ``message`` combines everything. When ``degenerate`` is True, the components
+   ; ``message`` combines everything. When ``degenerate`` is True, the components
     of ``X`` along the ``undetermined`` directions are not measurements (from the prior if
     ``determined_by_prior``, else fitted noise or arbitrary).
     """
@@ -86,7 +86,7 @@ class Solution:
     prior: Prior | None = None
     diagnostics: dict = field(default_factory=dict, repr=False)
     problem: MotionProblem | None = field(default=None, repr=False, compare=False)
-    tolerance_deg: float = 1.0      # issue 9: verdict tolerances (1-sigma), see uncertainty.py
+    tolerance_deg: float = 1.0      # verdict tolerances (1-sigma), see uncertainty.py
     tolerance_m: float = 0.01
     uncertainty_method: str = "sandwich"   # or "bootstrap" (solve(uncertainty=...))
     bootstrap_rng: np.random.Generator | None = field(default=None, repr=False, compare=False)
@@ -112,7 +112,7 @@ class Solution:
         self._resolve()   # a pickle holds numbers, never the marker
         return self.__dict__
 
-    # ---- issue 9: uncertainty and the verdict that follows from it
+    # ---- uncertainty and the verdict that follows from it
     @cached_property
     def uncertainty(self):
         """:class:`simcalib.solvers.diagnostics.uncertainty.Uncertainty` of ``X`` (None if the solve
@@ -283,7 +283,7 @@ class BatchSolution:
     ``success`` (B,), ``alpha`` (B,), ``method``, ``runtime_s`` (whole batch),
     ``diagnostics`` (dict of (B,) arrays, method-specific).
 
-    Per-problem uncertainty (issue 9, computed on first access): ``uncertainty`` (tuple of
+    Per-problem uncertainty (computed on first access): ``uncertainty`` (tuple of
     :class:`~simcalib.solvers.diagnostics.uncertainty.Uncertainty`, None for a failed
     problem), ``covariance`` (B, 6, 6; NaN for a failed problem, inf on undetermined
     axes), ``std`` (B, 6; deg, m), ``degenerate`` (B,; True for a failed problem),

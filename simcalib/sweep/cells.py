@@ -98,7 +98,7 @@ def rows_from_results(results: Mapping) -> list[dict]:
     for label, s in (results.get("solvers") or {}).items():
         row = {"solver": label, "method": s.get("method")}
         row.update({f: s.get(f) for f in ROW_FIELDS})
-        # predicted uncertainty and verdict (results.json, issue 9)
+        # predicted uncertainty and verdict (results.json)
         row["sigma_rotation_deg"] = s.get("sigma_rotation_deg")
         row["sigma_translation_m"] = s.get("sigma_translation_m")
         verdict = s.get("verdict")
