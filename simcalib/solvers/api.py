@@ -32,7 +32,6 @@ from simcalib.solvers.validation import (  # noqa: F401
     dq_cost,
 )
 from simcalib.solvers.solution import (  # noqa: F401
-    BatchSolution,
     PENDING,
     Solution,
     _LazyField,
@@ -41,6 +40,7 @@ from simcalib.solvers.solution import (  # noqa: F401
     _uncertainty_dict,
 )
 from simcalib.solvers.batch_solve import (  # noqa: F401
+    BatchSolution,
     _as_float_array,
     _check_alphas,
     _loop,

@@ -4,6 +4,8 @@ problem by problem through the method's solver function)."""
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -20,9 +22,6 @@ from simcalib.solvers.validation import (
     _check_rng,
     _check_weights_supported,
     _finish_output,
-)
-from simcalib.solvers.solution import (
-    BatchSolution,
 )
 
 def solve_batch(C, H, method: str = "dqopt", alpha=1.0, prior: Prior | None = None,
@@ -168,3 +167,61 @@ def _check_alphas(alpha, B: int) -> np.ndarray:
     if out_of.any():
         raise ValueError(alpha_range_error(arr[out_of].ravel()[0]))
     return np.broadcast_to(arr, (B,)).astype(np.float64)
+
+
+@dataclass(frozen=True, eq=False)
+class BatchSolution:
+    """Result of :func:`solve_batch`: ``X`` (B, 4, 4), ``cost`` (B,), ``objective`` (B,),
+    ``success`` (B,), ``alpha`` (B,), ``method``, ``runtime_s`` (whole batch),
+    ``diagnostics`` (dict of (B,) arrays, method-specific).
+
+    Per-problem uncertainty (computed on first access): ``uncertainty`` (tuple of
+    :class:`~simcalib.solvers.diagnostics.uncertainty.Uncertainty`, None for a failed
+    problem), ``covariance`` (B, 6, 6; NaN for a failed problem, inf on undetermined
+    axes), ``std`` (B, 6; deg, m), ``degenerate`` (B,; True for a failed problem),
+    ``verdict`` (B strings)."""
+    X: np.ndarray
+    cost: np.ndarray
+    objective: np.ndarray
+    success: np.ndarray
+    alpha: np.ndarray
+    method: str
+    runtime_s: float
+    prior: Prior | None = None
+    diagnostics: dict = field(default_factory=dict)
+    C: np.ndarray | None = field(default=None, repr=False)
+    H: np.ndarray | None = field(default=None, repr=False)
+    weights: np.ndarray | None = field(default=None, repr=False)
+    tolerance_deg: float = 1.0
+    tolerance_m: float = 0.01
+
+    def __len__(self):
+        return self.X.shape[0]
+
+    @cached_property
+    def uncertainty(self) -> tuple:
+        if self.C is None:
+            raise ValueError("this BatchSolution holds no motions (built by hand); use "
+                             "simcalib.solve_batch")
+        from simcalib.solvers.diagnostics.uncertainty import covariance_batch
+        X = np.where(self.success[:, None, None], self.X, np.nan)
+        return covariance_batch(self.C, self.H, X, self.alpha, self.prior,
+                                tolerance_deg=self.tolerance_deg,
+                                tolerance_m=self.tolerance_m, weights=self.weights)
+
+    @property
+    def covariance(self) -> np.ndarray:
+        return np.stack([np.full((6, 6), np.nan) if u is None else u.covariance
+                         for u in self.uncertainty])
+
+    @property
+    def std(self) -> np.ndarray:
+        return np.stack([np.full(6, np.nan) if u is None else u.std for u in self.uncertainty])
+
+    @property
+    def degenerate(self) -> np.ndarray:
+        return np.array([True if u is None else u.degenerate for u in self.uncertainty])
+
+    @property
+    def verdict(self) -> tuple:
+        return tuple("FAILED" if u is None else u.verdict for u in self.uncertainty)
