@@ -5,7 +5,8 @@
 """
 
 from simcalib.sweep.report import write_report
-from simcalib.sweep.runner import SweepSummary, run_sweep, status
+from simcalib.sweep.runner import SweepSummary, run_sweep
+from simcalib.sweep.store import status
 from simcalib.sweep.spec import Cell, SweepSpec, expand, list_sweeps, load_sweep
 
 __all__ = ["Cell", "SweepSpec", "SweepSummary", "expand", "list_sweeps", "load_sweep",

@@ -159,13 +159,12 @@ def _log_scale_wanted(ax) -> bool:
 
 def write_report(output: str | Path) -> Path:
     """Write ``report.md`` (+ ``plot_<axis>.png``) from the stored cells."""
-    from simcalib.sweep.runner import status
     out = Path(output)
     manifest = store.read_manifest(out)
     rows = store.table(out)
     axes = [a for a in manifest["axes"]]
     summ = summarise(rows, axes)
-    st = status(out)
+    st = store.status(out)
     spec = manifest["spec"]
     lines = [f"# Sweep `{spec['name']}`", "", spec.get("description") or "", "",
              f"Base scenario `{spec['base']}`, sweep seed {spec['seed']}; axes: "

@@ -12,13 +12,12 @@ import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from simcalib.sweep import store
 from simcalib.sweep.cells import resolve_cells, run_cell
 from simcalib.sweep.spec import SweepSpec, expand
 
-__all__ = ["SweepSummary", "run_sweep", "status", "SweepProgress"]
+__all__ = ["SweepSummary", "run_sweep", "SweepProgress"]
 
 
 @dataclass(frozen=True)
@@ -149,19 +148,3 @@ def _keep_recordings(spec: SweepSpec, out: Path, resolved) -> None:
             rec_cfg = dataclasses.replace(
                 cfg, recording=dataclasses.replace(cfg.recording, enabled=True))
             run(rec_cfg, echo=False)
-
-
-def status(output: str | Path) -> dict[str, Any]:
-    """What is done in a sweep directory: cells total / done / failed / remaining."""
-    manifest = store.read_manifest(output)
-    cells = store.read_cells(output)
-    keys = [c["key"] for c in manifest["cells"]]
-    done = [k for k in keys if k in cells]
-    failed = [k for k in done if cells[k]["status"] != "ok"]
-    run_s = [cells[k].get("cell_s") or 0.0 for k in done]
-    return {"output": str(output), "cells": len(keys), "done": len(done),
-            "failed": len(failed), "remaining": len(keys) - len(done),
-            "cell_s_mean": (sum(run_s) / len(run_s)) if run_s else None,
-            "failed_cells": [{"index": c["index"], "key": c["key"],
-                              "error": cells[c["key"]].get("error")}
-                             for c in manifest["cells"] if c["key"] in failed][:20]}

@@ -150,3 +150,19 @@ def write_table(out: Path) -> Path:
     pq.write_table(pa.table(arrays) if arrays else pa.table({}), tmp)
     os.replace(tmp, path)
     return path
+
+
+def status(output: str | Path) -> dict[str, Any]:
+    """What is done in a sweep directory: cells total / done / failed / remaining."""
+    manifest = read_manifest(output)
+    cells = read_cells(output)
+    keys = [c["key"] for c in manifest["cells"]]
+    done = [k for k in keys if k in cells]
+    failed = [k for k in done if cells[k]["status"] != "ok"]
+    run_s = [cells[k].get("cell_s") or 0.0 for k in done]
+    return {"output": str(output), "cells": len(keys), "done": len(done),
+            "failed": len(failed), "remaining": len(keys) - len(done),
+            "cell_s_mean": (sum(run_s) / len(run_s)) if run_s else None,
+            "failed_cells": [{"index": c["index"], "key": c["key"],
+                              "error": cells[c["key"]].get("error")}
+                             for c in manifest["cells"] if c["key"] in failed][:20]}
