@@ -1,6 +1,6 @@
 """Camera effects of simcalib's visual stage: pure image-space and timing models.
 
-Everything here is numpy/OpenCV on arrays (no MuJoCo): the renderer (:mod:`simcalib.render`)
+Everything here is numpy/OpenCV on arrays (no MuJoCo): the renderer (:mod:`simcalib.world.render`)
 renders the sub-frames these functions ask for, :mod:`simcalib.vision` chains the effects.
 Each effect is off in preset ``ideal`` and on in ``realistic`` and ``harsh``
 (:data:`PRESETS`; docs/vision.md tabulates what each costs and does to pose accuracy).

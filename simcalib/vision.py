@@ -1,7 +1,7 @@
 """Visual pose streams: render each camera frame, degrade it, detect markers, solve PnP.
 
 ``visual_streams(world, cfg, rng, workers=...)`` renders every frame of both cameras of a
-simulated run (:mod:`simcalib.render`), applies the image realism knobs of
+simulated run (:mod:`simcalib.world.render`), applies the image realism knobs of
 :class:`VisionConfig` (Gaussian defocus blur, Gaussian pixel noise — drawn from a generator
 derived per frame from ``rng`` and the (camera, frame) pair, so the worker count never
 changes a result), detects ArUco markers and estimates each camera pose from all visible
@@ -319,7 +319,7 @@ def _camera_intrinsics(world, camera: str, cfg: VisionConfig) -> tuple[CameraInt
 
 def _check_model_fovy(model, camera: str, fovy_deg: float, base: CameraIntrinsics) -> None:
     """The world's intrinsics must be the pinhole MuJoCo renders (else poses are biased)."""
-    from .render import import_mujoco  # noqa: PLC0415
+    from .world.render import import_mujoco  # noqa: PLC0415
     mujoco = import_mujoco()
     cid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, camera)
     if cid < 0:
@@ -413,7 +413,7 @@ def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Genera
     with fresh per-frame noise.
 
     ``progress(n_done, n_total)`` (optional) is called as camera frames finish (e.g. a
-    progress bar's update; :class:`simcalib.render.LineProgress` prints a line every N
+    progress bar's update; :class:`simcalib.world.render.LineProgress` prints a line every N
     frames for non-terminal stderr). On Ctrl-C the render workers stop quietly and
     :class:`VisualStreamsInterrupted` is raised carrying the streams of the frames done.
     """
@@ -458,7 +458,7 @@ def _check_inputs(world, cfg, rng, progress) -> None:
         raise TypeError(f"cfg must be a VisionConfig; received {type(cfg).__name__}")
     if not isinstance(rng, np.random.Generator):
         raise TypeError(f"rng must be a numpy.random.Generator; received {type(rng).__name__}")
-    from .render import check_progress  # noqa: PLC0415
+    from .world.render import check_progress  # noqa: PLC0415
     check_progress(progress)
     _check_world(world)
 
@@ -517,7 +517,7 @@ def _render_sizes(cameras, intr: dict, optics: dict) -> dict:
 
 def _render_settings(w: int, h: int, cams, intr: dict, cfg: VisionConfig):
     """RenderSettings of one image size, with fovy overridden where the model's does not fit."""
-    from .render import RenderSettings  # noqa: PLC0415
+    from .world.render import RenderSettings  # noqa: PLC0415
     fov_over = {}
     for c in cams:
         if cfg.fovy_deg is not None or (w, h) != (intr[c].width, intr[c].height):
@@ -529,7 +529,7 @@ def _render_settings(w: int, h: int, cams, intr: dict, cfg: VisionConfig):
 def _camera_jobs(world, cam: str, fr, intr, cfg: VisionConfig, eff, offsets, light_phase: float,
                  occl_cam: dict) -> list:
     """FrameJobs of one camera's delivered frames; stores markers-in-view counts in ``occl_cam``."""
-    from .render import FrameJob  # noqa: PLC0415
+    from .world.render import FrameJob  # noqa: PLC0415
     in_view = _markers_in_view(world.marker_field, fr.T_world_cam, intr) \
         if cfg.count_occlusion else None
     jobs = []
@@ -561,7 +561,7 @@ def _light_at(t_k: float, eff, light_phase: float):
 def _render_pass(model, settings, jobs: list, proc: FrameProcessor, workers, progress,
                  n_before: int, n_jobs_total: int) -> tuple:
     """Render one pass: ``(results, timings, RenderInterrupted or None)``."""
-    from .render import RenderInterrupted, render_map  # noqa: PLC0415
+    from .world.render import RenderInterrupted, render_map  # noqa: PLC0415
     def report(n, _t, _base=n_before):
         progress(_base + n, n_jobs_total)
     sub_progress = report if progress is not None else None
@@ -904,7 +904,7 @@ def _stamps(frames) -> np.ndarray:
 
 
 def _default_workers() -> int:
-    from .render import default_workers  # noqa: PLC0415
+    from .world.render import default_workers  # noqa: PLC0415
     return default_workers()
 
 

@@ -10,9 +10,10 @@ import numpy as np
 import pytest
 import yaml
 
-from simcalib.boards import (BOARD_KINDS, TARGETS, BoardConfig, T_geom_board, add_board,
-                             board_corners, board_image, board_pose_estimator, cv_board)
+from simcalib.boards import (BOARD_KINDS, TARGETS, BoardConfig, T_geom_board, board_corners,
+                             board_image, board_pose_estimator, cv_board)
 from simcalib.errors import ConfigError
+from simcalib.world.board_model import add_board
 from simcalib.config.resources import scenarios_dir
 from simcalib.world import WorldConfig
 
@@ -67,7 +68,7 @@ def test_board_frame_convention():
 
 
 def test_add_board_places_the_board_frame(gl):
-    from simcalib.render import import_mujoco
+    from simcalib.world.render import import_mujoco
     mujoco = import_mujoco()
     spec = mujoco.MjSpec()
     body = spec.worldbody.add_body(name="flange", pos=[0.1, 0.2, 0.3])

@@ -273,7 +273,7 @@ def test_shipped_scenarios_are_feasible_and_prediction_counts_pairs():
 def test_error_hierarchy_and_aliases():
     from simcalib import errors
     from simcalib.cli import UsageError
-    from simcalib.render import RenderBackendError
+    from simcalib.world.render import RenderBackendError
     assert ConfigError is errors.ConfigError and issubclass(ConfigError, ValueError)
     assert issubclass(errors.ConfigTypeError, TypeError)
     assert issubclass(errors.ConfigTypeError, ConfigError)
@@ -446,7 +446,7 @@ def test_import_config_loads_no_render_vision_or_vehicle():
     import subprocess
     import sys
     code = ("import sys; from simcalib.config import load_config; load_config('planar'); "
-            "print(' '.join(m for m in ('mujoco', 'cv2', 'simcalib.render', "
+            "print(' '.join(m for m in ('mujoco', 'cv2', 'simcalib.world.render', "
             "'simcalib.vision', 'simcalib.world.vehicle', 'simcalib.world.scene', "
             "'simcalib.pipeline') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,

@@ -70,7 +70,7 @@ def T_looking_at(target, eye, up=(0, 0, 1)):
 
 def render_cv(model, T_world_cam):
     """Render camera 'cam' placed (via its mocap body) at the OpenCV pose ``T_world_cam``."""
-    from simcalib.render import CameraRenderer, RenderSettings
+    from simcalib.world.render import CameraRenderer, RenderSettings
     R_mj = T_world_cam[:3, :3] @ np.diag([1.0, -1.0, -1.0])  # OpenCV -> MuJoCo camera axes
     with CameraRenderer(model, RenderSettings(width=W, height=H)) as r:
         img = r.render("cam", mocap_pos=T_world_cam[None, :3, 3],

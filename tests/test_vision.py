@@ -164,7 +164,7 @@ def test_worker_count_does_not_change_results(world, run_1):
 @pytest.mark.slow
 def test_worker_processes_render_identical_images(world):
     """Spawned worker processes (this process not rendering) give the same pixels."""
-    from simcalib.render import FrameJob, RenderSettings, render_map
+    from simcalib.world.render import FrameJob, RenderSettings, render_map
     fr = world.trajectory.cam_b
     jobs = [FrameJob("cam_b", k, None, fr.mocap_pos[k], fr.mocap_quat_wxyz[k])
             for k in range(6)]
@@ -178,7 +178,7 @@ def test_worker_processes_render_identical_images(world):
 @pytest.mark.slow
 def test_coarse_meshes_do_not_move_marker_corners(world):
     from simcalib.markers import detect_markers
-    from simcalib.render import CameraRenderer, RenderSettings
+    from simcalib.world.render import CameraRenderer, RenderSettings
     fr = world.trajectory.cam_a
     corners = []
     for coarse in (True, False):
@@ -284,7 +284,7 @@ def test_inconsistent_world_intrinsics_are_rejected(world):
 
 # ------------------------------------------------------------------------- rendering
 def test_backend_selection_and_error_message():
-    from simcalib.render import RenderBackendError, available_backend
+    from simcalib.world.render import RenderBackendError, available_backend
 
     def fail(*_):
         return "EGL_NOT_INITIALIZED"
@@ -309,7 +309,7 @@ def test_headless_glfw_gives_clear_error_and_workers_fall_back(gl):
     through a fallback backend in a worker process."""
     code = """
 import numpy as np, mujoco
-from simcalib.render import (CameraRenderer, RenderBackendError, FrameJob, RenderSettings,
+from simcalib.world.render import (CameraRenderer, RenderBackendError, FrameJob, RenderSettings,
                              render_map, available_backend)
 m = mujoco.MjModel.from_xml_string('<mujoco><worldbody><light pos="0 0 2"/>'
     '<geom type="box" size=".2 .2 .2" rgba="1 1 1 1"/><camera name="c" pos="0 0 1"/>'
@@ -339,7 +339,7 @@ print("MEAN:", out[0].mean())
 
 
 def test_renderer_does_not_modify_callers_model(world):
-    from simcalib.render import CameraRenderer, RenderSettings
+    from simcalib.world.render import CameraRenderer, RenderSettings
     before = (world.model.vis.quality.offsamples, float(world.model.cam_fovy[0]))
     with CameraRenderer(world.model, RenderSettings(msaa_samples=0,
                                                     fovy_deg={"cam_a": 45.0})) as r:
@@ -380,7 +380,7 @@ def test_vision_bench_cli(gl, tmp_path, capsys):
 
 def test_vision_modules_import_light():
     """Importing the vision modules loads neither mujoco nor cv2 (lazy heavy imports)."""
-    code = ("import sys, simcalib.vision, simcalib.render, simcalib.markers, "
+    code = ("import sys, simcalib.vision, simcalib.world.render, simcalib.markers, "
             "simcalib.vision_bench; print(sorted(m for m in ('cv2', 'mujoco') if m in sys.modules))")
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     env = dict(os.environ, PYTHONPATH=root + os.pathsep + os.environ.get("PYTHONPATH", ""))
@@ -404,9 +404,9 @@ def _run_py(code, env_update, drop=(), timeout=180):
 def test_mujoco_gl_is_decided_by_render_not_at_import():
     """No simcalib module sets MUJOCO_GL at import; import_mujoco decides it (egl)."""
     code = ("import os, simcalib, simcalib.world, simcalib.vision, simcalib.pipeline, "
-            "simcalib.cli, simcalib.render, simcalib.markers\n"
+            "simcalib.cli, simcalib.world.render, simcalib.markers\n"
             "print('SET' if 'MUJOCO_GL' in os.environ else 'UNSET')\n"
-            "from simcalib.render import import_mujoco; import_mujoco()\n"
+            "from simcalib.world.render import import_mujoco; import_mujoco()\n"
             "print(os.environ['MUJOCO_GL'])")
     out = _run_py(code, {}, drop=("MUJOCO_GL", "PYOPENGL_PLATFORM"))
     assert out.returncode == 0, out.stderr
@@ -414,7 +414,7 @@ def test_mujoco_gl_is_decided_by_render_not_at_import():
 
 
 def test_mujoco_gl_bogus_lists_valid_values():
-    code = ("from simcalib.render import import_mujoco, RenderBackendError\n"
+    code = ("from simcalib.world.render import import_mujoco, RenderBackendError\n"
             "try:\n    import_mujoco()\nexcept RenderBackendError as e:\n    print('ERR', e)")
     out = _run_py(code, {"MUJOCO_GL": "bogus"})
     assert out.returncode == 0, out.stderr
@@ -424,7 +424,7 @@ def test_mujoco_gl_bogus_lists_valid_values():
 
 
 def test_mujoco_gl_osmesa_without_library_falls_back_to_egl(gl):
-    code = ("import simcalib.render as r\nr._osmesa_available = lambda: False\n"
+    code = ("import simcalib.world.render as r\nr._osmesa_available = lambda: False\n"
             "m = r.import_mujoco()\nimport os\nprint('GL', os.environ['MUJOCO_GL'])\n"
             "print('BACKEND', r.loaded_backend())")
     out = _run_py(code, {"MUJOCO_GL": "osmesa"})
@@ -447,7 +447,7 @@ class _InterruptAfter:
 
 @pytest.mark.slow
 def test_render_interrupt_keeps_done_frames_and_progress_reports(world):
-    from simcalib.render import (FrameJob, LineProgress, RenderInterrupted, RenderSettings,
+    from simcalib.world.render import (FrameJob, LineProgress, RenderInterrupted, RenderSettings,
                                  render_map)
     fr = world.trajectory.cam_a
     jobs = [FrameJob("cam_a", k, None, fr.mocap_pos[k], fr.mocap_quat_wxyz[k])
@@ -518,7 +518,7 @@ def test_ctrl_c_in_worker_pool_prints_no_worker_traceback(gl):
     with RenderInterrupted, the workers print nothing."""
     code = """
 import os, signal, threading, time, numpy as np, mujoco
-from simcalib.render import FrameJob, RenderSettings, render_map, RenderInterrupted
+from simcalib.world.render import FrameJob, RenderSettings, render_map, RenderInterrupted
 m = mujoco.MjModel.from_xml_string('<mujoco><worldbody><light pos="0 0 2"/>'
     '<geom type="box" size=".2 .2 .2"/><camera name="c" pos="0 0 1"/></worldbody></mujoco>')
 jobs = [FrameJob("c", k, None, None, None) for k in range(200000)]

@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from simcalib.render import import_mujoco as _mujoco
+from simcalib.world.render import import_mujoco as _mujoco
 
 __all__ = ["ArmGains", "ArmLimits", "ArmTrajectory", "CAPTURE_MODES", "track_joint_path", "demo_path",
            "build_controlled_arm", "UR5E_XML"]

@@ -81,7 +81,7 @@ def add_flange_board(spec, cfg, mount_site: str) -> str | None:
     board = getattr(cfg, "board", None)
     if board is None or cfg.target == "marker_wall":
         return None
-    from simcalib.boards import add_board
+    from simcalib.world.board_model import add_board
     from simcalib.geometry import matrix_from_quat, quat_xyzw_from_wxyz
     site = spec.site(mount_site)
     T_body_site = np.eye(4)

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from simcalib.render import import_mujoco as _mujoco
+from simcalib.world.render import import_mujoco as _mujoco
 
 from simcalib.geometry import (invert_transform, quat_from_matrix, quat_wxyz_from_xyzw,
                                transform_from_rotation_translation)
@@ -160,7 +160,7 @@ def build_scene(cfg) -> Scene:
     _add_markers(spec, field, cfg.markers)   # after attaching (assets dict on the parent)
     board, T_world_board = None, None
     if cfg.target != "marker_wall" and not platform.info.outdoor:
-        from simcalib.boards import T_world_wall_board, add_board
+        from simcalib.world.board_model import T_world_wall_board, add_board
         board = cfg.board
         T_world_board = T_world_wall_board(board, cfg.room.size_m)
         add_board(spec, "world", T_world_board, board)

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from simcalib.render import import_mujoco as _mujoco
+from simcalib.world.render import import_mujoco as _mujoco
 
 from simcalib.markers import MarkerField
 from simcalib.streams import CameraFrames, CameraIntrinsics, Trajectory

@@ -32,7 +32,7 @@ from typing import Callable
 
 import numpy as np
 
-from simcalib.render import import_mujoco as _mujoco
+from simcalib.world.render import import_mujoco as _mujoco
 
 __all__ = ["VehicleConfig", "VehicleTrajectory", "PlanarPath", "DRIVES", "GROUNDS",
            "simulate_vehicle", "build_vehicle_model", "figure_eight_path", "as_planar_path",

@@ -564,7 +564,7 @@ def _worker_chunk(jobs: Sequence[FrameJob]) -> list:
 
 def default_workers() -> int:
     """Worker processes used by default: the usable cores (at least 1)."""
-    from .parallel import default_workers as _dw  # noqa: PLC0415
+    from simcalib.parallel import default_workers as _dw  # noqa: PLC0415
     return _dw()
 
 
@@ -677,7 +677,7 @@ def _render_each(renderer: CameraRenderer, fn: Callable, jobs: Sequence[FrameJob
 def _pairs_rendered_here(model, settings: RenderSettings, jobs: list, fn: Callable,
                          progress) -> list:
     """(result, timing) pairs of ``jobs`` rendered one by one in this process."""
-    from .parallel import deferred_interrupt  # noqa: PLC0415
+    from simcalib.parallel import deferred_interrupt  # noqa: PLC0415
     n_total = len(jobs)
     pairs: list = []
     try:
@@ -762,7 +762,7 @@ def _pairs_rendered_in_pool(model, settings: RenderSettings, jobs: list, fn: Cal
                             workers: int, chunk_size: int, backend: str, inprocess: bool,
                             progress) -> list:
     """(result, timing) pairs of ``jobs`` rendered in chunks by worker processes (and here)."""
-    from .parallel import deferred_interrupt, worker_pool  # noqa: PLC0415
+    from simcalib.parallel import deferred_interrupt, worker_pool  # noqa: PLC0415
     blob = model_to_bytes(model)
     chunks = _job_chunks(jobs, workers, chunk_size)
     # When this process can render, it is one of the workers: it starts at once (no
