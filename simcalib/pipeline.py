@@ -289,7 +289,8 @@ def run(config, overrides=(), *, echo: bool = True) -> RunResult:
             where = stage
             bar.set_description(stage)
             t0 = time.perf_counter()
-            with kernels():
+            with kernels(), reports.stage_frames(bar, stage, len(st.done),
+                                                 enabled=cfg.progress):
                 fn(st)
             st.timing[stage] = time.perf_counter() - t0
             st.done.append(stage)

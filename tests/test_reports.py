@@ -121,3 +121,25 @@ def test_write_tum_starts_with_the_simcalib_signature(tmp_path):
 def test_missing_determined_error_stays_missing(value):
     s = _solver(translation_error_determined_m=value)
     assert reports.determined_translation(s) == (value, None)
+
+
+def test_progress_reports_frames_within_the_streams_stage(tmp_path, capsys, gl):
+    """A rendered run with progress on says, while the streams stage renders, how many
+    frames are done — throttled (a few lines, not one per frame) and before the stage ends."""
+    import re
+
+    from simcalib.cli import main
+    status = main(["run", "scenario=planar", "world.duration_s=3", "world.fps=10",
+                   "pairing.step=1", "pairing.max_translation_m=1.0", "pairing.max_rotation_deg=90",
+                   "solvers=[dqopt]", "recording.enabled=false",
+                   "workers=1", "progress=true", f"output={tmp_path / 'r'}"])
+    assert status == 0
+    lines = capsys.readouterr().err.splitlines()
+    frame_lines = [ln for ln in lines if re.search(r"streams: frames \d+/\d+", ln)]
+    done_at = next(i for i, ln in enumerate(lines) if "streams done in" in ln)
+    counts = [tuple(map(int, re.search(r"frames (\d+)/(\d+)", ln).groups()))
+              for ln in frame_lines]
+    assert any(n < total for n, total in counts), frame_lines   # intermediate updates
+    assert counts[-1][0] == counts[-1][1]
+    assert len(frame_lines) <= 10 < counts[-1][1]                # throttled
+    assert all(lines.index(ln) < done_at for ln in frame_lines)

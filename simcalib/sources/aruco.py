@@ -70,7 +70,9 @@ class ArucoSource(SourceHooks):
         if set(cameras) != set(world.camera_names):   # per-stream selection: render only these
             world = dataclasses.replace(world, camera_names=tuple(
                 c for c in world.camera_names if c in cameras))
+        from simcalib.reports import frame_progress
         streams, log = visual_streams(world, cfg.vision, rng, workers=cfg.workers,
+                                      progress=frame_progress(),
                                       rig_entropy=truth.rig_entropy.get(self.info.rng_stream))
         return SourceOutput(streams={cam: streams[cam] for cam in cameras}, log=log)
 

@@ -42,6 +42,7 @@ class FixedBoardSource(SourceHooks):
 
     def measure(self, truth: GroundTruth, cfg, rng, cameras) -> SourceOutput:
         from simcalib import vision as V
+        from simcalib.reports import frame_progress
         from simcalib.geometry import invert_transform
         from simcalib.world.eyetohand import FIXED_CAMERA, T_world_fixed_camera
         world = truth.world
@@ -63,7 +64,7 @@ class FixedBoardSource(SourceHooks):
         (w, h), = V._render_sizes((FIXED_CAMERA,), intr, optics)
         settings = V._render_settings(w, h, (FIXED_CAMERA,), intr, vcfg)
         results, _, interrupted = V._render_pass(world.model, settings, jobs, proc,
-                                                 cfg.workers, None, 0, len(jobs))
+                                                 cfg.workers, frame_progress(), 0, len(jobs))
         if interrupted is not None:
             raise interrupted
         T_world_cam = T_world_fixed_camera(world.config)
