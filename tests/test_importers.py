@@ -1,6 +1,7 @@
 """Pose-file formats (simcalib.importers) and convention detection (simcalib.estimation.readings)."""
 
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -34,9 +35,19 @@ def _same(s: PoseStreamData, t, T):
     assert np.allclose(s.timestamps_s, t) and np.allclose(s.T_world_sensor, T, atol=1e-8)
 
 
-def test_registry_lists_formats():
-    assert set(available()) == {"tum", "simcalib_tum", "eth", "csv", "easy_handeye", "moveit"}
-    with pytest.raises(ValueError, match="available: .*eth"):
+def test_registry_finds_the_format_modules():
+    from simcalib.importers import FORMATS, register_format
+    assert available() and available() == sorted(FORMATS.names())
+    for name in available():              # each one found by discovery of the folder
+        module = FORMATS.get(name)
+        assert module.NAME == name and module.__name__.startswith("simcalib.importers.")
+        assert FORMATS.info(name)["two_streams"] is bool(module.TWO_STREAMS)
+        assert callable(module.sniff) and callable(module.read)
+    assert "rosbag" not in available()    # a module of the folder that is not a text format
+    with pytest.raises(TypeError, match="needs NAME"):
+        register_format("simcalib.importers.rosbag")
+    listing = re.escape(", ".join(available()))
+    with pytest.raises(ValueError, match=f"did you mean 'eth'.*available: {listing}"):
         read_pose_stream(__file__, format="ethz")
 
 

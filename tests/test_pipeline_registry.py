@@ -41,9 +41,16 @@ def _rngs(seed=0):
     return {n: np.random.default_rng(s) for n, s in zip(RNG_STREAMS, ss)}
 
 
-def test_registry_lists_the_builtin_sources_and_rejects_unknown_names():
-    assert set(available_sources()) == {"ground_truth", "noisy", "aruco", "robot_fk",
-                                        "fixed_board", "synthetic"}
+def test_registry_finds_the_source_files_and_rejects_unknown_names():
+    from simcalib.sources import SOURCES as REGISTRY
+    infos = available_sources()
+    assert infos and list(infos) == sorted(infos)
+    for name, info in infos.items():      # each one found by discovery of the folder
+        src = REGISTRY.get(name)
+        assert info is src.info and info.name == name and isinstance(src, PoseSource)
+        assert type(src).__module__.startswith("simcalib.sources.")
+    with pytest.raises(TypeError, match="SourceInfo"):
+        REGISTRY.register("not_a_source", object())
     assert set(sources_for_kind("sim")) == set(SOURCES)  # the config's names are served
     with pytest.raises(ValueError, match=r"unknown pose source 'nosy'.*did you mean 'noisy'"
                                          r".*available: aruco, .*ground_truth"):

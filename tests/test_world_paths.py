@@ -7,16 +7,14 @@ from simcalib.world import (CameraConfig, MarkerFieldConfig, PerturbationConfig,
                             WorldConfig, available_paths, get_path, sample_path)
 from simcalib.world.paths import compose_path, perturbation_sample
 
-EXPECTED = {"3d": ("arm",), "planar": ("cart", "arm", "car"),
-            "linear": ("cart", "arm", "car"), "circular": ("cart", "arm", "car"),
-            "rotation": ("cart", "arm"), "scara": ("arm",)}
-
-
 def test_registry_names_platforms_and_metadata():
+    from simcalib.world.paths import PATHS
+    from simcalib.world.platforms import available_platforms
     paths = available_paths()
-    assert sorted(paths) == sorted(EXPECTED)
+    assert paths and list(paths) == PATHS.names()
     for name, info in paths.items():
-        assert info.platforms == EXPECTED[name]
+        assert info.name == name and get_path(name) is info and PATHS.get(name) is info.fn
+        assert info.platforms and set(info.platforms) <= set(available_platforms())
         assert len(info.description) > 20
         for platform in info.platforms:
             assert info.params_for(platform)  # defaults exist and validate
@@ -25,7 +23,8 @@ def test_registry_names_platforms_and_metadata():
 def test_unknown_path_lists_valid_names():
     with pytest.raises(ValueError, match=r"unknown path 'plannar'.*did you mean 'planar'"):
         get_path("plannar")
-    with pytest.raises(ValueError, match=r"available: 3d, circular, linear"):
+    listing = ", ".join(sorted(available_paths()))
+    with pytest.raises(ValueError, match=rf"available: {listing}"):
         WorldConfig(path="spiral")
 
 
@@ -88,9 +87,9 @@ def test_default_rig_is_the_papers_extrinsic():
     assert np.allclose(np.rad2deg(rotvec_from_matrix(X[:3, :3])), [2.35, -0.92, -48.93])
 
 
-@pytest.mark.parametrize("name", sorted(EXPECTED))
+@pytest.mark.parametrize("name", sorted(available_paths()))
 def test_paths_are_smooth_and_shape_independent_of_duration(name):
-    for platform in EXPECTED[name]:
+    for platform in available_paths()[name].platforms:
         T = 20.0
         t = np.linspace(0.0, T, 4001)
         s = sample_path(name, platform, t, T)

@@ -10,15 +10,17 @@ file states it (whether the file really holds ``T_world_sensor`` or its inverse,
 quaternion was scalar-first, is decided from the data by :mod:`simcalib.estimation.readings`), the
 source file, the format and the repairs made (counted, named).
 
-Formats (``available()``): ``tum``, ``simcalib_tum`` (simcalib's own TUM output), ``eth``,
-``csv``, ``easy_handeye``, ``moveit``. A format module defines ``NAME``, ``DESCRIPTION``,
-``TWO_STREAMS`` (bool), ``sniff(path, text) -> float`` (0..1 confidence) and
-``read(path, text, **options) -> list[RawStream]``.
+Formats (``available()``, the registry :data:`FORMATS`): ``tum``, ``simcalib_tum``
+(simcalib's own TUM output), ``eth``, ``csv``, ``easy_handeye``, ``moveit``. A format module
+defines ``NAME``, ``DESCRIPTION``, ``TWO_STREAMS`` (bool), ``sniff(path, text) -> float``
+(0..1 confidence) and ``read(path, text, **options) -> list[RawStream]``, and ends with
+``register_format(__name__)``; the registry imports every module of this folder on its first
+lookup, so a new format file needs no import list.
 """
 
 from __future__ import annotations
 
-import importlib
+import sys
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -27,20 +29,27 @@ import numpy as np
 from simcalib.errors import DataError, unknown_choice
 from simcalib.geometry import (invert_transform, matrix_from_quat, quat_from_matrix,
                                transform_from_rotation_translation)
+from simcalib.registry import Registry
 
 __all__ = ["PoseStreamData", "RawStream", "data_error", "available", "read_pose_stream",
-           "read_pose_streams", "detect_format", "stream_from_arrays", "MIN_POSES"]
+           "read_pose_streams", "detect_format", "stream_from_arrays", "MIN_POSES", "FORMATS",
+           "register_format"]
 
 MIN_POSES = 3
 
-_FORMAT_MODULES = {
-    "simcalib_tum": "simcalib.importers.simcalib_tum",
-    "tum": "simcalib.importers.tum",
-    "eth": "simcalib.importers.eth",
-    "csv": "simcalib.importers.csv",
-    "easy_handeye": "simcalib.importers.easy_handeye",
-    "moveit": "simcalib.importers.moveit",
-}
+
+def _check_format(name: str, module) -> None:
+    missing = [a for a in ("NAME", "DESCRIPTION", "TWO_STREAMS", "sniff", "read")
+               if not hasattr(module, a)]
+    if missing or not (callable(module.sniff) and callable(module.read)):
+        raise TypeError(f"a pose-file format module needs NAME, DESCRIPTION, TWO_STREAMS, "
+                        f"sniff() and read(); {getattr(module, '__name__', module)!r} lacks "
+                        f"{missing or ['callable sniff/read']}")
+
+
+#: name -> format module (info: ``description``, ``two_streams``).
+FORMATS = Registry("pose-file format", key="format", package="simcalib.importers",
+                   check=_check_format)
 
 
 def data_error(message: str) -> DataError:
@@ -135,15 +144,23 @@ class PoseStreamData:
 
 
 # --------------------------------------------------------------------------- registry
+def register_format(module_name: str):
+    """Register the (imported) format module ``module_name`` under its ``NAME``."""
+    module = sys.modules[module_name]
+    _check_format("", module)
+    return FORMATS.register(module.NAME, module, description=module.DESCRIPTION,
+                            two_streams=bool(module.TWO_STREAMS))
+
+
 def available() -> list[str]:
-    """Names of the registered formats."""
-    return list(_FORMAT_MODULES)
+    """Names of the registered formats, sorted."""
+    return sorted(FORMATS.names())
 
 
 def _module(name: str):
-    if not isinstance(name, str) or name not in _FORMAT_MODULES:
-        raise unknown_choice("pose-file format", name, _FORMAT_MODULES, key="format")
-    return importlib.import_module(_FORMAT_MODULES[name])
+    if not isinstance(name, str) or name not in FORMATS:
+        raise unknown_choice("pose-file format", name, available(), key="format")
+    return FORMATS.get(name)
 
 
 def _read_text(path) -> tuple[Path, str]:
@@ -154,7 +171,7 @@ def _read_text(path) -> tuple[Path, str]:
         text = p.read_text(encoding="utf-8", errors="strict")
     except UnicodeDecodeError:
         raise data_error(f"pose file {str(p)!r} is not UTF-8 text; pose files are text "
-                         f"(formats: {', '.join(_FORMAT_MODULES)})") from None
+                         f"(formats: {', '.join(available())})") from None
     if not text.strip():
         raise data_error(f"pose file {str(p)!r} is empty")
     return p, text
@@ -167,18 +184,18 @@ def detect_format(path, text: str | None = None) -> tuple[str, str]:
     if text is None:
         p, text = _read_text(p)
     scores = []
-    for name in _FORMAT_MODULES:
+    for name in available():
         try:
             s = float(_module(name).sniff(p, text))
         except Exception:  # noqa: BLE001 - a sniffer that chokes simply does not match
             s = 0.0
         scores.append((s, name))
-    scores.sort(key=lambda x: -x[0])
+    scores.sort(key=lambda x: (-x[0], x[1]))       # ties: by name, whatever the load order
     best_s, best = scores[0]
     if best_s <= 0:
         first = text.strip().splitlines()[0][:120]
         raise data_error(f"could not detect the format of {str(p)!r} (first line: {first!r}); "
-                         f"name it explicitly, one of: {', '.join(_FORMAT_MODULES)}")
+                         f"name it explicitly, one of: {', '.join(available())}")
     runner = scores[1]
     msg = (f"detected format {best!r} ({_module(best).DESCRIPTION}; confidence {best_s:.2f}"
            + (f", next {runner[1]!r} {runner[0]:.2f}" if runner[0] > 0 else "") + ")")

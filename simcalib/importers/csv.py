@@ -17,7 +17,7 @@ import re
 
 import numpy as np
 
-from simcalib.importers import RawStream, data_error
+from simcalib.importers import RawStream, data_error, register_format
 
 NAME = "csv"
 DESCRIPTION = "CSV with a header naming the columns (quaternion xyzw/wxyz or 4x4 matrix)"
@@ -173,3 +173,6 @@ def read(path, text: str, **options) -> list[RawStream]:
                      "tests the other order")
     return [RawStream(t, position_m=P, quat_xyzw=Q, quat_order=order, note="; ".join(notes),
                       synthetic_time=synthetic)]
+
+
+register_format(__name__)

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from simcalib.importers import RawStream, data_error
+from simcalib.importers import RawStream, data_error, register_format
 
 NAME = "easy_handeye"
 DESCRIPTION = "easy_handeye YAML samples (robot / tracking transforms)"
@@ -78,3 +78,6 @@ def read(path, text: str, **options) -> list[RawStream]:
                              quat_xyzw=Q, name=name, synthetic_time=True,
                              note=f"easy_handeye {layout} samples; sample index as time"))
     return out
+
+
+register_format(__name__)

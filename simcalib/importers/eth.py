@@ -3,7 +3,8 @@ no header (seconds, metres, quaternion scalar-last)."""
 
 from __future__ import annotations
 
-from simcalib.importers import RawStream, first_data_line, is_pose_row, read_pose_rows
+from simcalib.importers import (RawStream, first_data_line, is_pose_row, read_pose_rows,
+                                 register_format)
 
 NAME = "eth"
 DESCRIPTION = "ETH hand_eye_calibration CSV: 't, x, y, z, qx, qy, qz, qw', no header"
@@ -16,3 +17,6 @@ def sniff(path, text: str) -> float:
 
 def read(path, text: str, **options) -> list[RawStream]:
     return read_pose_rows(path, text, ",", "eth", "t, x, y, z, qx, qy, qz, qw", options)
+
+
+register_format(__name__)

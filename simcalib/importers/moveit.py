@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from simcalib.importers import RawStream, data_error
+from simcalib.importers import RawStream, data_error, register_format
 
 NAME = "moveit"
 DESCRIPTION = "MoveIt calibration samples YAML (effector_wrt_world / object_wrt_sensor 4x4)"
@@ -67,3 +67,6 @@ def read(path, text: str, **options) -> list[RawStream]:
                              quat_order="matrix", name=key, synthetic_time=True,
                              note="MoveIt samples; sample index as time"))
     return out
+
+
+register_format(__name__)

@@ -8,7 +8,7 @@ a file (also one written by simcalib before the signature) is read as plain ``tu
 
 from __future__ import annotations
 
-from simcalib.importers import tum
+from simcalib.importers import tum, register_format
 
 NAME = "simcalib_tum"
 SIGNATURE = "# simcalib TUM trajectory"
@@ -26,3 +26,6 @@ def sniff(path, text: str) -> float:
 
 def read(path, text: str, **options):
     return tum.read(path, text, **options)
+
+
+register_format(__name__)

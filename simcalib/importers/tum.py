@@ -5,7 +5,8 @@ that header."""
 
 from __future__ import annotations
 
-from simcalib.importers import RawStream, first_data_line, is_pose_row, read_pose_rows
+from simcalib.importers import (RawStream, first_data_line, is_pose_row, read_pose_rows,
+                                 register_format)
 
 NAME = "tum"
 DESCRIPTION = "TUM: 'timestamp tx ty tz qx qy qz qw', whitespace separated"
@@ -23,3 +24,6 @@ def sniff(path, text: str) -> float:
 
 def read(path, text: str, **options) -> list[RawStream]:
     return read_pose_rows(path, text, None, "tum", "t tx ty tz qx qy qz qw", options)
+
+
+register_format(__name__)

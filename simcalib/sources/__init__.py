@@ -9,14 +9,12 @@ protocol and how to add one.
 """
 
 from simcalib.sources.base import CAMERAS, GroundTruth, PoseSource, SourceInfo, SourceOutput
-from simcalib.sources.registry import (available_sources, camera_sources, get_source,
-                                       register, sources_for_kind)
-# the built-in sources register themselves on import (each file is light: heavy imports
-# happen inside measure())
-from simcalib.sources import (aruco, fixed_board, ground_truth, noisy, robot_fk,  # noqa: E402,F401
-                              synthetic)
-from simcalib.sources.truth import KINDS, build_truth  # noqa: E402
+from simcalib.sources.registry import (SOURCES, available_sources, camera_sources,
+                                       get_source, register, sources_for_kind)
+# the source files register themselves when the first lookup imports every module of this
+# folder (SOURCES.load(); each file is light: heavy imports happen inside measure())
+from simcalib.sources.truth import KINDS, build_truth
 
-__all__ = ["CAMERAS", "GroundTruth", "PoseSource", "SourceInfo", "SourceOutput", "KINDS",
+__all__ = ["CAMERAS", "SOURCES", "GroundTruth", "PoseSource", "SourceInfo", "SourceOutput", "KINDS",
            "available_sources", "build_truth", "camera_sources", "get_source", "register",
            "sources_for_kind"]

@@ -7,7 +7,8 @@ source under ``simcalib/sources/``; each registers itself (``registry.register``
 
 Adding a source (e.g. ``robot_fk``, a file importer): write ``simcalib/sources/<name>.py``
 with a class that has ``info`` (:class:`SourceInfo`) and ``measure(...)`` and call
-``register(<instance>)`` at import; import it in ``simcalib/sources/__init__.py``.
+``register(<instance>)`` at import; the registry finds the file (it imports every module
+of ``simcalib/sources/`` on its first lookup), no import list to edit.
 """
 
 from __future__ import annotations

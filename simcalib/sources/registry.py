@@ -1,15 +1,29 @@
 """Registry of pose sources: lookup by name (unknown names list the valid ones) and the
-choice of source per camera for a run."""
+choice of source per camera for a run.
+
+:data:`SOURCES` is a :class:`simcalib.registry.Registry` over the package
+``simcalib.sources``: the first lookup imports every module of that folder, so a new file
+that calls :func:`register` at import is found with no import list to edit."""
 
 from __future__ import annotations
 
 from simcalib.errors import unknown_choice
+from simcalib.registry import Registry
 from simcalib.sources.base import CAMERAS, PoseSource, SourceInfo
 
-__all__ = ["register", "get_source", "available_sources", "sources_for_kind",
+__all__ = ["SOURCES", "register", "get_source", "available_sources", "sources_for_kind",
            "camera_sources"]
 
-_SOURCES: dict[str, PoseSource] = {}
+
+def _check_source(name: str, source) -> None:
+    info = getattr(source, "info", None)
+    if not isinstance(info, SourceInfo) or not callable(getattr(source, "measure", None)):
+        raise TypeError(f"a pose source needs info: SourceInfo and a measure() method; "
+                        f"received {type(source).__name__}")
+
+
+SOURCES: Registry[PoseSource] = Registry("pose source", key="source",
+                                         package="simcalib.sources", check=_check_source)
 
 #: A ground-truth kind whose measurements come from one fixed source whatever ``source``
 #: says: synthetic problems carry their noisy motions (``source`` only sets their noise
@@ -18,20 +32,15 @@ _NATIVE_SOURCE = {"synthetic": "synthetic"}
 
 
 def register(source: PoseSource) -> PoseSource:
-    """Add ``source`` (an object with ``info: SourceInfo`` and ``measure``)."""
-    info = getattr(source, "info", None)
-    if not isinstance(info, SourceInfo) or not callable(getattr(source, "measure", None)):
-        raise TypeError(f"a pose source needs info: SourceInfo and a measure() method; "
-                        f"received {type(source).__name__}")
-    if info.name in _SOURCES and _SOURCES[info.name] is not source:
-        raise ValueError(f"pose source {info.name!r} is already registered")
-    _SOURCES[info.name] = source
-    return source
+    """Add ``source`` (an object with ``info: SourceInfo`` and ``measure``) under
+    ``source.info.name``; a second source of the same name is refused."""
+    _check_source("", source)
+    return SOURCES.register(source.info.name, source)
 
 
 def available_sources() -> dict[str, SourceInfo]:
-    """name -> :class:`SourceInfo` of every registered source."""
-    return {name: s.info for name, s in sorted(_SOURCES.items())}
+    """name -> :class:`SourceInfo` of every registered source, by name."""
+    return dict(sorted(SOURCES.available().items()))
 
 
 def sources_for_kind(kind: str) -> tuple[str, ...]:
@@ -41,14 +50,12 @@ def sources_for_kind(kind: str) -> tuple[str, ...]:
 
 def get_source(name: str, kind: str | None = None) -> PoseSource:
     """The source ``name``; with ``kind``, also checks it can measure that ground truth."""
-    if not isinstance(name, str):
-        raise TypeError(f"source name must be a string; received {type(name).__name__}")
-    if name not in _SOURCES:
-        raise unknown_choice("pose source", name, sorted(_SOURCES), key="source")
-    src = _SOURCES[name]
+    if isinstance(name, str) and name not in SOURCES:     # the valid names listed sorted
+        raise unknown_choice("pose source", name, sorted(SOURCES.names()), key="source")
+    src = SOURCES.get(name)
     if kind is not None and kind not in src.info.kinds:
-        combos = "; ".join(f"{k}: {list(sources_for_kind(k))}"
-                           for k in sorted({k for s in _SOURCES.values() for k in s.info.kinds}))
+        kinds = sorted({k for i in SOURCES.available().values() for k in i.kinds})
+        combos = "; ".join(f"{k}: {list(sources_for_kind(k))}" for k in kinds)
         raise ValueError(f"pose source {name!r} cannot measure kind={kind!r} (it needs "
                          f"{list(src.info.kinds)}); valid sources per kind: {combos}")
     return src

@@ -21,8 +21,9 @@ from typing import Callable, Mapping
 import numpy as np
 
 from simcalib.errors import ConfigError, did_you_mean, unknown_choice
+from simcalib.registry import Registry
 
-__all__ = ["PathInfo", "PathSample", "available_paths", "get_path", "resolve_platform",
+__all__ = ["PATHS", "PathInfo", "PathSample", "available_paths", "get_path", "resolve_platform",
            "sample_path", "perturbation_sample", "compose_path"]
 
 
@@ -73,33 +74,37 @@ class PathInfo:
         return params
 
 
-_PATHS: dict[str, PathInfo] = {}
+def _path_info(name: str, fn: Callable, *, description: str,
+               defaults: Mapping[str, Mapping[str, float]], degenerate: str = "") -> PathInfo:
+    return PathInfo(name, description, defaults, fn, degenerate)
+
+
+#: name -> path function (info: :class:`PathInfo`); the paths are the functions below.
+PATHS = Registry("path", key="world.path", info=_path_info)
 
 
 def _register(name, description, defaults, degenerate=""):
-    def deco(fn):
-        _PATHS[name] = PathInfo(name, description, defaults, fn, degenerate)
-        return fn
-    return deco
+    return PATHS.register(name, description=description, defaults=defaults,
+                          degenerate=degenerate)
 
 
 def available_paths() -> dict[str, PathInfo]:
     """All registered paths by name (metadata: platforms, description, default params)."""
-    return dict(_PATHS)
+    return PATHS.available()
 
 
 def get_path(name: str) -> PathInfo:
-    if not isinstance(name, str):
-        raise TypeError(f"path name must be a string; received {type(name).__name__}")
-    try:
-        return _PATHS[name]
-    except KeyError:
-        raise unknown_choice("path", name, sorted(_PATHS), key="world.path") from None
+    """The :class:`PathInfo` of ``name`` (unknown names: a ConfigError listing the valid
+    ones, sorted)."""
+    if isinstance(name, str) and name not in PATHS:
+        raise unknown_choice("path", name, sorted(PATHS.names()), key="world.path")
+    return PATHS.info(name)
 
 
 def _pairing_error(info: PathInfo, platform: str):
-    valid = sorted(n for n, p in _PATHS.items() if platform in p.defaults)
-    combos = "; ".join(f"{n}: {list(p.platforms)}" for n, p in sorted(_PATHS.items()))
+    paths = sorted(available_paths().items())
+    valid = [n for n, p in paths if platform in p.defaults]
+    combos = "; ".join(f"{n}: {list(p.platforms)}" for n, p in paths)
     raise ValueError(f"path {info.name!r} is not available on platform {platform!r}; "
                      f"platforms for {info.name!r}: {list(info.platforms)}; paths for "
                      f"{platform!r}: {valid}; valid path: [platforms] combinations: {combos}")

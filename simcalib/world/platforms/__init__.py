@@ -9,9 +9,10 @@ light (MuJoCo is imported inside the methods). See :mod:`simcalib.world.platform
 """
 
 from simcalib.world.platforms.base import Platform, PlatformInfo, PlatformMotion
-from simcalib.world.platforms.registry import (available_platforms, combinations,
-                                               get_platform, register)
-from simcalib.world.platforms import cart, arm, car  # noqa: E402,F401  (register themselves)
+# the platform files register themselves when the first lookup imports every module of
+# this folder (PLATFORM_REGISTRY.load())
+from simcalib.world.platforms.registry import (PLATFORM_REGISTRY, available_platforms,
+                                               combinations, get_platform, register)
 
-__all__ = ["Platform", "PlatformInfo", "PlatformMotion", "available_platforms",
+__all__ = ["PLATFORM_REGISTRY", "Platform", "PlatformInfo", "PlatformMotion", "available_platforms",
            "combinations", "get_platform", "register"]

@@ -1,44 +1,53 @@
 """Registry of platforms (unknown names list the valid ones) and the valid
-platform x path combinations."""
+platform x path combinations.
+
+:data:`PLATFORM_REGISTRY` is a :class:`simcalib.registry.Registry` over the package
+``simcalib.world.platforms``: the first lookup imports every module of that folder, so a
+new platform file that calls :func:`register` at import is found with no import list to
+edit."""
 
 from __future__ import annotations
 
-from simcalib.errors import unknown_choice
+from simcalib.registry import Registry
 from simcalib.world.platforms.base import Platform, PlatformInfo
 
-__all__ = ["register", "get_platform", "available_platforms", "combinations"]
+__all__ = ["PLATFORM_REGISTRY", "register", "get_platform", "available_platforms",
+           "combinations"]
 
-_PLATFORMS: dict[str, Platform] = {}
 
-
-def register(platform: Platform) -> Platform:
+def _check_platform(name: str, platform) -> None:
     info = getattr(platform, "info", None)
     if not isinstance(info, PlatformInfo) or not all(
             callable(getattr(platform, m, None)) for m in ("attach", "home", "drive")):
         raise TypeError("a platform needs info: PlatformInfo and attach/home/drive methods; "
                         f"received {type(platform).__name__}")
-    if info.name in _PLATFORMS and _PLATFORMS[info.name] is not platform:
-        raise ValueError(f"platform {info.name!r} is already registered")
-    _PLATFORMS[info.name] = platform
-    return platform
+
+
+PLATFORM_REGISTRY: Registry[Platform] = Registry(
+    "platform", key="world.platform", package="simcalib.world.platforms",
+    check=_check_platform)
+
+
+def register(platform: Platform) -> Platform:
+    """Add ``platform`` under ``platform.info.name``; a second one of that name is
+    refused."""
+    _check_platform("", platform)
+    return PLATFORM_REGISTRY.register(platform.info.name, platform)
 
 
 def available_platforms() -> dict[str, PlatformInfo]:
     """name -> :class:`PlatformInfo`, in registration order."""
-    return {name: p.info for name, p in _PLATFORMS.items()}
+    return PLATFORM_REGISTRY.available()
 
 
 def combinations() -> dict[str, tuple[str, ...]]:
     """path name -> the registered platforms it supports."""
     from simcalib.world.paths import available_paths
-    return {name: tuple(p for p in info.platforms if p in _PLATFORMS)
+    registered = PLATFORM_REGISTRY.names()
+    return {name: tuple(p for p in info.platforms if p in registered)
             for name, info in available_paths().items()}
 
 
 def get_platform(name: str) -> Platform:
-    if not isinstance(name, str):
-        raise TypeError(f"platform name must be a string; received {type(name).__name__}")
-    try:
-        return _PLATFORMS[name]
-    except KeyError:
-        raise unknown_choice("platform", name, _PLATFORMS, key="world.platform") from None
+    """The platform ``name`` (unknown names: a ConfigError listing the valid ones)."""
+    return PLATFORM_REGISTRY.get(name)
