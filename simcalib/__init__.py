@@ -16,7 +16,9 @@ from __future__ import annotations
 from simcalib.solvers.api import BatchSolution, Prior, Solution, solve, solve_batch
 from simcalib.estimation.alignment import estimate_time_offset
 
-__version__ = "0.1.0"
+from simcalib.config.resources import package_version
+
+__version__ = package_version()
 
 __all__ = ["BatchSolution", "Prior", "Solution", "__version__", "estimate_time_offset",
            "load_config", "run", "solve", "solve_batch"]
@@ -25,19 +27,19 @@ __all__ = ["BatchSolution", "Prior", "Solution", "__version__", "estimate_time_o
 def load_config(scenario, overrides=()):
     """Resolve a scenario (name, YAML path, mapping or a config) plus overrides (``"k=v"``
     strings or a mapping of dotted key -> value) into a validated ``ScenarioConfig``:
-    :func:`simcalib.config.load_config`. The config schema (which imports the world's
-    configs) is imported here, at the first call, so ``import simcalib`` stays light."""
-    from simcalib import config
-    return config.load_config(scenario, overrides)
+    :func:`simcalib.pipeline.scenario.load_config`. The scenario schema (which imports the
+    world's configs) is imported here, at the first call, so ``import simcalib`` stays light."""
+    from simcalib.pipeline.scenario import load_config
+    return load_config(scenario, overrides)
 
 
 def run(config, overrides=(), *, echo: bool = True):
-    """Run one scenario end to end and write its outputs: :func:`simcalib.pipeline.run`.
+    """Run one scenario end to end and write its outputs: :func:`simcalib.pipeline.stages.run`.
 
     ``config``: a ``ScenarioConfig`` (:func:`load_config`) or a scenario name / YAML path,
     resolved with ``overrides`` (``["seed=3", ...]``); ``echo`` prints the summary table.
-    Returns a :class:`simcalib.pipeline.RunResult`. The pipeline (world, rendering,
+    Returns a :class:`simcalib.pipeline.stages.RunResult`. The pipeline (world, rendering,
     recording) is imported here, at the first run, so ``import simcalib`` stays light.
     """
-    from simcalib import pipeline
+    from simcalib.pipeline import stages as pipeline
     return pipeline.run(config, overrides, echo=echo)

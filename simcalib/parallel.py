@@ -3,7 +3,7 @@
 ``worker_pool(n, initializer, initargs)`` is a context manager around
 ``concurrent.futures.ProcessPoolExecutor`` (``spawn`` context: never fork a process that
 may hold an OpenGL context or numba threads) used by rendering (:mod:`simcalib.world.render`)
-and the experiments (:mod:`simcalib.experiments.common`).
+and the experiments (:mod:`simcalib.studies.experiments.common`).
 
 Ctrl-C: a terminal sends SIGINT to the whole foreground process group, so every worker
 would print its own ``KeyboardInterrupt`` traceback (or an ``UnpicklingError`` when it is

@@ -185,16 +185,16 @@ def test_dispatch_passes_argv_and_returns_status(monkeypatch):
     import sys
     import types
     seen = {}
-    fake = types.ModuleType("simcalib.bench")
+    fake = types.ModuleType("simcalib.studies.bench.solvers")
     fake.main = lambda argv: seen.setdefault("argv", argv) and 3
-    monkeypatch.setitem(sys.modules, "simcalib.bench", fake)
+    monkeypatch.setitem(sys.modules, "simcalib.studies.bench.solvers", fake)
     assert main(["bench", "n=10", "--quick"]) == 3
     assert seen["argv"] == ["n=10", "--quick"]
 
 
 def test_dispatch_missing_module_is_a_clear_error(monkeypatch, capsys):
     import sys
-    monkeypatch.setitem(sys.modules, "simcalib.vision_bench", None)  # import fails
+    monkeypatch.setitem(sys.modules, "simcalib.studies.bench.vision", None)  # import fails
     status = main(["bench-vision"])
     err = capsys.readouterr().err
     assert status == 2 and "bench-vision" in err and "not available" in err

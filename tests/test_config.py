@@ -5,9 +5,9 @@ import math
 
 import pytest
 
-from simcalib.config import (ConfigError, PairingConfig, ScenarioConfig, apply_overrides,
-                             build, describe_keys, leaf_paths, list_scenarios, load_config,
-                             resolve_key, to_dict)
+from simcalib.errors import ConfigError
+from simcalib.pipeline.scenario import PairingConfig, ScenarioConfig, apply_overrides, describe_keys, list_scenarios, load_config
+from simcalib.config.engine import build, leaf_paths, resolve_key, to_dict
 
 
 def test_every_scenario_file_loads():
@@ -148,8 +148,8 @@ def test_every_scenario_round_trips_through_yaml():
 
 
 def test_experiment_configs_round_trip_through_the_same_engine():
-    from simcalib.experiments import EXPERIMENTS, config_class
-    from simcalib.experiments.common import build_config
+    from simcalib.studies.experiments import EXPERIMENTS, config_class
+    from simcalib.studies.experiments.common import build_config
     for name in EXPERIMENTS:
         cls = config_class(name)
         assert build(cls, to_dict(cls())) == cls(), name
@@ -170,7 +170,7 @@ def test_mapping_overrides_equal_text_overrides():
 
 
 def test_load_configs_checks_every_cell_before_returning():
-    from simcalib.config import load_configs
+    from simcalib.pipeline.scenario import load_configs
     cells = load_configs("random", [{"noise.sigma_r_deg": s, "seed": k}
                                     for s in (0.1, 1.0) for k in range(3)])
     assert [c.seed for c in cells] == [0, 1, 2, 0, 1, 2]
@@ -187,7 +187,7 @@ def test_load_configs_checks_every_cell_before_returning():
 @pytest.mark.slow
 def test_load_configs_is_cheap():
     import time
-    from simcalib.config import load_configs
+    from simcalib.pipeline.scenario import load_configs
     sets = [{"noise.sigma_r_deg": s, "seed": k} for s in (0.1, 0.3, 1.0) for k in range(40)]
     load_configs("planar", sets[:2])  # warm the key tables
     t0 = time.perf_counter()
@@ -257,7 +257,7 @@ def test_compressed_path_rejected_with_the_duration_that_works():
 
 
 def test_shipped_scenarios_are_feasible_and_prediction_counts_pairs():
-    from simcalib.config.feasibility import _pose_margins, _surviving_pairs
+    from simcalib.pipeline.feasibility import _pose_margins, _surviving_pairs
     cfg = load_config("3d")
     assert _surviving_pairs(cfg.world, cfg.pairing, cfg.world.duration_s) >= 100
     # the failing case: 3 s of 3d left 0 motion pairs after rendering
@@ -445,17 +445,17 @@ def test_engine_to_dict_round_trips():
 def test_import_config_loads_no_render_vision_or_vehicle():
     import subprocess
     import sys
-    code = ("import sys; from simcalib.config import load_config; load_config('planar'); "
+    code = ("import sys; from simcalib.pipeline.scenario import load_config; load_config('planar'); "
             "print(' '.join(m for m in ('mujoco', 'cv2', 'simcalib.world.render', "
-            "'simcalib.vision', 'simcalib.world.vehicle', 'simcalib.world.scene', "
-            "'simcalib.pipeline') if m in sys.modules))")
+            "'simcalib.sources.vision.stream', 'simcalib.world.vehicle', 'simcalib.world.scene', "
+            "'simcalib.pipeline.stages') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True)
     assert out.stdout.strip() == ""
 
 
 def test_every_source_owns_its_margins_and_rng_stream():
-    from simcalib.pipeline import RNG_STREAMS
+    from simcalib.pipeline.stages import RNG_STREAMS
     from simcalib.sources import available_sources, get_source
     cfg = load_config("planar", ["source=noisy"])
     for name in available_sources():

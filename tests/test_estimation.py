@@ -11,12 +11,12 @@ from simcalib.estimation.motions import ALL_PAIRS_MAX, POLICIES, form_motions
 from simcalib.estimation.sampling import classify_sampling, pair_by_stamp
 from simcalib.geometry import invert_transform, rotation_error_rad
 from simcalib.importers import stream_from_arrays
-from simcalib.stream_sim import rig_streams
+from simcalib.world.stream_sim import rig_streams
 
 
 def _streams(t_a, t_b, seed=0):
     rs = rig_streams(duration_s=30.0, rng=np.random.default_rng(seed))
-    from simcalib.stream_sim import rig_path
+    from simcalib.world.stream_sim import rig_path
     X = rs.X
     return (stream_from_arrays(t_a, rig_path(t_a)),
             stream_from_arrays(t_b, rig_path(t_b) @ X), X)
@@ -175,7 +175,7 @@ def test_recorded_scenario_scores_each_choice_against_the_truth(seed, tmp_path):
     """scenario 'recorded': offset within 3 ms, the right reading, the outliers found;
     the solvers get the inliers and stay within 0.1 deg / 2 mm."""
     import simcalib
-    from simcalib.config import load_config
+    from simcalib.pipeline.scenario import load_config
     cfg = load_config("recorded", [f"seed={seed}", "recording.enabled=false",
                                    "progress=false", f"output={tmp_path}"])
     r = simcalib.run(cfg, echo=False)

@@ -1,4 +1,4 @@
-"""Time alignment (simcalib.estimation.alignment) validated in simulation (simcalib.stream_sim) and on
+"""Time alignment (simcalib.estimation.alignment) validated in simulation (simcalib.world.stream_sim) and on
 the ETH data (skipped when ../shared/data/eth is absent)."""
 
 import os
@@ -9,7 +9,7 @@ import pytest
 
 import simcalib
 from simcalib.geometry import rotation_error_rad, translation_error_m
-from simcalib.stream_sim import rig_streams
+from simcalib.world.stream_sim import rig_streams
 from simcalib.estimation.alignment import (TimeOffset, angular_speed, estimate_time_offset,
                                interpolate_poses, make_motions, synchronise)
 
@@ -107,7 +107,7 @@ def test_bad_inputs():
 @pytest.mark.skipif(not ETH.is_dir(),
                     reason=f"ETH data sets not present at {ETH} (set SIMCALIB_ETH_DIR)")
 def test_eth_offsets_refine_the_cost():
-    from simcalib.experiments.streams import eth_files
+    from simcalib.studies.experiments.streams import eth_files
     from simcalib.estimation.readings import apply_conventions, detect_conventions
     from simcalib.importers import read_pose_stream
     from simcalib.estimation.alignment import OffsetCost, as_time_poses

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from simcalib.config import PairingConfig
+from simcalib.pipeline.scenario import PairingConfig
 from simcalib.geometry import (invert_transform, matrix_from_rotvec, random_rotation_matrices,
                                transform_from_rotation_translation)
 from simcalib.estimation.pairing import make_pairs, match_by_timestamp, pairs_from_motions

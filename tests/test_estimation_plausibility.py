@@ -13,8 +13,8 @@ from simcalib.estimation.plausibility import check_plausibility
 from simcalib.estimation.readings import ConventionReport
 from simcalib.geometry import invert_transform, matrix_from_rotvec, \
     transform_from_rotation_translation
-from simcalib.reports import write_tum
-from simcalib.stream_sim import rig_streams
+from simcalib.report.results import write_tum
+from simcalib.world.stream_sim import rig_streams
 
 
 def _pair(rng, n=20, lever_m=0.1, worlds_m=2.0):

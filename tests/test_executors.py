@@ -22,9 +22,9 @@ def _usable(name):
     if available()[name].extra:
         # an executor with an extra dependency runs tasks on other machines: its workers
         # import the task from simcalib (PYTHONPATH), not from tests/; the sweep test
-        # (test_sweep.py, slow) compares its tables with the local ones
+        # (test_studies_sweep.py, slow) compares its tables with the local ones
         pytest.skip(f"executor={name} ([{available()[name].extra}]) is compared in "
-                    "test_sweep.py")
+                    "test_studies_sweep.py")
 
 
 @pytest.mark.parametrize("name", list(available()))

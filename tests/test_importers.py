@@ -12,8 +12,8 @@ from simcalib.estimation.readings import apply_conventions, detect_conventions
 from simcalib.geometry import invert_transform, quat_from_matrix
 from simcalib.importers import (PoseStreamData, available, detect_format, read_pose_stream,
                                 read_pose_streams, stream_from_arrays)
-from simcalib.reports import write_tum
-from simcalib.stream_sim import rig_streams
+from simcalib.report.results import write_tum
+from simcalib.world.stream_sim import rig_streams
 
 ETH = Path(os.environ.get("SIMCALIB_ETH_DIR",
                           Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "eth"))
@@ -45,7 +45,7 @@ def test_registry_finds_the_format_modules():
         assert callable(module.sniff) and callable(module.read)
     assert "rosbag" not in available()    # a module of the folder that is not a text format
     with pytest.raises(TypeError, match="needs NAME"):
-        register_format("simcalib.importers.rosbag")
+        register_format("simcalib.ros.bag")
     listing = re.escape(", ".join(available()))
     with pytest.raises(ValueError, match=f"did you mean 'eth'.*available: {listing}"):
         read_pose_stream(__file__, format="ethz")
@@ -215,7 +215,7 @@ def test_stream_from_arrays(rig):
                     "(set SIMCALIB_ETH_DIR)")
 def test_eth_data_conventions_and_calibration():
     from simcalib.estimation.path import calibrate_streams
-    from simcalib.experiments.streams import eth_files
+    from simcalib.studies.experiments.streams import eth_files
     files = eth_files(ETH)
     assert set(files) == {"robot_arm_w_color_camera_sim", "prime_sense_1"}
     for name, (fa, fb) in files.items():

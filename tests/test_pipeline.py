@@ -8,7 +8,7 @@ import pytest
 
 from simcalib.cli import main
 from simcalib.geometry import matrix_from_rotvec, rotation_error_rad
-from simcalib.reports import strip_timing
+from simcalib.report.results import strip_timing
 
 SIM_SHORT = ["world.duration_s=6", "world.fps=10", "pairing.step=1", "progress=false"]
 SOLVERS = "solvers=[dqopt,dq2ndord,daniilidis]"
@@ -176,7 +176,7 @@ def test_headline_alpha_is_chosen_from_the_data_not_the_oracle(tmp_path):
 
 def test_interrupt_leaves_readable_recording_and_partial_results(tmp_path, monkeypatch,
                                                                  capsys):
-    import simcalib.pipeline as P
+    import simcalib.pipeline.stages as P
 
     def boom(st):
         raise KeyboardInterrupt

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from simcalib.cli import main
-from simcalib.reports import strip_timing
+from simcalib.report.results import strip_timing
 
 # the scenarios' paths squeezed into 6 s move 3x faster than the default runs: the ideal
-# camera keeps these checks about the pipeline itself (realistic vision: test_camera_effects)
+# camera keeps these checks about the pipeline itself (realistic vision: test_sources_vision_camera_effects)
 SHORT = ["world.duration_s=6", "world.fps=10", "pairing.step=1", "progress=false",
          "solvers=[dqopt,daniilidis]", "vision.preset=ideal"]
 

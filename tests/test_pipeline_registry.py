@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from simcalib.cli import main
-from simcalib.config import SOURCES, load_config
+from simcalib.pipeline.scenario import SOURCES, load_config
 from simcalib.sources import (CAMERAS, GroundTruth, PoseSource, SourceOutput,
                               available_sources, build_truth, camera_sources, get_source,
                               sources_for_kind)
@@ -36,7 +36,7 @@ def _small_cfg(source):
 
 
 def _rngs(seed=0):
-    from simcalib.pipeline import RNG_STREAMS
+    from simcalib.pipeline.stages import RNG_STREAMS
     ss = np.random.SeedSequence(seed).spawn(len(RNG_STREAMS))
     return {n: np.random.default_rng(s) for n, s in zip(RNG_STREAMS, ss)}
 
@@ -98,7 +98,7 @@ def test_every_source_builds_and_measures_a_small_world(name):
 
 
 def test_a_failing_stage_writes_failed_results_and_reraises(tmp_path, monkeypatch):
-    import simcalib.pipeline as P
+    import simcalib.pipeline.stages as P
 
     def boom(st):
         raise RuntimeError("pairing exploded")
@@ -119,8 +119,8 @@ def test_a_failing_stage_writes_failed_results_and_reraises(tmp_path, monkeypatc
 
 
 def test_failed_solvers_are_never_estimates(tmp_path, monkeypatch, capsys):
-    import simcalib
-    real = simcalib.solve
+    import simcalib.solvers.api as api
+    real = api.solve
 
     def solve(C, H, method, **kw):
         sol = real(C, H, method=method, **kw)
@@ -133,7 +133,7 @@ def test_failed_solvers_are_never_estimates(tmp_path, monkeypatch, capsys):
             raise np.linalg.LinAlgError("SVD did not converge")
         return sol
 
-    monkeypatch.setattr(simcalib, "solve", solve)
+    monkeypatch.setattr(api, "solve", solve)
     out = tmp_path / "run"
     assert main(["run", "scenario=line", f"output={out}", "progress=false",
                  "synthetic.num_motions=60", "pairing.n_pairs=30",
@@ -175,7 +175,7 @@ def test_each_run_gets_its_own_recording_id(tmp_path):
 def test_overlays_are_logged_only_with_the_image_of_their_own_frame():
     from types import SimpleNamespace
 
-    from simcalib.rerun_log import _iter_visual_log
+    from simcalib.report.rerun_log import _iter_visual_log
     frames = [SimpleNamespace(frame_index=k, ids=np.array([k]),
                               corners_px=np.full((1, 4, 2), float(k))) for k in range(10)]
     log = SimpleNamespace(frames={"cam_a": frames},

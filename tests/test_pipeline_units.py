@@ -6,7 +6,7 @@ import pytest
 from simcalib.evaluation import estimate_errors, pose_source_errors, summary_stats
 from simcalib.geometry import (matrix_from_rotvec, perturb_transforms, quat_from_matrix,
                                random_rotation_matrices, transform_from_rotation_translation)
-from simcalib.reports import strip_timing, write_tum
+from simcalib.report.results import strip_timing, write_tum
 from simcalib.streams import PoseStream
 
 
@@ -81,12 +81,12 @@ def test_strip_timing_removes_only_timing_fields():
 
 def test_default_output_dir_never_lands_on_an_earlier_run(tmp_path, monkeypatch):
     import dataclasses
-    from simcalib.config import load_config
-    from simcalib.pipeline import _output_dir
+    from simcalib.pipeline.scenario import load_config
+    from simcalib.pipeline.stages import _output_dir
     import datetime
     from pathlib import Path
     from types import SimpleNamespace
-    import simcalib.pipeline as pipeline
+    import simcalib.pipeline.stages as pipeline
     monkeypatch.chdir(tmp_path)
     fixed = datetime.datetime(2026, 12, 2, 18, 0, 0)
     monkeypatch.setattr(pipeline, "_dt", SimpleNamespace(datetime=SimpleNamespace(

@@ -226,7 +226,7 @@ def test_batch_member_without_information_fails_with_reason():
 
 
 def test_dqitr_succeeds_on_exact_data():
-    from simcalib.synthetic import SyntheticConfig, synthetic_problem
+    from simcalib.world.synthetic import SyntheticConfig, synthetic_problem
     for motion in ("line", "circle", "random"):
         for seed in range(4):
             cfg = SyntheticConfig(motion=motion, sigma_r_rad=0.0, sigma_t_m=0.0)

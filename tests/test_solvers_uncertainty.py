@@ -1,6 +1,6 @@
 """Uncertainty, degeneracy verdict and alpha choice (simcalib.solvers.diagnostics.uncertainty).
 
-Small seeded versions of the Monte-Carlo in ``python -m simcalib.experiments.coverage``."""
+Small seeded versions of the Monte-Carlo in ``python -m simcalib.studies.experiments.coverage``."""
 
 import math
 
@@ -16,7 +16,7 @@ from simcalib.geometry import (
 )
 from simcalib.solvers.diagnostics import uncertainty as U
 from simcalib.solvers.api import Prior, solve, solve_batch
-from simcalib.synthetic import SyntheticConfig, generate_dataset
+from simcalib.world.synthetic import SyntheticConfig, generate_dataset
 import simcalib
 from solver_cases import general_case
 

@@ -164,7 +164,7 @@ def test_pose_bias_type_errors():
 # ------------------------------------------------------------- ArUco calibration sensitivity
 def _wall_world(n_frames=6):
     """No rendering: a 3x4 wall of 10 cm markers at z=0 seen by two cameras ~1 m above."""
-    from simcalib.markers import MarkerField
+    from simcalib.targets.markers import MarkerField
     from simcalib.streams import CameraFrames, CameraIntrinsics, Trajectory
     Ts = []
     for i in range(3):
@@ -190,7 +190,7 @@ def _wall_world(n_frames=6):
 
 
 def test_intrinsics_sensitivity_matches_pinhole_geometry():
-    from simcalib.markers import intrinsics_pose_sensitivity
+    from simcalib.targets.markers import intrinsics_pose_sensitivity
     w = _wall_world(1)
     intr = w.intrinsics["cam_a"]
     T = w.trajectory.cam_a.T_world_cam
@@ -213,7 +213,7 @@ def test_intrinsics_sensitivity_matches_pinhole_geometry():
 
 def _state(preset, sources=("aruco", "aruco"), **vision):
     from simcalib.sources.base import GroundTruth
-    from simcalib.vision import VisionConfig
+    from simcalib.sources.vision.stream import VisionConfig
     w = _wall_world()
     truth = GroundTruth(kind="sim", X_true=w.trajectory.T_a_b if hasattr(w.trajectory, "T_a_b")
                         else np.eye(4), streams={}, world=w, marker_field=w.marker_field)
@@ -222,7 +222,7 @@ def _state(preset, sources=("aruco", "aruco"), **vision):
 
 
 def test_pipeline_sets_the_calibration_term_for_aruco_with_realistic_only():
-    from simcalib.pipeline import calibration_bias
+    from simcalib.pipeline.stages import calibration_bias
     pb, rep = calibration_bias(_state("realistic"))
     assert isinstance(pb, U.PoseBias) and rep["included"]
     assert set(rep["cameras"]) == {"cam_a", "cam_b"}
@@ -249,7 +249,7 @@ def test_pipeline_sets_the_calibration_term_for_aruco_with_realistic_only():
 
 
 def test_coverage_tool_row_with_the_calibration_term():
-    from simcalib.experiments.coverage import scenario_coverage
+    from simcalib.studies.experiments.coverage import scenario_coverage
     P = np.diag([1e-8] * 3 + [1e-6] * 3)
     data = [(*_problem(n=20, seed=s)[:2], _problem(n=20, seed=s)[2], 0, None, U.PoseBias(P, P))
             for s in range(3)]
@@ -264,7 +264,7 @@ def test_map_error_covariance_matches_pnp_monte_carlo():
     import cv2
 
     from simcalib.geometry import perturb_transforms, rotvec_from_matrix
-    from simcalib.markers import MarkerField, map_pose_covariance
+    from simcalib.targets.markers import MarkerField, map_pose_covariance
     w = _wall_world(3)
     field = w.marker_field
     intr = w.intrinsics["cam_a"]
@@ -298,7 +298,7 @@ def test_map_error_covariance_matches_pnp_monte_carlo():
 
 
 def test_map_error_covariance_checks_inputs():
-    from simcalib.markers import map_pose_covariance
+    from simcalib.targets.markers import map_pose_covariance
     w = _wall_world(2)
     T = np.asarray(w.trajectory.cam_a.T_world_cam)
     K = w.intrinsics["cam_a"].K
@@ -315,7 +315,7 @@ def _pnp_pose_error(T_true, K, dist_true, pts_true, pts_believed, K_est, dist_es
     undistorted with the believed calibration, against the believed points."""
     import cv2
 
-    from simcalib.camera_effects import undistort_points
+    from simcalib.targets.markers import undistort_points
     T_cw = np.linalg.inv(T_true)
     rv, _ = cv2.Rodrigues(T_cw[:3, :3])
     img, _ = cv2.projectPoints(pts_true, rv, T_cw[:3, 3], K, dist_true)
@@ -329,7 +329,7 @@ def _pnp_pose_error(T_true, K, dist_true, pts_true, pts_believed, K_est, dist_es
 
 
 def test_map_pose_jacobians_match_exact_pnp_per_pose():
-    from simcalib.markers import MarkerField, map_pose_covariance, map_pose_jacobians
+    from simcalib.targets.markers import MarkerField, map_pose_covariance, map_pose_jacobians
     w = _wall_world(4)
     field = w.marker_field
     K = w.intrinsics["cam_a"].K
@@ -359,7 +359,7 @@ def _exp6s(x):
 
 
 def test_intrinsics_pose_jacobians_match_exact_pnp_and_the_averaged_sensitivity():
-    from simcalib.markers import (intrinsics_pose_jacobians, intrinsics_pose_sensitivity,
+    from simcalib.targets.markers import (intrinsics_pose_jacobians, intrinsics_pose_sensitivity,
                                   perturbed_intrinsics)
     w = _wall_world(4)
     K = w.intrinsics["cam_a"].K
@@ -386,16 +386,16 @@ def test_intrinsics_pose_jacobians_match_exact_pnp_and_the_averaged_sensitivity(
 
 
 def test_vision_pose_error_basis_and_the_pipeline_basis():
-    from simcalib.pipeline import pose_error_basis
-    from simcalib.vision import VisionConfig
-    from simcalib.vision import pose_error_basis as vision_basis
+    from simcalib.pipeline.stages import pose_error_basis
+    from simcalib.sources.vision.stream import VisionConfig
+    from simcalib.sources.vision.stream import pose_error_basis as vision_basis
     w = _wall_world(6)
     cfg = VisionConfig(preset="realistic")
     T = np.asarray(w.trajectory.cam_a.T_world_cam)
     B = vision_basis(w, "cam_a", T, cfg)
     assert B.shape == (6, 6, 6 * 12 + 8) and np.all(np.isfinite(B))
     # the basis of the map columns gives the map-error covariance (frame average)
-    from simcalib.markers import map_pose_covariance
+    from simcalib.targets.markers import map_pose_covariance
     from simcalib.world.layout import visible_markers
     eff = cfg.effects()
     # by default the markers fully inside the lens's distorted image
@@ -428,7 +428,7 @@ def test_vision_pose_error_basis_and_the_pipeline_basis():
     st.measured = {c: SimpleNamespace(frame_index=np.arange(n),
                                       T_world_cam=np.asarray(getattr(w.trajectory, c).T_world_cam))
                    for c in ("cam_a", "cam_b")}
-    import simcalib.pipeline as P
+    import simcalib.pipeline.stages as P
     lag = P.correlation_lag
     try:
         P.correlation_lag = lambda s: 2
@@ -465,7 +465,7 @@ def test_coverage_tool_aruco_trial_records():
     systematic pose errors; the first-order model beside it; records aggregate to rows."""
     import os
     os.environ.setdefault("MUJOCO_GL", "egl")
-    from simcalib.experiments.coverage import aruco_trial, coverage_row
+    from simcalib.studies.experiments.coverage import aruco_trial, coverage_row
     t = aruco_trial(0, keep_data=True, overrides=["world.duration_s=6", "pairing.step=1"])
     assert t["run"]["simulated"]
     assert not np.allclose(t["run"]["pred"], t["first_order"]["pred"])
@@ -483,7 +483,7 @@ def test_calibration_bias_rests_on_the_markers_the_lens_shows():
     rest on the same markers — those fully inside the camera's *distorted* image: with the
     camera close to the wall the barrel lens shows markers past the pinhole image's edge,
     and the two agree to first order only when both count them."""
-    from simcalib.vision import VisionConfig, calibration_pose_bias, pose_error_basis
+    from simcalib.sources.vision.stream import VisionConfig, calibration_pose_bias, pose_error_basis
     from simcalib.world.layout import visible_markers
     w = _wall_world(6)
     w.trajectory.cam_a.T_world_cam[:, 2, 3] = 0.45

@@ -4,7 +4,7 @@ the physics, roll under turns, determinism, scenarios, clear errors."""
 import numpy as np
 import pytest
 
-from simcalib.config import load_config
+from simcalib.pipeline.scenario import load_config
 from simcalib.errors import ConfigError
 from simcalib.geometry import invert_transform, matrix_from_rotvec, rotation_error_rad
 from simcalib.world import WorldConfig, build_world

@@ -7,18 +7,18 @@ import numpy as np
 import pytest
 
 from simcalib.cli import main
-from simcalib.config import load_config
+from simcalib.pipeline.scenario import load_config
 from simcalib.errors import ConfigError
 from simcalib.geometry import invert_transform, rotation_error_rad, translation_error_m
-from simcalib.world.eyetohand import (FIXED_CAMERA, MOUNTS, T_world_fixed_camera,
-                                      base_camera_estimate)
+from simcalib.pipeline.eye_to_hand import base_camera_estimate
+from simcalib.world.eyetohand import FIXED_CAMERA, MOUNTS, T_world_fixed_camera
 
 SHORT = ["world.duration_s=6", "world.fps=10", "pairing.step=1", "progress=false"]
 
 
 @pytest.fixture(scope="module")
 def gt_state():
-    from simcalib.pipeline import state_through_pairs
+    from simcalib.pipeline.stages import state_through_pairs
     cfg = load_config("eyetohand", ["source=ground_truth", "streams.a.source=ground_truth",
                                     "streams.b.source=ground_truth", *SHORT])
     return state_through_pairs(cfg)
@@ -37,7 +37,7 @@ def test_truth_streams_satisfy_cx_equals_xh(gt_state):
 
 def test_fixed_camera_in_the_scene_matches_its_pose(gt_state):
     import mujoco
-    from simcalib.world.scene import T_world_cv_from_mujoco
+    from simcalib.world.render import T_world_cv_from_mujoco
     world = gt_state.truth.world
     m = world.model
     d = mujoco.MjData(m)
@@ -50,7 +50,7 @@ def test_fixed_camera_in_the_scene_matches_its_pose(gt_state):
 
 
 def test_base_camera_by_product_is_exact_on_truth(gt_state):
-    from simcalib.sources.robot_fk import arm_state
+    from simcalib.world.robot_error import arm_state
     world = gt_state.truth.world
     _, T_world_base = arm_state(world)
     s = gt_state.truth.streams

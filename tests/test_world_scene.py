@@ -11,7 +11,7 @@ import pytest
 from simcalib.geometry import (invert_transform, matrix_from_quat, quat_wxyz_from_xyzw,
                                random_rotation_matrices, relative_motions,
                                transform_from_rotation_translation)
-from simcalib.markers import MarkerField
+from simcalib.targets.markers import MarkerField
 from simcalib.streams import CameraIntrinsics
 from simcalib.world import (MarkerFieldConfig, RigConfig, RoomConfig, WorldConfig,
                             available_paths, build_model, build_scene, build_world,
@@ -19,7 +19,7 @@ from simcalib.world import (MarkerFieldConfig, RigConfig, RoomConfig, WorldConfi
 from simcalib.world.layout import marker_layout
 from simcalib.world.platforms import get_platform
 from simcalib.world.platforms.arm import R_WORLD_RIG_FORWARD
-from simcalib.world.scene import MJ_FROM_CV
+from simcalib.world.render import MJ_FROM_CV
 
 mujoco = pytest.importorskip("mujoco")
 
@@ -247,7 +247,7 @@ def test_visible_markers_through_a_barrel_lens_sees_past_the_pinhole_edge():
     """The distorted image of a barrel lens reaches beyond the pinhole image: a marker just
     outside the pinhole view is fully visible through the lens (the markers the PnP rests
     on, the systematic error basis of a stop)."""
-    from simcalib.camera_effects import PRESETS
+    from simcalib.sources.vision.camera_effects import PRESETS
     T_m = np.eye(4)[None]
     field = MarkerField("DICT_4X4_250", np.array([0]), 0.1, T_m)
     intr = CameraIntrinsics.from_fovy(640, 480, 60.0)

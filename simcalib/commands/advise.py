@@ -71,7 +71,7 @@ def _value(key, text):
 
 
 def parse_args(args):
-    from simcalib.advise.advisor import N_CANDIDATES
+    from simcalib.studies.advise.advisor import N_CANDIDATES
     from simcalib.commands.run import parse_args as run_args
     opts = {"k": 5, "verify": False, "seeds": 5, "candidates": N_CANDIDATES, "recording": True}
     rest = []
@@ -222,8 +222,8 @@ FILE_KEYS = ("k", "candidates", "max_rotation_deg", "max_translation_m", "record
 
 def parse_file_args(args):
     """``(CalibrateOptions, platform, advice options)`` for ``advise a=PATH ...``."""
-    from simcalib.advise.recorded import PLATFORMS
-    from simcalib.commands.calibrate import parse_options
+    from simcalib.studies.advise.recorded import PLATFORMS
+    from simcalib.pipeline.calibrate import parse_options
     opts = {"k": 5, "candidates": 1000, "recording": True, "force": True}
     platform, rest = None, []
     for a in args:
@@ -250,9 +250,9 @@ def main_files(args: list[str]) -> int:
     """``advise a=PATH [b=PATH] platform=... output=DIR``: advice for recorded pose files."""
     import numpy as np
 
-    from simcalib.advise.recorded import advise_recorded, recorded_advice_dict
-    from simcalib.commands.calibrate import calibrate
-    from simcalib.kernel_mode import prepare_kernels
+    from simcalib.studies.advise.recorded import advise_recorded, recorded_advice_dict
+    from simcalib.pipeline.calibrate import calibrate
+    from simcalib.solvers.kernels.mode import prepare_kernels
     copts, platform, opts = parse_file_args(args)
     with prepare_kernels().context():
         r, assessment = calibrate(copts)
@@ -273,7 +273,7 @@ def main_files(args: list[str]) -> int:
     out_dir.mkdir(parents=True, exist_ok=True)
     path = out_dir / "advice.json"
     if opts["recording"]:
-        from simcalib.rerun_log import record_recorded_advice
+        from simcalib.report.rerun_log import record_recorded_advice
         out["recording"] = str(record_recorded_advice(out_dir / "advice.rrd", r.synced.T_a,
                                                       adv))
     path.write_text(json.dumps(out, indent=1, allow_nan=False))
@@ -289,14 +289,14 @@ def main(args: list[str]) -> int:
     if any(a.partition("=")[0].strip() == "a" and "=" in a for a in args):
         return main_files(args)
     scenario, overrides, opts = parse_args(args)
-    from simcalib.config import load_config
+    from simcalib.pipeline.scenario import load_config
     cfg = load_config(scenario, list(overrides))
-    from simcalib.advise.advisor import check_advisable
+    from simcalib.studies.advise.advisor import check_advisable
     check_advisable(cfg)
     out_dir = Path(cfg.output) if cfg.output else Path("runs") / f"advise-{cfg.scenario}"
     out_dir.mkdir(parents=True, exist_ok=True)
-    from simcalib.advise import advice_dict, advise, baseline, verify
-    from simcalib.advise.advisor import choice_floor
+    from simcalib.studies.advise import advice_dict, advise, baseline, verify
+    from simcalib.studies.advise.advisor import choice_floor
     base = baseline(cfg)
     kw = {k: opts[k] for k in ("max_rotation_deg", "max_translation_m", "min_markers")
           if k in opts}
@@ -311,7 +311,7 @@ def main(args: list[str]) -> int:
     path = out_dir / "advice.json"
     path.write_text(json.dumps(out, indent=1, allow_nan=False))
     if opts["recording"]:
-        from simcalib.rerun_log import record_advice
+        from simcalib.report.rerun_log import record_advice
         out["recording"] = str(record_advice(out_dir / "advice.rrd", base, adv))
         path.write_text(json.dumps(out, indent=1, allow_nan=False))
     print_table(out)

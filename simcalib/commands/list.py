@@ -18,7 +18,7 @@ def main(args: list[str]) -> int:
         return 0
     if args:
         raise UsageError(f"list takes no arguments; received {' '.join(args)}")
-    from simcalib.config import list_scenarios, scenario_dir
+    from simcalib.pipeline.scenario import list_scenarios, scenario_dir
     from simcalib.solvers import registry
     scen = list_scenarios()
     print(f"scenarios ({scenario_dir()}):")
@@ -27,7 +27,7 @@ def main(args: list[str]) -> int:
         print(f"  {name:<{width}}  {desc}")
     if not scen:
         print("  (none)")
-    from simcalib.sweep.spec import list_sweeps, sweep_dir
+    from simcalib.studies.sweep.spec import list_sweeps, sweep_dir
     sweeps = list_sweeps()
     print(f"\nsweeps ({sweep_dir()}; simcalib sweep NAME output=DIR):")
     for name, desc in sweeps.items():

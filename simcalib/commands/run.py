@@ -1,6 +1,6 @@
 """``simcalib run scenario=NAME [key=value ...]``: one end-to-end run.
 
-The configuration is resolved and validated completely (:func:`simcalib.config.load_config`)
+The configuration is resolved and validated completely (:func:`simcalib.pipeline.scenario.load_config`)
 before any work; a :class:`~simcalib.errors.ConfigError` ends the command with exit code 2.
 """
 
@@ -37,7 +37,7 @@ OPTIONS = ("--dry-run",)
 
 
 def help_text() -> str:
-    from simcalib.config import describe_keys, list_scenarios
+    from simcalib.pipeline.scenario import describe_keys, list_scenarios
     scen = ", ".join(list_scenarios()) or "(none found)"
     return USAGE.format(scenarios=scen, keys="\n".join(describe_keys()))
 
@@ -66,7 +66,7 @@ def parse_args(args: list[str]) -> tuple[str, list[str], set[str]]:
         else:
             overrides.append(a)
     if not scenario:
-        from simcalib.config import list_scenarios
+        from simcalib.pipeline.scenario import list_scenarios
         raise UsageError("run needs scenario=NAME; available: "
                          f"{', '.join(list_scenarios()) or '(none)'}")
     return scenario, overrides, flags
@@ -78,15 +78,16 @@ def main(args: list[str]) -> int:
         return 0
     scenario, overrides, flags = parse_args(args)
     if "--dry-run" not in flags:   # rerun's import overlaps loading the configuration too
-        from simcalib.rerun_log import prestart_worker
+        from simcalib.report.rerun_log import prestart_worker
         prestart_worker()
-    from simcalib.config import load_config, to_dict
+    from simcalib.pipeline.scenario import load_config
+    from simcalib.config.engine import to_dict
     cfg = load_config(scenario, overrides)        # ConfigError -> exit 2, nothing done
     if "--dry-run" in flags:
         import yaml
         print(yaml.safe_dump(to_dict(cfg), sort_keys=False), end="")
         return 0
-    from simcalib.pipeline import run
+    from simcalib.pipeline.stages import run
     result = run(cfg)                             # RunInterrupted -> 130 (cli.main)
     print(f"results: {result.output_dir}")
     return 0

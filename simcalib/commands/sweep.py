@@ -24,7 +24,7 @@ _OWN = ("executor", "workers", "address", "output", "seeds", "seed")
 
 
 def main(args: list[str]) -> int:
-    from simcalib.sweep import list_sweeps
+    from simcalib.studies.sweep import list_sweeps
     if not args or args[0] in ("-h", "--help"):
         from simcalib.executors import available as executors
         print(USAGE.format(sweeps=", ".join(list_sweeps()) or "none",
@@ -43,7 +43,7 @@ def main(args: list[str]) -> int:
 
 
 def _parse(args: list[str]):
-    from simcalib.config import parse_override
+    from simcalib.config.engine import parse_override
     from simcalib.config.checks import check_int
     flags = {a for a in args if a.startswith("--")}
     if flags - {"--quiet"}:
@@ -78,7 +78,7 @@ def _int(raw, key):
 
 
 def _run(args: list[str]) -> int:
-    from simcalib.sweep import load_sweep, run_sweep
+    from simcalib.studies.sweep import load_sweep, run_sweep
     name, own, overrides, progress = _parse(args)
     spec = load_sweep(name, overrides)
     summary = run_sweep(spec, own["output"], executor=own.get("executor", "local"),
@@ -94,15 +94,15 @@ def _run(args: list[str]) -> int:
 
 
 def _report(out: str) -> int:
-    from simcalib.sweep import store
-    from simcalib.sweep.report import write_report
+    from simcalib.studies.sweep import store
+    from simcalib.studies.sweep.report import write_report
     store.write_table(out)
     print(f"wrote {store.write_table(out)}, {write_report(out)}")
     return 0
 
 
 def _status(out: str) -> int:
-    from simcalib.sweep import status
+    from simcalib.studies.sweep import status
     st = status(out)
     print(f"{st['output']}: {st['done']}/{st['cells']} cells done, {st['failed']} failed, "
           f"{st['remaining']} remaining"

@@ -1,6 +1,6 @@
 """The config engine: frozen dataclass trees built from nested mappings (YAML), dotted
 ``key=value`` overrides, :func:`to_dict`. It knows no schema: the caller passes the root
-dataclass and its aliases (:mod:`simcalib.config.scenario` assembles the scenario's).
+dataclass and its aliases (:mod:`simcalib.pipeline.scenario` assembles the scenario's).
 
 Overrides are dotted keys with YAML-typed values (``seed=3``, ``noise.sigma_r_deg=1.0``,
 ``solvers=[a,b]``); a key may be abbreviated to any unique suffix of its full dotted path;

@@ -1,4 +1,5 @@
-"""Where simcalib's data files are: the MJCF models and the scenario YAML files.
+"""Where simcalib's data files are (the MJCF models and the scenario YAML files), and which
+version of simcalib this is.
 
 The repository keeps them at its top level (``models/``, ``scenarios/``); a wheel ships them
 inside the package as ``simcalib/models`` and ``simcalib/scenarios`` (package data, see
@@ -15,7 +16,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-__all__ = ["models_dir", "scenarios_dir", "model_path", "SCENARIOS_ENV"]
+__all__ = ["models_dir", "scenarios_dir", "model_path", "package_version", "SCENARIOS_ENV"]
 
 #: Environment variable naming a user's own scenario folder.
 SCENARIOS_ENV = "SIMCALIB_SCENARIOS"
@@ -57,3 +58,13 @@ def model_path(name: str) -> Path:
         names = sorted(q.stem for q in d.glob("*.xml"))
         raise ValueError(f"unknown model {name!r}; available in {d}: {', '.join(names)}")
     return p
+
+
+def package_version() -> str:
+    """simcalib's version as installed (``pyproject.toml`` is the one place it is written);
+    ``"0+unknown"`` for a checkout that was never installed."""
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        return version("simcalib")
+    except PackageNotFoundError:
+        return "0+unknown"

@@ -9,8 +9,8 @@
     -> (the verdict: estimation.verdict); and, for comparison, a plain solve (offset 0, no
     rejection).
 
-Measured on public recordings by ``python -m simcalib.experiments.real_data``, on generated
-ones by ``python -m simcalib.experiments.recordings``, in simulation by ``python -m simcalib
+Measured on public recordings by ``python -m simcalib.studies.experiments.real_data``, on generated
+ones by ``python -m simcalib.studies.experiments.recordings``, in simulation by ``python -m simcalib
 experiment streams``.
 """
 
@@ -208,7 +208,7 @@ def _final_solve(motions, rob, *, method, alpha, prior, seed, tolerances=None):
     uncertainty (``pose_pairs``) when there is no prior; its residuals on every motion."""
     import dataclasses
 
-    import simcalib
+    from simcalib.solvers.api import solve
     from simcalib.solvers.robust import screw_residuals
     m = rob.inlier_mask
     C, H = motions.C[m], motions.H[m]
@@ -216,7 +216,7 @@ def _final_solve(motions, rob, *, method, alpha, prior, seed, tolerances=None):
     if tolerances is not None:
         kw |= {"tolerance_deg": tolerances.tolerance_deg,
                "tolerance_m": tolerances.tolerance_m}
-    sol = simcalib.solve(C, H, method=method, alpha=alpha, prior=prior,
+    sol = solve(C, H, method=method, alpha=alpha, prior=prior,
                          rng=np.random.default_rng(seed), **kw)
     msg = rob.message + (f"; final {method} with the prior" if prior is not None else "")
     return dataclasses.replace(rob, X=sol.X, solution=sol, message=msg,
@@ -229,13 +229,13 @@ def _consistency(motions, rob, n_poses, *, method, alpha, prior):
     cost when that move is beyond the sigma."""
     import dataclasses
 
-    import simcalib
+    from simcalib.solvers.api import solve
     from simcalib.estimation.consistency import block_jackknife, combine, weighting_check
     sol = rob.solution
     if sol is None or sol.uncertainty is None:
         return None, None, None, None
     inl = motions.subset(rob.inlier_mask)
-    solve_at = lambda C, H, a: simcalib.solve(C, H, method=method, alpha=a,  # noqa: E731
+    solve_at = lambda C, H, a: solve(C, H, method=method, alpha=a,  # noqa: E731
                                              prior=prior).X
     check = block_jackknife(inl, n_poses, lambda C, H: solve_at(C, H, alpha), sol.X)
     cov, cov_det, ratio = combine(sol.uncertainty, check)

@@ -135,7 +135,7 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
     """
     from simcalib.solvers.robust import ransac, screw_residuals
     from simcalib.estimation.alignment import _coarse_offset, as_time_poses
-    import simcalib
+    from simcalib.solvers.api import solve
     forced = tuple(name for name, v in (("invert_a", invert_a), ("invert_b", invert_b),
                                         ("scalar_first_a", scalar_first_a),
                                         ("scalar_first_b", scalar_first_b)) if v is not None)
@@ -169,7 +169,7 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
                 X = ransac(C, H, alpha=alpha, rng=np.random.default_rng(seed),
                            max_iterations=256).X
             except (ValueError, RuntimeError):   # RANSAC: too few motions / no consensus
-                X = simcalib.solve(C, H, method="dqopt", alpha=alpha).X
+                X = solve(C, H, method="dqopt", alpha=alpha).X
             scores[(sw_a, sw_b, inv_a, inv_b)] = float(np.median(
                 screw_residuals(C, H, X, alpha=alpha)))
             n_mot = int(C.shape[0])

@@ -45,8 +45,7 @@ class RayExecutor:
         if ray.is_initialized():
             return
         if self.address is None:
-            import simcalib
-            root = str(Path(simcalib.__file__).resolve().parent.parent)
+            root = str(Path(__file__).resolve().parents[2])     # the folder holding simcalib/
             path = os.pathsep.join(p for p in (root, os.environ.get("PYTHONPATH")) if p)
             env = {"PYTHONPATH": path, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"),
                    "RAY_AUTH_MODE": "disabled"}

@@ -1,4 +1,4 @@
-"""simcalib's own TUM output (``simcalib.reports.write_tum``): the first line
+"""simcalib's own TUM output (``simcalib.report.results.write_tum``): the first line
 :data:`SIGNATURE` (``# simcalib TUM trajectory``), then the column header
 ``# timestamp tx ty tz qx qy qz qw`` and TUM rows; poses are ``T_world_cam``.
 

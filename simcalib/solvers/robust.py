@@ -270,7 +270,7 @@ def _minimal_set_plan(rng, axes, sample_size, min_axis_angle_deg) -> tuple:
 def _best_hypothesis(C, H, rng, axes, sample_size, min_axis, threshold, alpha,
                      minimal_method, max_iterations, confidence) -> tuple:
     """``(X, hypotheses drawn)`` of the best-scoring minimal-set solve (threshold None: LMedS)."""
-    import simcalib
+    from simcalib.solvers.api import solve_batch
     N = C.shape[0]
     best_score, best_X, iters, needed = -math.inf, None, 0, max_iterations
     batch = 64
@@ -279,7 +279,7 @@ def _best_hypothesis(C, H, rng, axes, sample_size, min_axis, threshold, alpha,
         iters += batch
         if sets.shape[0] == 0:
             continue
-        sol = simcalib.solve_batch(C[sets], H[sets], method=minimal_method, alpha=alpha)
+        sol = solve_batch(C[sets], H[sets], method=minimal_method, alpha=alpha)
         Xs = sol.X[sol.success]
         if Xs.shape[0] == 0:
             continue
@@ -320,7 +320,7 @@ def _hypotheses_needed(r: np.ndarray, threshold, N: int, sample_size, confidence
 
 def _refine_consensus(C, H, X, threshold, alpha, final_method) -> tuple:
     """``(X, Solution, inliers, residuals, threshold)`` of ``final_method`` on stable inliers."""
-    import simcalib
+    from simcalib.solvers.api import solve
     auto = threshold is None
     # local optimisation: dqopt on the inliers until the set is stable
     r = screw_residuals(C, H, X, alpha)
@@ -330,7 +330,7 @@ def _refine_consensus(C, H, X, threshold, alpha, final_method) -> tuple:
     for _ in range(10):
         if mask.sum() < 3:
             break
-        final = simcalib.solve(C[mask], H[mask], method=final_method, alpha=alpha)
+        final = solve(C[mask], H[mask], method=final_method, alpha=alpha)
         X = final.X
         r = screw_residuals(C, H, X, alpha)
         if auto:
@@ -373,7 +373,7 @@ def irls(C, H, *, alpha: float = 1.0, loss: str = "cauchy", scale: float | None 
     re-weighting from a least-squares start can lock onto the outliers),
     ``"none"`` (unweighted start) or a 4x4 ``X``. Inliers: ``w >= inlier_weight``.
     """
-    import simcalib
+    from simcalib.solvers.api import solve
     if loss not in _LOSSES:
         raise unknown_choice("IRLS loss", loss, _LOSSES, key="loss")
     C, H = _check_problem(C, H)
@@ -381,7 +381,7 @@ def irls(C, H, *, alpha: float = 1.0, loss: str = "cauchy", scale: float | None 
     if isinstance(init, str) and init == "ransac":
         X = ransac(C, H, alpha=alpha, rng=rng).X
     elif isinstance(init, str) and init == "none":
-        X = simcalib.solve(C, H, method=method, alpha=alpha).X
+        X = solve(C, H, method=method, alpha=alpha).X
     else:
         X = check_transforms(init, "init")
         if X.shape != (4, 4):
@@ -394,7 +394,7 @@ def irls(C, H, *, alpha: float = 1.0, loss: str = "cauchy", scale: float | None 
         s = scale if scale is not None else 1.4826 * float(np.median(r[w > 0.5 * w.max()]))
         s = max(s, 1e-15)
         w = wfun(r / s, c)
-        sol = simcalib.solve(C, H, method=method, alpha=alpha, weights=w)
+        sol = solve(C, H, method=method, alpha=alpha, weights=w)
         dX = float(np.abs(sol.X - X).max())
         X = sol.X
         if dX < tol:
@@ -410,9 +410,9 @@ def irls(C, H, *, alpha: float = 1.0, loss: str = "cauchy", scale: float | None 
 
 # ---------------------------------------------------------------------------- registry
 def _none(C, H, *, alpha: float = 1.0, method: str = "dqopt", **_):
-    import simcalib
+    from simcalib.solvers.api import solve
     C, H = _check_problem(C, H)
-    sol = simcalib.solve(C, H, method=method, alpha=alpha)
+    sol = solve(C, H, method=method, alpha=alpha)
     r = screw_residuals(C, H, sol.X, alpha)
     n = C.shape[0]
     return RobustSolution(X=sol.X, solution=sol, inlier_mask=np.ones(n, bool),

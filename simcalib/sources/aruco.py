@@ -23,11 +23,11 @@ class ArucoSource(SourceHooks):
 
     def error_basis(self, world, cfg, cam, T_world_cam, layout, qpos=None, visible=None):
         """The marker map's and the camera's calibration errors
-        (:func:`simcalib.vision.pose_error_basis`; ``visible`` the markers each pose rests
+        (:func:`simcalib.sources.vision.stream.pose_error_basis`; ``visible`` the markers each pose rests
         on, default the layout's) in the ``map`` and ``cal_a`` / ``cal_b`` columns."""
         if world.marker_field is None:
             return None
-        from simcalib.vision import pose_error_basis as vision_basis
+        from simcalib.sources.vision.stream import pose_error_basis as vision_basis
         T = np.asarray(T_world_cam, dtype=np.float64)
         V = vision_basis(world, cam, T, cfg.vision, visible=visible)
         if not V.any():
@@ -58,19 +58,19 @@ class ArucoSource(SourceHooks):
 
     def calibration_bias(self, world, cfg, cameras) -> dict:
         """What ``vision.intrinsics_error`` and the marker map's error cause
-        (:func:`simcalib.vision.calibration_pose_bias`, no rendering)."""
-        from simcalib.vision import calibration_pose_bias
+        (:func:`simcalib.sources.vision.stream.calibration_pose_bias`, no rendering)."""
+        from simcalib.sources.vision.stream import calibration_pose_bias
         cams = [c for c in cameras if c in world.camera_names]
         return calibration_pose_bias(world, cfg.vision, cameras=cams) if cams else {}
 
     def measure(self, truth: GroundTruth, cfg, rng, cameras) -> SourceOutput:
         import dataclasses
-        from simcalib.vision import visual_streams  # heavy (cv2, mujoco rendering): lazy
+        from simcalib.sources.vision.stream import visual_streams  # heavy (cv2, mujoco rendering): lazy
         world = truth.world
         if set(cameras) != set(world.camera_names):   # per-stream selection: render only these
             world = dataclasses.replace(world, camera_names=tuple(
                 c for c in world.camera_names if c in cameras))
-        from simcalib.reports import frame_progress
+        from simcalib.progress import frame_progress
         streams, log = visual_streams(world, cfg.vision, rng, workers=cfg.workers,
                                       progress=frame_progress(),
                                       rig_entropy=truth.rig_entropy.get(self.info.rng_stream))

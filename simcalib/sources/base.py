@@ -33,12 +33,12 @@ class GroundTruth:
     ``X_true``: ``(4, 4)`` true ``T_a_b``; ``streams``: camera -> exact
     :class:`~simcalib.streams.PoseStream` (``source="ground_truth"``); ``world``: the
     :class:`simcalib.world.World` (``kind="sim"``, else ``None``); ``synthetic``: the
-    :class:`simcalib.synthetic.SyntheticProblem` (``kind="synthetic"``, else ``None``);
+    :class:`simcalib.world.synthetic.SyntheticProblem` (``kind="synthetic"``, else ``None``);
     ``intrinsics``: camera -> :class:`~simcalib.streams.CameraIntrinsics` (empty without
     cameras); ``marker_field``: the known marker map or ``None``; ``rig_entropy``: rng
     stream name -> the number a source drew for the rig's fixed errors in the recorded run
     (e.g. ``"vision"``: the marker map's survey and the camera calibrations, see
-    :func:`simcalib.vision.visual_streams`), set when more frames of the same rig are
+    :func:`simcalib.sources.vision.stream.visual_streams`), set when more frames of the same rig are
     measured (the stops of ``simcalib advise``); empty: drawn from the source's generator.
     """
     kind: str
@@ -58,7 +58,7 @@ class SourceInfo:
     ``name``: registry name (``source=<name>``); ``description``: one line;
     ``kinds``: the ``kind`` of ground truth it can measure (``"sim"``, ``"synthetic"``);
     ``rng_stream``: which child generator of the run's seed it draws from (a name of
-    ``simcalib.pipeline.RNG_STREAMS``; never share one between sources);
+    ``simcalib.pipeline.stages.RNG_STREAMS``; never share one between sources);
     ``exact``: its poses are the ground truth (no TUM file / no separate trajectory);
     ``renders``: it renders images (slow; ``workers`` applies);
     ``needs_markers``: it measures against the marker field (no source for an outdoor
@@ -89,7 +89,7 @@ class SourceOutput:
     computed its errors itself (motions), else ``None`` (evaluation compares ``streams``
     with the ground truth). ``frames``: per-camera frame counts for results.json when the
     source has no streams (else derived from them). ``log``: the source's own record for
-    the recording (``aruco``: :class:`simcalib.vision.VisualLog`), else ``None``.
+    the recording (``aruco``: :class:`simcalib.sources.vision.stream.VisualLog`), else ``None``.
     ``pairing_mode``: with ``motions``, how they were formed (results.json
     ``pairing.mode``).
     """
@@ -106,7 +106,7 @@ class PoseSource(Protocol):
     """A pose source: ``info`` and ``measure``.
 
     ``measure(truth, cfg, rng, cameras) -> SourceOutput``: ``truth`` the
-    :class:`GroundTruth`; ``cfg`` the run's :class:`simcalib.config.ScenarioConfig` (a
+    :class:`GroundTruth`; ``cfg`` the run's :class:`simcalib.pipeline.scenario.ScenarioConfig` (a
     source reads only its own section, e.g. ``cfg.noise`` / ``cfg.vision``); ``rng`` the
     run's child generator named by ``info.rng_stream`` (the source splits it per camera
     with ``rng.spawn(len(CAMERAS))`` so a camera's draws do not depend on the others);
@@ -124,14 +124,14 @@ class SourceHooks:
     one overrides what applies).
 
     * ``pose_margins(cfg) -> (m, deg)``: how far a measured relative motion may fall below
-      the true one (the pre-filter prediction of :mod:`simcalib.config.feasibility`).
+      the true one (the pre-filter prediction of :mod:`simcalib.pipeline.feasibility`).
     * ``error_basis(world, cfg, cam, T_world_cam, layout, qpos=None, visible=None)``:
       ``(F, 6, P)`` systematic pose errors in the columns of ``layout``
-      (:func:`simcalib.pipeline.basis_layout`), or None.
+      (:func:`simcalib.pipeline.stages.basis_layout`), or None.
     * ``datapoint_error_basis(st, world, cam, T_world_cam, frame_index, layout)``: the same
       at a run's measured datapoints (the source reads what its log recorded), or None.
     * ``calibration_bias(world, cfg, cameras) -> {cam: bias}``: the fixed pose bias its
-      calibration inputs cause per camera (:class:`simcalib.vision.CalibrationBias`),
+      calibration inputs cause per camera (:class:`simcalib.sources.vision.stream.CalibrationBias`),
       empty when it has none.
     """
 

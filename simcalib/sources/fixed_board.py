@@ -3,8 +3,8 @@
 The fixed camera on the stand (:data:`simcalib.world.eyetohand.FIXED_CAMERA`) is rendered
 at every delivered frame of cam_b (cam_b's frame is the board frame on the flange), the
 image goes through the camera effects of ``vision.preset`` (noise, blur, distortion,
-calibration error; :class:`simcalib.vision.FrameProcessor`), the board on the flange is
-detected and its pose ``T_cam_board`` estimated by PnP (:mod:`simcalib.boards`). The
+calibration error; :class:`simcalib.sources.vision.stream.FrameProcessor`), the board on the flange is
+detected and its pose ``T_cam_board`` estimated by PnP (:mod:`simcalib.targets.boards`). The
 stream reports ``T_world_board = T_world_cam · T_cam_board`` in the room like every other
 source; the pipeline re-expresses cam_b in the fixed camera's frame
 (:func:`simcalib.world.eyetohand.express_in_fixed_camera`), so the solvers see
@@ -41,8 +41,8 @@ class FixedBoardSource(SourceHooks):
                                   "detection of the board on the flange -> its pose by PnP")
 
     def measure(self, truth: GroundTruth, cfg, rng, cameras) -> SourceOutput:
-        from simcalib import vision as V
-        from simcalib.reports import frame_progress
+        from simcalib.sources.vision import stream as V
+        from simcalib.progress import frame_progress
         from simcalib.geometry import invert_transform
         from simcalib.world.eyetohand import FIXED_CAMERA, T_world_fixed_camera
         world = truth.world

@@ -20,11 +20,9 @@ import numpy as np
 
 from simcalib.sources.base import CAMERAS, GroundTruth, SourceHooks, SourceInfo, SourceOutput
 from simcalib.sources.registry import register
+from simcalib.world.robot_error import arm_state
 
-__all__ = ["RobotFKSource", "ARM_JOINTS", "arm_state"]
-
-#: Joint names of models/ur5e.xml in DH order (prefixed ``arm/`` in the scene).
-ARM_JOINTS = ("shoulder_pan", "shoulder_lift", "elbow", "wrist_1", "wrist_2", "wrist_3")
+__all__ = ["RobotFKSource"]
 
 
 def T_flange_cam(rig, cam: str) -> np.ndarray:
@@ -32,30 +30,6 @@ def T_flange_cam(rig, cam: str) -> np.ndarray:
     T = rig.T_rig_cam_a()
     return T if cam == "cam_a" else T @ rig.T_a_b()
 
-
-def arm_state(world) -> tuple[np.ndarray, np.ndarray]:
-    """``(qpos addresses (6,), T_world_base (4, 4))`` of the world's arm."""
-    import mujoco
-    cfg = world.config
-    if cfg.platform != "arm" or cfg.arm_model != "builtin":
-        raise ValueError(f"source robot_fk needs world.platform='arm' with "
-                         f"world.arm_model='builtin' (the UR5e DH model); received "
-                         f"platform={cfg.platform!r}, arm_model={cfg.arm_model!r}")
-    from simcalib.world.robot_error import ARM_BASE_BODY
-    m = world.model
-    adr = []
-    for name in ARM_JOINTS:
-        jid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, f"arm/{name}")
-        if jid < 0:
-            raise ValueError(f"the arm model has no joint 'arm/{name}'")
-        adr.append(int(m.jnt_qposadr[jid]))
-    d = mujoco.MjData(m)
-    mujoco.mj_kinematics(m, d)
-    bid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, f"arm/{ARM_BASE_BODY}")
-    T = np.eye(4)
-    T[:3, :3] = d.xmat[bid].reshape(3, 3)
-    T[:3, 3] = d.xpos[bid]
-    return np.array(adr), T
 
 
 class RobotFKSource(SourceHooks):

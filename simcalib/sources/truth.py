@@ -2,7 +2,7 @@
 
 ``kind=sim``: a MuJoCo world (``simcalib.world.build_world``: platform, path, rig, marker
 field) and each camera's exact pose stream. ``kind=synthetic``: a paper appendix D.2 problem
-(``simcalib.synthetic.synthetic_problem``) and the absolute poses it was drawn from."""
+(``simcalib.world.synthetic.synthetic_problem``) and the absolute poses it was drawn from."""
 
 from __future__ import annotations
 
@@ -56,7 +56,7 @@ def _true_world_config(cfg, rng_robot):
 def _synthetic_truth(cfg, rng) -> GroundTruth:
     from simcalib.geometry import invert_transform
     from simcalib.streams import PoseStream
-    from simcalib.synthetic import synthetic_problem
+    from simcalib.world.synthetic import synthetic_problem
     syn = cfg.synthetic  # measurement noise already synced with noise.* by the config
     if cfg.pairing.n_pairs > syn.num_motions:
         raise ValueError(f"pairing.n_pairs={cfg.pairing.n_pairs} exceeds "

@@ -43,7 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
-from simcalib.rerun_log import CLOSEUP_BACKGROUND, SCENE_BACKGROUND
+from simcalib.report.rerun_log import CLOSEUP_BACKGROUND, SCENE_BACKGROUND
 
 __all__ = ["missing_prerequisites", "screenshot", "ocr_text", "check_recording",
            "ShotReport", "text_contains", "DEFAULT_SCENARIOS", "WINDOW_SIZE", "MIN_SCENE_FILL", "main",
@@ -252,10 +252,10 @@ MIN_FRAMING = 0.35
 
 
 def synthetic_calibration_input(folder: Path, seed: int = 0) -> Path:
-    """Write ``a.txt``, ``b.txt`` (TUM) of :func:`simcalib.stream_sim.rig_streams` (60 s,
+    """Write ``a.txt``, ``b.txt`` (TUM) of :func:`simcalib.world.stream_sim.rig_streams` (60 s,
     15 % outlier poses in b, offset 0.1 s) into ``folder`` and return it."""
-    from simcalib.reports import write_tum
-    from simcalib.stream_sim import rig_streams
+    from simcalib.report.results import write_tum
+    from simcalib.world.stream_sim import rig_streams
     s = rig_streams(offset_s=0.1, outlier_fraction=0.15, duration_s=60.0,
                     rng=np.random.default_rng(seed))
     folder = Path(folder)
@@ -268,7 +268,7 @@ def synthetic_calibration_input(folder: Path, seed: int = 0) -> Path:
 def _calibration_input(name: str, work: Path) -> Path:
     if name == "synthetic":
         return synthetic_calibration_input(work / "synthetic_input")
-    from simcalib.experiments.real_data import real_dir
+    from simcalib.studies.experiments.real_data import real_dir
     d = real_dir() / name
     if not (d / "a.txt").exists():
         raise FileNotFoundError(f"real set {name!r}: no {d / 'a.txt'} (set SIMCALIB_REAL_DIR"
@@ -281,7 +281,7 @@ def run_calibration(inp: Path, out: Path):
     (calibration.json, motions.npz, recording.rrd); returns ``(StreamCalibration,
     seconds)``."""
     import time
-    from simcalib.commands.calibrate import calibrate, parse_options, write_outputs
+    from simcalib.pipeline.calibrate import calibrate, parse_options, write_outputs
     t0 = time.perf_counter()
     opts = parse_options([f"a={inp / 'a.txt'}", f"b={inp / 'b.txt'}", f"output={out}"])
     r, a = calibrate(opts)
@@ -303,7 +303,7 @@ def _color_pixels(a: np.ndarray, color) -> int:
 
 
 def calibration_pane_boxes(panes) -> dict:
-    """Where each pane of :func:`simcalib.rerun_log.calibration_blueprint` lies in a
+    """Where each pane of :func:`simcalib.report.rerun_log.calibration_blueprint` lies in a
     layout shot, as fractions ``(x0, x1, y0, y1)`` of the image (a margin inside the pane):
     the trajectories top left (11/20 of the width, 5/8 of the body), the plots ``panes``
     (in the layout's order) stacked evenly on the right."""
@@ -319,10 +319,10 @@ def calibration_pane_boxes(panes) -> dict:
 
 def pane_pixels(png: Path, present: dict, boxes: dict | None = None) -> dict:
     """Pixels of each pane's own colour in ``png`` (``present``: pane -> colour names of
-    :data:`simcalib.rerun_log.CALIBRATION_COLORS`), counted inside the pane's box
+    :data:`simcalib.report.rerun_log.CALIBRATION_COLORS`), counted inside the pane's box
     (``boxes``: pane -> fractions ``(x0, x1, y0, y1)``; default the whole image)."""
     from PIL import Image
-    from simcalib.rerun_log import CALIBRATION_COLORS
+    from simcalib.report.rerun_log import CALIBRATION_COLORS
     a = np.asarray(Image.open(png).convert("RGB"), dtype=np.int16)
     H, W = a.shape[:2]
     out = {}
@@ -337,7 +337,7 @@ def framing(png: Path) -> float:
     """The drawn extent of a 3D view shot: the larger of the width and height fractions
     spanned by pixels differing from the calibration background (below the title bar)."""
     from PIL import Image
-    from simcalib.rerun_log import CALIBRATION_BACKGROUND
+    from simcalib.report.rerun_log import CALIBRATION_BACKGROUND
     a = np.asarray(Image.open(png).convert("RGB"), dtype=np.int16)
     h = a.shape[0]
     body = a[int(0.05 * h):int(0.97 * h)]
@@ -373,7 +373,7 @@ def check_calibration(out: Path, r, shots: Path, name: str) -> ShotReport:
     no pane says "No data available", every pane shows its data (pixels of its colour),
     every line of the summary is read whole (its first and last letters), the 3D view
     is framed on the trajectories (:data:`MIN_FRAMING`)."""
-    from simcalib.rerun_log import (CALIBRATION_PANE_COLORS, calibration_summary,
+    from simcalib.report.rerun_log import (CALIBRATION_PANE_COLORS, calibration_summary,
                                     save_calibration_blueprint)
     rep = ShotReport(scenario=name)
     rrd = Path(out) / "recording.rrd"
@@ -401,7 +401,7 @@ def check_calibration(out: Path, r, shots: Path, name: str) -> ShotReport:
 
 
 def _has_correlation(r) -> bool:
-    from simcalib.rerun_log import _has_correlation as has
+    from simcalib.report.rerun_log import _has_correlation as has
     return has(r.time_offset)
 
 

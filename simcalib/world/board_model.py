@@ -1,13 +1,13 @@
 """A calibration board in the MuJoCo scene: the textured thin box of a
-:class:`simcalib.boards.BoardConfig` added to an ``MjSpec`` (on the wall, or on any body,
+:class:`simcalib.targets.boards.BoardConfig` added to an ``MjSpec`` (on the wall, or on any body,
 e.g. the flange for eye-to-hand) and the pose of a wall board. The board itself — its
-pattern, corner model, detection and PnP — is :mod:`simcalib.boards`."""
+pattern, corner model, detection and PnP — is :mod:`simcalib.targets.boards`."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from simcalib.boards import BOARD_THICKNESS_M, BoardConfig, T_geom_board, board_png
+from simcalib.targets.boards import BOARD_THICKNESS_M, BoardConfig, T_geom_board, board_png
 from simcalib.geometry import invert_transform, quat_from_matrix, quat_wxyz_from_xyzw
 from simcalib.world.layout import MARKER_SURFACE_OFFSET_M
 

@@ -23,9 +23,9 @@ import numpy as np
 from simcalib.config.checks import (check_in, check_int, check_range, check_that,
                              check_vector, fail, set_fields)
 from simcalib.errors import ConfigError, did_you_mean
-from simcalib.synthetic import PAPER_X_ROTVEC_RAD, PAPER_X_TRANSLATION_M
+from simcalib.world.synthetic import PAPER_X_ROTVEC_RAD, PAPER_X_TRANSLATION_M
 from simcalib.world.vehicle_config import VehicleConfig
-from simcalib.boards import BoardConfig, board_for_target, check_target
+from simcalib.targets.boards import BoardConfig, board_for_target, check_target
 
 #: The paper's X rotation in degrees (rounded back to the published decimals).
 PAPER_X_ROTVEC_DEG = tuple(round(math.degrees(v), 10) for v in PAPER_X_ROTVEC_RAD)
@@ -116,7 +116,7 @@ class RigConfig:
     """The two-camera rig. ``X = T_a_b`` (pose of cam_b's OpenCV frame in cam_a's) from a
     translation (m) and an axis-angle rotation vector (deg); default the paper's real rig:
     ``[-0.7, 28.1, -0.1]`` cm and ``[2.35, -0.92, -48.93]`` deg
-    (:func:`simcalib.synthetic.paper_rig_X`, the one place it is written).
+    (:func:`simcalib.world.synthetic.paper_rig_X`, the one place it is written).
     ``rig_cam_a_*``: pose of cam_a's OpenCV frame in the rig frame (+z forward = viewing
     direction, +y down, +x right at the platform's mount). Default: cam_a upright, looking
     forward, 14 cm above and 5 cm in front of the mount, so that cam_b (28 cm below cam_a
@@ -312,8 +312,8 @@ class WorldConfig:
     * ``arm``: how the arm executes its path (:class:`ArmControlConfig`).
     * ``target``: what the cameras see: ``"marker_wall"`` (default: the ArUco marker field
       of ``markers``) or one board, ``"charuco"`` / ``"apriltag_grid"``
-      (:mod:`simcalib.boards`), on the wall given by ``board`` (no marker field then).
-    * ``board``: the board's :class:`simcalib.boards.BoardConfig` (its kind follows
+      (:mod:`simcalib.targets.boards`), on the wall given by ``board`` (no marker field then).
+    * ``board``: the board's :class:`simcalib.targets.boards.BoardConfig` (its kind follows
       ``target``).
     """
     platform: str | None = None

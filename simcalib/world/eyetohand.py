@@ -12,8 +12,7 @@ the arm's flange. simcalib's rigid pair is then flange + board, both on the flan
 ``C_i X = X H_i`` holds with ``X = T_flange_board`` (the rig's ``T_a_b`` with cam_a at the
 flange). The fixed camera's pose in the robot base ``T_base_cam`` is a by-product:
 ``T_base_cam ≈ T_base_flange_i · X · inv(T_cam_board_i)`` for every common frame ``i``,
-averaged (:func:`base_camera_estimate`) and reported in results.json
-(``eye_to_hand``, :func:`eye_to_hand_report`).
+averaged and reported in results.json (``eye_to_hand``: :mod:`simcalib.pipeline.eye_to_hand`).
 """
 
 from __future__ import annotations
@@ -23,8 +22,7 @@ import dataclasses
 import numpy as np
 
 __all__ = ["MOUNTS", "FIXED_CAMERA", "STAND_OFFSET_M", "T_world_fixed_camera",
-           "add_fixed_camera", "add_flange_board", "express_in_fixed_camera",
-           "base_camera_estimate", "eye_to_hand_report", "board_visibility"]
+           "add_fixed_camera", "add_flange_board", "express_in_fixed_camera", "is_eye_to_hand"]
 
 #: ``world.arm.mount`` values: the rig on the flange seen from the flange
 #: (``eye_in_hand``, default) or a fixed camera seeing the flange's board (``eye_to_hand``).
@@ -36,14 +34,15 @@ FIXED_CAMERA = "fixed_cam"
 STAND_OFFSET_M = np.array([0.6, 0.05, 0.1])
 
 
-def _eye_to_hand(cfg) -> bool:
+def is_eye_to_hand(cfg) -> bool:
+    """Is the world the arm with a fixed camera watching the flange's board?"""
     return cfg.platform == "arm" and cfg.arm.mount == "eye_to_hand"
 
 
 def T_world_fixed_camera(cfg) -> np.ndarray:
     """``(4, 4)`` pose of the fixed camera's OpenCV frame (z forward, y down) in the world:
     ``STAND_OFFSET_M`` from the home flange position, looking at it."""
-    from simcalib.world.platforms.arm import ARM_HOME_OFFSET_M, arm_base_position
+    from simcalib.world.layout import ARM_HOME_OFFSET_M, arm_base_position
     target = arm_base_position(cfg.room.size_m) + ARM_HOME_OFFSET_M
     eye = target + STAND_OFFSET_M
     z = (target - eye) / np.linalg.norm(target - eye)
@@ -103,7 +102,7 @@ def express_in_fixed_camera(truth, measured: dict, cfg):
     """``(truth, measured)`` with cam_b's streams (the board) expressed in the fixed camera
     frame: ``T_cam_board = inv(T_world_cam) · T_world_board``. Unchanged when the mount is
     not eye-to-hand."""
-    if not _eye_to_hand(cfg) or truth.world is None:
+    if not is_eye_to_hand(cfg) or truth.world is None:
         return truth, measured
     from simcalib.geometry import invert_transform
     T_cam_world = invert_transform(T_world_fixed_camera(cfg))
@@ -114,70 +113,3 @@ def express_in_fixed_camera(truth, measured: dict, cfg):
         measured["cam_b"] = _in_camera(measured["cam_b"], T_cam_world)
     return dataclasses.replace(truth, streams=streams), measured
 
-
-def _mean_transform(T: np.ndarray) -> np.ndarray:
-    """Chordal mean rotation (SVD projection of the mean matrix) and mean translation."""
-    U, _, Vt = np.linalg.svd(T[:, :3, :3].mean(axis=0))
-    R = U @ np.diag([1.0, 1.0, np.linalg.det(U @ Vt)]) @ Vt
-    out = np.eye(4)
-    out[:3, :3], out[:3, 3] = R, T[:, :3, 3].mean(axis=0)
-    return out
-
-
-def base_camera_estimate(stream_a, stream_b, X: np.ndarray, T_world_base: np.ndarray):
-    """``T_base_cam`` from the flange stream (world = room), the board stream (world =
-    fixed camera) and ``X = T_flange_board``, averaged over their common frames."""
-    from simcalib.errors import DataError
-    from simcalib.geometry import invert_transform
-    common, ia, ib = np.intersect1d(np.asarray(stream_a.frame_index),
-                                    np.asarray(stream_b.frame_index), return_indices=True)
-    if common.size == 0:
-        raise DataError("eye-to-hand: the flange and board streams share no frame; "
-                        "T_base_cam cannot be computed")
-    A = np.asarray(stream_a.T_world_cam)[ia]
-    B = np.asarray(stream_b.T_world_cam)[ib]
-    per_frame = invert_transform(T_world_base) @ A @ X @ invert_transform(B)
-    return _mean_transform(per_frame)
-
-
-def eye_to_hand_report(st) -> dict | None:
-    """results.json ``eye_to_hand``: the true ``T_base_cam`` and, per successful solver,
-    the by-product estimate with its rotation (deg) / translation (m) error."""
-    cfg = st.cfg.world
-    world = st.truth.world if st.truth is not None else None
-    if world is None or not _eye_to_hand(cfg):
-        return None
-    from simcalib.geometry import invert_transform, rotation_error_rad, translation_error_m
-    from simcalib.sources.robot_fk import arm_state
-    _, T_world_base = arm_state(world)
-    T_true = invert_transform(T_world_base) @ T_world_fixed_camera(cfg)
-    out = {"camera": FIXED_CAMERA, "X": "T_flange_board", "T_base_cam_true": T_true.tolist(),
-           "board_visibility": board_visibility(st.truth.streams["cam_b"]), "solvers": {}}
-    for sol in st.solvers:
-        if not sol.success or sol.X is None:
-            continue
-        T = base_camera_estimate(st.measured["cam_a"], st.measured["cam_b"], sol.X,
-                                 T_world_base)
-        out["solvers"][sol.label] = {
-            "T_base_cam": T.tolist(),
-            "rotation_error_deg": float(np.rad2deg(rotation_error_rad(T, T_true))),
-            "translation_error_m": float(translation_error_m(T, T_true))}
-    return out
-
-
-def board_visibility(board_stream, fovy_deg: float = 60.0, aspect: float = 4 / 3) -> dict:
-    """How the fixed camera sees the board over the run (truth stream, world = camera):
-    the board origin's distance, its angle off the optical axis, the board's tilt
-    (angle between its normal and the line of sight) and the fraction of frames with the
-    origin inside the field of view and a tilt below 60 deg."""
-    T = np.asarray(board_stream.T_world_cam)
-    p = T[:, :3, 3]
-    dist = np.linalg.norm(p, axis=-1)
-    ray = p / dist[:, None]
-    tilt = np.rad2deg(np.arccos(np.clip(np.abs(np.einsum("ni,ni->n", T[:, :3, 2], ray)),
-                                        -1.0, 1.0)))
-    half_y = np.tan(np.deg2rad(fovy_deg) / 2)
-    inside = (np.abs(p[:, 0] / p[:, 2]) < half_y * aspect) & (np.abs(p[:, 1] / p[:, 2]) < half_y)
-    ok = inside & (p[:, 2] > 0) & (tilt < 60.0)
-    return {"distance_m_min": float(dist.min()), "distance_m_max": float(dist.max()),
-            "tilt_deg_max": float(tilt.max()), "fraction_in_view": float(ok.mean())}

@@ -1,6 +1,7 @@
-"""Layout of the ArUco marker field in the room, and marker visibility (pure numpy).
+"""Layout of the room: where the arm stands, the ArUco marker field, and marker
+visibility (pure numpy).
 
-Marker frame (simcalib/markers.py): origin at the marker centre on its printed face, +z out
+Marker frame (simcalib/targets/markers.py): origin at the marker centre on its printed face, +z out
 of the face (into the room), +y up in the upright marker image, +x to its right. In MuJoCo
 each marker is a thin box geom whose frame *is* the marker frame shifted by half the
 thickness along -z; the marker texture on the box's +z face appears with its top towards
@@ -17,15 +18,27 @@ from __future__ import annotations
 import numpy as np
 
 from simcalib.geometry import distort_pixels, invert_transform, project_points as _project
-from simcalib.markers import MarkerField, marker_corners_local
+from simcalib.targets.markers import MarkerField, marker_corners_local
 from simcalib.streams import CameraIntrinsics
 
-__all__ = ["marker_layout", "dictionary_size", "marker_cells", "project_points",
+__all__ = ["ARM_HOME_OFFSET_M", "ARM_BASE_TO_WALL_M", "arm_base_position", "marker_layout", "dictionary_size", "marker_cells", "project_points",
            "visible_markers", "marker_views", "MARKER_SURFACE_OFFSET_M"]
 
 #: Printed face of a marker sits this far in front of its wall/floor/ceiling surface.
 MARKER_SURFACE_OFFSET_M = 0.002
 
+
+#: Arm home: the flange frame equals the rig frame looking along world +x (flange z = +x,
+#: y = -z, x = -y), ``ARM_HOME_OFFSET_M`` from the pedestal foot (0.55 m in front of the
+#: base axis, 0.30 m above the shoulder).
+ARM_HOME_OFFSET_M = np.array([0.55, 0.0, 0.6 + 0.1625 + 0.30])
+#: Distance from the arm's base axis to the +x wall (the rig looks at that wall).
+ARM_BASE_TO_WALL_M = 1.75
+
+
+def arm_base_position(room_size_m) -> np.ndarray:
+    """World position of the arm's pedestal foot for a room of inner size ``room_size_m``."""
+    return np.array([0.5 * room_size_m[0] - ARM_BASE_TO_WALL_M, 0.0, 0.0])
 
 def _cv2_dictionary(name: str):
     import cv2

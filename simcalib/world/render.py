@@ -36,6 +36,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 __all__ = [
+    "MJ_FROM_CV", "T_world_cv_from_mujoco",
     "DEBIAN_PACKAGES",
     "FrameJob",
     "FrameTiming",
@@ -66,6 +67,21 @@ _BACKENDS = ("egl", "osmesa")
 #: No usable OpenGL backend for MuJoCo offscreen rendering (CLI exit code 4); the
 #: project-wide :class:`simcalib.errors.BackendError`, kept under its old name.
 from simcalib.errors import BackendError as RenderBackendError  # noqa: E402
+from simcalib.geometry import transform_from_rotation_translation  # noqa: E402
+
+#: OpenCV camera frame <-> MuJoCo camera frame (its own inverse): R_mj = R_cv @ MJ_FROM_CV.
+MJ_FROM_CV = np.diag([1.0, -1.0, -1.0])
+
+
+def T_world_cv_from_mujoco(cam_xpos: np.ndarray, cam_xmat: np.ndarray) -> np.ndarray:
+    """``(..., 4, 4)`` pose of a camera's OpenCV frame (x right, y down, z forward) in the
+    world from MuJoCo's ``cam_xpos`` ``(..., 3)`` and ``cam_xmat`` ``(..., 9)`` or
+    ``(..., 3, 3)`` (MuJoCo cameras look along -z, +y up) — the one place this conversion
+    is written."""
+    R = np.asarray(cam_xmat, dtype=np.float64)
+    R = R.reshape(R.shape[:-1] + (3, 3)) if R.shape[-1] == 9 else R
+    return transform_from_rotation_translation(R @ MJ_FROM_CV,
+                                               np.asarray(cam_xpos, dtype=np.float64))
 
 
 def backend_error_message(failures: dict[str, str]) -> str:
@@ -438,8 +454,7 @@ class CameraRenderer:
 
     def T_world_cam(self, camera: str) -> np.ndarray:
         """Pose of the camera's OpenCV frame (x right, y down, z forward) in the world,
-        from the current state (:func:`simcalib.world.scene.T_world_cv_from_mujoco`)."""
-        from simcalib.world.scene import T_world_cv_from_mujoco  # noqa: PLC0415 (cycle)
+        from the current state (:func:`T_world_cv_from_mujoco`)."""
         i = self.camera_id(camera)
         return T_world_cv_from_mujoco(self.data.cam_xpos[i], self.data.cam_xmat[i])
 

@@ -31,7 +31,7 @@ __all__ = ["UR5E_DH", "DH_COLUMNS", "KinematicErrorConfig", "EncoderConfig", "Ro
            "dh_fk", "draw_dh_error", "true_dh", "check_dh_error", "apply_dh_to_spec",
            "fk_pose_error_basis",
            "encoder_readings", "robot_report", "ARM_LINK_BODIES", "ARM_FLANGE_SITE",
-           "ARM_BASE_BODY"]
+           "ARM_BASE_BODY", "ARM_JOINTS", "arm_state"]
 
 #: Columns of a DH table / DH error: joint angle offset (rad), d (m), a (m), alpha (rad).
 DH_COLUMNS = ("theta_rad", "d_m", "a_m", "alpha_rad")
@@ -288,3 +288,31 @@ def robot_report(world, cfg, fk_log=None) -> dict | None:
             "kinematic_error": to_dict(cfg.robot.kinematic_error),
             "encoder": to_dict(cfg.robot.encoder),
             "fk_error": fk_log}
+
+
+#: Joint names of models/ur5e.xml in DH order (prefixed ``arm/`` in the scene).
+ARM_JOINTS = ("shoulder_pan", "shoulder_lift", "elbow", "wrist_1", "wrist_2", "wrist_3")
+
+
+def arm_state(world) -> tuple[np.ndarray, np.ndarray]:
+    """``(qpos addresses (6,), T_world_base (4, 4))`` of the world's arm."""
+    import mujoco
+    cfg = world.config
+    if cfg.platform != "arm" or cfg.arm_model != "builtin":
+        raise ValueError(f"source robot_fk needs world.platform='arm' with "
+                         f"world.arm_model='builtin' (the UR5e DH model); received "
+                         f"platform={cfg.platform!r}, arm_model={cfg.arm_model!r}")
+    m = world.model
+    adr = []
+    for name in ARM_JOINTS:
+        jid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, f"arm/{name}")
+        if jid < 0:
+            raise ValueError(f"the arm model has no joint 'arm/{name}'")
+        adr.append(int(m.jnt_qposadr[jid]))
+    d = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, d)
+    bid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, f"arm/{ARM_BASE_BODY}")
+    T = np.eye(4)
+    T[:3, :3] = d.xmat[bid].reshape(3, 3)
+    T[:3, 3] = d.xpos[bid]
+    return np.array(adr), T

@@ -19,29 +19,17 @@ from simcalib.world.render import import_mujoco as _mujoco
 
 from simcalib.geometry import (invert_transform, quat_from_matrix, quat_wxyz_from_xyzw,
                                transform_from_rotation_translation)
-from simcalib.markers import MarkerField, marker_png
+from simcalib.targets.markers import MarkerField, marker_png
 from simcalib.config.resources import models_dir
 from simcalib.streams import CameraIntrinsics
+from simcalib.world.render import MJ_FROM_CV
 
-__all__ = ["Scene", "build_scene", "build_model", "MODELS_DIR", "CAMERA_NAMES", "MJ_FROM_CV",
-           "T_world_cv_from_mujoco"]
+__all__ = ["Scene", "build_scene", "build_model", "MODELS_DIR", "CAMERA_NAMES"]
 
 #: Directory holding the MJCF files (room, cart, ur5e, rig).
 MODELS_DIR = models_dir()
 CAMERA_NAMES = ("cam_a", "cam_b")
-#: OpenCV camera frame <-> MuJoCo camera frame (its own inverse): R_mj = R_cv @ MJ_FROM_CV.
-MJ_FROM_CV = np.diag([1.0, -1.0, -1.0])
 
-
-def T_world_cv_from_mujoco(cam_xpos: np.ndarray, cam_xmat: np.ndarray) -> np.ndarray:
-    """``(..., 4, 4)`` pose of a camera's OpenCV frame (x right, y down, z forward) in the
-    world from MuJoCo's ``cam_xpos`` ``(..., 3)`` and ``cam_xmat`` ``(..., 9)`` or
-    ``(..., 3, 3)`` (MuJoCo cameras look along -z, +y up) — the one place this conversion
-    is written."""
-    R = np.asarray(cam_xmat, dtype=np.float64)
-    R = R.reshape(R.shape[:-1] + (3, 3)) if R.shape[-1] == 9 else R
-    return transform_from_rotation_translation(R @ MJ_FROM_CV,
-                                               np.asarray(cam_xpos, dtype=np.float64))
 
 
 @dataclass(frozen=True)
@@ -51,7 +39,7 @@ class Scene:
     (cart base or arm flange); ``home_qpos``: the matching ``qpos``; ``mount_site``: name
     of the site carrying the rig; ``T_target_cam``: per camera, pose of its OpenCV frame in
     the target frame (cart: cart base; arm: flange); ``board`` / ``T_world_board``: the
-    board target (:class:`simcalib.boards.BoardConfig` and its board frame in the world)
+    board target (:class:`simcalib.targets.boards.BoardConfig` and its board frame in the world)
     when ``world.target`` is a board, else ``None``."""
     model: object
     platform: str

@@ -18,11 +18,12 @@ import numpy as np
 
 from simcalib.world.render import import_mujoco as _mujoco
 
-from simcalib.markers import MarkerField
+from simcalib.targets.markers import MarkerField
 from simcalib.streams import CameraFrames, CameraIntrinsics, Trajectory
 from simcalib.world.config import WorldConfig
 from simcalib.world.paths import compose_path, get_path, perturbation_sample, sample_path
-from simcalib.world.scene import CAMERA_NAMES, Scene, T_world_cv_from_mujoco, build_scene
+from simcalib.world.render import T_world_cv_from_mujoco
+from simcalib.world.scene import CAMERA_NAMES, Scene, build_scene
 
 __all__ = ["SimCameraFrames", "World", "build_world", "camera_poses_from_state"]
 

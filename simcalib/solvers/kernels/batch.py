@@ -447,5 +447,5 @@ def random_motions_for_warm_up():
 def load_every_kernel() -> None:
     """One small solve and its diagnostics on :func:`random_motions_for_warm_up`: loads
     (or compiles) every kernel a run uses."""
-    import simcalib
-    simcalib.solve(*random_motions_for_warm_up()).message
+    from simcalib.solvers.api import solve
+    solve(*random_motions_for_warm_up()).message

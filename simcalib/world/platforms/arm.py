@@ -37,29 +37,20 @@ import numpy as np
 
 from simcalib.world.platforms.base import PlatformInfo, PlatformMotion
 from simcalib.world.platforms.registry import register
+from simcalib.world.layout import ARM_HOME_OFFSET_M, arm_base_position
 
-__all__ = ["ArmPlatform", "REFERENCE_RATE_HZ", "ARM_HOME_OFFSET_M", "ARM_HOME_SEED", "R_WORLD_RIG_FORWARD",
-           "ARM_BASE_TO_WALL_M", "PEDESTAL_HEIGHT_M", "MENAGERIE_UR5E", "arm_base_position"]
+__all__ = ["ArmPlatform", "REFERENCE_RATE_HZ", "ARM_HOME_SEED", "R_WORLD_RIG_FORWARD",
+           "PEDESTAL_HEIGHT_M", "MENAGERIE_UR5E"]
 
-#: Arm home: the flange frame equals the rig frame looking along world +x (flange z = +x,
-#: y = -z, x = -y), ``ARM_HOME_OFFSET_M`` from the pedestal foot (0.55 m in front of the
-#: base axis, 0.30 m above the shoulder). ``home_qpos`` is solved by IK from this seed
-#: (elbow up, wrist away from the cameras' view).
-ARM_HOME_OFFSET_M = np.array([0.55, 0.0, 0.6 + 0.1625 + 0.30])
+#: ``home_qpos`` (the flange at ``ARM_HOME_OFFSET_M``, simcalib.world.layout) is solved by IK
+#: from this seed (elbow up, wrist away from the cameras' view).
 ARM_HOME_SEED = np.array([0.3005, -1.8099, -1.9046, 0.5729, 1.2703, 0.0])
 #: The rig frame in world axes when looking along +x: x = -y_w, y = -z_w, z = +x_w.
 R_WORLD_RIG_FORWARD = np.column_stack([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]])
-#: Distance from the arm's base axis to the +x wall (the rig looks at that wall).
-ARM_BASE_TO_WALL_M = 1.75
 #: Height of the arm's pedestal (the built-in model has it; added for Menagerie arms).
 PEDESTAL_HEIGHT_M = 0.6
 #: Menagerie file of the optional arm model, relative to ``$MENAGERIE_ROOT``.
 MENAGERIE_UR5E = Path("universal_robots_ur5e") / "ur5e.xml"
-
-
-def arm_base_position(room_size_m) -> np.ndarray:
-    """World position of the arm's pedestal foot for a room of inner size ``room_size_m``."""
-    return np.array([0.5 * room_size_m[0] - ARM_BASE_TO_WALL_M, 0.0, 0.0])
 
 
 def _arm_spec(arm_model: str):

@@ -1,0 +1,163 @@
+"""``calibration.json`` and the console report of a calibration of recorded poses
+(:func:`simcalib.pipeline.calibrate.calibrate`): :func:`report_dict` (schema :data:`SCHEMA`,
+docs/calibrate.md) and :func:`format_report`, which renders the same content for people.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from simcalib.errors import EXIT_DEGENERATE, EXIT_OK
+
+__all__ = ["SCHEMA", "report_dict", "format_report"]
+
+SCHEMA = "simcalib.calibration/1"
+
+
+def _fin(x):
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def _pose(X) -> dict:
+    from simcalib.geometry import quat_from_matrix, rotvec_from_matrix
+    X = np.asarray(X, dtype=np.float64)
+    return {"T_a_b": X.tolist(), "translation_m": X[:3, 3].tolist(),
+            "quaternion_xyzw": quat_from_matrix(X[:3, :3]).tolist(),
+            "rotvec_deg": np.degrees(rotvec_from_matrix(X[:3, :3])).tolist()}
+
+
+def _stream(s) -> dict:
+    return {"file": s.source, "name": s.name, "format": s.format, "detection": s.detection,
+            "poses": s.n, "duration_s": s.duration_s, "rate_hz": _fin(s.rate_hz),
+            "quaternion_order_in_file": s.quat_order, "inverted": s.inverted,
+            "quaternion_order_swapped": s.scalar_first_reinterpreted,
+            "sample_index_as_time": s.synthetic_time, "repairs": dict(s.repairs)}
+
+
+def report_dict(opts, r, a, solver_kernels: str = "compiled") -> dict:
+    """The content of ``calibration.json`` (schema :data:`SCHEMA`, docs/calibrate.md) of the
+    calibration ``r`` (:class:`simcalib.estimation.path.StreamCalibration`) with options
+    ``opts`` and assessment ``a`` (:class:`simcalib.pipeline.calibrate.Assessment`)."""
+    from simcalib.config.engine import to_dict
+    off, conv, rob, s = r.time_offset, r.conventions, r.robust, r.summary
+    status = {EXIT_OK: "determined", EXIT_DEGENERATE: "degenerate"}.get(a.exit_code,
+                                                                        "failed")
+    if a.implausible and not a.degenerate and a.verdict != "FAILED":
+        status = "implausible"
+    return {
+        "schema": SCHEMA,
+        "status": status,
+        "solver_kernels": solver_kernels,
+        "exit_code": a.exit_code,
+        "X": _pose(r.X),
+        "frames": "X = T_a_b: pose of sensor b in sensor a (p_a = X p_b); metres, "
+                  "quaternion (x, y, z, w)",
+        "uncertainty": {"source": a.source, "std_rotation_deg": a.std_rot_deg,
+                        "std_translation_m": a.std_trans_m, "covariance": a.covariance,
+                        "covariance_order": "(wx, wy, wz, vx, vy, vz), rad and m, frame a"},
+        "verdict": {"verdict": a.verdict, "degenerate": a.degenerate,
+                    "directions": list(a.undetermined), "message": a.summary},
+        "time_offset": {"offset_s": off.offset_s, "uncertainty_s": _fin(off.uncertainty_s),
+                        "estimated": off.decision == "estimated",
+                        "decision": off.decision, "evidence": _fin(off.evidence),
+                        "peak_z": _fin(off.peak_z),
+                        "window_s": [_fin(x) for x in off.window_s],
+                        "coarse_offset_s": off.coarse_offset_s,
+                        "peak_correlation": _fin(off.peak_correlation),
+                        "drift": off.drift, "t_ref_s": off.t_ref_s,
+                        "convention": "offset_s = t_b - t_a for the same instant",
+                        "message": off.message},
+        "sampling": r.sampling.to_dict(),
+        "motions": {"policy": r.motions.policy, "reason": r.motions.reason,
+                    "counts": dict(r.motions.counts)},
+        "consistency": None if r.consistency is None else r.consistency.to_dict(),
+        "weighting_check": None if r.weighting is None else r.weighting.to_dict(),
+        "inliers": {"robust": rob.method, "n_motions": int(r.C.shape[0]),
+                    "choice": r.robust_choice,
+                    "n_inliers": rob.n_inliers, "threshold": _fin(rob.threshold),
+                    "message": rob.message},
+        "residuals": {"inliers": s["residuals_inliers"], "all": s["residuals_all"],
+                      "definition": "per-motion errors of C X = X H (rotation angle, "
+                                    "translation norm)"},
+        "conventions": {"invert_a": conv.invert_a, "invert_b": conv.invert_b,
+                        "swap_scalar_a": conv.swap_scalar_a,
+                        "swap_scalar_b": conv.swap_scalar_b, "ratio": _fin(conv.ratio),
+                        "clear": conv.clear, "runner_up": conv.runner_up,
+                        "scores": conv.scores, "forced": list(conv.forced),
+                        "message": conv.message},
+        "streams": {"a": _stream(r.stream_a), "b": _stream(r.stream_b),
+                    "synchronised": dict(r.synced.counts), "reference": r.synced.reference},
+        "plain": None if r.X_plain is None else {
+            "description": "dqopt, offset 0, all motions, no rejection",
+            "X": _pose(r.X_plain), "n_motions": s["n_motions_plain"],
+            "residuals": s["residuals_plain"]},
+        "aligned_no_rejection": {"description": "dqopt, offset as above, all "
+                                 "motions, no rejection", "X": _pose(r.X_aligned),
+                                 "residuals": s["residuals_aligned"]},
+        "solution": rob.solution.to_dict() if rob.solution is not None else None,
+        "options": to_dict(opts),
+        "plausibility": None if a.plausibility is None else a.plausibility.to_dict(),
+        "warnings": list(a.warnings),
+        "files": {"motions": "motions.npz",
+                  "recording": "recording.rrd" if opts.recording else None},
+    }
+
+
+
+def _vec(v, scale=1.0, digits=3):
+    if v is None:
+        return "n/a"
+    return "[" + ", ".join("inf" if x is None else f"{scale * x:.{digits}f}" for x in v) + "]"
+
+
+def format_report(rep: dict) -> str:
+    """The console report of one calibration (from the calibration.json content)."""
+    X = np.asarray(rep["X"]["T_a_b"])
+    u, v, off, inl = rep["uncertainty"], rep["verdict"], rep["time_offset"], rep["inliers"]
+    res, conv = rep["residuals"]["inliers"], rep["conventions"]
+    rows = "\n".join("    " + " ".join(f"{x:+.6f}" for x in row) for row in X)
+    sig = off["uncertainty_s"]
+    lines = [
+        f"X = T_a_b (pose of b in a):\n{rows}",
+        f"  translation (m):        {_vec(rep['X']['translation_m'], digits=5)}",
+        f"  quaternion (x,y,z,w):   {_vec(rep['X']['quaternion_xyzw'], digits=6)}",
+        f"  rotation vector (deg):  {_vec(rep['X']['rotvec_deg'], digits=3)}",
+        f"uncertainty (1 sigma, frame a): rotation {_vec(u['std_rotation_deg'], digits=4)} deg,"
+        f" translation {_vec(u['std_translation_m'], 1e3, 2)} mm  [{u['source']}]",
+        f"verdict: {v['verdict'].upper()}" + (f" - {v['message']}" if v["message"] else ""),
+        f"sampling: {rep['sampling']['reason']}",
+        f"motions: {rep['motions']['policy']} ({rep['motions']['reason']})",
+        f"time offset t_b - t_a: {1e3 * off['offset_s']:.2f}"
+        + (f" +- {1e3 * sig:.2f} ms" if sig and off["estimated"] else " ms")
+        + {"estimated": " (estimated)", "zero": " (not told by the data: 0 used)",
+           "given": " (given)", "shared_stamps": " (paired by stamp)"}[off["decision"]]
+        + (f", drift {off['drift'] * 1e6:.1f} ppm" if off["drift"] else ""),
+        f"  {off['message']}",
+        f"inliers: {inl['n_inliers']} of {inl['n_motions']} motions ({inl['choice']}): "
+        f"{inl['message']}",
+        f"residuals of C X = X H over the inliers: rotation median {res['rot_median_deg']:.3f}"
+        f" / rms {res['rot_rms_deg']:.3f} deg, translation median "
+        f"{res['trans_median_mm']:.2f} / rms {res['trans_rms_mm']:.2f} mm",
+        f"conventions: {conv['message']}",
+    ]
+    for k in ("a", "b"):
+        s = rep["streams"][k]
+        rep_txt = ", ".join(f"{n}: {c}" for n, c in s["repairs"].items() if c) or "none"
+        lines.append(f"stream {k}: {s['file']}{' [' + s['name'] + ']' if s['name'] else ''}"
+                     f" - {s['poses']} poses, {s['duration_s']:.2f} s, ~{s['rate_hz']:.1f} Hz,"
+                     f" {s['detection']}; repairs: {rep_txt}")
+    p = rep["plain"]
+    if p is None:
+        lines.append("plain solve (offset 0): none, the streams do not overlap at offset 0")
+    else:
+        lines.append(f"plain solve (offset 0, no rejection, {p['n_motions']} motions): t = "
+                     f"{_vec(p['X']['translation_m'], 1e3, 2)} mm, rotvec "
+                     f"{_vec(p['X']['rotvec_deg'], digits=3)} deg, residual rms "
+                     f"{p['residuals']['rot_rms_deg']:.3f} deg / "
+                     f"{p['residuals']['trans_rms_mm']:.2f} mm")
+    lines += [f"WARNING: {w}" for w in rep["warnings"]]
+    lines.append(f"status: {rep['status']} (exit {rep['exit_code']})")
+    return "\n".join(lines)

@@ -1,0 +1,3 @@
+"""Benchmarks: solver timings and throughput (``solvers``), visual pose accuracy per
+path, effect and target (``vision``, ``boards``).
+"""

@@ -1,0 +1,392 @@
+"""The run recording read back: expected entities per scenario kind, every position within
+the scene bounds, the close-up's off-scale / failed / uncertainty handling, the summary,
+sweep and experiment recordings; and (where the viewer can run) screenshots checked."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from simcalib.cli import main
+from simcalib.report.rerun_log import closeup_bound_m
+from rrd_reading import chunks, points
+
+SIM_SHORT = ("world.duration_s=4", "pairing.step=1", "progress=false",
+             "solvers=[dqopt,daniilidis,dq2steps]")
+
+
+
+
+def _world_positions(ents: dict) -> np.ndarray:
+    """Positions of everything drawn in world coordinates (children of platform bodies
+    and camera images are in their parent's frame and excluded)."""
+    pts = []
+    for e, cols in ents.items():
+        if not e.startswith("/world/") or "/geoms" in e or "/image" in e or e.endswith("/axes"):
+            continue
+        for c in ("Transform3D:translation", "Points3D:positions", "LineStrips3D:strips",
+                  "Boxes3D:centers", "Mesh3D:vertex_positions"):
+            if c in cols:
+                pts.append(points(cols[c]))
+    return np.concatenate(pts) if pts else np.zeros((0, 3))
+
+
+def _run(tmp_path, scenario, *args):
+    out = tmp_path / scenario
+    assert main(["run", f"scenario={scenario}", f"output={out}", *args]) == 0
+    return out, json.loads((out / "results.json").read_text())
+
+
+def test_sim_recording_entities_and_bounds(tmp_path):
+    out, res = _run(tmp_path, "planar", "source=noisy", *SIM_SHORT)
+    ents = chunks(out / "recording.rrd")
+    names = set(ents)
+    assert {"/world/room/floor", "/world/room/wall_px", "/summary", "/closeup/cam_a",
+            "/closeup/true_cam_b", "/pose_error/rotation_deg/cam_a",
+            "/pose_error/translation_mm/cam_b"} <= names
+    bodies = {e.split("/")[3] for e in names if e.startswith("/world/platform/")}
+    cart_body = next(b for b in bodies if b.endswith("cart"))   # MjSpec prefixes: cart_cart
+    assert any(b.startswith("rig") for b in bodies), bodies
+    cart = ents[f"/world/platform/{cart_body}"]
+    assert len(points(cart["Transform3D:translation"])) == res["frames"]["rendered"]
+    assert any(e.startswith(f"/world/platform/{cart_body}/geoms/") for e in names)
+    assert sum(e.startswith("/world/markers/") for e in names) > 10
+    # no image panes' data for a source without images
+    assert not any("EncodedImage:blob" in c for c in ents.values())
+    # every position in the scene lies in the room (a wild estimate never zooms it out)
+    room = res["config"]["world"]["room"]["size_m"]
+    p = _world_positions(ents)
+    assert p.shape[0] > 100
+    assert (np.abs(p[:, 0]) <= room[0] / 2 + 0.1).all() and (np.abs(p[:, 1]) <= room[1] / 2 + 0.1).all()
+    assert (p[:, 2] >= -0.1).all() and (p[:, 2] <= room[2] + 0.1).all()
+    # the close-up stays within its bound (labels stack a little beyond the estimates)
+    bound = closeup_bound_m(np.linalg.norm(np.asarray(res["X_true"])[:3, 3]))
+    q = np.concatenate([points(v) for e, cols in ents.items() if e.startswith("/closeup/")
+                        for k, v in cols.items() if k in ("Transform3D:translation",
+                                                          "Points3D:positions")])
+    assert np.linalg.norm(q, axis=1).max() <= 1.5 * bound
+    for label, s in res["solvers"].items():
+        name = label.replace("+", "_")
+        drawn = f"/closeup/estimates/{name}" in names
+        far = s["X"] is not None and np.linalg.norm(np.asarray(s["X"])[:3, 3]) > bound
+        assert drawn == (s["X"] is not None and not far), label
+    view = json.loads((out / "recording_view.json").read_text())
+    assert view["kind"] == "sim" and view["images"] is False
+    lo, hi = np.array(view["room"])
+    assert ((lo <= view["eye"]["position"]) & (view["eye"]["position"] <= hi)).all()
+    from rerun.chunk import RrdReader
+    assert RrdReader(str(out / "recording.rrd")).blueprints()
+
+
+def test_synthetic_recording_has_no_room_or_images(tmp_path):
+    out, res = _run(tmp_path, "line", "progress=false", "synthetic.num_motions=100",
+                    "pairing.n_pairs=30", "solvers=[dqopt,daniilidis]")
+    ents = chunks(out / "recording.rrd")
+    assert not any(e.startswith(("/world/room", "/world/platform", "/world/markers"))
+                   for e in ents)
+    assert not any(e.endswith("/image") for e in ents)
+    assert {"/world/trajectories/cam_a/ground_truth", "/closeup/true_cam_b",
+            "/summary"} <= set(ents)
+    text = str(ents["/summary"]["TextDocument:text"])
+    assert "| method |" in text and "dqopt" in text
+    assert json.loads((out / "recording_view.json").read_text())["kind"] == "synthetic"
+
+
+@pytest.mark.slow
+def test_arm_recording_draws_the_arm_links_and_images(tmp_path):
+    out, res = _run(tmp_path, "3d", "world.duration_s=4", "progress=false",
+                    "solvers=[dqopt]")
+    ents = chunks(out / "recording.rrd")
+    links = {e.split("/")[3] for e in ents if e.startswith("/world/platform/")}
+    assert {f"link{i}" for i in range(1, 7)} <= {b.split("_")[-1] for b in links}, links
+    link2 = next(b for b in links if b.endswith("link2"))
+    assert any(k.startswith("Capsules3D") for e, c in ents.items() for k in c
+               if e.startswith(f"/world/platform/{link2}/"))
+    assert any("EncodedImage:blob" in c for e, c in ents.items() if e == "/world/cam_a/image")
+    assert json.loads((out / "recording_view.json").read_text())["images"] is True
+
+
+def _solver(label, X, rot=0.1, trans=0.01, cov=None):
+    ns = SimpleNamespace(label=label, X=X, rotation_error_deg=None if X is None else rot,
+                         translation_error_m=None if X is None else trans,
+                         translation_error_determined_m=None if X is None else trans,
+                         degenerate=False, alpha=1.0, error=None if X is not None else "boom",
+                         undetermined_directions=(), undetermined=())
+    if cov is not None:
+        ns.covariance = cov
+    return ns
+
+
+def test_closeup_offscale_failed_and_uncertainty(tmp_path):
+    from simcalib.report.rerun_log import RunRecorder
+    cfg = SimpleNamespace(kind="synthetic", recording=SimpleNamespace(max_images=0,
+                                                                      jpeg_quality=70))
+    X = np.eye(4)
+    X[:3, 3] = [0.0, 0.2, 0.0]
+    near = X.copy()
+    near[:3, 3] += [0.01, 0.0, 0.0]
+    far = X.copy()
+    far[:3, 3] = [0.0, 1.7e5, 0.0]
+    cov = np.diag([1e-6, 1e-6, 1e-6, 4e-4, 1e-4, np.inf])
+    cov[3, 4] = cov[4, 3] = 0.0
+    rec = RunRecorder(tmp_path / "r.rrd", cfg)
+    rec.log_estimates([_solver("good", near, cov=cov), _solver("wild", far, trans=1.7e5),
+                       _solver("broken", None)], X)
+    rec.close()
+    ents = chunks(tmp_path / "r.rrd")
+    assert "/closeup/estimates/good" in ents and "/closeup/estimates/wild" not in ents
+    assert not any("broken" in e for e in ents)
+    bound = closeup_bound_m(0.2)
+    off = [c for e, c in ents.items() if e.startswith("/closeup/offscale/")]
+    pos = np.concatenate([points(c["Points3D:positions"]) for c in off])
+    np.testing.assert_allclose(np.linalg.norm(pos, axis=1), bound, rtol=1e-6)
+    labels = " ".join(str(c.get("Points3D:labels")) for e, c in ents.items()
+                      if e.startswith("/closeup/labels/offscale"))
+    assert "wild" in labels and "1.7e+07 cm" in labels
+    cam_label = str(ents["/closeup/labels/cam_a"]["Points3D:labels"])
+    assert "FAILED" in cam_label and "broken" in cam_label
+    half = np.sort(points(ents["/closeup/uncertainty/good"]["Ellipsoids3D:half_sizes"])[0])
+    # 3 sigma of 1 cm and 2 cm; the undetermined (infinite) axis is no part of the ellipsoid
+    np.testing.assert_allclose(half, [1e-4, 0.03, 0.06], rtol=1e-6)
+    # ... but an off-scale marker: red arrows along z through the estimate, and a label note
+    arrows = ents["/closeup/uncertainty/good/offscale"]
+    v = points(arrows["Arrows3D:vectors"])
+    assert len(v) == 2 and np.allclose(np.abs(v[:, :2]), 0.0) and (np.abs(v[:, 2]) > 0).all()
+    o = points(arrows["Arrows3D:origins"])
+    assert (np.linalg.norm(o + v, axis=1) <= bound).all()
+    assert any("σ = ∞ along z" in str(c.get("Points3D:labels")) for e, c in ents.items()
+               if e.startswith("/closeup/labels/"))
+
+
+def test_closeup_clips_huge_ellipsoids_inside_the_bound(tmp_path):
+    from simcalib.report.rerun_log import RunRecorder
+    cfg = SimpleNamespace(kind="synthetic", recording=SimpleNamespace(max_images=0,
+                                                                      jpeg_quality=70))
+    X = np.eye(4)
+    X[:3, 3] = [0.0, 0.2, 0.0]
+    # sigma_y = 0.5 m: the 3 sigma half-axis (1.5 m) exceeds the 1 m close-up bound
+    cov = np.diag([1e-6, 1e-6, 1e-6, 1e-4, 0.25, 1e-4])
+    allinf = np.full((6, 6), np.inf)
+    rec = RunRecorder(tmp_path / "r.rrd", cfg)
+    rec.log_estimates([_solver("wide", X, cov=cov), _solver("nothing", X, cov=allinf)], X)
+    rec.close()
+    ents = chunks(tmp_path / "r.rrd")
+    bound = closeup_bound_m(0.2)
+    half = points(ents["/closeup/uncertainty/wide"]["Ellipsoids3D:half_sizes"])[0]
+    assert np.isclose(half.max(), bound - 0.2) and np.isclose(np.sort(half)[0], 0.03)
+    assert "/closeup/uncertainty/wide/offscale" in ents
+    # all axes undetermined: no ellipsoid at all, only the off-scale marker
+    assert "Ellipsoids3D:half_sizes" not in ents.get("/closeup/uncertainty/nothing", {})
+    assert len(points(ents["/closeup/uncertainty/nothing/offscale"]["Arrows3D:vectors"])) == 6
+    text = " ".join(str(c.get("Points3D:labels")) for e, c in ents.items()
+                    if e.startswith("/closeup/labels/"))
+    assert "3σ 1.5 m along y: off-scale" in text and "σ = ∞ along" in text
+    # one label for the two estimates on top of each other
+    assert text.count("wide") == 2 and "wide, nothing" in text
+
+
+def test_closeup_labels_do_not_overlap_on_screen():
+    from simcalib.report.rerun_log import _place_labels, _screen_basis, _LINE_H, _CHAR_W
+    eye = {"position": [-0.7, -0.8, -2.0], "look_target": [0.0, 0.2, 0.0],
+           "eye_up": [0, -1, 0]}
+    rng = np.random.default_rng(0)
+    items = [(np.array([0.0, 0.28, 0.0]) + 0.01 * rng.standard_normal(3), [f"label {k}"])
+             for k in range(6)] + [(np.zeros(3), ["cam a (origin)", "FAILED: x"])]
+    pts = _place_labels(eye, items, max_norm=1.4)
+    pos, f, r, u = _screen_basis(eye)
+    boxes = []
+    for p, (_, lines) in zip(pts, items):
+        d = p - pos
+        x, y = d @ r / (d @ f), -(d @ u) / (d @ f)
+        w, h = max(map(len, lines)) * _CHAR_W, len(lines) * _LINE_H
+        boxes.append((x - w / 2, y, x + w / 2, y + h))
+        assert np.linalg.norm(p) <= 1.4 + 1e-9
+    for i, a in enumerate(boxes):
+        for b in boxes[:i]:
+            assert not (a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3])
+
+
+def test_summary_markdown_rows():
+    from simcalib.report.rerun_log import summary_markdown
+    res = SimpleNamespace(
+        config=SimpleNamespace(scenario="x", kind="sim", source="aruco", seed=0),
+        pairing={"used": 5}, frames={}, pose_errors={}, camera_names=("cam_a", "cam_b"),
+        solvers=[_solver("a", np.eye(4), rot=0.01, trans=0.001),
+                 _solver("b", np.eye(4), rot=100.0, trans=1e5), _solver("c", None)])
+    res.solvers[1].degenerate = True
+    md = summary_markdown(res)
+    assert "| **c** | **FAILED** |" in md and "**c FAILED**: boom" in md
+    row_b = next(ln for ln in md.splitlines() if ln.startswith("| b |"))
+    row_a = next(ln for ln in md.splitlines() if ln.startswith("| a |"))
+    assert "**YES**" in row_b and row_b.count("█") > row_a.count("█")
+
+
+def test_record_sweep_and_experiment(tmp_path):
+    from simcalib.report.rerun_log import log_experiment, record_sweep
+
+    def st(m):
+        return {"rot_med": m, "rot_q1": 0.5 * m, "rot_q3": 2 * m, "tr_med": 0.01 * m,
+                "tr_q1": 0.005 * m, "tr_q3": 0.02 * m, "failed": 0.0}
+    summary = {"per_axis": {"noise.sigma_r_deg": {v: {"dqopt": st(v), "daniilidis": st(3 * v)}
+                                                  for v in (0.1, 0.5, 1.0)}}}
+    p = record_sweep(tmp_path / "sweep.rrd", summary)
+    ents = chunks(p)
+    med = ents["/sweep/noise_sigma_r_deg/log10_rotation_deg/dqopt/median"]["Scalars:scalars"]
+    np.testing.assert_allclose(np.ravel(med), np.log10([0.1, 0.5, 1.0]))
+    assert "/sweep/noise_sigma_r_deg/values" in ents
+    with pytest.raises(TypeError, match="summary must be a dict"):
+        record_sweep(tmp_path / "bad.rrd", [1, 2])
+    from PIL import Image
+    png = tmp_path / "f.png"
+    Image.new("RGB", (8, 8)).save(png)
+    q = log_experiment(tmp_path / "exp.rrd", "table2", {"table2_sweep": png},
+                       {"table2": "| a |\n|---|\n| 1 |"})
+    ents = chunks(q)
+    assert "/figures/table2_sweep" in ents and "/tables/table2" in ents
+    from rerun.chunk import RrdReader
+    assert RrdReader(str(q)).blueprints() and RrdReader(str(p)).blueprints()
+
+
+def test_scene_geometry_poses_the_cart():
+    from simcalib.world import WorldConfig, build_world
+    from simcalib.world.visual import scene_geometry
+    w = build_world(WorldConfig(path="planar", duration_s=1.0, fps=5.0),
+                    np.random.default_rng(0))
+    f = w.frames("cam_a")
+    geo = scene_geometry(w.model, f.qpos, f.mocap_pos, f.mocap_quat_wxyz)
+    cart = next(b for b in geo.bodies if b.name.endswith("cart"))
+    np.testing.assert_allclose(cart.T_world_body[:, :3, 3], f.mocap_pos[:, 0], atol=1e-12)
+    assert {g.kind for g in cart.geoms} >= {"box", "cylinder"}
+    assert {g.name for g in geo.static} >= {"floor", "wall_px"}
+    assert not any(g.name.startswith("marker_") for g in geo.static)
+
+
+def test_ocr_match_tolerates_one_misread_letter():
+    from simcalib.tools.screenshots import text_contains
+    assert text_contains("x dgopt+prior y", "dqopt+prior")
+    assert text_contains("opencv_daniilidis: 0.3", "opencv_daniilidis")
+    assert not text_contains("dq2steps daniilidis", "dqconvrlx")
+    assert text_contains("dqopt, dq2ndord, dqconvr|x", "dqconvrlx")   # "l" read as "|"
+    assert not text_contains("dqconvr x", "dqconvrlx")
+    assert not text_contains("", "dqopt")
+
+
+@pytest.mark.slow
+def test_screenshots_of_a_short_planar_run(tmp_path):
+    """The real viewer under Xvfb: no 'No data available', every successful estimate
+    labelled in the close-up, the scene filled (framed on the room)."""
+    from simcalib.tools.screenshots import check_recording, missing_prerequisites
+    missing = missing_prerequisites()
+    if missing:
+        pytest.skip("viewer screenshots need: " + "; ".join(missing))
+    out, res = _run(tmp_path, "planar", "world.duration_s=6", "progress=false")
+    rep = check_recording(out, tmp_path / "shots")
+    assert rep.ok, rep.problems
+    for p in rep.shots.values():
+        assert Path(p).stat().st_size > 10_000
+
+
+def _view_origins(bp) -> set:
+    out, stack = set(), [bp.root_container]
+    while stack:
+        c = stack.pop()
+        if hasattr(c, "contents") and not hasattr(c, "origin"):
+            stack.extend(c.contents)
+        else:
+            out.add(str(c.origin))
+    return out
+
+
+def test_blueprint_per_kind_shows_only_views_with_data():
+    from simcalib.report.rerun_log import default_blueprint
+    full = {"scene", "closeup", "pose_error", "summary"}
+    aruco = _view_origins(default_blueprint("sim", images=True, present=full))
+    assert {"world/cam_a/image", "world/cam_b/image", "world", "closeup", "summary"} <= aruco
+    for kind, images in (("sim", False), ("synthetic", False)):
+        got = _view_origins(default_blueprint(kind, images=images, present=full))
+        assert not any(o.endswith("/image") for o in got)
+        assert {"world", "closeup", "pose_error/rotation_deg", "summary"} <= got
+    # an interrupted run (no solvers, no evaluation): no empty panes
+    partial = _view_origins(default_blueprint("sim", images=True, present={"scene"}))
+    assert "closeup" not in partial and "summary" not in partial
+    assert not any(o.startswith("pose_error") for o in partial)
+
+
+def test_only_cameras_that_logged_images_get_an_image_pane(tmp_path):
+    """handeye / scara: cam_a is the flange pose from forward kinematics and logs no image,
+    so its pane must not be in the layout (it said "No data available")."""
+    import cv2
+    from simcalib.report.rerun_log import RunRecorder
+    from simcalib.streams import CameraIntrinsics
+    cfg = SimpleNamespace(kind="sim", recording=SimpleNamespace(max_images=2,
+                                                                jpeg_quality=70))
+    jpeg = cv2.imencode(".jpg", np.zeros((48, 64, 3), np.uint8))[1].tobytes()
+    log = SimpleNamespace(frames={"cam_b": [{"frame_index": 0, "corners_px": None,
+                                              "ids": None}]},
+                          images_jpeg={"cam_b": {0: jpeg}}, intrinsics=None)
+    K = CameraIntrinsics.from_fovy(64, 48, 60.0)
+    rec = RunRecorder(tmp_path / "r.rrd", cfg, background=False)
+    rec.log_cameras({"cam_a": K, "cam_b": K}, {}, log)
+    origins = _view_origins(rec.blueprint())
+    rec.close()
+    assert "world/cam_b/image" in origins and "world/cam_a/image" not in origins
+
+
+def test_worker_and_in_process_recordings_match(tmp_path):
+    """The recording worker (rerun imported and the file written in another process)
+    writes what logging in-process writes; its errors surface at close."""
+    from simcalib.report.rerun_log import RunRecorder
+    cfg = SimpleNamespace(kind="synthetic", recording=SimpleNamespace(max_images=0,
+                                                                      jpeg_quality=70))
+    X = np.eye(4)
+    X[:3, 3] = [0.0, 0.2, 0.0]
+    cov = np.diag([1e-6, 1e-6, 1e-6, 4e-4, 1e-4, 1e-4])
+    got = {}
+    for background in (True, False):
+        rec = RunRecorder(tmp_path / f"{background}.rrd", cfg, background=background)
+        assert rec.background is background
+        rec.log_estimates([_solver("good", X, cov=cov), _solver("broken", None)], X)
+        rec.log_summary("**hello**")
+        rec.close()
+        got[background] = chunks(tmp_path / f"{background}.rrd")
+        view = json.loads((tmp_path / "recording_view.json").read_text())
+        assert (view["worker"] is not None) is background
+    assert set(got[True]) == set(got[False])
+    for ent in ("/closeup/labels/0", "/closeup/uncertainty/good", "/summary"):
+        assert got[True][ent] == got[False][ent]
+    from rerun.chunk import RrdReader
+    assert RrdReader(str(tmp_path / "True.rrd")).blueprints()
+    bad = RunRecorder(tmp_path / "bad.rrd", cfg, background=True)
+    bad.rec.log("x", bad.rr.NoSuchArchetype([1.0]))
+    with pytest.raises(RuntimeError, match="(?s)recording worker failed.*NoSuchArchetype"):
+        bad.close()
+
+
+def test_prestarted_worker_is_adopted_or_stopped(tmp_path):
+    import simcalib.report.rerun_log as R
+    R.cancel_prestarted_worker()
+    R._PRESTARTED.append(R._WorkerStream())       # what prestart_worker() does
+    w = R._PRESTARTED[0]
+    cfg = SimpleNamespace(kind="synthetic", recording=SimpleNamespace(max_images=0,
+                                                                      jpeg_quality=70))
+    rec = R.RunRecorder(tmp_path / "r.rrd", cfg, background=True)
+    assert rec.rec is w and not R._PRESTARTED
+    rec.close()
+    assert "/closeup" in chunks(tmp_path / "r.rrd")
+    R._PRESTARTED.append(R._WorkerStream())
+    w = R._PRESTARTED[0]
+    R.cancel_prestarted_worker()
+    assert w._proc.poll() is not None and not w._spool_path.exists() and not R._PRESTARTED
+
+
+def test_recording_cost_tool_rejects_unknown_variants(tmp_path, capsys):
+    from simcalib.tools import recording_cost
+    with pytest.raises(SystemExit) as e:
+        recording_cost.main(["--variants", "worker,nope", "--output", str(tmp_path)])
+    assert e.value.code == 2 and "nope" in capsys.readouterr().err
+    with pytest.raises(ValueError, match="unknown variant 'x'"):
+        recording_cost.run_once("line", "x", tmp_path)
