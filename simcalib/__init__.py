@@ -38,7 +38,7 @@ def run(config, overrides=(), *, echo: bool = True):
 
     ``config``: a ``ScenarioConfig`` (:func:`load_config`) or a scenario name / YAML path,
     resolved with ``overrides`` (``["seed=3", ...]``); ``echo`` prints the summary table.
-    Returns a :class:`simcalib.pipeline.stages.RunResult`. The pipeline (world, rendering,
+    Returns a :class:`simcalib.pipeline.state.RunResult`. The pipeline (world, rendering,
     recording) is imported here, at the first run, so ``import simcalib`` stays light.
     """
     from simcalib.pipeline import stages as pipeline

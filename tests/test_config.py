@@ -455,7 +455,7 @@ def test_import_config_loads_no_render_vision_or_vehicle():
 
 
 def test_every_source_owns_its_margins_and_rng_stream():
-    from simcalib.pipeline.stages import RNG_STREAMS
+    from simcalib.pipeline.state import RNG_STREAMS
     from simcalib.sources import available_sources, get_source
     cfg = load_config("planar", ["source=noisy"])
     for name in available_sources():

@@ -181,7 +181,7 @@ def test_interrupt_leaves_readable_recording_and_partial_results(tmp_path, monke
     def boom(st):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(P, "_stage_solvers", boom)
+    monkeypatch.setattr(P, "stage_solvers", boom)
     out = tmp_path / "int"
     status = main(["run", "scenario=planar", "source=noisy", *SIM_SHORT, f"output={out}"])
     assert status == 130

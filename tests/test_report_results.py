@@ -8,7 +8,7 @@ import pytest
 
 from simcalib.report import results as reports
 from simcalib.report.console import _verdict_cell, summary_table
-from simcalib.pipeline.stages import SolverResult
+from simcalib.pipeline.state import SolverResult
 from simcalib.solvers.diagnostics.uncertainty import Direction, direction_state
 
 

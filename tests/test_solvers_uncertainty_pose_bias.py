@@ -222,7 +222,7 @@ def _state(preset, sources=("aruco", "aruco"), **vision):
 
 
 def test_pipeline_sets_the_calibration_term_for_aruco_with_realistic_only():
-    from simcalib.pipeline.stages import calibration_bias
+    from simcalib.pipeline.uncertainty_inputs import calibration_bias
     pb, rep = calibration_bias(_state("realistic"))
     assert isinstance(pb, U.PoseBias) and rep["included"]
     assert set(rep["cameras"]) == {"cam_a", "cam_b"}
@@ -386,7 +386,7 @@ def test_intrinsics_pose_jacobians_match_exact_pnp_and_the_averaged_sensitivity(
 
 
 def test_vision_pose_error_basis_and_the_pipeline_basis():
-    from simcalib.pipeline.stages import pose_error_basis
+    from simcalib.pipeline.uncertainty_inputs import pose_error_basis
     from simcalib.sources.vision.stream import VisionConfig
     from simcalib.sources.vision.stream import pose_error_basis as vision_basis
     w = _wall_world(6)
@@ -428,7 +428,7 @@ def test_vision_pose_error_basis_and_the_pipeline_basis():
     st.measured = {c: SimpleNamespace(frame_index=np.arange(n),
                                       T_world_cam=np.asarray(getattr(w.trajectory, c).T_world_cam))
                    for c in ("cam_a", "cam_b")}
-    import simcalib.pipeline.stages as P
+    import simcalib.pipeline.uncertainty_inputs as P
     lag = P.correlation_lag
     try:
         P.correlation_lag = lambda s: 2

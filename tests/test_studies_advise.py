@@ -144,7 +144,7 @@ def test_advice_monotone_and_json(scara_advice):
     assert out["systematic_parameters"] > 24 and "G G^T" in out["criterion"]
     assert base.pose_error_basis is not None and base.sources["cam_a"] == "robot_fk"
     Ba = base.pose_error_basis[0]                # the flange: the DH columns only
-    from simcalib.pipeline.stages import basis_layout
+    from simcalib.pipeline.uncertainty_inputs import basis_layout
     lay = basis_layout(base.truth.world)
     assert np.any(Ba[:, :, lay["dh"]]) and not np.any(np.delete(Ba, np.r_[lay["dh"]], 2))
     assert len(out["motions"]) == 3

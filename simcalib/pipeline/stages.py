@@ -1,8 +1,9 @@
 """The end-to-end run: world -> pose streams -> motion pairs -> solvers -> evaluation.
 
-``simcalib.run(config) -> RunResult`` (plain data). Every random draw comes from a child of
-``np.random.SeedSequence(config.seed)``; one child per stage, always spawned in the same
-order, so a stage's draws do not depend on what other stages drew.
+``simcalib.run(config) -> RunResult`` (plain data, :mod:`simcalib.pipeline.state`). Every
+random draw comes from a child of ``np.random.SeedSequence(config.seed)``; one child per
+stage, always spawned in the same order (:data:`~simcalib.pipeline.state.RNG_STREAMS`), so
+a stage's draws do not depend on what other stages drew.
 
 Outputs (run directory): ``config.yaml`` (resolved), ``results.json``, ``extrinsics.json``,
 ``tum/<camera>_<source>.tum``, ``recording.rrd``; a summary table on stdout.
@@ -11,7 +12,8 @@ A ``KeyboardInterrupt`` closes the recording (readable), writes results.json wit
 any other exception writes results.json with ``status: "failed"`` and ``error`` (type,
 message, stage) and propagates.
 
-The run is the plain sequence :data:`STAGES` of functions ``_stage_<name>(RunState)``;
+The run is the plain sequence :data:`STAGES` of functions ``stage(RunState)``: world,
+streams, pairs and evaluation here, the solvers in :mod:`simcalib.pipeline.solver_stage`;
 none of them branches on ``kind`` or ``source`` (the ground truth comes from
 :func:`simcalib.sources.build_truth`, the measurements from the registered
 :mod:`simcalib.sources`), and none of them writes the recording: after each stage,
@@ -22,180 +24,22 @@ from __future__ import annotations
 
 import dataclasses
 import datetime as _dt
-import math
 import sys
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
+from simcalib.evaluation import pose_source_errors
 from simcalib.pipeline.scenario import ScenarioConfig
-from simcalib.sources import get_source
-from simcalib.evaluation import estimate_errors, pose_source_errors
-from simcalib.geometry import (matrix_from_rotvec, rotation_error_rad,
-                               transform_from_rotation_translation)
+from simcalib.pipeline.solver_stage import stage_solvers
+from simcalib.pipeline.state import CAMERAS, RunInterrupted, RunResult, RunState, run_rngs
 from simcalib.progress import progress, progress_line, stage_frames
+from simcalib.sources import get_source
 
-if TYPE_CHECKING:  # types of the state only; the stages import lazily
-    from simcalib.estimation.pairing import MotionPairs
-    from simcalib.sources import GroundTruth
-    from simcalib.streams import PoseStream
-
-__all__ = ["RunResult", "RunState", "SolverResult", "RunInterrupted", "run", "STAGES",
-           "RNG_STREAMS", "run_rngs", "state_through_pairs"]
+__all__ = ["STAGES", "run", "state_through_pairs"]
 
 STAGES = ("world", "streams", "pairs", "solvers", "evaluation", "reports")
-CAMERAS = ("cam_a", "cam_b")
-# order of the child generators spawned from the run's seed (never reorder: determinism)
-RNG_STREAMS = ("world", "noise", "vision", "synthetic", "pairing", "solvers", "prior",
-               "robot", "encoders", "outliers")
-
-
-@dataclass(frozen=True)
-class SolverResult:
-    """One solver's estimate (``label`` is the method, ``<method>+prior`` with a prior).
-
-    A failed solver (``success`` False, an exception, or a non-finite X) has ``X=None``,
-    no errors, and ``error`` the reason: it is never reported as an estimate."""
-    label: str
-    method: str
-    alpha: float | None
-    prior: dict | None
-    X: np.ndarray | None
-    rotation_error_deg: float | None
-    translation_error_m: float | None
-    translation_error_determined_m: float | None
-    cost: float | None
-    runtime_s: float | None
-    success: bool
-    degenerate: bool | None
-    undetermined: tuple[str, ...] = ()
-    undetermined_directions: tuple[dict, ...] = ()
-    undetermined_translation_axes: np.ndarray | None = None   # flagged, not fixed by a prior
-    singular_values: np.ndarray | None = None
-    message: str = ""
-    error: str | None = None
-    sweep: tuple[dict, ...] = ()
-    # uncertainty of the headline estimate and how its alpha was chosen
-    covariance: np.ndarray | None = None      # 6x6 (wx,wy,wz,vx,vy,vz) rad/m; inf: undetermined
-    std_deg: tuple[float, ...] | None = None  # 1-sigma rotation about x, y, z (frame a)
-    std_m: tuple[float, ...] | None = None    # 1-sigma translation along x, y, z (frame a)
-    sigma_rotation_deg: float | None = None   # predicted RMS of the rotation error
-    sigma_translation_m: float | None = None  # predicted RMS of the translation error
-    verdict: str = "FAILED"                   # determined / poorly determined / undetermined
-    verdict_directions: tuple[str, ...] = ()  # each flagged direction in words with sigma
-    alpha_choice: dict | None = None          # {"alpha", "how", ...}: never the ground truth
-    oracle: dict | None = None                # alpha of the config list best vs the TRUTH
-    convergence: tuple[dict, ...] = ()        # error and predicted sigma vs motions used
-    covariance_calibration: np.ndarray | None = None   # part of covariance from the cameras'
-    #                                                  calibration uncertainty (6x6), or None
-    uncertainty_model: dict | None = None     # how the covariance was computed (method,
-    #                                           pose-noise test, simulated bias)
-
-
-@dataclass(frozen=True)
-class RunResult:
-    """Everything a run produced, as plain data (see docs/results-schema.md)."""
-    config: ScenarioConfig
-    output_dir: Path
-    camera_names: tuple[str, ...]
-    X_true: np.ndarray | None
-    frames: dict
-    pairing: dict
-    pose_errors: dict
-    solvers: tuple[SolverResult, ...]
-    timing_s: dict
-    completed_stages: tuple[str, ...]
-    interrupted: bool = False
-    results_path: Path | None = None
-    recording_path: Path | None = None
-    error: dict | None = None
-    sensing: dict = field(default_factory=dict)
-    #: ``"compiled"`` (numba) or ``"interpreted"`` (first run on an installation: the
-    #: kernels' Python functions; see :func:`simcalib.solvers.kernels.jit.interpreted`)
-    solver_kernels: str = "compiled"
-
-    @property
-    def status(self) -> str:
-        """``"complete"``, ``"interrupted"`` (Ctrl-C) or ``"failed"`` (``error`` says why)."""
-        return ("interrupted" if self.interrupted else "failed" if self.error is not None
-                else "complete")
-
-    def solver(self, label: str) -> SolverResult:
-        for s in self.solvers:
-            if s.label == label:
-                return s
-        raise KeyError(f"no solver result {label!r}; have {[s.label for s in self.solvers]}")
-
-
-class RunInterrupted(KeyboardInterrupt):
-    """Ctrl-C during :func:`run`; ``.result`` holds the partial :class:`RunResult`."""
-
-    def __init__(self, result: RunResult):
-        self.result = result
-        done = ", ".join(result.completed_stages) or "none"
-        super().__init__(f"interrupted; finished stages: {done}; partial results and a "
-                         f"readable recording in {result.output_dir}")
-
-    def __str__(self):
-        return self.args[0]
-
-
-# ------------------------------------------------------------------------------ state
-@dataclass
-class RunState:
-    """The typed state the stages fill in order (each stage reads what earlier ones wrote).
-
-    ``truth`` (world): :class:`~simcalib.sources.GroundTruth`; ``camera_sources``,
-    ``measured``, ``source_logs``, ``motions_from_source``, ``frames`` (streams);
-    ``pairs``, ``pairing`` (pairs); ``solvers`` (solvers); ``pose_errors`` (evaluation);
-    ``summary`` (reports). ``error``: ``{"type", "message", "stage"}`` of a failed run."""
-    cfg: ScenarioConfig
-    out: Path
-    rngs: dict
-    t_start: float = 0.0
-    solver_kernels: str = "compiled"   # or "interpreted" (the first run on an installation)
-    kernel_loader: object = None       # thread loading the compiled kernels from the cache
-    timing: dict = field(default_factory=dict)
-    done: list = field(default_factory=list)
-    truth: GroundTruth | None = None
-    camera_sources: dict[str, str] = field(default_factory=dict)   # camera -> source name
-    measured: dict[str, PoseStream] = field(default_factory=dict)  # camera -> its stream
-    source_logs: dict[str, object] = field(default_factory=dict)   # source -> its log
-    source_pose_errors: dict = field(default_factory=dict)         # camera -> PoseErrors
-    motions_from_source: MotionPairs | None = None
-    pairing_mode: str = ""
-    frames: dict = field(default_factory=dict)
-    pairs: MotionPairs | None = None
-    pairing: dict = field(default_factory=dict)
-    pose_errors: dict = field(default_factory=dict)                # camera -> PoseErrors
-    solvers: list[SolverResult] = field(default_factory=list)
-    summary: str = ""
-    error: dict | None = None
-    sensing: dict = field(default_factory=dict)   # stream_sources, robot, clocks, outliers
-    pose_bias: object = None    # uncertainty.PoseBias: calibration uncertainty of the cameras
-    pose_error_basis: tuple | None = None   # (Ba, Bb): systematic pose errors per datapoint
-    pose_simulation: object = None   # the headline's pose_noise.SimulatedError, shared
-
-    @property
-    def X_true(self):
-        return None if self.truth is None else self.truth.X_true
-
-    @property
-    def gt(self) -> dict:
-        return {} if self.truth is None else dict(self.truth.streams)
-
-    def result(self, interrupted=False, results_path=None, recording_path=None) -> RunResult:
-        return RunResult(config=self.cfg, output_dir=self.out, camera_names=CAMERAS,
-                         X_true=self.X_true, frames=dict(self.frames),
-                         pairing=dict(self.pairing), pose_errors=dict(self.pose_errors),
-                         solvers=tuple(self.solvers), timing_s=dict(self.timing),
-                         completed_stages=tuple(self.done), interrupted=interrupted,
-                         results_path=results_path, recording_path=recording_path,
-                         error=self.error, sensing=dict(self.sensing),
-                         solver_kernels=self.solver_kernels)
 
 
 def _output_dir(cfg: ScenarioConfig) -> Path:
@@ -217,14 +61,8 @@ def _output_dir(cfg: ScenarioConfig) -> Path:
 def _stages():
     """The run: ``(name, function(state))`` in order (looked up at call time)."""
     return (("world", _stage_world), ("streams", _stage_streams), ("pairs", _stage_pairs),
-            ("solvers", _stage_solvers), ("evaluation", _stage_evaluation),
+            ("solvers", stage_solvers), ("evaluation", _stage_evaluation),
             ("reports", _stage_reports))
-
-
-def run_rngs(seed: int) -> dict:
-    """One generator per stage (:data:`RNG_STREAMS`), children of ``SeedSequence(seed)``."""
-    children = np.random.SeedSequence(seed).spawn(len(RNG_STREAMS))
-    return {name: np.random.default_rng(s) for name, s in zip(RNG_STREAMS, children)}
 
 
 def state_through_pairs(cfg, truth=None) -> "RunState":
@@ -253,55 +91,17 @@ def run(config, overrides=(), *, echo: bool = True) -> RunResult:
     exception in a stage writes results.json with ``status: "failed"`` and the error, then
     propagates; Ctrl-C raises :class:`RunInterrupted` with the partial result.
     """
-    if isinstance(config, (str, Path)):
-        from simcalib.pipeline.scenario import load_config
-        config = load_config(str(config), list(overrides))
-    elif overrides:
-        raise TypeError("overrides are only accepted with a scenario name; apply them with "
-                        "simcalib.load_config(name, overrides)")
-    if not isinstance(config, ScenarioConfig):
-        raise TypeError(f"config must be a ScenarioConfig (simcalib.load_config(...)); "
-                        f"received {type(config).__name__}")
-    import yaml
-    from simcalib.config.engine import to_dict
-    from simcalib.report import results as reports
-    cfg = config
-    out = _output_dir(cfg)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "config.yaml").write_text(yaml.safe_dump(to_dict(cfg), sort_keys=False))
+    cfg = _resolved(config, overrides)
+    out = _prepared_output(cfg)
     t_start = time.perf_counter()
     st = RunState(cfg=cfg, out=out, rngs=run_rngs(cfg.seed), t_start=t_start)
-    recorder = None
-    # the worker hides rerun's import: a process that imported it already logs itself
-    background = cfg.recording.background and "rerun" not in sys.modules
-    if not (cfg.recording.enabled and background) and "simcalib.report.rerun_log" in sys.modules:
-        # a worker `simcalib run` started ahead would only compete for the CPU
-        sys.modules["simcalib.report.rerun_log"].cancel_prestarted_worker()
-    if cfg.recording.enabled:
-        from simcalib.report.rerun_log import RunRecorder
-        recorder = RunRecorder(out / "recording.rrd", cfg, background=background)
+    recorder = _recorder(cfg, out)
     rec_path = None if recorder is None else recorder.path
     kernels = _prepare_kernels(st)
     bar = progress(total=len(STAGES), enabled=cfg.progress, desc="stages",
-                           unit="stage", position=0)
-    where = None   # the stage running (or whose results are being recorded)
+                   unit="stage", position=0)
     try:
-        for stage, fn in _stages():
-            where = stage
-            bar.set_description(stage)
-            t0 = time.perf_counter()
-            with kernels(), stage_frames(bar, stage, len(st.done),
-                                                 enabled=cfg.progress):
-                fn(st)
-            st.timing[stage] = time.perf_counter() - t0
-            st.done.append(stage)
-            progress_line(f"{stage} done in {st.timing[stage]:.1f} s "
-                                  f"({len(st.done)}/{len(STAGES)})", enabled=cfg.progress)
-            st.timing["total"] = time.perf_counter() - t_start
-            if recorder is not None:
-                where = f"recording ({stage})"
-                recorder.record_stage(stage, st)
-            bar.update(1)
+        _run_stages(st, kernels, bar, recorder)
         if recorder is not None:
             recorder.close()
         bar.close()
@@ -313,28 +113,102 @@ def run(config, overrides=(), *, echo: bool = True) -> RunResult:
         return st.result(results_path=out / "results.json", recording_path=rec_path)
     except KeyboardInterrupt:
         bar.close()
-        st.timing["total"] = time.perf_counter() - t_start
-        partial = st.result(interrupted=True, recording_path=rec_path)
-        try:
-            if recorder is not None:
-                recorder.close()
-            rp = reports.write_json(out / "results.json", reports.results_dict(partial))
-            partial = dataclasses.replace(partial, results_path=rp)
-        except Exception:  # keep the interrupt as the reported cause
-            pass
-        raise RunInterrupted(partial) from None
+        raise RunInterrupted(_interrupted_result(st, recorder, rec_path)) from None
     except BaseException as exc:
         bar.close()
-        st.timing["total"] = time.perf_counter() - t_start
-        st.error = {"type": type(exc).__name__, "message": str(exc), "stage": where}
-        try:
-            if recorder is not None:
-                recorder.close()
-            reports.write_json(out / "results.json",
-                               reports.results_dict(st.result(recording_path=rec_path)))
-        except Exception:  # noqa: BLE001 - the stage's exception is the one to report
-            pass
+        _write_failure(st, recorder, rec_path, exc)
         raise
+
+
+def _resolved(config, overrides) -> ScenarioConfig:
+    """The run's :class:`ScenarioConfig`: ``config`` itself, or the scenario it names
+    resolved with ``overrides``."""
+    if isinstance(config, (str, Path)):
+        from simcalib.pipeline.scenario import load_config
+        config = load_config(str(config), list(overrides))
+    elif overrides:
+        raise TypeError("overrides are only accepted with a scenario name; apply them with "
+                        "simcalib.load_config(name, overrides)")
+    if not isinstance(config, ScenarioConfig):
+        raise TypeError(f"config must be a ScenarioConfig (simcalib.load_config(...)); "
+                        f"received {type(config).__name__}")
+    return config
+
+
+def _prepared_output(cfg: ScenarioConfig) -> Path:
+    """The run directory (:func:`_output_dir`), created, with the resolved ``config.yaml``."""
+    import yaml
+    from simcalib.config.engine import to_dict
+    out = _output_dir(cfg)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "config.yaml").write_text(yaml.safe_dump(to_dict(cfg), sort_keys=False))
+    return out
+
+
+def _recorder(cfg: ScenarioConfig, out: Path):
+    """The run's :class:`~simcalib.report.rerun_log.RunRecorder`, or None without a
+    recording (a worker process started ahead for it is then cancelled)."""
+    # the worker hides rerun's import: a process that imported it already logs itself
+    background = cfg.recording.background and "rerun" not in sys.modules
+    if not (cfg.recording.enabled and background) and "simcalib.report.rerun_log" in sys.modules:
+        # a worker `simcalib run` started ahead would only compete for the CPU
+        sys.modules["simcalib.report.rerun_log"].cancel_prestarted_worker()
+    if not cfg.recording.enabled:
+        return None
+    from simcalib.report.rerun_log import RunRecorder
+    return RunRecorder(out / "recording.rrd", cfg, background=background)
+
+
+def _run_stages(st: RunState, kernels, bar, recorder) -> None:
+    """Every stage in order, each followed by the recording of what it produced;
+    ``st.stage`` names the one running (or being recorded)."""
+    cfg = st.cfg
+    for stage, fn in _stages():
+        st.stage = stage
+        bar.set_description(stage)
+        t0 = time.perf_counter()
+        with kernels(), stage_frames(bar, stage, len(st.done), enabled=cfg.progress):
+            fn(st)
+        st.timing[stage] = time.perf_counter() - t0
+        st.done.append(stage)
+        progress_line(f"{stage} done in {st.timing[stage]:.1f} s "
+                      f"({len(st.done)}/{len(STAGES)})", enabled=cfg.progress)
+        st.timing["total"] = time.perf_counter() - st.t_start
+        if recorder is not None:
+            st.stage = f"recording ({stage})"
+            recorder.record_stage(stage, st)
+        bar.update(1)
+
+
+def _interrupted_result(st: RunState, recorder, rec_path) -> RunResult:
+    """The partial result of an interrupted run, its recording closed and its
+    results.json (``status: "interrupted"``) written when possible."""
+    from simcalib.report import results as reports
+    st.timing["total"] = time.perf_counter() - st.t_start
+    partial = st.result(interrupted=True, recording_path=rec_path)
+    try:
+        if recorder is not None:
+            recorder.close()
+        rp = reports.write_json(st.out / "results.json", reports.results_dict(partial))
+        partial = dataclasses.replace(partial, results_path=rp)
+    except Exception:  # keep the interrupt as the reported cause
+        pass
+    return partial
+
+
+def _write_failure(st: RunState, recorder, rec_path, exc: BaseException) -> None:
+    """Close the recording and write results.json with ``status: "failed"`` and the error
+    (type, message, stage) of a run that raised ``exc``."""
+    from simcalib.report import results as reports
+    st.timing["total"] = time.perf_counter() - st.t_start
+    st.error = {"type": type(exc).__name__, "message": str(exc), "stage": st.stage}
+    try:
+        if recorder is not None:
+            recorder.close()
+        reports.write_json(st.out / "results.json",
+                           reports.results_dict(st.result(recording_path=rec_path)))
+    except Exception:  # noqa: BLE001 - the stage's exception is the one to report
+        pass
 
 
 def _prepare_kernels(st: RunState):
@@ -427,416 +301,6 @@ def _stage_pairs(st: RunState) -> None:
         st.sensing["estimation"] = report
     if st.sensing.get("outliers", {}).get("enabled"):
         st.sensing["outliers"]["pairs"] = outlier_pairs(st.pairs, st.sensing["outliers"])
-
-
-def _verdict(sol) -> dict:
-    """The headline verdict fields of a :class:`SolverResult` from ``sol.uncertainty``
-    (simcalib.solvers.diagnostics.uncertainty): degenerate, the directions in words, the
-    flagged translation axes not fixed by a prior (undetermined or poorly determined:
-    projected out of ``translation_error_determined_m``),
-    covariance, std, predicted RMS errors."""
-    u = sol.uncertainty
-    if u is None:
-        return {"degenerate": None, "verdict": "unknown", "undetermined": (
-            "uncertainty unavailable (the residuals of X are not finite)",)}
-    words, dirs, axes = [], [], []
-    for d in u.directions:
-        words.append(d.summary())
-        dirs.append({"kind": d.kind, "reason": d.reason, "description": d.description,
-                     "rotation_axis_a": np.asarray(d.rotation_axis_a, float).tolist(),
-                     "translation_dir_a": np.asarray(d.translation_dir_a, float).tolist(),
-                     "std_deg": float(d.std_deg), "std_m": float(d.std_m),
-                     "determined_by_prior": bool(d.determined_by_prior)})
-        if d.kind == "translation" and not d.determined_by_prior:
-            axes.append(np.asarray(d.translation_dir_a, dtype=np.float64))
-    cov = np.asarray(u.covariance, dtype=np.float64)
-    std = np.asarray(u.std, dtype=np.float64)
-    return {"degenerate": bool(u.degenerate), "verdict": u.verdict,
-            "undetermined": tuple(words), "undetermined_directions": tuple(dirs),
-            "undetermined_translation_axes": np.array(axes).reshape(-1, 3) if axes else None,
-            "covariance": cov, "std_deg": tuple(float(x) for x in std[:3]),
-            "std_m": tuple(float(x) for x in std[3:]),
-            "sigma_rotation_deg": float(np.degrees(np.sqrt(np.trace(cov[:3, :3])))),
-            "sigma_translation_m": float(np.sqrt(np.trace(cov[3:, 3:])))}
-
-
-def _singular_values(sol):
-    try:
-        return np.asarray(sol.observability.singular_values, dtype=np.float64)
-    except Exception:  # noqa: BLE001 - descriptive only
-        return None
-
-
-def _prior(st: RunState):
-    from simcalib.solvers.api import Prior
-    pc = st.cfg.prior
-    if pc.translation_m is not None:
-        X = transform_from_rotation_translation(
-            matrix_from_rotvec(np.deg2rad(np.asarray(pc.rotvec_deg))), np.asarray(
-                pc.translation_m))
-        origin = "given"
-    else:
-        rng = st.rngs["prior"]
-        axis = rng.standard_normal(3)
-        axis /= np.linalg.norm(axis)
-        direction = rng.standard_normal(3)
-        direction /= np.linalg.norm(direction)
-        dR = matrix_from_rotvec(axis * np.deg2rad(pc.rotation_error_deg))
-        X = st.X_true.copy()
-        X[:3, :3] = X[:3, :3] @ dR
-        X[:3, 3] = X[:3, 3] + direction * pc.translation_error_m
-        origin = "true X perturbed"
-    info = {"X": X.tolist(), "a": pc.a, "b": pc.b, "origin": origin,
-            "rotation_error_deg": float(np.rad2deg(rotation_error_rad(X, st.X_true))),
-            "translation_error_m": float(np.linalg.norm(X[:3, 3] - st.X_true[:3, 3]))}
-    return Prior(X=X, a=pc.a, b=pc.b), info
-
-
-def _stage_solvers(st: RunState) -> None:
-    from simcalib.report import results as reports
-    cfg = st.cfg
-    if st.kernel_loader is not None:
-        t0 = time.perf_counter()
-        st.kernel_loader.join()
-        st.kernel_loader = None
-        st.timing["waited_for_kernels"] = time.perf_counter() - t0
-    jobs = [(m, m, False) for m in cfg.solvers]
-    prior = prior_info = None
-    if cfg.prior.enabled:
-        prior, prior_info = _prior(st)
-        jobs += [(f"{m}+prior", m, True) for m in cfg.prior.methods]
-    rng_children = st.rngs["solvers"].spawn(len(jobs))
-    C, H = st.pairs.C, st.pairs.H
-    st.pose_bias, st.sensing["calibration_bias"] = calibration_bias(st)
-    st.pose_error_basis = pose_error_basis(st)
-    choice = choose_run_alpha(cfg, C, H)
-    for (label, method, with_prior), rng in zip(
-            progress(jobs, enabled=cfg.progress, desc="solvers", unit="method",
-                             position=1), rng_children):
-        st.solvers.append(_solve_one(st, label, method, prior if with_prior else None,
-                                     prior_info if with_prior else None, C, H, rng, choice))
-
-
-def choose_run_alpha(cfg, C, H) -> dict:
-    """The alpha of a run's headline estimates, never from the ground truth.
-
-    ``alpha: <number>``: that alpha. ``alpha: auto`` or a list: dqopt at alpha = 1, then
-    :func:`simcalib.solvers.diagnostics.uncertainty.choose_alpha` (``noise_ratio``) from its
-    residuals. Returns ``{"alpha", "how", "source", ...}`` (results.json ``alpha_choice``)."""
-    if cfg.alpha != "auto" and not isinstance(cfg.alpha, tuple):
-        return {"alpha": float(cfg.alpha), "source": "config", "how": "given in the config"}
-    from simcalib.solvers.api import solve
-    from simcalib.solvers.diagnostics.uncertainty import choose_alpha
-    try:
-        sol = solve(C, H, method="dqopt", alpha=1.0)
-        if not sol.success or not np.isfinite(sol.X).all():
-            raise ValueError(sol.solver_message or "dqopt failed")
-        ch = choose_alpha(C, H, sol.X, 1.0, tolerance_deg=cfg.verdict.tolerance_deg,
-                          tolerance_m=cfg.verdict.tolerance_m)
-    except Exception as exc:  # noqa: BLE001 - fall back, and say so
-        return {"alpha": 1.0, "source": "fallback",
-                "how": f"alpha = 1: the data-driven choice failed ({type(exc).__name__}: "
-                       f"{exc})"}
-    return {"alpha": float(ch.alpha), "source": "data", "how": ch.how,
-            "initial": "dqopt at alpha = 1", "sigma_r_deg": float(np.degrees(ch.sigma_r_rad)),
-            "sigma_t_m": float(ch.sigma_t_m)}
-
-
-def _failure_reason(sol) -> str | None:
-    """Why ``sol`` is not an estimate (``None`` when it is one)."""
-    X = np.asarray(sol.X, dtype=np.float64)
-    if not sol.success:
-        return sol.solver_message or "the solver reported failure"
-    if X.shape != (4, 4) or not np.isfinite(X).all():
-        return "non-finite X"
-    return None
-
-
-def _failed(label, method, prior_info, reason, sweep=(), choice=None, oracle=None,
-            convergence=()) -> SolverResult:
-    return SolverResult(label=label, method=method, alpha=None, prior=prior_info, X=None,
-                        rotation_error_deg=None, translation_error_m=None,
-                        translation_error_determined_m=None, cost=None, runtime_s=None,
-                        success=False, degenerate=None, error=reason.splitlines()[0],
-                        message=f"{method}: FAILED ({reason.splitlines()[0]})",
-                        sweep=tuple(sweep), alpha_choice=choice, oracle=oracle,
-                        convergence=tuple(convergence))
-
-
-def calibration_bias(st) -> tuple:
-    """The known calibration uncertainty of the run's cameras, an input of the covariance
-    (``solve(..., pose_bias=...)``): ``(PoseBias or None, report)``. A camera measured by
-    the ``aruco`` source gets the covariance of the run-constant pose error that
-    ``vision.intrinsics_error`` (read as the 1-sigma of the calibration the estimator has)
-    and the marker map's error (``vision.map_position_std_m`` / ``map_rotation_std_deg``,
-    the survey's accuracy) cause (:func:`simcalib.sources.vision.stream.calibration_pose_bias`, no
-    rendering); other sources
-    have no calibration term. ``report`` (results.json ``calibration_bias``):
-    ``included`` and per camera its 1-sigma (deg, m) and inputs."""
-    from simcalib.solvers.diagnostics.uncertainty import PoseBias
-    truth = st.truth
-    report = {"included": False, "source": "vision.intrinsics_error (1-sigma of the "
-              "calibration) and vision.map_position_std_m / map_rotation_std_deg (marker "
-              "map) through PnP of the marker corners seen from the true poses",
-              "cameras": {}}
-    if truth is None or truth.world is None:
-        return None, report
-    bias = {}
-    for name in dict.fromkeys(st.camera_sources.get(c) for c in CAMERAS):
-        if name is None:
-            continue
-        cams = [c for c in CAMERAS if st.camera_sources.get(c) == name]
-        bias.update(get_source(name, "sim").calibration_bias(truth.world, st.cfg, cams))
-    if not bias:
-        return None, report
-    report["included"] = True
-    report["cameras"] = {c: b.report() for c, b in bias.items()}
-    covs = [bias[c].covariance if c in bias else None for c in CAMERAS]
-    return PoseBias(*covs), report
-
-
-def _recorded(st) -> bool:
-    """The run's motions came through the recorded-data path (``estimation.motions`` not
-    ``pairing``)."""
-    est = getattr(st.cfg, "estimation", None)
-    return bool(est is not None and est.recorded)
-
-
-def correlation_lag(st) -> int:
-    """Pairs ``(k, k + step)`` of consecutive datapoints of pose streams share poses up to
-    lag ``step``: the uncertainty corrects for that serial correlation. Relative motions
-    from a source (synthetic) or random pairing: independent (0)."""
-    if st.motions_from_source is not None or st.cfg.pairing.mode != "consecutive" \
-            or _recorded(st):
-        return 0
-    return int(st.cfg.pairing.step)
-
-
-def basis_layout(world) -> dict:
-    """Columns of the systematic pose-error basis of a world (:func:`pose_error_basis`):
-    ``map`` (6 per marker of the field: the survey error), ``cal_a`` / ``cal_b`` (8 each:
-    the cameras' calibrations), ``dh`` (24: the arm's DH table, 4 per joint), ``P`` the
-    total."""
-    M = world.marker_field.T_world_marker.shape[0] if world.marker_field is not None else 0
-    n = 6 * M
-    return {"map": slice(0, n), "cal_a": slice(n, n + 8), "cal_b": slice(n + 8, n + 16),
-            "dh": slice(n + 16, n + 40), "P": n + 40}
-
-
-def stop_error_basis(world, cfg, cam: str, source: str, T_world_cam, qpos=None,
-                     visible=None) -> np.ndarray | None:
-    """``(F, 6, P)`` (:func:`basis_layout`) systematic pose errors of camera ``cam``
-    measured by ``source`` at the poses ``T_world_cam`` (F, 4, 4): ``aruco`` — the marker
-    map's and the camera's calibration errors (:func:`simcalib.sources.vision.stream.pose_error_basis`;
-    ``visible`` the markers each pose rests on, default the layout's); ``robot_fk`` — the
-    arm's DH deviation (``robot.kinematic_error``, :func:`simcalib.world.robot_error.
-    fk_pose_error_basis`; ``qpos`` (F, nq) the MuJoCo joint state at each pose). None for
-    other sources or when the configuration has no such error."""
-    if source is None:
-        return None
-    return get_source(source, "sim").error_basis(world, cfg, cam, T_world_cam,
-                                                 basis_layout(world), qpos=qpos,
-                                                 visible=visible)
-
-
-def pose_error_basis(st, compress: bool = True):
-    """The known systematic pose errors of the run's datapoints, an input of the
-    covariance (``solve(..., pose_error_basis=...)``; with :func:`pose_pairs`): ``(Ba, Bb)``
-    ``(D, 6, P)`` for the ``D`` matched datapoints, or None. Per camera
-    :func:`stop_error_basis` of its source at its measured poses (ArUco: with the markers
-    the PnP used; robot_fk: the joint state of each frame), in the columns of
-    :func:`basis_layout` (the map and the DH table are shared, each calibration is its
-    camera's); other sources have zero columns. ``compress``: drop the columns no
-    datapoint uses (markers never seen); False keeps the full layout (e.g. to add stops'
-    bases in the same columns)."""
-    truth = st.truth
-    if pose_pairs(st) is None or truth is None or truth.world is None:
-        return None
-    world = truth.world
-    frames = {"cam_a": np.asarray(st.pairs.frame_a), "cam_b": np.asarray(st.pairs.frame_b)}
-    D = frames["cam_a"].shape[0]
-    out = []
-    for cam in CAMERAS:
-        src = st.camera_sources.get(cam)
-        B = None
-        if src is not None and get_source(src, "sim").has_error_basis \
-                and cam in world.camera_names and cam in st.measured:
-            m = st.measured[cam]
-            pos = {int(f): k for k, f in enumerate(np.asarray(m.frame_index))}
-            if not all(int(f) in pos for f in frames[cam]):
-                return None
-            T = np.asarray(m.T_world_cam)[[pos[int(f)] for f in frames[cam]]]
-            B = get_source(src, "sim").datapoint_error_basis(st, world, cam, T, frames[cam],
-                                                              basis_layout(world))
-        out.append(np.zeros((D, 6, basis_layout(world)["P"])) if B is None else B)
-    used = np.any(out[0] != 0, axis=(0, 1)) | np.any(out[1] != 0, axis=(0, 1))
-    if not used.any():
-        return None
-    if not compress:
-        return tuple(out)
-    return tuple(B[:, :, used] for B in out)     # markers never seen carry nothing
-
-
-def pose_pairs(st):
-    """``(N, 2)`` datapoint indices (start, end) of the run's motions when they are pairs of
-    consecutive datapoints of the pose streams, or the recorded-data path's pairs of
-    synchronised instants (they then share poses: the uncertainty tests the pose noise for
-    whiteness and, if white, simulates with that structure); else None."""
-    if st.pairs is None or (correlation_lag(st) == 0 and not _recorded(st)):
-        return None
-    return np.stack([np.asarray(st.pairs.start), np.asarray(st.pairs.end)], axis=1)
-
-
-def _solve_at(st, method, alpha, prior, rng, C, H, pairs=None):
-    """(solution, errors dict) at ``alpha``, or (solution or None, failure reason).
-    ``pairs``: the motions' datapoint pairs (:func:`pose_pairs`), for the headline."""
-    from simcalib.solvers.api import solve
-    cfg = st.cfg
-    sol = solve(C, H, method=method, alpha=alpha, prior=prior,
-                         rng=np.random.default_rng(rng.bit_generator.seed_seq),
-                         tolerance_deg=cfg.verdict.tolerance_deg,
-                         tolerance_m=cfg.verdict.tolerance_m,
-                         correlation_lag=correlation_lag(st), pose_bias=st.pose_bias,
-                         pose_pairs=pairs,
-                         pose_error_basis=st.pose_error_basis if pairs is not None else None,
-                         pose_simulation=st.pose_simulation if pairs is not None and
-                         prior is None else None)
-    reason = _failure_reason(sol)
-    if pairs is not None and prior is None and st.pose_simulation is None \
-            and sol.uncertainty is not None and sol.uncertainty.simulation is not None:
-        # one simulation per run: the covariance of the alpha-cost minimiser near X serves
-        # every solver's headline (each adds its own offset from the minimiser)
-        st.pose_simulation = sol.uncertainty.simulation
-    if reason is not None:
-        return sol, reason
-    v = _verdict(sol)
-    axes = v.get("undetermined_translation_axes")
-    return sol, estimate_errors(sol.X, st.X_true, axes if v["degenerate"] else None)
-
-
-def _solve_one(st, label, method, prior, prior_info, C, H, rng, choice) -> SolverResult:
-    """The headline estimate at the data-chosen alpha (``choice``); with an alpha list in
-    the config every alpha is solved too (``sweep``) and the one best against the ground
-    truth is reported as ``oracle`` (it never replaces the headline)."""
-    cfg = st.cfg
-    sweep = []
-    oracle = None
-    try:
-        if isinstance(cfg.alpha, tuple):
-            best = None
-            for alpha in cfg.alphas:
-                sol_a, res = _solve_at(st, method, alpha, prior, rng, C, H)
-                if isinstance(res, str):
-                    sweep.append({"alpha": float(alpha), "rotation_error_deg": None,
-                                  "translation_error_m": None,
-                                  "translation_error_determined_m": None, "cost": None,
-                                  "runtime_s": float(sol_a.runtime_s), "success": False,
-                                  "error": res})
-                    continue
-                sweep.append({"alpha": float(alpha), **res, "cost": float(sol_a.cost),
-                              "runtime_s": float(sol_a.runtime_s), "success": True,
-                              "error": None, "verdict": sol_a.verdict})
-                if best is None or res["rotation_error_deg"] < best["rotation_error_deg"]:
-                    best = {"alpha": float(alpha), **res}
-            if best is not None:
-                oracle = {"uses_ground_truth": True,
-                          "note": "the alpha of the config list with the lowest rotation "
-                                  "error against the GROUND TRUTH (not available with real "
-                                  "data; the headline uses the data-chosen alpha)",
-                          "oracle_alpha": best["alpha"],
-                          "rotation_error_deg": best["rotation_error_deg"],
-                          "translation_error_m": best["translation_error_m"],
-                          "translation_error_determined_m":
-                              best["translation_error_determined_m"]}
-        sol, res = _solve_at(st, method, choice["alpha"], prior, rng, C, H, pose_pairs(st))
-        convergence = convergence_curve(st, method, choice["alpha"], prior, rng, C, H,
-                                        last=(sol, res))
-    except Exception as exc:  # noqa: BLE001 - one failing method must not sink the run
-        return _failed(label, method, prior_info, f"{type(exc).__name__}: {exc}",
-                       sweep, choice, oracle)
-    if isinstance(res, str):
-        return _failed(label, method, prior_info, res, sweep, choice, oracle, convergence)
-    v = _verdict(sol)
-    try:
-        message = sol.message
-    except Exception as exc:  # noqa: BLE001 - a broken diagnostic must not kill the run
-        message = f"{sol.solver_message} (message unavailable: {exc})"
-    degenerate = v["degenerate"]
-    return SolverResult(
-        label=label, method=method, alpha=float(sol.alpha), prior=prior_info,
-        X=np.asarray(sol.X, dtype=np.float64), rotation_error_deg=res["rotation_error_deg"],
-        translation_error_m=res["translation_error_m"],
-        translation_error_determined_m=res["translation_error_determined_m"],
-        cost=float(sol.cost), runtime_s=float(sol.runtime_s), success=True,
-        degenerate=degenerate, undetermined=v["undetermined"] if degenerate is not False
-        else (), undetermined_directions=v.get("undetermined_directions", ()),
-        undetermined_translation_axes=v.get("undetermined_translation_axes"),
-        singular_values=_singular_values(sol), message=message, sweep=tuple(sweep),
-        covariance=v.get("covariance"), std_deg=v.get("std_deg"), std_m=v.get("std_m"),
-        sigma_rotation_deg=v.get("sigma_rotation_deg"),
-        sigma_translation_m=v.get("sigma_translation_m"), verdict=v["verdict"],
-        verdict_directions=v["undetermined"] if degenerate is not False else (),
-        alpha_choice=choice, oracle=oracle, convergence=tuple(convergence),
-        covariance_calibration=None if sol.uncertainty is None
-        else sol.uncertainty.bias_covariance, uncertainty_model=_uncertainty_model(sol))
-
-
-def _uncertainty_model(sol) -> dict | None:
-    """results.json ``uncertainty_model``: the covariance's method ("sandwich" or
-    "pose_simulation"), the white pose-noise test of motions sharing poses, the simulated
-    bias (deg, m)."""
-    u = sol.uncertainty
-    if u is None:
-        return None
-    t = u.pose_noise_test
-    b = u.simulated_bias_determined          # null along the undetermined axes
-    wn = u.white_pose_noise
-    return {"method": u.method,
-            "systematic_parameters": int(u.systematic_parameters),
-            "white_pose_noise": None if wn is None else {
-                "sigma_r_deg": math.degrees(wn[0]), "sigma_t_m": float(wn[1])},
-            "pose_noise_test": None if t is None else t.to_dict(digits=4),
-            "simulated_bias_deg": None if b is None else [
-                float(x) if np.isfinite(x) else None for x in np.degrees(b[:3])],
-            "simulated_bias_m": None if b is None else [
-                float(x) if np.isfinite(x) else None for x in b[3:]]}
-
-
-def convergence_points(n: int, points: int, k_min: int = 3) -> tuple[int, ...]:
-    """Up to ``points`` log-spaced motion counts from ``k_min`` to ``n`` (distinct, with n)."""
-    if points <= 0 or n < k_min:
-        return ()
-    ks = np.unique(np.round(np.geomspace(k_min, n, points)).astype(int))
-    return tuple(int(k) for k in ks)
-
-
-def convergence_curve(st, method, alpha, prior, rng, C, H, last=None) -> tuple[dict, ...]:
-    """Solve on the first k motions for growing k (``verdict.convergence_points`` log-spaced
-    values): per k the errors against the ground truth, the predicted 1-sigma (RMS of the
-    rotation / translation error; None when undetermined) and the verdict. The curve a user
-    looks at to see when the motion became rich enough. ``last``: the headline's
-    ``(solution, errors)``, used for k = all motions (the points before it use the
-    first-order uncertainty; only the headline runs the pose-noise simulation)."""
-    out = []
-    for k in convergence_points(C.shape[0], st.cfg.verdict.convergence_points):
-        try:
-            if last is not None and k == C.shape[0]:
-                sol, res = last
-            else:
-                sol, res = _solve_at(st, method, alpha, prior, rng, C[:k], H[:k])
-        except ValueError as exc:   # too few usable motions for this method
-            out.append({"k": k, "success": False, "error": str(exc).splitlines()[0]})
-            continue
-        if isinstance(res, str):
-            out.append({"k": k, "success": False, "error": res.splitlines()[0]})
-            continue
-        v = _verdict(sol)
-        out.append({"k": k, "success": True, "rotation_error_deg": res["rotation_error_deg"],
-                    "translation_error_m": res["translation_error_m"],
-                    "sigma_rotation_deg": v.get("sigma_rotation_deg"),
-                    "sigma_translation_m": v.get("sigma_translation_m"),
-                    "verdict": v["verdict"]})
-    return tuple(out)
 
 
 def _stage_evaluation(st: RunState) -> None:

@@ -563,7 +563,7 @@ class RunRecorder:
 
     # ------------------------------------------------------------- dispatch
     def record_stage(self, stage: str, st) -> None:
-        """Log what ``stage`` produced (``st``: :class:`simcalib.pipeline.stages.RunState`)."""
+        """Log what ``stage`` produced (``st``: :class:`simcalib.pipeline.state.RunState`)."""
         t0 = time.perf_counter()
         try:
             self._record_stage(stage, st)

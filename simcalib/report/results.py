@@ -123,7 +123,7 @@ def _finite_along(cov, d: dict) -> bool:
 
 
 def solver_entry(s) -> dict:
-    """results.json entry of one :class:`simcalib.pipeline.stages.SolverResult`."""
+    """results.json entry of one :class:`simcalib.pipeline.state.SolverResult`."""
     return {
         "method": s.method,
         "prior": s.prior,
@@ -182,7 +182,7 @@ def _calibration_entry(cov):
 
 
 def results_dict(result) -> dict:
-    """The results.json content of a :class:`simcalib.pipeline.stages.RunResult`."""
+    """The results.json content of a :class:`simcalib.pipeline.state.RunResult`."""
     from simcalib.config.resources import package_version
     from simcalib.config.engine import to_dict
     cfg = result.config

@@ -58,7 +58,7 @@ class SourceInfo:
     ``name``: registry name (``source=<name>``); ``description``: one line;
     ``kinds``: the ``kind`` of ground truth it can measure (``"sim"``, ``"synthetic"``);
     ``rng_stream``: which child generator of the run's seed it draws from (a name of
-    ``simcalib.pipeline.stages.RNG_STREAMS``; never share one between sources);
+    ``simcalib.pipeline.state.RNG_STREAMS``; never share one between sources);
     ``exact``: its poses are the ground truth (no TUM file / no separate trajectory);
     ``renders``: it renders images (slow; ``workers`` applies);
     ``needs_markers``: it measures against the marker field (no source for an outdoor
@@ -127,7 +127,7 @@ class SourceHooks:
       the true one (the pre-filter prediction of :mod:`simcalib.pipeline.feasibility`).
     * ``error_basis(world, cfg, cam, T_world_cam, layout, qpos=None, visible=None)``:
       ``(F, 6, P)`` systematic pose errors in the columns of ``layout``
-      (:func:`simcalib.pipeline.stages.basis_layout`), or None.
+      (:func:`simcalib.pipeline.uncertainty_inputs.basis_layout`), or None.
     * ``datapoint_error_basis(st, world, cam, T_world_cam, frame_index, layout)``: the same
       at a run's measured datapoints (the source reads what its log recorded), or None.
     * ``calibration_bias(world, cfg, cameras) -> {cam: bias}``: the fixed pose bias its

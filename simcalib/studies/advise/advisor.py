@@ -46,7 +46,7 @@ class Baseline:
     prior: object = None
     timing_s: dict = field(default_factory=dict)
     #: ``(Ba, Bb, pose_pairs)``: the systematic pose errors of the recorded datapoints
-    #: (:func:`simcalib.pipeline.stages.pose_error_basis`, full layout) and the motions' datapoint
+    #: (:func:`simcalib.pipeline.uncertainty_inputs.pose_error_basis`, full layout) and the motions' datapoint
     #: pairs; None without such errors (ArUco: map / calibration; robot_fk: DH table)
     pose_error_basis: tuple | None = None
     sources: dict = field(default_factory=dict)   # camera -> pose source name
@@ -73,22 +73,23 @@ def check_advisable(cfg) -> None:
 
 def baseline(cfg) -> Baseline:
     """Run the stages ``world``, ``streams``, ``pairs`` of ``cfg`` (a ScenarioConfig) and
-    solve dqopt at the run's alpha (``pipeline.choose_run_alpha``), plus its prior when
+    solve dqopt at the run's alpha (``solver_stage.choose_run_alpha``), plus its prior when
     ``cfg.prior.enabled``; :func:`check_advisable` first."""
     from simcalib.solvers.api import solve
-    from simcalib.pipeline import stages as pipeline
+    from simcalib.pipeline import solver_stage, uncertainty_inputs
+    from simcalib.pipeline.stages import state_through_pairs
     from simcalib.sources import camera_sources
     check_advisable(cfg)
     t0 = time.perf_counter()
-    st = pipeline.state_through_pairs(cfg)
+    st = state_through_pairs(cfg)
     C, H = st.pairs.C, st.pairs.H
-    alpha = pipeline.choose_run_alpha(cfg, C, H)["alpha"]   # as the run's headline: no truth
+    alpha = solver_stage.choose_run_alpha(cfg, C, H)["alpha"]   # as the run's headline: no truth
     sol = solve(C, H, method="dqopt", alpha=alpha)
     X0 = np.asarray(sol.X, dtype=np.float64)
     X = X0
     prior = None
     if cfg.prior.enabled:
-        prior, _ = pipeline._prior(st)
+        prior, _ = solver_stage.run_prior(st)
         sp = solve(C, H, method="dqopt", alpha=alpha, prior=prior)
         if sp.success and np.isfinite(sp.X).all():
             X = np.asarray(sp.X, dtype=np.float64)
@@ -97,8 +98,8 @@ def baseline(cfg) -> Baseline:
                          f"{sol.solver_message}")
     srcs = camera_sources(cfg, st.truth.kind)
     aruco = tuple(c for c, s in srcs.items() if s == "aruco")
-    basis = pipeline.pose_error_basis(st, compress=False)
-    pairs = pipeline.pose_pairs(st)
+    basis = uncertainty_inputs.pose_error_basis(st, compress=False)
+    pairs = uncertainty_inputs.pose_pairs(st)
     return Baseline(cfg, st.truth, C, H, X, X0, alpha, aruco, prior,
                     {"baseline": time.perf_counter() - t0},
                     None if basis is None or pairs is None else (*basis, pairs), dict(srcs))
@@ -178,11 +179,11 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
     worst camera); ``refine``: exchange passes after the greedy choice.
 
     ``pose_error_basis``: ``(Ba, Bb, pose_pairs)`` of the recorded datapoints (full layout of
-    :func:`simcalib.pipeline.stages.pose_error_basis`, ``compress=False``) with ``run_cfg`` (the
+    :func:`simcalib.pipeline.uncertainty_inputs.pose_error_basis`, ``compress=False``) with ``run_cfg`` (the
     run's ScenarioConfig) and ``sources`` (camera -> source name): the systematic pose
     errors (marker map and calibrations for ArUco cameras, the arm's DH table for
     ``robot_fk``) are then part of the choice — each candidate stop's error basis
-    (:func:`simcalib.pipeline.stages.stop_error_basis`, the markers the layout shows there), and
+    (:func:`simcalib.pipeline.uncertainty_inputs.stop_error_basis`, the markers the layout shows there), and
     the criterion that of the covariance with those shared errors
     (:func:`planner.greedy_chain`, ``systematic``); the predicted 1-sigma include them."""
     check_when_determined(when_determined)
@@ -406,10 +407,10 @@ def lens_distortion(run_cfg) -> "np.ndarray | None":
 
 
 def _stop_bases(world, cfg, sources, T_world_cam, qpos, P) -> np.ndarray:
-    """``(2, F, 6, P)``: :func:`simcalib.pipeline.stages.stop_error_basis` of cameras a and b
+    """``(2, F, 6, P)``: :func:`simcalib.pipeline.uncertainty_inputs.stop_error_basis` of cameras a and b
     (``sources``: camera -> pose source) at the poses ``T_world_cam[camera]`` (F, 4, 4)
     and joint states ``qpos`` (F, nq); zero where a camera's source has none."""
-    from simcalib.pipeline.stages import stop_error_basis
+    from simcalib.pipeline.uncertainty_inputs import stop_error_basis
     qpos = np.asarray(qpos)
     out = np.zeros((2, qpos.shape[0], 6, P))
     for k, cam in enumerate(("cam_a", "cam_b")):
@@ -422,7 +423,7 @@ def _stop_bases(world, cfg, sources, T_world_cam, qpos, P) -> np.ndarray:
 def _systematic(world, cand, C, H, X, s_r, s_t, recorded, sources, cfg):
     """``((G_base, B_ref, B_cand), groups)``: for :func:`planner.greedy_chain` the recorded
     motions' summed systematic score and the error bases of the reference and candidate
-    stops (:func:`simcalib.pipeline.stages.stop_error_basis` of each camera's source), in the
+    stops (:func:`simcalib.pipeline.uncertainty_inputs.stop_error_basis` of each camera's source), in the
     columns of the recorded basis, columns no pose uses dropped; ``groups`` the source of
     each kept column (:data:`UNCERTAINTY_SOURCES`)."""
     Ba, Bb, pairs = recorded
@@ -441,7 +442,7 @@ def _systematic(world, cand, C, H, X, s_r, s_t, recorded, sources, cfg):
 
 
 #: each source of X's predicted uncertainty (:func:`limited_by`): name -> (its columns in
-#: :func:`simcalib.pipeline.stages.basis_layout`, None for the white noise; a short name; what would
+#: :func:`simcalib.pipeline.uncertainty_inputs.basis_layout`, None for the white noise; a short name; what would
 #: lower its share)
 UNCERTAINTY_SOURCES = {
     "white noise": (None, "the pose noise", "more stops, or several frames averaged at "
@@ -475,8 +476,8 @@ def cannot_help_axes(cannot_help) -> list:
 
 def _column_groups(world) -> list:
     """The source name (:data:`UNCERTAINTY_SOURCES`) of each column of
-    :func:`simcalib.pipeline.stages.basis_layout`."""
-    from simcalib.pipeline.stages import basis_layout
+    :func:`simcalib.pipeline.uncertainty_inputs.basis_layout`."""
+    from simcalib.pipeline.uncertainty_inputs import basis_layout
     lay = basis_layout(world)
     out = [""] * lay["P"]
     for name, (key, _, _) in UNCERTAINTY_SOURCES.items():

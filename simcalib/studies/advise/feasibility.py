@@ -503,7 +503,7 @@ def recorded_rig_entropy(cfg) -> dict:
     """``{"vision": n}``: the number the recorded run of ``cfg`` drew for its rig's fixed
     errors (marker map survey, camera calibrations): the stops are measured by the same rig
     (the same map and calibrations as the recorded run), with their own per-frame noise."""
-    from simcalib.pipeline.stages import run_rngs
+    from simcalib.pipeline.state import run_rngs
     from simcalib.sources.vision.stream import rig_entropy_of
     return {"vision": rig_entropy_of(run_rngs(cfg.seed)["vision"])}
 

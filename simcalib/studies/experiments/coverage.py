@@ -245,17 +245,18 @@ def scenario_data(scenario: str, overrides=(), seeds=range(3), one_world=False) 
     """``[(C, H, X_true, lag, X_obs, pose_bias, pose_pairs), ...]`` of a run config's motion pairs for
     each seed (the world, streams and pairs stages of :func:`simcalib.run`; no solvers, no
     recording); ``pose_bias``: the calibration term a run passes to the solver
-    (:func:`simcalib.pipeline.stages.calibration_bias`; None without one).
+    (:func:`simcalib.pipeline.uncertainty_inputs.calibration_bias`; None without one).
     ``one_world``: the world (path, physics) of the first seed is kept and only the
     measurement (streams, pairs) is redrawn per seed - a Monte-Carlo over the noise."""
-    from simcalib.pipeline import stages as P
+    from simcalib.pipeline import uncertainty_inputs as P
     from simcalib.pipeline.scenario import load_config
+    from simcalib.pipeline.stages import state_through_pairs
     out = []
     truth = None
     for seed in seeds:
         cfg = load_config(scenario, ["recording.enabled=false", "progress=false",
                                      "workers=1", f"seed={seed}", *overrides])
-        st = P.state_through_pairs(cfg, truth if one_world else None)
+        st = state_through_pairs(cfg, truth if one_world else None)
         truth = st.truth
         out.append((np.asarray(st.pairs.C), np.asarray(st.pairs.H), np.asarray(st.X_true),
                     P.correlation_lag(st), _x_without_constant_pose_error(st),
@@ -349,18 +350,19 @@ def scenario_coverage(label: str, data: list, method: str = "dqopt", level=0.95,
 def aruco_trial(seed: int, keep_data: bool = False, overrides=()) -> dict:
     """One seed of ``3d`` with ArUco poses, as a run solves it for its headline (dqopt at the
     data-chosen alpha, ``pose_pairs`` and the systematic pose errors of the marker map and
-    the calibrations, :func:`simcalib.pipeline.stages.pose_error_basis`): coverage records against
+    the calibrations, :func:`simcalib.pipeline.uncertainty_inputs.pose_error_basis`): coverage records against
     the true X (``run``) and against X without the run-constant pose error
     (``observable``), and of the first-order model with the calibration term instead
     (``first_order``, the model before the systematic simulation). ``keep_data``: also the
     data tuple of :func:`scenario_data` (for the flag and alpha rows). ``overrides``: extra
     ``key=value`` of the run config. Runs in a worker process (module-level, picklable)."""
-    from simcalib.pipeline import stages as P
+    from simcalib.pipeline import uncertainty_inputs as P
     from simcalib.pipeline.scenario import load_config
+    from simcalib.pipeline.stages import state_through_pairs
     from simcalib.solvers.api import solve
     cfg = load_config("3d", ["recording.enabled=false", "progress=false", "workers=1",
                              f"seed={seed}", *overrides])
-    st = P.state_through_pairs(cfg)
+    st = state_through_pairs(cfg)
     C, H, X_true = np.asarray(st.pairs.C), np.asarray(st.pairs.H), np.asarray(st.X_true)
     lag, pairs, X_obs = P.correlation_lag(st), P.pose_pairs(st), _x_without_constant_pose_error(st)
     bias = P.calibration_bias(st)[0]
@@ -521,7 +523,7 @@ def render(cov_rows, flag_rows, alpha_rows, args, runtime_s, sim=None) -> str:
          "standard-normal parameters) adds them to the simulation: a run with ArUco "
          "cameras passes the marker map's survey accuracy and the calibrations' 1-sigma "
          "through PnP at each measured pose, with the markers the PnP used "
-         "(`simcalib.sources.vision.stream.pose_error_basis`, `simcalib.pipeline.stages.pose_error_basis`), and "
+         "(`simcalib.sources.vision.stream.pose_error_basis`, `simcalib.pipeline.uncertainty_inputs.pose_error_basis`), and "
          "the white pose noise is what the residuals leave beyond the share these errors "
          "explain (`pose_noise.systematic_residual_power`). Without a basis they keep the "
          "first-order model.",
