@@ -107,7 +107,7 @@ def test_check_transforms_min_count():
 def test_distort_pixels_is_opencvs_lens_model_and_undistort_inverts_it():
     cv2 = pytest.importorskip("cv2")
     from simcalib.sources.vision.camera_effects import PRESETS
-    from simcalib.targets.markers import undistort_points
+    from simcalib.targets.marker_pnp import undistort_points
     K = np.array([[500.0, 0.0, 319.5], [0.0, 510.0, 239.5], [0.0, 0.0, 1.0]])
     dist = PRESETS["realistic"].distortion
     uv = np.random.default_rng(0).uniform([0, 0], [640, 480], (40, 2))

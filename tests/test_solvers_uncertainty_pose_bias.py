@@ -190,7 +190,7 @@ def _wall_world(n_frames=6):
 
 
 def test_intrinsics_sensitivity_matches_pinhole_geometry():
-    from simcalib.targets.markers import intrinsics_pose_sensitivity
+    from simcalib.targets.pnp_sensitivity import intrinsics_pose_sensitivity
     w = _wall_world(1)
     intr = w.intrinsics["cam_a"]
     T = w.trajectory.cam_a.T_world_cam
@@ -213,7 +213,7 @@ def test_intrinsics_sensitivity_matches_pinhole_geometry():
 
 def _state(preset, sources=("aruco", "aruco"), **vision):
     from simcalib.sources.base import GroundTruth
-    from simcalib.sources.vision.stream import VisionConfig
+    from simcalib.sources.vision.config import VisionConfig
     w = _wall_world()
     truth = GroundTruth(kind="sim", X_true=w.trajectory.T_a_b if hasattr(w.trajectory, "T_a_b")
                         else np.eye(4), streams={}, world=w, marker_field=w.marker_field)
@@ -264,7 +264,8 @@ def test_map_error_covariance_matches_pnp_monte_carlo():
     import cv2
 
     from simcalib.geometry import perturb_transforms, rotvec_from_matrix
-    from simcalib.targets.markers import MarkerField, map_pose_covariance
+    from simcalib.targets.markers import MarkerField
+    from simcalib.targets.pnp_sensitivity import map_pose_covariance
     w = _wall_world(3)
     field = w.marker_field
     intr = w.intrinsics["cam_a"]
@@ -298,7 +299,7 @@ def test_map_error_covariance_matches_pnp_monte_carlo():
 
 
 def test_map_error_covariance_checks_inputs():
-    from simcalib.targets.markers import map_pose_covariance
+    from simcalib.targets.pnp_sensitivity import map_pose_covariance
     w = _wall_world(2)
     T = np.asarray(w.trajectory.cam_a.T_world_cam)
     K = w.intrinsics["cam_a"].K
@@ -315,7 +316,7 @@ def _pnp_pose_error(T_true, K, dist_true, pts_true, pts_believed, K_est, dist_es
     undistorted with the believed calibration, against the believed points."""
     import cv2
 
-    from simcalib.targets.markers import undistort_points
+    from simcalib.targets.marker_pnp import undistort_points
     T_cw = np.linalg.inv(T_true)
     rv, _ = cv2.Rodrigues(T_cw[:3, :3])
     img, _ = cv2.projectPoints(pts_true, rv, T_cw[:3, 3], K, dist_true)
@@ -329,7 +330,8 @@ def _pnp_pose_error(T_true, K, dist_true, pts_true, pts_believed, K_est, dist_es
 
 
 def test_map_pose_jacobians_match_exact_pnp_per_pose():
-    from simcalib.targets.markers import MarkerField, map_pose_covariance, map_pose_jacobians
+    from simcalib.targets.markers import MarkerField
+    from simcalib.targets.pnp_sensitivity import map_pose_covariance, map_pose_jacobians
     w = _wall_world(4)
     field = w.marker_field
     K = w.intrinsics["cam_a"].K
@@ -359,7 +361,7 @@ def _exp6s(x):
 
 
 def test_intrinsics_pose_jacobians_match_exact_pnp_and_the_averaged_sensitivity():
-    from simcalib.targets.markers import (intrinsics_pose_jacobians, intrinsics_pose_sensitivity,
+    from simcalib.targets.pnp_sensitivity import (intrinsics_pose_jacobians, intrinsics_pose_sensitivity,
                                   perturbed_intrinsics)
     w = _wall_world(4)
     K = w.intrinsics["cam_a"].K
@@ -387,15 +389,15 @@ def test_intrinsics_pose_jacobians_match_exact_pnp_and_the_averaged_sensitivity(
 
 def test_vision_pose_error_basis_and_the_pipeline_basis():
     from simcalib.pipeline.uncertainty_inputs import pose_error_basis
-    from simcalib.sources.vision.stream import VisionConfig
-    from simcalib.sources.vision.stream import pose_error_basis as vision_basis
+    from simcalib.sources.vision.config import VisionConfig
+    from simcalib.sources.vision.error_model import pose_error_basis as vision_basis
     w = _wall_world(6)
     cfg = VisionConfig(preset="realistic")
     T = np.asarray(w.trajectory.cam_a.T_world_cam)
     B = vision_basis(w, "cam_a", T, cfg)
     assert B.shape == (6, 6, 6 * 12 + 8) and np.all(np.isfinite(B))
     # the basis of the map columns gives the map-error covariance (frame average)
-    from simcalib.targets.markers import map_pose_covariance
+    from simcalib.targets.pnp_sensitivity import map_pose_covariance
     from simcalib.world.layout import visible_markers
     eff = cfg.effects()
     # by default the markers fully inside the lens's distorted image
@@ -483,7 +485,8 @@ def test_calibration_bias_rests_on_the_markers_the_lens_shows():
     rest on the same markers — those fully inside the camera's *distorted* image: with the
     camera close to the wall the barrel lens shows markers past the pinhole image's edge,
     and the two agree to first order only when both count them."""
-    from simcalib.sources.vision.stream import VisionConfig, calibration_pose_bias, pose_error_basis
+    from simcalib.sources.vision.config import VisionConfig
+    from simcalib.sources.vision.error_model import calibration_pose_bias, pose_error_basis
     from simcalib.world.layout import visible_markers
     w = _wall_world(6)
     w.trajectory.cam_a.T_world_cam[:, 2, 3] = 0.45

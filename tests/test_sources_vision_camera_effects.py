@@ -12,7 +12,8 @@ import pytest  # noqa: E402
 from simcalib.sources.vision import camera_effects as ce  # noqa: E402
 from simcalib import geometry as g  # noqa: E402
 from simcalib.streams import CameraIntrinsics  # noqa: E402
-from simcalib.sources.vision.stream import VisionConfig, visual_streams  # noqa: E402
+from simcalib.sources.vision.config import VisionConfig  # noqa: E402
+from simcalib.sources.vision.stream import visual_streams  # noqa: E402
 
 from test_sources_vision_stream import _mini_world  # noqa: E402
 

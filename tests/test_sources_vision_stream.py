@@ -15,7 +15,8 @@ import pytest  # noqa: E402
 from simcalib import geometry as g  # noqa: E402
 from simcalib.targets.markers import MarkerField, marker_png  # noqa: E402
 from simcalib.streams import CameraFrames, CameraIntrinsics, Trajectory  # noqa: E402
-from simcalib.sources.vision.stream import VisionConfig, visual_streams  # noqa: E402
+from simcalib.sources.vision.config import VisionConfig  # noqa: E402
+from simcalib.sources.vision.stream import visual_streams  # noqa: E402
 
 W, H, FOVY = 640, 480, 60.0
 
@@ -478,16 +479,16 @@ def test_render_interrupt_keeps_done_frames_and_progress_reports(world):
 
 
 def test_visual_streams_interrupt_returns_partial_streams(world, monkeypatch):
-    from simcalib.sources.vision import stream as vision
+    from simcalib.sources.vision.frame import FrameProcessor
     from simcalib.sources.vision.stream import VisualStreamsInterrupted
-    orig = vision.FrameProcessor.__call__
+    orig = FrameProcessor.__call__
 
     def stop_at_5(self, rgb, job):
         if job.camera == "cam_a" and job.frame_index == 5:
             raise KeyboardInterrupt
         return orig(self, rgb, job)
 
-    monkeypatch.setattr(vision.FrameProcessor, "__call__", stop_at_5)
+    monkeypatch.setattr(FrameProcessor, "__call__", stop_at_5)
     with pytest.raises(VisualStreamsInterrupted) as info:
         visual_streams(world, VisionConfig(log_every=0), np.random.default_rng(0), workers=1)
     exc = info.value

@@ -100,7 +100,8 @@ def _handeye_world(target, duration_s=20.0, fps=0.5):   # 11 frames, the path's 
 @pytest.mark.parametrize("kind", sorted(BOARD_KINDS))
 def test_rendered_board_detected_at_its_pose(gl, kind, preset):
     from simcalib.geometry import rotation_error_rad, translation_error_m
-    from simcalib.sources.vision.stream import VisionConfig, visual_streams
+    from simcalib.sources.vision.config import VisionConfig
+    from simcalib.sources.vision.stream import visual_streams
     from simcalib.world import build_world
     world = build_world(_handeye_world(kind), np.random.default_rng(0))
     assert world.scene.board.kind == kind and world.marker_field.ids.size == 0

@@ -12,9 +12,10 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
 from simcalib import geometry as g  # noqa: E402
-from simcalib.targets.markers import (Detections, DetectorSettings, MarkerField, PnPSettings,  # noqa: E402
-                              detect_markers, estimate_camera_pose, make_detector,
-                              marker_corners_local, marker_png, refine_corners_edges)
+from simcalib.targets.marker_pnp import PnPSettings, estimate_camera_pose  # noqa: E402
+from simcalib.targets.markers import (Detections, DetectorSettings, MarkerField,  # noqa: E402
+                                      detect_markers, make_detector, marker_corners_local,
+                                      marker_png, refine_corners_edges)
 from simcalib.streams import CameraIntrinsics  # noqa: E402
 
 W, H, FOVY = 640, 480, 60.0

@@ -23,11 +23,11 @@ class ArucoSource(SourceHooks):
 
     def error_basis(self, world, cfg, cam, T_world_cam, layout, qpos=None, visible=None):
         """The marker map's and the camera's calibration errors
-        (:func:`simcalib.sources.vision.stream.pose_error_basis`; ``visible`` the markers each pose rests
-        on, default the layout's) in the ``map`` and ``cal_a`` / ``cal_b`` columns."""
+        (:func:`simcalib.sources.vision.error_model.pose_error_basis`; ``visible`` the markers each
+        pose rests on, default the layout's) in the ``map`` and ``cal_a`` / ``cal_b`` columns."""
         if world.marker_field is None:
             return None
-        from simcalib.sources.vision.stream import pose_error_basis as vision_basis
+        from simcalib.sources.vision.error_model import pose_error_basis as vision_basis
         T = np.asarray(T_world_cam, dtype=np.float64)
         V = vision_basis(world, cam, T, cfg.vision, visible=visible)
         if not V.any():
@@ -58,8 +58,8 @@ class ArucoSource(SourceHooks):
 
     def calibration_bias(self, world, cfg, cameras) -> dict:
         """What ``vision.intrinsics_error`` and the marker map's error cause
-        (:func:`simcalib.sources.vision.stream.calibration_pose_bias`, no rendering)."""
-        from simcalib.sources.vision.stream import calibration_pose_bias
+        (:func:`simcalib.sources.vision.error_model.calibration_pose_bias`, no rendering)."""
+        from simcalib.sources.vision.error_model import calibration_pose_bias
         cams = [c for c in cameras if c in world.camera_names]
         return calibration_pose_bias(world, cfg.vision, cameras=cams) if cams else {}
 

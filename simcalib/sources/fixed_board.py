@@ -3,7 +3,7 @@
 The fixed camera on the stand (:data:`simcalib.world.eyetohand.FIXED_CAMERA`) is rendered
 at every delivered frame of cam_b (cam_b's frame is the board frame on the flange), the
 image goes through the camera effects of ``vision.preset`` (noise, blur, distortion,
-calibration error; :class:`simcalib.sources.vision.stream.FrameProcessor`), the board on the flange is
+calibration error; :class:`simcalib.sources.vision.frame.FrameProcessor`), the board on the flange is
 detected and its pose ``T_cam_board`` estimated by PnP (:mod:`simcalib.targets.boards`). The
 stream reports ``T_world_board = T_world_cam · T_cam_board`` in the room like every other
 source; the pipeline re-expresses cam_b in the fixed camera's frame
@@ -42,6 +42,7 @@ class FixedBoardSource(SourceHooks):
 
     def measure(self, truth: GroundTruth, cfg, rng, cameras) -> SourceOutput:
         from simcalib.sources.vision import stream as V
+        from simcalib.sources.vision.frame import FrameProcessor, camera_optics
         from simcalib.progress import frame_progress
         from simcalib.geometry import invert_transform
         from simcalib.world.eyetohand import FIXED_CAMERA, T_world_fixed_camera
@@ -51,9 +52,9 @@ class FixedBoardSource(SourceHooks):
         entropy = int(rng.integers(0, 2**63 - 1))
         intr = {FIXED_CAMERA: world.intrinsics["cam_b"]}
         eff = vcfg.effects()
-        optics = V._camera_optics((FIXED_CAMERA,), intr, eff, entropy)
-        proc = V.FrameProcessor(None, {FIXED_CAMERA: intr[FIXED_CAMERA].K}, {FIXED_CAMERA: 0},
-                                vcfg, entropy, optics, world.config.board, np.eye(4))
+        optics = camera_optics((FIXED_CAMERA,), intr, eff, entropy)
+        proc = FrameProcessor(None, {FIXED_CAMERA: intr[FIXED_CAMERA].K}, {FIXED_CAMERA: 0},
+                              vcfg, entropy, optics, world.config.board, np.eye(4))
         fr = world.frames("cam_b")
         light_phase = float(np.random.default_rng(np.random.SeedSequence(
             entropy, spawn_key=(10**6,))).uniform(0, 2 * np.pi))

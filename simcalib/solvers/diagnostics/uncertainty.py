@@ -35,7 +35,7 @@ the rotation noise of ``H_i`` into ``tau_i`` through ``R_Ci' t_X``).
   it back), and to the verdict's information as ``(F^-1 + Sigma_bias)^-1`` (Woodbury form,
   valid for singular ``F``). The pipeline derives ``P_c`` for ArUco streams from
   ``vision.intrinsics_error`` and the marker map's survey error
-  (:func:`simcalib.sources.vision.stream.calibration_pose_bias`).
+  (:func:`simcalib.sources.vision.error_model.calibration_pose_bias`).
 * **Covariance of the estimate** (the sandwich of the paper's cost at ``alpha``): the DQ
   residual of cost (8) is ``r_i ~= T_i e_i`` (8x6, with alpha on the dual rows), so the cost is
   ``sum e_i^T S_i e_i`` with ``S_i = T_i^T T_i``. Gauss-Newton / first-order perturbation of

@@ -50,7 +50,7 @@ from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
-from simcalib.targets.markers import undistort_points
+from simcalib.targets.marker_pnp import undistort_points
 
 __all__ = ["CameraEffects", "PRESETS", "preset", "distortion_maps", "render_margin_px",
            "subframe_offsets_s", "row_weights", "combine_subframes", "apply_sensor",

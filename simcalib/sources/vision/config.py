@@ -6,7 +6,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, fields
 
-from simcalib.targets.markers import CORNER_REFINEMENTS, DetectorSettings, PnPSettings
+from simcalib.targets.marker_pnp import PnPSettings
+from simcalib.targets.markers import CORNER_REFINEMENTS, DetectorSettings
 
 __all__ = ["VisionConfig"]
 
@@ -22,7 +23,7 @@ class VisionConfig:
     not change their corners). Detection: ``corner_refinement`` (OpenCV's, one of
     ``none|subpix|contour|apriltag``), ``edge_refinement`` (edge-line corner refinement).
     Pose: ``min_markers``, ``max_reproj_rmse_px``, ``max_marker_reproj_px``,
-    ``ambiguity_ratio``, ``refine`` (see :class:`simcalib.targets.markers.PnPSettings`).
+    ``ambiguity_ratio``, ``refine`` (see :class:`simcalib.targets.marker_pnp.PnPSettings`).
     Log: ``log_every`` (keep the JPEG image of every n-th frame per camera; 0 = none),
     ``jpeg_quality`` (1–100).
     Camera effects (:mod:`simcalib.sources.vision.camera_effects`): ``preset`` (``ideal`` — every effect

@@ -35,7 +35,8 @@ def bench_path(path: str, *, platform: str | None = None, duration_s: float | No
     """Run the visual stage on one path; returns plain numbers (see module docstring).
     ``world_kw``: further ``WorldConfig`` fields (e.g. ``target``, ``rig``)."""
     from simcalib.geometry import rotation_error_rad, translation_error_m  # noqa: PLC0415
-    from simcalib.sources.vision.stream import VisionConfig, visual_streams  # noqa: PLC0415
+    from simcalib.sources.vision.config import VisionConfig  # noqa: PLC0415
+    from simcalib.sources.vision.stream import visual_streams  # noqa: PLC0415
     from simcalib.world import WorldConfig, build_world  # noqa: PLC0415
 
     kw = {"path": path, "platform": platform, **(world_kw or {})}
@@ -148,7 +149,7 @@ def bench_effects(paths, *, duration_s=None, fps=None, seed=0, workers=None, row
                   echo=None) -> list[dict]:
     """Every row of :func:`effect_rows` on every path: pooled (both cameras) median error,
     frames used, occluded markers, and CPU ms per camera frame."""
-    from simcalib.sources.vision.stream import VisionConfig  # noqa: PLC0415
+    from simcalib.sources.vision.config import VisionConfig  # noqa: PLC0415
     out = []
     for label, preset, over in (rows or effect_rows()):
         cfg = VisionConfig(preset=preset, log_every=0, **over)
@@ -244,7 +245,7 @@ def _parser() -> argparse.ArgumentParser:
 
 def main(argv=None) -> int:
     args = _parser().parse_args(argv)
-    from simcalib.sources.vision.stream import VisionConfig  # noqa: PLC0415
+    from simcalib.sources.vision.config import VisionConfig  # noqa: PLC0415
     from simcalib.world import available_paths  # noqa: PLC0415
     paths = args.paths or list(available_paths())
     known = list(available_paths())
@@ -364,7 +365,7 @@ def bench_targets(targets, presets=PRESET_NAMES, *, scenario: str = "handeye",
                   echo=None) -> list[dict]:
     """One row per (target, preset): the camera's pose errors against the rendered truth."""
     from simcalib.targets.boards import check_target  # noqa: PLC0415
-    from simcalib.sources.vision.stream import VisionConfig  # noqa: PLC0415
+    from simcalib.sources.vision.config import VisionConfig  # noqa: PLC0415
     world = _scenario_world(scenario)
     rows = []
     for target in targets:
