@@ -2,7 +2,7 @@
 
 ``worker_pool(n, initializer, initargs)`` is a context manager around
 ``concurrent.futures.ProcessPoolExecutor`` (``spawn`` context: never fork a process that
-may hold an OpenGL context or numba threads) used by rendering (:mod:`simcalib.world.render`)
+may hold an OpenGL context or numba threads) used by rendering (:mod:`simcalib.world.render_map`)
 and the experiments (:mod:`simcalib.studies.experiments.common`).
 
 Ctrl-C: a terminal sends SIGINT to the whole foreground process group, so every worker

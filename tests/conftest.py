@@ -19,7 +19,7 @@ def rng():
 @pytest.fixture(scope="module")
 def gl():
     """The MuJoCo rendering backend; a test that renders skips, naming why, where none exists."""
-    from simcalib.world.render import RenderBackendError, available_backend
+    from simcalib.world.render_backend import RenderBackendError, available_backend
     try:
         return available_backend()
     except RenderBackendError as exc:

@@ -273,7 +273,7 @@ def test_shipped_scenarios_are_feasible_and_prediction_counts_pairs():
 def test_error_hierarchy_and_aliases():
     from simcalib import errors
     from simcalib.cli import UsageError
-    from simcalib.world.render import RenderBackendError
+    from simcalib.world.render_backend import RenderBackendError
     assert ConfigError is errors.ConfigError and issubclass(ConfigError, ValueError)
     assert issubclass(errors.ConfigTypeError, TypeError)
     assert issubclass(errors.ConfigTypeError, ConfigError)
@@ -447,6 +447,7 @@ def test_import_config_loads_no_render_vision_or_vehicle():
     import sys
     code = ("import sys; from simcalib.pipeline.scenario import load_config; load_config('planar'); "
             "print(' '.join(m for m in ('mujoco', 'cv2', 'simcalib.world.render', "
+            "'simcalib.world.render_map', 'simcalib.sources.vision.frame', "
             "'simcalib.sources.vision.stream', 'simcalib.world.vehicle', 'simcalib.world.scene', "
             "'simcalib.pipeline.stages') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,

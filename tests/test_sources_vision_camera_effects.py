@@ -158,7 +158,7 @@ def test_true_calibration_undoes_distortion_a_wrong_one_does_not(world, monkeypa
 def _pan_jobs(world, speed_scale, omega_rad_s, t_offsets, axis=1):
     """FrameJobs of cam_a at frame 2 whose sub-states rotate the rig about its own axis
     ``axis`` at ``omega`` rad/s (a pan) or translate it along x at ``speed_scale`` m/s."""
-    from simcalib.world.render import FrameJob
+    from simcalib.world.render_map import FrameJob
     fr = world.trajectory.cam_a
     k = 2
     p0, q0 = fr.mocap_pos[k][0], fr.mocap_quat_wxyz[k][0]
@@ -176,7 +176,8 @@ def _pan_jobs(world, speed_scale, omega_rad_s, t_offsets, axis=1):
 
 
 def _render_stack(world, jobs):
-    from simcalib.world.render import RenderSettings, render_map
+    from simcalib.world.render import RenderSettings
+    from simcalib.world.render_map import render_map
     out, _ = render_map(world.model, RenderSettings(width=W, height=H), jobs, None, workers=1)
     import cv2
     return np.stack([cv2.cvtColor(im, cv2.COLOR_RGB2GRAY) for im in out[0]])

@@ -165,7 +165,8 @@ def test_worker_count_does_not_change_results(world, run_1):
 @pytest.mark.slow
 def test_worker_processes_render_identical_images(world):
     """Spawned worker processes (this process not rendering) give the same pixels."""
-    from simcalib.world.render import FrameJob, RenderSettings, render_map
+    from simcalib.world.render import RenderSettings
+    from simcalib.world.render_map import FrameJob, render_map
     fr = world.trajectory.cam_b
     jobs = [FrameJob("cam_b", k, None, fr.mocap_pos[k], fr.mocap_quat_wxyz[k])
             for k in range(6)]
@@ -285,7 +286,7 @@ def test_inconsistent_world_intrinsics_are_rejected(world):
 
 # ------------------------------------------------------------------------- rendering
 def test_backend_selection_and_error_message():
-    from simcalib.world.render import RenderBackendError, available_backend
+    from simcalib.world.render_backend import RenderBackendError, available_backend
 
     def fail(*_):
         return "EGL_NOT_INITIALIZED"
@@ -310,8 +311,9 @@ def test_headless_glfw_gives_clear_error_and_workers_fall_back(gl):
     through a fallback backend in a worker process."""
     code = """
 import numpy as np, mujoco
-from simcalib.world.render import (CameraRenderer, RenderBackendError, FrameJob, RenderSettings,
-                             render_map, available_backend)
+from simcalib.world.render import CameraRenderer, RenderSettings
+from simcalib.world.render_backend import RenderBackendError, available_backend
+from simcalib.world.render_map import FrameJob, render_map
 m = mujoco.MjModel.from_xml_string('<mujoco><worldbody><light pos="0 0 2"/>'
     '<geom type="box" size=".2 .2 .2" rgba="1 1 1 1"/><camera name="c" pos="0 0 1"/>'
     '</worldbody></mujoco>')
@@ -381,7 +383,8 @@ def test_vision_bench_cli(gl, tmp_path, capsys):
 
 def test_vision_modules_import_light():
     """Importing the vision modules loads neither mujoco nor cv2 (lazy heavy imports)."""
-    code = ("import sys, simcalib.sources.vision.stream, simcalib.world.render, simcalib.targets.markers, "
+    code = ("import sys, simcalib.sources.vision.stream, simcalib.world.render, "
+            "simcalib.world.render_map, simcalib.targets.markers, simcalib.targets.marker_pnp, "
             "simcalib.studies.bench.vision; print(sorted(m for m in ('cv2', 'mujoco') if m in sys.modules))")
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     env = dict(os.environ, PYTHONPATH=root + os.pathsep + os.environ.get("PYTHONPATH", ""))
@@ -405,9 +408,9 @@ def _run_py(code, env_update, drop=(), timeout=180):
 def test_mujoco_gl_is_decided_by_render_not_at_import():
     """No simcalib module sets MUJOCO_GL at import; import_mujoco decides it (egl)."""
     code = ("import os, simcalib, simcalib.world, simcalib.sources.vision.stream, simcalib.pipeline.stages, "
-            "simcalib.cli, simcalib.world.render, simcalib.targets.markers\n"
+            "simcalib.cli, simcalib.world.render, simcalib.world.render_map, simcalib.targets.markers\n"
             "print('SET' if 'MUJOCO_GL' in os.environ else 'UNSET')\n"
-            "from simcalib.world.render import import_mujoco; import_mujoco()\n"
+            "from simcalib.world.render_backend import import_mujoco; import_mujoco()\n"
             "print(os.environ['MUJOCO_GL'])")
     out = _run_py(code, {}, drop=("MUJOCO_GL", "PYOPENGL_PLATFORM"))
     assert out.returncode == 0, out.stderr
@@ -415,7 +418,7 @@ def test_mujoco_gl_is_decided_by_render_not_at_import():
 
 
 def test_mujoco_gl_bogus_lists_valid_values():
-    code = ("from simcalib.world.render import import_mujoco, RenderBackendError\n"
+    code = ("from simcalib.world.render_backend import import_mujoco, RenderBackendError\n"
             "try:\n    import_mujoco()\nexcept RenderBackendError as e:\n    print('ERR', e)")
     out = _run_py(code, {"MUJOCO_GL": "bogus"})
     assert out.returncode == 0, out.stderr
@@ -425,7 +428,7 @@ def test_mujoco_gl_bogus_lists_valid_values():
 
 
 def test_mujoco_gl_osmesa_without_library_falls_back_to_egl(gl):
-    code = ("import simcalib.world.render as r\nr._osmesa_available = lambda: False\n"
+    code = ("import simcalib.world.render_backend as r\nr._osmesa_available = lambda: False\n"
             "m = r.import_mujoco()\nimport os\nprint('GL', os.environ['MUJOCO_GL'])\n"
             "print('BACKEND', r.loaded_backend())")
     out = _run_py(code, {"MUJOCO_GL": "osmesa"})
@@ -448,8 +451,8 @@ class _InterruptAfter:
 
 @pytest.mark.slow
 def test_render_interrupt_keeps_done_frames_and_progress_reports(world):
-    from simcalib.world.render import (FrameJob, LineProgress, RenderInterrupted, RenderSettings,
-                                 render_map)
+    from simcalib.world.render import RenderSettings
+    from simcalib.world.render_map import FrameJob, LineProgress, RenderInterrupted, render_map
     fr = world.trajectory.cam_a
     jobs = [FrameJob("cam_a", k, None, fr.mocap_pos[k], fr.mocap_quat_wxyz[k])
             for k in range(6)]
@@ -519,7 +522,8 @@ def test_ctrl_c_in_worker_pool_prints_no_worker_traceback(gl):
     with RenderInterrupted, the workers print nothing."""
     code = """
 import os, signal, threading, time, numpy as np, mujoco
-from simcalib.world.render import FrameJob, RenderSettings, render_map, RenderInterrupted
+from simcalib.world.render import RenderSettings
+from simcalib.world.render_map import FrameJob, RenderInterrupted, render_map
 m = mujoco.MjModel.from_xml_string('<mujoco><worldbody><light pos="0 0 2"/>'
     '<geom type="box" size=".2 .2 .2"/><camera name="c" pos="0 0 1"/></worldbody></mujoco>')
 jobs = [FrameJob("c", k, None, None, None) for k in range(200000)]

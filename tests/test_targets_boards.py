@@ -68,7 +68,7 @@ def test_board_frame_convention():
 
 
 def test_add_board_places_the_board_frame(gl):
-    from simcalib.world.render import import_mujoco
+    from simcalib.world.render_backend import import_mujoco
     mujoco = import_mujoco()
     spec = mujoco.MjSpec()
     body = spec.worldbody.add_body(name="flange", pos=[0.1, 0.2, 0.3])

@@ -1,13 +1,13 @@
-"""UR5e under joint control (simcalib.world.arm_control): tracking error vs gains,
-settling, capture modes, limits, errors."""
+"""UR5e under joint control (simcalib.world.arm_control, its servos simcalib.world.arm_servo):
+tracking error vs gains, settling, capture modes, limits, errors."""
 
 import math
 
 import numpy as np
 import pytest
 
-from simcalib.world.arm_control import (ArmGains, ArmLimits, build_controlled_arm,
-                                        track_joint_path)
+from simcalib.world.arm_control import track_joint_path
+from simcalib.world.arm_servo import ArmGains, ArmLimits, build_controlled_arm
 
 Q_HOME = np.array([0.3005, -1.8099, -1.9046, 0.5729, 1.2703, 0.0])
 AMP = np.array([0.3, 0.2, 0.25, 0.4, 0.4, 0.5])

@@ -1,11 +1,13 @@
-"""Physics car (simcalib.world.vehicle): suspension roll, slip, ground, determinism, errors."""
+"""Physics car (simcalib.world.vehicle, its model and path following): suspension roll, slip,
+ground, determinism, errors."""
 
 import numpy as np
 import pytest
 
 from simcalib.geometry import invert_transform
-from simcalib.world.vehicle import (PlanarPath, VehicleConfig, as_planar_path,
-                                    figure_eight_path, simulate_vehicle)
+from simcalib.world.vehicle import simulate_vehicle
+from simcalib.world.vehicle_config import VehicleConfig
+from simcalib.world.vehicle_path import PlanarPath, as_planar_path, figure_eight_path
 
 # a compact figure-eight (40 m x 16 m, tightest radius ~6 m): ~110 m, ~25 s simulated
 PATH = figure_eight_path(length_m=40.0, width_m=16.0, n=3000)

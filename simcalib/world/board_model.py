@@ -20,7 +20,7 @@ def add_board(spec, parent_body_name: str, T_parent_board, board: BoardConfig,
     ``T_parent_board`` ``(4, 4)`` in body ``parent_body_name`` (``"world"`` for the
     worldbody). Adds texture ``<name>_tex``, material ``<name>_mat`` and the geom
     ``<name>`` (no contacts, group 1); returns the geom name. Call before compiling."""
-    from simcalib.world.render import import_mujoco  # noqa: PLC0415
+    from simcalib.world.render_backend import import_mujoco  # noqa: PLC0415
     mujoco = import_mujoco()
     T = np.asarray(T_parent_board, dtype=np.float64)
     if T.shape != (4, 4) or not np.all(np.isfinite(T)):

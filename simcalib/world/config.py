@@ -308,7 +308,7 @@ class WorldConfig:
       DH table, 6 rows ``(theta_rad, d_m, a_m, alpha_rad)`` (built-in arm only; the run
       draws it from ``robot.kinematic_error``, see :mod:`simcalib.world.robot_error`).
     * ``vehicle``: the physics car of platform ``car`` (``world.vehicle.*``: the fields and
-      checks of :class:`simcalib.world.vehicle.VehicleConfig`, reused as they are).
+      checks of :class:`simcalib.world.vehicle_config.VehicleConfig`, reused as they are).
     * ``arm``: how the arm executes its path (:class:`ArmControlConfig`).
     * ``target``: what the cameras see: ``"marker_wall"`` (default: the ArUco marker field
       of ``markers``) or one board, ``"charuco"`` / ``"apriltag_grid"``

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from simcalib.world.render import import_mujoco as _mujoco
+from simcalib.world.render_backend import import_mujoco as _mujoco
 
 from simcalib.geometry import rotvec_from_matrix
 

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from simcalib.world.render import import_mujoco as _mujoco
+from simcalib.world.render_backend import import_mujoco as _mujoco
 
 from simcalib.geometry import (invert_transform, quat_from_matrix, quat_wxyz_from_xyzw,
                                transform_from_rotation_translation)

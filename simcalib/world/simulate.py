@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from simcalib.world.render import import_mujoco as _mujoco
+from simcalib.world.render_backend import import_mujoco as _mujoco
 
 from simcalib.targets.markers import MarkerField
 from simcalib.streams import CameraFrames, CameraIntrinsics, Trajectory
@@ -133,33 +133,58 @@ def build_world(cfg: WorldConfig, rng: np.random.Generator) -> World:
               "cam_b": _capture_times(cfg, "cam_b", rng_b)}
     t_all = np.concatenate([timing["cam_a"][1], timing["cam_b"][1]])
     t_unique, inverse = np.unique(t_all, return_inverse=True)
-    n = cfg.n_frames
-    n_cam = {c: timing[c][1].shape[0] for c in CAMERA_NAMES}
-    first = {"cam_a": 0, "cam_b": n_cam["cam_a"]}
+    platform, motion = _platform_motion(cfg, scene, _path_target(cfg, scene, rng_pert),
+                                        t_unique, rng_platform)
 
+    T_cams = camera_poses_from_state(model, motion.qpos, motion.mocap_pos,
+                                     motion.mocap_quat_wxyz)   # (nu, ncam, 4, 4)
+    cam_ids = {name: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, name)
+               for name in CAMERA_NAMES}
+    if not platform.info.outdoor:
+        _check_inside_room(cfg, T_cams[:, [cam_ids[c] for c in CAMERA_NAMES]], t_unique)
+    frames = _sim_camera_frames(scene, timing, inverse, T_cams, cam_ids, motion)
+    traj = Trajectory(cam_a=frames["cam_a"], cam_b=frames["cam_b"], T_a_b=scene.T_a_b,
+                      meta=_trajectory_meta(cfg, frames, timing))
+    total = time.perf_counter() - t0
+    return World(config=cfg, model=model, camera_names=CAMERA_NAMES,
+                 intrinsics=dict(scene.intrinsics), marker_field=scene.marker_field,
+                 trajectory=traj, scene=scene, ik=motion.stats,
+                 platform_record=motion.record,
+                 timing_s={"build_scene": t_build, "simulate": total - t_build,
+                           "total": total})
+
+
+def _path_target(cfg: WorldConfig, scene: Scene, rng_pert: np.random.Generator):
+    """``target_fn(t)``: path poses of the target frame at any times (the perturbation's
+    draws are the same at every call: each call draws from a copy of ``rng_pert``)."""
     def target_fn(tt):
-        """Path poses of the target frame at any times (same perturbation draws)."""
         tt = np.asarray(tt, dtype=np.float64)
         samples = [sample_path(cfg.path, cfg.platform, tt, cfg.duration_s, cfg.path_params)]
         if cfg.perturbation.active:
             samples.append(perturbation_sample(tt, cfg.perturbation, copy.deepcopy(rng_pert)))
         return compose_path(scene.T_world_home, *samples)
+    return target_fn
 
+
+def _platform_motion(cfg: WorldConfig, scene: Scene, target_fn, t_unique: np.ndarray,
+                     rng_platform: np.random.Generator) -> tuple:
+    """``(platform, motion)``: the platform's MuJoCo states at the capture times — posed
+    from the path targets, or simulated (physics platforms)."""
     from simcalib.world.platforms import get_platform
     platform = get_platform(cfg.platform)
     if callable(getattr(platform, "simulates", None)) and platform.simulates(cfg):
-        motion = platform.simulate(scene, target_fn, t_unique, cfg, rng_platform)
-    else:
-        motion = platform.drive(scene, target_fn(t_unique), t_unique, cfg)
-    qpos, mocap_pos, mocap_quat = motion.qpos, motion.mocap_pos, motion.mocap_quat_wxyz
+        return platform, platform.simulate(scene, target_fn, t_unique, cfg, rng_platform)
+    return platform, platform.drive(scene, target_fn(t_unique), t_unique, cfg)
 
-    T_cams = camera_poses_from_state(model, qpos, mocap_pos, mocap_quat)   # (nu, ncam, 4, 4)
-    cam_ids = {name: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, name)
-               for name in CAMERA_NAMES}
-    if not platform.info.outdoor:
-        _check_inside_room(cfg, T_cams[:, [cam_ids[c] for c in CAMERA_NAMES]], t_unique)
 
+def _sim_camera_frames(scene: Scene, timing: dict, inverse: np.ndarray, T_cams: np.ndarray,
+                       cam_ids: dict, motion) -> dict:
+    """Each camera's :class:`SimCameraFrames`: its rows of the shared capture instants
+    (``inverse``), poses, MuJoCo states, clock and markers in view."""
     from simcalib.world.layout import visible_markers
+    n_cam = {c: timing[c][1].shape[0] for c in CAMERA_NAMES}
+    first = {"cam_a": 0, "cam_b": n_cam["cam_a"]}
+    qpos, mocap_pos, mocap_quat = motion.qpos, motion.mocap_pos, motion.mocap_quat_wxyz
     frames = {}
     for name in CAMERA_NAMES:
         t_nom, t_cap, stamp, delivered = timing[name]
@@ -171,26 +196,23 @@ def build_world(cfg: WorldConfig, rng: np.random.Generator) -> World:
             mocap_pos=mocap_pos[idx], mocap_quat_wxyz=mocap_quat[idx],
             nominal_time_s=t_nom, stamp_s=stamp, delivered=delivered,
             visible_markers=vis.astype(np.int64))
+    return frames
+
+
+def _trajectory_meta(cfg: WorldConfig, frames: dict, timing: dict) -> dict:
+    """``Trajectory.meta``: platform, path and its parameters, timing per camera, fewest
+    markers in view."""
     info = get_path(cfg.path)
-    meta = {"platform": cfg.platform, "path": cfg.path, "fps": cfg.fps,
-            "duration_s": cfg.duration_s, "n_frames": n,
+    return {"platform": cfg.platform, "path": cfg.path, "fps": cfg.fps,
+            "duration_s": cfg.duration_s, "n_frames": cfg.n_frames,
             "path_params": info.params_for(cfg.platform, cfg.path_params),
             "path_description": info.description, "degenerate": info.degenerate,
             "perturbation": cfg.perturbation.active,
             "capture_offset_s": {c: getattr(cfg, c).capture_offset_s for c in CAMERA_NAMES},
             "camera_fps": {c: cfg.camera_fps(c) for c in CAMERA_NAMES},
-            "camera_n_frames": n_cam,
+            "camera_n_frames": {c: timing[c][1].shape[0] for c in CAMERA_NAMES},
             "min_visible_markers": {c: int(frames[c].visible_markers.min())
                                     for c in CAMERA_NAMES}}
-    traj = Trajectory(cam_a=frames["cam_a"], cam_b=frames["cam_b"], T_a_b=scene.T_a_b,
-                      meta=meta)
-    total = time.perf_counter() - t0
-    return World(config=cfg, model=model, camera_names=CAMERA_NAMES,
-                 intrinsics=dict(scene.intrinsics), marker_field=scene.marker_field,
-                 trajectory=traj, scene=scene, ik=motion.stats,
-                 platform_record=motion.record,
-                 timing_s={"build_scene": t_build, "simulate": total - t_build,
-                           "total": total})
 
 
 def _check_inside_room(cfg: WorldConfig, T_cams: np.ndarray, t: np.ndarray,

@@ -169,7 +169,7 @@ def visual_streams(world, cfg: VisionConfig | None = None, rng: np.random.Genera
     with fresh per-frame noise.
 
     ``progress(n_done, n_total)`` (optional) is called as camera frames finish (e.g. a
-    progress bar's update; :class:`simcalib.world.render.LineProgress` prints a line every N
+    progress bar's update; :class:`simcalib.world.render_map.LineProgress` prints a line every N
     frames for non-terminal stderr). On Ctrl-C the render workers stop quietly and
     :class:`VisualStreamsInterrupted` is raised carrying the streams of the frames done.
     """
@@ -208,7 +208,7 @@ def _check_inputs(world, cfg, rng, progress) -> None:
         raise TypeError(f"cfg must be a VisionConfig; received {type(cfg).__name__}")
     if not isinstance(rng, np.random.Generator):
         raise TypeError(f"rng must be a numpy.random.Generator; received {type(rng).__name__}")
-    from simcalib.world.render import check_progress  # noqa: PLC0415
+    from simcalib.world.render_map import check_progress  # noqa: PLC0415
     check_progress(progress)
     world_cameras.check_world(world)
 
@@ -269,7 +269,7 @@ def _render_settings(w: int, h: int, cams, intr: dict, cfg: VisionConfig):
 def _camera_jobs(world, cam: str, fr, intr, cfg: VisionConfig, eff, offsets, light_phase: float,
                  occl_cam: dict) -> list:
     """FrameJobs of one camera's delivered frames; stores markers-in-view counts in ``occl_cam``."""
-    from simcalib.world.render import FrameJob  # noqa: PLC0415
+    from simcalib.world.render_map import FrameJob  # noqa: PLC0415
     in_view = _markers_in_view(world.marker_field, fr.T_world_cam, intr) \
         if cfg.count_occlusion else None
     jobs = []
@@ -302,7 +302,7 @@ def _light_at(t_k: float, eff, light_phase: float):
 def _render_pass(model, settings, jobs: list, proc: FrameProcessor, workers, progress,
                  n_before: int, n_jobs_total: int) -> tuple:
     """Render one pass: ``(results, timings, RenderInterrupted or None)``."""
-    from simcalib.world.render import RenderInterrupted, render_map  # noqa: PLC0415
+    from simcalib.world.render_map import RenderInterrupted, render_map  # noqa: PLC0415
     def report(n, _t, _base=n_before):
         progress(_base + n, n_jobs_total)
     sub_progress = report if progress is not None else None
@@ -408,7 +408,7 @@ def _shrunk_corners(field: MarkerField, mask: np.ndarray) -> np.ndarray:
 
 
 def _default_workers() -> int:
-    from simcalib.world.render import default_workers  # noqa: PLC0415
+    from simcalib.world.render_map import default_workers  # noqa: PLC0415
     return default_workers()
 
 

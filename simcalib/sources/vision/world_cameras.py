@@ -42,7 +42,7 @@ def checked_intrinsics(world, cameras, cfg: VisionConfig) -> dict:
 
 def check_model_fovy(model, camera: str, fovy_deg: float, base: CameraIntrinsics) -> None:
     """The world's intrinsics must be the pinhole MuJoCo renders (else poses are biased)."""
-    from simcalib.world.render import import_mujoco  # noqa: PLC0415
+    from simcalib.world.render_backend import import_mujoco  # noqa: PLC0415
     mujoco = import_mujoco()
     cid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, camera)
     if cid < 0:

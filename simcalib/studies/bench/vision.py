@@ -50,7 +50,7 @@ def bench_path(path: str, *, platform: str | None = None, duration_s: float | No
     t_world = time.perf_counter() - t0
     streams, log = visual_streams(world, vision_cfg or VisionConfig(),
                                   np.random.default_rng(seeds[1]), workers=workers)
-    from simcalib.world.render import default_workers  # noqa: PLC0415
+    from simcalib.world.render_map import default_workers  # noqa: PLC0415
     cores = min(default_workers(), log.timing["workers"])
     cpu = log.timing["cpu_ms_per_frame"]
     out = {"path": path, "platform": world.config.platform, "world_build_s": t_world,

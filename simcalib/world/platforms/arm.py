@@ -161,7 +161,8 @@ class ArmPlatform:
 
     def simulate(self, scene, target_fn, t, cfg, rng) -> PlatformMotion:
         """Execute the IK joint path under joint control in physics (module docstring)."""
-        from simcalib.world.arm_control import ArmGains, track_joint_path
+        from simcalib.world.arm_control import track_joint_path
+        from simcalib.world.arm_servo import ArmGains
         model = scene.model
         t1 = time.perf_counter()
         t = np.asarray(t, dtype=np.float64)

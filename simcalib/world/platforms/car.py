@@ -2,7 +2,7 @@
 
 The path's geometry (x, y of the target frame = the chassis frame on the ground under the
 wheelbase centre) is driven by the physics car of :mod:`simcalib.world.vehicle`
-(``world.vehicle.*`` = :class:`~simcalib.world.vehicle.VehicleConfig`: Ackermann or
+(``world.vehicle.*`` = :class:`~simcalib.world.vehicle_config.VehicleConfig`: Ackermann or
 differential drive, sprung or rigid, flat / sloped / uneven ground) with pure pursuit and
 a speed controller; the chassis pitches, rolls and heaves by itself. Nothing is scripted
 but the geometry: the car drives it at ``world.vehicle.speed_mps`` from rest at its start
@@ -84,10 +84,10 @@ def interpolate_poses(t_samples: np.ndarray, T_samples: np.ndarray,
 
 
 def car_path(target_fn, cfg):
-    """The :class:`~simcalib.world.vehicle.PlanarPath` the car follows: the target frame's
+    """The :class:`~simcalib.world.vehicle_path.PlanarPath` the car follows: the target frame's
     path (``target_fn``) sampled densely over ``[0, duration_s]``, heading = its tangent.
     Raises ``ValueError`` for a path that reverses on itself (the car drives forward)."""
-    from simcalib.world.vehicle import PlanarPath
+    from simcalib.world.vehicle_path import PlanarPath
     t = np.linspace(0.0, float(cfg.duration_s), _PATH_POINTS)
     T = target_fn(t)
     x, y = T[:, 0, 3], T[:, 1, 3]
@@ -120,7 +120,7 @@ class CarPlatform:
 
     def attach(self, spec, cfg) -> str:
         import mujoco
-        from simcalib.world.vehicle import CAR_XML, apply_vehicle_geometry
+        from simcalib.world.vehicle_model import CAR_XML, apply_vehicle_geometry
         # outdoors: no walls and ceiling, a large flat floor, a far clip plane
         for name in ("ceiling", "wall_px", "wall_nx", "wall_py", "wall_ny"):
             spec.delete(spec.geom(name))
