@@ -259,8 +259,28 @@ QUAT_NORM_MAX_DEV = 0.2   # beyond this it is not a unit quaternion at all: erro
 
 
 def _finalise(raw: RawStream, source: str, fmt: str, detection: str) -> PoseStreamData:
+    """The validated :class:`PoseStreamData` of ``raw``: rows with NaN/inf dropped,
+    quaternions renormalised or rotation blocks re-orthonormalised when slightly off,
+    sorted by time, duplicates dropped — each repair counted in ``repairs``."""
     label = f"{source}" + (f" [{raw.name}]" if raw.name else "")
     repairs: dict[str, int] = {}
+    t, T = _finite_poses(raw, label, repairs)
+    t, T = _ordered_unique(t, T, repairs)
+    if t.size < MIN_POSES:
+        raise data_error(f"{label}: {t.size} usable poses after repairs "
+                         f"({', '.join(f'{k}: {v}' for k, v in repairs.items()) or 'none'}); "
+                         f"at least {MIN_POSES} are needed")
+    t.setflags(write=False)
+    T.setflags(write=False)
+    return PoseStreamData(timestamps_s=t, T_world_sensor=T, source=source, format=fmt,
+                          detection=detection + (f"; {raw.note}" if raw.note else ""),
+                          repairs=repairs, quat_order=raw.quat_order, name=raw.name,
+                          synthetic_time=raw.synthetic_time)
+
+
+def _finite_poses(raw: RawStream, label: str, repairs: dict) -> tuple[np.ndarray, np.ndarray]:
+    """``(t (N,), T (N, 4, 4))`` of the rows of ``raw`` without NaN/inf, as rigid transforms
+    (quaternions checked and renormalised, matrices checked by :func:`_project_rigid`)."""
     t = np.asarray(raw.timestamps_s, dtype=np.float64).reshape(-1)
     n0 = t.shape[0]
     if raw.matrices is not None:
@@ -276,24 +296,27 @@ def _finalise(raw: RawStream, source: str, fmt: str, detection: str) -> PoseStre
         if n_bad == n0:
             raise data_error(f"{label}: all {n0} rows contain NaN or inf")
     keep = finite
-    if raw.matrices is None:
-        norm = np.linalg.norm(np.where(finite[:, None], q, [0.0, 0.0, 0.0, 1.0]), axis=1)
-        far = np.abs(norm - 1.0) > QUAT_NORM_MAX_DEV
-        if far.any():
-            k = int(np.argmax(far))
-            raise data_error(
-                f"{label}: row {k} has quaternion {q[k].tolist()} of norm {norm[k]:.4g}; "
-                f"unit quaternions (|q| within {QUAT_NORM_MAX_DEV} of 1) are required - "
-                "wrong columns or quaternion order?")
-        renorm = finite & (np.abs(norm - 1.0) > QUAT_NORM_TOL)
-        if renorm.any():
-            repairs["quaternions_renormalised"] = int(renorm.sum())
-        t, pos, q = t[keep], pos[keep], q[keep]
-        T = transform_from_rotation_translation(matrix_from_quat(q), pos)
-    else:
+    if raw.matrices is not None:
         t, M = t[keep], M[keep]
-        T = _project_rigid(M, label, repairs)
-    # timestamps: order, duplicates
+        return t, _project_rigid(M, label, repairs)
+    norm = np.linalg.norm(np.where(finite[:, None], q, [0.0, 0.0, 0.0, 1.0]), axis=1)
+    far = np.abs(norm - 1.0) > QUAT_NORM_MAX_DEV
+    if far.any():
+        k = int(np.argmax(far))
+        raise data_error(
+            f"{label}: row {k} has quaternion {q[k].tolist()} of norm {norm[k]:.4g}; "
+            f"unit quaternions (|q| within {QUAT_NORM_MAX_DEV} of 1) are required - "
+            "wrong columns or quaternion order?")
+    renorm = finite & (np.abs(norm - 1.0) > QUAT_NORM_TOL)
+    if renorm.any():
+        repairs["quaternions_renormalised"] = int(renorm.sum())
+    t, pos, q = t[keep], pos[keep], q[keep]
+    return t, transform_from_rotation_translation(matrix_from_quat(q), pos)
+
+
+def _ordered_unique(t: np.ndarray, T: np.ndarray, repairs: dict) -> tuple:
+    """``(t, T)`` sorted by time (stable) and without repeated timestamps (the first row of
+    each kept; counted apart when the repeated rows are the same pose or not)."""
     if t.size >= 2 and np.any(np.diff(t) < 0):
         order = np.argsort(t, kind="stable")
         repairs["out_of_order_rows_sorted"] = int(np.sum(order != np.arange(t.size)))
@@ -310,16 +333,7 @@ def _finalise(raw: RawStream, source: str, fmt: str, detection: str) -> PoseStre
             if n_diff:
                 repairs["duplicate_timestamps_dropped_kept_first"] = n_diff
             t, T = t[~dup], T[~dup]
-    if t.size < MIN_POSES:
-        raise data_error(f"{label}: {t.size} usable poses after repairs "
-                         f"({', '.join(f'{k}: {v}' for k, v in repairs.items()) or 'none'}); "
-                         f"at least {MIN_POSES} are needed")
-    t.setflags(write=False)
-    T.setflags(write=False)
-    return PoseStreamData(timestamps_s=t, T_world_sensor=T, source=source, format=fmt,
-                          detection=detection + (f"; {raw.note}" if raw.note else ""),
-                          repairs=repairs, quat_order=raw.quat_order, name=raw.name,
-                          synthetic_time=raw.synthetic_time)
+    return t, T
 
 
 def _project_rigid(M: np.ndarray, label: str, repairs: dict) -> np.ndarray:

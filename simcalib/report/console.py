@@ -82,15 +82,34 @@ def _not_measured_notes(solvers) -> list[str]:
     return notes
 
 
+#: the columns of the console table
+COLUMNS = ["method", "alpha", "rot err ± σ [deg]", "trans err ± σ [cm]", "determined [cm]",
+           "time [ms]", "verdict"]
+
+
 def summary_table(result) -> str:
     """Console summary: one row per solver (error ± predicted 1-sigma, runtime, verdict;
     FAILED rows with the reason), the flagged directions beneath, the data-chosen alpha and
     the oracle alpha (labelled: it uses the ground truth), then pose-source errors and
     pairing counts."""
-    head = ["method", "alpha", "rot err ± σ [deg]", "trans err ± σ [cm]", "determined [cm]",
-            "time [ms]", "verdict"]
+    out = [f"scenario {result.config.scenario!r} (source={result.config.source}, "
+           f"seed={result.config.seed}, {result.pairing.get('used', '?')} motions)"]
+    out += _table(_solver_rows(result.solvers))
+    out += _flagged_lines(result.solvers)
+    out += _not_measured_notes(result.solvers)
+    out += _alpha_lines(result.solvers)
+    if getattr(result, "solver_kernels", "compiled") == "interpreted":
+        from simcalib.solvers.kernels.mode import INTERPRETED_NOTE
+        out.append(INTERPRETED_NOTE)
+    out += _frames_line(result) + _pairing_line(result) + _pose_error_line(result)
+    return "\n".join(out)
+
+
+def _solver_rows(solvers) -> list[list[str]]:
+    """One row of cells per solver (:data:`COLUMNS`); a failed solver's row is its label and
+    ``FAILED: <reason>``."""
     rows = []
-    for s in result.solvers:
+    for s in solvers:
         if s.X is None:
             rows.append([s.label, f"FAILED: {s.error or 'no estimate'}"])
             continue
@@ -99,75 +118,103 @@ def summary_table(result) -> str:
                      _pm(s.translation_error_m, s.sigma_translation_m, 100, 2),
                      _determined_cell(s),
                      _fmt(s.runtime_s, 1e3, 2), _verdict_cell(s)])
-    full = [r for r in rows if len(r) == len(head)]
+    return rows
+
+
+def _table(rows) -> list[str]:
+    """The header, a rule and the rows, columns aligned (first and last left, the numbers
+    right); a failed solver's reason runs past the columns."""
+    full = [r for r in rows if len(r) == len(COLUMNS)]
     widths = [max(len(h), *(len(r[i]) for r in full)) if full else len(h)
-              for i, h in enumerate(head)]
+              for i, h in enumerate(COLUMNS)]
     widths[0] = max([widths[0]] + [len(r[0]) for r in rows])
-    line = "  ".join(h.ljust(w) if i in (0, len(head) - 1) else h.rjust(w) for i, (h, w) in
-                     enumerate(zip(head, widths)))
-    out = [f"scenario {result.config.scenario!r} (source={result.config.source}, "
-           f"seed={result.config.seed}, {result.pairing.get('used', '?')} motions)",
-           line, "-" * len(line)]
+    line = "  ".join(h.ljust(w) if i in (0, len(COLUMNS) - 1) else h.rjust(w)
+                     for i, (h, w) in enumerate(zip(COLUMNS, widths)))
+    out = [line, "-" * len(line)]
     for r in rows:
-        if len(r) != len(head):  # a failed solver: its reason instead of numbers
+        if len(r) != len(COLUMNS):  # a failed solver: its reason instead of numbers
             out.append(f"{r[0].ljust(widths[0])}  {r[1]}")
             continue
-        out.append("  ".join(c.ljust(w) if i in (0, len(head) - 1) else c.rjust(w)
+        out.append("  ".join(c.ljust(w) if i in (0, len(COLUMNS) - 1) else c.rjust(w)
                              for i, (c, w) in enumerate(zip(r, widths))))
+    return out
+
+
+def _flagged_lines(solvers) -> list[str]:
+    """The directions not determined within tolerance, per group of solvers that share
+    them, and what that means for the error columns."""
     undet = {}
-    for s in result.solvers:
+    for s in solvers:
         if s.X is None or not s.degenerate:
             continue
         undet.setdefault(tuple(s.verdict_directions or s.undetermined), []).append(s.label)
-    for dirs, labels in undet.items():
-        out.append(f"not determined within tolerance [{', '.join(labels)}]: " + "; ".join(dirs))
+    out = [f"not determined within tolerance [{', '.join(labels)}]: " + "; ".join(dirs)
+           for dirs, labels in undet.items()]
     if undet:
         out.append("  -> along an undetermined direction the estimate is arbitrary (its error "
                    "is not a measurement); 'determined [cm]' = the translation error with the "
                    "flagged translation directions that no prior fixed projected out")
-    out += _not_measured_notes(result.solvers)
-    choice = next((s.alpha_choice for s in result.solvers if s.alpha_choice), None)
+    return out
+
+
+def _alpha_lines(solvers) -> list[str]:
+    """How alpha was chosen, and the oracle alpha (labelled: it uses the ground truth)."""
+    out = []
+    choice = next((s.alpha_choice for s in solvers if s.alpha_choice), None)
     if choice:
         out.append(f"alpha = {_fmt(choice['alpha'], digits=3)} ({choice['source']}: "
                    f"{choice['how']})")
-    orc = [s for s in result.solvers if s.oracle]
+    orc = [s for s in solvers if s.oracle]
     if orc:
         out.append("oracle_alpha (USES THE GROUND TRUTH, for comparison only): " + "; ".join(
             f"{s.label} alpha {_fmt(s.oracle['oracle_alpha'], digits=3)}: "
             f"{_fmt(s.oracle['rotation_error_deg'], digits=3)} deg / "
             f"{_fmt(s.oracle['translation_error_m'], 100, 2)} cm" for s in orc))
-    if getattr(result, "solver_kernels", "compiled") == "interpreted":
-        from simcalib.solvers.kernels.mode import INTERPRETED_NOTE
-        out.append(INTERPRETED_NOTE)
+    return out
+
+
+def _frames_line(result) -> list[str]:
+    """Rendered frames per camera: used, dropped and why (none without rendering)."""
     fr = result.frames or {}
-    if fr.get("rendered"):
-        cams = []
-        for cam in result.camera_names:
-            c = fr.get(cam) or {}
-            reasons = ", ".join(f"{k} {v}" for k, v in (c.get("drop_reasons") or {}).items())
-            cams.append(f"{cam} used {c.get('used')}, dropped {c.get('dropped')}"
-                        + (f" ({reasons})" if reasons else ""))
-        n = {(fr.get(cam) or {}).get("frames") for cam in result.camera_names}
-        head = (f"{fr['rendered']} per camera" if len(n) == 1 else "per camera "
-                + ", ".join(f"{cam} {(fr.get(cam) or {}).get('frames')}"
-                            for cam in result.camera_names))
-        out.append(f"frames: {head}; " + "; ".join(cams))
+    if not fr.get("rendered"):
+        return []
+    cams = []
+    for cam in result.camera_names:
+        c = fr.get(cam) or {}
+        reasons = ", ".join(f"{k} {v}" for k, v in (c.get("drop_reasons") or {}).items())
+        cams.append(f"{cam} used {c.get('used')}, dropped {c.get('dropped')}"
+                    + (f" ({reasons})" if reasons else ""))
+    n = {(fr.get(cam) or {}).get("frames") for cam in result.camera_names}
+    head = (f"{fr['rendered']} per camera" if len(n) == 1 else "per camera "
+            + ", ".join(f"{cam} {(fr.get(cam) or {}).get('frames')}"
+                        for cam in result.camera_names))
+    return [f"frames: {head}; " + "; ".join(cams)]
+
+
+def _pairing_line(result) -> list[str]:
+    """The motion pairs used of the candidates, and what the pre-filter dropped."""
     p = result.pairing or {}
-    if p.get("candidate_pairs") is not None and p.get("matched") is not None:
-        out.append(f"motion pairs: {p.get('used')} used of {p.get('candidate_pairs')} "
-                   f"candidates (pre-filter dropped {p.get('dropped_translation')} for "
-                   f"translation, {p.get('dropped_rotation')} for rotation; "
-                   f"{p.get('dropped_time_diff')} datapoints for timestamp difference)")
-    if result.pose_errors:
-        parts = []
-        for cam, e in result.pose_errors.items():
-            sm = e.summary()
-            if sm["n"]:
-                parts.append(f"{cam}: median {_fmt(sm['rotation_deg']['median'], digits=3)} deg "
-                             f"/ {_fmt(sm['translation_m']['median'], 1000, 2)} mm, p95 "
-                             f"{_fmt(sm['rotation_deg']['p95'], digits=3)} deg / "
-                             f"{_fmt(sm['translation_m']['p95'], 1000, 2)} mm")
-        if parts:
-            src = next(iter(result.pose_errors.values())).source
-            out.append(f"pose error of source '{src}' vs ground truth: " + "; ".join(parts))
-    return "\n".join(out)
+    if p.get("candidate_pairs") is None or p.get("matched") is None:
+        return []
+    return [f"motion pairs: {p.get('used')} used of {p.get('candidate_pairs')} "
+            f"candidates (pre-filter dropped {p.get('dropped_translation')} for "
+            f"translation, {p.get('dropped_rotation')} for rotation; "
+            f"{p.get('dropped_time_diff')} datapoints for timestamp difference)"]
+
+
+def _pose_error_line(result) -> list[str]:
+    """The pose source's errors against the ground truth per camera (median, p95)."""
+    if not result.pose_errors:
+        return []
+    parts = []
+    for cam, e in result.pose_errors.items():
+        sm = e.summary()
+        if sm["n"]:
+            parts.append(f"{cam}: median {_fmt(sm['rotation_deg']['median'], digits=3)} deg "
+                         f"/ {_fmt(sm['translation_m']['median'], 1000, 2)} mm, p95 "
+                         f"{_fmt(sm['rotation_deg']['p95'], digits=3)} deg / "
+                         f"{_fmt(sm['translation_m']['p95'], 1000, 2)} mm")
+    if not parts:
+        return []
+    src = next(iter(result.pose_errors.values())).source
+    return [f"pose error of source '{src}' vs ground truth: " + "; ".join(parts)]
