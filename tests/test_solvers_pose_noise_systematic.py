@@ -1,7 +1,8 @@
 """Systematic pose errors in the uncertainty (issue 9): pose errors shared by the poses
 through common parameters (a marker map's and lens calibrations' errors), their per-pose
-PnP sensitivities (simcalib.targets.pnp_sensitivity, simcalib.sources.vision.error_model.pose_error_basis) and the simulation
-that draws them (pose_noise.simulate_error(systematic=...), covariance / solve with
+PnP sensitivities (simcalib.targets.pnp_sensitivity,
+simcalib.sources.vision.error_model.pose_error_basis) and the simulation that draws them
+(pose_noise.simulate_error(systematic=...), covariance / solve with
 pose_error_basis)."""
 
 import numpy as np

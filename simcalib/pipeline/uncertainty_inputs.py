@@ -27,8 +27,9 @@ def calibration_bias(st) -> tuple:
     the ``aruco`` source gets the covariance of the run-constant pose error that
     ``vision.intrinsics_error`` (read as the 1-sigma of the calibration the estimator has)
     and the marker map's error (``vision.map_position_std_m`` / ``map_rotation_std_deg``,
-    the survey's accuracy) cause (:func:`simcalib.sources.vision.error_model.calibration_pose_bias`, no
-    rendering); other sources
+    the survey's accuracy) cause
+    (:func:`simcalib.sources.vision.error_model.calibration_pose_bias`, no rendering); other
+    sources
     have no calibration term. ``report`` (results.json ``calibration_bias``):
     ``included`` and per camera its 1-sigma (deg, m) and inputs."""
     from simcalib.solvers.diagnostics.uncertainty import PoseBias
@@ -85,7 +86,8 @@ def stop_error_basis(world, cfg, cam: str, source: str, T_world_cam, qpos=None,
                      visible=None) -> np.ndarray | None:
     """``(F, 6, P)`` (:func:`basis_layout`) systematic pose errors of camera ``cam``
     measured by ``source`` at the poses ``T_world_cam`` (F, 4, 4): ``aruco`` — the marker
-    map's and the camera's calibration errors (:func:`simcalib.sources.vision.error_model.pose_error_basis`;
+    map's and the camera's calibration errors
+    (:func:`simcalib.sources.vision.error_model.pose_error_basis`;
     ``visible`` the markers each pose rests on, default the layout's); ``robot_fk`` — the
     arm's DH deviation (``robot.kinematic_error``, :func:`simcalib.world.robot_error.
     fk_pose_error_basis`; ``qpos`` (F, nq) the MuJoCo joint state at each pose). None for

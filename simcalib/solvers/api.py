@@ -124,8 +124,9 @@ def solve(C, H, method: str = "dqopt", alpha: float = 1.0, prior: Prior | None =
     datapoints, ``(Ba, Bb)`` of shape ``(n_datapoints, 6, P)`` (each camera's pose error,
     rotvec rad and translation m right-multiplied in the camera frame, per unit of ``P``
     shared standard-normal parameters: a marker map's and a lens calibration's errors,
-    :func:`simcalib.sources.vision.error_model.pose_error_basis`); the simulation then draws them with the
-    white pose noise the residuals leave beyond them (whether or not the white-noise test
+    :func:`simcalib.sources.vision.error_model.pose_error_basis`); the simulation then draws
+    them with the white pose noise the residuals leave beyond them (whether or not the
+    white-noise test
     passes; without a prior). ``pose_simulation``: ``Solution.uncertainty.simulation`` of
     another estimate of the same motions at the same alpha, reused instead of simulating
     again (a run simulates once for all its solvers).

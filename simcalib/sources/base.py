@@ -131,8 +131,8 @@ class SourceHooks:
     * ``datapoint_error_basis(st, world, cam, T_world_cam, frame_index, layout)``: the same
       at a run's measured datapoints (the source reads what its log recorded), or None.
     * ``calibration_bias(world, cfg, cameras) -> {cam: bias}``: the fixed pose bias its
-      calibration inputs cause per camera (:class:`simcalib.sources.vision.error_model.CalibrationBias`),
-      empty when it has none.
+      calibration inputs cause per camera
+      (:class:`simcalib.sources.vision.error_model.CalibrationBias`), empty when it has none.
     """
 
     def pose_margins(self, cfg) -> tuple[float, float]:

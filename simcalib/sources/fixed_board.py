@@ -3,8 +3,9 @@
 The fixed camera on the stand (:data:`simcalib.world.eyetohand.FIXED_CAMERA`) is rendered
 at every delivered frame of cam_b (cam_b's frame is the board frame on the flange), the
 image goes through the camera effects of ``vision.preset`` (noise, blur, distortion,
-calibration error; :class:`simcalib.sources.vision.frame.FrameProcessor`), the board on the flange is
-detected and its pose ``T_cam_board`` estimated by PnP (:mod:`simcalib.targets.boards`). The
+calibration error; :class:`simcalib.sources.vision.frame.FrameProcessor`), the board on the
+flange is detected and its pose ``T_cam_board`` estimated by PnP
+(:mod:`simcalib.targets.boards`). The
 stream reports ``T_world_board = T_world_cam · T_cam_board`` in the room like every other
 source; the pipeline re-expresses cam_b in the fixed camera's frame
 (:func:`simcalib.world.eyetohand.express_in_fixed_camera`), so the solvers see

@@ -219,7 +219,8 @@ def T_geom_board(board: BoardConfig) -> np.ndarray:
 @dataclass(frozen=True)
 class BoardPose:
     """One image's board pose. ``status``: ``"ok"`` or a drop reason of
-    :data:`simcalib.targets.marker_pnp.DROP_REASONS`; ``T_cam_board`` ``(4, 4)`` (``None`` unless ok);
+    :data:`simcalib.targets.marker_pnp.DROP_REASONS`; ``T_cam_board`` ``(4, 4)`` (``None``
+    unless ok);
     ``corner_ids`` ``(N,)`` / ``corners_px`` ``(N, 2)``: the corners of the final fit;
     ``marker_ids`` ``(M,)`` / ``marker_corners_px`` ``(M, 4, 2)``: the board's markers found;
     ``reproj_rmse_px``; ``ambiguity``: refined RMSE of the best rival pose (rotation > 3°

@@ -8,9 +8,9 @@ Public API::
     gt_a = ground_truth_stream(world.trajectory.cam_a)
     noisy_b = noisy_stream(world.trajectory.cam_b, sigma_r_rad=0.01, sigma_t_m=0.01, rng=rng)
 
-MuJoCo is imported when a scene is built (``simcalib.world.render_backend.import_mujoco``), not here;
-the names below are looked up in their module at first use (PEP 562), so importing a
-config-only module (``simcalib.world.config``) loads neither the scene nor the rendering.
+MuJoCo is imported when a scene is built (``simcalib.world.render_backend.import_mujoco``),
+not here; the names below are looked up in their module at first use (PEP 562), so importing
+a config-only module (``simcalib.world.config``) loads neither the scene nor the rendering.
 """
 
 from __future__ import annotations

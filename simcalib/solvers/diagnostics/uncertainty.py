@@ -70,8 +70,8 @@ the rotation noise of ``H_i`` into ``tau_i`` through ``R_Ci' t_X``).
   ``pose_bias`` (whose run-constant errors the basis holds) is not added. The pipeline
   derives the basis for ArUco cameras (marker map, calibrations) and ``robot_fk`` streams
   (the arm's DH table, ``robot.kinematic_error``) (:func:`simcalib.pipeline.
-  uncertainty_inputs.pose_error_basis`) and simulates once per run: the other solvers' headlines reuse the
-  simulation (``pose_simulation=``, ``Uncertainty.simulation``), each adding its own
+  uncertainty_inputs.pose_error_basis`) and simulates once per run: the other solvers' headlines
+  reuse the simulation (``pose_simulation=``, ``Uncertainty.simulation``), each adding its own
   offset from the minimiser.
 * **Information** (alpha-free, for the verdict): ``F = sum K^T Q^-1 K`` (Fisher information
   of the data under the noise model; alpha cancels exactly).

@@ -75,10 +75,11 @@ def calibration_pose_bias(world, cfg: "VisionConfig | None" = None, cameras=None
     distorted image (:func:`simcalib.world.layout.visible_markers` with the lens
     distortion, as :func:`pose_error_basis`) from up to ``max_frames`` of the
     camera's true poses (evenly spaced over the delivered frames) go through
-    :func:`simcalib.targets.pnp_sensitivity.intrinsics_pose_sensitivity`; ``covariance = J J^T`` plus the
-    marker-map term (``vision.map_position_std_m`` / ``map_rotation_std_deg``, the map's
-    survey accuracy: :func:`simcalib.targets.pnp_sensitivity.map_pose_covariance`). The two cameras' map
-    terms are correlated where they see the same markers; that cross term is not kept.
+    :func:`simcalib.targets.pnp_sensitivity.intrinsics_pose_sensitivity`; ``covariance = J J^T``
+    plus the marker-map term (``vision.map_position_std_m`` / ``map_rotation_std_deg``, the
+    map's survey accuracy: :func:`simcalib.targets.pnp_sensitivity.map_pose_covariance`). The
+    two cameras' map terms are correlated where they see the same markers; that cross term is
+    not kept.
     Empty when the configuration has neither a calibration nor a map error."""
     cfg = VisionConfig() if cfg is None else cfg
     if not isinstance(cfg, VisionConfig):
@@ -121,12 +122,14 @@ def pose_error_basis(world, camera: str, T_world_cam, cfg: "VisionConfig | None"
     map errors of the field's markers (``vision.map_position_std_m`` /
     ``map_rotation_std_deg``, the survey's accuracy; :func:`simcalib.targets.pnp_sensitivity.
     map_pose_jacobians`), then the 8 calibration parameters (``vision.intrinsics_error`` as
-    1-sigma, :func:`calibration_sigmas`; :func:`simcalib.targets.pnp_sensitivity.intrinsics_pose_jacobians`).
-    The map columns are the same parameters for every camera of the world (their errors
+    1-sigma, :func:`calibration_sigmas`;
+    :func:`simcalib.targets.pnp_sensitivity.intrinsics_pose_jacobians`). The map columns are the
+    same parameters for every camera of the world (their errors
     are shared where the cameras see the same markers); each camera's calibration is its
     own. First order, linearised at the given poses with the markers each pose rests on:
-    ``visible`` (F, M) bool (e.g. the ids the PnP used, :attr:`simcalib.sources.vision.stream.VisualFrame.ids_used`), by
-    default those the layout makes fully visible there in the camera's distorted image
+    ``visible`` (F, M) bool (e.g. the ids the PnP used,
+    :attr:`simcalib.sources.vision.stream.VisualFrame.ids_used`), by default those the layout
+    makes fully visible there in the camera's distorted image
     (:func:`simcalib.world.layout.visible_markers` with the lens distortion). Nothing is
     rendered."""
     cfg = VisionConfig() if cfg is None else cfg

@@ -238,7 +238,8 @@ def camera_optics(cameras, intr: dict, eff, entropy: int) -> dict:
 
 def estimator_map(field: MarkerField, eff, entropy: int) -> MarkerField:
     """The marker map the estimator uses: the true ``field`` or, with a map error, one
-    draw of :func:`simcalib.sources.vision.camera_effects.perturbed_map` for the run (both cameras)."""
+    draw of :func:`simcalib.sources.vision.camera_effects.perturbed_map` for the run (both
+    cameras)."""
     if not eff.has_map_error:
         return field
     from dataclasses import replace  # noqa: PLC0415

@@ -46,8 +46,9 @@ class Baseline:
     prior: object = None
     timing_s: dict = field(default_factory=dict)
     #: ``(Ba, Bb, pose_pairs)``: the systematic pose errors of the recorded datapoints
-    #: (:func:`simcalib.pipeline.uncertainty_inputs.pose_error_basis`, full layout) and the motions' datapoint
-    #: pairs; None without such errors (ArUco: map / calibration; robot_fk: DH table)
+    #: (:func:`simcalib.pipeline.uncertainty_inputs.pose_error_basis`, full layout) and the
+    #: motions' datapoint pairs; None without such errors (ArUco: map / calibration; robot_fk:
+    #: DH table)
     pose_error_basis: tuple | None = None
     sources: dict = field(default_factory=dict)   # camera -> pose source name
 
@@ -179,12 +180,13 @@ def advise_motions(world, C, H, X, k: int = 5, *, rng: np.random.Generator, alph
     worst camera); ``refine``: exchange passes after the greedy choice.
 
     ``pose_error_basis``: ``(Ba, Bb, pose_pairs)`` of the recorded datapoints (full layout of
-    :func:`simcalib.pipeline.uncertainty_inputs.pose_error_basis`, ``compress=False``) with ``run_cfg`` (the
-    run's ScenarioConfig) and ``sources`` (camera -> source name): the systematic pose
+    :func:`simcalib.pipeline.uncertainty_inputs.pose_error_basis`, ``compress=False``) with
+    ``run_cfg`` (the run's ScenarioConfig) and ``sources`` (camera -> source name): the
+    systematic pose
     errors (marker map and calibrations for ArUco cameras, the arm's DH table for
     ``robot_fk``) are then part of the choice — each candidate stop's error basis
-    (:func:`simcalib.pipeline.uncertainty_inputs.stop_error_basis`, the markers the layout shows there), and
-    the criterion that of the covariance with those shared errors
+    (:func:`simcalib.pipeline.uncertainty_inputs.stop_error_basis`, the markers the layout shows
+    there), and the criterion that of the covariance with those shared errors
     (:func:`planner.greedy_chain`, ``systematic``); the predicted 1-sigma include them."""
     check_when_determined(when_determined)
     t0 = time.perf_counter()
@@ -407,8 +409,9 @@ def lens_distortion(run_cfg) -> "np.ndarray | None":
 
 
 def _stop_bases(world, cfg, sources, T_world_cam, qpos, P) -> np.ndarray:
-    """``(2, F, 6, P)``: :func:`simcalib.pipeline.uncertainty_inputs.stop_error_basis` of cameras a and b
-    (``sources``: camera -> pose source) at the poses ``T_world_cam[camera]`` (F, 4, 4)
+    """``(2, F, 6, P)``: :func:`simcalib.pipeline.uncertainty_inputs.stop_error_basis` of
+    cameras a and b (``sources``: camera -> pose source) at the poses ``T_world_cam[camera]``
+    (F, 4, 4)
     and joint states ``qpos`` (F, nq); zero where a camera's source has none."""
     from simcalib.pipeline.uncertainty_inputs import stop_error_basis
     qpos = np.asarray(qpos)
@@ -423,8 +426,9 @@ def _stop_bases(world, cfg, sources, T_world_cam, qpos, P) -> np.ndarray:
 def _systematic(world, cand, C, H, X, s_r, s_t, recorded, sources, cfg):
     """``((G_base, B_ref, B_cand), groups)``: for :func:`planner.greedy_chain` the recorded
     motions' summed systematic score and the error bases of the reference and candidate
-    stops (:func:`simcalib.pipeline.uncertainty_inputs.stop_error_basis` of each camera's source), in the
-    columns of the recorded basis, columns no pose uses dropped; ``groups`` the source of
+    stops (:func:`simcalib.pipeline.uncertainty_inputs.stop_error_basis` of each camera's
+    source), in the columns of the recorded basis, columns no pose uses dropped; ``groups`` the
+    source of
     each kept column (:data:`UNCERTAINTY_SOURCES`)."""
     Ba, Bb, pairs = recorded
     Ba, Bb = np.asarray(Ba, dtype=np.float64), np.asarray(Bb, dtype=np.float64)
@@ -442,8 +446,8 @@ def _systematic(world, cand, C, H, X, s_r, s_t, recorded, sources, cfg):
 
 
 #: each source of X's predicted uncertainty (:func:`limited_by`): name -> (its columns in
-#: :func:`simcalib.pipeline.uncertainty_inputs.basis_layout`, None for the white noise; a short name; what would
-#: lower its share)
+#: :func:`simcalib.pipeline.uncertainty_inputs.basis_layout`, None for the white noise; a short
+#: name; what would lower its share)
 UNCERTAINTY_SOURCES = {
     "white noise": (None, "the pose noise", "more stops, or several frames averaged at "
                     "each stop (stop_frames=), lower it"),

@@ -350,8 +350,8 @@ def scenario_coverage(label: str, data: list, method: str = "dqopt", level=0.95,
 def aruco_trial(seed: int, keep_data: bool = False, overrides=()) -> dict:
     """One seed of ``3d`` with ArUco poses, as a run solves it for its headline (dqopt at the
     data-chosen alpha, ``pose_pairs`` and the systematic pose errors of the marker map and
-    the calibrations, :func:`simcalib.pipeline.uncertainty_inputs.pose_error_basis`): coverage records against
-    the true X (``run``) and against X without the run-constant pose error
+    the calibrations, :func:`simcalib.pipeline.uncertainty_inputs.pose_error_basis`): coverage
+    records against the true X (``run``) and against X without the run-constant pose error
     (``observable``), and of the first-order model with the calibration term instead
     (``first_order``, the model before the systematic simulation). ``keep_data``: also the
     data tuple of :func:`scenario_data` (for the flag and alpha rows). ``overrides``: extra
