@@ -3,6 +3,7 @@ registered solvers. Imports neither MuJoCo, rerun nor OpenCV."""
 
 from __future__ import annotations
 
+from simcalib.cli import command
 from simcalib.errors import UsageError
 
 USAGE = """usage: python -m simcalib list
@@ -12,6 +13,8 @@ description), the sweep files (scenarios/sweeps/) and the registered solvers.
 """
 
 
+@command('list', summary='list scenarios and solvers',
+         usage='list')
 def main(args: list[str]) -> int:
     if any(a in ("-h", "--help") for a in args):
         print(USAGE, end="")
