@@ -36,9 +36,8 @@ def _small_cfg(source):
 
 
 def _rngs(seed=0):
-    from simcalib.pipeline.stages import RNG_STREAMS
-    ss = np.random.SeedSequence(seed).spawn(len(RNG_STREAMS))
-    return {n: np.random.default_rng(s) for n, s in zip(RNG_STREAMS, ss)}
+    from simcalib.pipeline.stages import run_rngs
+    return run_rngs(seed)
 
 
 def test_registry_finds_the_source_files_and_rejects_unknown_names():

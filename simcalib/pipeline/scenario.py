@@ -37,31 +37,13 @@ __all__ = ["ALIASES", "NoiseConfig", "PairingConfig", "PriorConfig", "RecordingC
 
 
 # ----------------------------------------------------------------- composed sections
-def _placeholder(name: str, module: str):
-    """Stand-in section when a stage module is not installed (no keys accepted)."""
-    cls = dataclasses.make_dataclass(name, [], frozen=True)
-    cls.__doc__ = f"({module} is not available in this installation)"
-    cls._simcalib_missing = module
-    return cls
-
-
-try:  # the simulated world
-    from simcalib.world.config import WorldConfig
-except ImportError:  # pragma: no cover - only while the world branch is missing
-    WorldConfig = _placeholder("WorldConfig", "simcalib.world")
-try:  # the visual pose source
-    from simcalib.sources.vision.config import VisionConfig
-except ImportError:  # pragma: no cover
-    VisionConfig = _placeholder("VisionConfig", "simcalib.sources.vision.stream")
 from simcalib.estimation.config import EstimationConfig  # noqa: E402
 from simcalib.sources.corruption import OutliersConfig  # noqa: E402
 from simcalib.sources.selection import StreamsConfig  # noqa: E402
+from simcalib.sources.vision.config import VisionConfig  # noqa: E402
+from simcalib.world.config import WorldConfig  # noqa: E402
 from simcalib.world.robot_error import RobotConfig  # noqa: E402
-
-try:  # the synthetic generator of appendix D.2
-    from simcalib.world.synthetic import SyntheticConfig
-except ImportError:  # pragma: no cover
-    SyntheticConfig = _placeholder("SyntheticConfig", "simcalib.world.synthetic")
+from simcalib.world.synthetic import SyntheticConfig  # noqa: E402
 
 
 def _doc(text: str) -> dict:
@@ -194,11 +176,10 @@ class VerdictConfig:
                                                 self.convergence_points, lo=0, hi=100))
 
 
-from simcalib.sources import available_sources, sources_for_kind  # noqa: E402
+from simcalib.sources import KINDS, available_sources, sources_for_kind  # noqa: E402
 
 #: the pose sources of a simulated world: whatever registered itself (simcalib.sources)
 SOURCES = sources_for_kind("sim")
-KINDS = ("sim", "synthetic")
 
 
 @dataclass(frozen=True)
@@ -206,7 +187,7 @@ class ScenarioConfig:
     """One end-to-end run: world -> pose streams -> motion pairs -> solvers -> evaluation."""
     scenario: str = field(default="custom", metadata=_doc("scenario name"))
     description: str = field(default="", metadata=_doc("one-line description"))
-    kind: Literal["sim", "synthetic"] = field(default="sim", metadata=_doc(
+    kind: Literal[KINDS] = field(default="sim", metadata=_doc(
         "sim: MuJoCo world (world.*, vision.*); synthetic: paper appendix D.2 (synthetic.*)"))
     source: str = field(
         default="aruco", metadata=_doc("pose source of both streams (unless streams.a/b.source "
@@ -276,18 +257,8 @@ class ScenarioConfig:
                 raise ConfigError(f"prior.methods: {', '.join(no_prior)} cannot use a prior; "
                                   f"methods with a prior: {', '.join(ok)}",
                                   key="prior.methods", value=list(self.prior.methods))
-        if self.kind == "synthetic" and not getattr(type(self.synthetic), "_simcalib_missing",
-                                                    None):
+        if self.kind == "synthetic":
             self._sync_synthetic_noise()
-        missing = getattr(type(self.world if self.kind == "sim" else self.synthetic),
-                          "_simcalib_missing", None)
-        if missing:
-            raise ConfigError(f"kind={self.kind} needs {missing}, which is not available "
-                              "in this installation", key="kind", value=self.kind)
-        if self.kind == "sim" and available_sources()[self.source].needs_markers and getattr(
-                type(self.vision), "_simcalib_missing", None):
-            raise ConfigError(f"source={self.source} needs simcalib.sources.vision.stream, which is not available "
-                              "in this installation", key="source", value=self.source)
         if self.kind == "sim":
             from simcalib.pipeline.feasibility import check_outdoor_source, check_path_feasible
             check_outdoor_source(self)

@@ -32,7 +32,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from simcalib.pipeline.scenario import ScenarioConfig
-from simcalib.sources import get_source
+from simcalib.sources import CAMERAS, get_source
 from simcalib.evaluation import estimate_errors, pose_source_errors
 from simcalib.geometry import (matrix_from_rotvec, rotation_error_rad,
                                transform_from_rotation_translation)
@@ -44,13 +44,18 @@ if TYPE_CHECKING:  # types of the state only; the stages import lazily
     from simcalib.streams import PoseStream
 
 __all__ = ["RunResult", "RunState", "SolverResult", "RunInterrupted", "run", "STAGES",
-           "RNG_STREAMS", "run_rngs", "state_through_pairs"]
+           "RNG_STREAMS", "RunRngs", "run_rngs", "state_through_pairs"]
 
 STAGES = ("world", "streams", "pairs", "solvers", "evaluation", "reports")
-CAMERAS = ("cam_a", "cam_b")
-# order of the child generators spawned from the run's seed (never reorder: determinism)
+#: The random streams that existed when seeds were first fixed: child ``i`` of
+#: ``SeedSequence(seed)`` is ``RNG_STREAMS[i]``. This tuple is history, not a registry: it
+#: fixes every seed's draws of these streams, so it is never reordered or extended. Any
+#: other name (a new stage's, or a new pose source's ``SourceInfo.rng_stream``) gets a
+#: stream derived from its name (:func:`run_rngs`), so a new source edits no list.
 RNG_STREAMS = ("world", "noise", "vision", "synthetic", "pairing", "solvers", "prior",
                "robot", "encoders", "outliers")
+#: first word of the spawn key of a stream named after :data:`RNG_STREAMS` ("name")
+_NAMED_STREAM = 0x6E616D65
 
 
 @dataclass(frozen=True)
@@ -221,10 +226,30 @@ def _stages():
             ("reports", _stage_reports))
 
 
-def run_rngs(seed: int) -> dict:
-    """One generator per stage (:data:`RNG_STREAMS`), children of ``SeedSequence(seed)``."""
-    children = np.random.SeedSequence(seed).spawn(len(RNG_STREAMS))
-    return {name: np.random.default_rng(s) for name, s in zip(RNG_STREAMS, children)}
+class RunRngs(dict):
+    """The run's generators by stream name: the :data:`RNG_STREAMS` by position, any
+    other name on first use from ``SeedSequence(seed, spawn_key=("name", crc32(name)))``
+    (independent of the positional ones and of each other, the same in every process)."""
+
+    def __init__(self, seed: int):
+        children = np.random.SeedSequence(seed).spawn(len(RNG_STREAMS))
+        super().__init__((name, np.random.default_rng(s))
+                         for name, s in zip(RNG_STREAMS, children))
+        self.seed = int(seed)
+
+    def __missing__(self, name: str) -> np.random.Generator:
+        if not isinstance(name, str) or not name:
+            raise KeyError(name)
+        import zlib
+        key = (_NAMED_STREAM, zlib.crc32(name.encode("utf-8")))
+        rng = np.random.default_rng(np.random.SeedSequence(self.seed, spawn_key=key))
+        self[name] = rng
+        return rng
+
+
+def run_rngs(seed: int) -> RunRngs:
+    """One generator per stream name (:class:`RunRngs`), children of ``seed``."""
+    return RunRngs(seed)
 
 
 def state_through_pairs(cfg, truth=None) -> "RunState":

@@ -57,8 +57,9 @@ class SourceInfo:
 
     ``name``: registry name (``source=<name>``); ``description``: one line;
     ``kinds``: the ``kind`` of ground truth it can measure (``"sim"``, ``"synthetic"``);
-    ``rng_stream``: which child generator of the run's seed it draws from (a name of
-    ``simcalib.pipeline.stages.RNG_STREAMS``; never share one between sources);
+    ``rng_stream``: the name of the generator of the run's seed it draws from (any name:
+    :func:`simcalib.pipeline.stages.run_rngs` gives each name its own stream; a new
+    source takes a new name);
     ``exact``: its poses are the ground truth (no TUM file / no separate trajectory);
     ``renders``: it renders images (slow; ``workers`` applies);
     ``needs_markers``: it measures against the marker field (no source for an outdoor
