@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal, Mapping, Sequence
@@ -183,8 +184,9 @@ SOURCES = sources_for_kind("sim")
 
 
 @dataclass(frozen=True)
-class ScenarioConfig:
-    """One end-to-end run: world -> pose streams -> motion pairs -> solvers -> evaluation."""
+class _ScenarioSections:
+    """The scenario's own sections and the shared ones; :data:`ScenarioConfig` adds the
+    sections the registered pose sources own (``SourceInfo.config``)."""
     scenario: str = field(default="custom", metadata=_doc("scenario name"))
     description: str = field(default="", metadata=_doc("one-line description"))
     kind: Literal[KINDS] = field(default="sim", metadata=_doc(
@@ -261,7 +263,10 @@ class ScenarioConfig:
             self._sync_synthetic_noise()
         if self.kind == "sim":
             from simcalib.pipeline.feasibility import check_outdoor_source, check_path_feasible
+            from simcalib.sources import camera_sources, get_source
             check_outdoor_source(self)
+            for name in dict.fromkeys(camera_sources(self, "sim").values()):
+                get_source(name, "sim").check_config(self)
             check_path_feasible(self)
 
     def _check_source(self):
@@ -308,6 +313,35 @@ class ScenarioConfig:
     @property
     def is_sweep(self) -> bool:
         return isinstance(self.alpha, tuple) and len(self.alpha) > 1
+
+
+def _assemble(base: type) -> type:
+    """``ScenarioConfig``: ``base`` plus one section ``<name>`` per registered pose source
+    that owns one (``SourceInfo.config``), in name order, after the built-in sections."""
+    taken = {f.name for f in dataclasses.fields(base)}
+    sections = []
+    for name, info in available_sources().items():
+        if info.config is None:
+            continue
+        if name in taken:
+            raise TypeError(f"pose source {name!r} owns a config section, but {name!r} is "
+                            "already a key of the scenario; rename the source")
+        sections.append((name, info.config, field(
+            default_factory=info.config,
+            metadata=_doc(f"pose source {name}: {info.description}"))))
+    cls = dataclasses.make_dataclass("ScenarioConfig", sections, bases=(base,), frozen=True)
+    cls.__module__ = __name__
+    hints = typing.get_type_hints(cls)
+    cls.__doc__ = ("One end-to-end run: world -> pose streams -> motion pairs -> solvers "
+                   "-> evaluation. Sections: " + ", ".join(
+                       n for n, tp in hints.items() if dataclasses.is_dataclass(tp)) + ".")
+    return cls
+
+
+#: One end-to-end run (the scenario schema): the sections above plus each pose source's
+#: own (``SourceInfo.config``: a new source with settings adds its section here without
+#: editing this file).
+ScenarioConfig = _assemble(_ScenarioSections)
 
 
 def _check_solver_names(names: Sequence[str], key: str) -> None:
