@@ -12,7 +12,8 @@ from simcalib.world.platforms.base import Platform, PlatformInfo, PlatformMotion
 # the platform files register themselves when the first lookup imports every module of
 # this folder (PLATFORM_REGISTRY.load())
 from simcalib.world.platforms.registry import (PLATFORM_REGISTRY, available_platforms,
-                                               combinations, get_platform, register)
+                                               get_platform, register)
+from simcalib.world.paths import combinations  # noqa: E402
 
 __all__ = ["PLATFORM_REGISTRY", "Platform", "PlatformInfo", "PlatformMotion", "available_platforms",
            "combinations", "get_platform", "register"]
