@@ -380,6 +380,21 @@ class WorldConfig:
             check_that(c.capture_jitter_s <= 0.25 * period, f"{cam}.capture_jitter_s",
                        c.capture_jitter_s, f"<= a quarter of the frame period "
                        f"({0.25 * period:.4g} s) so capture times stay ordered")
+        self._check_platform()
+
+    def _check_platform(self) -> None:
+        """The platform's own check of the configuration (``check_config``, optional:
+        e.g. a path it cannot follow), before any work."""
+        from simcalib.world.platforms import get_platform
+        check = getattr(get_platform(self.platform), "check_config", None)
+        if check is None:
+            return
+        try:
+            check(self)
+        except ConfigError:
+            raise
+        except ValueError as exc:
+            raise ConfigError(str(exc), key="path", value=self.path) from None
 
     @property
     def n_frames(self) -> int:
