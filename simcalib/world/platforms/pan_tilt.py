@@ -42,7 +42,8 @@ PIVOT_HEIGHT_M = 1.20
 RIG_MOUNT_M = (0.0, 0.0, 0.08)
 #: Mechanical tilt range, either way from level, degrees.
 TILT_LIMIT_DEG = 60.0
-#: How far a path pose may be from a pure pan x tilt rotation about the pivot (m, rad).
+#: How far a path pose may be from a pure pan x tilt rotation about the pivot (m, rad):
+#: numerical rounding only.
 _TOL = 1e-9
 
 #: rig frame in the head frame: z_rig = +x, y_rig = -z, x_rig = -y (as the cart's mount)
@@ -64,19 +65,24 @@ def pan_tilt_angles(T_world_target: np.ndarray, pivot: np.ndarray, t: np.ndarray
     R_fit[:, 0] = np.stack([c * ct, -s, c * st], axis=-1)
     R_fit[:, 1] = np.stack([s * ct, c, s * st], axis=-1)
     R_fit[:, 2] = np.stack([-st, np.zeros_like(st), ct], axis=-1)
-    off_rot = np.abs(R - R_fit).max(axis=(1, 2))
+    # angle between R and R_fit: |R - R_fit|_F = 2 sqrt(2) sin(angle / 2) (exact when small)
+    chord = np.linalg.norm(R - R_fit, axis=(1, 2)) / (2.0 * math.sqrt(2.0))
+    off_rot = 2.0 * np.arcsin(np.clip(chord, 0.0, 1.0))
     off_pos = np.linalg.norm(T[:, :3, 3] - np.asarray(pivot), axis=1)
     too_far = np.abs(tilt) > math.radians(TILT_LIMIT_DEG) + _TOL
-    bad = (off_rot > 1e-7) | (off_pos > 1e-7) | too_far
+    bad = (off_rot > _TOL) | (off_pos > _TOL) | too_far
     if bad.any():
         k = int(np.flatnonzero(bad)[0])
-        why = (f"tilts {math.degrees(tilt[k]):.1f} deg (the unit's range is "
-               f"+-{TILT_LIMIT_DEG:g} deg)" if too_far[k] else
-               f"moves the head {off_pos[k] * 1e3:.3g} mm off the pivot and "
-               f"{math.degrees(off_rot[k]):.3g} deg off a pan x tilt rotation (it can only "
-               "pan and tilt: no translation, no roll)")
+        why = [f"tilts {math.degrees(tilt[k]):.1f} deg (the unit's range is "
+               f"+-{TILT_LIMIT_DEG:g} deg)"] if too_far[k] else []
+        if off_pos[k] > _TOL:
+            why.append(f"moves the head {off_pos[k] * 1e3:.3g} mm off the pivot")
+        if off_rot[k] > _TOL:
+            why.append(f"turns the head {math.degrees(off_rot[k]):.3g} deg off any pan x "
+                       "tilt rotation (a roll)")
         raise ValueError(f"the pan-tilt unit cannot follow the path at t = {t[k]:.3f} s: it "
-                         f"{why}")
+                         f"{' and '.join(why)}; it can only pan and tilt (no translation, "
+                         "no roll)")
     return pan, tilt
 
 
