@@ -34,6 +34,21 @@ def test_list_shows_scenarios_with_descriptions_and_solvers(capsys):
     assert main(["list", "--help"]) == 0
 
 
+def test_list_shows_every_registered_extension(capsys):
+    from simcalib.executors import available as executors
+    from simcalib.importers import available as formats
+    from simcalib.sources import available_sources
+    from simcalib.studies.experiments import EXPERIMENTS
+    from simcalib.world.platforms import available_platforms
+    assert main(["list"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    for names in (available_sources(), available_platforms(), formats(), executors(),
+                  EXPERIMENTS.names()):
+        assert names
+        for name in names:
+            assert any(line.strip().startswith(name + " ") for line in lines), name
+
+
 @pytest.mark.parametrize("argv, fragment", [
     (["frobnicate"], "unknown command 'frobnicate'"),
     (["rn"], "did you mean 'run'"),
