@@ -119,7 +119,9 @@ def test_a_run_reports_the_offset_error_in_the_estimate_and_its_sigma(tmp_path):
                              f"output={tmp_path}"])
     res = run(cfg)
     (sol,) = res.solvers
-    assert res.sensing["calibration_bias"]["included"]
+    report = res.sensing["calibration_bias"]
+    assert report["included"] and report["source"].startswith("mocap.offset_sigma_deg")
+    assert set(report["cameras"]) == {"cam_a", "cam_b"}
     assert sol.success and sol.translation_error_m > 5e-4          # the offset, not noise
     # the offset errors are 1-sigma 2 mm / 0.3 deg per axis and camera: the predicted
     # sigma of X covers them (it would not without the bias term)

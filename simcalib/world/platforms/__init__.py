@@ -2,10 +2,11 @@
 
     from simcalib.world.platforms import available_platforms, combinations, get_platform
 
-Built-in: ``cart`` (kinematic mocap cart), ``arm`` (UR5e posed by IK, or executing the
-IK path under joint control in physics: ``world.arm.control``), ``car`` (car-scale vehicle
-in physics, outdoors). Each module is
-light (MuJoCo is imported inside the methods). See :mod:`simcalib.world.platforms.base`.
+The platforms are whatever files of this folder registered themselves
+(``available_platforms()``, ``python -m simcalib list``): e.g. ``cart`` (kinematic mocap
+cart), ``arm`` (UR5e posed by IK, or executing the IK path under joint control in physics),
+``car`` (car-scale vehicle in physics, outdoors), ``pan_tilt`` (rotation only). Each module
+is light (MuJoCo is imported inside the methods). See :mod:`simcalib.world.platforms.base`.
 """
 
 from simcalib.world.platforms.base import Platform, PlatformInfo, PlatformMotion
