@@ -92,8 +92,7 @@ def _register(name, description, defaults, degenerate=""):
 
 def available_paths() -> dict[str, PathInfo]:
     """All registered paths by name (metadata: platforms, description, default params)."""
-    extra = _platform_defaults()
-    return {name: _with(info, extra.get(name)) for name, info in PATHS.available().items()}
+    return dict(_merged())
 
 
 def get_path(name: str) -> PathInfo:
@@ -101,7 +100,23 @@ def get_path(name: str) -> PathInfo:
     ones, sorted)."""
     if isinstance(name, str) and name not in PATHS:
         raise unknown_choice("path", name, sorted(PATHS.names()), key="world.path")
-    return _with(PATHS.info(name), _platform_defaults().get(name))
+    return _merged()[name]
+
+
+#: (the registered paths and platforms) -> their merged PathInfos: rebuilt when an entry
+#: is added or removed, so a lookup returns the same object while nothing changed
+_MERGED: dict = {}
+
+
+def _merged() -> dict[str, PathInfo]:
+    from simcalib.world.platforms.registry import PLATFORM_REGISTRY
+    key = (tuple((n, id(o)) for n, o in PATHS.items()),
+           tuple((n, id(o)) for n, o in PLATFORM_REGISTRY.items()))
+    if _MERGED.get("key") != key:
+        extra = _platform_defaults()
+        _MERGED.update(key=key, infos={name: _with(info, extra.get(name))
+                                        for name, info in PATHS.available().items()})
+    return _MERGED["infos"]
 
 
 def combinations() -> dict[str, tuple[str, ...]]:
