@@ -60,7 +60,7 @@ def test_every_format_round_trips_and_is_detected(tmp_path, rig, name):
     them to us; the file alone is detected as that format and reads back the same poses
     (and stamps, unless the format has none)."""
     from simcalib.importers import FORMATS, write_pose_streams
-    n = 40
+    n = 12
     a = stream_from_arrays(rig.t_a[:n], rig.T_a[:n], name="a")
     b = stream_from_arrays(rig.t_a[:n] + 0.5, rig.T_a[:n] @ rig.X, name="b")
     two = FORMATS.info(name)["two_streams"]
@@ -125,6 +125,49 @@ def test_kitti_format_of_the_kitti00_recording_calibrates_like_its_tum_copy(tmp_
     r_kitti = calibrate_streams(files[0], b)
     r_tum = calibrate_streams(REAL / "kitti00_orb" / "a.txt", b)
     assert np.allclose(r_kitti.X, r_tum.X, atol=1e-6)
+
+
+EUROC_HEADER = ("#timestamp, p_RS_R_x [m], p_RS_R_y [m], p_RS_R_z [m], q_RS_w [], q_RS_x [], "
+                "q_RS_y [], q_RS_z [], v_RS_R_x [m s^-1], v_RS_R_y [m s^-1], v_RS_R_z [m s^-1], "
+                "b_w_RS_S_x [rad s^-1], b_w_RS_S_y [rad s^-1], b_w_RS_S_z [rad s^-1], "
+                "b_a_RS_S_x [m s^-2], b_a_RS_S_y [m s^-2], b_a_RS_S_z [m s^-2]")
+
+
+def test_euroc_ground_truth_and_position_only_files(tmp_path, rig):
+    """state_groundtruth_estimate0/data.csv as EuRoC ships it: nanosecond stamps since the
+    epoch, quaternion scalar first, velocity and biases after the pose."""
+    t_ns = 1403715273262142976 + np.round(rig.t_a[:20] * 1e9).astype(np.int64)
+    R = _rows(rig.t_a[:20], rig.T_a[:20], "wxyz")
+    p = tmp_path / "data.csv"
+    with p.open("w") as f:
+        f.write(EUROC_HEADER + "\n")
+        for tn, r in zip(t_ns, R):
+            f.write(f"{tn}," + ",".join(f"{v:.9f}" for v in r[1:]) + ",0.1" * 9 + "\n")
+    s = read_pose_stream(p)
+    assert s.format == "euroc" and s.quat_order == "wxyz" and not s.synthetic_time
+    assert np.allclose(s.T_world_sensor, rig.T_a[:20], atol=1e-8)
+    np.testing.assert_allclose(np.diff(s.timestamps_s), np.diff(rig.t_a[:20]), atol=1e-6)
+    assert abs(s.timestamps_s[0] - 1403715273.262143) < 1e-6
+    leica = tmp_path / "leica.csv"          # leica0: a prism's positions, no orientation
+    leica.write_text("#timestamp [ns],p_RS_R_x [m],p_RS_R_y [m],p_RS_R_z [m]\n"
+                     "1403715273262142976,1.0,2.0,3.0\n")
+    with pytest.raises(ValueError, match=r"missing \['q_RS_x'.*positions alone"):
+        read_pose_stream(leica, format="euroc")
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not (REAL / "euroc_v102").is_dir(), reason=f"real data sets not "
+                    f"present at {REAL}")
+def test_euroc_form_of_the_v102_ground_truth_reads_like_its_tum_copy(tmp_path):
+    """The V1_02 ground truth (shipped as TUM, converted from EuRoC's CSV) written back as
+    EuRoC: read as euroc, the same 200 Hz stream to the stamp."""
+    from simcalib.importers import write_pose_streams
+    tum = read_pose_stream(REAL / "euroc_v102" / "a.txt")
+    (f,) = write_pose_streams(tmp_path / "data.csv", [tum], "euroc")
+    s = read_pose_stream(f)
+    assert s.format == "euroc" and s.n == tum.n and s.rate_hz == pytest.approx(200, rel=0.01)
+    assert np.allclose(s.T_world_sensor, tum.T_world_sensor, atol=1e-8)
+    assert np.abs(s.timestamps_s - tum.timestamps_s).max() < 1e-6
 
 
 def test_simcalib_tum_and_plain_tum(tmp_path, rig):
