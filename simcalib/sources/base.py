@@ -18,11 +18,11 @@ from typing import Mapping, Protocol, runtime_checkable
 
 import numpy as np
 
+from simcalib.streams import CAMERAS
+
 __all__ = ["CAMERAS", "GroundTruth", "SourceInfo", "SourceOutput", "PoseSource",
            "SourceHooks"]
 
-#: The cameras (streams) of a run, in the order rng children are assigned to them.
-CAMERAS = ("cam_a", "cam_b")
 
 
 @dataclass(frozen=True)
