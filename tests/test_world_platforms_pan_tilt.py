@@ -12,7 +12,7 @@ import pytest
 from simcalib.errors import ConfigError
 from simcalib.geometry import invert_transform, rotvec_from_matrix
 from simcalib.world import WorldConfig, build_world
-from simcalib.world.paths import compose_path, sample_path
+from simcalib.world.paths import sample_path
 from simcalib.world.platforms.pan_tilt import (PIVOT_HEIGHT_M, TILT_LIMIT_DEG,
                                                pan_tilt_angles)
 
