@@ -1,13 +1,20 @@
 """Command line: ``python -m simcalib <command> ...`` (also the ``simcalib`` console script).
 
-A thin layer over the library. Each command is a function ``(args: list[str]) -> int`` in
-its own module, named in the :data:`COMMANDS` table as ``"module:function"`` and imported
-only when the command runs (``list`` imports neither MuJoCo, rerun nor OpenCV). To add a
-command, add one row to the table (or call :func:`register_command`)::
+A thin layer over the library. Each command is one module of ``simcalib/commands/`` that
+registers itself in :data:`COMMANDS` (a :class:`simcalib.registry.Registry`: the first
+lookup imports every module of that folder, so a new command is one new file and no list
+to edit)::
 
-    COMMANDS["calibrate"] = Command("simcalib.commands.calibrate:main",
-                                    "calibrate from recorded pose files",
-                                    "calibrate FILE_A FILE_B [key=value ...]")
+    from simcalib.cli import command
+
+    @command("calibrate", summary="calibrate X from two recorded pose files",
+             usage="calibrate a=PATH b=PATH output=DIR [key=value ...]")
+    def main(args: list[str]) -> int: ...
+
+A command whose code lives elsewhere registers a ``"module:function"`` target, imported
+only when the command runs (``register_command("bench", "simcalib.studies.bench.solvers:
+main", summary=...)``). The command modules are light (their heavy imports happen inside
+``main``), so ``list`` and ``--help`` import neither MuJoCo, rerun nor OpenCV.
 
 :func:`main` never raises for a user error: every typed error
 (:mod:`simcalib.errors`) becomes a one-line message on stderr and its exit code (0 ok, 1
@@ -25,10 +32,10 @@ from dataclasses import dataclass
 from typing import Callable, Sequence
 
 from simcalib.errors import (EXIT_CODES, EXIT_FAILURE, EXIT_INTERRUPTED, EXIT_OK,
-                             EXIT_USAGE, SimcalibError, UsageError, exit_code,
-                             unknown_choice)
+                             EXIT_USAGE, SimcalibError, UsageError, exit_code)
+from simcalib.registry import Registry
 
-__all__ = ["COMMANDS", "Command", "UsageError", "main", "register_command"]
+__all__ = ["COMMANDS", "Command", "UsageError", "command", "main", "register_command"]
 
 PROG = "simcalib"
 
@@ -38,13 +45,17 @@ DEBUG_FLAGS = ("--debug", "--traceback")
 
 @dataclass(frozen=True)
 class Command:
-    """A sub-command: ``target`` is ``"module:function"`` (the function takes the remaining
-    arguments and returns the exit code), imported when the command runs."""
-    target: str
+    """A registered sub-command: ``target`` is the function (it takes the remaining
+    arguments and returns the exit code) or ``"module:function"``, imported when the
+    command runs; ``summary`` one line of the help; ``usage`` its synopsis."""
+    name: str
+    target: Callable[[list[str]], int] | str
     summary: str
     usage: str = ""
 
     def load(self) -> Callable[[list[str]], int]:
+        if callable(self.target):
+            return self.target
         module, _, func = self.target.partition(":")
         mod = importlib.import_module(module)
         fn = getattr(mod, func or "main", None)
@@ -52,45 +63,55 @@ class Command:
             raise UsageError(f"{module} has no {func or 'main'}(args)")
         return fn
 
-
-#: name -> command, in the order of the help text
-COMMANDS: dict[str, Command] = {
-    "run": Command("simcalib.commands.run:main",
-                   "simulate, pair, solve and evaluate one scenario",
-                   "run scenario=NAME [key=value ...] [--dry-run]"),
-    "list": Command("simcalib.commands.list:main", "list scenarios and solvers", "list"),
-    "calibrate": Command("simcalib.commands.calibrate:main",
-                         "calibrate X from two recorded pose files (offset, outliers)",
-                         "calibrate a=PATH b=PATH output=DIR [key=value ...]"),
-    "experiment": Command("simcalib.studies.experiments:main", "reproduce the paper's experiments",
-                          "experiment NAME [key=value ...]"),
-    "sweep": Command("simcalib.commands.sweep:main",
-                     "run a study of many runs (grid / zip / random axes x seeds)",
-                     "sweep FILE [key=value ...] output=DIR | sweep report|status DIR"),
-    "advise": Command("simcalib.commands.advise:main",
-                      "which motions to record next (verified in simulation)",
-                      "advise scenario=NAME|a=PATH b=PATH platform=P [k=5] output=DIR"),
-    "bench": Command("simcalib.studies.bench.solvers:main", "solver benchmark (Table-1-like timings)",
-                     "bench [...]"),
-    "bench-vision": Command("simcalib.studies.bench.vision:main",
-                            "visual pose accuracy and throughput benchmark",
-                            "bench-vision [...]"),
-}
+    @property
+    def module(self) -> str:
+        """The module that holds the command's code."""
+        if callable(self.target):
+            return getattr(self.target, "__module__", "")
+        return self.target.partition(":")[0]
 
 
-def register_command(name: str, target: str, summary: str, usage: str = "") -> None:
-    """Add (or replace) a sub-command: ``target`` is ``"module:function"``."""
-    if not name or name.startswith("-"):
-        raise ValueError(f"command name must be a word; received {name!r}")
-    COMMANDS[name] = Command(target, summary, usage or name)
+def _command_info(name: str, target, *, summary: str, usage: str = "") -> Command:
+    if not name or name.startswith("-") or any(c.isspace() for c in name):
+        raise ValueError(f"a command name must be one word; received {name!r}")
+    if not (callable(target) or (isinstance(target, str) and ":" in target)):
+        raise TypeError(f"command {name!r} needs a function or a 'module:function' target; "
+                        f"received {target!r}")
+    if not isinstance(summary, str) or not summary.strip():
+        raise ValueError(f"command {name!r} needs a one-line summary")
+    return Command(name, target, summary, usage or name)
+
+
+#: name -> command; the files of ``simcalib/commands/`` register themselves (help lists
+#: them by name)
+COMMANDS: Registry = Registry("command", package="simcalib.commands", error=UsageError,
+                              info=_command_info)
+
+
+def command(name: str, *, summary: str, usage: str = ""):
+    """Decorator registering ``main(args) -> int`` as the sub-command ``name``."""
+    return COMMANDS.register(name, summary=summary, usage=usage)
+
+
+def register_command(name: str, target: Callable | str, summary: str,
+                     usage: str = "") -> None:
+    """Register the sub-command ``name``: ``target`` a function or ``"module:function"``
+    (imported when the command runs)."""
+    COMMANDS.register(name, target, summary=summary, usage=usage)
+
+
+def commands() -> list[Command]:
+    """Every registered command, by name."""
+    return [COMMANDS.info(n) for n in sorted(COMMANDS.names())]
 
 
 def usage() -> str:
-    width = max(len(c.usage or n) for n, c in COMMANDS.items())
+    cmds = commands()
+    width = max(len(c.usage) for c in cmds)
     lines = [f"usage: python -m {PROG} [--debug] <command> [args]   "
              f"(or: {PROG} <command> [args])", "", "commands:"]
-    for name, cmd in COMMANDS.items():
-        lines.append(f"  {cmd.usage or name:<{width}}  {cmd.summary}")
+    for cmd in cmds:
+        lines.append(f"  {cmd.usage:<{width}}  {cmd.summary}")
     lines += ["", f"Run '{PROG} <command> --help' for a command's options.",
               "--debug (or SIMCALIB_DEBUG=1) shows the Python traceback of an error.",
               "", "exit codes:"]
@@ -156,10 +177,9 @@ def _debug_traceback(debug: bool) -> None:
 
 
 def _run_command(cmd: str, rest: list[str]) -> int:
-    if cmd not in COMMANDS:
-        raise unknown_choice("command", cmd, COMMANDS, error=UsageError)
-    command = COMMANDS[cmd]
-    module = command.target.partition(":")[0]
+    COMMANDS.get(cmd)                 # an unknown name: did you mean ..., available: ...
+    command = COMMANDS.info(cmd)
+    module = command.module
     try:
         fn = command.load()
     except ModuleNotFoundError as exc:

@@ -16,7 +16,8 @@ paths, importers, executors, commands, experiments).
 **metadata)`` when the registry was given an ``info`` factory (usually a frozen dataclass
 such as ``SolverInfo``), else ``obj.info`` when the object carries one, else the metadata
 as a read-only mapping. A name registered twice is refused (the same object again is a
-no-op: a module imported twice under one name re-registers nothing new).
+no-op: a module imported twice under one name re-registers nothing new);
+``unregister(name)`` removes an entry (a test's temporary one).
 
 **Discovery.** With ``package="simcalib.executors"`` the first lookup imports every module
 of that package folder once (``pkgutil``, names starting with ``_`` skipped), so a new file
@@ -97,6 +98,13 @@ class Registry(Generic[T]):
             self._check(name, obj)
         self._infos[name] = self._make_info(name, obj, metadata)
         self._objects[name] = obj
+        return obj
+
+    def unregister(self, name: str) -> Any:
+        """Remove ``name`` and return its object (a test's temporary entry, a plug-in
+        reloaded under the same name); an unknown name raises like :meth:`get`."""
+        obj = self.get(name)
+        del self._objects[name], self._infos[name]
         return obj
 
     def _make_info(self, name: str, obj: Any, metadata: dict) -> Any:

@@ -11,7 +11,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["CameraFrames", "CameraIntrinsics", "PoseStream", "Trajectory"]
+__all__ = ["CAMERAS", "CameraFrames", "CameraIntrinsics", "PoseStream", "Trajectory"]
+
+#: The cameras (streams) of a rig, in the order a run's generators are split between them.
+CAMERAS = ("cam_a", "cam_b")
 
 
 @dataclass(frozen=True)

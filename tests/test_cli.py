@@ -10,8 +10,12 @@ from simcalib.cli import main
 def test_top_level_help(capsys):
     assert main(["--help"]) == 0
     out = capsys.readouterr().out
-    for cmd in ("run scenario=NAME", "list", "bench", "experiment", "bench-vision"):
-        assert cmd in out
+    from simcalib.cli import COMMANDS
+    for name in COMMANDS.names():         # every registered command, with its usage
+        cmd = COMMANDS.info(name)
+        assert any(line.strip().startswith(cmd.usage) and cmd.summary in line
+                   for line in out.splitlines()), name
+    assert "run scenario=NAME" in out
     assert main([]) == 2  # no command: usage, non-zero
 
 
@@ -32,6 +36,21 @@ def test_list_shows_scenarios_with_descriptions_and_solvers(capsys):
         assert any(line.strip().startswith(name + " ") for line in out.splitlines()), name
     assert "dqopt" in out and "daniilidis" in out
     assert main(["list", "--help"]) == 0
+
+
+def test_list_shows_every_registered_extension(capsys):
+    from simcalib.executors import available as executors
+    from simcalib.importers import available as formats
+    from simcalib.sources import available_sources
+    from simcalib.studies.experiments import EXPERIMENTS
+    from simcalib.world.platforms import available_platforms
+    assert main(["list"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    for names in (available_sources(), available_platforms(), formats(), executors(),
+                  EXPERIMENTS.names()):
+        assert names
+        for name in names:
+            assert any(line.strip().startswith(name + " ") for line in lines), name
 
 
 @pytest.mark.parametrize("argv, fragment", [
@@ -126,7 +145,7 @@ def test_typed_errors_map_to_exit_codes(monkeypatch, capsys, exc, code):
     import types
 
     from simcalib import errors
-    from simcalib.cli import COMMANDS, Command
+    from simcalib.cli import COMMANDS, register_command
 
     def boom(args):
         raise eval(exc, vars(errors))
@@ -134,8 +153,11 @@ def test_typed_errors_map_to_exit_codes(monkeypatch, capsys, exc, code):
     mod = types.ModuleType("simcalib_test_boom")
     mod.main = boom
     monkeypatch.setitem(__import__("sys").modules, "simcalib_test_boom", mod)
-    monkeypatch.setitem(COMMANDS, "boom", Command("simcalib_test_boom:main", "test"))
-    assert main(["boom"]) == code
+    register_command("boom", "simcalib_test_boom:main", "test")
+    try:
+        assert main(["boom"]) == code
+    finally:
+        COMMANDS.unregister("boom")
     err = capsys.readouterr().err.strip()
     assert err.startswith("simcalib: error: ") and len(err.splitlines()) == 1
     if code == 1:
@@ -157,14 +179,50 @@ def test_exit_codes_documented():
         assert f"| {code} |" in readme, code
 
 
-def test_register_command_and_help_lists_it(monkeypatch, capsys):
+def test_register_command_and_help_lists_it(capsys):
     from simcalib.cli import COMMANDS, register_command
-    monkeypatch.setattr("simcalib.cli.COMMANDS", dict(COMMANDS))
     register_command("hello", "simcalib_test_hello:main", "say hello", "hello [NAME]")
-    assert main(["--help"]) == 0
-    assert "hello [NAME]" in capsys.readouterr().out
-    assert main(["hello"]) == 2
-    assert "not available" in capsys.readouterr().err
+    try:
+        assert main(["--help"]) == 0
+        assert "hello [NAME]" in capsys.readouterr().out
+        assert main(["hello"]) == 2
+        assert "not available" in capsys.readouterr().err
+        with pytest.raises(ValueError, match="command 'hello' is already registered"):
+            register_command("hello", "elsewhere:main", "again")
+    finally:
+        COMMANDS.unregister("hello")
+    assert "hello" not in COMMANDS
+    with pytest.raises(ValueError, match="one word"):
+        register_command("two words", "m:main", "x")
+    with pytest.raises(TypeError, match="'module:function'"):
+        register_command("nofunc", "just_a_module", "x")
+
+
+def _commands():
+    from simcalib.cli import COMMANDS
+    return sorted(COMMANDS.names())
+
+
+def test_registry_finds_every_command_file():
+    """Each command registered itself from a file of simcalib/commands/ (discovered: no
+    list), with a summary and a usage that starts with its name."""
+    from simcalib.cli import COMMANDS
+    assert _commands()
+    for name in _commands():
+        cmd = COMMANDS.info(name)
+        assert cmd.name == name and cmd.summary and cmd.usage.split()[0] == name
+        module = COMMANDS.get(name)
+        origin = module.__module__ if callable(module) else None
+        assert origin is None or origin.startswith("simcalib.commands."), (name, origin)
+
+
+@pytest.mark.parametrize("name", _commands())
+def test_every_command_has_help(name, capsys):
+    status = main([name, "--help"])
+    captured = capsys.readouterr()
+    assert status == 0, captured.err
+    assert "usage" in (captured.out + captured.err).lower()
+    assert main(["help", name]) == 0
 
 
 def test_list_imports_no_heavy_module():

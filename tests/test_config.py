@@ -456,11 +456,23 @@ def test_import_config_loads_no_render_vision_or_vehicle():
 
 
 def test_every_source_owns_its_margins_and_rng_stream():
-    from simcalib.pipeline.state import RNG_STREAMS
+    import numpy as np
+
+    from simcalib.pipeline.state import RNG_STREAMS, run_rngs
     from simcalib.sources import available_sources, get_source
     cfg = load_config("planar", ["source=noisy"])
     for name in available_sources():
         src = get_source(name)
-        assert src.info.rng_stream in RNG_STREAMS
         m, deg = src.pose_margins(cfg)
         assert m >= 0.0 and deg >= 0.0
+    # every stream a source names exists for any seed, the same in every run of the seed,
+    # and is not another stream's (the historic ones by position, any other by its name)
+    names = sorted({i.rng_stream for i in available_sources().values()} | set(RNG_STREAMS)
+                   | {"a_new_source_stream"})
+    first = {n: run_rngs(7)[n].integers(0, 2**63) for n in names}
+    assert first == {n: run_rngs(7)[n].integers(0, 2**63) for n in names}
+    assert len(set(first.values())) == len(names)
+    assert first != {n: run_rngs(8)[n].integers(0, 2**63) for n in names}
+    seeds = np.random.SeedSequence(7).spawn(len(RNG_STREAMS))     # the historic positions
+    assert all(first[n] == np.random.default_rng(s).integers(0, 2**63)
+               for n, s in zip(RNG_STREAMS, seeds))

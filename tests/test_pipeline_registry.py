@@ -19,26 +19,21 @@ SMALL_SIM = ["world.duration_s=2", "world.fps=5", "progress=false", "workers=1",
              "pairing.max_translation_m=5", "pairing.max_rotation_deg=90"]
 
 
+#: small versions of a source's example (SourceInfo.example), by the kind it measures
+SMALL = {"sim": [*SMALL_SIM, "camera.width=320", "camera.height=240"],
+         "synthetic": ["synthetic.num_motions=40", "pairing.n_pairs=20", "progress=false"]}
+
+
 def _small_cfg(source):
+    """A small run of the source's own example scenario."""
     info = available_sources()[source]
-    if "synthetic" in info.kinds:
-        return load_config("random", ["synthetic.num_motions=40", "pairing.n_pairs=20",
-                                      "progress=false"])
-    if source == "robot_fk":     # needs the arm; a robot with ~1 mm / 1 mrad DH error
-        return load_config("handeye", ["source=robot_fk", "streams.a.source=null",
-                                       "streams.b.source=null", *SMALL_SIM])
-    if source == "fixed_board":  # eye-to-hand's board seen by the stand camera (cam_b only)
-        return load_config("eyetohand", ["streams.a.source=null", "streams.b.source=null",
-                                         *SMALL_SIM])
-    return load_config("planar", [f"source={source}", *SMALL_SIM,
-                                  "world.cam_a.width=320", "world.cam_a.height=240",
-                                  "world.cam_b.width=320", "world.cam_b.height=240"])
+    scenario, overrides = info.run_example
+    return load_config(scenario, [*overrides, *SMALL[info.kinds[0]]])
 
 
 def _rngs(seed=0):
-    from simcalib.pipeline.state import RNG_STREAMS
-    ss = np.random.SeedSequence(seed).spawn(len(RNG_STREAMS))
-    return {n: np.random.default_rng(s) for n, s in zip(RNG_STREAMS, ss)}
+    from simcalib.pipeline.state import run_rngs
+    return run_rngs(seed)
 
 
 def test_registry_finds_the_source_files_and_rejects_unknown_names():
@@ -58,6 +53,22 @@ def test_registry_finds_the_source_files_and_rejects_unknown_names():
     with pytest.raises(ValueError, match=r"'aruco' cannot measure kind='synthetic'.*"
                                          r"synthetic: \['synthetic'\]"):
         get_source("aruco", "synthetic")
+    for name, info in infos.items():     # its example scenario runs it, on cameras it has
+        scenario, overrides = info.run_example
+        cfg = load_config(scenario, list(overrides))
+        assert name in camera_sources(cfg, info.kinds[0]).values()
+        section = getattr(cfg, name, None) if info.config is not None else None
+        assert info.config is None or isinstance(section, info.config)
+
+
+def test_a_stream_names_a_source_for_a_camera_it_cannot_measure():
+    only = [(n, i) for n, i in available_sources().items() if set(i.cameras) != set(CAMERAS)]
+    for name, info in only:
+        other = next(c for c in CAMERAS if c not in info.cameras).removeprefix("cam_")
+        scenario, overrides = info.run_example
+        with pytest.raises(ValueError, match=rf"'{name}' measures .* only; cam_{other} "
+                                             rf"needs another source"):
+            load_config(scenario, [*overrides, f"streams.{other}.source={name}"])
 
 
 @pytest.mark.slow
@@ -70,8 +81,8 @@ def test_every_source_builds_and_measures_a_small_world(name):
     rngs = _rngs()
     truth = build_truth(cfg, rngs)
     assert isinstance(truth, GroundTruth) and truth.kind == kind
-    assert camera_sources(cfg, kind) == {c: name for c in CAMERAS}
-    cams = ("cam_b",) if name == "fixed_board" else CAMERAS   # it measures the board only
+    cams = tuple(c for c, n in camera_sources(cfg, kind).items() if n == name)
+    assert cams and set(cams) <= set(src.info.cameras)   # its example uses it
     out = src.measure(truth, cfg, rngs[src.info.rng_stream], cams)
     assert isinstance(out, SourceOutput)
     if out.motions is not None:      # a source of relative motions
@@ -93,8 +104,9 @@ def test_every_source_builds_and_measures_a_small_world(name):
         else:
             assert 0.0 < np.median(err) < 0.05      # measured, not copied, and near truth
     # only one camera requested: only that one measured (per-stream selection)
-    one = src.measure(build_truth(cfg, _rngs()), cfg, _rngs()[src.info.rng_stream], ("cam_b",))
-    assert set(one.streams) == {"cam_b"}
+    one = src.measure(build_truth(cfg, _rngs()), cfg, _rngs()[src.info.rng_stream],
+                      cams[-1:])
+    assert set(one.streams) == set(cams[-1:])
 
 
 def test_a_failing_stage_writes_failed_results_and_reraises(tmp_path, monkeypatch):

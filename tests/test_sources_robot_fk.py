@@ -25,9 +25,8 @@ SMALL = ["world.duration_s=2", *SMALL_ANY_DURATION]
 
 
 def _rngs(seed=0):
-    from simcalib.pipeline.state import RNG_STREAMS
-    ss = np.random.SeedSequence(seed).spawn(len(RNG_STREAMS))
-    return {n: np.random.default_rng(s) for n, s in zip(RNG_STREAMS, ss)}
+    from simcalib.pipeline.state import run_rngs
+    return run_rngs(seed)
 
 
 def _fk_stream(cfg, seed=0):

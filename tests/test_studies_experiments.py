@@ -32,6 +32,23 @@ def _rrd_entities(path):
 
 
 # ------------------------------------------------------------------------------ common
+def test_registry_finds_every_experiment_file():
+    """Each experiment registered itself from a module of the folder (discovered: no list)
+    with a config dataclass whose defaults build and a description."""
+    import dataclasses
+
+    from simcalib.errors import ConfigError
+    assert len(EXPERIMENTS) >= 1
+    for name in EXPERIMENTS:
+        exp = EXPERIMENTS.info(name)
+        assert exp.name == name and exp.description and dataclasses.is_dataclass(exp.config)
+        assert exp.run.__module__.startswith("simcalib.studies.experiments.")
+        assert config_class(name) is exp.config and isinstance(exp.config(), exp.config)
+    with pytest.raises(ConfigError, match=r"unknown experiment 'tabel2' \(did you mean "
+                                          r"'table2'\?\); available: "):
+        config_class("tabel2")
+
+
 def test_alpha_grid_is_the_papers():
     a = common.alpha_grid()
     assert a.shape == (100,)

@@ -5,18 +5,22 @@ import numpy as np
 import pytest
 
 from simcalib.geometry import invert_transform
-from simcalib.world import PLATFORMS, WorldConfig, build_world
+from simcalib.world import WorldConfig, build_world
 from simcalib.world.paths import available_paths, compose_path, sample_path
 from simcalib.world.platforms import (Platform, available_platforms, combinations,
                                       get_platform)
 
 COMBOS = [(p, path) for path, plats in sorted(combinations().items()) for p in plats]
+PLATFORMS = list(available_platforms())
 
 
-def test_registry_matches_the_config_and_rejects_unknown_names():
-    assert set(available_platforms()) == set(PLATFORMS)   # found by discovery of the folder
+def test_registry_finds_the_platform_files_and_rejects_unknown_names():
+    assert PLATFORMS                                      # found by discovery of the folder
     for name, info in available_platforms().items():
         assert isinstance(get_platform(name), Platform) and info.name == name
+        assert type(get_platform(name)).__module__.startswith("simcalib.world.platforms.")
+        assert WorldConfig(platform=name, path=next(
+            p for p, plats in combinations().items() if name in plats)).platform == name
     listing = ", ".join(available_platforms())
     with pytest.raises(ValueError, match=r"unknown platform 'crat'.*did you mean 'cart'.*"
                                          rf"available: {listing}"):

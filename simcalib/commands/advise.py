@@ -7,6 +7,7 @@ import json
 import math
 from pathlib import Path
 
+from simcalib.cli import command
 from simcalib.errors import UsageError
 
 USAGE = """usage: python -m simcalib advise scenario=NAME [k=5] [verify=true|false]
@@ -282,6 +283,8 @@ def main_files(args: list[str]) -> int:
     return 0
 
 
+@command('advise', summary='which motions to record next (verified in simulation)',
+         usage='advise scenario=NAME|a=PATH b=PATH platform=P [k=5] output=DIR')
 def main(args: list[str]) -> int:
     if any(a in ("-h", "--help") for a in args):
         print(USAGE, end="")

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from simcalib.cli import command
 from simcalib.errors import UsageError
 
 __all__ = ["main", "help_text"]
@@ -44,6 +45,8 @@ def help_text() -> str:
                         keys="\n".join(describe_keys(CalibrateOptions)))
 
 
+@command('calibrate', summary='calibrate X from two recorded pose files (offset, outliers)',
+         usage='calibrate a=PATH b=PATH output=DIR [key=value ...]')
 def main(args: list[str]) -> int:
     if any(a in ("-h", "--help") for a in args):
         print(help_text(), end="")

@@ -6,6 +6,7 @@ before any work; a :class:`~simcalib.errors.ConfigError` ends the command with e
 
 from __future__ import annotations
 
+from simcalib.cli import command
 from simcalib.errors import UsageError
 
 USAGE = """usage: python -m simcalib run scenario=NAME [key=value ...] [--dry-run] [--debug]
@@ -72,6 +73,8 @@ def parse_args(args: list[str]) -> tuple[str, list[str], set[str]]:
     return scenario, overrides, flags
 
 
+@command('run', summary='simulate, pair, solve and evaluate one scenario',
+         usage='run scenario=NAME [key=value ...] [--dry-run]')
 def main(args: list[str]) -> int:
     if any(a in ("-h", "--help") for a in args):
         print(help_text(), end="")

@@ -3,6 +3,7 @@ output=DIR``; ``simcalib sweep report DIR``; ``simcalib sweep status DIR``."""
 
 from __future__ import annotations
 
+from simcalib.cli import command
 from simcalib.errors import UsageError
 
 USAGE = """usage: python -m simcalib sweep FILE [key=value ...] [executor=NAME] [workers=N]
@@ -23,6 +24,8 @@ Re-running into the same output skips finished cells. Options: --quiet (no progr
 _OWN = ("executor", "workers", "address", "output", "seeds", "seed")
 
 
+@command('sweep', summary='run a study of many runs (grid / zip / random axes x seeds)',
+         usage='sweep FILE [key=value ...] output=DIR | sweep report|status DIR')
 def main(args: list[str]) -> int:
     from simcalib.studies.sweep import list_sweeps
     if not args or args[0] in ("-h", "--help"):

@@ -11,11 +11,13 @@ quaternion was scalar-first, is decided from the data by :mod:`simcalib.estimati
 source file, the format and the repairs made (counted, named).
 
 Formats (``available()``, the registry :data:`FORMATS`): ``tum``, ``simcalib_tum``
-(simcalib's own TUM output), ``eth``, ``csv``, ``easy_handeye``, ``moveit``. A format module
-defines ``NAME``, ``DESCRIPTION``, ``TWO_STREAMS`` (bool), ``sniff(path, text) -> float``
-(0..1 confidence) and ``read(path, text, **options) -> list[RawStream]``, and ends with
-``register_format(__name__)``; the registry imports every module of this folder on its first
-lookup, so a new format file needs no import list.
+(simcalib's own TUM output), ``eth``, ``csv``, ``easy_handeye``, ``moveit``, ``kitti``, ... A
+format module defines ``NAME``, ``DESCRIPTION``, ``TWO_STREAMS`` (bool), ``sniff(path,
+text) -> float`` (0..1 confidence), ``read(path, text, **options) -> list[RawStream]`` and
+``write(path, streams) -> list[Path]`` (the streams in that format: what a user of the
+format would hand us; the registry test writes every format, detects and reads it back),
+and ends with ``register_format(__name__)``; the registry imports every module of this
+folder on its first lookup, so a new format file needs no import list.
 """
 
 from __future__ import annotations
@@ -33,18 +35,18 @@ from simcalib.registry import Registry
 
 __all__ = ["PoseStreamData", "RawStream", "data_error", "available", "read_pose_stream",
            "read_pose_streams", "detect_format", "stream_from_arrays", "MIN_POSES", "FORMATS",
-           "register_format"]
+           "register_format", "write_pose_streams"]
 
 MIN_POSES = 3
 
 
 def _check_format(name: str, module) -> None:
-    missing = [a for a in ("NAME", "DESCRIPTION", "TWO_STREAMS", "sniff", "read")
+    missing = [a for a in ("NAME", "DESCRIPTION", "TWO_STREAMS", "sniff", "read", "write")
                if not hasattr(module, a)]
-    if missing or not (callable(module.sniff) and callable(module.read)):
+    if missing or not all(callable(getattr(module, f)) for f in ("sniff", "read", "write")):
         raise TypeError(f"a pose-file format module needs NAME, DESCRIPTION, TWO_STREAMS, "
-                        f"sniff() and read(); {getattr(module, '__name__', module)!r} lacks "
-                        f"{missing or ['callable sniff/read']}")
+                        f"sniff(), read() and write(); {getattr(module, '__name__', module)!r} "
+                        f"lacks {missing or ['callable sniff/read/write']}")
 
 
 #: name -> format module (info: ``description``, ``two_streams``).
@@ -200,6 +202,18 @@ def detect_format(path, text: str | None = None) -> tuple[str, str]:
     msg = (f"detected format {best!r} ({_module(best).DESCRIPTION}; confidence {best_s:.2f}"
            + (f", next {runner[1]!r} {runner[0]:.2f}" if runner[0] > 0 else "") + ")")
     return best, msg
+
+
+def write_pose_streams(path, streams, format: str) -> list[Path]:
+    """Write ``streams`` (:class:`PoseStreamData`; two for a two-stream format) to ``path``
+    in ``format``; returns the files written (a format may write a companion file, e.g.
+    KITTI's stamps)."""
+    module = _module(format)
+    streams = list(streams)
+    want = 2 if module.TWO_STREAMS else 1
+    if len(streams) != want:
+        raise ValueError(f"format {format!r} holds {want} stream(s); received {len(streams)}")
+    return [Path(p) for p in module.write(Path(path), streams)]
 
 
 def read_pose_streams(path, format: str | None = None, **options) -> list[PoseStreamData]:
@@ -383,6 +397,14 @@ def is_pose_row(line: str, sep: str | None) -> bool:
     except ValueError:
         return False
     return True
+
+
+def pose_rows(stream: PoseStreamData) -> np.ndarray:
+    """``(N, 8)`` rows ``t, x, y, z, qx, qy, qz, qw`` of a stream (as read: its
+    ``T_world_sensor``), what the TUM, ETH and CSV writers write."""
+    T = np.asarray(stream.T_world_sensor, dtype=np.float64)
+    return np.column_stack([np.asarray(stream.timestamps_s, dtype=np.float64), T[:, :3, 3],
+                            quat_from_matrix(T[:, :3, :3])])
 
 
 def read_pose_rows(path, text: str, sep: str | None, fmt: str, layout: str,

@@ -17,7 +17,7 @@ import re
 
 import numpy as np
 
-from simcalib.importers import RawStream, data_error, register_format
+from simcalib.importers import RawStream, data_error, pose_rows, register_format
 
 NAME = "csv"
 DESCRIPTION = "CSV with a header naming the columns (quaternion xyzw/wxyz or 4x4 matrix)"
@@ -173,6 +173,14 @@ def read(path, text: str, **options) -> list[RawStream]:
                      "tests the other order")
     return [RawStream(t, position_m=P, quat_xyzw=Q, quat_order=order, note="; ".join(notes),
                       synthetic_time=synthetic)]
+
+
+def write(path, streams):
+    """One stream with the header ``t,x,y,z,qx,qy,qz,qw``."""
+    (s,) = streams
+    np.savetxt(path, pose_rows(s), fmt="%.9f", delimiter=",", header="t,x,y,z,qx,qy,qz,qw",
+               comments="")
+    return [path]
 
 
 register_format(__name__)

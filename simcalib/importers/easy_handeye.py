@@ -80,4 +80,24 @@ def read(path, text: str, **options) -> list[RawStream]:
     return out
 
 
+def write(path, streams):
+    """Two streams as easy_handeye2 samples ``[{robot: TF, tracking: TF}, ...]`` (paired
+    by index: the samples carry no time)."""
+    import yaml
+    from simcalib.geometry import quat_from_matrix
+    robot, tracking = streams
+    if robot.n != tracking.n:
+        raise ValueError(f"easy_handeye samples pair the streams by index; received "
+                         f"{robot.n} and {tracking.n} poses")
+
+    def tf(T):
+        q = quat_from_matrix(T[:3, :3])
+        return {"translation": dict(zip("xyz", map(float, T[:3, 3]))),
+                "rotation": dict(zip("xyzw", map(float, q)))}
+    doc = [{"robot": tf(a), "tracking": tf(b)}
+           for a, b in zip(robot.T_world_sensor, tracking.T_world_sensor)]
+    path.write_text(yaml.safe_dump(doc))
+    return [path]
+
+
 register_format(__name__)

@@ -3,8 +3,10 @@ no header (seconds, metres, quaternion scalar-last)."""
 
 from __future__ import annotations
 
-from simcalib.importers import (RawStream, first_data_line, is_pose_row, read_pose_rows,
-                                 register_format)
+import numpy as np
+
+from simcalib.importers import (RawStream, first_data_line, is_pose_row, pose_rows,
+                                 read_pose_rows, register_format)
 
 NAME = "eth"
 DESCRIPTION = "ETH hand_eye_calibration CSV: 't, x, y, z, qx, qy, qz, qw', no header"
@@ -17,6 +19,13 @@ def sniff(path, text: str) -> float:
 
 def read(path, text: str, **options) -> list[RawStream]:
     return read_pose_rows(path, text, ",", "eth", "t, x, y, z, qx, qy, qz, qw", options)
+
+
+def write(path, streams):
+    """One stream as comma-separated rows, no header."""
+    (s,) = streams
+    np.savetxt(path, pose_rows(s), fmt="%.9f", delimiter=", ")
+    return [path]
 
 
 register_format(__name__)

@@ -69,4 +69,19 @@ def read(path, text: str, **options) -> list[RawStream]:
     return out
 
 
+def write(path, streams):
+    """Two streams as MoveIt samples (``effector_wrt_world``, ``object_wrt_sensor``: 16
+    numbers row-major each), paired by index."""
+    import yaml
+    a, b = streams
+    if a.n != b.n:
+        raise ValueError(f"MoveIt samples pair the streams by index; received {a.n} and "
+                         f"{b.n} poses")
+    doc = [{_KEYS[0]: np.asarray(A).reshape(-1).tolist(),
+            _KEYS[1]: np.asarray(B).reshape(-1).tolist()}
+           for A, B in zip(a.T_world_sensor, b.T_world_sensor)]
+    path.write_text(yaml.safe_dump(doc))
+    return [path]
+
+
 register_format(__name__)

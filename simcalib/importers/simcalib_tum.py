@@ -8,7 +8,11 @@ a file (also one written by simcalib before the signature) is read as plain ``tu
 
 from __future__ import annotations
 
-from simcalib.importers import tum, register_format
+from pathlib import Path
+
+import numpy as np
+
+from simcalib.importers import PoseStreamData, pose_rows, register_format, tum
 
 NAME = "simcalib_tum"
 SIGNATURE = "# simcalib TUM trajectory"
@@ -26,6 +30,26 @@ def sniff(path, text: str) -> float:
 
 def read(path, text: str, **options):
     return tum.read(path, text, **options)
+
+
+def write(path, streams):
+    """One stream: the signature line, the column header, then TUM rows."""
+    (s,) = streams
+    path = Path(path)
+    with path.open("w") as f:
+        f.write(f"{SIGNATURE}\n{COLUMNS}\n")
+        np.savetxt(f, pose_rows(s), fmt="%.9f")
+    return [path]
+
+
+def write_trajectory(path, timestamp_s, T_world_cam) -> Path:
+    """simcalib's TUM trajectory file of poses ``T_world_cam`` ``(N, 4, 4)`` at
+    ``timestamp_s`` ``(N,)`` (what a run writes per camera)."""
+    t = np.asarray(timestamp_s, dtype=np.float64)
+    T = np.asarray(T_world_cam, dtype=np.float64)
+    if T.shape[0] != t.shape[0]:
+        raise ValueError(f"{t.shape[0]} timestamps for {T.shape[0]} poses")
+    return write(path, [PoseStreamData(t, T, str(path), NAME)])[0]
 
 
 register_format(__name__)

@@ -5,8 +5,10 @@ that header."""
 
 from __future__ import annotations
 
-from simcalib.importers import (RawStream, first_data_line, is_pose_row, read_pose_rows,
-                                 register_format)
+import numpy as np
+
+from simcalib.importers import (RawStream, first_data_line, is_pose_row, pose_rows,
+                                 read_pose_rows, register_format)
 
 NAME = "tum"
 DESCRIPTION = "TUM: 'timestamp tx ty tz qx qy qz qw', whitespace separated"
@@ -24,6 +26,13 @@ def sniff(path, text: str) -> float:
 
 def read(path, text: str, **options) -> list[RawStream]:
     return read_pose_rows(path, text, None, "tum", "t tx ty tz qx qy qz qw", options)
+
+
+def write(path, streams):
+    """One stream as TUM rows (no header)."""
+    (s,) = streams
+    np.savetxt(path, pose_rows(s), fmt="%.9f")
+    return [path]
 
 
 register_format(__name__)

@@ -17,8 +17,7 @@ def check_outdoor_source(cfg) -> None:
     """An outdoor platform (``car``) has no marker field: no source that measures against
     one (``SourceInfo.needs_markers``, e.g. ArUco)."""
     from simcalib.sources import get_source
-    if not get_source(cfg.source, cfg.kind).info.needs_markers or getattr(
-            type(cfg.world), "_simcalib_missing", None):
+    if not get_source(cfg.source, cfg.kind).info.needs_markers:
         return
     from simcalib.world.platforms import get_platform
     if get_platform(cfg.world.platform).info.outdoor:
@@ -42,7 +41,7 @@ def check_path_feasible(cfg) -> None:
     surely fails is rejected; a marginal one still runs.
     The message names the shortest duration that passes."""
     world, pairing = cfg.world, cfg.pairing
-    if getattr(type(world), "_simcalib_missing", None) or not pairing.prefilter:
+    if not pairing.prefilter:
         return
     from simcalib.world.platforms import get_platform
     if not get_platform(world.platform).info.clocked_by_path:   # physics sets the speed

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import typing
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal, Mapping, Sequence
@@ -37,31 +38,13 @@ __all__ = ["ALIASES", "NoiseConfig", "PairingConfig", "PriorConfig", "RecordingC
 
 
 # ----------------------------------------------------------------- composed sections
-def _placeholder(name: str, module: str):
-    """Stand-in section when a stage module is not installed (no keys accepted)."""
-    cls = dataclasses.make_dataclass(name, [], frozen=True)
-    cls.__doc__ = f"({module} is not available in this installation)"
-    cls._simcalib_missing = module
-    return cls
-
-
-try:  # the simulated world
-    from simcalib.world.config import WorldConfig
-except ImportError:  # pragma: no cover - only while the world branch is missing
-    WorldConfig = _placeholder("WorldConfig", "simcalib.world")
-try:  # the visual pose source
-    from simcalib.sources.vision.config import VisionConfig
-except ImportError:  # pragma: no cover
-    VisionConfig = _placeholder("VisionConfig", "simcalib.sources.vision.stream")
 from simcalib.estimation.config import EstimationConfig  # noqa: E402
 from simcalib.sources.corruption import OutliersConfig  # noqa: E402
 from simcalib.sources.selection import StreamsConfig  # noqa: E402
+from simcalib.sources.vision.config import VisionConfig  # noqa: E402
+from simcalib.world.config import WorldConfig  # noqa: E402
 from simcalib.world.robot_error import RobotConfig  # noqa: E402
-
-try:  # the synthetic generator of appendix D.2
-    from simcalib.world.synthetic import SyntheticConfig
-except ImportError:  # pragma: no cover
-    SyntheticConfig = _placeholder("SyntheticConfig", "simcalib.world.synthetic")
+from simcalib.world.synthetic import SyntheticConfig  # noqa: E402
 
 
 def _doc(text: str) -> dict:
@@ -194,19 +177,19 @@ class VerdictConfig:
                                                 self.convergence_points, lo=0, hi=100))
 
 
-from simcalib.sources import available_sources, sources_for_kind  # noqa: E402
+from simcalib.sources import KINDS, available_sources, sources_for_kind  # noqa: E402
 
 #: the pose sources of a simulated world: whatever registered itself (simcalib.sources)
 SOURCES = sources_for_kind("sim")
-KINDS = ("sim", "synthetic")
 
 
 @dataclass(frozen=True)
-class ScenarioConfig:
-    """One end-to-end run: world -> pose streams -> motion pairs -> solvers -> evaluation."""
+class _ScenarioSections:
+    """The scenario's own sections and the shared ones; :data:`ScenarioConfig` adds the
+    sections the registered pose sources own (``SourceInfo.config``)."""
     scenario: str = field(default="custom", metadata=_doc("scenario name"))
     description: str = field(default="", metadata=_doc("one-line description"))
-    kind: Literal["sim", "synthetic"] = field(default="sim", metadata=_doc(
+    kind: Literal[KINDS] = field(default="sim", metadata=_doc(
         "sim: MuJoCo world (world.*, vision.*); synthetic: paper appendix D.2 (synthetic.*)"))
     source: str = field(
         default="aruco", metadata=_doc("pose source of both streams (unless streams.a/b.source "
@@ -276,21 +259,14 @@ class ScenarioConfig:
                 raise ConfigError(f"prior.methods: {', '.join(no_prior)} cannot use a prior; "
                                   f"methods with a prior: {', '.join(ok)}",
                                   key="prior.methods", value=list(self.prior.methods))
-        if self.kind == "synthetic" and not getattr(type(self.synthetic), "_simcalib_missing",
-                                                    None):
+        if self.kind == "synthetic":
             self._sync_synthetic_noise()
-        missing = getattr(type(self.world if self.kind == "sim" else self.synthetic),
-                          "_simcalib_missing", None)
-        if missing:
-            raise ConfigError(f"kind={self.kind} needs {missing}, which is not available "
-                              "in this installation", key="kind", value=self.kind)
-        if self.kind == "sim" and available_sources()[self.source].needs_markers and getattr(
-                type(self.vision), "_simcalib_missing", None):
-            raise ConfigError(f"source={self.source} needs simcalib.sources.vision.stream, which is not available "
-                              "in this installation", key="source", value=self.source)
         if self.kind == "sim":
             from simcalib.pipeline.feasibility import check_outdoor_source, check_path_feasible
+            from simcalib.sources import camera_sources, get_source
             check_outdoor_source(self)
+            for name in dict.fromkeys(camera_sources(self, "sim").values()):
+                get_source(name, "sim").check_config(self)
             check_path_feasible(self)
 
     def _check_source(self):
@@ -337,6 +313,35 @@ class ScenarioConfig:
     @property
     def is_sweep(self) -> bool:
         return isinstance(self.alpha, tuple) and len(self.alpha) > 1
+
+
+def _assemble(base: type) -> type:
+    """``ScenarioConfig``: ``base`` plus one section ``<name>`` per registered pose source
+    that owns one (``SourceInfo.config``), in name order, after the built-in sections."""
+    taken = {f.name for f in dataclasses.fields(base)}
+    sections = []
+    for name, info in available_sources().items():
+        if info.config is None:
+            continue
+        if name in taken:
+            raise TypeError(f"pose source {name!r} owns a config section, but {name!r} is "
+                            "already a key of the scenario; rename the source")
+        sections.append((name, info.config, field(
+            default_factory=info.config,
+            metadata=_doc(f"pose source {name}: {info.description}"))))
+    cls = dataclasses.make_dataclass("ScenarioConfig", sections, bases=(base,), frozen=True)
+    cls.__module__ = __name__
+    hints = typing.get_type_hints(cls)
+    cls.__doc__ = ("One end-to-end run: world -> pose streams -> motion pairs -> solvers "
+                   "-> evaluation. Sections: " + ", ".join(
+                       n for n, tp in hints.items() if dataclasses.is_dataclass(tp)) + ".")
+    return cls
+
+
+#: One end-to-end run (the scenario schema): the sections above plus each pose source's
+#: own (``SourceInfo.config``: a new source with settings adds its section here without
+#: editing this file).
+ScenarioConfig = _assemble(_ScenarioSections)
 
 
 def _check_solver_names(names: Sequence[str], key: str) -> None:

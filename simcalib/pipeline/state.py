@@ -14,19 +14,25 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from simcalib.pipeline.scenario import ScenarioConfig
+from simcalib.streams import CAMERAS
 
 if TYPE_CHECKING:  # types of the state only; the stages import lazily
     from simcalib.estimation.pairing import MotionPairs
     from simcalib.sources import GroundTruth
     from simcalib.streams import PoseStream
 
-__all__ = ["CAMERAS", "RNG_STREAMS", "RunInterrupted", "RunResult", "RunState", "SolverResult",
+__all__ = ["CAMERAS", "RNG_STREAMS", "RunRngs", "RunInterrupted", "RunResult", "RunState", "SolverResult",
            "run_rngs"]
 
-CAMERAS = ("cam_a", "cam_b")
-# order of the child generators spawned from the run's seed (never reorder: determinism)
+#: The random streams that existed when seeds were first fixed: child ``i`` of
+#: ``SeedSequence(seed)`` is ``RNG_STREAMS[i]``. This tuple is history, not a registry: it
+#: fixes every seed's draws of these streams, so it is never reordered or extended. Any
+#: other name (a new stage's, or a new pose source's ``SourceInfo.rng_stream``) gets a
+#: stream derived from its name (:func:`run_rngs`), so a new source edits no list.
 RNG_STREAMS = ("world", "noise", "vision", "synthetic", "pairing", "solvers", "prior",
                "robot", "encoders", "outliers")
+#: first word of the spawn key of a stream named after :data:`RNG_STREAMS` ("name")
+_NAMED_STREAM = 0x6E616D65
 
 
 @dataclass(frozen=True)
@@ -174,7 +180,27 @@ class RunState:
                          solver_kernels=self.solver_kernels)
 
 
-def run_rngs(seed: int) -> dict:
-    """One generator per stage (:data:`RNG_STREAMS`), children of ``SeedSequence(seed)``."""
-    children = np.random.SeedSequence(seed).spawn(len(RNG_STREAMS))
-    return {name: np.random.default_rng(s) for name, s in zip(RNG_STREAMS, children)}
+class RunRngs(dict):
+    """The run's generators by stream name: the :data:`RNG_STREAMS` by position, any
+    other name on first use from ``SeedSequence(seed, spawn_key=("name", crc32(name)))``
+    (independent of the positional ones and of each other, the same in every process)."""
+
+    def __init__(self, seed: int):
+        children = np.random.SeedSequence(seed).spawn(len(RNG_STREAMS))
+        super().__init__((name, np.random.default_rng(s))
+                         for name, s in zip(RNG_STREAMS, children))
+        self.seed = int(seed)
+
+    def __missing__(self, name: str) -> np.random.Generator:
+        if not isinstance(name, str) or not name:
+            raise KeyError(name)
+        import zlib
+        key = (_NAMED_STREAM, zlib.crc32(name.encode("utf-8")))
+        rng = np.random.default_rng(np.random.SeedSequence(self.seed, spawn_key=key))
+        self[name] = rng
+        return rng
+
+
+def run_rngs(seed: int) -> RunRngs:
+    """One generator per stream name (:class:`RunRngs`), children of ``seed``."""
+    return RunRngs(seed)

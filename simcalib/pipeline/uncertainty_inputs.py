@@ -50,6 +50,9 @@ def calibration_bias(st) -> tuple:
         return None, report
     report["included"] = True
     report["cameras"] = {c: b.report() for c, b in bias.items()}
+    own = [r.get("input") for r in report["cameras"].values()]
+    if all(own):                       # every bias names its own input (not ArUco's)
+        report["source"] = "; ".join(dict.fromkeys(own))
     covs = [bias[c].covariance if c in bias else None for c in CAMERAS]
     return PoseBias(*covs), report
 

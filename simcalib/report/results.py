@@ -243,15 +243,5 @@ def write_tum(path: Path, timestamp_s: np.ndarray, T_world_cam: np.ndarray) -> P
     """TUM trajectory file: the signature line ``# simcalib TUM trajectory`` (what the
     ``simcalib_tum`` importer recognises), the column header, then one line ``timestamp tx
     ty tz qx qy qz qw`` per pose."""
-    from simcalib.importers.simcalib_tum import COLUMNS, SIGNATURE
-    t = np.asarray(timestamp_s, dtype=np.float64)
-    T = np.asarray(T_world_cam, dtype=np.float64)
-    if T.shape[0] != t.shape[0]:
-        raise ValueError(f"{t.shape[0]} timestamps for {T.shape[0]} poses")
-    q = quat_from_matrix(T[:, :3, :3])
-    rows = np.column_stack([t, T[:, :3, 3], q])
-    path = Path(path)
-    with path.open("w") as f:
-        f.write(f"{SIGNATURE}\n{COLUMNS}\n")
-        np.savetxt(f, rows, fmt="%.9f")
-    return path
+    from simcalib.importers.simcalib_tum import write_trajectory
+    return write_trajectory(path, timestamp_s, T_world_cam)

@@ -3,9 +3,9 @@
     from simcalib.sources import available_sources, get_source
     out = get_source("noisy", "sim").measure(truth, cfg, rng, ("cam_a", "cam_b"))
 
-Built-in sources: ``ground_truth``, ``noisy``, ``aruco``, ``robot_fk`` (simulated worlds) and
-``synthetic`` (paper appendix D.2 problems). See :mod:`simcalib.sources.base` for the
-protocol and how to add one.
+The sources are whatever files of this folder registered themselves
+(``available_sources()``, ``python -m simcalib list``). See :mod:`simcalib.sources.base` for
+the protocol and docs/extending.md for how to add one.
 """
 
 from simcalib.sources.base import CAMERAS, GroundTruth, PoseSource, SourceInfo, SourceOutput

@@ -18,11 +18,11 @@ from typing import Mapping, Protocol, runtime_checkable
 
 import numpy as np
 
+from simcalib.streams import CAMERAS
+
 __all__ = ["CAMERAS", "GroundTruth", "SourceInfo", "SourceOutput", "PoseSource",
            "SourceHooks"]
 
-#: The cameras (streams) of a run, in the order rng children are assigned to them.
-CAMERAS = ("cam_a", "cam_b")
 
 
 @dataclass(frozen=True)
@@ -57,13 +57,23 @@ class SourceInfo:
 
     ``name``: registry name (``source=<name>``); ``description``: one line;
     ``kinds``: the ``kind`` of ground truth it can measure (``"sim"``, ``"synthetic"``);
-    ``rng_stream``: which child generator of the run's seed it draws from (a name of
-    ``simcalib.pipeline.state.RNG_STREAMS``; never share one between sources);
+    ``rng_stream``: the name of the generator of the run's seed it draws from (any name:
+    :func:`simcalib.pipeline.state.run_rngs` gives each name its own stream; a new
+    source takes a new name);
     ``exact``: its poses are the ground truth (no TUM file / no separate trajectory);
     ``renders``: it renders images (slow; ``workers`` applies);
     ``needs_markers``: it measures against the marker field (no source for an outdoor
     platform); ``reads_joints``: it reads the arm's joint encoders (its log is the robot
-    report's input, results.json ``sensing.robot``).
+    report's input, results.json ``sensing.robot``);
+    ``synthetic_stand_in``: a synthetic scenario may name it (its noise is ``noise.*``);
+    ``cameras``: the cameras it can measure (a stream that names it for another camera is
+    a configuration error);
+    ``config``: its own configuration section, a frozen dataclass: the scenario gets the
+    section ``<name>.*`` (:mod:`simcalib.pipeline.scenario` adds it; the source reads
+    ``getattr(cfg, name)``), or None;
+    ``example``: a scenario and overrides that run it (``python -m simcalib run
+    scenario=<example[0]> <example[1:]>``; the registry tests measure a small world of
+    it); empty: ``planar source=<name>``.
     """
     name: str
     description: str
@@ -74,6 +84,16 @@ class SourceInfo:
     needs_markers: bool = False
     reads_joints: bool = False
     synthetic_stand_in: bool = False
+    cameras: tuple[str, ...] = CAMERAS
+    config: type | None = None
+    example: tuple[str, ...] = ()
+
+    @property
+    def run_example(self) -> tuple[str, tuple[str, ...]]:
+        """``(scenario, overrides)`` that run this source (:attr:`example`)."""
+        if self.example:
+            return self.example[0], tuple(self.example[1:])
+        return "planar", (f"source={self.name}",)
 
 
 @dataclass(frozen=True)
@@ -131,12 +151,19 @@ class SourceHooks:
     * ``datapoint_error_basis(st, world, cam, T_world_cam, frame_index, layout)``: the same
       at a run's measured datapoints (the source reads what its log recorded), or None.
     * ``calibration_bias(world, cfg, cameras) -> {cam: bias}``: the fixed pose bias its
-      calibration inputs cause per camera
-      (:class:`simcalib.sources.vision.error_model.CalibrationBias`), empty when it has none.
+      calibration inputs cause per camera (an object with ``covariance`` (6, 6) of the
+      right-multiplied pose error and ``report()``, e.g.
+      :class:`simcalib.sources.vision.error_model.CalibrationBias`), empty when it has none.
+    * ``check_config(cfg)``: raise :class:`~simcalib.errors.ConfigError` when a simulated
+      scenario that uses this source cannot work (checked with the scenario, before any
+      work).
     """
 
     def pose_margins(self, cfg) -> tuple[float, float]:
         return 0.0, 0.0
+
+    def check_config(self, cfg) -> None:
+        return None
 
     @property
     def has_error_basis(self) -> bool:

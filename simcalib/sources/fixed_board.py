@@ -38,6 +38,7 @@ def _check(world, cameras) -> None:
 
 class FixedBoardSource(SourceHooks):
     info = SourceInfo(name="fixed_board", kinds=("sim",), rng_stream="vision", renders=True,
+                      cameras=("cam_b",), example=("eyetohand",),
                       description="eye-to-hand: the fixed stand camera's rendered images -> "
                                   "detection of the board on the flange -> its pose by PnP")
 

@@ -7,6 +7,8 @@ that calls :func:`register` at import is found with no import list to edit."""
 
 from __future__ import annotations
 
+import dataclasses
+
 from simcalib.errors import unknown_choice
 from simcalib.registry import Registry
 from simcalib.sources.base import CAMERAS, PoseSource, SourceInfo
@@ -20,6 +22,13 @@ def _check_source(name: str, source) -> None:
     if not isinstance(info, SourceInfo) or not callable(getattr(source, "measure", None)):
         raise TypeError(f"a pose source needs info: SourceInfo and a measure() method; "
                         f"received {type(source).__name__}")
+    if not info.cameras or not set(info.cameras) <= set(CAMERAS):
+        raise ValueError(f"pose source {info.name!r}: cameras must be some of "
+                         f"{list(CAMERAS)}; received {list(info.cameras)}")
+    if info.config is not None and not (isinstance(info.config, type)
+                                        and dataclasses.is_dataclass(info.config)):
+        raise TypeError(f"pose source {info.name!r}: config must be a dataclass (its "
+                        f"section of the scenario); received {info.config!r}")
 
 
 SOURCES: Registry[PoseSource] = Registry("pose source", key="source",
@@ -78,6 +87,11 @@ def camera_sources(cfg, kind: str) -> dict[str, str]:
     out = {}
     for cam in CAMERAS:
         name = cfg.source if streams is None else streams.source_of(cam, cfg.source)
-        get_source(name, kind)
+        cams = get_source(name, kind).info.cameras
+        if cam not in cams:
+            from simcalib.errors import ConfigError
+            key = f"streams.{cam.removeprefix('cam_')}.source"
+            raise ConfigError(f"pose source {name!r} measures {' and '.join(cams)} only; "
+                              f"{cam} needs another source ({key}=...)", key=key, value=name)
         out[cam] = name
     return out

@@ -34,6 +34,7 @@ def T_flange_cam(rig, cam: str) -> np.ndarray:
 
 class RobotFKSource(SourceHooks):
     info = SourceInfo(name="robot_fk", kinds=("sim",), rng_stream="encoders", reads_joints=True,
+                      example=("handeye",),
                       description="arm joint encoders (robot.encoder) through the nominal DH "
                                   "kinematics while the world moves the true arm "
                                   "(robot.kinematic_error): the flange / mounted camera pose "

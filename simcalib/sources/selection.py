@@ -12,11 +12,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from simcalib.config.checks import check_that
+from simcalib.sources.base import CAMERAS
 
 __all__ = ["StreamSourceConfig", "StreamsConfig", "STREAM_CAMERAS"]
 
-#: stream key -> camera name
-STREAM_CAMERAS = {"a": "cam_a", "b": "cam_b"}
+#: stream key -> camera name (``a`` -> ``cam_a``: the key is the camera's suffix)
+STREAM_CAMERAS = {cam.removeprefix("cam_"): cam for cam in CAMERAS}
 
 
 @dataclass(frozen=True)
@@ -24,8 +25,8 @@ class StreamSourceConfig:
     """One stream's pose source (a registered source name; ``None``: the run's
     ``source``)."""
     source: str | None = field(default=None, metadata={"help": (
-        "pose source of this stream (ground_truth, noisy, aruco, robot_fk); null: the run's "
-        "source")})
+        "pose source of this stream (a registered source: python -m simcalib list); null: "
+        "the run's source")})
 
     def __post_init__(self):
         check_that(self.source is None or isinstance(self.source, str), "source",

@@ -17,6 +17,7 @@ __all__ = ["SyntheticSource"]
 class SyntheticSource(SourceHooks):
     # draws nothing: the motions' noise was drawn with the problem (world stage)
     info = SourceInfo(name="synthetic", kinds=("synthetic",), rng_stream="noise",
+                      example=("random",),
                       description="relative motions of a paper appendix D.2 problem "
                                   "(random / line / circle), noise from noise.*")
 

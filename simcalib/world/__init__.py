@@ -19,7 +19,7 @@ import importlib
 
 #: public name -> the module of this package that defines it
 _FACE = {
-    **{n: "config" for n in ("PLATFORMS", "ArmControlConfig", "CameraConfig", "IKConfig",
+    **{n: "config" for n in ("ArmControlConfig", "CameraConfig", "IKConfig",
                              "MarkerFieldConfig", "PerturbationConfig", "RigConfig",
                              "RoomConfig", "VehicleConfig", "WorldConfig")},
     **{n: "paths" for n in ("PathInfo", "available_paths", "get_path", "sample_path")},

@@ -31,11 +31,7 @@ from simcalib.targets.boards import BoardConfig, board_for_target, check_target
 PAPER_X_ROTVEC_DEG = tuple(round(math.degrees(v), 10) for v in PAPER_X_ROTVEC_RAD)
 
 __all__ = ["CameraConfig", "IKConfig", "MarkerFieldConfig", "PerturbationConfig",
-           "RigConfig", "RoomConfig", "WorldConfig", "ArmControlConfig", "VehicleConfig",
-           "PLATFORMS"]
-
-#: Platforms that can carry the rig.
-PLATFORMS = ("cart", "arm", "car")
+           "RigConfig", "RoomConfig", "WorldConfig", "ArmControlConfig", "VehicleConfig"]
 
 
 # ----------------------------------------------------------------------------- helpers
@@ -294,8 +290,9 @@ class ArmControlConfig:
 class WorldConfig:
     """A simulated run.
 
-    * ``platform``: ``"cart"`` or ``"arm"``; ``None`` (default) picks the path's natural
-      platform (``3d`` -> arm, the others -> cart).
+    * ``platform``: a registered platform (:mod:`simcalib.world.platforms`: ``cart``,
+      ``arm``, ``car``, ...); ``None`` (default) picks the path's natural platform (its
+      first: ``3d`` -> arm, the others -> cart).
     * ``path``: a name from :func:`simcalib.world.paths.available_paths` (default ``planar``).
     * ``duration_s`` (default 20 s), ``fps`` (default 10 Hz): frame ``k`` is nominally at
       ``k / fps`` for ``k = 0 .. floor(duration_s * fps)``.
@@ -339,7 +336,8 @@ class WorldConfig:
         from simcalib.world.paths import get_path, resolve_platform
         check_target(self.target)
         set_fields(self, board=board_for_target(self.board, self.target))
-        check_in("platform", self.platform, PLATFORMS, optional=True)
+        from simcalib.world.platforms import available_platforms
+        check_in("platform", self.platform, list(available_platforms()), optional=True)
         check_that(self.arm_model in ("builtin", "menagerie"), "arm_model", self.arm_model,
                    "'builtin' (models/ur5e.xml) or 'menagerie' (UR5e from $MENAGERIE_ROOT)")
         try:
@@ -382,6 +380,21 @@ class WorldConfig:
             check_that(c.capture_jitter_s <= 0.25 * period, f"{cam}.capture_jitter_s",
                        c.capture_jitter_s, f"<= a quarter of the frame period "
                        f"({0.25 * period:.4g} s) so capture times stay ordered")
+        self._check_platform()
+
+    def _check_platform(self) -> None:
+        """The platform's own check of the configuration (``check_config``, optional:
+        e.g. a path it cannot follow), before any work."""
+        from simcalib.world.platforms import get_platform
+        check = getattr(get_platform(self.platform), "check_config", None)
+        if check is None:
+            return
+        try:
+            check(self)
+        except ConfigError:
+            raise
+        except ValueError as exc:
+            raise ConfigError(str(exc), key="path", value=self.path) from None
 
     @property
     def n_frames(self) -> int:

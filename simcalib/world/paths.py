@@ -15,7 +15,8 @@ listing what is allowed.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from types import MappingProxyType
 from typing import Callable, Mapping
 
 import numpy as np
@@ -23,8 +24,8 @@ import numpy as np
 from simcalib.errors import ConfigError, did_you_mean, unknown_choice
 from simcalib.registry import Registry
 
-__all__ = ["PATHS", "PathInfo", "PathSample", "available_paths", "get_path", "resolve_platform",
-           "sample_path", "perturbation_sample", "compose_path"]
+__all__ = ["PATHS", "PathInfo", "PathSample", "available_paths", "combinations", "get_path",
+           "resolve_platform", "sample_path", "perturbation_sample", "compose_path"]
 
 
 @dataclass(frozen=True)
@@ -41,7 +42,8 @@ class PathSample:
 class PathInfo:
     """A registered path: ``defaults`` maps each platform that can drive it to its default
     parameters (the allowed override keys) — the keys ARE the platforms the path supports
-    (names of :mod:`simcalib.world.platforms`); ``fn(t, duration_s, params) ->
+    (names of :mod:`simcalib.world.platforms`): those the path was written for, then
+    those a platform adds (``PlatformInfo.paths``); ``fn(t, duration_s, params) ->
     PathSample``."""
     name: str
     description: str
@@ -90,7 +92,7 @@ def _register(name, description, defaults, degenerate=""):
 
 def available_paths() -> dict[str, PathInfo]:
     """All registered paths by name (metadata: platforms, description, default params)."""
-    return PATHS.available()
+    return dict(_merged())
 
 
 def get_path(name: str) -> PathInfo:
@@ -98,7 +100,59 @@ def get_path(name: str) -> PathInfo:
     ones, sorted)."""
     if isinstance(name, str) and name not in PATHS:
         raise unknown_choice("path", name, sorted(PATHS.names()), key="world.path")
-    return PATHS.info(name)
+    return _merged()[name]
+
+
+#: (the registered paths and platforms) -> their merged PathInfos: rebuilt when an entry
+#: is added or removed, so a lookup returns the same object while nothing changed
+_MERGED: dict = {}
+
+
+def _merged() -> dict[str, PathInfo]:
+    from simcalib.world.platforms.registry import PLATFORM_REGISTRY
+    key = (tuple((n, id(o)) for n, o in PATHS.items()),
+           tuple((n, id(o)) for n, o in PLATFORM_REGISTRY.items()))
+    if _MERGED.get("key") != key:
+        extra = _platform_defaults()
+        _MERGED.update(key=key, infos={name: _with(info, extra.get(name))
+                                        for name, info in PATHS.available().items()})
+    return _MERGED["infos"]
+
+
+def combinations() -> dict[str, tuple[str, ...]]:
+    """path name -> the registered platforms it supports."""
+    from simcalib.world.platforms.registry import PLATFORM_REGISTRY
+    registered = PLATFORM_REGISTRY.names()
+    return {name: tuple(p for p in info.platforms if p in registered)
+            for name, info in available_paths().items()}
+
+
+def _with(info: PathInfo, extra: Mapping | None) -> PathInfo:
+    return info if not extra else replace(info, defaults={**info.defaults, **extra})
+
+
+def _platform_defaults() -> dict[str, dict[str, Mapping[str, float]]]:
+    """path -> {platform: default parameters} that the registered platforms declare for
+    the paths they drive (``PlatformInfo.paths``), checked: a registered path that does not
+    name the platform itself, and exactly the path's parameters."""
+    from simcalib.world.platforms.registry import available_platforms
+    out: dict[str, dict[str, Mapping[str, float]]] = {}
+    for platform, pinfo in available_platforms().items():
+        for path, defaults in dict(pinfo.paths).items():
+            if path not in PATHS:
+                raise unknown_choice("path", path, sorted(PATHS.names()),
+                                     key=f"platform {platform!r} paths")
+            own = PATHS.info(path).defaults
+            if platform in own:
+                raise ValueError(f"platform {platform!r} declares defaults for path {path!r}, "
+                                 "which names that platform itself; declare them once")
+            params = sorted(next(iter(own.values())))
+            if sorted(defaults) != params:
+                raise ValueError(f"platform {platform!r}: defaults for path {path!r} must "
+                                 f"give its parameters {params}; received {sorted(defaults)}")
+            out.setdefault(path, {})[platform] = MappingProxyType(
+                {k: float(v) for k, v in defaults.items()})
+    return out
 
 
 def _pairing_error(info: PathInfo, platform: str):

@@ -21,14 +21,14 @@ from simcalib.geometry import (invert_transform, quat_from_matrix, quat_wxyz_fro
                                transform_from_rotation_translation)
 from simcalib.targets.markers import MarkerField, marker_png
 from simcalib.config.resources import models_dir
-from simcalib.streams import CameraIntrinsics
+from simcalib.streams import CAMERAS, CameraIntrinsics
 from simcalib.world.render import MJ_FROM_CV
 
 __all__ = ["Scene", "build_scene", "build_model", "MODELS_DIR", "CAMERA_NAMES"]
 
 #: Directory holding the MJCF files (room, cart, ur5e, rig).
 MODELS_DIR = models_dir()
-CAMERA_NAMES = ("cam_a", "cam_b")
+CAMERA_NAMES = CAMERAS          # the rig's cameras (simcalib.streams.CAMERAS)
 
 
 

@@ -1,6 +1,9 @@
-"""The paper's experiments (Dekel et al., CVPR 2020): ``table1``, ``table2``, ``figure3``,
-``figure6``; ``streams``, the validation of the stream calibration; and
-``real_data``, the regression table on public real recordings.
+"""Experiments: the paper's (Dekel et al., CVPR 2020) ``table1``, ``table2``, ``figure3``,
+``figure6``; ``streams``, the validation of the stream calibration; ``recordings``, the
+benchmark recordings of ``calibrate``; and ``real_data``, the regression table on public
+real recordings. Each is one module of this folder that registers its ``run`` in
+:data:`EXPERIMENTS` (``@experiment(name, config=..., description=...)``), found on the
+first lookup with no list to edit.
 
 Command line::
 
@@ -15,46 +18,66 @@ Library::
 
 Each experiment writes CSV + markdown + PNG files and a rerun recording ``NAME.rrd`` into
 its output directory. Keys are the fields of its config dataclass (``Table1Config``,
-``Table2Config``, ``Figure3Config``, ``Figure6Config``), parsed by the same config engine
+``Table2Config``, ...: ``config_class(name)``), parsed by the same config engine
 as ``run``: lists in brackets (``scenarios=[line,circle]``), YAML numbers and booleans;
 unknown keys are rejected naming the closest and the valid ones.
 """
 
 from __future__ import annotations
 
-import importlib
 import sys
+from dataclasses import dataclass, is_dataclass
+from typing import Callable
 
-from simcalib.errors import ConfigTypeError, unknown_choice
+from simcalib.errors import ConfigTypeError
+from simcalib.registry import Registry
 
-__all__ = ["EXPERIMENTS", "run_experiment", "config_class", "main"]
-
-# name -> (module, config class name)
-EXPERIMENTS = {
-    "table1": ("simcalib.studies.experiments.table1", "Table1Config"),
-    "table2": ("simcalib.studies.experiments.table2", "Table2Config"),
-    "figure3": ("simcalib.studies.experiments.figure3", "Figure3Config"),
-    "figure6": ("simcalib.studies.experiments.figure6", "Figure6Config"),
-    "streams": ("simcalib.studies.experiments.streams", "StreamsConfig"),
-    "recordings": ("simcalib.studies.experiments.recordings", "RecordingsConfig"),
-    "real_data": ("simcalib.studies.experiments.real_data", "RealDataConfig"),
-}
+__all__ = ["EXPERIMENTS", "Experiment", "experiment", "run_experiment", "config_class",
+           "main"]
 
 
-def _lookup(name: str):
+@dataclass(frozen=True)
+class Experiment:
+    """A registered experiment: ``run(config) -> ExperimentResult`` and its ``config``
+    dataclass (the keys of ``experiment NAME key=value``)."""
+    name: str
+    run: Callable
+    config: type
+    description: str
+
+
+def _experiment_info(name: str, run: Callable, *, config: type,
+                     description: str) -> Experiment:
+    if not callable(run) or not (isinstance(config, type) and is_dataclass(config)):
+        raise TypeError(f"experiment {name!r} needs a run(config) function and a config "
+                        f"dataclass; received {run!r}, {config!r}")
+    return Experiment(name, run, config, description)
+
+
+#: name -> run function (info: :class:`Experiment`); every module of this folder is
+#: imported on the first lookup, and an experiment module registers its ``run`` with
+#: :func:`experiment`, so a new experiment is one new file.
+EXPERIMENTS: Registry = Registry("experiment", package="simcalib.studies.experiments",
+                                 info=_experiment_info)
+
+
+def experiment(name: str, *, config: type, description: str):
+    """Decorator registering ``run(config)`` as experiment ``name`` with its config
+    dataclass."""
+    return EXPERIMENTS.register(name, config=config, description=description)
+
+
+def _lookup(name: str) -> Experiment:
     if not isinstance(name, str):
         raise ConfigTypeError(f"experiment name must be a string; received "
                               f"{type(name).__name__}")
-    if name not in EXPERIMENTS:
-        raise unknown_choice("experiment", name, EXPERIMENTS)
-    mod_name, cls_name = EXPERIMENTS[name]
-    mod = importlib.import_module(mod_name)
-    return mod, getattr(mod, cls_name)
+    EXPERIMENTS.get(name)           # unknown: did you mean ..., available: ...
+    return EXPERIMENTS.info(name)
 
 
 def config_class(name: str):
     """The config dataclass of experiment ``name``."""
-    return _lookup(name)[1]
+    return _lookup(name).config
 
 
 def run_experiment(name: str, config=None, **overrides):
@@ -62,7 +85,8 @@ def run_experiment(name: str, config=None, **overrides):
     strings parsed like command-line values: ``scenarios="[line,circle]"``). Returns an
     ``ExperimentResult``."""
     from simcalib.studies.experiments.common import build_config
-    mod, cls = _lookup(name)
+    exp = _lookup(name)
+    cls = exp.config
     if config is None:
         config = build_config(cls, overrides)
     elif overrides:
@@ -70,7 +94,7 @@ def run_experiment(name: str, config=None, **overrides):
     elif not isinstance(config, cls):
         raise ConfigTypeError(f"config for {name!r} must be a {cls.__name__}; received "
                               f"{type(config).__name__}")
-    return mod.run(config)
+    return exp.run(config)
 
 
 def _usage() -> str:
@@ -79,8 +103,9 @@ def _usage() -> str:
              "Lists are written in brackets: scenarios=[line,circle] algorithms=[dqopt,daniilidis]",
              "", "experiments and their keys (defaults):"]
     for name in EXPERIMENTS:
-        cls = config_class(name)
-        lines.append(f"  {name}:")
+        exp = EXPERIMENTS.info(name)
+        cls = exp.config
+        lines.append(f"  {name}: {exp.description}")
         for f in dataclasses.fields(cls):
             default = f.default
             if isinstance(default, tuple):
@@ -105,12 +130,12 @@ def main(argv=None) -> int:
         return 0 if argv else 2
     name, rest = argv[0], argv[1:]
     try:
-        mod, cls = _lookup(name)
-        config = build_config(cls, parse_overrides(rest))
+        exp = _lookup(name)
+        config = build_config(exp.config, parse_overrides(rest))
     except ConfigError as exc:
         print(f"simcalib: error: {exc}", file=sys.stderr)
         return 2
-    result = mod.run(config)
+    result = exp.run(config)
     print(f"{result.name}: wrote {len(result.files)} files to {result.output_dir} "
           f"in {result.runtime_s:.1f} s")
     for key, path in result.files.items():

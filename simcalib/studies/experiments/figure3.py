@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from simcalib.studies.experiments import common
+from simcalib.studies.experiments import common, experiment
 from simcalib.studies.experiments.common import ExperimentResult, fmt
 
 __all__ = ["Figure3Config", "run", "CSV_COLUMNS"]
@@ -94,6 +94,8 @@ def _cell(cfg: Figure3Config, s: str, sr: float, st: float) -> dict:
     return out
 
 
+@experiment('figure3', config=Figure3Config,
+            description="the paper's Figure 3: Daniilidis vs DQOpt over rotation x translation noise")
 def run(cfg: Figure3Config) -> ExperimentResult:
     t_start = time.perf_counter()
     out = common.output_dir(cfg.output)

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from simcalib.studies.experiments import common
+from simcalib.studies.experiments import common, experiment
 from simcalib.studies.experiments.common import ExperimentResult, fmt
 
 __all__ = ["Figure6Config", "run", "CSV_COLUMNS"]
@@ -79,6 +79,8 @@ def _level(cfg: Figure6Config, sr: float, st: float) -> dict:
     return out
 
 
+@experiment('figure6', config=Figure6Config,
+            description="the paper's Figure 6: the effect of alpha on the mean errors")
 def run(cfg: Figure6Config) -> ExperimentResult:
     t_start = time.perf_counter()
     out = common.output_dir(cfg.output)

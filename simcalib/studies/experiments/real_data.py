@@ -39,6 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from simcalib.errors import DataError
+from simcalib.studies.experiments import experiment
 
 __all__ = ["RequiredFlag", "Tolerance", "RealSet", "Reference", "FlaggedDirection", "Nees",
            "MethodResult", "SetResult", "Agreement", "Summary", "SETS", "CROSS_SET_PAIRS",
@@ -1120,6 +1121,8 @@ class RealDataConfig:
             set_by_name(n)
 
 
+@experiment('real_data', config=RealDataConfig,
+            description='the regression table on the public real recordings')
 def run(cfg: RealDataConfig):
     from simcalib.studies.experiments.common import ExperimentResult, output_dir
     t0 = time.perf_counter()

@@ -48,6 +48,7 @@ from simcalib.geometry import (invert_transform, matrix_from_quat, matrix_from_r
                                rotation_error_rad, rotvec_from_matrix,
                                transform_from_rotation_translation)
 from simcalib.importers import PoseStreamData, stream_from_arrays
+from simcalib.studies.experiments import experiment
 
 __all__ = ["Recording", "Settings", "Kind", "KINDS", "generate", "write_tum", "read_truth",
            "Outcome", "evaluate", "park_baseline", "true_streams", "motion_outliers",
@@ -1045,6 +1046,8 @@ class RecordingsConfig:
                    seeds=check_int("seeds", self.seeds, lo=1))
 
 
+@experiment('recordings', config=RecordingsConfig,
+            description='benchmark recordings calibrate has never seen, defaults vs a classic solver')
 def run(cfg: RecordingsConfig):
     """Run the comparison; writes ``recordings.md`` and ``recordings.csv`` into
     ``cfg.output``."""

@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from simcalib.studies.experiments.common import ExperimentResult
+from simcalib.studies.experiments import experiment
 
 __all__ = ["StreamsConfig", "run", "ETH_SETS", "eth_files", "sync_table", "ransac_table",
            "eth_table", "export_run_streams", "roundtrip", "roundtrip_table"]
@@ -303,6 +304,8 @@ def ransac_table(ransac_runs: int = 50) -> str:
     return "\n".join(out)
 
 
+@experiment('streams', config=StreamsConfig,
+            description='validation of the stream calibration (time sync, RANSAC, round trip, ETH data)')
 def run(cfg: StreamsConfig) -> ExperimentResult:
     from simcalib.studies.experiments import common
     from simcalib.studies.experiments.recording import log_experiment

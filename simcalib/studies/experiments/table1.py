@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from simcalib.studies.experiments import common
+from simcalib.studies.experiments import common, experiment
 from simcalib.studies.experiments.common import ExperimentResult, fmt
 
 __all__ = ["Table1Config", "run", "COST_COLUMNS", "TIMING_COLUMNS"]
@@ -95,6 +95,8 @@ def _stats(x: np.ndarray) -> dict:
             "max": float(np.max(x))}
 
 
+@experiment('table1', config=Table1Config,
+            description="the paper's Table 1: optimality and timing per method")
 def run(cfg: Table1Config) -> ExperimentResult:
     from simcalib.solvers.api import solve
     from simcalib.world.synthetic import SyntheticConfig, generate_dataset, sample_problems

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from simcalib.studies.experiments import common
+from simcalib.studies.experiments import common, experiment
 from simcalib.studies.experiments.common import ExperimentResult, fmt
 from simcalib.world.synthetic import PAPER_X_ROTVEC_RAD, PAPER_X_TRANSLATION_M
 
@@ -163,6 +163,8 @@ def _task(cfg: Table2Config, si: int, alg: str) -> common.SweepResult:
     return common.sweep_errors(C[:m], H[:m], ds.X, alg, alphas, rng, chunk=cfg.chunk)
 
 
+@experiment('table2', config=Table2Config,
+            description="the paper's Table 2 (synthetic): accuracy per scenario and method at the best alpha")
 def run(cfg: Table2Config) -> ExperimentResult:
     t_start = time.perf_counter()
     out = common.output_dir(cfg.output)

@@ -4,15 +4,16 @@ A platform adds its bodies to the scene, says where the rig is mounted and where
 *target frame* (the frame a path moves: cart base, arm flange) sits at home, and turns the
 path's target poses into MuJoCo states: kinematically (``drive``: the target frame is put
 exactly on the path) or by a physics simulation that follows the path (``simulate``: the
-states are where the simulated platform really is at the capture times). One file per platform under ``simcalib/world/platforms/``; each registers
-itself (``register``). Paths state the platforms they support
-(:class:`simcalib.world.paths.PathInfo` ``defaults`` keys).
+states are where the simulated platform really is at the capture times). One file per
+platform under ``simcalib/world/platforms/``; each registers itself (``register``). A
+path states the platforms it was written for (:class:`simcalib.world.paths.PathInfo`
+``defaults``); a platform adds the existing paths it drives (``PlatformInfo.paths``).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Protocol, runtime_checkable
+from dataclasses import dataclass, field
+from typing import Mapping, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -30,12 +31,17 @@ class PlatformInfo:
     speed, e.g. the car; no prediction is made); ``rig_mount_m``: the rig mount in the
     target frame, metres, rig +z = forward (cart: ``models/cart.xml`` site ``rig_mount``),
     or ``None`` when the target frame IS the rig mount and its home pose faces forward
-    (the arm's flange)."""
+    (the arm's flange).
+    ``paths``: the registered paths it drives beyond those that name it themselves
+    (:class:`simcalib.world.paths.PathInfo` ``defaults``), each with its default
+    parameters on this platform (the path's parameter names, the platform's scale), so a
+    new platform file runs existing paths without editing them."""
     name: str
     description: str
     outdoor: bool = False
     clocked_by_path: bool = True
     rig_mount_m: tuple[float, float, float] | None = None
+    paths: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

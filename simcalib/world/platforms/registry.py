@@ -1,5 +1,5 @@
-"""Registry of platforms (unknown names list the valid ones) and the valid
-platform x path combinations.
+"""Registry of platforms (unknown names list the valid ones); the valid platform x path
+combinations are :func:`simcalib.world.paths.combinations`.
 
 :data:`PLATFORM_REGISTRY` is a :class:`simcalib.registry.Registry` over the package
 ``simcalib.world.platforms``: the first lookup imports every module of that folder, so a
@@ -11,8 +11,7 @@ from __future__ import annotations
 from simcalib.registry import Registry
 from simcalib.world.platforms.base import Platform, PlatformInfo
 
-__all__ = ["PLATFORM_REGISTRY", "register", "get_platform", "available_platforms",
-           "combinations"]
+__all__ = ["PLATFORM_REGISTRY", "register", "get_platform", "available_platforms"]
 
 
 def _check_platform(name: str, platform) -> None:
@@ -38,14 +37,6 @@ def register(platform: Platform) -> Platform:
 def available_platforms() -> dict[str, PlatformInfo]:
     """name -> :class:`PlatformInfo`, in registration order."""
     return PLATFORM_REGISTRY.available()
-
-
-def combinations() -> dict[str, tuple[str, ...]]:
-    """path name -> the registered platforms it supports."""
-    from simcalib.world.paths import available_paths
-    registered = PLATFORM_REGISTRY.names()
-    return {name: tuple(p for p in info.platforms if p in registered)
-            for name, info in available_paths().items()}
 
 
 def get_platform(name: str) -> Platform:
