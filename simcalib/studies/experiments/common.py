@@ -188,7 +188,6 @@ def sweep_errors(C: np.ndarray, H: np.ndarray, X_true: np.ndarray, method: str,
     chunk / 2) several α are packed into one call with a per-problem α array. ``bar`` is a
     tqdm bar advanced by the number of (problem, α) pairs done.
     """
-    from simcalib.solvers.api import solve_batch
     with_alpha = uses_alpha(method)
     alphas = np.atleast_1d(np.asarray(alphas, dtype=np.float64))
     B = C.shape[0]
@@ -199,39 +198,12 @@ def sweep_errors(C: np.ndarray, H: np.ndarray, X_true: np.ndarray, method: str,
     trans = np.empty_like(rot)
     cost = np.empty_like(rot)
     failed = np.zeros(rot.shape, dtype=bool)
-    solve_s = 0.0
+    out = (rot, trans, cost, failed, {})
     per_pair = 1 if with_alpha else A
-    errors: dict[str, int] = {}
-    if B >= chunk // 2 or RA == 1:
-        for ia, a in enumerate(run_alphas):
-            for s in range(0, B, chunk):
-                e = min(B, s + chunk)
-                t0 = time.perf_counter()
-                X, c, ok = _solve_guarded(solve_batch, C[s:e], H[s:e], method, float(a), rng,
-                                          errors)
-                solve_s += time.perf_counter() - t0
-                rot[ia, s:e] = np.degrees(rotation_error_rad(X, X_true))
-                trans[ia, s:e] = 100.0 * translation_error_m(X, X_true)
-                cost[ia, s:e] = c
-                failed[ia, s:e] = ~ok
-                if bar is not None:
-                    bar.update((e - s) * per_pair)
-    else:
-        per_call = max(1, chunk // B)
-        for s in range(0, RA, per_call):
-            e = min(RA, s + per_call)
-            ia = np.repeat(np.arange(s, e), B)
-            ib = np.tile(np.arange(B), e - s)
-            t0 = time.perf_counter()
-            X, c, ok = _solve_guarded(solve_batch, C[ib], H[ib], method, run_alphas[ia], rng,
-                                      errors)
-            solve_s += time.perf_counter() - t0
-            rot[s:e] = np.degrees(rotation_error_rad(X, X_true)).reshape(e - s, B)
-            trans[s:e] = (100.0 * translation_error_m(X, X_true)).reshape(e - s, B)
-            cost[s:e] = np.asarray(c).reshape(e - s, B)
-            failed[s:e] = ~ok.reshape(e - s, B)
-            if bar is not None:
-                bar.update((e - s) * B)
+    sweep = _sweep_by_alpha if B >= chunk // 2 or RA == 1 else _sweep_packed
+    solve_s = sweep(C, H, X_true, method, run_alphas, rng, chunk, out,
+                    (lambda n: bar.update(n * per_pair)) if bar is not None else None)
+    errors = out[4]
     rot[failed] = np.inf
     trans[failed] = np.inf
     cost[failed] = np.inf
@@ -242,6 +214,53 @@ def sweep_errors(C: np.ndarray, H: np.ndarray, X_true: np.ndarray, method: str,
         failed = np.broadcast_to(failed, (A, B))
     return SweepResult(method, alphas, rot, trans, cost, with_alpha, solve_s, RA * B,
                        failed, errors)
+
+
+def _sweep_by_alpha(C, H, X_true, method, run_alphas, rng, chunk, out, advance) -> float:
+    """Many problems: each solve_batch call is one alpha over a slice of the problems (no
+    copy). Fills ``out`` = (rot, trans, cost, failed, errors); returns the solve time."""
+    from simcalib.solvers.api import solve_batch
+    rot, trans, cost, failed, errors = out
+    B, solve_s = C.shape[0], 0.0
+    for ia, a in enumerate(run_alphas):
+        for s in range(0, B, chunk):
+            e = min(B, s + chunk)
+            t0 = time.perf_counter()
+            X, c, ok = _solve_guarded(solve_batch, C[s:e], H[s:e], method, float(a), rng,
+                                      errors)
+            solve_s += time.perf_counter() - t0
+            rot[ia, s:e] = np.degrees(rotation_error_rad(X, X_true))
+            trans[ia, s:e] = 100.0 * translation_error_m(X, X_true)
+            cost[ia, s:e] = c
+            failed[ia, s:e] = ~ok
+            if advance is not None:
+                advance(e - s)
+    return solve_s
+
+
+def _sweep_packed(C, H, X_true, method, run_alphas, rng, chunk, out, advance) -> float:
+    """Few problems: several alphas packed into one solve_batch call with a per-problem
+    alpha array. Fills ``out`` = (rot, trans, cost, failed, errors); returns the solve
+    time."""
+    from simcalib.solvers.api import solve_batch
+    rot, trans, cost, failed, errors = out
+    B, RA, solve_s = C.shape[0], run_alphas.shape[0], 0.0
+    per_call = max(1, chunk // B)
+    for s in range(0, RA, per_call):
+        e = min(RA, s + per_call)
+        ia = np.repeat(np.arange(s, e), B)
+        ib = np.tile(np.arange(B), e - s)
+        t0 = time.perf_counter()
+        X, c, ok = _solve_guarded(solve_batch, C[ib], H[ib], method, run_alphas[ia], rng,
+                                  errors)
+        solve_s += time.perf_counter() - t0
+        rot[s:e] = np.degrees(rotation_error_rad(X, X_true)).reshape(e - s, B)
+        trans[s:e] = (100.0 * translation_error_m(X, X_true)).reshape(e - s, B)
+        cost[s:e] = np.asarray(c).reshape(e - s, B)
+        failed[s:e] = ~ok.reshape(e - s, B)
+        if advance is not None:
+            advance((e - s) * B)
+    return solve_s
 
 
 # What a solver may raise on a hard problem (besides reporting success=False): the API's

@@ -98,93 +98,12 @@ def _stats(x: np.ndarray) -> dict:
 @experiment('table1', config=Table1Config,
             description="the paper's Table 1: optimality and timing per method")
 def run(cfg: Table1Config) -> ExperimentResult:
-    from simcalib.solvers.api import solve
-    from simcalib.world.synthetic import SyntheticConfig, generate_dataset, sample_problems
     t_start = time.perf_counter()
     out = common.output_dir(cfg.output)
     rngs = common.child_rngs(cfg.seed, len(cfg.scenarios) + 1)
-    lo, hi = math.log10(cfg.alpha_min), math.log10(cfg.alpha_max)
-
-    problems = {}
-    for scenario, rng in zip(cfg.scenarios, rngs[:-1]):
-        data_rng, sample_rng, alpha_rng, solver_rng = rng.spawn(4)
-        ds = generate_dataset(SyntheticConfig(motion=scenario, num_motions=cfg.num_motions,
-                                              sigma_r_rad=cfg.sigma_r_rad,
-                                              sigma_t_m=cfg.sigma_t_m), data_rng)
-        C, H, _ = sample_problems(ds, cfg.samples, cfg.n, sample_rng)
-        alphas = 10.0 ** alpha_rng.uniform(lo, hi, cfg.samples)
-        problems[scenario] = (C, H, alphas, solver_rng)
-
-    def count(m):
-        return min(cfg.samples, cfg.slow_samples) if m in cfg.slow_methods else cfg.samples
-    total = len(cfg.scenarios) * (cfg.samples + sum(count(m) for m in cfg.methods))
-    rel = {m: [] for m in cfg.methods}
-    fails = {m: 0 for m in cfg.methods}
-    rows, notes = [], []
-    with common.progress(total, "table1 cost", cfg.progress) as bar:
-        for scenario, (C, H, alphas, solver_rng) in problems.items():
-            ref, ref_ok = _batched_cost(C, H, "dqopt", alphas, solver_rng, cfg.chunk, bar,
-                                        notes, scenario)
-            for m in cfg.methods:
-                k = count(m)
-                c, ok = _batched_cost(C[:k], H[:k], m, alphas[:k], solver_rng, cfg.chunk, bar,
-                                      notes, scenario)
-                both = ok & ref_ok[:k]
-                d = relative_difference(c[both], ref[:k][both])
-                rel[m].append(d)
-                fails[m] += int(np.sum(~ok))
-                rows.append({"scenario": scenario, "algorithm": m, "problems": k,
-                             "failed": int(np.sum(~ok)), **_stats(d),
-                             "negative_below_minus_1e-12": int(np.sum(d < -1e-12)),
-                             "above_1e-6": int(np.sum(d > 1e-6))})
-    for m in cfg.methods:
-        d = np.concatenate(rel[m])
-        rows.append({"scenario": "all", "algorithm": m,
-                     "problems": sum(r["problems"] for r in rows if r["algorithm"] == m),
-                     "failed": fails[m], **_stats(d),
-                     "negative_below_minus_1e-12": int(np.sum(d < -1e-12)),
-                     "above_1e-6": int(np.sum(d > 1e-6))})
-
-    # ---- timing: single solves (Solution.runtime_s) and batch throughput
-    timing_rows = []
-    C_all = np.concatenate([p[0] for p in problems.values()])
-    H_all = np.concatenate([p[1] for p in problems.values()])
-    a_all = np.concatenate([p[2] for p in problems.values()])
-    t_rng = rngs[-1]
-    order = t_rng.permutation(C_all.shape[0])
-    runs_of = {m: min(C_all.shape[0], cfg.slow_timing_runs if m in cfg.slow_methods
-                      or common.is_slow(m) else cfg.timing_runs)
-               for m in cfg.timing_methods}
-    with common.progress(2 * sum(runs_of.values()), "table1 timing", cfg.progress) as bar:
-        for m in cfg.timing_methods:
-            runs = runs_of[m]
-            idx = order[:runs]
-            # warm-up (imports, compiled kernels)
-            try:
-                solve(C_all[idx[0]], H_all[idx[0]], method=m, alpha=float(a_all[idx[0]]),
-                      rng=np.random.default_rng(0))
-            except common.SOLVER_ERRORS:
-                pass
-            us = []
-            for i in idx:
-                t0 = time.perf_counter()
-                try:
-                    sol = solve(C_all[i], H_all[i], method=m, alpha=float(a_all[i]), rng=t_rng)
-                    us.append(1e6 * sol.runtime_s)
-                except common.SOLVER_ERRORS:
-                    us.append(1e6 * (time.perf_counter() - t0))   # time to give up
-                bar.update(1)
-            us = np.asarray(us)
-            t0 = time.perf_counter()
-            common.solve_guarded(C_all[idx], H_all[idx], m, a_all[idx], t_rng, {})
-            batch_us = 1e6 * (time.perf_counter() - t0) / runs
-            bar.update(runs)
-            timing_rows.append({"algorithm": m, "runs": runs, "mean_us": float(us.mean()),
-                                "std_us": float(us.std()), "min_us": float(us.min()),
-                                "max_us": float(us.max()), "median_us": float(np.median(us)),
-                                "batch_us_per_problem": batch_us})
-    timing_rows.sort(key=lambda r: -r["mean_us"])
-
+    problems = _problems(cfg, rngs[:-1])
+    rows, rel, notes = _cost_rows(cfg, problems)
+    timing_rows = _timing_rows(cfg, problems, rngs[-1])
     runtime = time.perf_counter() - t_start
     notes = notes + [f"data: synthetic {', '.join(cfg.scenarios)} ({cfg.samples} problems each of "
              f"n = {cfg.n}; slow methods {', '.join(cfg.slow_methods)} on the first "
@@ -205,6 +124,104 @@ def run(cfg: Table1Config) -> ExperimentResult:
     files["rrd"] = log_experiment(out, "table1", {"table1": files["png"]}, {"table1": md})
     return ExperimentResult("table1", out, files, rows, runtime, tuple(notes),
                             {"timing": timing_rows})
+
+
+def _problems(cfg: Table1Config, rngs) -> dict:
+    """scenario -> ``(C, H, alphas, solver_rng)``: the sampled problems of each scenario
+    and their log-uniform alphas."""
+    from simcalib.world.synthetic import SyntheticConfig, generate_dataset, sample_problems
+    lo, hi = math.log10(cfg.alpha_min), math.log10(cfg.alpha_max)
+    problems = {}
+    for scenario, rng in zip(cfg.scenarios, rngs):
+        data_rng, sample_rng, alpha_rng, solver_rng = rng.spawn(4)
+        ds = generate_dataset(SyntheticConfig(motion=scenario, num_motions=cfg.num_motions,
+                                              sigma_r_rad=cfg.sigma_r_rad,
+                                              sigma_t_m=cfg.sigma_t_m), data_rng)
+        C, H, _ = sample_problems(ds, cfg.samples, cfg.n, sample_rng)
+        alphas = 10.0 ** alpha_rng.uniform(lo, hi, cfg.samples)
+        problems[scenario] = (C, H, alphas, solver_rng)
+    return problems
+
+
+def _cost_row(scenario, method, problems, failed, d) -> dict:
+    return {"scenario": scenario, "algorithm": method, "problems": problems, "failed": failed,
+            **_stats(d), "negative_below_minus_1e-12": int(np.sum(d < -1e-12)),
+            "above_1e-6": int(np.sum(d > 1e-6))}
+
+
+def _cost_rows(cfg: Table1Config, problems: dict):
+    """``(rows, rel, notes)``: each method's cost relative to dqopt's on the same problems,
+    per scenario and over all; ``rel`` method -> the relative differences per scenario."""
+    def count(m):
+        return min(cfg.samples, cfg.slow_samples) if m in cfg.slow_methods else cfg.samples
+    total = len(cfg.scenarios) * (cfg.samples + sum(count(m) for m in cfg.methods))
+    rel = {m: [] for m in cfg.methods}
+    fails = {m: 0 for m in cfg.methods}
+    rows, notes = [], []
+    with common.progress(total, "table1 cost", cfg.progress) as bar:
+        for scenario, (C, H, alphas, solver_rng) in problems.items():
+            ref, ref_ok = _batched_cost(C, H, "dqopt", alphas, solver_rng, cfg.chunk, bar,
+                                        notes, scenario)
+            for m in cfg.methods:
+                k = count(m)
+                c, ok = _batched_cost(C[:k], H[:k], m, alphas[:k], solver_rng, cfg.chunk, bar,
+                                      notes, scenario)
+                both = ok & ref_ok[:k]
+                d = relative_difference(c[both], ref[:k][both])
+                rel[m].append(d)
+                fails[m] += int(np.sum(~ok))
+                rows.append(_cost_row(scenario, m, k, int(np.sum(~ok)), d))
+    for m in cfg.methods:
+        rows.append(_cost_row("all", m, sum(r["problems"] for r in rows if r["algorithm"] == m),
+                              fails[m], np.concatenate(rel[m])))
+    return rows, rel, notes
+
+
+def _timing_rows(cfg: Table1Config, problems: dict, t_rng) -> list[dict]:
+    """Single solves (``Solution.runtime_s``) and batch throughput per timed method, on
+    problems drawn from every scenario; slowest first."""
+    C_all = np.concatenate([p[0] for p in problems.values()])
+    H_all = np.concatenate([p[1] for p in problems.values()])
+    a_all = np.concatenate([p[2] for p in problems.values()])
+    order = t_rng.permutation(C_all.shape[0])
+    runs_of = {m: min(C_all.shape[0], cfg.slow_timing_runs if m in cfg.slow_methods
+                      or common.is_slow(m) else cfg.timing_runs)
+               for m in cfg.timing_methods}
+    timing_rows = []
+    with common.progress(2 * sum(runs_of.values()), "table1 timing", cfg.progress) as bar:
+        for m in cfg.timing_methods:
+            idx = order[:runs_of[m]]
+            timing_rows.append(_time_method(m, C_all[idx], H_all[idx], a_all[idx], t_rng, bar))
+    timing_rows.sort(key=lambda r: -r["mean_us"])
+    return timing_rows
+
+
+def _time_method(m: str, C, H, alphas, t_rng, bar) -> dict:
+    """One method's timing row: a warm-up solve (imports, compiled kernels), each problem
+    solved alone (its runtime_s, or the time to give up), then all of them as a batch."""
+    from simcalib.solvers.api import solve
+    runs = C.shape[0]
+    try:
+        solve(C[0], H[0], method=m, alpha=float(alphas[0]), rng=np.random.default_rng(0))
+    except common.SOLVER_ERRORS:
+        pass
+    us = []
+    for i in range(runs):
+        t0 = time.perf_counter()
+        try:
+            sol = solve(C[i], H[i], method=m, alpha=float(alphas[i]), rng=t_rng)
+            us.append(1e6 * sol.runtime_s)
+        except common.SOLVER_ERRORS:
+            us.append(1e6 * (time.perf_counter() - t0))   # time to give up
+        bar.update(1)
+    us = np.asarray(us)
+    t0 = time.perf_counter()
+    common.solve_guarded(C, H, m, alphas, t_rng, {})
+    batch_us = 1e6 * (time.perf_counter() - t0) / runs
+    bar.update(runs)
+    return {"algorithm": m, "runs": runs, "mean_us": float(us.mean()),
+            "std_us": float(us.std()), "min_us": float(us.min()), "max_us": float(us.max()),
+            "median_us": float(np.median(us)), "batch_us_per_problem": batch_us}
 
 
 def _batched_cost(C, H, method, alphas, rng, chunk, bar, notes, scenario):

@@ -169,6 +169,32 @@ def run(cfg: Table2Config) -> ExperimentResult:
     t_start = time.perf_counter()
     out = common.output_dir(cfg.output)
     workers = common.check_workers(cfg.workers)
+    tasks, sweeps = _run_sweeps(cfg, workers)
+    rows, sweep_rows, curves, notes, timing = [], [], {}, [], {}
+    for (_, si, alg), sweep in zip(tasks, sweeps):
+        scenario = cfg.scenarios[si]
+        t = timing.setdefault(alg, [0.0, 0])
+        t[0] += sweep.solve_s
+        t[1] += sweep.solves
+        rows.extend(best_alpha_rows(scenario, sweep))
+        curves[(scenario, alg)] = sweep
+        notes += _failure_notes(scenario, alg, sweep)
+        sweep_rows += _sweep_rows(scenario, alg, sweep)
+    notes += _plan_notes(cfg)
+    runtime = time.perf_counter() - t_start
+    notes.append(f"wall time {runtime:.1f} s with {workers} worker process(es); "
+                 f"samples={cfg.samples}, n={cfg.n}, alphas={cfg.num_alphas}, "
+                 f"num_motions={cfg.num_motions}, seed={cfg.seed}")
+    timing_rows = [{"algorithm": a, "solves": n_, "solve_s": s_,
+                    "us_per_problem": 1e6 * s_ / max(n_, 1)} for a, (s_, n_) in timing.items()]
+    files = _write(cfg, out, rows, sweep_rows, timing_rows, curves, notes)
+    return ExperimentResult("table2", out, files, rows, runtime, tuple(notes),
+                            {"timing": timing_rows, "sweeps": curves})
+
+
+def _run_sweeps(cfg: Table2Config, workers: int):
+    """``(tasks, sweeps)``: one alpha sweep per scenario x algorithm, spread over the
+    workers, the most expensive first."""
     tasks, weights, priority = [], [], []
     for si, _ in enumerate(cfg.scenarios):
         for alg in cfg.algorithms:
@@ -179,36 +205,42 @@ def run(cfg: Table2Config) -> ExperimentResult:
             priority.append(m * n_alpha * common.expected_cost_us(alg))
     with common.progress(sum(weights), "table2", cfg.progress) as bar:
         sweeps = common.run_tasks(_task, tasks, workers, bar, weights, priority)
-    rows, sweep_rows, curves, notes = [], [], {}, []
-    timing: dict = {}
-    for (_, si, alg), sweep in zip(tasks, sweeps):
-        scenario = cfg.scenarios[si]
-        t = timing.setdefault(alg, [0.0, 0])
-        t[0] += sweep.solve_s
-        t[1] += sweep.solves
-        rows.extend(best_alpha_rows(scenario, sweep))
-        curves[(scenario, alg)] = sweep
-        for msg, cnt in sweep.errors.items():
-            notes.append(f"{alg} on {scenario}: {cnt} solve(s) raised in solve_batch "
-                         f"(counted as failed): {msg}")
-        if sweep.failed.any():
-            worst = int(sweep.failed.sum(axis=1).max())
-            notes.append(f"{alg} on {scenario}: up to {worst} of {sweep.rot_deg.shape[1]} "
-                         "solves per alpha reported failure (no estimate; counted as "
-                         "infinite error)")
-        for ia, a in enumerate(sweep.alphas):
-            sweep_rows.append({
-                "scenario": scenario, "algorithm": alg,
-                "alpha": float(a) if sweep.uses_alpha else math.nan,
-                "samples": sweep.rot_deg.shape[1],
-                "failed": int(sweep.failed[ia].sum()),
-                "rot_median_deg": common.median(sweep.rot_deg[ia]),
-                "rot_mean_deg": float(np.mean(sweep.rot_deg[ia])),
-                "trans_median_cm": common.median(sweep.trans_cm[ia]),
-                "trans_mean_cm": float(np.mean(sweep.trans_cm[ia])),
-            })
-            if not sweep.uses_alpha:
-                break
+    return tasks, sweeps
+
+
+def _failure_notes(scenario: str, alg: str, sweep) -> list[str]:
+    notes = [f"{alg} on {scenario}: {cnt} solve(s) raised in solve_batch (counted as failed): "
+             f"{msg}" for msg, cnt in sweep.errors.items()]
+    if sweep.failed.any():
+        worst = int(sweep.failed.sum(axis=1).max())
+        notes.append(f"{alg} on {scenario}: up to {worst} of {sweep.rot_deg.shape[1]} "
+                     "solves per alpha reported failure (no estimate; counted as "
+                     "infinite error)")
+    return notes
+
+
+def _sweep_rows(scenario: str, alg: str, sweep) -> list[dict]:
+    """One row per alpha of the sweep (one row for a method that takes no alpha)."""
+    rows = []
+    for ia, a in enumerate(sweep.alphas):
+        rows.append({
+            "scenario": scenario, "algorithm": alg,
+            "alpha": float(a) if sweep.uses_alpha else math.nan,
+            "samples": sweep.rot_deg.shape[1],
+            "failed": int(sweep.failed[ia].sum()),
+            "rot_median_deg": common.median(sweep.rot_deg[ia]),
+            "rot_mean_deg": float(np.mean(sweep.rot_deg[ia])),
+            "trans_median_cm": common.median(sweep.trans_cm[ia]),
+            "trans_mean_cm": float(np.mean(sweep.trans_cm[ia])),
+        })
+        if not sweep.uses_alpha:
+            break
+    return rows
+
+
+def _plan_notes(cfg: Table2Config) -> list[str]:
+    """What was subsampled (slow methods) and which methods take no alpha."""
+    notes = []
     for alg in cfg.algorithms:
         m, a_idx, why = _plan(cfg, alg)
         if m < cfg.samples or a_idx.size < cfg.num_alphas:
@@ -219,18 +251,18 @@ def run(cfg: Table2Config) -> ExperimentResult:
     no_alpha = [a for a in cfg.algorithms if not common.uses_alpha(a)]
     if no_alpha:
         notes.append(f"independent of alpha (solved once per sample): {', '.join(no_alpha)}")
-    runtime = time.perf_counter() - t_start
-    notes.append(f"wall time {runtime:.1f} s with {workers} worker process(es); "
-                 f"samples={cfg.samples}, n={cfg.n}, alphas={cfg.num_alphas}, "
-                 f"num_motions={cfg.num_motions}, seed={cfg.seed}")
+    return notes
+
+
+def _write(cfg, out, rows, sweep_rows, timing_rows, curves, notes) -> dict:
+    """table2.csv, table2_sweep.csv, table2_timing.csv, table2.md, the sweep figure and the
+    recording; their paths by kind."""
     files = {
         "csv": common.write_csv(out / "table2.csv", rows, CSV_COLUMNS),
         "sweep_csv": common.write_csv(out / "table2_sweep.csv", sweep_rows, SWEEP_COLUMNS),
+        "timing_csv": common.write_csv(out / "table2_timing.csv", timing_rows,
+                                       ["algorithm", "solves", "solve_s", "us_per_problem"]),
     }
-    timing_rows = [{"algorithm": a, "solves": n_, "solve_s": s_,
-                    "us_per_problem": 1e6 * s_ / max(n_, 1)} for a, (s_, n_) in timing.items()]
-    files["timing_csv"] = common.write_csv(out / "table2_timing.csv", timing_rows,
-                                           ["algorithm", "solves", "solve_s", "us_per_problem"])
     md = markdown(rows, cfg, notes, timing_rows)
     (out / "table2.md").write_text(md)
     files["md"] = out / "table2.md"
@@ -239,8 +271,7 @@ def run(cfg: Table2Config) -> ExperimentResult:
                                              out / "table2_sweep.png")
     from simcalib.studies.experiments.recording import log_experiment
     files["rrd"] = log_experiment(out, "table2", {"table2_sweep": files["png"]}, {"table2": md})
-    return ExperimentResult("table2", out, files, rows, runtime, tuple(notes),
-                            {"timing": timing_rows, "sweeps": curves})
+    return files
 
 
 def _cell(row, paper=None) -> tuple[str, str, str]:

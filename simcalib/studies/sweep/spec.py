@@ -115,25 +115,7 @@ def load_sweep(name_or_path: str | Mapping, overrides: Mapping[str, Any] | None 
     """Parse a sweep file (name of a shipped sweep, a path, or a mapping). ``overrides``
     (dotted run keys -> values) are added to the file's ``set`` block, except the sweep's
     own keys ``seed`` and ``seeds`` which replace the file's."""
-    import yaml
-    if isinstance(name_or_path, Mapping):
-        data, name, source = dict(name_or_path), "sweep", ""
-    else:
-        path = _sweep_path(str(name_or_path))
-        try:
-            data = yaml.safe_load(path.read_text()) or {}
-        except yaml.YAMLError as exc:
-            from simcalib.config.files import _yaml_error_text
-            raise ConfigError(f"sweep file {path}: {_yaml_error_text(exc)}") from None
-        name, source = path.stem, str(path)
-    if not isinstance(data, Mapping):
-        raise ConfigError(f"a sweep file must be a mapping of {', '.join(_TOP_KEYS)}; "
-                          f"received {type(data).__name__}")
-    data = dict(data)
-    for key in data:
-        if key not in _TOP_KEYS:
-            raise ConfigError(f"sweep: unknown key {key!r}{did_you_mean(key, _TOP_KEYS)}; "
-                              f"allowed: {', '.join(_TOP_KEYS)}")
+    data, name, source = _read_sweep(name_or_path)
     sets = dict(_mapping(data.get("set"), "set"))
     for k, v in dict(overrides or {}).items():
         if k in ("seed", "seeds"):
@@ -144,24 +126,8 @@ def load_sweep(name_or_path: str | Mapping, overrides: Mapping[str, Any] | None 
             data.get("grid") or {}):
         raise ConfigError("sweep: 'base' (the scenario every cell starts from) is required")
     grid = {k: _list(v, f"grid.{k}") for k, v in _mapping(data.get("grid"), "grid").items()}
-    zipped = {k: _list(v, f"zip.{k}") for k, v in _mapping(data.get("zip"), "zip").items()}
-    lengths = {len(v) for v in zipped.values()}
-    if len(lengths) > 1:
-        raise ConfigError("sweep: the lists under 'zip' must have one length; received "
-                          + ", ".join(f"{k}: {len(v)}" for k, v in zipped.items()))
-    rnd = _mapping(data.get("random"), "random")
-    samples, keys = 0, {}
-    if rnd:
-        unknown = set(rnd) - {"samples", "keys"}
-        if unknown:
-            raise ConfigError(f"sweep: random takes 'samples' and 'keys'; received "
-                              f"{sorted(unknown)}")
-        samples = _int(rnd.get("samples"), "random.samples", lo=1)
-        keys = {k: _distribution(v, f"random.keys.{k}")
-                for k, v in _mapping(rnd.get("keys"), "random.keys").items()}
-        if not keys:
-            raise ConfigError("sweep: random.keys is empty; name at least one key with its "
-                              "distribution")
+    zipped = _zipped(data)
+    samples, keys = _random_axes(data)
     dup = [k for k in set(grid) | set(zipped) | set(keys)
            if (k in grid) + (k in zipped) + (k in keys) > 1 or k in sets]
     if dup:
@@ -181,6 +147,59 @@ def load_sweep(name_or_path: str | Mapping, overrides: Mapping[str, Any] | None 
         record_cells=tuple(_int(i, "record.cells[]", lo=0) for i in
                            _list(rec.get("cells", []), "record.cells", allow_empty=True)),
         record_worst=_int(rec.get("worst", 0), "record.worst", lo=0), source=source)
+
+
+def _read_sweep(name_or_path) -> tuple[dict, str, str]:
+    """``(data, name, source)`` of a sweep given as a mapping, a shipped name or a path;
+    its top-level keys checked."""
+    import yaml
+    if isinstance(name_or_path, Mapping):
+        data, name, source = dict(name_or_path), "sweep", ""
+    else:
+        path = _sweep_path(str(name_or_path))
+        try:
+            data = yaml.safe_load(path.read_text()) or {}
+        except yaml.YAMLError as exc:
+            from simcalib.config.files import _yaml_error_text
+            raise ConfigError(f"sweep file {path}: {_yaml_error_text(exc)}") from None
+        name, source = path.stem, str(path)
+    if not isinstance(data, Mapping):
+        raise ConfigError(f"a sweep file must be a mapping of {', '.join(_TOP_KEYS)}; "
+                          f"received {type(data).__name__}")
+    data = dict(data)
+    for key in data:
+        if key not in _TOP_KEYS:
+            raise ConfigError(f"sweep: unknown key {key!r}{did_you_mean(key, _TOP_KEYS)}; "
+                              f"allowed: {', '.join(_TOP_KEYS)}")
+    return data, name, source
+
+
+def _zipped(data: dict) -> dict:
+    """The ``zip`` axes: lists of one length, swept together."""
+    zipped = {k: _list(v, f"zip.{k}") for k, v in _mapping(data.get("zip"), "zip").items()}
+    lengths = {len(v) for v in zipped.values()}
+    if len(lengths) > 1:
+        raise ConfigError("sweep: the lists under 'zip' must have one length; received "
+                          + ", ".join(f"{k}: {len(v)}" for k, v in zipped.items()))
+    return zipped
+
+
+def _random_axes(data: dict) -> tuple[int, dict]:
+    """``(samples, keys)`` of the ``random`` block (0 and {} without one)."""
+    rnd = _mapping(data.get("random"), "random")
+    if not rnd:
+        return 0, {}
+    unknown = set(rnd) - {"samples", "keys"}
+    if unknown:
+        raise ConfigError(f"sweep: random takes 'samples' and 'keys'; received "
+                          f"{sorted(unknown)}")
+    samples = _int(rnd.get("samples"), "random.samples", lo=1)
+    keys = {k: _distribution(v, f"random.keys.{k}")
+            for k, v in _mapping(rnd.get("keys"), "random.keys").items()}
+    if not keys:
+        raise ConfigError("sweep: random.keys is empty; name at least one key with its "
+                          "distribution")
+    return samples, keys
 
 
 def _mapping(value, key) -> Mapping:
