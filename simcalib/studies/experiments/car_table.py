@@ -47,7 +47,6 @@ def vertical_error_table(speeds_mps=(3.0, 4.5, 6.0), bumps_m=(0.01, 0.04),
         with tempfile.TemporaryDirectory(prefix="simcalib-car-table-") as tmp:
             return vertical_error_table(speeds_mps, bumps_m, seeds, scenario, extra, tmp)
     from simcalib.pipeline.scenario import load_config
-    from simcalib.pipeline.stages import run
     base = load_config(scenario, ["progress=false"])
     length_m = float(car_path(_target_fn(base.world), base.world).arc_length_m[-1])
     vc = base.world.vehicle
@@ -58,46 +57,56 @@ def vertical_error_table(speeds_mps=(3.0, 4.5, 6.0), bumps_m=(0.01, 0.04),
     rows = []
     for label, over in variants:
         for v in speeds_mps:
-            err, err_p, err_nom, flagged, wall, obs_std = [], [], [], 0, [], []
-            n_motions = 0
-            for seed in seeds:
-                tag = f"{label.replace(' ', '').replace(',', '-')}-{v:g}-{seed}"
-                # the capture window covers the whole drive at this speed
-                drive_s = length_m / v + v / (2 * vc.accel_mps2) + v / (2 * vc.decel_mps2)
-                cfg = load_config(scenario, [*over, f"world.vehicle.speed_mps={v}",
-                                             f"world.duration_s={math.ceil(drive_s + 1.0)}",
-                                             f"seed={seed}", "progress=false",
-                                             "recording.enabled=false",
-                                             f"output={out_dir}/{tag}", "overwrite=true",
-                                             *extra])
-                up = vertical_axis_a(cfg.world)
-                t0 = time.perf_counter()
-                res = run(cfg, echo=False)
-                wall.append(time.perf_counter() - t0)
-                t_true = res.X_true[:3, 3]
-                for name, out in (("dqopt", err), ("dqopt+prior", err_p)):
-                    s = res.solver(name)
-                    out.append(abs(float((s.X[:3, 3] - t_true) @ up)) if s.X is not None
-                               else float("nan"))
-                s = res.solver("dqopt")
-                flagged += int(bool(s.degenerate))
-                n_motions = int(res.pairing.get("used", 0))
-                stds = [d["std_m"] for d in s.undetermined_directions
-                        if d["kind"] == "translation" and abs(np.dot(
-                            d["translation_dir_a"], up)) > 0.9]
-                obs_std.append(stds[0] if stds else 0.0)
-                nominal = np.asarray(res.solver("dqopt+prior").prior["X"])
-                err_nom.append(abs(float((nominal[:3, 3] - t_true) @ up)))
-            rows.append({"variant": label, "speed_mps": float(v), "n_seeds": len(seeds),
-                         "n_motions": n_motions, "obs_std_median_m": float(np.median(obs_std)),
-                         "dqopt_vert_median_m": float(np.median(err)),
-                         "dqopt_vert_max_m": float(np.max(err)),
-                         "prior_vert_median_m": float(np.median(err_p)),
-                         "prior_vert_max_m": float(np.max(err_p)),
-                         "nominal_vert_median_m": float(np.median(err_nom)),
-                         "flagged_degenerate": flagged,
-                         "wall_s": float(np.median(wall))})
+            # the capture window covers the whole drive at this speed
+            drive_s = length_m / v + v / (2 * vc.accel_mps2) + v / (2 * vc.decel_mps2)
+            over_v = [*over, f"world.vehicle.speed_mps={v}",
+                      f"world.duration_s={math.ceil(drive_s + 1.0)}"]
+            runs = [_vertical_run(scenario, over_v, seed, extra,
+                                  f"{out_dir}/{label.replace(' ', '').replace(',', '-')}"
+                                  f"-{v:g}-{seed}") for seed in seeds]
+            rows.append(_vertical_row(label, v, runs))
     return rows
+
+
+def _vertical_run(scenario: str, overrides: list, seed: int, extra, output: str) -> dict:
+    """One run of the table: its vertical errors (dqopt, dqopt+prior, the nominal X), the
+    flag, the motions used, dqopt's 1-sigma along the vertical and the wall time."""
+    from simcalib.pipeline.scenario import load_config
+    from simcalib.pipeline.stages import run
+    cfg = load_config(scenario, [*overrides, f"seed={seed}", "progress=false",
+                                 "recording.enabled=false", f"output={output}",
+                                 "overwrite=true", *extra])
+    up = vertical_axis_a(cfg.world)
+    t0 = time.perf_counter()
+    res = run(cfg, echo=False)
+    wall = time.perf_counter() - t0
+    t_true = res.X_true[:3, 3]
+    err = {name: (abs(float((res.solver(name).X[:3, 3] - t_true) @ up))
+                  if res.solver(name).X is not None else float("nan"))
+           for name in ("dqopt", "dqopt+prior")}
+    s = res.solver("dqopt")
+    stds = [d["std_m"] for d in s.undetermined_directions
+            if d["kind"] == "translation" and abs(np.dot(d["translation_dir_a"], up)) > 0.9]
+    nominal = np.asarray(res.solver("dqopt+prior").prior["X"])
+    return {"dqopt": err["dqopt"], "prior": err["dqopt+prior"],
+            "nominal": abs(float((nominal[:3, 3] - t_true) @ up)),
+            "flagged": int(bool(s.degenerate)), "n_motions": int(res.pairing.get("used", 0)),
+            "obs_std": stds[0] if stds else 0.0, "wall": wall}
+
+
+def _vertical_row(label: str, v: float, runs: list[dict]) -> dict:
+    """The table row of one ground and speed over its seeds' runs."""
+    col = lambda k: [r[k] for r in runs]  # noqa: E731
+    return {"variant": label, "speed_mps": float(v), "n_seeds": len(runs),
+            "n_motions": runs[-1]["n_motions"] if runs else 0,
+            "obs_std_median_m": float(np.median(col("obs_std"))),
+            "dqopt_vert_median_m": float(np.median(col("dqopt"))),
+            "dqopt_vert_max_m": float(np.max(col("dqopt"))),
+            "prior_vert_median_m": float(np.median(col("prior"))),
+            "prior_vert_max_m": float(np.max(col("prior"))),
+            "nominal_vert_median_m": float(np.median(col("nominal"))),
+            "flagged_degenerate": sum(col("flagged")),
+            "wall_s": float(np.median(col("wall")))}
 
 
 def format_vertical_table(rows) -> str:
