@@ -184,15 +184,14 @@ def test_load_configs_checks_every_cell_before_returning():
     assert "cell 0" not in msg and "cell 3" not in msg
 
 
-@pytest.mark.slow
-def test_load_configs_is_cheap():
-    import time
+def test_load_configs_builds_every_cell():
+    """load_configs gives one validated config per override set, in order (its cost is a
+    benchmark's business, not a timed test's)."""
     from simcalib.pipeline.scenario import load_configs
-    sets = [{"noise.sigma_r_deg": s, "seed": k} for s in (0.1, 0.3, 1.0) for k in range(40)]
-    load_configs("planar", sets[:2])  # warm the key tables
-    t0 = time.perf_counter()
-    assert len(load_configs("planar", sets)) == 120
-    assert time.perf_counter() - t0 < 10.0  # ~0.4 s at rest on 2 cores
+    sets = [{"noise.sigma_r_deg": s, "seed": k} for s in (0.1, 0.3, 1.0) for k in range(4)]
+    cfgs = load_configs("planar", sets)
+    assert [(c.noise.sigma_r_deg, c.seed) for c in cfgs] == [
+        (s["noise.sigma_r_deg"], s["seed"]) for s in sets]
 
 
 # ----------------------------------------------------------------------- override syntax
