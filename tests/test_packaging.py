@@ -241,8 +241,6 @@ def test_no_folder_imports_back_up():
     assert not cycles, f"folders importing each other: {cycles}; through {detail}"
 
 
-@pytest.mark.xfail(strict=True, reason="solvers/: api <-> robust <-> kernels.batch <-> problem "
-                   "(lazy imports between solvers/, solvers/kernels/, solvers/diagnostics/)")
 def test_no_circle_between_files_of_different_folders():
     """A circle of imports may only join files of one folder (and is best avoided there)."""
     graph = _import_graph()

@@ -9,15 +9,17 @@
   rotation axes, solved all at once by ``simcalib.solve_batch`` with a DQ method), consensus
   by the per-motion residual, threshold given, from the noise level, or automatic (least
   median of squares scale); the best consensus is refined (dqopt on the inliers, re-scored,
-  repeated until the inlier set is stable) — the final ``X`` is ``simcalib.solve`` (dqopt)
-  on the inliers.
+  repeated until the inlier set is stable) — the final ``X`` is the plain solve (dqopt) on
+  the inliers.
 * :func:`irls` — iteratively re-weighted dqopt (Huber / Cauchy / Tukey weights on the
-  per-motion residuals) through ``simcalib.solve(C, H, ..., weights=w)``; the cost is a sum
+  per-motion residuals) through the plain solve with ``weights=w``; the cost is a sum
   over motions so the weighted S, W, M keep dqopt exact.
 * :func:`robust_solve` — ``robust="none" | "ransac" | "irls"`` (registry :data:`ROBUST_METHODS`).
 
 All return a :class:`RobustSolution` (``X``, the final ``Solution``, the inlier mask, the
-weights, the residuals, the threshold).
+weights, the residuals, the threshold). The plain solve is
+:func:`simcalib.solvers.single.solve_single` (``simcalib.solve`` without ``robust``: the
+same numbers), the layer below both this module and ``simcalib.solve(robust=...)``.
 """
 
 from __future__ import annotations
@@ -30,6 +32,8 @@ import numpy as np
 from simcalib.errors import SolverError, unknown_choice
 from simcalib.geometry import (check_transforms, dual_quat_from_transform, quat_left_matrix,
                                quat_right_matrix, rotvec_from_matrix)
+from simcalib.solvers.batch_solve import solve_batch
+from simcalib.solvers.single import solve_single
 
 __all__ = ["RobustSolution", "screw_residuals", "noise_threshold",
            "ransac", "irls", "robust_solve", "constraint_errors", "ROBUST_METHODS",
@@ -270,7 +274,6 @@ def _minimal_set_plan(rng, axes, sample_size, min_axis_angle_deg) -> tuple:
 def _best_hypothesis(C, H, rng, axes, sample_size, min_axis, threshold, alpha,
                      minimal_method, max_iterations, confidence) -> tuple:
     """``(X, hypotheses drawn)`` of the best-scoring minimal-set solve (threshold None: LMedS)."""
-    from simcalib.solvers.api import solve_batch
     N = C.shape[0]
     best_score, best_X, iters, needed = -math.inf, None, 0, max_iterations
     batch = 64
@@ -320,7 +323,6 @@ def _hypotheses_needed(r: np.ndarray, threshold, N: int, sample_size, confidence
 
 def _refine_consensus(C, H, X, threshold, alpha, final_method) -> tuple:
     """``(X, Solution, inliers, residuals, threshold)`` of ``final_method`` on stable inliers."""
-    from simcalib.solvers.api import solve
     auto = threshold is None
     # local optimisation: dqopt on the inliers until the set is stable
     r = screw_residuals(C, H, X, alpha)
@@ -330,7 +332,7 @@ def _refine_consensus(C, H, X, threshold, alpha, final_method) -> tuple:
     for _ in range(10):
         if mask.sum() < 3:
             break
-        final = solve(C[mask], H[mask], method=final_method, alpha=alpha)
+        final = solve_single(C[mask], H[mask], method=final_method, alpha=alpha)
         X = final.X
         r = screw_residuals(C, H, X, alpha)
         if auto:
@@ -368,12 +370,11 @@ def irls(C, H, *, alpha: float = 1.0, loss: str = "cauchy", scale: float | None 
          inlier_weight: float = 0.5, rng: np.random.Generator | None = None) -> RobustSolution:
     """Iteratively re-weighted dqopt: ``w_i = rho'(r_i/s)/(r_i/s)`` for ``loss`` (``huber``,
     ``cauchy``, ``tukey``, standard tuning constants) with ``s`` = ``scale`` or 1.4826 x the
-    weighted median residual, re-solved with ``simcalib.solve(C, H, method, alpha,
+    weighted median residual, re-solved with ``solve_single(C, H, method, alpha,
     weights=w)`` until ``X`` changes by less than ``tol``. ``init``: ``"ransac"`` (default;
     re-weighting from a least-squares start can lock onto the outliers),
     ``"none"`` (unweighted start) or a 4x4 ``X``. Inliers: ``w >= inlier_weight``.
     """
-    from simcalib.solvers.api import solve
     if loss not in _LOSSES:
         raise unknown_choice("IRLS loss", loss, _LOSSES, key="loss")
     C, H = _check_problem(C, H)
@@ -381,7 +382,7 @@ def irls(C, H, *, alpha: float = 1.0, loss: str = "cauchy", scale: float | None 
     if isinstance(init, str) and init == "ransac":
         X = ransac(C, H, alpha=alpha, rng=rng).X
     elif isinstance(init, str) and init == "none":
-        X = solve(C, H, method=method, alpha=alpha).X
+        X = solve_single(C, H, method=method, alpha=alpha).X
     else:
         X = check_transforms(init, "init")
         if X.shape != (4, 4):
@@ -394,7 +395,7 @@ def irls(C, H, *, alpha: float = 1.0, loss: str = "cauchy", scale: float | None 
         s = scale if scale is not None else 1.4826 * float(np.median(r[w > 0.5 * w.max()]))
         s = max(s, 1e-15)
         w = wfun(r / s, c)
-        sol = solve(C, H, method=method, alpha=alpha, weights=w)
+        sol = solve_single(C, H, method=method, alpha=alpha, weights=w)
         dX = float(np.abs(sol.X - X).max())
         X = sol.X
         if dX < tol:
@@ -410,9 +411,8 @@ def irls(C, H, *, alpha: float = 1.0, loss: str = "cauchy", scale: float | None 
 
 # ---------------------------------------------------------------------------- registry
 def _none(C, H, *, alpha: float = 1.0, method: str = "dqopt", **_):
-    from simcalib.solvers.api import solve
     C, H = _check_problem(C, H)
-    sol = solve(C, H, method=method, alpha=alpha)
+    sol = solve_single(C, H, method=method, alpha=alpha)
     r = screw_residuals(C, H, sol.X, alpha)
     n = C.shape[0]
     return RobustSolution(X=sol.X, solution=sol, inlier_mask=np.ones(n, bool),

@@ -445,7 +445,16 @@ def random_motions_for_warm_up():
 
 
 def load_every_kernel() -> None:
-    """One small solve and its diagnostics on :func:`random_motions_for_warm_up`: loads
-    (or compiles) every kernel a run uses."""
-    from simcalib.solvers.api import solve
-    solve(*random_motions_for_warm_up()).message
+    """Load (or compile, once per machine) every compiled entry the solver API calls, with
+    the argument types it calls them with: the solve kernel :func:`_one` (single solves,
+    batches, solves of given motions with weights and a prior: one signature) and the
+    certificate's kernel. (``tests/test_solvers_kernels_jit.py`` checks that a solve, its
+    diagnostics and a batch afterwards compile nothing more.)"""
+    from simcalib.solvers.kernels.dqcore import certificate_values
+    C, H = random_motions_for_warm_up()
+    out = run_batch(DQOPT, np.ones(1), C=C[None], H=H[None], keep_q=True)
+    run_batch(DQOPT, np.ones(1), Q=out["Q"], weights=np.ones((1, C.shape[0])),
+              prior_adds=(np.eye(4), np.zeros((4, 4)), np.eye(4)), align=False)
+    certificate_values(np.eye(4), np.zeros((4, 4)), np.eye(4))
+    if not jit.interpreting():
+        _READY[1] = True
