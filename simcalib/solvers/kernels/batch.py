@@ -191,11 +191,7 @@ def _align(opt, T, Q, wts, weighted, n, a2, q, qd, info, AtA, BtB, BtA):
     Z0 = np.zeros((4, 4))
     amb = np.zeros(n)   # 1.0: ambiguous motion
     dots = np.empty(n)
-    namb = 0
-    for i in range(n):
-        if abs(Q[3, i]) <= AMBIGUOUS_W or abs(Q[7, i]) <= AMBIGUOUS_W:
-            amb[i] = 1.0
-            namb += 1
+    namb = _mark_ambiguous(Q, n, amb)
     par = np.ones(n)   # -1: pair flipped relative to the scalar-part rule
     best_par = par
     sgn = par
@@ -205,13 +201,7 @@ def _align(opt, T, Q, wts, weighted, n, a2, q, qd, info, AtA, BtB, BtA):
     start = 0
     while start < n_starts:   # one call site of _refine (see _refine)
         if start > 0:
-            # start 1, 2: relative signs propagated from a reference motion, both global signs
-            for i in range(n):
-                s = sgn[i] if abs(sgn[i]) < 1.5 else (1.0 if sgn[i] > 0 else -1.0)
-                if start == 2 and abs(sgn[i]) > 1.5:
-                    s = -s
-                if s != par[i]:
-                    _flip(Q, par, i)
+            _start_signs(Q, par, sgn, n, start == 2)
         worst = _refine(opt, T, Q, par, wts, weighted, n, amb, namb, a2, Z0, q, qd, info, P,
                         nrm, AtA, BtB, BtA, S, W, M, dots)
         if start == 0 and namb > 0 and worst < _FIT_DOT:
@@ -235,21 +225,51 @@ def _align(opt, T, Q, wts, weighted, n, a2, q, qd, info, AtA, BtB, BtA):
         for i in range(n):
             if par[i] != best_par[i]:
                 _flip(Q, par, i)
-        for k in range(4):
-            q[k] = best[k]
-            qd[k] = best[4 + k]
-        for k in range(N_INFO):
-            info[k] = best[8 + k]
-        for i in range(4):
-            for j in range(4):
-                AtA[i, j] = best[8 + N_INFO + 4 * i + j]
-                BtB[i, j] = best[24 + N_INFO + 4 * i + j]
-                BtA[i, j] = best[40 + N_INFO + 4 * i + j]
+        _restore_state(best, q, qd, info, AtA, BtB, BtA)
     total = 0
     for i in range(n):
         if par[i] < 0.0:
             total += 1
     return total
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _mark_ambiguous(Q, n, amb):
+    """amb[i] = 1 for the motions whose sign is ambiguous (a scalar part <= AMBIGUOUS_W);
+    returns their number."""
+    namb = 0
+    for i in range(n):
+        if abs(Q[3, i]) <= AMBIGUOUS_W or abs(Q[7, i]) <= AMBIGUOUS_W:
+            amb[i] = 1.0
+            namb += 1
+    return namb
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _start_signs(Q, par, sgn, n, negate):
+    """Starts 1, 2 of the alignment: the relative signs propagated from a reference motion
+    (sgn, :func:`_propagate_signs`), the reachable ones negated for start 2."""
+    for i in range(n):
+        s = sgn[i] if abs(sgn[i]) < 1.5 else (1.0 if sgn[i] > 0 else -1.0)
+        if negate and abs(sgn[i]) > 1.5:
+            s = -s
+        if s != par[i]:
+            _flip(Q, par, i)
+
+
+@njit(cache=True, error_model="numpy")
+def _restore_state(best, q, qd, info, AtA, BtB, BtA):
+    """The inverse of :func:`_save_state`."""
+    for k in range(4):
+        q[k] = best[k]
+        qd[k] = best[4 + k]
+    for k in range(N_INFO):
+        info[k] = best[8 + k]
+    for i in range(4):
+        for j in range(4):
+            AtA[i, j] = best[8 + N_INFO + 4 * i + j]
+            BtB[i, j] = best[24 + N_INFO + 4 * i + j]
+            BtA[i, j] = best[40 + N_INFO + 4 * i + j]
 
 
 @njit(cache=True, error_model="numpy", inline="always")
