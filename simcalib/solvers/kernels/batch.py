@@ -23,8 +23,9 @@ lowest dqopt cost is kept.
 from __future__ import annotations
 
 import numpy as np
+from simcalib.geometry import quat_multiply
 from simcalib.solvers.kernels import jit
-from simcalib.solvers.kernels.jit import njit
+from simcalib.solvers.kernels.jit import njit, twin_of
 
 from simcalib.solvers.kernels.dqcore import DQOPT, I_COST, I_STATUS, N_INFO, ST_NONFINITE, \
     _solve_core
@@ -58,6 +59,17 @@ def _cost_soa(Q, wts, weighted, n, q, qd, a2):
             ti += (p[k] - r[k]) ** 2 + a2 * (p1[k] - p2[k] + p3[k] - p4[k]) ** 2
         tot += wts[i] * ti if weighted else ti
     return tot
+
+
+@twin_of(_cost_soa)
+def _cost_soa_twin(Q, wts, weighted, n, q, qd, a2):
+    """:func:`_cost_soa` over all motions at once (numpy)."""
+    c, h, cd, hd = (Q[r:r + 4, :n].T for r in (0, 4, 8, 12))
+    r1 = quat_multiply(c, q) - quat_multiply(q, h)
+    r2 = quat_multiply(cd, q) - quat_multiply(q, hd) + quat_multiply(c, qd) \
+        - quat_multiply(qd, h)
+    per = np.sum(r1 * r1, axis=1) + a2 * np.sum(r2 * r2, axis=1)
+    return float(np.sum(per * wts[:n]) if weighted else np.sum(per))
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -102,6 +114,14 @@ def _fit_dots(Q, n, q, dots):
         a = _qmul(Q[0, i], Q[1, i], Q[2, i], Q[3, i], x, y, z, w)
         b = _qmul(x, y, z, w, Q[4, i], Q[5, i], Q[6, i], Q[7, i])
         dots[i] = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
+
+
+@twin_of(_fit_dots)
+def _fit_dots_twin(Q, n, q, dots):
+    """:func:`_fit_dots` over all motions at once (numpy)."""
+    a = quat_multiply(Q[0:4, :n].T, q)
+    b = quat_multiply(q, Q[4:8, :n].T)
+    dots[:n] = np.sum(a * b, axis=1)
 
 
 @njit(cache=True, error_model="numpy", inline="always")

@@ -18,7 +18,10 @@ finds the cache cold (:func:`kernels_cached`) executes its stages inside
 solves take ~1-2 s), while a low-priority child process fills the cache for the runs that
 follow (:func:`start_cache_fill`, which then writes the stamp :func:`kernels_cached`
 reads). The results agree with the compiled kernels to rounding (~1e-14: the compiled
-ones reassociate a few sums).
+ones reassociate a few sums). A kernel whose loop runs over the motions may name a
+vectorised numpy twin (:func:`twin_of`), which the interpreted calls run instead of its
+per-motion Python loop (the twins are checked against the kernels in
+``tests/test_solvers_kernels.py``); the 4x4 method code always runs as written.
 """
 
 from __future__ import annotations
@@ -46,6 +49,7 @@ class Kernel:
         self.py_func = py_func
         self.options = options
         self.dispatcher = None
+        self.twin = None   # the numpy function interpreted calls run instead (twin_of)
         self.__name__ = py_func.__name__
         self.__qualname__ = py_func.__qualname__
         self.__module__ = py_func.__module__
@@ -55,12 +59,12 @@ class Kernel:
     def __call__(self, *args, **kwargs):
         if self.dispatcher is None:
             if _INTERPRETED:
-                return self.py_func(*args, **kwargs)
+                return (self.twin or self.py_func)(*args, **kwargs)
             load_numba()
         return self.dispatcher(*args, **kwargs)
 
     def __getattr__(self, name):   # dispatcher attributes (signatures, stats, ...)
-        if name in ("dispatcher", "py_func", "options"):
+        if name in ("dispatcher", "py_func", "options", "twin"):
             raise AttributeError(name)
         if self.dispatcher is None:
             load_numba()
@@ -80,6 +84,16 @@ def njit(**options):
             _materialise(kernel, __import__("numba"))
             _patch_globals(__import__("numba"))
         return kernel
+    return decorate
+
+
+def twin_of(kernel: Kernel):
+    """Decorator: the decorated numpy function (same arguments, same outputs written, same
+    return value, to rounding) runs instead of ``kernel``'s Python function when kernels
+    are interpreted: a vectorised twin of a loop over the motions."""
+    def decorate(fn):
+        kernel.twin = fn
+        return fn
     return decorate
 
 
