@@ -78,6 +78,14 @@ def _motion_dq(C, H):
     return qC, qCd, qH, qHd
 
 
+def _motion_matrices(C, H) -> tuple:
+    """``L(q_C), L(q_C'), R(q_H), R(q_H')`` (N, 4, 4) each: what :func:`screw_residuals`
+    needs of the motions (computed once per robust fit, not per hypothesis)."""
+    qC, qCd, qH, qHd = _motion_dq(C, H)
+    return (quat_left_matrix(qC), quat_left_matrix(qCd), quat_right_matrix(qH),
+            quat_right_matrix(qHd))
+
+
 def screw_residuals(C, H, X, alpha: float = 1.0) -> np.ndarray:
     """Per-motion screw-constraint residuals ``(..., N)`` of ``C_i X = X H_i`` for one
     ``X`` (4, 4) or a batch ``(B, 4, 4)`` (result ``(B, N)``); see the module docstring."""
@@ -88,10 +96,13 @@ def screw_residuals(C, H, X, alpha: float = 1.0) -> np.ndarray:
         raise ValueError(f"C and H must both have shape (N, 4, 4); received {C.shape}, {H.shape}")
     if X.shape[-2:] != (4, 4) or X.ndim not in (2, 3):
         raise ValueError(f"X must have shape (4, 4) or (B, 4, 4); received {X.shape}")
-    qC, qCd, qH, qHd = _motion_dq(C, H)
-    qX, qXd = dual_quat_from_transform(X)
-    LC, LCd = quat_left_matrix(qC), quat_left_matrix(qCd)      # (N,4,4)
-    RH, RHd = quat_right_matrix(qH), quat_right_matrix(qHd)
+    return _residuals(_motion_matrices(C, H), X, alpha)
+
+
+def _residuals(mats: tuple, X, alpha: float) -> np.ndarray:
+    """:func:`screw_residuals` from the motions' :func:`_motion_matrices`."""
+    LC, LCd, RH, RHd = mats
+    qX, qXd = dual_quat_from_transform(np.asarray(X, dtype=np.float64))
     # q_C (x) q_X and q_X (x) q_H as (..., N, 4)
     a = np.einsum("nij,...j->...ni", LC, qX)
     b = np.einsum("nij,...j->...ni", RH, qX)
@@ -188,9 +199,11 @@ def ransac(C, H, *, alpha: float = 1.0, threshold: float | None = None,
     auto = threshold is None
     axes = _rotation_axes(C)
     sample_size, min_axis, note = _minimal_set_plan(rng, axes, sample_size, min_axis_angle_deg)
-    best_X, iters = _best_hypothesis(C, H, rng, axes, sample_size, min_axis, threshold, alpha,
-                                     minimal_method, max_iterations, confidence)
-    X, final, mask, r, thr = _refine_consensus(C, H, best_X, threshold, alpha, final_method)
+    mats = _motion_matrices(C, H)
+    best_X, iters = _best_hypothesis(C, H, mats, rng, axes, sample_size, min_axis, threshold,
+                                     alpha, minimal_method, max_iterations, confidence)
+    X, final, mask, r, thr = _refine_consensus(C, H, mats, best_X, threshold, alpha,
+                                               final_method)
     msg = _ransac_message(mask, thr, auto, noise is not None and not given, iters,
                           sample_size, final_method, note)
     return RobustSolution(X=X, solution=final, inlier_mask=mask,
@@ -271,7 +284,7 @@ def _minimal_set_plan(rng, axes, sample_size, min_axis_angle_deg) -> tuple:
     return sample_size, min_axis, note
 
 
-def _best_hypothesis(C, H, rng, axes, sample_size, min_axis, threshold, alpha,
+def _best_hypothesis(C, H, mats, rng, axes, sample_size, min_axis, threshold, alpha,
                      minimal_method, max_iterations, confidence) -> tuple:
     """``(X, hypotheses drawn)`` of the best-scoring minimal-set solve (threshold None: LMedS)."""
     N = C.shape[0]
@@ -286,7 +299,7 @@ def _best_hypothesis(C, H, rng, axes, sample_size, min_axis, threshold, alpha,
         Xs = sol.X[sol.success]
         if Xs.shape[0] == 0:
             continue
-        r = screw_residuals(C, H, Xs, alpha)                         # (B, N)
+        r = _residuals(mats, Xs, alpha)                              # (B, N)
         score = _hypothesis_scores(r, threshold)
         k = int(np.argmax(score))
         if score[k] > best_score:
@@ -321,11 +334,11 @@ def _hypotheses_needed(r: np.ndarray, threshold, N: int, sample_size, confidence
     return int(min(math.ceil(math.log(1 - confidence) / den), 2**62))
 
 
-def _refine_consensus(C, H, X, threshold, alpha, final_method) -> tuple:
+def _refine_consensus(C, H, mats, X, threshold, alpha, final_method) -> tuple:
     """``(X, Solution, inliers, residuals, threshold)`` of ``final_method`` on stable inliers."""
     auto = threshold is None
     # local optimisation: dqopt on the inliers until the set is stable
-    r = screw_residuals(C, H, X, alpha)
+    r = _residuals(mats, X, alpha)
     thr = _auto_threshold(r, 6) if auto else threshold
     mask = r < thr
     final = None
@@ -334,7 +347,7 @@ def _refine_consensus(C, H, X, threshold, alpha, final_method) -> tuple:
             break
         final = solve_single(C[mask], H[mask], method=final_method, alpha=alpha)
         X = final.X
-        r = screw_residuals(C, H, X, alpha)
+        r = _residuals(mats, X, alpha)
         if auto:
             thr = _auto_threshold(r[mask], 6)
         new = r < thr
@@ -388,10 +401,11 @@ def irls(C, H, *, alpha: float = 1.0, loss: str = "cauchy", scale: float | None 
         if X.shape != (4, 4):
             raise ValueError(f"init must be 'ransac', 'none' or one 4x4 X; received {X.shape}")
     sol = None
+    mats = _motion_matrices(C, H)
     w = np.ones(C.shape[0])
     it = 0
     for it in range(1, max_iterations + 1):
-        r = screw_residuals(C, H, X, alpha)
+        r = _residuals(mats, X, alpha)
         s = scale if scale is not None else 1.4826 * float(np.median(r[w > 0.5 * w.max()]))
         s = max(s, 1e-15)
         w = wfun(r / s, c)
@@ -400,7 +414,7 @@ def irls(C, H, *, alpha: float = 1.0, loss: str = "cauchy", scale: float | None 
         X = sol.X
         if dX < tol:
             break
-    r = screw_residuals(C, H, X, alpha)
+    r = _residuals(mats, X, alpha)
     mask = w >= inlier_weight
     return RobustSolution(X=X, solution=sol, inlier_mask=mask, weights=w, residuals=r,
                           threshold=float(s * c), method="irls", iterations=it,
