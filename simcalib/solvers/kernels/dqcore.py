@@ -174,7 +174,7 @@ def _m_eig_wv(S, W, M, xi, V, WV):
     return nclip
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _dqopt_newton(S, WV, V, xi, q, Z, lam, E):
     """DQOpt (section 3.1): the root of f(mu) = q0 . q0' by safeguarded Newton inside the
     bracket, q = the eigenvector of Z(mu*) of the smallest eigenvalue (lam, E: the last
@@ -231,7 +231,7 @@ def _dqopt_newton(S, WV, V, xi, q, Z, lam, E):
     return mu, iters, status, lo, hi, f, df
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _dqopt_bracket(V, WV, xi):
     """The bracket of mu* (appendix C): mu* lies in [k_min, k_max], the extreme eigenvalues
     of K = sym(M^1/2 W M^-1/2); here the cheaper valid bound |mu*| <= ||K||_F (the exact
@@ -250,7 +250,7 @@ def _dqopt_bracket(V, WV, xi):
     return -kf * (1.0 + 1e-12) - 1e-300, kf * (1.0 + 1e-12) + 1e-300
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _newton_last_step(E, lam, WV, V, xi, mu, mu_new, pv, pu, pva, pua, q):
     """q = the eigenvector of Z(mu) moved to Z(mu_new) by first-order perturbation (pv,
     pu: the projections of E[:, 0] from the last f(mu))."""
@@ -268,7 +268,7 @@ def _newton_last_step(E, lam, WV, V, xi, mu, mu_new, pv, pu, pva, pua, q):
                 q[i] += dmu * za / gap * E[i, a]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _dqitr_iterate(S, W, WV, V, xi, q, Z, lam, E):
     """DQItr (appendix A): the fixed point of mu = mu~(q(mu)). Returns (mu, iterations,
     status)."""
@@ -304,7 +304,7 @@ def _dqitr_iterate(S, W, WV, V, xi, q, Z, lam, E):
     return mu, iters, ST_OK if converged else ST_MAXITER
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _relaxed(method, S, WV, V, xi, q, Z, lam, E):
     """The methods from the relaxed problem Z0 = Z(0): DQConvRlx (its eigenvector), DQ2ndOrd
     and DQ2ndOrd-lambda (second-order expansions about it). Returns (mu, status)."""
@@ -368,7 +368,7 @@ def _solve_core(method, S, W, M, q, qd, info):
     _write_info(S, W, M, q, qd, info, mu, lam, iters, nclip, lo, hi, f, df, status, xi)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _write_info(S, W, M, q, qd, info, mu, lam, iters, nclip, lo, hi, f, df, status, xi):
     """The info vector (indices I_*) of a solution (q, q'), with its objective (the
     quadratic form of eq. 9 with these S, W, M); a non-finite (q, q') is ST_NONFINITE."""
