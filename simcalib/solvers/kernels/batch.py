@@ -61,7 +61,7 @@ def _cost_soa(Q, wts, weighted, n, q, qd, a2):
     return tot
 
 
-@twin_of(_cost_soa)
+@twin_of(_cost_soa, when=lambda Q, wts, weighted, n, q, qd, a2: n >= 4)   # crossover
 def _cost_soa_twin(Q, wts, weighted, n, q, qd, a2):
     """:func:`_cost_soa` over all motions at once (numpy)."""
     c, h, cd, hd = (Q[r:r + 4, :n].T for r in (0, 4, 8, 12))
@@ -116,7 +116,7 @@ def _fit_dots(Q, n, q, dots):
         dots[i] = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
 
 
-@twin_of(_fit_dots)
+@twin_of(_fit_dots, when=lambda Q, n, q, dots: n >= 4)   # measured crossover
 def _fit_dots_twin(Q, n, q, dots):
     """:func:`_fit_dots` over all motions at once (numpy)."""
     a = quat_multiply(Q[0:4, :n].T, q)

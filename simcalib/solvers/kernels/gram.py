@@ -196,7 +196,7 @@ def grams_compiled(q_C, q_C_dual, q_H, q_H_dual, weights=None):
 
 
 # -------------------------------- numpy twins run by interpreted kernels (jit.twin_of)
-@twin_of(_quats_soa)
+@twin_of(_quats_soa, when=lambda C, H, tol, Q: C.shape[0] >= 10)   # measured crossover
 def _quats_soa_twin(C, H, tol, Q):
     """:func:`_quats_soa` over all motions at once (numpy): the first non-rigid motion, or
     -1 after filling Q (dual quaternions of :func:`simcalib.geometry.dual_quat_from_transform`,

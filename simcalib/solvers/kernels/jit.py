@@ -50,6 +50,7 @@ class Kernel:
         self.options = options
         self.dispatcher = None
         self.twin = None   # the numpy function interpreted calls run instead (twin_of)
+        self.twin_when = None   # ... for the arguments it accepts (None: always)
         self.__name__ = py_func.__name__
         self.__qualname__ = py_func.__qualname__
         self.__module__ = py_func.__module__
@@ -59,12 +60,15 @@ class Kernel:
     def __call__(self, *args, **kwargs):
         if self.dispatcher is None:
             if _INTERPRETED:
-                return (self.twin or self.py_func)(*args, **kwargs)
+                if self.twin is not None and (self.twin_when is None
+                                              or self.twin_when(*args, **kwargs)):
+                    return self.twin(*args, **kwargs)
+                return self.py_func(*args, **kwargs)
             load_numba()
         return self.dispatcher(*args, **kwargs)
 
     def __getattr__(self, name):   # dispatcher attributes (signatures, stats, ...)
-        if name in ("dispatcher", "py_func", "options", "twin"):
+        if name in ("dispatcher", "py_func", "options", "twin", "twin_when"):
             raise AttributeError(name)
         if self.dispatcher is None:
             load_numba()
@@ -87,12 +91,14 @@ def njit(**options):
     return decorate
 
 
-def twin_of(kernel: Kernel):
+def twin_of(kernel: Kernel, when=None):
     """Decorator: the decorated numpy function (same arguments, same outputs written, same
     return value, to rounding) runs instead of ``kernel``'s Python function when kernels
-    are interpreted: a vectorised twin of a loop over the motions."""
+    are interpreted: a vectorised twin of a loop over the motions. ``when(*args)``: the
+    calls it takes (numpy's fixed cost loses to a loop over a few motions); None: all."""
     def decorate(fn):
         kernel.twin = fn
+        kernel.twin_when = when
         return fn
     return decorate
 
