@@ -221,7 +221,8 @@ def _dqopt_newton(S, WV, V, xi, q, Z, lam, E):
             return mu_new, iters, status, lo, hi, f, df
         if not (mu_new > blo and mu_new < bhi):
             mu_new = 0.5 * (blo + bhi)
-        if abs(mu_new - mu) <= 2.0 * _EPS * abs(mu) or bhi - blo <= 4.0 * _EPS * max(abs(blo), abs(bhi)):
+        if (abs(mu_new - mu) <= 2.0 * _EPS * abs(mu)
+                or bhi - blo <= 4.0 * _EPS * max(abs(blo), abs(bhi))):
             break
         mu = mu_new
     else:
