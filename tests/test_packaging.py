@@ -243,8 +243,6 @@ def test_no_folder_imports_back_up():
     assert not cycles, f"folders importing each other: {cycles}; through {detail}"
 
 
-@pytest.mark.xfail(strict=True, reason="solvers/: api <-> robust <-> kernels.batch <-> problem "
-                   "(lazy imports between solvers/, solvers/kernels/, solvers/diagnostics/)")
 def test_no_circle_between_files_of_different_folders():
     """A circle of imports may only join files of one folder (and is best avoided there)."""
     graph = _import_graph()
@@ -252,3 +250,14 @@ def test_no_circle_between_files_of_different_folders():
         k.startswith(m + ".") for k in graph) else m
     mixed = [c for c in _cycles(graph) if len({folder_of(m) for m in c}) > 1]
     assert not mixed, f"circles across folders: {mixed}"
+
+
+def test_solver_kernels_know_nothing_above_them():
+    """simcalib.solvers.kernels (the compiled code, its numpy twins, how a command runs it)
+    imports nothing of the solver layers above it (api, single, robust, problem, ...)."""
+    graph = _import_graph()
+    kernels = "simcalib.solvers.kernels"
+    up = sorted((a, b) for a, targets in graph.items() for b in targets
+                if a.startswith(kernels) and b.startswith("simcalib.solvers")
+                and not b.startswith(kernels))
+    assert not up, f"kernels import from above: {up}"

@@ -164,6 +164,34 @@ def test_near_180_degree_pairs_are_realigned():
     assert per_motion < 1e-3   # a flipped pair would add ~4
 
 
+def test_dqopt_kept_from_the_alignment_equals_a_solve_of_the_aligned_motions():
+    """simcalib.solve(dqopt) takes X and the diagnostics from the sign alignment's last
+    dqopt solve (MotionProblem.kept_dqopt) instead of solving the aligned motions again:
+    the two are the same bits (same kernel code, same motions), also with weights, near
+    180 deg (restarts) and noise-free; another alpha is solved again."""
+    from simcalib.solvers.kernels import dqcore
+    from simcalib.solvers.kernels.batch import run_batch
+    from simcalib.solvers.problem import prepare_problem
+    rng = np.random.default_rng(23)
+    for k in range(60):
+        sigma = (0.0, 1e-6, 0.01, 0.05)[k % 4]
+        C, H, X = general_case(rng, n=int(rng.integers(2, 60)), sigma_r=sigma, sigma_t=sigma)
+        if k % 3 == 0:   # motions close to 180 deg: the alignment's restarts
+            for i in range(min(5, C.shape[0])):
+                axis = rng.normal(size=3)
+                C[i, :3, :3] = g.matrix_from_rotvec((np.pi - 0.05) * axis / np.linalg.norm(axis))
+                H[i] = g.perturb_transforms(g.invert_transform(X) @ C[i] @ X, sigma, sigma, rng)
+        w = rng.uniform(0.2, 2.0, C.shape[0]) if k % 2 else None
+        alpha = float(rng.uniform(0.1, 5.0))
+        p = prepare_problem(C, H, alpha, w)
+        X_kept, info_kept = p.kept_dqopt(alpha)
+        again = run_batch(dqcore.DQOPT, np.array([alpha]), Q=p.soa()[None],
+                          weights=None if w is None else w[None], align=False)
+        assert np.array_equal(X_kept, again["X"][0]), k
+        assert np.array_equal(info_kept, again["info"][0], equal_nan=True), k
+        assert p.kept_dqopt(alpha * 1.5) is None
+
+
 def test_prior_terms_reproduce_prior_cost():
     """Eqs. 26-29 (docs/paper-notes.md, misprints): quadratic form + b|q^'|^2 = cost + a|vec dq|^2 + b|dq'|^2."""
     rng = np.random.default_rng(18)

@@ -54,6 +54,82 @@ def test_gram_kernel_matches_numpy_weighted_and_not():
             np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12)
 
 
+_TWIN_CHECK = """
+import json, sys
+import numpy as np
+sys.path.insert(0, "tests")
+from simcalib import geometry as g
+from simcalib.solvers.kernels import jit, batch, gram
+from simcalib.solvers.kernels.quaternion import RIGID_TOL
+from simcalib.solvers.problem import build_problem
+from solver_cases import general_case, random_X
+
+rng = np.random.default_rng(5)
+n = 25
+C, H, _ = general_case(rng, n=n, sigma_r=0.01, sigma_t=0.01)
+bad = H.copy()
+bad[7, :3, :3] *= -1.0                    # det -1: motion 7 is not rigid
+nan = C.copy()
+nan[3, 1, 2] = np.nan
+p = build_problem(C, H)
+Q = np.ascontiguousarray(np.concatenate([p.q_C.T, p.q_H.T, p.q_C_dual.T, p.q_H_dual.T]))
+w = rng.uniform(0.2, 2.0, n)
+q, qd = g.dual_quat_from_transform(random_X(rng))
+P = rng.normal(size=(6, 4, 4))
+nrm = rng.uniform(1, 2, 2)
+e = np.empty
+cases = {   # kernel name -> argument tuples (the arrays it writes are among them)
+    "_quats_soa": [(C, H, RIGID_TOL, e((16, n))), (C, bad, RIGID_TOL, e((16, n))),
+                   (nan, H, RIGID_TOL, e((16, n)))],
+    "_outer_from_soa": [(Q, w, True, n, e((6, 4, 4)), e(2)),
+                        (Q, np.ones(n), False, n - 3, e((6, 4, 4)), e(2))],
+    "_grams_from_outer": [(gram._T, P, nrm, e((4, 4)), e((4, 4)), e((4, 4)))],
+    "_fit_dots": [(Q, n, q, e(n))],
+    "_cost_soa": [(Q, w, True, n, q, qd, 0.7), (Q, w, False, n, q, qd, 2.0)],
+}
+twins = {k.__name__: k for k in jit._KERNELS if k.twin is not None}
+worst = {}
+with jit.interpreted() as on:
+    assert on
+    for name, kernel in twins.items():
+        for args in cases[name]:
+            a1 = [x.copy() if isinstance(x, np.ndarray) else x for x in args]
+            a2 = [x.copy() if isinstance(x, np.ndarray) else x for x in args]
+            r1, r2 = kernel.py_func(*a1), kernel.twin(*a2)
+            assert (r1 is None) == (r2 is None), (name, r1, r2)
+            assert isinstance(r1, float) == isinstance(r2, float), (name, r1, r2)
+            if isinstance(r1, int):   # an index: exact (-1: every motion converted)
+                assert r1 == r2, (name, r1, r2)
+            written = r1 is None or isinstance(r1, float) or r1 == -1
+            diffs = [abs(r1 - r2) / max(abs(r1), 1.0)] if isinstance(r1, float) else []
+            for x1, x2 in zip(a1, a2):   # every array (Q is undefined after a bad index)
+                if written and isinstance(x1, np.ndarray) and x1.dtype == np.float64:
+                    diffs.append(float(np.max(np.abs(x1 - x2)) / max(np.max(np.abs(x1)), 1.0)))
+            worst[name] = max([worst.get(name, 0.0)] + diffs)
+print(json.dumps({"twins": sorted(twins), "cases": sorted(cases), "worst": worst,
+                  "numba": "numba" in sys.modules}))
+"""
+
+
+def test_numpy_twins_equal_the_kernels_python_code():
+    """Every kernel with a numpy twin (jit.twin_of: what interpreted calls run instead of
+    the kernel's loop over the motions) gives the kernel's own results to rounding: return
+    value and every array it writes; non-rigid and non-finite motions give the same index.
+    (A fresh interpreter: the kernels' Python functions run, numba is not imported.)"""
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+    out = subprocess.run([sys.executable, "-c", _TWIN_CHECK], capture_output=True, text=True,
+                         cwd=Path(__file__).resolve().parents[1], timeout=120)
+    assert out.returncode == 0, out.stderr
+    got = json.loads(out.stdout)
+    assert got["twins"] == got["cases"]   # a new twin needs its case above
+    assert not got["numba"]
+    for name, worst in got["worst"].items():
+        assert worst < 1e-13, (name, worst)
+
+
 def test_solve_core_satisfies_numpy_stationarity():
     """The compiled core's dqopt solution checked with numpy: the KKT conditions of eq. 10
     and a cost below a dense numpy scan of the constraint set; every method's cost is at or

@@ -88,6 +88,32 @@ def test_cache_fill_child_runs_idle_once_and_writes_the_stamp(tmp_path, monkeypa
     assert jit.start_cache_fill() is None          # filled: nothing to do
 
 
+def test_load_every_kernel_loads_every_signature_the_api_calls():
+    """After kernels.batch.load_every_kernel (what the loader thread and the cache-fill
+    child run; it knows nothing of the API), the API's solves, their diagnostics, a batch
+    and a robust solve compile nothing more (a fresh process: numba's cache is warm here)."""
+    code = (
+        "import numpy as np, simcalib\n"
+        "from simcalib.solvers.kernels import batch, jit\n"
+        "batch.load_every_kernel()\n"
+        "def sigs():\n"
+        "    return {k.__qualname__: len(k.dispatcher.signatures) for k in jit._KERNELS\n"
+        "            if k.dispatcher is not None}\n"
+        "before = sigs()\n"
+        "C, H = batch.random_motions_for_warm_up()\n"
+        "rng = np.random.default_rng(0)\n"
+        "H = simcalib.geometry.perturb_transforms(H, 1e-3, 1e-3, rng)\n"
+        "for m in ('dqopt', 'dq2steps', 'dq2ndord', 'dqitr'):\n"
+        "    simcalib.solve(C, H, method=m, alpha=0.5).message\n"
+        "P = simcalib.Prior(np.eye(4), a=1.0, b=2.0)\n"
+        "simcalib.solve(C, H, prior=P, weights=np.linspace(1, 2, 8)).message\n"
+        "simcalib.solve_batch(np.stack([C] * 3), np.stack([H] * 3), alpha=[1, 2, 3]).covariance\n"
+        "simcalib.solve(np.concatenate([C] * 2), np.concatenate([H] * 2), robust='ransac')\n"
+        "print(before == sigs(), before, sigs())\n")
+    out = _python(code, dict(os.environ, SIMCALIB_KERNELS="compiled"), timeout=300)
+    assert out.startswith("True"), out
+
+
 @pytest.mark.slow
 def test_run_interpreted_equals_compiled_run(tmp_path):
     overrides = ["synthetic.num_motions=60", "pairing.n_pairs=30", "solvers=[dqopt,dq2steps]",

@@ -43,12 +43,17 @@ def _diagnostics(method: str, info) -> dict:
 def solve_dq(method: str, problem: MotionProblem, alpha: float, prior=None) -> SolverOutput:
     """One paper DQ method on a prepared (aligned) problem: Gram blocks + the method."""
     code = dqcore.METHOD_CODES[method]
-    w = None if problem.weights is None else problem.weights[None]
-    out = kernel_batch.run_batch(code, np.array([float(alpha)]), Q=problem.soa()[None],
-                                 weights=w, prior_adds=_prior_adds(prior), align=False)
-    info = out["info"][0]
+    kept = problem.kept_dqopt(float(alpha)) if code == dqcore.DQOPT and prior is None \
+        else None
+    if kept is not None:   # the alignment solved it already (same kernel code and motions)
+        X, info = kept
+    else:
+        w = None if problem.weights is None else problem.weights[None]
+        out = kernel_batch.run_batch(code, np.array([float(alpha)]), Q=problem.soa()[None],
+                                     weights=w, prior_adds=_prior_adds(prior), align=False)
+        X, info = out["X"][0], out["info"][0]
     status = int(info[dqcore.I_STATUS])
-    return SolverOutput(X=out["X"][0], diagnostics=_diagnostics(method, info),
+    return SolverOutput(X=X, diagnostics=_diagnostics(method, info),
                         success=status not in dqcore.FAILED_STATUSES,
                         message=dqcore.STATUS_TEXT.get(status, ""))
 

@@ -45,6 +45,15 @@ class MotionProblem:
     def n(self) -> int:
         return self.C.shape[0]
 
+    def kept_dqopt(self, alpha: float):
+        """``(X, info)`` of dqopt without prior at ``alpha`` when :func:`prepare_problem`
+        computed it (the sign alignment solves dqopt on the final alignment: the same
+        kernel code on the same motions as a solve of :meth:`soa`), else None."""
+        kept = self.__dict__.get("_dqopt")
+        if kept is None or kept[0] != alpha:
+            return None
+        return kept[1].copy(), kept[2]
+
     def soa(self) -> np.ndarray:
         """The motions as the kernels' ``Q (16, N)`` (rows c, h, c', h'; a new array)."""
         Q = self.__dict__.get("_soa")   # the kernel's own Q, kept by prepare_problem
@@ -129,8 +138,10 @@ def prepare_problem(C, H, alpha: float = 1.0, weights=None) -> MotionProblem:
     Q = out["Q"][0]
     problem = MotionProblem(C, H, Q[0:4].T.copy(), Q[8:12].T.copy(), Q[4:8].T.copy(),
                             Q[12:16].T.copy(), w, int(out["nflip"][0]))
-    # soa() of these motions is Q itself (the same numbers): kept instead of re-stacked
+    # soa() of these motions is Q itself (the same numbers): kept instead of re-stacked;
+    # and the alignment's dqopt solution (kept_dqopt)
     object.__setattr__(problem, "_soa", Q)
+    object.__setattr__(problem, "_dqopt", (float(alpha), out["X"][0], out["info"][0]))
     return problem
 
 

@@ -9,15 +9,17 @@
   rotation axes, solved all at once by ``simcalib.solve_batch`` with a DQ method), consensus
   by the per-motion residual, threshold given, from the noise level, or automatic (least
   median of squares scale); the best consensus is refined (dqopt on the inliers, re-scored,
-  repeated until the inlier set is stable) — the final ``X`` is ``simcalib.solve`` (dqopt)
-  on the inliers.
+  repeated until the inlier set is stable) — the final ``X`` is the plain solve (dqopt) on
+  the inliers.
 * :func:`irls` — iteratively re-weighted dqopt (Huber / Cauchy / Tukey weights on the
-  per-motion residuals) through ``simcalib.solve(C, H, ..., weights=w)``; the cost is a sum
+  per-motion residuals) through the plain solve with ``weights=w``; the cost is a sum
   over motions so the weighted S, W, M keep dqopt exact.
 * :func:`robust_solve` — ``robust="none" | "ransac" | "irls"`` (registry :data:`ROBUST_METHODS`).
 
 All return a :class:`RobustSolution` (``X``, the final ``Solution``, the inlier mask, the
-weights, the residuals, the threshold).
+weights, the residuals, the threshold). The plain solve is
+:func:`simcalib.solvers.single.solve_single` (``simcalib.solve`` without ``robust``: the
+same numbers), the layer below both this module and ``simcalib.solve(robust=...)``.
 """
 
 from __future__ import annotations
@@ -30,6 +32,8 @@ import numpy as np
 from simcalib.errors import SolverError, unknown_choice
 from simcalib.geometry import (check_transforms, dual_quat_from_transform, quat_left_matrix,
                                quat_right_matrix, rotvec_from_matrix)
+from simcalib.solvers.batch_solve import solve_batch
+from simcalib.solvers.single import solve_single
 
 __all__ = ["RobustSolution", "screw_residuals", "noise_threshold",
            "ransac", "irls", "robust_solve", "constraint_errors", "ROBUST_METHODS",
@@ -74,6 +78,14 @@ def _motion_dq(C, H):
     return qC, qCd, qH, qHd
 
 
+def _motion_matrices(C, H) -> tuple:
+    """``L(q_C), L(q_C'), R(q_H), R(q_H')`` (N, 4, 4) each: what :func:`screw_residuals`
+    needs of the motions (computed once per robust fit, not per hypothesis)."""
+    qC, qCd, qH, qHd = _motion_dq(C, H)
+    return (quat_left_matrix(qC), quat_left_matrix(qCd), quat_right_matrix(qH),
+            quat_right_matrix(qHd))
+
+
 def screw_residuals(C, H, X, alpha: float = 1.0) -> np.ndarray:
     """Per-motion screw-constraint residuals ``(..., N)`` of ``C_i X = X H_i`` for one
     ``X`` (4, 4) or a batch ``(B, 4, 4)`` (result ``(B, N)``); see the module docstring."""
@@ -84,10 +96,13 @@ def screw_residuals(C, H, X, alpha: float = 1.0) -> np.ndarray:
         raise ValueError(f"C and H must both have shape (N, 4, 4); received {C.shape}, {H.shape}")
     if X.shape[-2:] != (4, 4) or X.ndim not in (2, 3):
         raise ValueError(f"X must have shape (4, 4) or (B, 4, 4); received {X.shape}")
-    qC, qCd, qH, qHd = _motion_dq(C, H)
-    qX, qXd = dual_quat_from_transform(X)
-    LC, LCd = quat_left_matrix(qC), quat_left_matrix(qCd)      # (N,4,4)
-    RH, RHd = quat_right_matrix(qH), quat_right_matrix(qHd)
+    return _residuals(_motion_matrices(C, H), X, alpha)
+
+
+def _residuals(mats: tuple, X, alpha: float) -> np.ndarray:
+    """:func:`screw_residuals` from the motions' :func:`_motion_matrices`."""
+    LC, LCd, RH, RHd = mats
+    qX, qXd = dual_quat_from_transform(np.asarray(X, dtype=np.float64))
     # q_C (x) q_X and q_X (x) q_H as (..., N, 4)
     a = np.einsum("nij,...j->...ni", LC, qX)
     b = np.einsum("nij,...j->...ni", RH, qX)
@@ -184,9 +199,11 @@ def ransac(C, H, *, alpha: float = 1.0, threshold: float | None = None,
     auto = threshold is None
     axes = _rotation_axes(C)
     sample_size, min_axis, note = _minimal_set_plan(rng, axes, sample_size, min_axis_angle_deg)
-    best_X, iters = _best_hypothesis(C, H, rng, axes, sample_size, min_axis, threshold, alpha,
-                                     minimal_method, max_iterations, confidence)
-    X, final, mask, r, thr = _refine_consensus(C, H, best_X, threshold, alpha, final_method)
+    mats = _motion_matrices(C, H)
+    best_X, iters = _best_hypothesis(C, H, mats, rng, axes, sample_size, min_axis, threshold,
+                                     alpha, minimal_method, max_iterations, confidence)
+    X, final, mask, r, thr = _refine_consensus(C, H, mats, best_X, threshold, alpha,
+                                               final_method)
     msg = _ransac_message(mask, thr, auto, noise is not None and not given, iters,
                           sample_size, final_method, note)
     return RobustSolution(X=X, solution=final, inlier_mask=mask,
@@ -267,10 +284,9 @@ def _minimal_set_plan(rng, axes, sample_size, min_axis_angle_deg) -> tuple:
     return sample_size, min_axis, note
 
 
-def _best_hypothesis(C, H, rng, axes, sample_size, min_axis, threshold, alpha,
+def _best_hypothesis(C, H, mats, rng, axes, sample_size, min_axis, threshold, alpha,
                      minimal_method, max_iterations, confidence) -> tuple:
     """``(X, hypotheses drawn)`` of the best-scoring minimal-set solve (threshold None: LMedS)."""
-    from simcalib.solvers.api import solve_batch
     N = C.shape[0]
     best_score, best_X, iters, needed = -math.inf, None, 0, max_iterations
     batch = 64
@@ -283,7 +299,7 @@ def _best_hypothesis(C, H, rng, axes, sample_size, min_axis, threshold, alpha,
         Xs = sol.X[sol.success]
         if Xs.shape[0] == 0:
             continue
-        r = screw_residuals(C, H, Xs, alpha)                         # (B, N)
+        r = _residuals(mats, Xs, alpha)                              # (B, N)
         score = _hypothesis_scores(r, threshold)
         k = int(np.argmax(score))
         if score[k] > best_score:
@@ -318,21 +334,20 @@ def _hypotheses_needed(r: np.ndarray, threshold, N: int, sample_size, confidence
     return int(min(math.ceil(math.log(1 - confidence) / den), 2**62))
 
 
-def _refine_consensus(C, H, X, threshold, alpha, final_method) -> tuple:
+def _refine_consensus(C, H, mats, X, threshold, alpha, final_method) -> tuple:
     """``(X, Solution, inliers, residuals, threshold)`` of ``final_method`` on stable inliers."""
-    from simcalib.solvers.api import solve
     auto = threshold is None
     # local optimisation: dqopt on the inliers until the set is stable
-    r = screw_residuals(C, H, X, alpha)
+    r = _residuals(mats, X, alpha)
     thr = _auto_threshold(r, 6) if auto else threshold
     mask = r < thr
     final = None
     for _ in range(10):
         if mask.sum() < 3:
             break
-        final = solve(C[mask], H[mask], method=final_method, alpha=alpha)
+        final = solve_single(C[mask], H[mask], method=final_method, alpha=alpha)
         X = final.X
-        r = screw_residuals(C, H, X, alpha)
+        r = _residuals(mats, X, alpha)
         if auto:
             thr = _auto_threshold(r[mask], 6)
         new = r < thr
@@ -368,12 +383,11 @@ def irls(C, H, *, alpha: float = 1.0, loss: str = "cauchy", scale: float | None 
          inlier_weight: float = 0.5, rng: np.random.Generator | None = None) -> RobustSolution:
     """Iteratively re-weighted dqopt: ``w_i = rho'(r_i/s)/(r_i/s)`` for ``loss`` (``huber``,
     ``cauchy``, ``tukey``, standard tuning constants) with ``s`` = ``scale`` or 1.4826 x the
-    weighted median residual, re-solved with ``simcalib.solve(C, H, method, alpha,
+    weighted median residual, re-solved with ``solve_single(C, H, method, alpha,
     weights=w)`` until ``X`` changes by less than ``tol``. ``init``: ``"ransac"`` (default;
     re-weighting from a least-squares start can lock onto the outliers),
     ``"none"`` (unweighted start) or a 4x4 ``X``. Inliers: ``w >= inlier_weight``.
     """
-    from simcalib.solvers.api import solve
     if loss not in _LOSSES:
         raise unknown_choice("IRLS loss", loss, _LOSSES, key="loss")
     C, H = _check_problem(C, H)
@@ -381,25 +395,26 @@ def irls(C, H, *, alpha: float = 1.0, loss: str = "cauchy", scale: float | None 
     if isinstance(init, str) and init == "ransac":
         X = ransac(C, H, alpha=alpha, rng=rng).X
     elif isinstance(init, str) and init == "none":
-        X = solve(C, H, method=method, alpha=alpha).X
+        X = solve_single(C, H, method=method, alpha=alpha).X
     else:
         X = check_transforms(init, "init")
         if X.shape != (4, 4):
             raise ValueError(f"init must be 'ransac', 'none' or one 4x4 X; received {X.shape}")
     sol = None
+    mats = _motion_matrices(C, H)
     w = np.ones(C.shape[0])
     it = 0
     for it in range(1, max_iterations + 1):
-        r = screw_residuals(C, H, X, alpha)
+        r = _residuals(mats, X, alpha)
         s = scale if scale is not None else 1.4826 * float(np.median(r[w > 0.5 * w.max()]))
         s = max(s, 1e-15)
         w = wfun(r / s, c)
-        sol = solve(C, H, method=method, alpha=alpha, weights=w)
+        sol = solve_single(C, H, method=method, alpha=alpha, weights=w)
         dX = float(np.abs(sol.X - X).max())
         X = sol.X
         if dX < tol:
             break
-    r = screw_residuals(C, H, X, alpha)
+    r = _residuals(mats, X, alpha)
     mask = w >= inlier_weight
     return RobustSolution(X=X, solution=sol, inlier_mask=mask, weights=w, residuals=r,
                           threshold=float(s * c), method="irls", iterations=it,
@@ -410,9 +425,8 @@ def irls(C, H, *, alpha: float = 1.0, loss: str = "cauchy", scale: float | None 
 
 # ---------------------------------------------------------------------------- registry
 def _none(C, H, *, alpha: float = 1.0, method: str = "dqopt", **_):
-    from simcalib.solvers.api import solve
     C, H = _check_problem(C, H)
-    sol = solve(C, H, method=method, alpha=alpha)
+    sol = solve_single(C, H, method=method, alpha=alpha)
     r = screw_residuals(C, H, sol.X, alpha)
     n = C.shape[0]
     return RobustSolution(X=sol.X, solution=sol, inlier_mask=np.ones(n, bool),

@@ -276,8 +276,44 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
     simulating again (one simulation serves every solver of a run). See the module doc."""
     C, H, X, alpha, tol_r, tol_m, noise, bias = _checked_inputs(
         C, H, X, alpha, tolerance_deg, tolerance_m, noise, pose_bias, prior)
+    w = _check_weights(weights, C.shape[0])
+    fit = _fit_sandwich(C, H, X, alpha, prior, noise, w, tol_m, correlation_lag, bias,
+                        pose_pairs, pose_error_basis, pose_simulation, simulation_rng)
+    return _assess(fit, C, H, X, alpha, prior, w, tol_r, tol_m)
+
+
+@dataclass(frozen=True)
+class _Fit:
+    """What :func:`covariance` computes before the verdict: the residual model (``e``,
+    ``K``, the cost's ``S``), the fitted noise, the information (data ``F``, noise-made
+    ``F_noise``, prior ``F_prior``, the whitened rows ``Kw``, ``Bw``) and the sandwich's
+    bread ``Hs`` and meat ``Ms`` with every correction applied (serial correlation, pose
+    simulation, pose bias, prior)."""
+    e: np.ndarray
+    K: np.ndarray
+    S: np.ndarray
+    L: float
+    noise: NoiseModel
+    dof_noise: float
+    Kw: np.ndarray
+    Bw: np.ndarray
+    F: np.ndarray
+    F_noise: np.ndarray
+    F_prior: np.ndarray
+    prior_cov: np.ndarray | None
+    Hs: np.ndarray
+    Ms: np.ndarray
+    lag: int
+    pose_test: object
+    sim: object
+    Sig_bias: np.ndarray | None
+
+
+def _fit_sandwich(C, H, X, alpha, prior, noise, w, tol_m, correlation_lag, bias, pose_pairs,
+                  pose_error_basis, pose_simulation, simulation_rng) -> _Fit:
+    """The residual model, noise, information and sandwich of :func:`covariance` (checked
+    inputs; see the module doc)."""
     N = C.shape[0]
-    w = _check_weights(weights, N)
     with np.errstate(over="ignore", invalid="ignore"):    # a non-usable X raises below
         e, K, Qr, Qt = linear_model(C, H, X)
         L = _translation_scale(C, H, X, tol_m)
@@ -305,13 +341,21 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
     Sig_bias, Ms, F = _with_pose_bias(X, bias, Hs, Ms, F,
                                       systematic is not None and sim_bias is not None)
     Hs, Ms, F_prior, prior_cov = _with_prior(X, prior, T, Q, alpha, Hs, Ms)
+    return _Fit(e, K, S, L, noise_out, dof_noise, Kw, Bw, F, F_noise, F_prior, prior_cov, Hs,
+                Ms, lag, pose_test, sim, Sig_bias)
+
+
+def _assess(fit: _Fit, C, H, X, alpha, prior, w, tol_r, tol_m) -> Uncertainty:
+    """The verdict and the covariance of :func:`covariance` from its :class:`_Fit`."""
+    L = fit.L
+    sim_bias = None if fit.sim is None else fit.sim.bias
     # ---- tolerance-scaled coordinates
     dsc = np.array([tol_r] * 3 + [tol_m] * 3)              # delta = dsc * delta_tilde
-    Ft, Fp_t, Ht, Mt = (A * np.outer(dsc, dsc) for A in (F, F_prior, Hs, Ms))
+    Ft, Fp_t, Ht, Mt = (A * np.outer(dsc, dsc) for A in (fit.F, fit.F_prior, fit.Hs, fit.Ms))
     Ftot = Ft + Fp_t
     range_sc = np.array([_UNDETERMINED_ROT_RAD] * 3 + [L] * 3) / dsc   # range in tol units
     # ---- undetermined by the data: information not above what the noise alone makes
-    null = _noise_null_test(Kw, Bw, dsc, lag, dof_noise)
+    null = _noise_null_test(fit.Kw, fit.Bw, dsc, fit.lag, fit.dof_noise)
     Ud = _data_undetermined(null, Ft, range_sc)
     Bd = _complement(Ud)
     # ---- undetermined in total: within Ud only the prior informs; the range rule on all
@@ -321,23 +365,24 @@ def covariance(C, H, X, alpha: float = 1.0, prior=None, noise=None, weights=None
     # ---- covariance of the estimate: the sandwich on the determined subspace Bt
     Sig_b, Hb_inv = _restricted_sandwich(Bt, Ht, Mt)        # None, None: Bt is empty
     step = None if prior is not None or Sig_b is None else _minimiser_step(
-        C, H, X, alpha, w, K, S, e, dsc, Bt, Hb_inv, sim_bias)
+        C, H, X, alpha, w, fit.K, fit.S, fit.e, dsc, Bt, Hb_inv, sim_bias)
     cov_t, offset_t = _with_offset(Bt, Sig_b, step)
     cov_det, cov = _reported_covariances(cov_t, dsc, Ut)
-    Bp = _physical_basis(Bt, dsc)
     # ---- directions from the data information, then those only this estimate leaves
     raw = _data_directions(Ud, Bd, Ft)
     sp = [None if prior is None else _std_with_prior(u, Ut, W, Bt, Blk) for u, _, _ in raw]
     dirs = [_data_direction(*r, dsc, tol_r, tol_m, s_p) for r, s_p in zip(raw, sp)]
     dirs += _estimate_directions(cov_t, raw, dsc, tol_r, tol_m)
     dirs.sort(key=lambda d: d.reason != "undetermined")
+    sim = fit.sim
     return Uncertainty(X=X, covariance=cov, covariance_determined=cov_det,
-                       determined_basis=Bp, information=F, prior_covariance=prior_cov,
-                       noise=noise_out, alpha=alpha, tolerance_deg=math.degrees(tol_r),
-                       tolerance_m=tol_m, directions=tuple(dirs), translation_scale_m=L,
-                       n_motions=N, offset=offset_t * dsc, bias_covariance=Sig_bias,
-                       noise_information=F_noise, information_ratio=null.ratio,
-                       ratio_threshold=null.threshold, pose_noise_test=pose_test,
+                       determined_basis=_physical_basis(Bt, dsc), information=fit.F,
+                       prior_covariance=fit.prior_cov, noise=fit.noise, alpha=alpha,
+                       tolerance_deg=math.degrees(tol_r), tolerance_m=tol_m,
+                       directions=tuple(dirs), translation_scale_m=L, n_motions=C.shape[0],
+                       offset=offset_t * dsc, bias_covariance=fit.Sig_bias,
+                       noise_information=fit.F_noise, information_ratio=null.ratio,
+                       ratio_threshold=null.threshold, pose_noise_test=fit.pose_test,
                        simulated_bias=sim_bias,
                        systematic_parameters=0 if sim is None else sim.systematic_parameters,
                        white_pose_noise=None if sim is None else sim.white, simulation=sim,
@@ -461,17 +506,8 @@ def choose_alpha(C, H, X, alpha_initial: float = 1.0, how: str = "noise_ratio", 
     Bp = u.determined_basis
     basis = np.linalg.qr(Bp / dsc[:, None])[0] if Bp.shape[1] else np.zeros((6, 0))
     if how == "noise_ratio" or basis.shape[1] == 0:
-        T1 = _dq_map(C, X, 1.0)
-        TQT = T1 @ Q @ np.swapaxes(T1, -1, -2)
-        var_r = float(np.mean(np.trace(TQT[:, :4, :4], axis1=1, axis2=2)))
-        var_d = float(np.mean(np.trace(TQT[:, 4:, 4:], axis1=1, axis2=2)))
-        a = math.sqrt(var_r / var_d) if var_d > 0 else hi
-        a = float(np.clip(a, lo, hi))
-        why = "" if how == "noise_ratio" else (" (min_predicted_error fell back to it: no "
-                                                "direction is determined)")
-        return AlphaChoice(a, "noise_ratio: alpha = sqrt(var(rotation residual) / "
-                           "var(dual residual)) of the noise fitted at alpha_initial" + why,
-                           u.noise.sigma_r_rad, u.noise.sigma_t_m, float(alpha_initial))
+        return _noise_ratio_choice(C, X, Q, lo, hi, u, alpha_initial,
+                                   fallback=how != "noise_ratio")
     grid = np.logspace(math.log10(lo), math.log10(hi), int(num))
     pred = _predicted_errors(C, H, X, Q, grid, dsc, basis)
     j = int(np.argmin(pred))
@@ -479,6 +515,23 @@ def choose_alpha(C, H, X, alpha_initial: float = 1.0, how: str = "noise_ratio", 
                        f"predicted squared error of the {basis.shape[1]} determined directions "
                        "in tolerance units (noise fitted at alpha_initial)",
                        u.noise.sigma_r_rad, u.noise.sigma_t_m, float(alpha_initial), grid, pred)
+
+
+def _noise_ratio_choice(C, X, Q, lo, hi, u, alpha_initial, fallback: bool) -> AlphaChoice:
+    """``choose_alpha(how="noise_ratio")``: alpha^2 = var(rotation residual) / var(dual
+    residual) under the noise ``Q`` fitted at ``alpha_initial`` (``u``), clipped to
+    ``[lo, hi]``; ``fallback``: min_predicted_error found no determined direction."""
+    T1 = _dq_map(C, X, 1.0)
+    TQT = T1 @ Q @ np.swapaxes(T1, -1, -2)
+    var_r = float(np.mean(np.trace(TQT[:, :4, :4], axis1=1, axis2=2)))
+    var_d = float(np.mean(np.trace(TQT[:, 4:, 4:], axis1=1, axis2=2)))
+    a = math.sqrt(var_r / var_d) if var_d > 0 else hi
+    a = float(np.clip(a, lo, hi))
+    why = (" (min_predicted_error fell back to it: no direction is determined)"
+           if fallback else "")
+    return AlphaChoice(a, "noise_ratio: alpha = sqrt(var(rotation residual) / "
+                       "var(dual residual)) of the noise fitted at alpha_initial" + why,
+                       u.noise.sigma_r_rad, u.noise.sigma_t_m, float(alpha_initial))
 
 
 # --------------------------------------------------------------------------- bootstrap

@@ -23,8 +23,9 @@ lowest dqopt cost is kept.
 from __future__ import annotations
 
 import numpy as np
+from simcalib.geometry import quat_multiply
 from simcalib.solvers.kernels import jit
-from simcalib.solvers.kernels.jit import njit
+from simcalib.solvers.kernels.jit import njit, twin_of
 
 from simcalib.solvers.kernels.dqcore import DQOPT, I_COST, I_STATUS, N_INFO, ST_NONFINITE, \
     _solve_core
@@ -58,6 +59,17 @@ def _cost_soa(Q, wts, weighted, n, q, qd, a2):
             ti += (p[k] - r[k]) ** 2 + a2 * (p1[k] - p2[k] + p3[k] - p4[k]) ** 2
         tot += wts[i] * ti if weighted else ti
     return tot
+
+
+@twin_of(_cost_soa, when=lambda Q, wts, weighted, n, q, qd, a2: n >= 4)   # crossover
+def _cost_soa_twin(Q, wts, weighted, n, q, qd, a2):
+    """:func:`_cost_soa` over all motions at once (numpy)."""
+    c, h, cd, hd = (Q[r:r + 4, :n].T for r in (0, 4, 8, 12))
+    r1 = quat_multiply(c, q) - quat_multiply(q, h)
+    r2 = quat_multiply(cd, q) - quat_multiply(q, hd) + quat_multiply(c, qd) \
+        - quat_multiply(qd, h)
+    per = np.sum(r1 * r1, axis=1) + a2 * np.sum(r2 * r2, axis=1)
+    return float(np.sum(per * wts[:n]) if weighted else np.sum(per))
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -102,6 +114,14 @@ def _fit_dots(Q, n, q, dots):
         a = _qmul(Q[0, i], Q[1, i], Q[2, i], Q[3, i], x, y, z, w)
         b = _qmul(x, y, z, w, Q[4, i], Q[5, i], Q[6, i], Q[7, i])
         dots[i] = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
+
+
+@twin_of(_fit_dots, when=lambda Q, n, q, dots: n >= 4)   # measured crossover
+def _fit_dots_twin(Q, n, q, dots):
+    """:func:`_fit_dots` over all motions at once (numpy)."""
+    a = quat_multiply(Q[0:4, :n].T, q)
+    b = quat_multiply(q, Q[4:8, :n].T)
+    dots[:n] = np.sum(a * b, axis=1)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -191,11 +211,7 @@ def _align(opt, T, Q, wts, weighted, n, a2, q, qd, info, AtA, BtB, BtA):
     Z0 = np.zeros((4, 4))
     amb = np.zeros(n)   # 1.0: ambiguous motion
     dots = np.empty(n)
-    namb = 0
-    for i in range(n):
-        if abs(Q[3, i]) <= AMBIGUOUS_W or abs(Q[7, i]) <= AMBIGUOUS_W:
-            amb[i] = 1.0
-            namb += 1
+    namb = _mark_ambiguous(Q, n, amb)
     par = np.ones(n)   # -1: pair flipped relative to the scalar-part rule
     best_par = par
     sgn = par
@@ -205,13 +221,7 @@ def _align(opt, T, Q, wts, weighted, n, a2, q, qd, info, AtA, BtB, BtA):
     start = 0
     while start < n_starts:   # one call site of _refine (see _refine)
         if start > 0:
-            # start 1, 2: relative signs propagated from a reference motion, both global signs
-            for i in range(n):
-                s = sgn[i] if abs(sgn[i]) < 1.5 else (1.0 if sgn[i] > 0 else -1.0)
-                if start == 2 and abs(sgn[i]) > 1.5:
-                    s = -s
-                if s != par[i]:
-                    _flip(Q, par, i)
+            _start_signs(Q, par, sgn, n, start == 2)
         worst = _refine(opt, T, Q, par, wts, weighted, n, amb, namb, a2, Z0, q, qd, info, P,
                         nrm, AtA, BtB, BtA, S, W, M, dots)
         if start == 0 and namb > 0 and worst < _FIT_DOT:
@@ -235,21 +245,51 @@ def _align(opt, T, Q, wts, weighted, n, a2, q, qd, info, AtA, BtB, BtA):
         for i in range(n):
             if par[i] != best_par[i]:
                 _flip(Q, par, i)
-        for k in range(4):
-            q[k] = best[k]
-            qd[k] = best[4 + k]
-        for k in range(N_INFO):
-            info[k] = best[8 + k]
-        for i in range(4):
-            for j in range(4):
-                AtA[i, j] = best[8 + N_INFO + 4 * i + j]
-                BtB[i, j] = best[24 + N_INFO + 4 * i + j]
-                BtA[i, j] = best[40 + N_INFO + 4 * i + j]
+        _restore_state(best, q, qd, info, AtA, BtB, BtA)
     total = 0
     for i in range(n):
         if par[i] < 0.0:
             total += 1
     return total
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _mark_ambiguous(Q, n, amb):
+    """amb[i] = 1 for the motions whose sign is ambiguous (a scalar part <= AMBIGUOUS_W);
+    returns their number."""
+    namb = 0
+    for i in range(n):
+        if abs(Q[3, i]) <= AMBIGUOUS_W or abs(Q[7, i]) <= AMBIGUOUS_W:
+            amb[i] = 1.0
+            namb += 1
+    return namb
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _start_signs(Q, par, sgn, n, negate):
+    """Starts 1, 2 of the alignment: the relative signs propagated from a reference motion
+    (sgn, :func:`_propagate_signs`), the reachable ones negated for start 2."""
+    for i in range(n):
+        s = sgn[i] if abs(sgn[i]) < 1.5 else (1.0 if sgn[i] > 0 else -1.0)
+        if negate and abs(sgn[i]) > 1.5:
+            s = -s
+        if s != par[i]:
+            _flip(Q, par, i)
+
+
+@njit(cache=True, error_model="numpy")
+def _restore_state(best, q, qd, info, AtA, BtB, BtA):
+    """The inverse of :func:`_save_state`."""
+    for k in range(4):
+        q[k] = best[k]
+        qd[k] = best[4 + k]
+    for k in range(N_INFO):
+        info[k] = best[8 + k]
+    for i in range(4):
+        for j in range(4):
+            AtA[i, j] = best[8 + N_INFO + 4 * i + j]
+            BtB[i, j] = best[24 + N_INFO + 4 * i + j]
+            BtA[i, j] = best[40 + N_INFO + 4 * i + j]
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -445,7 +485,16 @@ def random_motions_for_warm_up():
 
 
 def load_every_kernel() -> None:
-    """One small solve and its diagnostics on :func:`random_motions_for_warm_up`: loads
-    (or compiles) every kernel a run uses."""
-    from simcalib.solvers.api import solve
-    solve(*random_motions_for_warm_up()).message
+    """Load (or compile, once per machine) every compiled entry the solver API calls, with
+    the argument types it calls them with: the solve kernel :func:`_one` (single solves,
+    batches, solves of given motions with weights and a prior: one signature) and the
+    certificate's kernel. (``tests/test_solvers_kernels_jit.py`` checks that a solve, its
+    diagnostics and a batch afterwards compile nothing more.)"""
+    from simcalib.solvers.kernels.dqcore import certificate_values
+    C, H = random_motions_for_warm_up()
+    out = run_batch(DQOPT, np.ones(1), C=C[None], H=H[None], keep_q=True)
+    run_batch(DQOPT, np.ones(1), Q=out["Q"], weights=np.ones((1, C.shape[0])),
+              prior_adds=(np.eye(4), np.zeros((4, 4)), np.eye(4)), align=False)
+    certificate_values(np.eye(4), np.zeros((4, 4)), np.eye(4))
+    if not jit.interpreting():
+        _READY[1] = True

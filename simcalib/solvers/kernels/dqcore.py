@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 from simcalib.solvers.kernels.jit import njit
 
+from simcalib.solvers.kernels.expansion import _second_order_lambda, _second_order_mu, _z_basis
 from simcalib.solvers.kernels.linalg import _eigh, _eigh_warm
 
 __all__ = ["METHOD_CODES", "CLIP_REL", "N_INFO", "solve_matrices", "certificate_values",
@@ -154,123 +155,6 @@ def _qdual(q, mu, WV, V, xi, qd):
 
 
 @njit(cache=True, error_model="numpy")
-def _z_basis(E, WV, V, xi, Z1ab, Z2ab):
-    """Z1^{ab} = q_a Z1 q_b, Z2^{ab} = q_a Z2 q_b in the eigenbasis E of Z0."""
-    P = np.empty((4, 4))
-    R = np.empty((4, 4))
-    for a in range(4):
-        for k in range(4):
-            sv = 0.0
-            sw = 0.0
-            for i in range(4):
-                sv += E[i, a] * V[i, k]
-                sw += E[i, a] * WV[i, k]
-            P[a, k] = sv
-            R[a, k] = sw
-    for a in range(4):
-        for b in range(4):
-            z1 = 0.0
-            z2 = 0.0
-            for k in range(4):
-                z1 += (R[a, k] * P[b, k] + P[a, k] * R[b, k]) / xi[k]
-                z2 += P[a, k] * P[b, k] / xi[k]
-            Z1ab[a, b] = z1
-            Z2ab[a, b] = z2
-
-
-@njit(cache=True, error_model="numpy")
-def _second_order_mu(E, lam, Z1ab, Z2ab, q):
-    """DQ2ndOrd, eq. (23): mu_(2) and q_(2) (unnormalised) from the Z0 eigenbasis."""
-    den = Z2ab[0, 0]
-    for a in range(1, 4):
-        den -= Z1ab[a, 0] ** 2 / (lam[0] - lam[a])
-    mu = 0.5 * Z1ab[0, 0] / den
-    s1 = 0.0
-    for a in range(1, 4):
-        s1 += (Z1ab[a, 0] / (lam[0] - lam[a])) ** 2
-    coef = np.zeros(4)
-    coef[0] = 1.0 - 0.5 * mu * mu * s1
-    for a in range(1, 4):
-        l0a = lam[0] - lam[a]
-        inner = 0.0
-        for b in range(1, 4):
-            inner += Z1ab[b, 0] * Z1ab[a, b] / (lam[0] - lam[b])
-        inner = inner - Z2ab[a, 0] - Z1ab[0, 0] * Z1ab[a, 0] / l0a
-        coef[a] = mu * Z1ab[a, 0] / l0a + mu * mu * inner / l0a
-    for i in range(4):
-        acc = 0.0
-        for a in range(4):
-            acc += coef[a] * E[i, a]
-        q[i] = acc
-    return mu
-
-
-@njit(cache=True, error_model="numpy")
-def _second_order_lambda(E, lam, Z1ab, Z2ab, q):
-    """DQ2ndOrd in Delta-lambda (appendix A, eqs. 35-36, derived for Z = Z0 + mu Z1 - mu^2 Z2;
-    the printed appendix uses the opposite sign of the Z2 term). Returns False when the
-    expansion is undefined (q0 Z1 q0 = 0, i.e. noise-free: then q = q0)."""
-    z100 = Z1ab[0, 0]
-    for i in range(4):
-        q[i] = E[i, 0]
-    if z100 == 0.0:
-        return False
-    m1 = 1.0 / z100
-    c1a = np.zeros(4)
-    for a in range(1, 4):
-        c1a[a] = m1 * Z1ab[a, 0] / (lam[0] - lam[a])
-    # q0 Z1 q1, q1 Z1 q1, q0 Z2 q1
-    q0z1q1 = 0.0
-    q0z2q1 = 0.0
-    q1z1q1 = 0.0
-    for a in range(1, 4):
-        q0z1q1 += Z1ab[0, a] * c1a[a]
-        q0z2q1 += Z2ab[0, a] * c1a[a]
-        for b in range(1, 4):
-            q1z1q1 += c1a[a] * Z1ab[a, b] * c1a[b]
-    m2 = (m1 * m1 * Z2ab[0, 0] - m1 * q0z1q1) / z100
-    c2a = np.zeros(4)
-    nrm1 = 0.0
-    for a in range(1, 4):
-        nrm1 += c1a[a] * c1a[a]
-        qaz1q1 = 0.0
-        for b in range(1, 4):
-            qaz1q1 += Z1ab[a, b] * c1a[b]
-        c2a[a] = (m1 * qaz1q1 + m2 * Z1ab[a, 0] - m1 * m1 * Z2ab[a, 0] - c1a[a]) / (lam[0] - lam[a])
-    c2a[0] = -0.5 * nrm1
-    q0z1q2 = 0.0
-    for a in range(4):
-        q0z1q2 += Z1ab[0, a] * c2a[a]
-    k0 = -0.5 * z100
-    k1 = m1 * Z2ab[0, 0] - q0z1q1
-    k2 = m2 * Z2ab[0, 0] + 2.0 * m1 * q0z2q1 - q0z1q2 - 0.5 * q1z1q1
-    disc = k1 * k1 - 4.0 * k0 * k2
-    if disc >= 0.0 and k1 != 0.0:
-        sq = np.sqrt(disc)
-        if k1 < 0.0:
-            sq = -sq
-        dl = -2.0 * k0 / (k1 + sq)
-    elif k1 != 0.0:
-        dl = -k0 / k1
-    else:
-        return False
-    coef = np.zeros(4)
-    coef[0] = 1.0 + dl * dl * c2a[0]
-    for a in range(1, 4):
-        coef[a] = dl * c1a[a] + dl * dl * c2a[a]
-    for i in range(4):
-        acc = 0.0
-        for a in range(4):
-            acc += coef[a] * E[i, a]
-        if not np.isfinite(acc):
-            for j in range(4):
-                q[j] = E[j, 0]
-            return False
-        q[i] = acc
-    return True
-
-
-@njit(cache=True, error_model="numpy")
 def _normalize(q):
     n = np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
     for i in range(4):
@@ -290,6 +174,168 @@ def _m_eig_wv(S, W, M, xi, V, WV):
     return nclip
 
 
+@njit(cache=True, error_model="numpy", inline="always")
+def _dqopt_newton(S, WV, V, xi, q, Z, lam, E):
+    """DQOpt (section 3.1): the root of f(mu) = q0 . q0' by safeguarded Newton inside the
+    bracket, q = the eigenvector of Z(mu*) of the smallest eigenvalue (lam, E: the last
+    eigen-decomposition). Returns (mu, iterations, status, lo, hi, f, f')."""
+    pv = np.empty(4)
+    pu = np.empty(4)
+    pva = np.empty(4)
+    pua = np.empty(4)
+    E0 = np.empty((4, 4))
+    lo, hi = _dqopt_bracket(V, WV, xi)
+    mu = 0.0
+    blo = lo
+    bhi = hi
+    iters = 0
+    status = ST_OK
+    f = np.nan
+    df = np.nan
+    for it in range(200):
+        _zmat(S, WV, V, xi, mu, Z)
+        # warm start from the previous eigenvectors (identity at first: then exactly
+        # _eigh); one call site keeps one copy of the eigensolver in the compiled code
+        for i in range(4):
+            for j in range(4):
+                E0[i, j] = (1.0 if i == j else 0.0) if it == 0 else E[i, j]
+        _eigh_warm(Z, E0, lam, E)
+        f, df = _f_df(E, lam, WV, V, xi, mu, pv, pu, pva, pua)
+        iters += 1
+        qdn = 0.0
+        for k in range(4):
+            qdn += (pu[k] / xi[k]) ** 2
+        ftol = 4.0 * _EPS * (1.0 + np.sqrt(qdn))
+        if abs(f) <= ftol:
+            break
+        if f > 0.0:
+            bhi = mu
+        else:
+            blo = mu
+        step = f / df if df > 0.0 else 0.0
+        mu_new = mu - step
+        if abs(f) <= 1e6 * ftol and mu_new > blo and mu_new < bhi:
+            # Newton is in its quadratic regime: the remaining error after this step is
+            # O(f^2); move q to mu_new by first-order perturbation and stop.
+            _newton_last_step(E, lam, WV, V, xi, mu, mu_new, pv, pu, pva, pua, q)
+            return mu_new, iters, status, lo, hi, f, df
+        if not (mu_new > blo and mu_new < bhi):
+            mu_new = 0.5 * (blo + bhi)
+        if (abs(mu_new - mu) <= 2.0 * _EPS * abs(mu)
+                or bhi - blo <= 4.0 * _EPS * max(abs(blo), abs(bhi))):
+            break
+        mu = mu_new
+    else:
+        status = ST_MAXITER
+    for i in range(4):
+        q[i] = E[i, 0]
+    return mu, iters, status, lo, hi, f, df
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _dqopt_bracket(V, WV, xi):
+    """The bracket of mu* (appendix C): mu* lies in [k_min, k_max], the extreme eigenvalues
+    of K = sym(M^1/2 W M^-1/2); here the cheaper valid bound |mu*| <= ||K||_F (the exact
+    eigenvalue bracket is reported by the certificate). Returns (lo, hi)."""
+    kf = 0.0
+    for a in range(4):
+        for b in range(4):
+            wab = 0.0
+            wba = 0.0
+            for i in range(4):
+                wab += V[i, a] * WV[i, b]
+                wba += V[i, b] * WV[i, a]
+            kab = 0.5 * (np.sqrt(xi[a] / xi[b]) * wab + np.sqrt(xi[b] / xi[a]) * wba)
+            kf += kab * kab
+    kf = np.sqrt(kf)
+    return -kf * (1.0 + 1e-12) - 1e-300, kf * (1.0 + 1e-12) + 1e-300
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _newton_last_step(E, lam, WV, V, xi, mu, mu_new, pv, pu, pva, pua, q):
+    """q = the eigenvector of Z(mu) moved to Z(mu_new) by first-order perturbation (pv,
+    pu: the projections of E[:, 0] from the last f(mu))."""
+    for i in range(4):
+        q[i] = E[i, 0]
+    dmu = mu_new - mu
+    for a in range(1, 4):
+        _proj(E, a, WV, V, mu, pva, pua)
+        za = 0.0
+        for k in range(4):
+            za += (pua[k] * pv[k] + pva[k] * pu[k]) / xi[k]
+        gap = lam[0] - lam[a]
+        if gap < 0.0:
+            for i in range(4):
+                q[i] += dmu * za / gap * E[i, a]
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _dqitr_iterate(S, W, WV, V, xi, q, Z, lam, E):
+    """DQItr (appendix A): the fixed point of mu = mu~(q(mu)). Returns (mu, iterations,
+    status)."""
+    converged = False
+    mu = 0.0
+    iters = 0
+    wscale = np.sqrt(xi[3])
+    for i in range(4):
+        for j in range(4):
+            wscale = max(wscale, abs(W[i, j]) / max(np.sqrt(xi[3]), 1e-300))
+    E0 = np.empty((4, 4))
+    for it in range(500):
+        _zmat(S, WV, V, xi, mu, Z)
+        # warm start from the previous eigenvectors (identity at first: then exactly
+        # _eigh); one call site keeps one copy of the eigensolver in the compiled code
+        for i in range(4):
+            for j in range(4):
+                E0[i, j] = (1.0 if i == j else 0.0) if it == 0 else E[i, j]
+        _eigh_warm(Z, E0, lam, E)
+        iters += 1
+        for i in range(4):
+            q[i] = E[i, 0]
+        mu_new = _mu_tilde(q, WV, V, xi)
+        # converged: relative change at rounding level, or an absolute change at
+        # rounding level of the matrices' scale (exact data: mu* = 0 and the iterates
+        # wander at 1e-17 without a relative fixed point)
+        if (abs(mu_new - mu) <= 1e-14 * abs(mu_new) or mu_new == mu
+                or abs(mu_new - mu) <= 64.0 * _EPS * wscale):
+            mu = mu_new
+            converged = True
+            break
+        mu = mu_new
+    return mu, iters, ST_OK if converged else ST_MAXITER
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _relaxed(method, S, WV, V, xi, q, Z, lam, E):
+    """The methods from the relaxed problem Z0 = Z(0): DQConvRlx (its eigenvector), DQ2ndOrd
+    and DQ2ndOrd-lambda (second-order expansions about it). Returns (mu, status)."""
+    status = ST_OK
+    _zmat(S, WV, V, xi, 0.0, Z)
+    _eigh(Z, lam, E)
+    if method == DQCONVRLX:
+        for i in range(4):
+            q[i] = E[i, 0]
+    else:
+        Z1ab = np.empty((4, 4))
+        Z2ab = np.empty((4, 4))
+        _z_basis(E, WV, V, xi, Z1ab, Z2ab)
+        if method == DQ2NDORD:
+            _second_order_mu(E, lam, Z1ab, Z2ab, q)
+            ok = True
+            for i in range(4):
+                if not np.isfinite(q[i]):
+                    ok = False
+            if not ok:
+                for i in range(4):
+                    q[i] = E[i, 0]
+                status = ST_FALLBACK
+        else:
+            if not _second_order_lambda(E, lam, Z1ab, Z2ab, q):
+                status = ST_FALLBACK
+    _normalize(q)
+    return _mu_tilde(q, WV, V, xi), status
+
+
 @njit(cache=True, error_model="numpy")
 def _solve_core(method, S, W, M, q, qd, info):
     """One DQ problem given (S, W, M) (eq. 9, prior included). Writes q, q' and info."""
@@ -300,12 +346,6 @@ def _solve_core(method, S, W, M, q, qd, info):
     Z = np.empty((4, 4))
     lam = np.empty(4)
     E = np.empty((4, 4))
-    pv = np.empty(4)
-    pu = np.empty(4)
-    pva = np.empty(4)
-    pua = np.empty(4)
-    E0 = np.empty((4, 4))
-    mu = 0.0
     iters = 0
     status = ST_OK
     lo = np.nan
@@ -316,140 +356,23 @@ def _solve_core(method, S, W, M, q, qd, info):
         for i in range(4):
             q[i] = V[i, 0]
         mu = _mu_tilde(q, WV, V, xi)
+        lam[0] = np.nan  # no eigen-decomposition of Z is needed
+        lam[1] = np.nan
     elif method == DQOPT:
-        # bracket (appendix C): mu* lies in [k_min, k_max], the extreme eigenvalues of
-        # K = sym(M^1/2 W M^-1/2); here the cheaper valid bound |mu*| <= ||K||_F (the exact
-        # eigenvalue bracket is reported by the certificate).
-        kf = 0.0
-        for a in range(4):
-            for b in range(4):
-                wab = 0.0
-                wba = 0.0
-                for i in range(4):
-                    wab += V[i, a] * WV[i, b]
-                    wba += V[i, b] * WV[i, a]
-                kab = 0.5 * (np.sqrt(xi[a] / xi[b]) * wab + np.sqrt(xi[b] / xi[a]) * wba)
-                kf += kab * kab
-        kf = np.sqrt(kf)
-        lo = -kf * (1.0 + 1e-12) - 1e-300
-        hi = kf * (1.0 + 1e-12) + 1e-300
-        mu = 0.0
-        blo = lo
-        bhi = hi
-        for it in range(200):
-            _zmat(S, WV, V, xi, mu, Z)
-            # warm start from the previous eigenvectors (identity at first: then exactly
-            # _eigh); one call site keeps one copy of the eigensolver in the compiled code
-            for i in range(4):
-                for j in range(4):
-                    E0[i, j] = (1.0 if i == j else 0.0) if it == 0 else E[i, j]
-            _eigh_warm(Z, E0, lam, E)
-            f, df = _f_df(E, lam, WV, V, xi, mu, pv, pu, pva, pua)
-            iters += 1
-            qdn = 0.0
-            for k in range(4):
-                qdn += (pu[k] / xi[k]) ** 2
-            ftol = 4.0 * _EPS * (1.0 + np.sqrt(qdn))
-            if abs(f) <= ftol:
-                for i in range(4):
-                    q[i] = E[i, 0]
-                break
-            if f > 0.0:
-                bhi = mu
-            else:
-                blo = mu
-            step = f / df if df > 0.0 else 0.0
-            mu_new = mu - step
-            if abs(f) <= 1e6 * ftol and mu_new > blo and mu_new < bhi:
-                # Newton is in its quadratic regime: the remaining error after this step is
-                # O(f^2); move q to mu_new by first-order perturbation and stop.
-                for i in range(4):
-                    q[i] = E[i, 0]
-                dmu = mu_new - mu
-                for a in range(1, 4):
-                    _proj(E, a, WV, V, mu, pva, pua)
-                    za = 0.0
-                    for k in range(4):
-                        za += (pua[k] * pv[k] + pva[k] * pu[k]) / xi[k]
-                    gap = lam[0] - lam[a]
-                    if gap < 0.0:
-                        for i in range(4):
-                            q[i] += dmu * za / gap * E[i, a]
-                mu = mu_new
-                break
-            if not (mu_new > blo and mu_new < bhi):
-                mu_new = 0.5 * (blo + bhi)
-            if abs(mu_new - mu) <= 2.0 * _EPS * abs(mu) or bhi - blo <= 4.0 * _EPS * max(abs(blo), abs(bhi)):
-                for i in range(4):
-                    q[i] = E[i, 0]
-                break
-            mu = mu_new
-        else:
-            status = ST_MAXITER
-            for i in range(4):
-                q[i] = E[i, 0]
+        mu, iters, status, lo, hi, f, df = _dqopt_newton(S, WV, V, xi, q, Z, lam, E)
     elif method == DQITR:
-        converged = False
-        wscale = np.sqrt(xi[3])
-        for i in range(4):
-            for j in range(4):
-                wscale = max(wscale, abs(W[i, j]) / max(np.sqrt(xi[3]), 1e-300))
-        E0 = np.empty((4, 4))
-        for it in range(500):
-            _zmat(S, WV, V, xi, mu, Z)
-            # warm start from the previous eigenvectors (identity at first: then exactly
-            # _eigh); one call site keeps one copy of the eigensolver in the compiled code
-            for i in range(4):
-                for j in range(4):
-                    E0[i, j] = (1.0 if i == j else 0.0) if it == 0 else E[i, j]
-            _eigh_warm(Z, E0, lam, E)
-            iters += 1
-            for i in range(4):
-                q[i] = E[i, 0]
-            mu_new = _mu_tilde(q, WV, V, xi)
-            # converged: relative change at rounding level, or an absolute change at
-            # rounding level of the matrices' scale (exact data: mu* = 0 and the iterates
-            # wander at 1e-17 without a relative fixed point)
-            if (abs(mu_new - mu) <= 1e-14 * abs(mu_new) or mu_new == mu
-                    or abs(mu_new - mu) <= 64.0 * _EPS * wscale):
-                mu = mu_new
-                converged = True
-                break
-            mu = mu_new
-        if not converged:
-            status = ST_MAXITER
+        mu, iters, status = _dqitr_iterate(S, W, WV, V, xi, q, Z, lam, E)
     else:
-        # relaxed problem: Z0 = Z(0)
-        _zmat(S, WV, V, xi, 0.0, Z)
-        _eigh(Z, lam, E)
-        if method == DQCONVRLX:
-            for i in range(4):
-                q[i] = E[i, 0]
-        else:
-            Z1ab = np.empty((4, 4))
-            Z2ab = np.empty((4, 4))
-            _z_basis(E, WV, V, xi, Z1ab, Z2ab)
-            if method == DQ2NDORD:
-                _second_order_mu(E, lam, Z1ab, Z2ab, q)
-                ok = True
-                for i in range(4):
-                    if not np.isfinite(q[i]):
-                        ok = False
-                if not ok:
-                    for i in range(4):
-                        q[i] = E[i, 0]
-                    status = ST_FALLBACK
-            else:
-                if not _second_order_lambda(E, lam, Z1ab, Z2ab, q):
-                    status = ST_FALLBACK
-        _normalize(q)
-        mu = _mu_tilde(q, WV, V, xi)
+        mu, status = _relaxed(method, S, WV, V, xi, q, Z, lam, E)
     _normalize(q)
     _qdual(q, mu, WV, V, xi, qd)
-    if method == DQ2STEPS:
-        lam[0] = np.nan  # no eigen-decomposition of Z was needed
-        lam[1] = np.nan
-    # objective (quadratic form of eq. 9 with these S, W, M)
+    _write_info(S, W, M, q, qd, info, mu, lam, iters, nclip, lo, hi, f, df, status, xi)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _write_info(S, W, M, q, qd, info, mu, lam, iters, nclip, lo, hi, f, df, status, xi):
+    """The info vector (indices I_*) of a solution (q, q'), with its objective (the
+    quadratic form of eq. 9 with these S, W, M); a non-finite (q, q') is ST_NONFINITE."""
     cost = 0.0
     for i in range(4):
         for j in range(4):

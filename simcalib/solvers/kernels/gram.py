@@ -14,7 +14,7 @@ builds (S, W, M) — the one place that does. Numpy twins: :func:`gram_blocks`,
 from __future__ import annotations
 
 import numpy as np
-from simcalib.solvers.kernels.jit import njit
+from simcalib.solvers.kernels.jit import njit, twin_of
 
 from simcalib.geometry import dual_quat_from_transform, quat_conjugate, quat_left_matrix, \
     quat_right_matrix
@@ -157,7 +157,8 @@ def _nz_table(T):
     return out
 
 
-_T = _nz_table(_lr_tensors())   # (4 [LR, LL, RL, RR], 4, 4, 4 non-zeros, (a, b, +-1))
+_T_DENSE = _lr_tensors()        # (4 [LR, LL, RL, RR], 4, 4, 4, 4)
+_T = _nz_table(_T_DENSE)        # (4 [LR, LL, RL, RR], 4, 4, 4 non-zeros, (a, b, +-1))
 
 
 @njit(cache=True, error_model="numpy")
@@ -192,6 +193,65 @@ def grams_compiled(q_C, q_C_dual, q_H, q_H_dual, weights=None):
     AtA, BtB, BtA = np.empty((4, 4)), np.empty((4, 4)), np.empty((4, 4))
     _grams_entry(_T, Q, w, weights is not None, AtA, BtB, BtA)
     return AtA, BtB, BtA
+
+
+# -------------------------------- numpy twins run by interpreted kernels (jit.twin_of)
+@twin_of(_quats_soa, when=lambda C, H, tol, Q: C.shape[0] >= 10)   # measured crossover
+def _quats_soa_twin(C, H, tol, Q):
+    """:func:`_quats_soa` over all motions at once (numpy): the first non-rigid motion, or
+    -1 after filling Q (dual quaternions of :func:`simcalib.geometry.dual_quat_from_transform`,
+    the same algorithm, then the scalar-part sign rule)."""
+    ok = _rigid_mask(C, tol) & _rigid_mask(H, tol)
+    if not ok.all():
+        return int(np.argmin(ok))
+    for side, T in enumerate((C, H)):
+        q, qd = dual_quat_from_transform(T)
+        Q[4 * side:4 * side + 4] = q.T
+        Q[8 + 4 * side:12 + 4 * side] = qd.T
+    sg = np.where(Q[3] * Q[7] < 0.0, -1.0, 1.0)
+    Q[4:8] *= sg
+    Q[12:16] *= sg
+    return -1
+
+
+def _rigid_mask(T, tol):
+    """``quaternion._rigid_ok_at`` for every ``T[i]`` of ``T (N, 4, 4)`` (numpy)."""
+    with np.errstate(invalid="ignore", over="ignore"):
+        R = T[:, :3, :3]
+        ok = np.abs(T[:, 0, 3] + T[:, 1, 3] + T[:, 2, 3]) < np.inf
+        ok &= (np.abs(T[:, 3, :3]) <= tol).all(axis=1) & (np.abs(T[:, 3, 3] - 1.0) <= tol)
+        gram = np.einsum("nki,nkj->nij", R, R) - np.eye(3)
+        ok &= (np.abs(gram) <= tol).all(axis=(1, 2))
+        det = (R[:, 0, 0] * (R[:, 1, 1] * R[:, 2, 2] - R[:, 1, 2] * R[:, 2, 1])
+               - R[:, 0, 1] * (R[:, 1, 0] * R[:, 2, 2] - R[:, 1, 2] * R[:, 2, 0])
+               + R[:, 0, 2] * (R[:, 1, 0] * R[:, 2, 1] - R[:, 1, 1] * R[:, 2, 0]))
+        ok &= np.abs(det - 1.0) <= tol
+    return ok
+
+
+@twin_of(_outer_from_soa)
+def _outer_from_soa_twin(Q, wts, weighted, n, P, nrm):
+    """:func:`_outer_from_soa` as one product of the motion rows (numpy)."""
+    A = Q[:, :n]
+    G = (A * wts[:n]) @ A.T if weighted else A @ A.T     # every row pair's (weighted) dot
+    for k, (r, c) in enumerate(((0, 4), (8, 12), (8, 0), (8, 4), (12, 0), (12, 4))):
+        P[k] = G[r:r + 4, c:c + 4]
+    d = np.diagonal(G)
+    nrm[0] = d[:8].sum()
+    nrm[1] = d[8:].sum()
+
+
+@twin_of(_grams_from_outer)
+def _grams_from_outer_twin(T, P, nrm, AtA, BtB, BtA):
+    """:func:`_grams_from_outer` with the dense L/R tensors (numpy; ``T`` unused)."""
+    def contract(k, Pk):
+        return np.einsum("jl,jlab->ab", Pk, _T_DENSE[k])
+    X1 = contract(0, P[0])
+    X2 = contract(0, P[1])
+    eye = np.eye(4)
+    AtA[:] = -(X1 + X1.T) + nrm[0] * eye
+    BtB[:] = -(X2 + X2.T) + nrm[1] * eye
+    BtA[:] = contract(1, P[2]) - contract(0, P[3]) - contract(2, P[4]) + contract(3, P[5])
 
 
 # ------------------------------------------------------------------------ numpy twins

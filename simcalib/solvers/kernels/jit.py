@@ -18,7 +18,10 @@ finds the cache cold (:func:`kernels_cached`) executes its stages inside
 solves take ~1-2 s), while a low-priority child process fills the cache for the runs that
 follow (:func:`start_cache_fill`, which then writes the stamp :func:`kernels_cached`
 reads). The results agree with the compiled kernels to rounding (~1e-14: the compiled
-ones reassociate a few sums).
+ones reassociate a few sums). A kernel whose loop runs over the motions may name a
+vectorised numpy twin (:func:`twin_of`), which the interpreted calls run instead of its
+per-motion Python loop (the twins are checked against the kernels in
+``tests/test_solvers_kernels.py``); the 4x4 method code always runs as written.
 """
 
 from __future__ import annotations
@@ -46,6 +49,8 @@ class Kernel:
         self.py_func = py_func
         self.options = options
         self.dispatcher = None
+        self.twin = None   # the numpy function interpreted calls run instead (twin_of)
+        self.twin_when = None   # ... for the arguments it accepts (None: always)
         self.__name__ = py_func.__name__
         self.__qualname__ = py_func.__qualname__
         self.__module__ = py_func.__module__
@@ -55,12 +60,15 @@ class Kernel:
     def __call__(self, *args, **kwargs):
         if self.dispatcher is None:
             if _INTERPRETED:
+                if self.twin is not None and (self.twin_when is None
+                                              or self.twin_when(*args, **kwargs)):
+                    return self.twin(*args, **kwargs)
                 return self.py_func(*args, **kwargs)
             load_numba()
         return self.dispatcher(*args, **kwargs)
 
     def __getattr__(self, name):   # dispatcher attributes (signatures, stats, ...)
-        if name in ("dispatcher", "py_func", "options"):
+        if name in ("dispatcher", "py_func", "options", "twin", "twin_when"):
             raise AttributeError(name)
         if self.dispatcher is None:
             load_numba()
@@ -80,6 +88,18 @@ def njit(**options):
             _materialise(kernel, __import__("numba"))
             _patch_globals(__import__("numba"))
         return kernel
+    return decorate
+
+
+def twin_of(kernel: Kernel, when=None):
+    """Decorator: the decorated numpy function (same arguments, same outputs written, same
+    return value, to rounding) runs instead of ``kernel``'s Python function when kernels
+    are interpreted: a vectorised twin of a loop over the motions. ``when(*args)``: the
+    calls it takes (numpy's fixed cost loses to a loop over a few motions); None: all."""
+    def decorate(fn):
+        kernel.twin = fn
+        kernel.twin_when = when
+        return fn
     return decorate
 
 

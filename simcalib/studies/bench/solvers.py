@@ -315,45 +315,7 @@ def _fmt_table(rows, ref: str | None) -> str:
 
 def main(argv=None) -> int:
     """``simcalib bench``: timing table per method + solve_batch throughput."""
-    from simcalib.solvers import available, get
-    parser = argparse.ArgumentParser(
-        prog="simcalib bench",
-        description="Time every registered solver on the same noisy random problems "
-                    "(Table-1-like: mean/std/min/max microseconds per solve, from the "
-                    "(N,4,4) arrays to X) and measure solve_batch throughput.")
-    parser.add_argument("--n-motions", type=int, default=100, help="motions per problem (100)")
-    parser.add_argument("--problems", type=int, default=300,
-                        help="problems timed per method (300; slow methods stop early)")
-    parser.add_argument("--max-seconds", type=float, default=4.0,
-                        help="time budget per method for the table (4 s)")
-    parser.add_argument("--methods", default="all",
-                        help="comma-separated method names, or 'all' (default)")
-    parser.add_argument("--alpha", type=float, default=1.0, help="weighting factor (1/m)")
-    parser.add_argument("--sigma-r-deg", type=float, default=0.57,
-                        help="rotation noise (deg, paper D.2: 0.57)")
-    parser.add_argument("--sigma-t", type=float, default=0.01, help="translation noise (m)")
-    parser.add_argument("--batch-size", type=int, default=20000,
-                        help="problems per solve_batch call for the throughput (20000; 0 = skip)")
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--json", default=None, help="also write the numbers to this file")
-    parser.add_argument("--markdown", default=None, metavar="FILE",
-                        help="also write the numbers as markdown tables ('-' = stdout); "
-                             "docs/solvers.md's tables come from this")
-    parser.add_argument("--throughput", action="store_true",
-                        help="only measure solve_batch throughput of --throughput-method at "
-                             "B = --throughput-batch, N = --n-motions, --repeats times")
-    parser.add_argument("--throughput-method", default="dqopt")
-    parser.add_argument("--throughput-batch", type=int, default=1000)
-    parser.add_argument("--repeats", type=int, default=10)
-    parser.add_argument("--hot-path", action="store_true",
-                        help="only compare the wall time of whole simcalib.solve calls (dqopt, "
-                             "N = --n-motions) with the reference single solve "
-                             "(bench.reference_solve) over --repeats rounds of --problems "
-                             "problems, and measure solve_batch throughput at "
-                             "B = --throughput-batch (--repeats calls): the README rows")
-    parser.add_argument("--startup", action="store_true",
-                        help="only measure start-up (compile) cost in fresh interpreters, "
-                             "cold (empty numba cache) and warm")
+    parser = _parser()
     args = parser.parse_args(argv)
     if args.n_motions < 2:
         parser.error(f"--n-motions must be >= 2; received {args.n_motions}")
@@ -366,43 +328,96 @@ def main(argv=None) -> int:
     if args.hot_path:
         if args.throughput_batch < 1:
             parser.error(f"--throughput-batch must be >= 1; received {args.throughput_batch}")
-        load_before = _load_note()
-        h = hot_path(args.n_motions, args.problems, args.repeats, args.alpha,
-                     np.radians(args.sigma_r_deg), args.sigma_t, args.seed,
-                     args.throughput_batch)
-        h["load"] = f"{load_before} before, {_load_note().split(' on ')[0]} after"
-        result = {"hot_path": h}
-        if args.markdown != "-":
-            print("\n".join(hot_path_lines(h)))
-            print(f"({h['load']})")
-        _write_outputs(result, args)
-        return 0
-    if args.startup or args.throughput:
-        result = {}
-        if args.startup:
-            result["startup"] = startup_times()
-        if args.throughput:
-            get(args.throughput_method)
-            rates = repeated_throughput(args.throughput_method, args.n_motions,
-                                        args.throughput_batch, args.repeats, args.alpha,
-                                        np.radians(args.sigma_r_deg), args.sigma_t, args.seed)
-            result["throughput"] = {"method": args.throughput_method,
-                                    "batch_size": args.throughput_batch,
-                                    "n_motions": args.n_motions,
-                                    "problems_per_s": rates.tolist()}
-        if args.markdown != "-":   # with --markdown - the tables are printed once, below
-            print(markdown_tables(result))
-        _write_outputs(result, args)
-        return 0
-    names = available()
-    if args.methods == "all":
-        methods = names
+        result = _hot_path_result(args)
+    elif args.startup or args.throughput:
+        result = _startup_throughput_result(args)
     else:
-        methods = [m.strip() for m in args.methods.split(",") if m.strip()]
-        unknown = [m for m in methods if m not in names]
-        if unknown:
-            parser.error(f"unknown method(s) {', '.join(unknown)}; available: "
-                         f"{', '.join(names)}")
+        result = _table_result(args, parser)
+    _write_outputs(result, args)
+    return 0
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="simcalib bench",
+        description="Time every registered solver on the same noisy random problems "
+                    "(Table-1-like: mean/std/min/max microseconds per solve, from the "
+                    "(N,4,4) arrays to X) and measure solve_batch throughput.")
+    add = parser.add_argument
+    add("--n-motions", type=int, default=100, help="motions per problem (100)")
+    add("--problems", type=int, default=300,
+        help="problems timed per method (300; slow methods stop early)")
+    add("--max-seconds", type=float, default=4.0,
+        help="time budget per method for the table (4 s)")
+    add("--methods", default="all", help="comma-separated method names, or 'all' (default)")
+    add("--alpha", type=float, default=1.0, help="weighting factor (1/m)")
+    add("--sigma-r-deg", type=float, default=0.57, help="rotation noise (deg, paper D.2: 0.57)")
+    add("--sigma-t", type=float, default=0.01, help="translation noise (m)")
+    add("--batch-size", type=int, default=20000,
+        help="problems per solve_batch call for the throughput (20000; 0 = skip)")
+    add("--seed", type=int, default=0)
+    add("--json", default=None, help="also write the numbers to this file")
+    add("--markdown", default=None, metavar="FILE",
+        help="also write the numbers as markdown tables ('-' = stdout); docs/solvers.md's "
+             "tables come from this")
+    add("--throughput", action="store_true",
+        help="only measure solve_batch throughput of --throughput-method at "
+             "B = --throughput-batch, N = --n-motions, --repeats times")
+    add("--throughput-method", default="dqopt")
+    add("--throughput-batch", type=int, default=1000)
+    add("--repeats", type=int, default=10)
+    add("--hot-path", action="store_true",
+        help="only compare the wall time of whole simcalib.solve calls (dqopt, "
+             "N = --n-motions) with the reference single solve (bench.reference_solve) "
+             "over --repeats rounds of --problems problems, and measure solve_batch "
+             "throughput at B = --throughput-batch (--repeats calls): the README rows")
+    add("--startup", action="store_true",
+        help="only measure start-up (compile) cost in fresh interpreters, cold (empty "
+             "numba cache) and warm")
+    return parser
+
+
+def _hot_path_result(args) -> dict:
+    """``--hot-path``: the README rows, printed with the load before and after."""
+    load_before = _load_note()
+    h = hot_path(args.n_motions, args.problems, args.repeats, args.alpha,
+                 np.radians(args.sigma_r_deg), args.sigma_t, args.seed, args.throughput_batch)
+    h["load"] = f"{load_before} before, {_load_note().split(' on ')[0]} after"
+    if args.markdown != "-":
+        print("\n".join(hot_path_lines(h)))
+        print(f"({h['load']})")
+    return {"hot_path": h}
+
+
+def _startup_throughput_result(args) -> dict:
+    """``--startup`` and / or ``--throughput``, printed as markdown tables."""
+    from simcalib.solvers import get
+    result = {}
+    if args.startup:
+        result["startup"] = startup_times()
+    if args.throughput:
+        get(args.throughput_method)
+        rates = repeated_throughput(args.throughput_method, args.n_motions,
+                                    args.throughput_batch, args.repeats, args.alpha,
+                                    np.radians(args.sigma_r_deg), args.sigma_t, args.seed)
+        result["throughput"] = {"method": args.throughput_method,
+                                "batch_size": args.throughput_batch,
+                                "n_motions": args.n_motions, "problems_per_s": rates.tolist()}
+    if args.markdown != "-":   # with --markdown - the tables are printed once, below
+        print(markdown_tables(result))
+    return result
+
+
+def _table_result(args, parser) -> dict:
+    """The timing table of every chosen method, then the batch throughput of those with a
+    batch kernel."""
+    from simcalib.solvers import available
+    names = available()
+    methods = names if args.methods == "all" else [
+        m.strip() for m in args.methods.split(",") if m.strip()]
+    unknown = [m for m in methods if m not in names]
+    if unknown:
+        parser.error(f"unknown method(s) {', '.join(unknown)}; available: {', '.join(names)}")
     sigma_r = np.radians(args.sigma_r_deg)
     C, H, _ = make_problems(np.random.default_rng(args.seed), args.problems, args.n_motions,
                             sigma_r, args.sigma_t)
@@ -421,31 +436,41 @@ def main(argv=None) -> int:
     print("\n(us = microseconds per solve from the (N,4,4) arrays to X; 'solve() med' = wall "
           "time of the full simcalib.solve call; 'rel. cost' = mean (cost - dqopt)/(cost + dqopt))")
     result = {"n_motions": args.n_motions, "alpha": args.alpha,
-              "table": {m: {"count": int(len(r["runtime_s"])),
-                            "mean_us": float(r["runtime_s"].mean() * 1e6),
-                            "std_us": float(r["runtime_s"].std() * 1e6),
-                            "min_us": float(r["runtime_s"].min() * 1e6),
-                            "max_us": float(r["runtime_s"].max() * 1e6),
-                            "median_us": float(np.median(r["runtime_s"]) * 1e6),
-                            "solve_median_us": float(np.median(r["wall_s"]) * 1e6),
-                            "failures": int(r["failures"])} for m, r in rows.items()}}
+              "table": {m: _table_row(r) for m, r in rows.items()}}
     if args.batch_size > 0:
-        bmethods = [m for m in methods if get(m).batch_fn is not None]
-        if bmethods:
-            tp = batch_throughput(bmethods, args.n_motions, args.batch_size, args.alpha,
-                                  sigma_r, args.sigma_t, args.seed)
-            ncpu = min(threads, os.cpu_count() or 1)
-            print(f"\nsolve_batch throughput (B = {args.batch_size}, N = {args.n_motions}; "
-                  f"'idle-machine' = {ncpu} cores / CPU time per problem, i.e. without other "
-                  "load on the cores):")
-            for m, v in tp.items():
-                v["idle_machine_problems_per_s"] = ncpu * 1e6 / v["cpu_us_per_problem"]
-                print(f"  {m:<18}{v['problems_per_s']:>12,.0f} problems/s wall   "
-                      f"{v['cpu_us_per_problem']:7.2f} us CPU per problem   "
-                      f"{v['idle_machine_problems_per_s']:>10,.0f} problems/s idle-machine")
+        tp = _batch_rows(methods, args, sigma_r, threads)
+        if tp:
             result["batch_problems_per_s"] = tp
-    _write_outputs(result, args)
-    return 0
+    return result
+
+
+def _table_row(r: dict) -> dict:
+    us = r["runtime_s"] * 1e6
+    return {"count": int(len(us)), "mean_us": float(us.mean()), "std_us": float(us.std()),
+            "min_us": float(us.min()), "max_us": float(us.max()),
+            "median_us": float(np.median(us)),
+            "solve_median_us": float(np.median(r["wall_s"]) * 1e6),
+            "failures": int(r["failures"])}
+
+
+def _batch_rows(methods, args, sigma_r: float, threads: int) -> dict:
+    """solve_batch throughput of the methods with a batch kernel, printed."""
+    from simcalib.solvers import get
+    bmethods = [m for m in methods if get(m).batch_fn is not None]
+    if not bmethods:
+        return {}
+    tp = batch_throughput(bmethods, args.n_motions, args.batch_size, args.alpha, sigma_r,
+                          args.sigma_t, args.seed)
+    ncpu = min(threads, os.cpu_count() or 1)
+    print(f"\nsolve_batch throughput (B = {args.batch_size}, N = {args.n_motions}; "
+          f"'idle-machine' = {ncpu} cores / CPU time per problem, i.e. without other "
+          "load on the cores):")
+    for m, v in tp.items():
+        v["idle_machine_problems_per_s"] = ncpu * 1e6 / v["cpu_us_per_problem"]
+        print(f"  {m:<18}{v['problems_per_s']:>12,.0f} problems/s wall   "
+              f"{v['cpu_us_per_problem']:7.2f} us CPU per problem   "
+              f"{v['idle_machine_problems_per_s']:>10,.0f} problems/s idle-machine")
+    return tp
 
 
 def _write_outputs(result: dict, args) -> None:
