@@ -467,8 +467,8 @@ def pose_consistency(motions, synced, X, alpha: float, basis, solve_fn,
     few = n < MIN_CHECKED_POSES
     T_a = np.asarray(synced.T_a)[idx]
     r, _ = pe.pose_residuals(T_a, np.asarray(synced.T_b)[idx], X)
-    U = pe.noise_determined(motions.C, motions.H, X, alpha, motions.pose_pairs,
-                            r.T @ r / (n - 2), basis)
+    U = pe.noise_determined(motions.C, motions.H, X, alpha, motions.pose_pairs, r, idx,
+                            basis)
     B = _reduced_basis(np.asarray(basis), U)
     G = pe.pose_sensitivity(motions.C, motions.H, X, alpha, motions.pose_pairs,
                             synced.n)[idx]

@@ -288,7 +288,12 @@ def _projected(uncertainty, C, basis=None, undetermined=None):
     fin = np.isfinite(out)
     out[fin] = cov_det[fin]
     if undetermined is not None and undetermined.shape[1]:
-        touched = np.linalg.norm(undetermined, axis=1) > _PURE
+        # as the model does: the axes a direction touches, in tolerance units
+        dsc = np.array([math.radians(uncertainty.tolerance_deg)] * 3
+                       + [uncertainty.tolerance_m] * 3)
+        Ut = undetermined / dsc[:, None]
+        Ut = Ut / np.linalg.norm(Ut, axis=0)
+        touched = np.linalg.norm(Ut, axis=1) > _PURE
         out[touched, :] = 0.0
         out[:, touched] = 0.0
         out[touched, touched] = np.inf

@@ -148,47 +148,47 @@ def body_velocities(T, time_s) -> np.ndarray:
     return np.where(dt[:, None] > 0, d / np.where(dt > 0, dt, 1.0)[:, None], 0.0)
 
 
-def noise_determined(C, H, X, alpha: float, pose_pairs, S, basis, *, draws: int = 16,
-                     z: float = 3.09) -> np.ndarray:
+def noise_determined(C, H, X, alpha: float, pose_pairs, residuals, index, basis, *,
+                     draws: int = 16, z: float = 3.09) -> np.ndarray:
     """Directions of X (delta coordinates, unit columns, within ``basis``) that the data
     determine no better than the pose errors alone would: errors in the variables. Along
     a direction the motions leave undetermined (every rotation about one axis: the
     translation along it), the measured motions still carry information, made by their
-    own noise; adding one more dose of pose noise (covariance ``S`` per pose, on b,
-    through ``pose_pairs``; ``draws`` fixed draws of ``default_rng(0)``) adds as much
-    again. The generalised eigenvalues ``rho`` of the cost's Hessian at X against the mean
-    increase ``E[dHm]`` are ~1 there and ~1 / noise^2 elsewhere; a direction is
-    noise-determined when ``rho`` is within ``z`` spreads of the draws' own ratio (one
-    dose against the mean dose) above 1."""
+    own errors; adding one more dose of such errors adds as much again. The dose: the
+    pose ``residuals`` (n, 6) at recording positions ``index`` (the ``pose_pairs``'
+    numbering), shifted circularly along the recording by ``k / (draws + 1)`` of its
+    length, sign alternating (errors with the recording's own size, serial correlation and
+    mix, for ``draws`` doses; deterministic). The generalised eigenvalues ``rho`` of the
+    cost's Hessian at X against the mean increase ``E[dHm]`` are ~1 there and ~1 /
+    error^2 elsewhere; a direction is noise-determined when ``rho`` is within ``z``
+    spreads of the doses' own ratio (one dose against the mean dose) above 1."""
     from simcalib.solvers.diagnostics.pose_noise import _dq_from_xi, _gram, _perturb, \
         _q_and_jacobian
     B = np.asarray(basis, np.float64)
-    if B.shape[1] == 0:
+    r = np.asarray(residuals, np.float64)
+    if B.shape[1] == 0 or r.shape[0] < 3:
         return np.zeros((6, 0))
     P = np.asarray(pose_pairs, dtype=np.int64)
     w = np.ones(P.shape[0])
     qC, qCd, qH, qHd = _signed_dq(np.asarray(C), np.asarray(H), np.asarray(X))
-    Q, D = _q_and_jacobian(np.asarray(X))
-    DB = D @ B
+    DB = _q_and_jacobian(np.asarray(X))[1] @ B
     Hm = DB.T @ _gram(qC, qCd, qH, qHd, alpha, w) @ DB
-    L = np.linalg.cholesky(np.asarray(S) + 1e-30 * np.eye(6))
-    eta = np.random.default_rng(0).standard_normal((draws, int(P.max()) + 1, 6)) @ L.T
-    e, ed = _dq_from_xi(eta)
-    qh, qhd = _perturb(qH, qHd, P, (e, ed))
+    n = r.shape[0]
+    eta = np.zeros((draws, int(P.max()) + 1, 6))
+    for k in range(draws):
+        eta[k, np.asarray(index)] = (-1.0) ** k * np.roll(r, ((k + 1) * n) // (draws + 1), 0)
+    qh, qhd = _perturb(qH, qHd, P, _dq_from_xi(eta))
     dH = np.einsum("ia,kab,bj->kij", DB.T, _gram(qC[None], qCd[None], qh, qhd, alpha, w[None]),
                    DB) - Hm[None]
     mean = dH.mean(axis=0)
     lam, V = np.linalg.eigh(0.5 * (Hm + Hm.T))
-    lam = np.maximum(lam, 1e-300)
-    Wh = V / np.sqrt(lam)                                # Wh^T Hm Wh = I
+    Wh = V / np.sqrt(np.maximum(lam, 1e-300))             # Wh^T Hm Wh = I
     mu, U = np.linalg.eigh(Wh.T @ (0.5 * (mean + mean.T)) @ Wh)   # mu = 1 / rho
     out = []
     for k in range(mu.size):
-        if mu[k] <= 0:
-            continue
         g = Wh @ U[:, k]
-        dose = np.einsum("i,kij,j->k", g, dH, g) / float(g @ mean @ g)
-        if 1.0 / mu[k] <= 1.0 + z * float(np.std(dose, ddof=1)):
+        dose = np.einsum("i,kij,j->k", g, dH, g) / float(g @ mean @ g) if mu[k] > 0 else None
+        if dose is not None and 1.0 / mu[k] <= 1.0 + z * float(np.std(dose, ddof=1)):
             v = B @ g
             out.append(v / np.linalg.norm(v))
     return np.array(out).T if out else np.zeros((6, 0))
