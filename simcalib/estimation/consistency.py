@@ -474,8 +474,11 @@ def pose_consistency(motions, synced, X, alpha: float, basis, solve_fn,
                             synced.n)[idx]
     halves = None if few else _halves(motions, synced.n, idx, alpha, solve_fn)
     Gs = G if halves is None else np.concatenate([G, halves[1]], axis=1)
-    offset_g = (np.einsum("nij,nj->i", Gs, pe.body_velocities(synced.T_b, synced.time_s)[idx])
-                * (offset_sigma_s if math.isfinite(offset_sigma_s) else 0.0))
+    s_off = offset_sigma_s if math.isfinite(offset_sigma_s) else 0.0
+    V = pe.body_velocities(synced.T_b, synced.time_s)[idx]
+    if s_off > 0:
+        r = _without_offset(r, V)
+    offset_g = np.einsum("nij,nj->i", Gs, V) * s_off
     C, W, model = _covariances(r, Gs, T_a, idx, few)
     ratio = _variance_ratio(C[:6, :6], W[:6, :6], B) if B.shape[1] else float("nan")
     off = np.outer(offset_g, offset_g)
@@ -491,6 +494,17 @@ def pose_consistency(motions, synced, X, alpha: float, basis, solve_fn,
     return PoseConsistency(split is not None, n, factor * C[:6, :6], W[:6, :6], model, ratio,
                            f, split, factor, _message(n, f, ratio, few, split, off_ratio),
                            B, U)
+
+
+def _without_offset(r, V) -> np.ndarray:
+    """The residuals ``r`` less their part along b's velocities ``V`` (n, 6): the clock
+    offset's error, whose uncertainty is added on its own (weighted least squares with the
+    residuals' covariance)."""
+    Si = np.linalg.pinv(r.T @ r / max(r.shape[0] - 2, 1))
+    den = float(np.einsum("ni,ij,nj->", V, Si, V))
+    if den <= 0:
+        return r
+    return r - V * (float(np.einsum("ni,ij,nj->", V, Si, r)) / den)
 
 
 def _reduced_basis(B, U) -> np.ndarray:

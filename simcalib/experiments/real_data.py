@@ -1057,6 +1057,13 @@ def markdown(results: dict, *, command: str, total_time_s: float) -> str:
         "uses NEES + ref accuracy**, over the sets with an independent reference (file, "
         "README, identity); the `opencv` references (kuka, sthe: the README's 'correct' is "
         "relative to OpenCV on the same files) count for the tolerance only.",
+        "- **split-half NEES**: the reference-free check of the reported sigma "
+        "(`simcalib.estimation.consistency.SplitCheck`): X estimated on the recording's "
+        "first and on its second half of poses (each half's own motions), their difference "
+        "against the covariance the fitted pose-error model predicts for it (errors common "
+        "to the whole recording cancel in the difference, which tests the sigma's varying "
+        "part); ✗ = above the chi-square 95 % bound, and the reported covariance was then "
+        "scaled by NEES / bound (the data disagree with themselves beyond the model).",
         f"- **PARK / TSAI**: `cv2.calibrateHandEye` on the calibration's synchronised poses "
         f"(readings applied; at most {OPENCV_MAX_POSES} evenly spread poses, OpenCV pairs "
         "all i<j), error vs the reference as above (rot deg / t mm); without a reference "
@@ -1073,7 +1080,12 @@ def markdown(results: dict, *, command: str, total_time_s: float) -> str:
         "scara's is measured by hand, Tabb's is another method's estimate, the identity "
         "references hold up to the benchmarks' own calibration and sync. A NEES above its "
         "bound there says the reported sigma does not cover the estimate's distance to that "
-        "reference, which includes the reference's own error.",
+        "reference, which includes the reference's own error. Why the target counts NEES + "
+        "ref accuracy: the quantity compared is `X - X_ref = (X - X_true) - (X_ref - "
+        "X_true)`, whose covariance is the sum of both when the errors are independent; "
+        "leaving the reference's out tests the reference as much as the estimate. The "
+        "estimate's own sigma is checked without any reference by the split-half column, "
+        "by the sets sharing a mount and by the Tango loop below.",
         "",
         "## Notes on the data", "",
         *[f"- {n}" for n in DATA_NOTES], "",
