@@ -97,8 +97,7 @@ def test_few_poses_are_unverified_and_widened():
 def test_the_clock_offset_uncertainty_adds_its_share():
     """An offset sigma moves every pose of b by its velocity: one error common to the
     recording, added on its own (its share of the residuals is taken out of the fit)."""
-    rec, r = _calibrated("offset", 0)
-    from simcalib.estimation.motions import MotionSet  # noqa: F401
+    _, r = _calibrated("offset", 0)
     inl = r.motions.subset(r.robust.inlier_mask)
     basis = r.robust.solution.uncertainty.determined_basis
     solve = lambda C, H: __import__("simcalib").solve(C, H).X  # noqa: E731

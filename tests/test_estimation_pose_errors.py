@@ -40,7 +40,7 @@ def _consecutive(n, step=3):
 def test_sensitivity_predicts_the_resolved_estimate(pairs):
     """X re-solved after small errors on b's poses moves by sum_i G_i r_i (first order),
     for every pair of stations and for overlapping consecutive motions alike."""
-    A, B, X, _ = _station_rig(30)
+    A, B, _, _ = _station_rig(30)
     i, j = pairs(30)
     rng = np.random.default_rng(1)
     B0 = B @ _exp6(rng.normal(0.0, 2e-3, (30, 6)))          # a noisy data set

@@ -1,21 +1,31 @@
-"""Does the data's own consistency support the model's sigma? A delete-a-block jackknife.
+"""Does the data's own consistency support the reported sigma?
 
-The covariance of :func:`simcalib.solve` assumes that each pose's error is white (the
-residuals estimate its size). Real recordings are not white: a robot's kinematic error and
-a target's calibration error vary smoothly over the workspace, SLAM drifts, interpolation
-correlates neighbours. Their effect on X shows when the estimate is repeated on parts of
-the data: the poses are split into ``G`` contiguous blocks (in recording order), X is
-re-estimated without each block's poses (every motion touching one of them is dropped), and
+Without a prior (the default), X's covariance comes from the poses' own errors
+(:func:`pose_consistency`, the model of :mod:`simcalib.estimation.pose_errors`): the
+per-pose residuals, X's exact sensitivity to each pose, white or - when neighbouring poses'
+residuals correlate beyond chance - white plus parts correlated over the pose space and
+along the recording, widened for having been estimated from few poses, plus the clock
+offset's uncertainty; directions only the pose errors determine (errors in the variables)
+are undetermined. It is checked without any reference by the recording's two halves
+(:class:`SplitCheck`): X of the first half against X of the second, their difference
+against the covariance the model predicts for it; beyond the chi-square 95 % bound the
+covariance is scaled by NEES / bound.
+
+With a prior, a delete-a-block jackknife (:func:`block_jackknife`, :func:`combine`): the
+poses are split into ``G`` contiguous blocks (in recording order), X is re-estimated
+without each block's poses (every motion touching one of them is dropped), and
 
     Sigma_jack = (G - 1) / G * sum_g (d_g - mean d)(d_g - mean d)^T,   d_g = pose_error(X_-g, X)
 
-is the jackknife covariance (Efron & Stein): it sees every error that differs between
-blocks, whatever its correlation within a block. :func:`combine` keeps the model's
-covariance when the jackknife's spread is what chance gives with the model right (its
-model-whitened largest eigenvalue below the Wishart 95 % quantile); otherwise it raises
-the model's covariance to the jackknife's, widened for having been estimated from few
-blocks (:func:`estimated_covariance_factor`), per eigen-direction, on the directions the
-motions determine; the undetermined ones stay undetermined.
+is the jackknife covariance (Efron & Stein). :func:`combine` keeps the model's covariance
+when the jackknife's spread is what chance gives with the model right (its model-whitened
+largest eigenvalue below the Wishart 95 % quantile); otherwise it raises the model's
+covariance to the jackknife's, widened for having been estimated from few blocks
+(:func:`estimated_covariance_factor`), per eigen-direction, on the directions the motions
+determine; the undetermined ones stay undetermined.
+
+In both cases :func:`weighting_check` re-estimates X with the rotation equations weighted
+over the translation ones and adds a move beyond the sigma to the covariance.
 """
 
 from __future__ import annotations

@@ -42,9 +42,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from simcalib.geometry import (chordal_mean_rotation, dual_quat_from_transform,
-                               invert_transform, matrix_from_rotvec, quat_conjugate,
-                               quat_from_matrix, quat_multiply, rotvec_from_matrix,
-                               transform_from_rotation_translation)
+                               invert_transform, quat_conjugate, quat_from_matrix,
+                               rotvec_from_matrix)
 
 __all__ = ["fit_world", "pose_residuals", "pose_sensitivity", "body_velocities", "noise_determined", "pose_coordinates",
            "pose_distances", "PairDesign", "pair_design", "ErrorModel", "fit_error_model",
@@ -55,10 +54,6 @@ MAX_PAIRS_POSES = 150
 #: recording lags whose every pair enters the fit as well (the short range)
 TIME_LAGS = 16
 _N_GRID = 8
-
-
-def _exp6(xi) -> np.ndarray:
-    return transform_from_rotation_translation(matrix_from_rotvec(xi[..., :3]), xi[..., 3:])
 
 
 def _log6(T) -> np.ndarray:
@@ -212,17 +207,18 @@ def pose_distances(qa, pa, qb, pb) -> np.ndarray:
     return np.sqrt(ang ** 2 + np.maximum(dp2, 0.0))
 
 
-def _pairs(m: int) -> tuple[np.ndarray, np.ndarray]:
+def _pairs(m: int) -> tuple[np.ndarray, np.ndarray, int]:
     """Pairs ``(a, b)`` of residual positions ``0..m-1``: every pair among an even
-    subsample of at most :data:`MAX_PAIRS_POSES`, and every pair at most
-    :data:`TIME_LAGS` apart in the recording (the short range)."""
+    subsample of at most :data:`MAX_PAIRS_POSES` (the first ``k`` pairs: they span the
+    data's extent), and every pair at most :data:`TIME_LAGS` apart in the recording (the
+    short range)."""
     sub = np.unique(np.linspace(0, m - 1, min(m, MAX_PAIRS_POSES)).round().astype(np.int64))
     a, b = np.triu_indices(sub.size, 1)
     pa, pb = [sub[a]], [sub[b]]
     for k in range(1, min(TIME_LAGS, m - 1) + 1):
         pa.append(np.arange(m - k))
         pb.append(np.arange(k, m))
-    return np.concatenate(pa), np.concatenate(pb)
+    return np.concatenate(pa), np.concatenate(pb), int(a.size)
 
 
 def neighbour_pairs(T_a, k_pose: int = 3, k_time: int = 2) -> dict:
@@ -319,16 +315,16 @@ class PairDesign:
 
 def pair_design(T_a, index) -> PairDesign:
     """:class:`PairDesign` for residuals at a's poses ``T_a`` and recording positions
-    ``index``: pose-space ranges from the 2 % quantile to the median of the pairs'
-    distances (correlations longer than the data's own extent are not told apart from a
+    ``index``: pose-space ranges from the 2 % quantile to the median of the distances
+    between the evenly spread poses (correlations longer than the data's own extent are not told apart from a
     common error), recording ranges from 1 position to a third of the recording."""
     index = np.asarray(index, np.float64)
-    ia, ib = _pairs(index.size)
+    ia, ib, k_even = _pairs(index.size)
     q, p = pose_coordinates(T_a)
     dpose = np.sqrt((2.0 * np.arccos(np.clip(np.abs(np.sum(q[ia] * q[ib], 1)), 0, 1))) ** 2
                     + np.sum((p[ia] - p[ib]) ** 2, 1))
     dtime = np.abs(index[ia] - index[ib])
-    pos = dpose[dpose > 0]
+    pos = dpose[:k_even][dpose[:k_even] > 0]          # the pairs spanning the data
     lo = float(np.quantile(pos, 0.02)) if pos.size else 1.0
     hi = max(float(np.median(pos)) if pos.size else 1.0, 1.5 * lo)
     ell_p = np.geomspace(lo, hi, _N_GRID)
