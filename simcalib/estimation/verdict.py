@@ -123,19 +123,19 @@ def judge(solution, covariance, covariance_determined, consistency,
     s = np.sqrt(np.diag(cov))
     std_deg = tuple(float(x) for x in np.degrees(s[:3]))
     std_m = tuple(float(x) for x in s[3:])
-    own = getattr(consistency, "covariance", None) is not None and hasattr(consistency,
-                                                                            "split")
+    from simcalib.estimation.consistency import PoseConsistency
+    own = isinstance(consistency, PoseConsistency) and consistency.covariance is not None
     # with the poses' own covariance, how well a direction is determined is its reported
     # sigma; the model keeps its word on what the motions cannot determine at all
     dirs = [d for d in unc.directions if not own or d.reason == "undetermined"]
     if own:
-        dirs += _noise_determined(getattr(consistency, "undetermined", None), unc, dirs)
+        dirs += _noise_determined(consistency.undetermined, unc, dirs)
     notes = [] if consistency is None else list(consistency.notes())
     checked = consistency is not None and consistency.checked
     if weighting is not None and weighting.significant:
         notes.append(weighting.message)
     if consistency is not None or (weighting is not None and weighting.significant):
-        basis = getattr(consistency, "basis", None)
+        basis = consistency.basis if own else None
         dirs += _consistency_directions(
             np.asarray(covariance_determined),
             np.asarray(unc.determined_basis if basis is None else basis),
