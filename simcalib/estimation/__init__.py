@@ -10,8 +10,11 @@ streams (``estimation.*``):
   interpolation, synchronised poses;
 * :mod:`~simcalib.estimation.motions` — motion policies (stations, consecutive, keyframes)
   and :mod:`~simcalib.estimation.pairing` — the paper's D.1 pairing;
-* :mod:`~simcalib.estimation.consistency` — the data's own check of the covariance (block
-  jackknife, weighting check); :mod:`~simcalib.estimation.verdict` — the verdict;
+* :mod:`~simcalib.estimation.pose_errors` — the poses' own errors (residuals, X's
+  sensitivity to each pose, white and correlated error models) and
+  :mod:`~simcalib.estimation.consistency` — the reported covariance from them, checked by
+  the recording's two halves (block jackknife with a prior; weighting check);
+  :mod:`~simcalib.estimation.verdict` — the verdict;
 * :mod:`~simcalib.estimation.path` — the stages in order (:func:`calibrate_streams`);
   :mod:`~simcalib.estimation.streams` — a run's streams through it, scored against the
   truth; :mod:`~simcalib.estimation.config` — the scenario section ``estimation.*``.

@@ -16,6 +16,7 @@ experiment streams``.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -204,15 +205,16 @@ def robust_fit(C, H, robust, *, alpha, method, seed, options):
 
 
 def _final_solve(motions, rob, *, method, alpha, prior, seed, tolerances=None):
-    """The estimate on the inliers, with the motions' shared poses known to the
-    uncertainty (``pose_pairs``) when there is no prior; its residuals on every motion."""
+    """The estimate on the inliers and its residuals on every motion. Its uncertainty
+    (the solver's model) serves for the directions the motions determine; the reported
+    covariance comes from the poses' own errors (:func:`_consistency`)."""
     import dataclasses
 
     from simcalib.solvers.api import solve
     from simcalib.solvers.robust import screw_residuals
     m = rob.inlier_mask
     C, H = motions.C[m], motions.H[m]
-    kw = {} if prior is not None else {"pose_pairs": motions.pose_pairs[m]}
+    kw = {}
     if tolerances is not None:
         kw |= {"tolerance_deg": tolerances.tolerance_deg,
                "tolerance_m": tolerances.tolerance_m}
@@ -223,24 +225,35 @@ def _final_solve(motions, rob, *, method, alpha, prior, seed, tolerances=None):
                                residuals=screw_residuals(motions.C, motions.H, sol.X, alpha))
 
 
-def _consistency(motions, rob, n_poses, *, method, alpha, prior):
-    """``(Consistency, WeightingCheck, covariance, covariance_determined)``: the model's
-    covariance raised to the block jackknife, plus the move of X under a rotation-weighted
-    cost when that move is beyond the sigma."""
+def _consistency(motions, rob, synced, *, method, alpha, prior, offset_sigma_s=0.0):
+    """``(check, WeightingCheck, covariance, covariance_determined)``: without a prior, X's
+    covariance from the poses' own errors (:func:`simcalib.estimation.consistency.
+    pose_consistency`: white and correlated parts, checked by the recording's two halves);
+    with a prior, the model's covariance raised to the block jackknife. Then the move of X
+    under a rotation-weighted cost is added when it is beyond the sigma."""
     import dataclasses
 
+    from simcalib.estimation.consistency import (block_jackknife, combine, pose_consistency,
+                                                 weighting_check)
     from simcalib.solvers.api import solve
-    from simcalib.estimation.consistency import block_jackknife, combine, weighting_check
     sol = rob.solution
     if sol is None or sol.uncertainty is None:
         return None, None, None, None
     inl = motions.subset(rob.inlier_mask)
     solve_at = lambda C, H, a: solve(C, H, method=method, alpha=a,  # noqa: E731
                                              prior=prior).X
-    check = block_jackknife(inl, n_poses, lambda C, H: solve_at(C, H, alpha), sol.X)
-    cov, cov_det, ratio = combine(sol.uncertainty, check)
-    raised = bool(check.checked and not np.array_equal(
-        cov_det, np.asarray(sol.uncertainty.covariance_determined)))
+    if prior is None:
+        check = pose_consistency(inl, synced, sol.X, alpha,
+                                 sol.uncertainty.determined_basis,
+                                 lambda C, H: solve_at(C, H, alpha), offset_sigma_s)
+        cov, cov_det = _projected(sol.uncertainty, check.covariance, check.basis,
+                                  check.undetermined)
+    else:
+        check = block_jackknife(inl, synced.n, lambda C, H: solve_at(C, H, alpha), sol.X)
+        cov, cov_det, ratio = combine(sol.uncertainty, check)
+        raised = bool(check.checked and not np.array_equal(
+            cov_det, np.asarray(sol.uncertainty.covariance_determined)))
+        check = dataclasses.replace(check, ratio=ratio, raised=raised)
     weighting = weighting_check(inl.C, inl.H, sol.X, sol.uncertainty, cov_det, solve_at,
                                 alpha)
     if weighting is not None and weighting.significant:
@@ -248,7 +261,43 @@ def _consistency(motions, rob, n_poses, *, method, alpha, prior):
         cov = cov.copy()
         cov[fin] = cov[fin] + weighting.covariance[fin]
         cov_det = cov_det + weighting.covariance
-    return dataclasses.replace(check, ratio=ratio, raised=raised), weighting, cov, cov_det
+    return check, weighting, cov, cov_det
+
+
+def _offset_sigma(off, sampling) -> float:
+    """The 1-sigma of the clock offset used (0 for stamp-paired streams and a given
+    offset: nothing estimated)."""
+    if sampling.paired_by_stamp or off.decision in ("given", "shared_stamps"):
+        return 0.0
+    s = float(off.uncertainty_s)
+    return s if math.isfinite(s) and s > 0 else 0.0
+
+
+def _projected(uncertainty, C, basis=None, undetermined=None):
+    """``(covariance, covariance_determined)``: ``C`` (6x6; None: the model's own) on the
+    determined directions ``basis`` (default the model's), ``inf`` where the model has it
+    and on the axes the ``undetermined`` directions (6, u) touch."""
+    from simcalib.solvers.diagnostics.inputs import _PURE
+    cov = np.asarray(uncertainty.covariance, dtype=np.float64)
+    if C is None:
+        return cov, np.asarray(uncertainty.covariance_determined, dtype=np.float64)
+    B = np.asarray(uncertainty.determined_basis if basis is None else basis)
+    cov_det = B @ (B.T @ C @ B) @ B.T
+    cov_det = 0.5 * (cov_det + cov_det.T)
+    out = cov.copy()
+    fin = np.isfinite(out)
+    out[fin] = cov_det[fin]
+    if undetermined is not None and undetermined.shape[1]:
+        # as the model does: the axes a direction touches, in tolerance units
+        dsc = np.array([math.radians(uncertainty.tolerance_deg)] * 3
+                       + [uncertainty.tolerance_m] * 3)
+        Ut = undetermined / dsc[:, None]
+        Ut = Ut / np.linalg.norm(Ut, axis=0)
+        touched = np.linalg.norm(Ut, axis=1) > _PURE
+        out[touched, :] = 0.0
+        out[:, touched] = 0.0
+        out[touched, touched] = np.inf
+    return out, cov_det
 
 
 def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None = None,
@@ -296,8 +345,9 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
                           options=robust_options)
     rob = _final_solve(ms, rob, method=method, alpha=alpha, prior=prior, seed=seed,
                        tolerances=tolerances)
-    check, weighting, cov, cov_det = _consistency(ms, rob, sp.n, method=method,
-                                                  alpha=alpha, prior=prior)
+    check, weighting, cov, cov_det = _consistency(
+        ms, rob, sp, method=method, alpha=alpha, prior=prior,
+        offset_sigma_s=_offset_sigma(off, sampling))
     C, H, i, j = ms.C, ms.H, ms.i, ms.j
     ms0, plain = _plain(sa, sb, sampling, off, sp, ms, step_s=step_s, alpha=alpha,
                         min_rotation_deg=min_rotation_deg, max_rotation_deg=max_rotation_deg)

@@ -1,12 +1,13 @@
-"""The verdict on an estimate, from ONE covariance: the model's, raised where the data are
-less consistent than the model says (:mod:`simcalib.estimation.consistency`).
+"""The verdict on an estimate, from ONE covariance: the reported one
+(:mod:`simcalib.estimation.consistency`: from the poses' own errors, white and correlated,
+checked by the recording's two halves; with a prior, the model's raised to a block
+jackknife).
 
 The solver's :class:`~simcalib.solvers.diagnostics.uncertainty.Uncertainty` names the
-directions the motions leave undetermined or poorly determined. With the reported
-covariance larger than the model's, more directions can exceed the tolerance: they are
-added as "poorly determined" with the reason (the data's own consistency). When the data
-are too few to check themselves, the verdict says so (``unverified``) instead of presenting
-the model's sigma as checked.
+directions the motions leave undetermined or poorly determined. Where the reported
+covariance exceeds the tolerance along other directions, they are added as "poorly
+determined" with the reason. When the data are too few to check themselves, the verdict
+says so (``unverified``) instead of presenting the sigma as checked.
 """
 
 from __future__ import annotations
@@ -61,7 +62,7 @@ class Verdict:
         return "; ".join([d.summary() for d in self.directions] + list(self.notes))
 
 
-def _consistency_directions(cov_det, B, tol_r, tol_m, flagged, ratio) -> list:
+def _consistency_directions(cov_det, B, tol_r, tol_m, flagged) -> list:
     """Directions of ``cov_det`` on the determined basis ``B`` beyond the tolerance that
     the model's own directions do not already flag."""
     from simcalib.solvers.diagnostics.uncertainty import _describe
@@ -85,8 +86,30 @@ def _consistency_directions(cov_det, B, tol_r, tol_m, flagged, ratio) -> list:
         if any(abs(float(np.dot(v, np.concatenate([d.rotation_axis_a, d.translation_dir_a]))))
                > 0.9 * np.linalg.norm(v) for v in seen if np.linalg.norm(v) > 0):
             continue
-        why = " by the data's own consistency checks (block jackknife, weighting)"
+        why = (" by the reported sigma (the poses' own errors, correlated ones included, and "
+               "the data's consistency checks)")
         out.append(replace(d, description=d.description + why))
+    return out
+
+
+def _noise_determined(U, unc, flagged) -> list:
+    """The directions ``U`` (6, u; delta coordinates) the pose errors alone determine, as
+    undetermined :class:`Direction` s (those the model flags already left out)."""
+    from simcalib.solvers.diagnostics.uncertainty import _describe
+    if U is None or U.shape[1] == 0:
+        return []
+    dsc = np.array([math.radians(unc.tolerance_deg)] * 3 + [unc.tolerance_m] * 3)
+    out = []
+    for u in np.asarray(U).T:
+        v = u / dsc
+        d = _describe(v / np.linalg.norm(v), dsc, "undetermined", math.inf, math.inf,
+                      math.inf, math.inf, False)
+        seen = [np.concatenate([f.rotation_axis_a, f.translation_dir_a]) for f in flagged]
+        if any(abs(float(np.dot(x, np.concatenate([d.rotation_axis_a, d.translation_dir_a]))))
+               > 0.9 * np.linalg.norm(x) for x in seen if np.linalg.norm(x) > 0):
+            continue
+        out.append(replace(d, description=d.description + " (determined only by the pose "
+                           "errors themselves: errors in the variables)"))
     return out
 
 
@@ -100,27 +123,23 @@ def judge(solution, covariance, covariance_determined, consistency,
     s = np.sqrt(np.diag(cov))
     std_deg = tuple(float(x) for x in np.degrees(s[:3]))
     std_m = tuple(float(x) for x in s[3:])
-    dirs = list(unc.directions)
-    notes = []
+    from simcalib.estimation.consistency import PoseConsistency
+    own = isinstance(consistency, PoseConsistency) and consistency.covariance is not None
+    # with the poses' own covariance, how well a direction is determined is its reported
+    # sigma; the model keeps its word on what the motions cannot determine at all
+    dirs = [d for d in unc.directions if not own or d.reason == "undetermined"]
+    if own:
+        dirs += _noise_determined(consistency.undetermined, unc, dirs)
+    notes = [] if consistency is None else list(consistency.notes())
     checked = consistency is not None and consistency.checked
-    if checked and consistency.raised:
-        dirs += _consistency_directions(
-            np.asarray(covariance_determined), np.asarray(unc.determined_basis),
-            math.radians(unc.tolerance_deg), unc.tolerance_m, dirs, consistency.ratio)
-        notes.append(f"sigma raised to the data's own consistency (block jackknife over "
-                     f"{consistency.blocks} blocks of poses: its spread up to "
-                     f"{math.sqrt(consistency.ratio):.3g}x the model's 1-sigma)")
-    elif checked:
-        notes.append(f"the model's sigma agrees with the data's own consistency (block "
-                     f"jackknife over {consistency.blocks} blocks: its spread within chance)")
-    elif consistency is not None:
-        notes.append("UNVERIFIED: " + consistency.message)
     if weighting is not None and weighting.significant:
         notes.append(weighting.message)
-        if not (checked and consistency.raised):
-            dirs += _consistency_directions(
-                np.asarray(covariance_determined), np.asarray(unc.determined_basis),
-                math.radians(unc.tolerance_deg), unc.tolerance_m, dirs, 1.0)
+    if consistency is not None or (weighting is not None and weighting.significant):
+        basis = consistency.basis if own else None
+        dirs += _consistency_directions(
+            np.asarray(covariance_determined),
+            np.asarray(unc.determined_basis if basis is None else basis),
+            math.radians(unc.tolerance_deg), unc.tolerance_m, dirs)
     dirs.sort(key=lambda d: d.reason != "undetermined")
     if not dirs:
         v = "determined"

@@ -258,6 +258,7 @@ class Assessment:
     plausibility: object = None     # simcalib.estimation.plausibility.Plausibility
     #: signs that the result should not be trusted even when X is determined (sentences)
     warnings: tuple = ()
+    directions: tuple = ()          # the verdict's flagged Directions
 
     @property
     def implausible(self) -> bool:
@@ -286,16 +287,29 @@ def assess(r) -> Assessment:
                           "no uncertainty", "solver")
     v = judge(solution, r.covariance, r.covariance_determined, r.consistency, r.weighting)
     fin = lambda vals: tuple(float(x) if math.isfinite(x) else None for x in vals)  # noqa
-    source = ("the solver's covariance from the residuals"
-              + (", raised to a block jackknife of the data" if r.consistency is not None
-                 and r.consistency.raised else
-                 ", checked by a block jackknife" if r.consistency is not None and
-                 r.consistency.checked else " (not checked: too few poses)"))
+    source = _source(r.consistency)
     plaus = check_plausibility(r.X, r.synced.T_a, r.synced.T_b, r.conventions)
     return Assessment(v.verdict, v.degenerate, v.summary(), source, fin(v.std_deg),
                       fin(v.std_m), tuple(fin(row) for row in np.asarray(r.covariance)),
                       tuple(d.summary() for d in v.directions), v.unverified, plaus,
-                      tuple(warnings(r)) + tuple(plaus.warnings))
+                      tuple(warnings(r)) + tuple(plaus.warnings), tuple(v.directions))
+
+
+def _source(check) -> str:
+    """What the reported sigma was computed from, in a few words."""
+    from simcalib.estimation.consistency import PoseConsistency
+    if isinstance(check, PoseConsistency):
+        if check.covariance is None:
+            return "the solver's covariance from the residuals (too few poses to check)"
+        return ("the poses' own errors, white and correlated"
+                + (", raised to the split-half disagreement" if check.raised else
+                   ", checked by the recording's two halves" if check.checked else
+                   " (unverified)"))
+    return ("the solver's covariance from the residuals"
+            + (", raised to a block jackknife of the data" if check is not None
+               and check.raised else
+               ", checked by a block jackknife" if check is not None and check.checked
+               else " (not checked: too few poses)"))
 
 
 # ---------------------------------------------------------------------- the calibration
