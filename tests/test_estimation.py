@@ -69,6 +69,31 @@ def test_auto_policy_stations_all_pairs_and_strides():
             assert n < ms.n < n * (n - 1) // 2 and (ms.j - ms.i).max() > n // 2
 
 
+def test_spans_join_every_pose_once_per_span_and_cross_gaps():
+    """spans: strides of 1, 2, 4, 8 x step_s in samples (up to half the recording); per
+    stride every pose starts one motion and ends one (a balanced design: the noise of a
+    pose cancels between its two motions), also across a dropped frame and a gap, where
+    joining by time makes several motions end on one pose."""
+    from simcalib.estimation.motions import span_pairs, span_strides
+    t = np.arange(0, 20, 0.1)
+    t = np.delete(t, [57] + list(range(120, 140)))         # a dropped frame, a 2 s gap
+    a, b, X = _streams(t, t)
+    sp = pair_by_stamp(a, b, classify_sampling(a, b))
+    assert list(span_strides(sp.time_s, 1.0)) == [10, 20, 40, 80]
+    assert list(span_strides(sp.time_s[:60], 1.0)) == [10, 20]       # 5.9 s: up to 2 s
+    ms = form_motions(sp, "spans", step_s=1.0, min_rotation_deg=0.0)
+    assert ms.policy == "spans" and ms.passes == 4 and "10, 20, 40, 80 samples" in ms.reason
+    for k in (10, 20, 40, 80):
+        i, j = ms.i[ms.j - ms.i == k], ms.j[ms.j - ms.i == k]
+        assert np.array_equal(i, np.arange(sp.n - k)) and np.array_equal(j, i + k)
+    assert np.abs(ms.C @ X - X @ ms.H).max() < 1e-9
+    _, j_time = span_pairs(sp.time_s, 1.0)                  # by time: a pile-up after gaps
+    assert np.bincount(j_time).max() >= 2 and np.bincount(ms.j[ms.j - ms.i == 10]).max() == 1
+    auto = form_motions(sp, "auto", paired_by_stamp=False)
+    assert auto.policy == "spans" and "continuous" in auto.reason
+    assert auto.subset(auto.i < 50).passes == 4
+
+
 def test_unknown_policy_names_the_valid_ones():
     t = np.arange(10.0)
     a, b, _ = _streams(t, t)

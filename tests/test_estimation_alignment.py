@@ -110,7 +110,8 @@ def test_eth_offsets_refine_the_cost():
     from simcalib.studies.experiments.streams import eth_files
     from simcalib.estimation.readings import apply_conventions, detect_conventions
     from simcalib.importers import read_pose_stream
-    from simcalib.estimation.alignment import OffsetCost, as_time_poses
+    from simcalib.estimation.alignment import as_time_poses
+    from simcalib.estimation.offset_cost import OFFSET_STEP_S, OffsetCost
     for name, (fa, fb) in eth_files(ETH).items():
         a, b = read_pose_stream(fa), read_pose_stream(fb)
         a, b = apply_conventions(a, b, detect_conventions(a, b))
@@ -118,8 +119,8 @@ def test_eth_offsets_refine_the_cost():
         assert abs(est.offset_s) < 0.1 and np.isfinite(est.uncertainty_s), (name, est.message)
         lo = min(est.offset_s, est.coarse_offset_s) - 0.05
         hi = max(est.offset_s, est.coarse_offset_s) + 0.05
-        cost = OffsetCost(*as_time_poses(a), *as_time_poses(b), (lo, hi), step_s=0.2,
-                          alpha=1.0, smooth_s=0.01)
+        cost = OffsetCost(*as_time_poses(a), *as_time_poses(b), (lo, hi),
+                          step_s=OFFSET_STEP_S, alpha=1.0, smooth_s=0.01)
         assert cost(est.offset_s) <= cost(est.coarse_offset_s) * (1 + 1e-9), name
 
 
@@ -142,3 +143,24 @@ def test_offset_of_static_stream_does_not_blame_the_timestamps():
         estimate_time_offset(a, static)
     assert "stream b does not rotate" in str(e.value)
     assert "units and clocks" not in str(e.value)
+
+
+def test_split_check_raises_the_sigma_only_when_the_parts_disagree():
+    """The offset of contiguous parts of the overlap: on a steady clock they agree within
+    their curvatures' sigmas and the sigma stays the curvature's; a clock that jumps by
+    20 ms halfway (not one offset: errors that are not white) disperses them, the sigma is
+    raised to cover the jump and the evidence against 0 is deflated alike."""
+    from simcalib.estimation.offset_cost import SPLIT_PARTS
+    rs = rig_streams(offset_s=0.03, rng=np.random.default_rng(5))
+    steady = estimate_time_offset(rs.a, rs.b)
+    assert abs(steady.offset_s - 0.03) < 1e-3 and steady.decision == "estimated"
+    assert len(steady.split.offsets_s) == SPLIT_PARTS and not steady.split.raised
+    assert "sigma raised" not in steady.message
+    t_b = rs.t_b + np.where(rs.t_b > rs.t_b[rs.t_b.size // 2], 0.02, 0.0)
+    jump = estimate_time_offset(rs.a, (t_b, rs.T_b))
+    parts = np.asarray(jump.split.offsets_s)
+    assert jump.split.raised and parts.max() - parts.min() > 0.015, jump.message
+    # between the two clocks, and its sigma about the spread of the parts' mean (~5.8 ms)
+    assert 0.03 < jump.offset_s < 0.05 and "sigma raised" in jump.message
+    assert 0.003 < jump.uncertainty_s < 0.01 and steady.uncertainty_s < 1e-4
+    assert jump.split.to_dict()["raised"] is True

@@ -1,10 +1,8 @@
 """The benchmark recordings of issue 28 (simcalib/studies/experiments/recordings.py): the generator
 itself, and the acceptance of the ``calibrate`` defaults on every kind: no worse than
 OpenCV Park given the true offset and reading, the offset and the reading found, bad input
-refused, undetermined directions flagged.
-
-The acceptance tests are EXPECTED to fail on kinds the estimation path does not handle yet;
-they are the measure of that work (docs/recordings.md has the numbers)."""
+refused, undetermined directions flagged (seeds 0-2 here; docs/recordings.md has seeds
+0-5 from its command)."""
 
 from __future__ import annotations
 
@@ -250,24 +248,10 @@ def outcome(tmp_path_factory):
     return get
 
 
-#: cases the estimation path does not meet yet (named in the issue's note): strict xfail, so
-#: a case that starts passing fails the suite until it is removed from here
-KNOWN_LIMITS = {
-    ("offset", "outliers", 1): "offset 3.4 ms off the true 37 ms (reported 1-sigma 2.0 ms: "
-                               "within 2 sigma, not within 3 ms)",
-    ("offset", "planar", 1): "planar motion: offset 8 ms off at a reported 1-sigma of 0.7 ms "
-                             "(the free vertical translation absorbs part of the timing)",
-    ("park_inliers", "outliers", 1): "0.11 deg / 2.7 mm vs Park on the outlier-free poses "
-                                     "0.05 deg / 0.27 mm (1 s consecutive motions; its 3.4 ms "
-                                     "offset error)",
-    ("park_inliers", "outliers", 2): "0.11 deg vs Park on the outlier-free poses 0.03 deg "
-                                     "(1 s consecutive motions carry less rotation than "
-                                     "Park's all-pairs)",
-    ("park", "inverted", 1): "0.65 mm vs a bar of 0.5 mm (Park 0.31 mm): 1 s consecutive "
-                             "motions vs Park's all pairs",
-    ("park", "scalar_first", 1): "0.12 deg vs a bar of 0.096 deg (Park 0.064 deg): 1 s "
-                                 "consecutive motions vs Park's all pairs",
-}
+#: cases the estimation path does not meet yet, ``(test, kind, seed) -> why``: strict xfail,
+#: so a case that starts passing fails the suite until it is removed from here (none now:
+#: every kind passes on seeds 0-5, docs/recordings.md)
+KNOWN_LIMITS: dict = {}
 
 
 def _cases(pred=lambda k: True, test=None):

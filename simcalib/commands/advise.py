@@ -263,7 +263,8 @@ def main_files(args: list[str]) -> int:
         adv = advise_recorded(r.C[mask], r.H[mask], r.X, r.synced.T_a[-1], opts["k"],
                               platform=platform, rng=np.random.default_rng([copts.seed, 13]),
                               alpha=copts.alpha, n_candidates=opts["candidates"],
-                              when_determined="advise" if opts["force"] else "stop", **kw)
+                              when_determined="advise" if opts["force"] else "stop",
+                              passes=r.motions.passes, **kw)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
     out = recorded_advice_dict(adv, {"a": str(copts.a), "b": str(copts.b) if copts.b else None,

@@ -29,8 +29,7 @@ from simcalib.geometry import (invert_transform, matrix_from_quat, quat_from_mat
                                rotation_angle_rad, transform_from_rotation_translation)
 
 __all__ = ["TimeOffset", "SyncedPoses", "as_time_poses", "interpolate_poses", "angular_speed",
-           "estimate_time_offset", "synchronise", "make_motions", "OffsetCost", "EVIDENCE_MIN",
-           "peak_z"]
+           "estimate_time_offset", "synchronise", "make_motions", "peak_z"]
 
 
 # ----------------------------------------------------------------------------- inputs
@@ -75,6 +74,16 @@ def _slerp(q0: np.ndarray, q1: np.ndarray, u: np.ndarray) -> np.ndarray:
     return q / np.linalg.norm(q, axis=-1, keepdims=True)
 
 
+def interpolation_valid(t: np.ndarray, t_query: np.ndarray, max_gap_s: float | None = None
+                        ) -> np.ndarray:
+    """The ``valid`` mask of :func:`interpolate_poses` alone (no poses computed)."""
+    k = np.clip(np.searchsorted(t, t_query, side="right") - 1, 0, t.size - 2)
+    valid = (t_query >= t[0]) & (t_query <= t[-1])
+    if max_gap_s is not None:
+        valid &= (t[k + 1] - t[k]) <= max_gap_s
+    return valid
+
+
 def interpolate_poses(t: np.ndarray, T: np.ndarray, t_query: np.ndarray,
                       max_gap_s: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Poses at ``t_query``: translation linear, rotation SLERP between the bracketing
@@ -94,8 +103,8 @@ def interpolate_poses(t: np.ndarray, T: np.ndarray, t_query: np.ndarray,
     return transform_from_rotation_translation(matrix_from_quat(qi), p), valid
 
 
-def smooth_poses(t: np.ndarray, T: np.ndarray, t_query: np.ndarray, sigma_s: float
-                 ) -> np.ndarray:
+def smooth_poses(t: np.ndarray, T: np.ndarray, t_query: np.ndarray, sigma_s: float,
+                 q: np.ndarray | None = None) -> np.ndarray:
     """Poses at ``t_query`` by Gaussian kernel regression over the samples (bandwidth
     ``sigma_s``): weighted mean translation and weighted, sign-aligned, renormalised
     quaternion mean over the samples (weights below exp(-10) are negligible; the support is
@@ -108,7 +117,7 @@ def smooth_poses(t: np.ndarray, T: np.ndarray, t_query: np.ndarray, sigma_s: flo
     clocks (e.g. 30 Hz and 15 Hz from one trigger). With ``sigma_s`` >= one sample period
     the kernel's weight sums are the same for every query position (to ~1e-8), so the noise
     no longer depends on the offset; the kernel is symmetric, so the smoothing does not
-    shift the timing."""
+    shift the timing. ``q``: the samples' quaternions (x, y, z, w) when already known."""
     t_query = np.asarray(t_query, dtype=np.float64)
     n = t.size
     dt = float(np.median(np.diff(t)))
@@ -122,7 +131,7 @@ def smooth_poses(t: np.ndarray, T: np.ndarray, t_query: np.ndarray, sigma_s: flo
     w[empty, k] = 1.0
     w /= w.sum(axis=1, keepdims=True)
     p = np.einsum("mk,mkj->mj", w, T[idx, :3, 3])
-    q = quat_from_matrix(T[:, :3, :3])
+    q = quat_from_matrix(T[:, :3, :3]) if q is None else q
     qk = q[idx]
     q0 = q[c.clip(0, n - 1)]
     sign = np.where(np.sum(qk * q0[:, None, :], axis=-1) < 0, -1.0, 1.0)
@@ -147,8 +156,10 @@ class TimeOffset:
     """Estimated clock offset ``offset_s = t_b - t_a`` (at ``t_ref_s`` in clock a when a
     ``drift`` (s/s) is estimated).
 
-    ``uncertainty_s``: 1-sigma from the curvature of the calibration cost (approximate: it
-    treats the motion residuals as independent after thinning by the motion step).
+    ``uncertainty_s``: 1-sigma from the curvature of the calibration cost (it treats the
+    motion residuals as independent after thinning by the motion step), raised to the
+    spread of the offsets of contiguous parts of the overlap where that spread is beyond
+    chance (``split``: :class:`simcalib.estimation.offset_cost.SplitCheck`).
     ``coarse_offset_s``: from the angular-speed cross-correlation; ``lags_s`` /
     ``correlation``: that curve (Pearson r per lag); ``peak_correlation``: its maximum;
     ``cost_offsets_s`` / ``cost``: the refinement curve (mean cost per motion).
@@ -176,6 +187,8 @@ class TimeOffset:
     peak_z: float = float("nan")
     #: offsets the correlation allows (the plausibility window, s)
     window_s: tuple = (float("-inf"), float("inf"))
+    #: the split check of the refined offset (None: not refined or too short to split)
+    split: object = None
 
     def offset_at(self, t_a) -> np.ndarray:
         """Offset ``t_b - t_a`` at clock-a times ``t_a``."""
@@ -420,128 +433,6 @@ def peak_z(r: np.ndarray, peak: float) -> float:
     return (peak - med) / mad
 
 
-# ------------------------------------------------------------------ cost refinement
-#: ``n_eff ln(cost at 0 / cost at the estimate)`` above which an estimated offset is used
-#: instead of 0 (the log-likelihood-ratio statistic of Gaussian residuals, ~chi2(1) when
-#: there is no offset: 9 is a 3-sigma decision)
-EVIDENCE_MIN = 9.0
-#: independent residual components per motion in the cost (the screw residual of one
-#: motion: 3 of rotation, 3 of translation): the cost's degrees of freedom are this many
-#: per independent motion
-RESIDUALS_PER_MOTION = 6
-
-
-class OffsetCost:
-    """The mean dqopt cost per motion of ONE fixed set of motions as a function of the
-    clock offset ``t_b - t_a``, for offsets in ``bracket`` (s).
-
-    The motions span ``step_s`` between stamps of the slower ("reference") stream inside
-    the overlap that every offset of the bracket keeps (and never across a gap of the other
-    stream at any offset of the bracket), so the set does not change with the offset. Both
-    streams are kernel-smoothed over ``smooth_s`` (:func:`smooth_poses`). Used are the
-    motions that turn by >= 1 deg in the reference stream and, with ``robust``, the RANSAC
-    inliers at the bracket's centre. ``part``: 0 / 1 keeps the first / second half of the
-    reference stamps (the drift estimate). Raises DataError when the overlap is too short.
-    """
-
-    def __init__(self, ta, Ta, tb, Tb, bracket, *, step_s, alpha, smooth_s, robust=True,
-                 part=None, n_grid=13):
-        self.alpha, self.step_s, self.smooth_s = alpha, step_s, smooth_s
-        pa, pb = float(np.median(np.diff(ta))), float(np.median(np.diff(tb)))
-        self.reference = "a" if pa >= pb else "b"
-        slow = max(pa, pb)
-        lo_o, hi_o = bracket
-        margin = 5 * smooth_s + slow
-        if self.reference == "a":
-            own, T_own, self.t_other, self.T_other, gap = ta, Ta, tb, Tb, 2.5 * pb
-            lo = max(ta[0], tb[0] - lo_o) + margin
-            hi = min(ta[-1], tb[-1] - hi_o) - margin
-        else:
-            own, T_own, self.t_other, self.T_other, gap = tb, Tb, ta, Ta, 2.5 * pa
-            lo = max(tb[0], ta[0] + hi_o) + margin
-            hi = min(tb[-1], ta[-1] + lo_o) - margin
-        if hi - lo < 4 * step_s:
-            raise DataError(f"the streams overlap for only {max(hi - lo, 0):.3f} s at offsets "
-                            f"{lo_o:.3f}..{hi_o:.3f} s; too short to refine the offset")
-        keep = (own >= lo) & (own <= hi)
-        if part is not None:
-            mid = 0.5 * (lo + hi)
-            keep &= (own < mid) if part == 0 else (own >= mid)
-        self.t_ref = own[keep]
-        self.window = (float(self.t_ref[0]), float(self.t_ref[-1])) if keep.any() else (lo, hi)
-        self.T_ref = smooth_poses(own, T_own, self.t_ref, smooth_s)
-        from simcalib.estimation.motions import span_pairs
-        self.i, self.j = span_pairs(self.t_ref, step_s)
-        grid = np.linspace(lo_o, hi_o, n_grid)
-        valid = np.ones(self.t_ref.size, dtype=bool)
-        for o in grid:
-            valid &= interpolate_poses(self.t_other, self.T_other, self._query(o), gap)[1]
-        ok = valid[self.i] & valid[self.j]
-        R = self.T_ref[:, :3, :3]
-        turn = rotation_angle_rad(np.swapaxes(R[self.i], 1, 2) @ R[self.j])
-        self.mask = ok & (turn >= math.radians(1.0))
-        if self.mask.sum() < 8:
-            self.mask = ok
-        if robust and self.mask.sum() >= 8:
-            self._keep_inliers(0.5 * (lo_o + hi_o))
-        self.n = int(self.mask.sum())
-        # each reference pose ends one motion and starts another: pairs of motions share
-        # it, so the residuals count as half as many independent ones (the kernel smoothing
-        # spans less than a reference period)
-        self.thin = 2.0
-
-
-    def _query(self, offset):
-        return self.t_ref + offset if self.reference == "a" else self.t_ref - offset
-
-    def motions(self, offset):
-        """``(C, H)`` of the used motions at ``offset``."""
-        T_o = smooth_poses(self.t_other, self.T_other, self._query(offset), self.smooth_s)
-        T_a, T_b = (self.T_ref, T_o) if self.reference == "a" else (T_o, self.T_ref)
-        i, j = self.i[self.mask], self.j[self.mask]
-        return invert_transform(T_a[i]) @ T_a[j], invert_transform(T_b[i]) @ T_b[j]
-
-    def _keep_inliers(self, offset):
-        from simcalib.solvers.robust import ransac
-        self.n = int(self.mask.sum())
-        C, H = self.motions(offset)
-        try:
-            inl = ransac(C, H, alpha=self.alpha, rng=np.random.default_rng(0),
-                         max_iterations=256).inlier_mask
-        except (ValueError, RuntimeError):     # too few motions / no consensus: keep all
-            return
-        idx = np.flatnonzero(self.mask)
-        self.mask[idx[~inl]] = False
-
-    def __call__(self, offset) -> float:
-        if self.n < 3:
-            return math.inf
-        from simcalib.solvers.api import solve
-        C, H = self.motions(offset)
-        return float(solve(C, H, method="dqopt", alpha=self.alpha).cost) / self.n
-
-
-def _refine(cost: OffsetCost, centre: float, half: float, n_grid: int = 13):
-    """``(best, cost at best, curvature, grid offsets, grid costs)``: ``cost`` on a grid over
-    ``centre +- half``, then bounded Brent between the grid neighbours of the minimum."""
-    from scipy.optimize import minimize_scalar
-    offs = np.linspace(centre - half, centre + half, n_grid)
-    costs = np.array([cost(o) for o in offs])
-    if not np.isfinite(costs).any():
-        raise DataError("calibration cost undefined for every offset near the coarse "
-                        "estimate (too few motions)")
-    k = int(np.nanargmin(costs))
-    h = offs[1] - offs[0]
-    lo, hi = offs[max(k - 1, 0)], offs[min(k + 1, n_grid - 1)]
-    res = minimize_scalar(cost, bounds=(lo, hi), method="bounded",
-                          options={"xatol": 1e-6 * max(1.0, h / 1e-3)})
-    best = float(res.x)
-    j0 = cost(best)
-    d = max(h / 4, 1e-4)
-    curv = (cost(best + d) - 2 * j0 + cost(best - d)) / (d * d)
-    return best, j0, curv, offs, costs
-
-
 def _other_peaks(offsets, r, peak, best, min_sep_s, rel: float = 0.9, max_n: int = 3):
     """Offsets of local maxima of the correlation ``r`` other than ``best`` that reach
     ``rel`` x ``peak`` and lie at least ``min_sep_s`` from ``best`` and each other (at most
@@ -560,44 +451,6 @@ def _other_peaks(offsets, r, peak, best, min_sep_s, rel: float = 0.9, max_n: int
     return out
 
 
-@dataclass(frozen=True)
-class _Refined:
-    centre: float
-    best: float
-    cost_best: float
-    curvature: float
-    offsets: np.ndarray
-    costs: np.ndarray
-    cost: OffsetCost
-
-
-def _refine_candidates(ta, Ta, tb, Tb, cands, half, kw) -> list:
-    out = []
-    for c in cands:
-        try:
-            cost = OffsetCost(ta, Ta, tb, Tb, (c - half, c + half), **kw)
-            out.append(_Refined(c, *_refine(cost, c, half), cost))
-        except DataError:
-            continue
-    return out
-
-
-def _decide(tried, half):
-    """``(chosen _Refined, decision, evidence, cost at 0)``: the candidate of lowest cost
-    is used when it beats offset 0 by :data:`EVIDENCE_MIN`, else 0 (the data do not tell
-    an offset); a recording where offset 0 leaves no overlap has only the estimate."""
-    chosen = min(tried, key=lambda x: x.cost_best)
-    zero = [x for x in tried if abs(x.centre) <= half]
-    if not zero:
-        return chosen, "estimated", float("nan"), float("nan")
-    z = zero[0]
-    j_zero = z.cost(0.0)
-    n_eff = RESIDUALS_PER_MOTION * chosen.cost.n / chosen.cost.thin
-    if not (math.isfinite(j_zero) and chosen.cost_best > 0):
-        return chosen, "estimated", float("nan"), j_zero
-    evidence = n_eff * math.log(j_zero / chosen.cost_best)
-    return chosen, ("estimated" if evidence > EVIDENCE_MIN else "zero"), evidence, j_zero
-
 
 def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = None,
                          refine: bool = True, drift: bool = False, step_s: float | None = None,
@@ -612,15 +465,19 @@ def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = Non
     ``|offset| <= max_offset_s`` if given); parabolic peak, and ``peak_z`` (its height over
     the spread at other lags). Refine (``refine=True``): candidates are the peak, other
     peaks within 90 % of it (periodic motion) and 0; around each the mean dqopt cost per
-    motion of a fixed set of motions (:class:`OffsetCost`: motions over ``step_s``,
-    default 4 slower periods and >= 0.2 s) is minimised (grid over +- 2 slower periods,
-    then bounded Brent). The lowest cost wins, and it is used only when it beats offset 0
-    by the evidence ``n_eff ln(J(0) / J)`` > :data:`EVIDENCE_MIN` (``decision``
-    "estimated"); otherwise the data do not tell an offset and 0 is used ("zero").
-    ``drift=True``: the offset refined on both halves of the overlap, a linear drift
-    fitted. Needs the streams' readings resolved for the refinement
-    (:mod:`simcalib.estimation.readings`); the coarse step does not.
+    motion of a fixed set of motions (:class:`simcalib.estimation.offset_cost.OffsetCost`:
+    motions over ``step_s``, default 4 slower periods and >= ``OFFSET_STEP_S``, 1 s; the
+    RANSAC inliers) is minimised (grid over +- 2 slower periods, then bounded Brent). The
+    lowest cost wins; its sigma (the cost's curvature) is checked by re-estimating the
+    offset on contiguous parts of the overlap (``split_check``) and raised to their spread
+    where that is beyond chance. The estimate is used only when it beats offset 0 by the
+    evidence ``n_eff ln(J(0) / J)`` (divided by the split's variance ratio where raised)
+    > ``EVIDENCE_MIN`` (``decision`` "estimated"); otherwise the data do not tell an
+    offset and 0 is used ("zero"). ``drift=True``: the offset refined on both halves of
+    the overlap, a linear drift fitted. Needs the streams' readings resolved for the
+    refinement (:mod:`simcalib.estimation.readings`); the coarse step does not.
     """
+    from simcalib.estimation import offset_cost as oc
     ta, Ta = as_time_poses(stream_a, "stream_a")
     tb, Tb = as_time_poses(stream_b, "stream_b")
     coarse, peak, lags, corr, grid_dt = _coarse_offset(ta, Ta, tb, Tb, max_offset_s,
@@ -631,65 +488,61 @@ def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = Non
     msg = (f"coarse offset {coarse * 1e3:.1f} ms from angular-speed cross-correlation "
            f"(peak r = {peak:.3f}, {z:.1f} robust sigma above the other lags; offsets "
            f"{window[0]:.3g}..{window[1]:.3g} s allowed)")
+    base = dict(peak_z=z, window_s=window)
     if not refine:
         return TimeOffset(coarse, grid_dt, coarse, peak, lags, corr, refined=False,
-                          message=msg, peak_z=z, window_s=window)
-    step_s = max(0.2, 4 * slow_dt) if step_s is None else step_s
+                          message=msg, **base)
+    step_s = max(oc.OFFSET_STEP_S, 4 * slow_dt) if step_s is None else step_s
     half = 2.0 * slow_dt
     kw = dict(step_s=step_s, alpha=alpha, robust=robust,
               smooth_s=min(float(np.median(np.diff(ta))), float(np.median(np.diff(tb)))))
     cands = [coarse] + _other_peaks(lags, corr, peak, coarse, 4 * slow_dt)
     if window[0] <= 0.0 <= window[1] and all(abs(c) > half for c in cands):
         cands.append(0.0)
-    tried = _refine_candidates(ta, Ta, tb, Tb, cands, half, kw)
+    tried = oc._refine_candidates(ta, Ta, tb, Tb, cands, half, kw)
     if not tried:
         return TimeOffset(coarse, grid_dt, coarse, peak, lags, corr, refined=False,
-                          message=msg + "; the overlap is too short to refine it",
-                          peak_z=z, window_s=window)
-    chosen, decision, evidence, j_zero = _decide(tried, half)
-    again = _refine_candidates(ta, Ta, tb, Tb, [chosen.best], half / 2, kw)
-    if again:     # centred on the estimate: the inliers chosen there, a narrower bracket
-        chosen = replace(again[0], centre=chosen.centre)
-    best, sigma = _offset_and_sigma(chosen)
+                          message=msg + "; the overlap is too short to refine it", **base)
     if len(tried) > 1:
         msg += ("; refined around " + ", ".join(f"{t.centre * 1e3:.0f}" for t in tried)
                 + " ms: calibration costs " + ", ".join(f"{t.cost_best:.3g}" for t in tried))
+    return _refined((ta, Ta, tb, Tb), tried, half, kw, drift, msg,
+                    dict(peak_correlation=peak, lags_s=lags, correlation=corr, **base))
+
+
+def _refined(streams, tried, half, kw, drift, msg, fields) -> TimeOffset:
+    """The :class:`TimeOffset` of the refined candidates ``tried``: the best one refined
+    again around its estimate, its sigma split-checked, compared with 0, drift fitted."""
+    from simcalib.estimation import offset_cost as oc
+    chosen, decision, evidence, _ = oc._decide(tried, half)
+    again = oc._refine_candidates(*streams, [chosen.best], half / 2, kw)
+    if again:     # centred on the estimate: the inliers chosen there, a narrower bracket
+        chosen = replace(again[0], centre=chosen.centre)
+    best, sigma = oc._offset_and_sigma(chosen)
+    split = oc.split_check(*streams, best, half, kw, chosen.cost.window)
+    if split.raised and split.sigma_s > sigma:
+        msg += (f"; the offsets of {len(split.offsets_s)} parts of the overlap ("
+                + ", ".join(f"{o * 1e3:.1f}" for o in split.offsets_s)
+                + f" ms) disperse {split.ratio:.3g}x beyond their curvatures' sigmas: "
+                f"sigma raised from {sigma * 1e3:.2f} ms")
+        if math.isfinite(evidence):     # the cost's dispersion, beyond the model's
+            evidence *= (sigma / split.sigma_s) ** 2
+            decision = "estimated" if evidence > oc.EVIDENCE_MIN else "zero"
+        sigma = split.sigma_s
     d, t_ref = 0.0, 0.5 * (chosen.cost.window[0] + chosen.cost.window[1])
     if chosen.cost.reference == "b":
         t_ref -= best                   # the window is in b's clock
     if drift and decision == "estimated":
-        d, best, note = _drift(ta, Ta, tb, Tb, best, half, kw, chosen)
+        d, best, note = oc._drift(*streams, best, half, kw, chosen)
         msg += note
     msg += (f"; refined to {best * 1e3:.2f} +- {sigma * 1e3:.2f} ms by the dqopt cost over "
-            f"{chosen.cost.n} motions of {step_s:.2f} s")
+            f"{chosen.cost.n} motions of {kw['step_s']:.2f} s")
     if decision == "zero":
         msg += (f"; but the cost at 0 is not worse beyond chance (evidence {evidence:.1f} <= "
-                f"{EVIDENCE_MIN:g}): the data do not tell an offset, 0 is used")
+                f"{oc.EVIDENCE_MIN:g}): the data do not tell an offset, 0 is used")
         best, d = 0.0, 0.0
     elif math.isfinite(evidence):
-        msg += f"; it beats offset 0 with evidence {evidence:.1f} (> {EVIDENCE_MIN:g})"
-    return TimeOffset(best, sigma, chosen.centre, peak, lags, corr, drift=d, t_ref_s=t_ref,
-                      refined=True, cost_offsets_s=chosen.offsets, cost=chosen.costs,
-                      message=msg, decision=decision, evidence=evidence, peak_z=z,
-                      window_s=window)
-
-
-def _offset_and_sigma(r: _Refined) -> tuple[float, float]:
-    """The refined offset and its 1-sigma from the cost's curvature: ``2 J / (m J'')`` for
-    ``m`` independent residual components (:data:`RESIDUALS_PER_MOTION` per motion, the
-    motions counted once per pose they share)."""
-    if r.curvature > 0 and r.cost.n > 0:
-        return r.best, math.sqrt(2.0 * r.cost_best * r.cost.thin
-                                 / (RESIDUALS_PER_MOTION * r.cost.n * r.curvature))
-    return r.best, float("nan")
-
-
-def _drift(ta, Ta, tb, Tb, best, half, kw, chosen):
-    halves = []
-    for part in (0, 1):
-        cost = OffsetCost(ta, Ta, tb, Tb, (best - half, best + half), part=part, **kw)
-        halves.append((_refine(cost, best, half)[0], cost.window))
-    (o1, w1), (o2, w2) = halves
-    span = 0.5 * (w2[0] + w2[1]) - 0.5 * (w1[0] + w1[1])
-    d = (o2 - o1) / span if span > 0 else 0.0
-    return d, 0.5 * (o1 + o2), f"; drift {d * 1e6:.1f} ppm from two windows"
+        msg += f"; it beats offset 0 with evidence {evidence:.1f} (> {oc.EVIDENCE_MIN:g})"
+    return TimeOffset(best, sigma, chosen.centre, drift=d, t_ref_s=t_ref, refined=True,
+                      cost_offsets_s=chosen.offsets, cost=chosen.costs, message=msg,
+                      decision=decision, evidence=evidence, split=split, **fields)

@@ -27,9 +27,9 @@ class EstimationConfig:
     the streams as stamped; any other policy runs the recorded-data path of ``calibrate``
     on the run's streams, with everything it decides scored against the truth in
     results.json ``estimation``."""
-    motions: Literal["pairing", "auto", "stations", "consecutive", "keyframes"] = field(
-        default="pairing", metadata=_doc(
-            "pairing: the paper's D.1 pairing (pairing.*); auto/stations/consecutive/"
+    motions: Literal["pairing", "auto", "stations", "spans", "consecutive", "keyframes"] = \
+        field(default="pairing", metadata=_doc(
+            "pairing: the paper's D.1 pairing (pairing.*); auto/stations/spans/consecutive/"
             "keyframes: the calibrate path's motion policy (auto: chosen from the data)"))
     time_offset: Literal["stamps", "estimate"] | float = field(default="stamps", metadata=_doc(
         "stamps: the stamps as they are; estimate: the clock offset estimated where the "

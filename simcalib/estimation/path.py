@@ -341,6 +341,7 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
         from simcalib.errors import DataError
         raise DataError(f"only {ms.n} motion(s) from {sp.n} synchronised poses ({ms.reason};"
                         f" {ms.counts}); at least 2 rotating motions are needed")
+    prior = _per_pass(prior, ms.passes)
     rob, why = robust_fit(ms.C, ms.H, robust, alpha=alpha, method=method, seed=seed,
                           options=robust_options)
     rob = _final_solve(ms, rob, method=method, alpha=alpha, prior=prior, seed=seed,
@@ -397,6 +398,16 @@ def _plain(sa, sb, sampling, off, sp, ms, *, step_s, alpha, min_rotation_deg,
         return ms0, robust_solve(ms0.C, ms0.H, "none", alpha=alpha)
     except DataError:
         return None, None
+
+
+def _per_pass(prior, passes: int):
+    """The prior with its weights times ``passes``: motions that pass over the same poses
+    several times (one set per span) sum each pose's information that many times in the
+    cost, and the prior keeps its weight against the poses (not against the motions)."""
+    if prior is None or passes <= 1:
+        return prior
+    import dataclasses
+    return dataclasses.replace(prior, a=prior.a * passes, b=prior.b * passes)
 
 
 def _zero():

@@ -56,10 +56,11 @@ class CalibrateOptions:
     robust: Literal["auto", "ransac", "irls", "none"] = field(default="auto", metadata=_doc(
         "outlier rejection over motions (auto: RANSAC where the motions give minimal sets, "
         "IRLS where they do not, none below 8 motions)"))
-    motions: Literal["auto", "stations", "consecutive", "keyframes"] = field(
+    motions: Literal["auto", "stations", "spans", "consecutive", "keyframes"] = field(
         default="auto", metadata=_doc(
             "which pose pairs become motions (auto: every/far pair for stamp-paired "
-            "stop-and-go data, consecutive over step_s for continuous streams)"))
+            "stop-and-go data, spans of 1, 2, 4, 8 x step_s for continuous streams; "
+            "consecutive: step_s only)"))
     threshold: float | None = field(default=None, metadata=_doc(
         "RANSAC inlier threshold on the screw residual (default: automatic, LMedS)"))
     method: str = field(default="dqopt", metadata=_doc("solver of the final estimate"))

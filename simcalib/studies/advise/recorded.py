@@ -137,12 +137,15 @@ class RecordedAdvice(StopPlan):
 
 def advise_recorded(C, H, X, T_ref_a, k: int = 5, *, platform: str, rng: np.random.Generator,
                     alpha: float = 1.0, n_candidates: int = 1000, tolerance_deg: float = 1.0,
-                    tolerance_m: float = 0.01, when_determined: str = "advise",
+                    tolerance_m: float = 0.01, when_determined: str = "advise", passes: int = 1,
                     **ranges) -> RecordedAdvice:
     """The next ``k`` stops after the recorded motions ``C``, ``H`` (N, 4, 4; the estimate
     ``X``) for ``platform`` (``"free"`` or ``"cart"``); ``T_ref_a`` (4, 4): sensor a's last
-    recorded pose, from which the stops start. ``ranges``: ``max_rotation_deg``,
-    ``max_translation_m``, ``min_rotation_deg`` of :func:`motion_candidates`."""
+    recorded pose, from which the stops start. ``passes``: how many times the recorded
+    motions pass over the same poses (``MotionSet.passes``, one set per span): their summed
+    information is divided by it, so the poses' noise counts once. ``ranges``:
+    ``max_rotation_deg``, ``max_translation_m``, ``min_rotation_deg`` of
+    :func:`motion_candidates`."""
     check_when_determined(when_determined)
     T_ref_a = np.asarray(T_ref_a, dtype=np.float64)
     if T_ref_a.shape != (4, 4) or not np.isfinite(T_ref_a).all():
@@ -151,6 +154,7 @@ def advise_recorded(C, H, X, T_ref_a, k: int = 5, *, platform: str, rng: np.rand
     t0 = time.perf_counter()
     kw = dict(tolerance_deg=tolerance_deg, tolerance_m=tolerance_m)
     s_r, s_t, F_base, L = recorded_information(C, H, X, alpha, **kw)
+    F_base = F_base / max(int(passes), 1)
     M = motion_candidates(C, n_candidates, rng, platform, **ranges)
     Cc, Hc = pl.predicted_motions(M, X)
     F_cand = pl.motion_information(Cc, Hc, X, s_r, s_t)

@@ -1,0 +1,280 @@
+"""The clock offset refined by the calibration cost, and how far the data vouch for it.
+
+:class:`OffsetCost` is the mean dqopt cost per motion of one fixed set of motions as a
+function of the offset ``t_b - t_a``; ``_refine`` minimises it around a candidate
+(a grid, then bounded Brent) and gives the curvature; ``_decide`` compares the best
+candidate with offset 0; :func:`split_check` re-estimates the offset on contiguous parts of
+the overlap and raises the curvature's sigma to the parts' spread where that spread is
+beyond chance (the residuals of real recordings are neither white nor independent, and
+the curvature alone treats them as if they were). Used by
+:func:`simcalib.estimation.alignment.estimate_time_offset`.
+
+Why motions of >= :data:`OFFSET_STEP_S`: a clock offset shifts both ends of a motion, so it
+shows only through the CHANGE of the rig's velocity over the motion; over short motions
+that change is small against the pose noise (a vehicle driving at a near-constant speed:
+0.2 s motions left 8-10 ms of offset error on the planar benchmark recordings, 1 s motions
+0.4 ms), and a direction the motion leaves free (a planar rig's vertical) absorbs more of it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from simcalib.errors import DataError
+from simcalib.estimation.alignment import interpolation_valid, smooth_poses
+from simcalib.geometry import invert_transform, quat_from_matrix, rotation_angle_rad
+
+__all__ = ["OffsetCost", "split_check", "SplitCheck", "EVIDENCE_MIN", "RESIDUALS_PER_MOTION",
+           "OFFSET_STEP_S", "SPLIT_PARTS", "SPLIT_LEVEL"]
+
+#: ``n_eff ln(cost at 0 / cost at the estimate)`` above which an estimated offset is used
+#: instead of 0 (the log-likelihood-ratio statistic of Gaussian residuals, ~chi2(1) when
+#: there is no offset: 9 is a 3-sigma decision)
+EVIDENCE_MIN = 9.0
+#: independent residual components per motion in the cost (the screw residual of one
+#: motion: 3 of rotation, 3 of translation): the cost's degrees of freedom are this many
+#: per independent motion
+RESIDUALS_PER_MOTION = 6
+#: the motions of the offset cost span at least this long (s)
+OFFSET_STEP_S = 1.0
+#: at most this many contiguous parts of the overlap re-estimate the offset (split check)
+SPLIT_PARTS = 4
+#: the parts' spread raises the sigma when it exceeds this quantile of what chance gives
+SPLIT_LEVEL = 0.95
+
+
+class OffsetCost:
+    """The mean dqopt cost per motion of ONE fixed set of motions as a function of the
+    clock offset ``t_b - t_a``, for offsets in ``bracket`` (s).
+
+    The motions span ``step_s`` between stamps of the slower ("reference") stream inside
+    the overlap that every offset of the bracket keeps (and never across a gap of the other
+    stream at any offset of the bracket), so the set does not change with the offset. Both
+    streams are kernel-smoothed over ``smooth_s`` (:func:`smooth_poses`). Used are the
+    motions that turn by >= 1 deg in the reference stream and, with ``robust``, the RANSAC
+    inliers at the bracket's centre. ``part``: 0 / 1 keeps the first / second half of the
+    reference stamps (the drift estimate), ``(k, K)`` the k-th of K equal parts (the split
+    check). Raises DataError when the overlap is too short.
+    """
+
+    def __init__(self, ta, Ta, tb, Tb, bracket, *, step_s, alpha, smooth_s, robust=True,
+                 part=None, n_grid=13):
+        self.alpha, self.step_s, self.smooth_s = alpha, step_s, smooth_s
+        pa, pb = float(np.median(np.diff(ta))), float(np.median(np.diff(tb)))
+        self.reference = "a" if pa >= pb else "b"
+        slow = max(pa, pb)
+        lo_o, hi_o = bracket
+        margin = 5 * smooth_s + slow
+        if self.reference == "a":
+            own, T_own, self.t_other, self.T_other, gap = ta, Ta, tb, Tb, 2.5 * pb
+            lo = max(ta[0], tb[0] - lo_o) + margin
+            hi = min(ta[-1], tb[-1] - hi_o) - margin
+        else:
+            own, T_own, self.t_other, self.T_other, gap = tb, Tb, ta, Ta, 2.5 * pa
+            lo = max(tb[0], ta[0] + hi_o) + margin
+            hi = min(tb[-1], ta[-1] + lo_o) - margin
+        if hi - lo < 4 * step_s:
+            raise DataError(f"the streams overlap for only {max(hi - lo, 0):.3f} s at offsets "
+                            f"{lo_o:.3f}..{hi_o:.3f} s; too short to refine the offset")
+        keep = (own >= lo) & (own <= hi)
+        if part is not None:
+            k, parts = (part, 2) if isinstance(part, (int, np.integer)) else part
+            edges = np.linspace(lo, hi, parts + 1)
+            keep &= (own >= edges[k]) & ((own < edges[k + 1]) if k < parts - 1 else True)
+        self.t_ref = own[keep]
+        self.window = (float(self.t_ref[0]), float(self.t_ref[-1])) if keep.any() else (lo, hi)
+        self.T_ref = smooth_poses(own, T_own, self.t_ref, smooth_s)
+        self.q_other = quat_from_matrix(self.T_other[:, :3, :3])
+        from simcalib.estimation.motions import span_pairs
+        self.i, self.j = span_pairs(self.t_ref, step_s)
+        grid = np.linspace(lo_o, hi_o, n_grid)
+        valid = np.ones(self.t_ref.size, dtype=bool)
+        for o in grid:
+            valid &= interpolation_valid(self.t_other, self._query(o), gap)
+        ok = valid[self.i] & valid[self.j]
+        R = self.T_ref[:, :3, :3]
+        turn = rotation_angle_rad(np.swapaxes(R[self.i], 1, 2) @ R[self.j])
+        self.mask = ok & (turn >= math.radians(1.0))
+        if self.mask.sum() < 8:
+            self.mask = ok
+        if robust and self.mask.sum() >= 8:
+            self._keep_inliers(0.5 * (lo_o + hi_o))
+        self.n = int(self.mask.sum())
+        # each reference pose ends one motion and starts another: pairs of motions share
+        # it, so the residuals count as half as many independent ones (the kernel smoothing
+        # spans less than a reference period)
+        self.thin = 2.0
+
+
+    def _query(self, offset):
+        return self.t_ref + offset if self.reference == "a" else self.t_ref - offset
+
+    def motions(self, offset):
+        """``(C, H)`` of the used motions at ``offset``."""
+        T_o = smooth_poses(self.t_other, self.T_other, self._query(offset), self.smooth_s,
+                           self.q_other)
+        T_a, T_b = (self.T_ref, T_o) if self.reference == "a" else (T_o, self.T_ref)
+        i, j = self.i[self.mask], self.j[self.mask]
+        return invert_transform(T_a[i]) @ T_a[j], invert_transform(T_b[i]) @ T_b[j]
+
+    def _keep_inliers(self, offset):
+        from simcalib.solvers.robust import ransac
+        self.n = int(self.mask.sum())
+        C, H = self.motions(offset)
+        try:
+            inl = ransac(C, H, alpha=self.alpha, rng=np.random.default_rng(0),
+                         max_iterations=256).inlier_mask
+        except (ValueError, RuntimeError):     # too few motions / no consensus: keep all
+            return
+        idx = np.flatnonzero(self.mask)
+        self.mask[idx[~inl]] = False
+
+    def __call__(self, offset) -> float:
+        if self.n < 3:
+            return math.inf
+        from simcalib.solvers.api import solve
+        C, H = self.motions(offset)
+        return float(solve(C, H, method="dqopt", alpha=self.alpha).cost) / self.n
+
+
+def _refine(cost: OffsetCost, centre: float, half: float, n_grid: int = 13):
+    """``(best, cost at best, curvature, grid offsets, grid costs)``: ``cost`` on a grid over
+    ``centre +- half``, then bounded Brent between the grid neighbours of the minimum."""
+    from scipy.optimize import minimize_scalar
+    offs = np.linspace(centre - half, centre + half, n_grid)
+    costs = np.array([cost(o) for o in offs])
+    if not np.isfinite(costs).any():
+        raise DataError("calibration cost undefined for every offset near the coarse "
+                        "estimate (too few motions)")
+    k = int(np.nanargmin(costs))
+    h = offs[1] - offs[0]
+    lo, hi = offs[max(k - 1, 0)], offs[min(k + 1, n_grid - 1)]
+    res = minimize_scalar(cost, bounds=(lo, hi), method="bounded",
+                          options={"xatol": 1e-6 * max(1.0, h / 1e-3)})
+    best = float(res.x)
+    j0 = cost(best)
+    d = max(h / 4, 1e-4)
+    curv = (cost(best + d) - 2 * j0 + cost(best - d)) / (d * d)
+    return best, j0, curv, offs, costs
+
+
+
+@dataclass(frozen=True)
+class _Refined:
+    centre: float
+    best: float
+    cost_best: float
+    curvature: float
+    offsets: np.ndarray
+    costs: np.ndarray
+    cost: OffsetCost
+
+
+def _refine_candidates(ta, Ta, tb, Tb, cands, half, kw) -> list:
+    out = []
+    for c in cands:
+        try:
+            cost = OffsetCost(ta, Ta, tb, Tb, (c - half, c + half), **kw)
+            out.append(_Refined(c, *_refine(cost, c, half), cost))
+        except DataError:
+            continue
+    return out
+
+
+def _decide(tried, half):
+    """``(chosen _Refined, decision, evidence, cost at 0)``: the candidate of lowest cost
+    is used when it beats offset 0 by :data:`EVIDENCE_MIN`, else 0 (the data do not tell
+    an offset); a recording where offset 0 leaves no overlap has only the estimate."""
+    chosen = min(tried, key=lambda x: x.cost_best)
+    zero = [x for x in tried if abs(x.centre) <= half]
+    if not zero:
+        return chosen, "estimated", float("nan"), float("nan")
+    z = zero[0]
+    j_zero = z.cost(0.0)
+    n_eff = RESIDUALS_PER_MOTION * chosen.cost.n / chosen.cost.thin
+    if not (math.isfinite(j_zero) and chosen.cost_best > 0):
+        return chosen, "estimated", float("nan"), j_zero
+    evidence = n_eff * math.log(j_zero / chosen.cost_best)
+    return chosen, ("estimated" if evidence > EVIDENCE_MIN else "zero"), evidence, j_zero
+
+
+
+def _offset_and_sigma(r: _Refined) -> tuple[float, float]:
+    """The refined offset and its 1-sigma from the cost's curvature: ``2 J / (m J'')`` for
+    ``m`` independent residual components (:data:`RESIDUALS_PER_MOTION` per motion, the
+    motions counted once per pose they share)."""
+    if r.curvature > 0 and r.cost.n > 0:
+        return r.best, math.sqrt(2.0 * r.cost_best * r.cost.thin
+                                 / (RESIDUALS_PER_MOTION * r.cost.n * r.curvature))
+    return r.best, float("nan")
+
+
+def _drift(ta, Ta, tb, Tb, best, half, kw, chosen):
+    halves = []
+    for part in (0, 1):
+        cost = OffsetCost(ta, Ta, tb, Tb, (best - half, best + half), part=part, **kw)
+        halves.append((_refine(cost, best, half)[0], cost.window))
+    (o1, w1), (o2, w2) = halves
+    span = 0.5 * (w2[0] + w2[1]) - 0.5 * (w1[0] + w1[1])
+    d = (o2 - o1) / span if span > 0 else 0.0
+    return d, 0.5 * (o1 + o2), f"; drift {d * 1e6:.1f} ppm from two windows"
+
+
+
+@dataclass(frozen=True)
+class SplitCheck:
+    """The offset re-estimated on ``parts`` contiguous parts of the overlap:
+    ``offsets_s`` and ``sigmas_s`` (each part's curvature sigma), ``ratio`` the
+    dispersion of the parts about their weighted mean, ``Q / (n - 1)`` with ``Q = sum
+    (o_k - o)^2 / sigma_k^2`` (about 1 when the curvature's sigmas hold; NaN without a
+    check), ``sigma_s`` the sigma of that weighted mean scaled by the dispersion
+    (``sqrt(ratio / sum sigma_k^-2)``), ``raised``: ``Q`` beyond the :data:`SPLIT_LEVEL`
+    quantile of chi-square on ``n - 1`` dof, so the reported sigma is at least
+    ``sigma_s``."""
+    offsets_s: tuple
+    sigmas_s: tuple
+    ratio: float
+    sigma_s: float
+    raised: bool
+
+    def to_dict(self) -> dict:
+        fin = lambda x: x if math.isfinite(x) else None  # noqa: E731
+        return {"offsets_s": list(self.offsets_s), "sigmas_s": list(self.sigmas_s),
+                "dispersion": fin(self.ratio), "sigma_s": fin(self.sigma_s),
+                "raised": self.raised}
+
+
+def split_check(ta, Ta, tb, Tb, best, half, kw, window) -> SplitCheck:
+    """The offset refined on up to :data:`SPLIT_PARTS` contiguous parts of the overlap
+    (each long enough for 4 motions of the cost's step) around ``best``; ``window`` the
+    reference stamps the full estimate used. The parts see the same clocks but different
+    stretches of the recording, so errors that are not white (a tracker's drift, a
+    target's systematic error, interpolation) move their estimates apart beyond what
+    their curvatures predict: that dispersion then scales the sigma of their combination
+    (quasi-likelihood), and the reported sigma is at least that."""
+    from scipy.special import chdtri
+    parts = int(min(SPLIT_PARTS, (window[1] - window[0]) // (4 * kw["step_s"])))
+    offs, sigs = [], []
+    for k in range(parts if parts >= 2 else 0):
+        try:
+            c = OffsetCost(ta, Ta, tb, Tb, (best - half, best + half), part=(k, parts), **kw)
+        except DataError:
+            continue
+        if c.n < 8:
+            continue
+        o, sg = _offset_and_sigma(_Refined(best, *_refine(c, best, half), c))
+        if math.isfinite(sg) and sg > 0:
+            offs.append(o)
+            sigs.append(sg)
+    n = len(offs)
+    if n < 2:
+        return SplitCheck(tuple(offs), tuple(sigs), float("nan"), float("nan"), False)
+    o, w = np.asarray(offs), 1.0 / np.asarray(sigs) ** 2
+    q = float(np.sum(w * (o - np.sum(w * o) / np.sum(w)) ** 2))
+    bound = float(chdtri(n - 1, 1.0 - SPLIT_LEVEL))
+    ratio = q / (n - 1)
+    return SplitCheck(tuple(map(float, offs)), tuple(map(float, sigs)), ratio,
+                      math.sqrt(ratio / float(np.sum(w))), bool(q > bound))
