@@ -1,5 +1,5 @@
 """The real-data regression suite (issue 28): every public recording of the table
-``simcalib.studies.experiments.real_data.SETS``, calibrated once per session with the ``calibrate``
+``simcalib.studies.experiments.real_sets.SETS``, calibrated once per session with the ``calibrate``
 defaults, against its README's "correct" (docs/real-data.md). Skipped per set when its data
 are absent (``SIMCALIB_REAL_DIR`` / ``SIMCALIB_ETH_DIR``)."""
 
@@ -8,7 +8,11 @@ import math
 import numpy as np
 import pytest
 
+from simcalib.errors import DataError
+from simcalib.studies.experiments import real_checks as checks
 from simcalib.studies.experiments import real_data as rd
+from simcalib.studies.experiments import real_data_doc as doc
+from simcalib.studies.experiments import real_sets as sets
 
 # every test of this file shares one calibration per set: keep them on one xdist worker
 pytestmark = pytest.mark.xdist_group("real_data")
@@ -18,9 +22,9 @@ def _ids(entries):
     return [e.name for e in entries]
 
 
-REFERENCED_OR_TIMED = [e for e in rd.SETS if e.reference is not None
+REFERENCED_OR_TIMED = [e for e in sets.SETS if e.reference is not None
                        or (e.tolerance is not None and e.tolerance.offset_s is not None)]
-FLAGGED = [e for e in rd.SETS if e.required_flags]
+FLAGGED = [e for e in sets.SETS if e.required_flags]
 
 
 @pytest.fixture(scope="module")
@@ -30,11 +34,11 @@ def result(tmp_path_factory):
     cache, done = tmp_path_factory.mktemp("eth_cache"), {}
 
     def get(entry):
-        ok, why = rd.set_available(entry)
+        ok, why = sets.set_available(entry)
         if not ok:
             pytest.skip(why)
         if entry.name not in done:
-            done[entry.name] = rd.run_set(entry, cache_dir=cache)
+            done[entry.name] = checks.run_set(entry, cache_dir=cache)
         return done[entry.name]
     return get
 
@@ -47,19 +51,19 @@ def test_nees_pseudo_inverse_on_the_determined_axes():
     S[3, 4] = S[4, 3] = 1e-6                         # vx == vy: one direction
     cov = [[None if not math.isfinite(x) else x for x in row] for row in S]
     e = np.array([1e-2, -2e-2, 3e-2, 1e-3, 1e-3, 5.0])  # vz error is ignored
-    n = rd.nees(e, cov)
+    n = checks.nees(e, cov)
     # by hand: the rotation axes 1 each, (vx + vy) / sqrt 2 = sqrt2 mm over variance 2e-6
     assert n.dof == 4 and n.axes == (0, 1, 2, 3, 4)
     assert n.value == pytest.approx(3.0 + (2e-3 / math.sqrt(2)) ** 2 / 2e-6)
     assert n.bound_95 == pytest.approx(9.4877, abs=1e-4)
     # an error across the correlated pair is outside the determined subspace: not counted
-    assert rd.nees(np.array([0, 0, 0, 1e-3, -1e-3, 0.0]), cov).value == pytest.approx(0.0)
+    assert checks.nees(np.array([0, 0, 0, 1e-3, -1e-3, 0.0]), cov).value == pytest.approx(0.0)
     # the reference's own covariance adds to the estimate's; axes may be restricted
     extra = np.diag([1e-4, 4e-4, 9e-4, 0, 0, 0])
-    assert rd.nees(e, cov, rd.ROTATION_ONLY, extra).value == pytest.approx(1.5)
-    assert rd.nees(e, cov, rd.ROTATION_ONLY).dof == 3
-    assert rd.nees(e, None) is None
-    assert rd.chi2_bound_95(6) == pytest.approx(12.59, abs=0.005)
+    assert checks.nees(e, cov, sets.ROTATION_ONLY, extra).value == pytest.approx(1.5)
+    assert checks.nees(e, cov, sets.ROTATION_ONLY).dof == 3
+    assert checks.nees(e, None) is None
+    assert checks.chi2_bound_95(6) == pytest.approx(12.59, abs=0.005)
 
 
 def test_nees_is_chi_square_on_simulated_errors():
@@ -68,7 +72,7 @@ def test_nees_is_chi_square_on_simulated_errors():
     A = rng.normal(size=(6, 6))
     S = A @ A.T * 1e-4
     e = rng.multivariate_normal(np.zeros(6), S, size=1000)
-    share = np.mean([rd.nees(x, S).within for x in e])
+    share = np.mean([checks.nees(x, S).within for x in e])
     assert 0.925 < share < 0.975
 
 
@@ -76,15 +80,15 @@ def test_loop_covariance_propagates_undetermined_axes():
     J = np.eye(6)
     J[3:, :3] = np.ones((3, 3))
     S = np.diag([1.0, 1, 1, 1, 1, np.inf])
-    P = rd.propagate_covariance(J, S)
+    P = checks.propagate_covariance(J, S)
     assert np.isinf(P[5, 5]) and np.isfinite(P[:5, :5]).all()
     assert P[3, 3] == pytest.approx(4.0)            # 3 rotation axes + vx
 
 
 def _constructed(entry, X, flagged=(), offset_s=0.0):
-    ref = rd.Reference(np.eye(4), "identity", "test")
-    e, rot, trans = rd._reference_errors(ref, X, entry)
-    return rd.SetResult(entry.name, 6, "degenerate", "", 0.0, X=X, flagged=flagged,
+    ref = sets.Reference(np.eye(4), "identity", "test")
+    e, rot, trans = checks._reference_errors(ref, X, entry)
+    return checks.SetResult(entry.name, 6, "degenerate", "", 0.0, X=X, flagged=flagged,
                         offset_s=offset_s, reference=ref, error_vector=e,
                         rotation_error_deg=rot, translation_error_mm=trans)
 
@@ -93,47 +97,47 @@ def test_checks_on_constructed_results():
     """The required flag must match in axis (undetermined or poorly determined: not
     determined); a flagged translation waives the translation tolerance only where the
     README says so; the offset is checked."""
-    scara, fr1, fr2 = (rd.set_by_name(n) for n in ("scara_handeye4dof", "tum_fr1_xyz_rgbdslam",
+    scara, fr1, fr2 = (sets.set_by_name(n) for n in ("scara_handeye4dof", "tum_fr1_xyz_rgbdslam",
                                                      "tum_fr2_desk_orb"))
-    z = rd.FlaggedDirection("undetermined", "translation", (0.0, 0, 0), (0.0, 0.1, -0.99), "")
-    assert rd.flag_check(scara, _constructed(scara, np.eye(4), (z,)))[0]
-    poor = rd.FlaggedDirection("poorly determined", "translation", (0.0, 0, 0), (0, 0, 1.0), "")
-    assert rd.flag_check(scara, _constructed(scara, np.eye(4), (poor,)))[0]
-    x = rd.FlaggedDirection("undetermined", "translation", (0.0, 0, 0), (1.0, 0, 0), "")
-    ok, why = rd.flag_check(scara, _constructed(scara, np.eye(4), (x,)))
+    z = checks.FlaggedDirection("undetermined", "translation", (0.0, 0, 0), (0.0, 0.1, -0.99), "")
+    assert checks.flag_check(scara, _constructed(scara, np.eye(4), (z,)))[0]
+    poor = checks.FlaggedDirection("poorly determined", "translation", (0.0, 0, 0), (0, 0, 1.0), "")
+    assert checks.flag_check(scara, _constructed(scara, np.eye(4), (poor,)))[0]
+    x = checks.FlaggedDirection("undetermined", "translation", (0.0, 0, 0), (1.0, 0, 0), "")
+    ok, why = checks.flag_check(scara, _constructed(scara, np.eye(4), (x,)))
     assert not ok and "hand z" in why
-    assert not rd.flag_check(scara, _constructed(scara, np.eye(4), ()))[0]
+    assert not checks.flag_check(scara, _constructed(scara, np.eye(4), ()))[0]
     X = np.eye(4)
     X[:3, 3] = [0.0, 0.05, 0.0]                       # 50 mm off the identity
-    assert not rd.tolerance_check(fr1, _constructed(fr1, X))[0]
-    assert rd.tolerance_check(fr1, _constructed(fr1, X, (x,)))[0]
-    assert not rd.tolerance_check(fr2, _constructed(fr2, X, (x,)))[0]
-    ok, why = rd.tolerance_check(fr2, _constructed(fr2, np.eye(4), offset_s=0.2))
+    assert not checks.tolerance_check(fr1, _constructed(fr1, X))[0]
+    assert checks.tolerance_check(fr1, _constructed(fr1, X, (x,)))[0]
+    assert not checks.tolerance_check(fr2, _constructed(fr2, X, (x,)))[0]
+    ok, why = checks.tolerance_check(fr2, _constructed(fr2, np.eye(4), offset_s=0.2))
     assert not ok and "offset" in why
-    assert rd.tolerance_check(fr2, _constructed(fr2, np.eye(4), offset_s=0.01))[0]
+    assert checks.tolerance_check(fr2, _constructed(fr2, np.eye(4), offset_s=0.01))[0]
 
 
 def test_the_table_names_are_unique_and_resolvable():
-    names = [e.name for e in rd.SETS]
+    names = [e.name for e in sets.SETS]
     assert len(set(names)) == len(names)
-    for a, b in rd.CROSS_SET_PAIRS:
-        assert rd.set_by_name(a).name == a and rd.set_by_name(b).name == b
+    for a, b in sets.CROSS_SET_PAIRS:
+        assert sets.set_by_name(a).name == a and sets.set_by_name(b).name == b
     with pytest.raises(Exception, match="kuka_1"):
-        rd.set_by_name("rwhecalib_kuka1")
+        sets.set_by_name("rwhecalib_kuka1")
 
 
-@pytest.mark.parametrize("entry", [e for e in rd.SETS if e.reference in ("file", "readme")],
-                         ids=_ids([e for e in rd.SETS if e.reference in ("file", "readme")]))
+@pytest.mark.parametrize("entry", [e for e in sets.SETS if e.reference in ("file", "readme")],
+                         ids=_ids([e for e in sets.SETS if e.reference in ("file", "readme")]))
 def test_references_parse_from_the_set_files(entry):
-    ok, why = rd.set_available(entry)
+    ok, why = sets.set_available(entry)
     if not ok:
         pytest.skip(why)
-    ref = rd.load_reference(entry)
+    ref = sets.load_reference(entry)
     R = ref.T_a_b[:3, :3]
     assert np.allclose(R @ R.T, np.eye(3), atol=1e-5) and np.linalg.det(R) > 0
     if entry.name.startswith("crwhe"):
         assert ref.spread_deg is not None and ref.covariance is not None
-        assert rd.reference_tolerance(entry, ref) == (ref.spread_deg, ref.spread_m)
+        assert sets.reference_tolerance(entry, ref) == (ref.spread_deg, ref.spread_m)
     if entry.reference == "readme":                 # scara: t and Euler xyz [180, 0, 0]
         assert np.allclose(ref.T_a_b[:3, 3], [-0.456, -0.037, -0.112])
         assert np.allclose(R, np.diag([1.0, -1.0, -1.0]), atol=1e-12)
@@ -141,7 +145,7 @@ def test_references_parse_from_the_set_files(entry):
 
 # ------------------------------------------------------------- the sets, the defaults
 @pytest.mark.slow
-@pytest.mark.parametrize("entry", rd.SETS, ids=_ids(rd.SETS))
+@pytest.mark.parametrize("entry", sets.SETS, ids=_ids(sets.SETS))
 def test_defaults_give_a_result(entry, result):
     """No refusal, no crash: exit 0 (determined) or 6 (degenerate) on every set."""
     r = result(entry)
@@ -154,7 +158,7 @@ def test_defaults_give_a_result(entry, result):
 def test_within_the_readme_tolerance(entry, result):
     """X within the README's "correct" of the reference (crwhe: the reference's spread;
     kuka / sthe: of OpenCV PARK on the files), and the offset where one is known."""
-    ok, why = rd.tolerance_check(entry, result(entry))
+    ok, why = checks.tolerance_check(entry, result(entry))
     assert ok, why
 
 
@@ -162,7 +166,7 @@ def test_within_the_readme_tolerance(entry, result):
 @pytest.mark.parametrize("entry", FLAGGED, ids=_ids(FLAGGED))
 def test_required_directions_are_flagged(entry, result):
     """scara: translation along hand z undetermined; kitti: translation along cam0 y."""
-    ok, why = rd.flag_check(entry, result(entry))
+    ok, why = checks.flag_check(entry, result(entry))
     assert ok, why
 
 
@@ -171,14 +175,14 @@ def test_nees_within_its_bound_on_80_percent_of_the_referenced_sets(result):
     """On the sets with an independent reference, the NEES (with the reference's stated
     spread added where it states one) is within the chi-square 95 % bound on >= 80 %;
     a set that does not run, or has no covariance, counts as outside."""
-    entries = [e for e in rd.SETS if e.independent_reference and rd.set_available(e)[0]]
+    entries = [e for e in sets.SETS if e.independent_reference and sets.set_available(e)[0]]
     if not entries:
         pytest.skip("no referenced set present")
     rows = {e.name: result(e).nees_target for e in entries}
     inside = [n for n, v in rows.items() if v is not None and v.within]
     share = len(inside) / len(rows)
     detail = {n: (None if v is None else (round(v.value, 2), v.dof)) for n, v in rows.items()}
-    assert share >= rd.NEES_TARGET_SHARE, f"{share:.0%} within: {detail}"
+    assert share >= sets.NEES_TARGET_SHARE, f"{share:.0%} within: {detail}"
 
 
 @pytest.mark.slow
@@ -186,7 +190,7 @@ def test_the_recordings_halves_agree_within_the_reported_sigma_on_most_sets(resu
     """The reference-free check: X of each recording's first half against its second,
     within the 95 % bound of the difference the pose-error model predicts, on >= 80 % of
     the sets whose halves could be compared (the others have their sigma scaled up)."""
-    rows = {e.name: result(e).split for e in rd.SETS if rd.set_available(e)[0]}
+    rows = {e.name: result(e).split for e in sets.SETS if sets.set_available(e)[0]}
     rows = {n: v for n, v in rows.items() if v is not None}
     if not rows:
         pytest.skip("no set present")
@@ -196,42 +200,42 @@ def test_the_recordings_halves_agree_within_the_reported_sigma_on_most_sets(resu
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("pair", rd.CROSS_SET_PAIRS, ids=["-".join(p) for p in rd.CROSS_SET_PAIRS])
+@pytest.mark.parametrize("pair", sets.CROSS_SET_PAIRS, ids=["-".join(p) for p in sets.CROSS_SET_PAIRS])
 def test_sets_sharing_a_mount_agree_within_3_combined_sigma(pair, result):
     """The two X differ by at most 3 combined (summed-covariance) sigma on every axis the
     two estimates determine."""
-    r1, r2 = (result(rd.set_by_name(n)) for n in pair)
-    g = rd.agreement(r1, r2)
+    r1, r2 = (result(sets.set_by_name(n)) for n in pair)
+    g = checks.agreement(r1, r2)
     assert g.ok, g.message + f"; ratios {None if g.ratio is None else np.round(g.ratio, 2)}"
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("loop", rd.LOOPS, ids=["-".join(lp) for lp in rd.LOOPS])
+@pytest.mark.parametrize("loop", sets.LOOPS, ids=["-".join(lp) for lp in sets.LOOPS])
 def test_three_streams_of_one_rig_close_the_loop(loop, result):
     """X_ac = X_ab X_bc within 3 combined sigma on every determined axis."""
-    g = rd.loop_agreement(*(result(rd.set_by_name(n)) for n in loop))
+    g = checks.loop_agreement(*(result(sets.set_by_name(n)) for n in loop))
     assert g.ok, g.message + f"; ratios {None if g.ratio is None else np.round(g.ratio, 2)}"
 
 
 @pytest.mark.slow
 def test_the_document_reports_every_set_it_was_given(result):
-    entries = [e for e in rd.SETS if e.independent_reference and rd.set_available(e)[0]][:2]
+    entries = [e for e in sets.SETS if e.independent_reference and sets.set_available(e)[0]][:2]
     if not entries:
         pytest.skip("no referenced set present")
     results = {e.name: result(e) for e in entries}
-    text = rd.markdown(results, command="python -m simcalib.studies.experiments.real_data",
+    text = doc.markdown(results, command="python -m simcalib.studies.experiments.real_data",
                        total_time_s=1.0)
-    s = rd.summarise(results)
+    s = checks.summarise(results)
     assert all(f"| {n} |" in text for n in results)
     assert f"**{s.n_ran} of {len(results)}** sets exit 0 or 6" in text
     assert "python -m simcalib.studies.experiments.real_data" in text
 
 
 def test_missing_data_is_reported_with_the_variable_to_set(monkeypatch, tmp_path):
-    monkeypatch.setenv(rd.REAL_ENV, str(tmp_path / "none"))
-    monkeypatch.setenv(rd.ETH_ENV, str(tmp_path / "none"))
-    for entry in rd.SETS:
-        ok, why = rd.set_available(entry)
-        assert not ok and (rd.REAL_ENV in why or rd.ETH_ENV in why)
-    with pytest.raises(rd.DataError, match="SIMCALIB_REAL_DIR"):
+    monkeypatch.setenv(sets.REAL_ENV, str(tmp_path / "none"))
+    monkeypatch.setenv(sets.ETH_ENV, str(tmp_path / "none"))
+    for entry in sets.SETS:
+        ok, why = sets.set_available(entry)
+        assert not ok and (sets.REAL_ENV in why or sets.ETH_ENV in why)
+    with pytest.raises(DataError, match="SIMCALIB_REAL_DIR"):
         rd.run_sets()

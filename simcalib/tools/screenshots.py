@@ -268,7 +268,7 @@ def synthetic_calibration_input(folder: Path, seed: int = 0) -> Path:
 def _calibration_input(name: str, work: Path) -> Path:
     if name == "synthetic":
         return synthetic_calibration_input(work / "synthetic_input")
-    from simcalib.studies.experiments.real_data import real_dir
+    from simcalib.studies.experiments.real_sets import real_dir
     d = real_dir() / name
     if not (d / "a.txt").exists():
         raise FileNotFoundError(f"real set {name!r}: no {d / 'a.txt'} (set SIMCALIB_REAL_DIR"
