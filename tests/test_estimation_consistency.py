@@ -11,7 +11,7 @@ from simcalib.estimation.consistency import (PoseConsistency, _reduced_basis,
                                              pose_consistency, widening_factor)
 from simcalib.estimation.path import calibrate_streams
 from simcalib.studies.experiments.calibrate_coverage import trial
-from simcalib.studies.experiments.recordings import generate
+from simcalib.studies.experiments.recording_kinds import generate
 
 
 def _calibrated(kind, seed, **overrides):

@@ -12,12 +12,13 @@ import math
 import numpy as np
 import pytest
 
+from simcalib.studies.experiments import recording_kinds as RK
 from simcalib.studies.experiments import recordings as R
 from simcalib.geometry import (invert_transform, matrix_from_rotvec, rotation_angle_rad,
                                transform_from_rotation_translation)
 from simcalib.importers import read_pose_stream
 
-KINDS = list(R.KINDS)
+KINDS = list(RK.KINDS)
 #: seeds of the acceptance tests (offset: seed 1 has drift, seed 2 an offset of tens of s)
 SEEDS = (0, 1, 2)
 ROT_FLOOR_DEG, TRANS_FLOOR_MM, OFFSET_TOL_MS = R.ROT_FLOOR_DEG, R.TRANS_FLOOR_MM, R.OFFSET_TOL_MS
@@ -50,25 +51,25 @@ def _consistency(rec, X=None):
 # ---------------------------------------------------------------------- the generator
 def test_registry_describes_every_kind_and_rejects_unknown_ones():
     assert KINDS
-    for name, kind in R.KINDS.items():
+    for name, kind in RK.KINDS.items():
         assert kind.description and "\n" not in kind.description, name
         assert kind.expect in ("determined", "degenerate", "data_error"), name
     with pytest.raises(ValueError, match="valid kinds: " + ", ".join(KINDS)):
-        R.generate("stationz", 0)
+        RK.generate("stationz", 0)
     with pytest.raises(ValueError, match="unknown override.*colour.*valid: noise"):
-        R.generate("stations", 0, colour=1)
+        RK.generate("stations", 0, colour=1)
     with pytest.raises(ValueError, match="seed"):
-        R.generate("stations", -1)
+        RK.generate("stations", -1)
     with pytest.raises(ValueError, match="'stations' does not use duration_s; its settings"):
-        R.generate("stations", 0, duration_s=10.0)
+        RK.generate("stations", 0, duration_s=10.0)
     with pytest.raises(ValueError, match="'continuous' does not use offset_s"):
-        R.generate("continuous", 0, offset_s=1.0)
-    assert R.generate("offset", 0, offset_s=0.5, drift_ppm=0.0).offset_s == 0.5
+        RK.generate("continuous", 0, offset_s=1.0)
+    assert RK.generate("offset", 0, offset_s=0.5, drift_ppm=0.0).offset_s == 0.5
 
 
 @pytest.mark.parametrize("kind", KINDS)
 def test_same_seed_same_arrays_other_seed_other_arrays(kind):
-    a, b, c = R.generate(kind, 4), R.generate(kind, 4), R.generate(kind, 5)
+    a, b, c = RK.generate(kind, 4), RK.generate(kind, 4), RK.generate(kind, 5)
     for x, y in zip(_arrays(a), _arrays(b)):
         np.testing.assert_array_equal(x, y)
     assert a.description == b.description and a.offset_s == b.offset_s
@@ -76,12 +77,12 @@ def test_same_seed_same_arrays_other_seed_other_arrays(kind):
     assert not a.stream_a.T_world_sensor.flags.writeable and not a.X_true.flags.writeable
 
 
-@pytest.mark.parametrize("kind", [k for k in KINDS if R.KINDS[k].expect != "data_error"])
+@pytest.mark.parametrize("kind", [k for k in KINDS if RK.KINDS[k].expect != "data_error"])
 def test_x_true_satisfies_cx_eq_xh_on_noise_free_output(kind):
     # b at 200 Hz without dropped frames: interpolating b at a's stamps is then exact to
     # ~1e-3 deg / 0.05 mm (at the default 30 Hz SLERP alone errs by up to ~0.03 deg / 1.6 mm)
-    fast = dict(rate_b_hz=200.0, drop_fraction=0.0) if R.KINDS[kind].offset_determined else {}
-    rec = R.generate(kind, 1, noise=False, **fast)
+    fast = dict(rate_b_hz=200.0, drop_fraction=0.0) if RK.KINDS[kind].offset_determined else {}
+    rec = RK.generate(kind, 1, noise=False, **fast)
     rot_deg, trans_mm = _consistency(rec)
     if not rec.offset_determined:           # same stamps: exact
         assert rot_deg < 1e-9 and trans_mm < 1e-9, (rot_deg, trans_mm)
@@ -96,21 +97,21 @@ def test_x_true_satisfies_cx_eq_xh_on_noise_free_output(kind):
 
 
 def test_bad_input_kind_is_really_inconsistent():
-    for name, kind in R.KINDS.items():
+    for name, kind in RK.KINDS.items():
         if kind.expect == "data_error":
-            rot_deg, _ = _consistency(R.generate(name, 1, noise=False))
+            rot_deg, _ = _consistency(RK.generate(name, 1, noise=False))
             assert rot_deg > 5.0, name          # b does not move while a turns
 
 
 @pytest.mark.parametrize("kind", [k for k in KINDS
-                                  if any(getattr(R.generate(k, 0), f) or
-                                         getattr(R.generate(k, 1), f)
+                                  if any(getattr(RK.generate(k, 0), f) or
+                                         getattr(RK.generate(k, 1), f)
                                          for f in ("invert_a", "invert_b", "scalar_first_a",
                                                    "scalar_first_b"))])
 def test_file_form_differs_from_the_true_reading(kind):
     """Kinds with an inverted / scalar-first file: read as written, no X fits."""
     for seed in (0, 1):
-        rec = R.generate(kind, seed, noise=False)
+        rec = RK.generate(kind, seed, noise=False)
         as_written = dataclasses.replace(rec, invert_a=False, invert_b=False,
                                          scalar_first_a=False, scalar_first_b=False)
         if (rec.invert_a, rec.invert_b, rec.scalar_first_a, rec.scalar_first_b) != (
@@ -120,8 +121,8 @@ def test_file_form_differs_from_the_true_reading(kind):
 
 def test_outlier_masks_mark_exactly_the_jumped_poses():
     for seed in (0, 1):
-        bad = R.generate("outliers", seed, noise=False)
-        good = R.generate("outliers", seed, noise=False, outlier_fraction=0.0)
+        bad = RK.generate("outliers", seed, noise=False)
+        good = RK.generate("outliers", seed, noise=False, outlier_fraction=0.0)
         m = bad.outliers_b
         assert 0.03 <= m.mean() <= 0.23, m.mean()      # 5..20 % drawn, then per pose
         assert not good.outliers_b.any()
@@ -133,22 +134,22 @@ def test_outlier_masks_mark_exactly_the_jumped_poses():
 
 
 def test_offset_kind_offsets_drift_and_station_stamps():
-    offs = [R.generate("offset", s) for s in range(6)]
+    offs = [RK.generate("offset", s) for s in range(6)]
     assert all(abs(r.offset_s) <= 0.2 for r in offs if r.seed % 3 != 2)
     assert all(10 <= abs(r.offset_s) <= 40 for r in offs if r.seed % 3 == 2)
     assert all((r.drift != 0) == (r.seed % 3 == 1) for r in offs)
     for r in offs:          # b's stamps really are ahead by the offset model
-        sa, sb = R.true_streams(r)
+        sa, sb = RK.true_streams(r)
         assert sb.timestamps_s[0] - sa.timestamps_s[0] == pytest.approx(
             r.offset_at(sa.timestamps_s[0]), abs=0.05)
-    st = R.generate("stations", 0)
+    st = RK.generate("stations", 0)
     np.testing.assert_array_equal(st.stream_a.timestamps_s, st.stream_b.timestamps_s)
-    assert 10 <= st.stream_a.n <= 40 and 3 <= R.generate("stations_short", 0).stream_a.n <= 5
+    assert 10 <= st.stream_a.n <= 40 and 3 <= RK.generate("stations_short", 0).stream_a.n <= 5
 
 
 def test_gaps_kind_has_gaps_of_1_to_3_s():
     for seed in (0, 1, 2):
-        rec = R.generate("gaps", seed)
+        rec = RK.generate("gaps", seed)
         dts = [np.diff(s.timestamps_s).max() for s in (rec.stream_a, rec.stream_b)]
         gapped = int(np.argmax(dts))
         assert "ab"[gapped] == ("b" if seed % 2 == 0 else "a")
@@ -157,7 +158,7 @@ def test_gaps_kind_has_gaps_of_1_to_3_s():
 
 def test_robot_error_is_systematic_and_camera_error_grows_with_distance():
     for seed in (0, 1, 2):
-        bad, clean = R.generate("robot_error", seed), R.generate("robot_error", seed,
+        bad, clean = RK.generate("robot_error", seed), RK.generate("robot_error", seed,
                                                                   noise=False)
         dA = invert_transform(clean.stream_a.T_world_sensor) @ bad.stream_a.T_world_sensor
         rms_deg = np.degrees(np.sqrt(np.mean(rotation_angle_rad(dA[:, :3, :3]) ** 2)))
@@ -175,7 +176,7 @@ def test_robot_error_is_systematic_and_camera_error_grows_with_distance():
 
 def test_planar_and_scara_rotate_about_one_axis_only():
     for kind in ("planar", "scara"):
-        rec = R.generate(kind, 0, noise=False)
+        rec = RK.generate(kind, 0, noise=False)
         Ta, _, _ = R.synchronised_truth(rec)
         C = invert_transform(Ta[:-1]) @ Ta[1:]
         from simcalib.geometry import rotvec_from_matrix
@@ -187,28 +188,28 @@ def test_planar_and_scara_rotate_about_one_axis_only():
 
 @pytest.mark.parametrize("kind", KINDS)
 def test_tum_round_trip(kind, tmp_path):
-    rec = R.generate(kind, 2)
-    paths = R.write_tum(rec, tmp_path)
+    rec = RK.generate(kind, 2)
+    paths = RK.write_tum(rec, tmp_path)
     for key, s in (("a", rec.stream_a), ("b", rec.stream_b)):
         back = read_pose_stream(paths[key])
         assert back.format == "tum"
         np.testing.assert_array_equal(back.timestamps_s, s.timestamps_s)
         np.testing.assert_allclose(back.T_world_sensor, s.T_world_sensor, atol=1e-12)
-    truth = R.read_truth(tmp_path)
+    truth = RK.read_truth(tmp_path)
     np.testing.assert_allclose(truth["X_true"], rec.X_true, atol=0)
     assert truth["offset_s"] == rec.offset_s and truth["kind"] == kind
     assert truth["outliers_b"] == np.flatnonzero(rec.outliers_b).tolist()
 
 
 def test_park_baseline_is_exact_on_noise_free_stations():
-    rec = R.generate("stations", 3, noise=False)
+    rec = RK.generate("stations", 3, noise=False)
     X = R.park_baseline(rec)
     assert np.degrees(rotation_angle_rad(X[:3, :3].T @ rec.X_true[:3, :3])) < 1e-6
     assert np.linalg.norm(X[:3, 3] - rec.X_true[:3, 3]) < 1e-6
 
 
 def test_motion_outliers_maps_motions_to_outlier_poses():
-    rec = R.generate("outliers", 0, noise=False)
+    rec = RK.generate("outliers", 0, noise=False)
     t = rec.stream_b.timestamps_s - rec.offset_s          # synced on b's stamps (clock a)
     bad_pose = rec.outliers_b
     k = np.flatnonzero(bad_pose[1:-1])[0] + 1
@@ -241,7 +242,7 @@ def outcome(tmp_path_factory):
 
     def get(kind, seed):
         if (kind, seed) not in cache:
-            rec = R.generate(kind, seed)
+            rec = RK.generate(kind, seed)
             cache[kind, seed] = (rec, R.evaluate(rec, tmp_path_factory.mktemp(
                 f"{kind}_{seed}")))
         return cache[kind, seed]
@@ -257,7 +258,7 @@ KNOWN_LIMITS: dict = {}
 def _cases(pred=lambda k: True, test=None):
     out = []
     for k in KINDS:
-        if not pred(R.KINDS[k]):
+        if not pred(RK.KINDS[k]):
             continue
         for s in SEEDS:
             why = KNOWN_LIMITS.get((test, k, s))
@@ -308,8 +309,8 @@ def test_no_worse_than_park_given_the_truth(kind, seed, outcome):
 @pytest.mark.slow
 @pytest.mark.parametrize("kind,seed", [c for c in _cases(lambda k: k.expect != "data_error",
                                                          test="park_inliers")
-                                       if R.generate(*_values(c)).outliers_b.any()
-                                       or R.generate(*_values(c)).outliers_a.any()])
+                                       if RK.generate(*_values(c)).outliers_b.any()
+                                       or RK.generate(*_values(c)).outliers_a.any()])
 def test_no_worse_than_park_on_the_inlier_poses(kind, seed, outcome):
     """Park without rejection is wrecked by outlier poses, so that bar is empty there: the
     outlier kinds are also held to Park on the outlier-free instants (true masks)."""
@@ -355,7 +356,7 @@ def test_undetermined_translation_direction_flagged(kind, seed, outcome):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("kind,seed", _cases(lambda k: k.make is R._kind_outliers))
+@pytest.mark.parametrize("kind,seed", _cases(lambda k: "outlier_fraction" in k.extra))
 def test_outlier_motions_rejected(kind, seed, outcome):
     rec, o = outcome(kind, seed)
     _estimate(o)

@@ -1,0 +1,336 @@
+"""The kinds of generated recording (:data:`KINDS`: stations, short, continuous,
+offsets and drift, outliers, gaps, robot error, planar, SCARA, inverted, scalar-first, no
+motion) and :func:`generate` (a kind and a seed -> a :class:`Recording`), the true
+streams, and the TUM files a recording is written as (``a.txt``, ``b.txt``,
+``truth.json``).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import fields, replace
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from simcalib.geometry import (invert_transform, matrix_from_quat, matrix_from_rotvec,
+                               quat_from_matrix, random_rotation_matrices, rotvec_from_matrix,
+                               transform_from_rotation_translation)
+from simcalib.importers import PoseStreamData, stream_from_arrays
+from simcalib.studies.experiments.recording_models import (Kind, R_DOWN, R_FORWARD, Recording,
+                                                           Settings, WORKSPACE_CENTRE, _continuous,
+                                                           _eval_sinusoids, _noisy, _rngs,
+                                                           _rotvecs, _rz, _sinusoids,
+                                                           _stations_draft, _unit)
+
+__all__ = ["KINDS", "generate", "true_streams", "write_tum", "read_truth"]
+
+
+
+# --------------------------------------------------------------------------- the kinds
+def _kind_stations(rngs, s):
+    return _stations_draft(rngs, s, (10, 40), "stations")
+
+
+def _kind_stations_short(rngs, s):
+    return _stations_draft(rngs, s, (3, 5), "stations_short")
+
+
+def _kind_continuous(rngs, s):
+    return _continuous(rngs, s)
+
+
+def _small_offset(rngs, s) -> float:
+    """The clock offset of the kinds about something else (gaps, readings, planar): uniform
+    in +-50 ms (a real recording never has exactly 0), unless ``offset_s`` is given."""
+    drawn = float(rngs["clock"].uniform(-0.05, 0.05))     # always drawn: same arrays
+    return drawn if s.offset_s is None else float(s.offset_s)
+
+
+def _kind_offset(rngs, s):
+    r = rngs["events"]
+    large = rngs["seed"] % 3 == 2          # seeds 2, 5, 8, ...: tens of seconds
+    off = (r.choice([-1.0, 1.0]) * r.uniform(10.0, 40.0)) if large else r.uniform(-0.2, 0.2)
+    drift_ppm = (r.choice([-1.0, 1.0]) * r.uniform(30.0, 100.0)   # seeds 1, 4, 7, ...
+                 if rngs["seed"] % 3 == 1 else 0.0)
+    off = s.offset_s if s.offset_s is not None else float(off)
+    drift_ppm = s.drift_ppm if s.drift_ppm is not None else float(drift_ppm)
+    return _continuous(rngs, s, offset_s=off, drift=1e-6 * drift_ppm, label="offset")
+
+
+def _kind_outliers(rngs, s):
+    d = _continuous(rngs, s, offset_s=0.037 if s.offset_s is None else s.offset_s,
+                    label="outliers")
+    r = rngs["events"]
+    frac = s.outlier_fraction if s.outlier_fraction is not None else r.uniform(0.05, 0.2)
+    mask = r.random(d.B.shape[0]) < frac
+    n = int(mask.sum())
+    jump = transform_from_rotation_translation(matrix_from_rotvec(_rotvecs(r, n, 10, 60)),
+                                               _unit(r, n) * r.uniform(0.2, 1.0, n)[:, None])
+    B = d.B.copy()
+    B[mask] = B[mask] @ jump
+    return replace(d, B=B, outliers_b=mask, description=d.description
+                   + f", {n} outlier poses in b ({100 * n / mask.size:.1f} %, jumps 10..60 deg "
+                   "/ 0.2..1 m)")
+
+
+def _kind_gaps(rngs, s):
+    d = _continuous(rngs, s, offset_s=_small_offset(rngs, s), label="gaps")
+    r = rngs["events"]
+    which = "b" if rngs["seed"] % 2 == 0 else "a"       # seeds take turns
+    t = d.t_a if which == "a" else d.t_b
+    span = t[-1] - t[0]
+    keep = np.ones(t.size, dtype=bool)
+    gaps = []
+    n = int(r.integers(1, 2, endpoint=True))
+    regions = [(0.15, 0.85)] if n == 1 else [(0.15, 0.4), (0.6, 0.85)]     # never overlapping
+    for lo, hi in regions:
+        length = r.uniform(1.0, 3.0)
+        start = t[0] + r.uniform(lo, hi) * span - 0.5 * length
+        keep &= ~((t >= start) & (t < start + length))
+        gaps.append(f"{length:.1f} s at {start - t[0]:.1f} s")
+    desc = d.description + f", gaps in {which}: " + ", ".join(gaps)
+    if which == "a":
+        return replace(d, t_a=d.t_a[keep], A=d.A[keep], description=desc)
+    return replace(d, t_b=d.t_b[keep], B=d.B[keep], description=desc)
+
+
+def _robot_error(rng, A, on: bool) -> np.ndarray:
+    """A systematic, pose-dependent kinematic error: three random low-order (sinusoidal)
+    functions of the pose (position and rotation vector) with an rms of 0.1..0.5 deg /
+    1..3 mm over the workspace, applied in the hand frame (correlated between nearby poses,
+    not white)."""
+    f = np.concatenate([(A[:, :3, 3] - WORKSPACE_CENTRE) / 0.25,
+                        rotvec_from_matrix(R_DOWN.T[None] @ A[:, :3, :3])], axis=1)
+    w = rng.normal(0.0, 1.0, (3, 6))
+    ph = rng.uniform(0.0, 2 * np.pi, 3)
+    basis = np.sin(f @ w.T + ph)                                   # (N, 3)
+    # each sin term has mean square ~1/2, three terms along unit vectors: rms ~ amp
+    amp_r = math.radians(rng.uniform(0.1, 0.5)) / math.sqrt(1.5)
+    amp_t = rng.uniform(0.001, 0.003) / math.sqrt(1.5)
+    e_r = basis @ (_unit(rng, 3) * amp_r)
+    e_t = basis @ (_unit(rng, 3) * amp_t)
+    if not on:
+        return A
+    return A @ transform_from_rotation_translation(matrix_from_rotvec(e_r), e_t)
+
+
+def _camera_error(rng, B, on: bool, sigma_rot_deg: float, sigma_trans_m: float
+                  ) -> np.ndarray:
+    """Camera poses (``T_target_cam``) with errors that grow with the viewing distance d:
+    a depth-scale bias of 0.2..0.8 % x (d / 0.5 m) along the line of sight and noise of
+    sigma (default 0.1 deg / 1 mm) x (d / 0.5 m)^2."""
+    T_cam_target = invert_transform(B)
+    p = T_cam_target[:, :3, 3]
+    d = np.linalg.norm(p, axis=1)
+    bias = rng.uniform(0.002, 0.008)
+    scale = (d / 0.5)[:, None]
+    n = B.shape[0]
+    rot = _unit(rng, n) * (rng.normal(0.0, math.radians(sigma_rot_deg), n)
+                           * (d / 0.5) ** 2)[:, None]
+    dt = rng.normal(0.0, sigma_trans_m, (n, 3)) * (scale ** 2)
+    if not on:
+        return B
+    T_cam_target = T_cam_target.copy()
+    T_cam_target[:, :3, 3] = p * (1.0 + bias * scale)
+    return invert_transform(T_cam_target) @ transform_from_rotation_translation(
+        matrix_from_rotvec(rot), dt)
+
+
+def _kind_robot_error(rngs, s):
+    clean = replace(s, sigma_rot_b_deg=0.0, sigma_trans_b_m=0.0)
+    d = _stations_draft(rngs, clean, (10, 40), "robot_error")
+    r = rngs["events"]
+    A = _robot_error(r, d.A, s.noise)
+    B = _camera_error(r, d.B, s.noise, s.sigma_rot_b_deg, s.sigma_trans_b_m)
+    return replace(d, A=A, B=B, description=d.description + ", systematic pose-dependent "
+                   "robot error (rms 0.1..0.5 deg / 1..3 mm), distance-dependent camera error")
+
+
+def _vehicle_motion(rng, duration_s) -> Callable:
+    """``tau -> T_odom_vehicle``: planar driving (yaw only), 0.5..1.5 m/s."""
+    grid = np.arange(0.0, duration_s + 1.0, 0.005)
+    yaw_rate = _eval_sinusoids(_sinusoids(rng, 0.15, 0.3, 0.05, 0.3, dims=1), grid)[:, 0]
+    speed = 1.0 + 0.5 * np.sin(2 * np.pi * rng.uniform(0.03, 0.1) * grid
+                               + rng.uniform(0, 2 * np.pi))
+    yaw = np.cumsum(yaw_rate) * 0.005
+    x = np.cumsum(speed * np.cos(yaw)) * 0.005
+    y = np.cumsum(speed * np.sin(yaw)) * 0.005
+
+    def poses(tau):
+        p = np.stack([np.interp(tau, grid, x), np.interp(tau, grid, y), np.zeros(tau.size)], 1)
+        return transform_from_rotation_translation(_rz(np.interp(tau, grid, yaw)), p)
+    return poses
+
+
+def _kind_planar(rngs, s):
+    rig = rngs["rig"]
+    X = transform_from_rotation_translation(
+        R_FORWARD @ matrix_from_rotvec(_rotvecs(rig, 1, 0, 15)[0]),
+        np.array([rig.uniform(0.5, 1.5), rig.uniform(-0.3, 0.3), rig.uniform(0.5, 1.5)]))
+    Y = transform_from_rotation_translation(random_rotation_matrices(rig),
+                                            rig.normal(0.0, 2.0, 3))
+    d = _continuous(rngs, s, hand=_vehicle_motion(rngs["motion"], s.duration_s), rig=(X, Y),
+                    offset_s=_small_offset(rngs, s), label="planar")
+    return replace(d, undetermined_a=np.array([0.0, 0.0, 1.0]),
+                   description=d.description + ", vehicle (yaw only): X's translation along "
+                   "the vertical is undetermined")
+
+
+def _scara_poses(rng, k) -> np.ndarray:
+    xy = WORKSPACE_CENTRE[:2] + rng.uniform(-0.25, 0.25, (k, 2))
+    z = rng.choice(np.array([0.3, 0.4, 0.5]), k)
+    R = _rz(rng.uniform(-np.pi, np.pi, k)) @ R_DOWN[None]
+    return transform_from_rotation_translation(R, np.column_stack([xy, z]))
+
+
+def _kind_scara(rngs, s):
+    d = _stations_draft(rngs, s, (10, 30), "scara", poses=_scara_poses)
+    return replace(d, undetermined_a=R_DOWN.T @ np.array([0.0, 0.0, 1.0]),
+                   description=d.description + ", 4-DoF (rotation about the vertical only, z "
+                   "on a 3-level grid): X's translation along the hand axis is undetermined")
+
+
+def _kind_inverted(rngs, s):
+    d = _continuous(rngs, s, offset_s=_small_offset(rngs, s), label="inverted")
+    return replace(d, invert_b=True, description=d.description + ", file b holds "
+                   "T_cam_target (inverted)")
+
+
+def _kind_scalar_first(rngs, s):
+    d = _continuous(rngs, s, offset_s=_small_offset(rngs, s), label="scalar_first")
+    which = "b" if rngs["seed"] % 2 == 0 else "a"       # seeds take turns
+    return replace(d, scalar_first_a=which == "a", scalar_first_b=which == "b",
+                   description=d.description + f", file {which} writes quaternions w first")
+
+
+def _kind_no_motion_b(rngs, s):
+    d = _continuous(rngs, s, label="no_motion_b")
+    B = np.broadcast_to(d.B[0], d.B.shape).copy()
+    B = _noisy(B, s.sigma_rot_b_deg, s.sigma_trans_b_m, rngs["events"], s.noise)
+    return replace(d, B=B, description=d.description + ", b does not move (bad input)")
+
+
+KINDS: dict[str, Kind] = {
+    "stations": Kind(_kind_stations, "robot arm stopping at 10..40 stations, one pose per "
+                     "station per stream (eye-in-hand); stamps: the station index in even "
+                     "seeds, seconds apart in odd ones", False),
+    "stations_short": Kind(_kind_stations_short, "the same with only 3..5 stations", False),
+    "continuous": Kind(_kind_continuous, "smooth 6-DoF motion, a 100 Hz, b 30 Hz, stamp "
+                       "jitter, dropped frames, offset exactly 0", True),
+    "offset": Kind(_kind_offset, "continuous with a clock offset: +-0.2 s, tens of seconds "
+                   "in seeds 2, 5, ...; 30..100 ppm drift in seeds 1, 4, ...", True,
+                   extra=("offset_s", "drift_ppm")),
+    "outliers": Kind(_kind_outliers, "continuous with 5..20 % outlier poses in b and a 37 ms "
+                     "offset", True, extra=("offset_s", "outlier_fraction")),
+    "gaps": Kind(_kind_gaps, "continuous with one or two gaps of 1..3 s in one stream (b in "
+                 "even seeds, a in odd ones), offset +-50 ms", True, extra=("offset_s",)),
+    "robot_error": Kind(_kind_robot_error, "stations with systematic robot kinematic error "
+                        "and distance-dependent camera error", False),
+    "planar": Kind(_kind_planar, "vehicle driving in a plane (yaw only): X's vertical "
+                   "translation undetermined; offset +-50 ms", True, "degenerate",
+                   extra=("offset_s",)),
+    "scara": Kind(_kind_scara, "4-DoF SCARA stations (vertical rotations, z on a grid)",
+                  False, "degenerate"),
+    "inverted": Kind(_kind_inverted, "continuous, file b written as T_sensor_world, offset "
+                     "+-50 ms", True, extra=("offset_s",)),
+    "scalar_first": Kind(_kind_scalar_first, "continuous, one file with the quaternion "
+                         "scalar first (b in even seeds, a in odd ones), offset +-50 ms", True,
+                         extra=("offset_s",)),
+    "no_motion_b": Kind(_kind_no_motion_b, "bad input: b does not move", True, "data_error"),
+}
+
+
+# -------------------------------------------------------------------------- generate
+def _file_stream(t, T, invert: bool, scalar_first: bool, name: str) -> PoseStreamData:
+    """The stream as a file holds it: ``T_sensor_world`` when ``invert``; with
+    ``scalar_first`` the quaternion numbers ``(w, x, y, z)`` in the places a TUM reader
+    takes for ``(x, y, z, w)``."""
+    if invert:
+        T = invert_transform(T)
+    if scalar_first:
+        q = quat_from_matrix(T[:, :3, :3])
+        T = transform_from_rotation_translation(
+            matrix_from_quat(np.concatenate([q[:, 3:], q[:, :3]], axis=1)), T[:, :3, 3])
+    return stream_from_arrays(t, T, source=f"<{name}>", name=name, quat_order="xyzw")
+
+
+def _frozen(a) -> np.ndarray:
+    a = np.array(a)
+    a.setflags(write=False)
+    return a
+
+
+def generate(kind: str, seed: int, **overrides) -> Recording:
+    """The recording of ``kind`` for ``seed`` (``overrides``: fields of :class:`Settings`).
+    Unknown kinds or override keys raise ValueError listing the valid ones."""
+    if kind not in KINDS:
+        raise ValueError(f"unknown recording kind {kind!r}; valid kinds: {', '.join(KINDS)}")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed must be a non-negative integer; received {seed!r}")
+    spec = KINDS[kind]
+    valid = [f.name for f in fields(Settings)]
+    bad = sorted(set(overrides) - set(valid))
+    if bad:
+        raise ValueError(f"unknown override(s) {', '.join(bad)}; valid: {', '.join(valid)}")
+    unused = sorted(set(overrides) - set(spec.settings))
+    if unused:
+        raise ValueError(f"kind {kind!r} does not use {', '.join(unused)}; its settings: "
+                         f"{', '.join(spec.settings)}")
+    d = spec.make(_rngs(int(seed), kind), Settings(**overrides))
+    na, nb = d.t_a.size, d.t_b.size
+    oa = d.outliers_a if d.outliers_a is not None else np.zeros(na, dtype=bool)
+    ob = d.outliers_b if d.outliers_b is not None else np.zeros(nb, dtype=bool)
+    return Recording(
+        kind=kind, seed=int(seed),
+        stream_a=_file_stream(d.t_a, d.A, d.invert_a, d.scalar_first_a, "a"),
+        stream_b=_file_stream(d.t_b, d.B, d.invert_b, d.scalar_first_b, "b"),
+        X_true=_frozen(d.X), offset_s=float(d.offset_s), drift=float(d.drift),
+        t_ref_s=float(d.t_ref_s), invert_a=d.invert_a, invert_b=d.invert_b,
+        scalar_first_a=d.scalar_first_a, scalar_first_b=d.scalar_first_b,
+        outliers_a=_frozen(oa), outliers_b=_frozen(ob), description=d.description,
+        offset_determined=spec.offset_determined, expect=spec.expect,
+        undetermined_a=None if d.undetermined_a is None else _frozen(
+            d.undetermined_a / np.linalg.norm(d.undetermined_a)))
+
+
+def true_streams(rec: Recording) -> tuple[PoseStreamData, PoseStreamData]:
+    """Both streams read the TRUE way (``T_world_sensor``, quaternion order fixed), in the
+    order simcalib.estimation.readings applies a reading (swap, then invert)."""
+    out = []
+    for s, inv, sf in ((rec.stream_a, rec.invert_a, rec.scalar_first_a),
+                       (rec.stream_b, rec.invert_b, rec.scalar_first_b)):
+        if sf:
+            s = s.with_swapped_scalar()
+        if inv:
+            s = s.with_inverse()
+        out.append(s)
+    return out[0], out[1]
+
+
+# ------------------------------------------------------------------------- TUM files
+def _tum_rows(s: PoseStreamData) -> np.ndarray:
+    T = s.T_world_sensor
+    return np.column_stack([s.timestamps_s, T[:, :3, 3], quat_from_matrix(T[:, :3, :3])])
+
+
+def write_tum(rec: Recording, folder) -> dict:
+    """Write ``a.txt``, ``b.txt`` (TUM rows ``t x y z qx qy qz qw`` of the FILE form: an
+    inverted or scalar-first file is written that way) and ``truth.json`` into ``folder``.
+    Returns ``{"a": path, "b": path, "truth": path}``."""
+    out = Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = {"a": out / "a.txt", "b": out / "b.txt", "truth": out / "truth.json"}
+    for key, s in (("a", rec.stream_a), ("b", rec.stream_b)):
+        np.savetxt(paths[key], _tum_rows(s), fmt="%.17g",
+                   header=f"simcalib benchmark recording {rec.kind} seed {rec.seed}, "
+                          f"stream {key}")
+    paths["truth"].write_text(json.dumps(rec.truth_dict(), indent=2) + "\n")
+    return paths
+
+
+def read_truth(folder) -> dict:
+    """The ``truth.json`` written by :func:`write_tum`."""
+    return json.loads((Path(folder) / "truth.json").read_text())
