@@ -104,6 +104,20 @@ def _nearest(ref: np.ndarray, query: np.ndarray) -> np.ndarray:
     return np.where(np.abs(query - ref[lo]) <= np.abs(ref[hi] - query), lo, hi)
 
 
+def _motion_filter(C, H, cfg, counts: dict) -> np.ndarray:
+    """D.1's pre-filter of the motions: too large a translation or rotation (either
+    sensor) is dropped; the counts say how many for which reason. Returns the kept mask."""
+    trans = np.maximum(np.linalg.norm(C[:, :3, 3], axis=-1),
+                       np.linalg.norm(H[:, :3, 3], axis=-1))
+    rot = np.rad2deg(np.maximum(rotation_angle_rad(C[:, :3, :3]),
+                                rotation_angle_rad(H[:, :3, :3])))
+    bad_t = trans > cfg.max_translation_m
+    bad_r = rot > cfg.max_rotation_deg
+    counts["dropped_translation"] = int(bad_t.sum())
+    counts["dropped_rotation"] = int((bad_r & ~bad_t).sum())
+    return ~(bad_t | bad_r)
+
+
 def make_pairs(stream_a, stream_b, cfg, rng: np.random.Generator | None = None) -> MotionPairs:
     """Relative motions from two :class:`~simcalib.streams.PoseStream`\\ s (camera a, b)
     following :class:`~simcalib.config.PairingConfig` ``cfg``.
@@ -135,15 +149,7 @@ def make_pairs(stream_a, stream_b, cfg, rng: np.random.Generator | None = None) 
     H = invert_transform(Tb[k0]) @ Tb[k1]
     counts["candidate_pairs"] = int(k0.size)
     if cfg.prefilter and k0.size:
-        trans = np.maximum(np.linalg.norm(C[:, :3, 3], axis=-1),
-                           np.linalg.norm(H[:, :3, 3], axis=-1))
-        rot = np.rad2deg(np.maximum(rotation_angle_rad(C[:, :3, :3]),
-                                    rotation_angle_rad(H[:, :3, :3])))
-        bad_t = trans > cfg.max_translation_m
-        bad_r = rot > cfg.max_rotation_deg
-        counts["dropped_translation"] = int(bad_t.sum())
-        counts["dropped_rotation"] = int((bad_r & ~bad_t).sum())
-        keep = ~(bad_t | bad_r)
+        keep = _motion_filter(C, H, cfg, counts)
         k0, k1, C, H = k0[keep], k1[keep], C[keep], H[keep]
     else:
         counts["dropped_translation"] = 0

@@ -133,30 +133,13 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
     (:func:`simcalib.estimation.sampling.classify_sampling`; stamp-paired streams are never
     interpolated); None: interpolated at the offset.
     """
-    from simcalib.solvers.robust import ransac, screw_residuals
-    from simcalib.estimation.alignment import _coarse_offset, as_time_poses
-    from simcalib.solvers.api import solve
     forced = tuple(name for name, v in (("invert_a", invert_a), ("invert_b", invert_b),
                                         ("scalar_first_a", scalar_first_a),
                                         ("scalar_first_b", scalar_first_b)) if v is not None)
-    sample_indexed = bool(getattr(stream_a, "synthetic_time", False)
-                          or getattr(stream_b, "synthetic_time", False))
-    if offset is not None:
-        off = offset
-    elif sample_indexed or (sampling is not None and sampling.paired_by_stamp):
-        off = 0.0
-    else:
-        off = _coarse_offset(*as_time_poses(stream_a, "stream_a"),
-                             *as_time_poses(stream_b, "stream_b"), None, 0.3)[0]
-    if invert_a is not None and invert_b is not None:
-        parities = [(bool(invert_a), bool(invert_b))]
-    elif invert_b is not None:
-        parities = [(False, bool(invert_b)), (True, bool(invert_b))]
-    else:
-        base_a = bool(invert_a) if invert_a is not None else False
-        parities = [(base_a, False), (base_a, True)]
-    has_order_a = len(_swap_options(stream_a, scalar_first_a)) > 1
-    has_order_b = len(_swap_options(stream_b, scalar_first_b)) > 1
+    off = _reading_offset(stream_a, stream_b, offset, sampling)
+    parities = _parities(invert_a, invert_b)
+    has_order = (len(_swap_options(stream_a, scalar_first_a)) > 1,
+                 len(_swap_options(stream_b, scalar_first_b)) > 1)
     scores, n_mot = {}, 0
     for sw_a, sw_b in itertools.product(_swap_options(stream_a, scalar_first_a),
                                         _swap_options(stream_b, scalar_first_b)):
@@ -165,34 +148,79 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
             C, H = _motions(sa, sb, off, n_pairs, np.random.default_rng(seed), sampling)
             if C.shape[0] < 3:
                 continue
-            try:    # robust fit: outlier poses must not decide the reading
-                X = ransac(C, H, alpha=alpha, rng=np.random.default_rng(seed),
-                           max_iterations=256).X
-            except (ValueError, RuntimeError):   # RANSAC: too few motions / no consensus
-                X = solve(C, H, method="dqopt", alpha=alpha).X
-            scores[(sw_a, sw_b, inv_a, inv_b)] = float(np.median(
-                screw_residuals(C, H, X, alpha=alpha)))
+            scores[(sw_a, sw_b, inv_a, inv_b)] = _reading_score(C, H, alpha, seed)
             n_mot = int(C.shape[0])
     if not scores:
         from simcalib.errors import DataError
         raise DataError("too few overlapping poses with rotation to check the conventions "
                          "(do the streams overlap in time, and does the rig rotate?)")
     ranked = sorted(scores, key=scores.get)
-    best = ranked[0]
-    ratio = scores[ranked[1]] / max(scores[best], 1e-15) if len(ranked) > 1 else math.inf
+    ratio = scores[ranked[1]] / max(scores[ranked[0]], 1e-15) if len(ranked) > 1 \
+        else math.inf
     clear = ratio > CLEAR_RATIO
     written = (False, False, parities[0][0], parities[0][1])
-    fallback = (not clear and best != written and written in scores
-                and scores[written] <= CLEAR_RATIO * scores[best])
+    fallback = (not clear and ranked[0] != written and written in scores
+                and scores[written] <= CLEAR_RATIO * scores[ranked[0]])
     if fallback:            # the data cannot tell: the files as written, and said so
         ranked.remove(written)
         ranked.insert(0, written)
-        best = written
+    best = ranked[0]
     sw_a, sw_b, inv_a, inv_b = best
 
     def desc(k):
-        return (_label(k[0], k[2], "a", has_order_a) + "; "
-                + _label(k[1], k[3], "b", has_order_b))
+        return (_label(k[0], k[2], "a", has_order[0]) + "; "
+                + _label(k[1], k[3], "b", has_order[1]))
+    lines = _reading_lines(desc, scores, ranked, ratio, clear, fallback, invert_a, invert_b,
+                           forced)
+    return ConventionReport(inv_a, inv_b, sw_a, sw_b,
+                            scores={desc(k): v for k, v in scores.items()}, ratio=ratio,
+                            runner_up=desc(ranked[1]) if len(ranked) > 1 else "",
+                            clear=clear, forced=forced,
+                            offset_s=float(getattr(off, "offset_s", off)), n_motions=n_mot,
+                            message="; ".join(lines))
+
+
+def _reading_offset(stream_a, stream_b, offset, sampling):
+    """The offset at which the readings are compared: the given one; 0 for sample-indexed
+    or stamp-paired files; else the coarse angular-speed correlation's (the same for every
+    reading)."""
+    from simcalib.estimation.alignment import _coarse_offset, as_time_poses
+    if offset is not None:
+        return offset
+    if (getattr(stream_a, "synthetic_time", False) or getattr(stream_b, "synthetic_time", False)
+            or (sampling is not None and sampling.paired_by_stamp)):
+        return 0.0
+    return _coarse_offset(*as_time_poses(stream_a, "stream_a"),
+                          *as_time_poses(stream_b, "stream_b"), None, 0.3)[0]
+
+
+def _parities(invert_a, invert_b) -> list[tuple[bool, bool]]:
+    """The (invert a, invert b) pairs to compare: only the relative inversion is
+    identifiable, so a stays as written (or as forced) unless only b is forced."""
+    if invert_a is not None and invert_b is not None:
+        return [(bool(invert_a), bool(invert_b))]
+    if invert_b is not None:
+        return [(False, bool(invert_b)), (True, bool(invert_b))]
+    base_a = bool(invert_a) if invert_a is not None else False
+    return [(base_a, False), (base_a, True)]
+
+
+def _reading_score(C, H, alpha: float, seed: int) -> float:
+    """The median screw residual of a robust fit (outlier poses must not decide the
+    reading): RANSAC + dqopt, plain dqopt when RANSAC cannot run."""
+    from simcalib.solvers.api import solve
+    from simcalib.solvers.robust import ransac, screw_residuals
+    try:
+        X = ransac(C, H, alpha=alpha, rng=np.random.default_rng(seed), max_iterations=256).X
+    except (ValueError, RuntimeError):   # RANSAC: too few motions / no consensus
+        X = solve(C, H, method="dqopt", alpha=alpha).X
+    return float(np.median(screw_residuals(C, H, X, alpha=alpha)))
+
+
+def _reading_lines(desc, scores, ranked, ratio, clear, fallback, invert_a, invert_b,
+                   forced) -> list[str]:
+    """The reading's message, sentence by sentence."""
+    best = ranked[0]
     lines = [f"reading used: {desc(best)}"]
     if fallback:
         lines.append("no reading fits clearly better than the files as written (within "
@@ -210,12 +238,7 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
                      "(only the relative reading is identifiable)")
     if forced:
         lines.append("forced by the caller: " + ", ".join(forced))
-    return ConventionReport(inv_a, inv_b, sw_a, sw_b,
-                            scores={desc(k): v for k, v in scores.items()}, ratio=ratio,
-                            runner_up=desc(ranked[1]) if len(ranked) > 1 else "",
-                            clear=clear, forced=forced,
-                            offset_s=float(getattr(off, "offset_s", off)), n_motions=n_mot,
-                            message="; ".join(lines))
+    return lines
 
 
 def apply_conventions(stream_a, stream_b, report: ConventionReport):
