@@ -273,7 +273,7 @@ def main_files(args: list[str]) -> int:
     out_dir.mkdir(parents=True, exist_ok=True)
     path = out_dir / "advice.json"
     if opts["recording"]:
-        from simcalib.report.rerun_log import record_recorded_advice
+        from simcalib.report.rerun.advice import record_recorded_advice
         out["recording"] = str(record_recorded_advice(out_dir / "advice.rrd", r.synced.T_a,
                                                       adv))
     path.write_text(json.dumps(out, indent=1, allow_nan=False))
@@ -311,7 +311,7 @@ def main(args: list[str]) -> int:
     path = out_dir / "advice.json"
     path.write_text(json.dumps(out, indent=1, allow_nan=False))
     if opts["recording"]:
-        from simcalib.report.rerun_log import record_advice
+        from simcalib.report.rerun.advice import record_advice
         out["recording"] = str(record_advice(out_dir / "advice.rrd", base, adv))
         path.write_text(json.dumps(out, indent=1, allow_nan=False))
     print_table(out)

@@ -363,7 +363,7 @@ def write_outputs(opts: CalibrateOptions, r, a: Assessment,
         translation_error_m=trans, X=r.X, synced_time_s=sp.time_s, synced_T_world_a=sp.T_a,
         synced_T_world_b=sp.T_b)
     if opts.recording:
-        from simcalib.report.rerun_log import record_calibration
+        from simcalib.report.rerun.calibration import record_calibration
         record_calibration(out / "recording.rrd", r, report, console=format_report(report))
     return report
 

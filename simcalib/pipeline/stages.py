@@ -15,7 +15,7 @@ The run is the plain sequence :data:`STAGES` of functions ``_stage_<name>(RunSta
 none of them branches on ``kind`` or ``source`` (the ground truth comes from
 :func:`simcalib.sources.build_truth`, the measurements from the registered
 :mod:`simcalib.sources`), and none of them writes the recording: after each stage,
-:meth:`simcalib.report.rerun_log.RunRecorder.record_stage` logs what it produced.
+:meth:`simcalib.report.rerun.run.RunRecorder.record_stage` logs what it produced.
 """
 
 from __future__ import annotations
@@ -274,11 +274,11 @@ def run(config, overrides=(), *, echo: bool = True) -> RunResult:
     recorder = None
     # the worker hides rerun's import: a process that imported it already logs itself
     background = cfg.recording.background and "rerun" not in sys.modules
-    if not (cfg.recording.enabled and background) and "simcalib.report.rerun_log" in sys.modules:
-        # a worker `simcalib run` started ahead would only compete for the CPU
-        sys.modules["simcalib.report.rerun_log"].cancel_prestarted_worker()
+    worker = sys.modules.get("simcalib.report.rerun.worker")
+    if worker is not None and not (cfg.recording.enabled and background):
+        worker.cancel_prestarted_worker()   # one `simcalib run` started would only compete
     if cfg.recording.enabled:
-        from simcalib.report.rerun_log import RunRecorder
+        from simcalib.report.rerun.run import RunRecorder
         recorder = RunRecorder(out / "recording.rrd", cfg, background=background)
     rec_path = None if recorder is None else recorder.path
     kernels = _prepare_kernels(st)

@@ -43,7 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
-from simcalib.report.rerun_log import CLOSEUP_BACKGROUND, SCENE_BACKGROUND
+from simcalib.report.rerun.common import SCENE_BACKGROUND
 
 __all__ = ["missing_prerequisites", "screenshot", "ocr_text", "check_recording",
            "ShotReport", "text_contains", "DEFAULT_SCENARIOS", "WINDOW_SIZE", "MIN_SCENE_FILL", "main",
@@ -172,19 +172,10 @@ class ShotReport:
 def _single_view_blueprint(rrd_dir: Path, which: str, path: Path) -> Path:
     """A blueprint file showing only ``which`` ("closeup" or "scene") of a run recording,
     with the eye the recording's own blueprint uses (from ``recording_view.json``)."""
-    import rerun.blueprint as rrb
+    from simcalib.report.rerun.run_layout import single_view_blueprint
     views = json.loads((rrd_dir / "recording_view.json").read_text())
-    e = views.get("closeup_eye" if which == "closeup" else "eye")
-    eye = None if e is None else rrb.EyeControls3D(
-        kind=rrb.Eye3DKind.Orbital, position=e["position"], look_target=e["look_target"],
-        eye_up=e["eye_up"])
-    view = rrb.Spatial3DView(origin="closeup" if which == "closeup" else "world",
-                             name=which, eye_controls=eye, background=(
-                                 CLOSEUP_BACKGROUND if which == "closeup" else SCENE_BACKGROUND),
-                             line_grid=rrb.LineGrid3D(visible=False))
-    rrb.Blueprint(view, rrb.TimePanel(state="hidden"), rrb.BlueprintPanel(state="hidden"),
-                  rrb.SelectionPanel(state="hidden"), rrb.TopPanel(state="hidden"),
-                  auto_views=False).save("simcalib", str(path))
+    eye = views.get("closeup_eye" if which == "closeup" else "eye")
+    single_view_blueprint(which, eye).save("simcalib", str(path))
     return path
 
 
@@ -303,7 +294,7 @@ def _color_pixels(a: np.ndarray, color) -> int:
 
 
 def calibration_pane_boxes(panes) -> dict:
-    """Where each pane of :func:`simcalib.report.rerun_log.calibration_blueprint` lies in a
+    """Where each pane of :func:`simcalib.report.rerun.calibration.calibration_blueprint` lies in a
     layout shot, as fractions ``(x0, x1, y0, y1)`` of the image (a margin inside the pane):
     the trajectories top left (11/20 of the width, 5/8 of the body), the plots ``panes``
     (in the layout's order) stacked evenly on the right."""
@@ -319,10 +310,10 @@ def calibration_pane_boxes(panes) -> dict:
 
 def pane_pixels(png: Path, present: dict, boxes: dict | None = None) -> dict:
     """Pixels of each pane's own colour in ``png`` (``present``: pane -> colour names of
-    :data:`simcalib.report.rerun_log.CALIBRATION_COLORS`), counted inside the pane's box
+    :data:`simcalib.report.rerun.calibration.CALIBRATION_COLORS`), counted inside the pane's box
     (``boxes``: pane -> fractions ``(x0, x1, y0, y1)``; default the whole image)."""
     from PIL import Image
-    from simcalib.report.rerun_log import CALIBRATION_COLORS
+    from simcalib.report.rerun.calibration import CALIBRATION_COLORS
     a = np.asarray(Image.open(png).convert("RGB"), dtype=np.int16)
     H, W = a.shape[:2]
     out = {}
@@ -337,7 +328,7 @@ def framing(png: Path) -> float:
     """The drawn extent of a 3D view shot: the larger of the width and height fractions
     spanned by pixels differing from the calibration background (below the title bar)."""
     from PIL import Image
-    from simcalib.report.rerun_log import CALIBRATION_BACKGROUND
+    from simcalib.report.rerun.calibration import CALIBRATION_BACKGROUND
     a = np.asarray(Image.open(png).convert("RGB"), dtype=np.int16)
     h = a.shape[0]
     body = a[int(0.05 * h):int(0.97 * h)]
@@ -373,8 +364,9 @@ def check_calibration(out: Path, r, shots: Path, name: str) -> ShotReport:
     no pane says "No data available", every pane shows its data (pixels of its colour),
     every line of the summary is read whole (its first and last letters), the 3D view
     is framed on the trajectories (:data:`MIN_FRAMING`)."""
-    from simcalib.report.rerun_log import (CALIBRATION_PANE_COLORS, calibration_summary,
-                                    save_calibration_blueprint)
+    from simcalib.report.rerun.calibration import (CALIBRATION_PANE_COLORS,
+                                                   calibration_summary,
+                                                   save_calibration_blueprint)
     rep = ShotReport(scenario=name)
     rrd = Path(out) / "recording.rrd"
     rep.shots["layout"] = screenshot(rrd, shots / f"calibration_{name}_layout.png")
@@ -401,8 +393,8 @@ def check_calibration(out: Path, r, shots: Path, name: str) -> ShotReport:
 
 
 def _has_correlation(r) -> bool:
-    from simcalib.report.rerun_log import _has_correlation as has
-    return has(r.time_offset)
+    from simcalib.report.rerun.calibration import has_correlation
+    return has_correlation(r.time_offset)
 
 
 def calibration_main(names, output: Path, docs: bool) -> int:
