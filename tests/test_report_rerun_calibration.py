@@ -170,3 +170,45 @@ def test_pane_pixels_count_shaded_colours_and_framing_measures_the_drawing(tmp_p
     n = pane_pixels(p, {"corr": ("correlation",), "traj": ("b_from_a",)})
     assert n == {"corr": 500, "traj": 0}
     assert framing(p) == pytest.approx(250 / 300, abs=0.01)
+
+
+def test_worker_writes_the_calibration_recording_as_in_process(calibrated, tmp_path):
+    """``simcalib calibrate`` hands its recording to the worker process (rerun's import off
+    its critical path): the file holds what logging in-process writes, blueprint included."""
+    from rerun.chunk import RrdReader
+
+    from simcalib.report.rerun.calibration import record_calibration
+    _, r, out = calibrated
+    report = json.loads((out / "calibration.json").read_text())
+    got = {}
+    for background in (True, False):
+        p = record_calibration(tmp_path / f"{background}.rrd", r, report, "console text",
+                               background=background)
+        got[background] = chunks(p)
+        assert RrdReader(str(p)).blueprints()
+    assert set(got[True]) == set(got[False])
+    for ent in ("/summary", "/report", "/world/b_from_a/trajectory",
+                "/residuals/rotation_deg/inliers", "/time_offset/window"):
+        assert got[True][ent] == got[False][ent], ent
+
+
+def test_calibrate_command_records_through_the_worker(tmp_path):
+    """The command starts the recording worker before it reads the files, and its process
+    never imports rerun."""
+    import subprocess
+    import sys
+    from simcalib.report.results import write_tum
+    from simcalib.world.stream_sim import rig_streams
+    s = rig_streams(offset_s=0.0, outlier_fraction=0.0, duration_s=8.0,
+                    rng=np.random.default_rng(2))
+    write_tum(tmp_path / "a.txt", s.t_a, s.T_a)
+    write_tum(tmp_path / "b.txt", s.t_b, s.T_b)
+    code = ("import sys; from simcalib.cli import main; "
+            f"rc = main(['calibrate', 'a={tmp_path / 'a.txt'}', 'b={tmp_path / 'b.txt'}', "
+            f"'output={tmp_path / 'out'}']); "
+            "print('RERUN', 'rerun' in sys.modules, 'RC', rc)")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=600)
+    assert "RERUN False" in proc.stdout, (proc.stdout, proc.stderr)
+    ents = chunks(tmp_path / "out" / "recording.rrd")
+    assert {"/summary", "/world/b_from_a/trajectory"} <= set(ents)

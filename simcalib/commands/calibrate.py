@@ -62,6 +62,9 @@ def main(args: list[str]) -> int:
     from simcalib.report.outputs import check_output_dir
     opts = parse_options(args)
     check_output_dir(opts.output, opts.overwrite)   # exit 2, before any work
+    if opts.recording:   # rerun's import (0.4-1 s) overlaps reading and calibrating
+        from simcalib.report.rerun.worker import prestart_worker
+        prestart_worker()
     from simcalib.solvers.kernels.mode import INTERPRETED_NOTE, prepare_kernels
     plan = prepare_kernels()        # the first use on an installation: interpreted kernels
     with plan.context():            # (the report's diagnostics may solve too)

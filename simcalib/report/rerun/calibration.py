@@ -326,7 +326,7 @@ def calibration_summary(r, report: dict) -> str:
 
 
 def record_calibration(path, r, report: dict, console: str = "",
-                       background: bool | None = False) -> Path:
+                       background: bool | None = None) -> Path:
     """The recording of ``simcalib calibrate`` (self-contained; headless, no viewer):
     ``r`` a :class:`simcalib.estimation.path.StreamCalibration`, ``report`` its
     calibration.json content, ``console`` the console report. ``background``: written by
