@@ -39,7 +39,10 @@ def solver_stub(label, X, rot=0.1, trans=0.01, cov=None):
                          translation_error_m=None if X is None else trans,
                          translation_error_determined_m=None if X is None else trans,
                          degenerate=False, alpha=1.0, error=None if X is not None else "boom",
-                         undetermined_directions=(), undetermined=())
+                         undetermined_directions=(), undetermined=(), runtime_s=1e-3,
+                         undetermined_translation_axes=None, prior=None, covariance=None,
+                         sigma_rotation_deg=None, sigma_translation_m=None,
+                         verdict="determined" if X is not None else "FAILED")
     if cov is not None:
         ns.covariance = cov
     return ns

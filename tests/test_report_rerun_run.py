@@ -183,12 +183,20 @@ def test_summary_markdown_rows():
         pairing={"used": 5}, frames={}, pose_errors={}, camera_names=("cam_a", "cam_b"),
         solvers=[solver_stub("a", np.eye(4), rot=0.01, trans=0.001),
                  solver_stub("b", np.eye(4), rot=100.0, trans=1e5), solver_stub("c", None)])
-    res.solvers[1].degenerate = True
+    b = res.solvers[1]
+    b.degenerate, b.verdict, b.sigma_translation_m = True, "undetermined", float("inf")
+    b.undetermined_directions = ({
+        "kind": "translation", "reason": "undetermined", "description": "translation of X "
+        "along y", "rotation_axis_a": [0, 0, 0], "translation_dir_a": [0, 1, 0],
+        "std_deg": 0.0, "std_m": float("inf"), "determined_by_prior": False},)
     md = summary_markdown(res)
     assert "| **c** | **FAILED** |" in md and "**c FAILED**: boom" in md
     row_b = next(ln for ln in md.splitlines() if ln.startswith("| b |"))
     row_a = next(ln for ln in md.splitlines() if ln.startswith("| a |"))
-    assert "**YES**" in row_b and row_b.count("█") > row_a.count("█")
+    assert row_b.count("█") > row_a.count("█")
+    assert "| undetermined: translation y |" in row_b and "± —" in row_b
+    assert ("translation of X along y: undetermined (no finite 1-sigma: the motions do not "
+            "constrain it)") in md
 
 
 def test_scene_geometry_poses_the_cart():

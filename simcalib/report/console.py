@@ -1,131 +1,98 @@
 """The console table of a run: each solver's error +- predicted sigma, its verdict and the
-footnotes for every number that is not a measurement; rendered from the same entries as
-results.json (:mod:`simcalib.report.results`), so the two cannot disagree.
+footnotes for every number that is not a measurement; rendered from each solver's
+:class:`~simcalib.report.directions.SolverView`, as results.json and the recording's
+summary pane are, so that none can disagree with another.
 """
 
 from __future__ import annotations
 
-import math
+from simcalib.report.directions import (determined_cell, fmt_number, not_measured_notes,
+                                        pm_cell, solver_view)
 
-import numpy as np
+__all__ = ["summary_table", "solver_rows", "direction_lines", "unknown_lines"]
 
-from simcalib.report.results import (NOT_MEASURED, REASON_ALL_PROJECTED, REASON_SIGMA_INFINITE,
-                                     _sigma_reason, determined_translation, direction_state_of)
-
-__all__ = ["summary_table"]
-
-def _fmt(v, scale=1.0, digits=3):
-    if v is None or (isinstance(v, float) and not math.isfinite(v)):
-        return "-"
-    v = v * scale
-    if v != 0 and (abs(v) >= 1e5 or abs(v) < 10 ** -digits):
-        return f"{v:.2e}"
-    return f"{v:.{digits}f}"
+_fmt = fmt_number
 
 
-def _pm(err, sigma, scale, digits):
-    """``error ± predicted sigma`` (sigma :data:`NOT_MEASURED` when infinite: footnoted)."""
-    e = _fmt(err, scale, digits)
-    if sigma is None:
-        return e
-    sg = NOT_MEASURED if not math.isfinite(sigma) else _fmt(sigma, scale, digits)
-    return f"{e} ± {sg}"
-
-
-def _direction_tag(d: dict) -> str:
-    word = d["kind"] if d["kind"] != "coupled" else "rot+trans"
-    ax = d["translation_dir_a"] if d["kind"] == "translation" else d["rotation_axis_a"]
-    i = int(np.argmax(np.abs(ax)))
-    return f"{word} {'xyz'[i]}" if abs(ax[i]) > 0.9 else word
-
-
-def _verdict_cell(s) -> str:
-    """The flagged directions grouped by their state (worst first), each state in the words
-    of ``Direction.summary`` (:func:`direction_state_of`)."""
-    from simcalib.solvers.diagnostics.uncertainty import DIRECTION_STATES
-    if s.verdict in ("determined", "unknown", "FAILED") or not s.undetermined_directions:
-        return s.verdict
-    by_state: dict[str, list[str]] = {}
-    for d in s.undetermined_directions:
-        tags = by_state.setdefault(direction_state_of(s, d), [])
-        if _direction_tag(d) not in tags:
-            tags.append(_direction_tag(d))
-    order = sorted(by_state, key=lambda st: -DIRECTION_STATES.index(st)
-                   if st in DIRECTION_STATES else 1)
-    parts, shown = [], 0
-    for st in order:
-        tags = by_state[st][:max(0, 3 - shown)]
-        shown += len(tags)
-        if tags:
-            parts.append(f"{st}: {', '.join(tags)}")
-    hidden = sum(len(t) for t in by_state.values()) - shown
-    return "; ".join(parts) + (f", +{hidden}" if hidden else "")
-
-
-def _determined_cell(s) -> str:
-    value, reason = determined_translation(s)
-    return NOT_MEASURED if reason else _fmt(value, 100, 2)
-
-
-def _not_measured_notes(solvers) -> list[str]:
-    """One footnote per reason a number of the table is shown as :data:`NOT_MEASURED`."""
-    ok = [s for s in solvers if s.X is not None]
-    notes = []
-    projected = [s.label for s in ok if determined_translation(s)[1]]
-    if projected:
-        notes.append(f"{NOT_MEASURED} in 'determined [cm]' [{', '.join(projected)}]: "
-                     f"{REASON_ALL_PROJECTED}")
-    infinite = [s.label for s in ok if _sigma_reason(s.sigma_rotation_deg)
-                or _sigma_reason(s.sigma_translation_m)]
-    if infinite:
-        notes.append(f"{NOT_MEASURED} as σ [{', '.join(infinite)}]: {REASON_SIGMA_INFINITE}")
-    return notes
-
-
-def summary_table(result) -> str:
-    """Console summary: one row per solver (error ± predicted 1-sigma, runtime, verdict;
-    FAILED rows with the reason), the flagged directions beneath, the data-chosen alpha and
-    the oracle alpha (labelled: it uses the ground truth), then pose-source errors and
-    pairing counts."""
-    head = ["method", "alpha", "rot err ± σ [deg]", "trans err ± σ [cm]", "determined [cm]",
-            "time [ms]", "verdict"]
+def solver_rows(result) -> list[tuple]:
+    """``(view, cells)`` per solver: its :class:`~simcalib.report.directions.SolverView`
+    and the table's cells (alpha, rotation and translation error ± sigma, determined,
+    time, verdict); a failed solver has no cells."""
     rows = []
     for s in result.solvers:
-        if s.X is None:
-            rows.append([s.label, f"FAILED: {s.error or 'no estimate'}"])
+        v = solver_view(s)
+        if v.failed is not None:
+            rows.append((v, None))
             continue
-        rows.append([s.label, _fmt(s.alpha, digits=3),
-                     _pm(s.rotation_error_deg, s.sigma_rotation_deg, 1.0, 3),
-                     _pm(s.translation_error_m, s.sigma_translation_m, 100, 2),
-                     _determined_cell(s),
-                     _fmt(s.runtime_s, 1e3, 2), _verdict_cell(s)])
-    full = [r for r in rows if len(r) == len(head)]
+        rows.append((v, [_fmt(s.alpha, digits=3),
+                         pm_cell(s.rotation_error_deg, v.sigma_rotation_deg,
+                                 v.sigma_rotation_reason, 1.0, 3),
+                         pm_cell(s.translation_error_m, v.sigma_translation_m,
+                                 v.sigma_translation_reason, 100, 2),
+                         determined_cell(v), _fmt(s.runtime_s, 1e3, 2), v.verdict_cell()]))
+    return rows
+
+
+def direction_lines(views) -> list[tuple[list[str], list[str]]]:
+    """``(labels, sentences)``: the flagged directions of the solvers that share them, each
+    in its words (state and the 1-sigma that applies)."""
+    groups: dict[tuple, list[str]] = {}
+    for v in views:
+        if v.failed is None and v.directions:
+            groups.setdefault(tuple(d["words"] for d in v.directions), []).append(v.label)
+    return [(labels, list(words)) for words, labels in groups.items()]
+
+
+def unknown_lines(views) -> list[str]:
+    """Why a solver has no verdict (its uncertainty could not be computed)."""
+    return [f"no verdict [{v.label}]: {v.unknown_reason}" for v in views
+            if v.failed is None and v.unknown_reason]
+
+
+_HEAD = ["method", "alpha", "rot err ± σ [deg]", "trans err ± σ [cm]", "determined [cm]",
+         "time [ms]", "verdict"]
+
+
+def _table(result, srows) -> list[str]:
+    """The title, the header and one aligned row per solver (a failed one: its reason)."""
+    rows = [[v.label, f"FAILED: {v.failed}"] if c is None else [v.label, *c]
+            for v, c in srows]
+    full = [r for r in rows if len(r) == len(_HEAD)]
     widths = [max(len(h), *(len(r[i]) for r in full)) if full else len(h)
-              for i, h in enumerate(head)]
+              for i, h in enumerate(_HEAD)]
     widths[0] = max([widths[0]] + [len(r[0]) for r in rows])
-    line = "  ".join(h.ljust(w) if i in (0, len(head) - 1) else h.rjust(w) for i, (h, w) in
-                     enumerate(zip(head, widths)))
+
+    def align(cells):
+        return "  ".join(c.ljust(w) if i in (0, len(_HEAD) - 1) else c.rjust(w)
+                         for i, (c, w) in enumerate(zip(cells, widths)))
+    line = align(_HEAD)
     out = [f"scenario {result.config.scenario!r} (source={result.config.source}, "
            f"seed={result.config.seed}, {result.pairing.get('used', '?')} motions)",
            line, "-" * len(line)]
     for r in rows:
-        if len(r) != len(head):  # a failed solver: its reason instead of numbers
-            out.append(f"{r[0].ljust(widths[0])}  {r[1]}")
-            continue
-        out.append("  ".join(c.ljust(w) if i in (0, len(head) - 1) else c.rjust(w)
-                             for i, (c, w) in enumerate(zip(r, widths))))
-    undet = {}
-    for s in result.solvers:
-        if s.X is None or not s.degenerate:
-            continue
-        undet.setdefault(tuple(s.verdict_directions or s.undetermined), []).append(s.label)
-    for dirs, labels in undet.items():
-        out.append(f"not determined within tolerance [{', '.join(labels)}]: " + "; ".join(dirs))
-    if undet:
+        out.append(align(r) if len(r) == len(_HEAD) else f"{r[0].ljust(widths[0])}  {r[1]}")
+    return out
+
+
+def _verdict_notes(views) -> list[str]:
+    """Each flagged direction in words, and the footnotes of every '—'."""
+    out = []
+    flagged = direction_lines(views)
+    for labels, words in flagged:
+        out.append(f"not determined within tolerance [{', '.join(labels)}]: "
+                   + "; ".join(words))
+    if flagged:
         out.append("  -> along an undetermined direction the estimate is arbitrary (its error "
                    "is not a measurement); 'determined [cm]' = the translation error with the "
                    "flagged translation directions that no prior fixed projected out")
-    out += _not_measured_notes(result.solvers)
+    out += unknown_lines(views) + not_measured_notes(views)
+    return out
+
+
+def _context(result) -> list[str]:
+    """alpha and how it was chosen, the oracle alpha, the kernels' note, frames, motion
+    pairs and the pose-source errors."""
+    out = []
     choice = next((s.alpha_choice for s in result.solvers if s.alpha_choice), None)
     if choice:
         out.append(f"alpha = {_fmt(choice['alpha'], digits=3)} ({choice['source']}: "
@@ -170,4 +137,14 @@ def summary_table(result) -> str:
         if parts:
             src = next(iter(result.pose_errors.values())).source
             out.append(f"pose error of source '{src}' vs ground truth: " + "; ".join(parts))
-    return "\n".join(out)
+    return out
+
+
+def summary_table(result) -> str:
+    """Console summary: one row per solver (error ± predicted 1-sigma, runtime, verdict;
+    FAILED rows with the reason), the flagged directions beneath, the data-chosen alpha and
+    the oracle alpha (labelled: it uses the ground truth), then pose-source errors and
+    pairing counts."""
+    srows = solver_rows(result)
+    return "\n".join(_table(result, srows) + _verdict_notes([v for v, _ in srows])
+                     + _context(result))

@@ -298,20 +298,16 @@ def calibration_summary(r, report: dict) -> str:
     """The summary pane (markdown, one bullet per line, ASCII so that a screenshot's OCR
     can check it is whole): verdict, X, sigma, offset, reading and its margin, inliers and
     rejected poses, inlier residuals, warnings, status."""
+    from simcalib.report.calibration import sigma_line, verdict_line
     v, u, res = report["verdict"], report["uncertainty"], report["residuals"]["inliers"]
     t, rv = report["X"]["translation_m"], report["X"]["rotvec_deg"]
     rej = rejected_instants(r.synced.n, r.motions.i, r.motions.j, r.robust.inlier_mask)
-    vec = lambda x, s=1.0, d=3: "[" + ", ".join(
+    vec = lambda x, s=1.0, d=3: "[" + ", ".join(  # noqa: E731
         "inf" if a is None else f"{s * a:.{d}f}" for a in x) + "]"
-    sigma = ("sigma (1-sigma, frame a): not available" if u is None or not u.get(
-        "std_rotation_deg") else f"sigma (1-sigma, frame a): rotation "
-        f"{vec(u['std_rotation_deg'], d=4)} deg, translation "
-        f"{vec(u['std_translation_m'], 1e3, 2)} mm")
     lines = [
-        f"**verdict: {v['verdict'].upper()}**" + (f" - {v['message']}" if v["message"]
-                                                 else ""),
+        verdict_line(v, bold=True),
         f"X = T_a_b: t = {vec(t, 1e3, 2)} mm, rotation vector {vec(rv)} deg",
-        sigma,
+        sigma_line(u),
         _offset_line(r.time_offset),
         f"reading: {_reading(r.conventions)}",
         f"inliers: {r.robust.n_inliers} of {r.motions.n} motions ({r.robust_choice}); "

@@ -207,9 +207,10 @@ def iter_visual_log(log, rec_cfg):
     """Yield ``(camera, frame, image, corners (K,4,2) | None, ids | None)`` from the vision
     stage's :class:`~simcalib.sources.vision.stream.VisualLog` (``frames[camera]``:
     per-frame records with ``frame_index``, ``ids``, ``corners_px``;
-    ``images_jpeg[camera][frame_index]``: JPEG bytes). At most ``rec_cfg.max_images`` images per camera are yielded (evenly
-    subsampled), each with the corners detected in THAT frame; frames without a logged
-    image are not yielded, so an overlay never sits on another frame's image."""
+    ``images_jpeg[camera][frame_index]``: JPEG bytes). At most ``rec_cfg.max_images``
+    images per camera are yielded (evenly subsampled), each with the corners detected in
+    THAT frame; frames without a logged image are not yielded, so an overlay never sits
+    on another frame's image."""
     frames_by_cam = getattr(log, "frames", None) or {}
     images = getattr(log, "images_jpeg", None) or {}
     for cam, entries in dict(frames_by_cam).items():

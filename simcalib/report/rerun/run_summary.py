@@ -1,55 +1,50 @@
-"""A run recording's summary pane (``summary``): the console summary as markdown."""
+"""A run recording's summary pane (``summary``): the console summary as markdown, rendered
+from the same cells and sentences as the console (:func:`simcalib.report.console.
+solver_rows`, each solver's :class:`~simcalib.report.directions.SolverView`): the same
+error ± sigma, determined error and verdict per solver, the same words per flagged
+direction, the same footnotes for every number that is not a measurement."""
 
 from __future__ import annotations
 
+from simcalib.report.console import direction_lines, solver_rows, unknown_lines
+from simcalib.report.directions import not_measured_notes
 from simcalib.report.rerun.common import decades, fmt, log_bar
 
 __all__ = ["summary_markdown"]
 
+_HEAD = ("| method | rot err ± σ [deg] | log | trans err ± σ [cm] | log | determined [cm] "
+         "| verdict |")
 
-def summary_markdown(result) -> str:
-    """The console summary (:func:`simcalib.report.console.summary_table`) as markdown: one table
-    row per solver with its errors and log-scale bars (FAILED rows in bold, their reason
-    below; degenerate ones flagged), then the undetermined directions, frames, motion pairs
-    and pose-source errors."""
-    cfg = result.config
-    solvers = list(result.solvers)
-    ok = [s for s in solvers if s.X is not None]
-    alphas = sorted({s.alpha for s in ok if s.alpha is not None})
+
+def _rows(result, rows) -> tuple[list[str], list[str]]:
+    """The table's rows (log-scale bars beside the errors; FAILED rows in bold) and the
+    notes they need (each failure's reason, the bars' scale)."""
+    by_label = {s.label: s for s in result.solvers}
+    ok = [by_label[v.label] for v, c in rows if c is not None]
     rlo, rhi = decades([s.rotation_error_deg for s in ok])
     tlo, thi = decades([100 * s.translation_error_m for s in ok])
-    out = [f"**{cfg.scenario}** — kind {cfg.kind}, source {cfg.source}, seed {cfg.seed}, "
-           f"{(result.pairing or {}).get('used', '?')} motions, alpha "
-           f"{', '.join(fmt(a) for a in alphas) or '–'}", "",
-           "| method | rot err [deg] | log | trans err [cm] | log | determined [cm] "
-           "| degenerate |", "|---|---:|:---|---:|:---|---:|:---:|"]
-    notes = []
-    for s in solvers:
-        if s.X is None:
-            reason = (s.error or "no estimate").replace("|", "/")
-            if len(reason) > 160:
-                reason = reason[:157] + "..."
-            out.append(f"| **{s.label}** | **FAILED** | | | | | |")
-            notes.append(f"**{s.label} FAILED**: {reason}")
+    out, notes = [], []
+    for v, c in rows:
+        if c is None:
+            reason = v.failed.replace("|", "/")
+            out.append(f"| **{v.label}** | **FAILED** | | | | | |")
+            notes.append(f"**{v.label} FAILED**: "
+                         + (reason if len(reason) <= 160 else reason[:157] + "..."))
             continue
-        det = s.translation_error_determined_m
+        s = by_label[v.label]
         t_cm = 100 * s.translation_error_m
-        out.append(f"| {s.label} | {fmt(s.rotation_error_deg)} | "
-                   f"{log_bar(s.rotation_error_deg, rlo, rhi)} | {fmt(t_cm)} | "
-                   f"{log_bar(t_cm, tlo, thi)} | {fmt(None if det is None else 100 * det)} | "
-                   f"{ {True: '**YES**', False: 'no'}.get(s.degenerate, 'unknown')} |")
+        out.append(f"| {v.label} | {c[1]} | {log_bar(s.rotation_error_deg, rlo, rhi)} | "
+                   f"{c[2]} | {log_bar(t_cm, tlo, thi)} | {c[3]} | "
+                   f"{c[5].replace('|', '/')} |")
     if ok:
         notes.append(f"log bars: rotation 1e{int(rlo)}–1e{int(rhi)} deg, translation "
                      f"1e{int(tlo)}–1e{int(thi)} cm")
-    undet = {}
-    for s in result.solvers:
-        if s.degenerate:
-            key = tuple(d["description"] for d in s.undetermined_directions) \
-                or tuple(s.undetermined)
-            undet.setdefault(key, []).append(s.label)
-    for dirs, labels in undet.items():
-        notes.append(f"undetermined by this motion ({', '.join(labels)}): " + "; ".join(dirs)
-                     + " — not a measurement; *determined* = error with it projected out")
+    return out, notes
+
+
+def _context_notes(result) -> list[str]:
+    """Frames, motion pairs and the pose-source errors."""
+    notes = []
     fr = result.frames or {}
     if fr.get("rendered"):
         cams = [f"{c} used {(fr.get(c) or {}).get('used')}, dropped "
@@ -65,4 +60,27 @@ def summary_markdown(result) -> str:
             notes.append(f"pose error {cam} ({e.source}): median "
                          f"{fmt(sm['rotation_deg']['median'])} deg / "
                          f"{fmt(1000 * sm['translation_m']['median'])} mm")
-    return "\n".join(out + [""] + [f"- {n}" for n in notes])
+    return notes
+
+
+def summary_markdown(result) -> str:
+    """The console summary as markdown: one table row per solver (error ± predicted sigma
+    with log-scale bars, determined error, verdict; FAILED rows in bold, their reason
+    below), then each flagged direction in words, the footnotes of every
+    :data:`~simcalib.report.directions.NOT_MEASURED`, frames, motion pairs and pose-source
+    errors."""
+    cfg = result.config
+    rows = solver_rows(result)
+    alphas = sorted({s.alpha for s in result.solvers if s.X is not None and s.alpha is not None})
+    table, notes = _rows(result, rows)
+    views = [v for v, _ in rows]
+    notes += [f"not determined within tolerance ({', '.join(labels)}): " + "; ".join(words)
+              + " — along such a direction the error is not a measurement; *determined* = "
+              "the translation error with the flagged translation directions projected out"
+              for labels, words in direction_lines(views)]
+    notes += unknown_lines(views) + not_measured_notes(views) + _context_notes(result)
+    head = (f"**{cfg.scenario}** — kind {cfg.kind}, source {cfg.source}, seed {cfg.seed}, "
+            f"{(result.pairing or {}).get('used', '?')} motions, alpha "
+            f"{', '.join(fmt(a) for a in alphas) or '–'}")
+    return "\n".join([head, "", _HEAD, "|---|---:|:---|---:|:---|---:|:---|", *table, ""]
+                     + [f"- {n}" for n in notes])
