@@ -275,7 +275,7 @@ def main_files(args: list[str]) -> int:
     if opts["recording"]:
         from simcalib.report.rerun.advice import record_recorded_advice
         out["recording"] = str(record_recorded_advice(out_dir / "advice.rrd", r.synced.T_a,
-                                                      adv))
+                                                      adv, out))
     path.write_text(json.dumps(out, indent=1, allow_nan=False))
     print_recorded_table(out)
     print(f"wrote {path}" + (f", {out['recording']}" if opts["recording"] else ""))
@@ -312,7 +312,7 @@ def main(args: list[str]) -> int:
     path.write_text(json.dumps(out, indent=1, allow_nan=False))
     if opts["recording"]:
         from simcalib.report.rerun.advice import record_advice
-        out["recording"] = str(record_advice(out_dir / "advice.rrd", base, adv))
+        out["recording"] = str(record_advice(out_dir / "advice.rrd", base, adv, out))
         path.write_text(json.dumps(out, indent=1, allow_nan=False))
     print_table(out)
     print(f"wrote {path}" + (f", {out['recording']}" if opts["recording"] else ""))

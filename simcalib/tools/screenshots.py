@@ -2,8 +2,10 @@
 
     python -m simcalib.tools.screenshots                 # planar, 3d, line -> runs/screenshots
     python -m simcalib.tools.screenshots --docs          # also refresh docs/figures/recording_*.png
+    python -m simcalib.tools.screenshots --all           # every scenario
     python -m simcalib.tools.screenshots --scenario planar --override world.duration_s=6
     python -m simcalib.tools.screenshots --calibrations --docs   # calibration recordings
+    python -m simcalib.tools.screenshots --advise        # advice recordings (scara, planar, files)
 
 Each scenario is run (``python -m simcalib run``), its ``recording.rrd`` opened with
 ``rerun FILE --port auto --screenshot-to PNG --window-size 1600x1000`` under Xvfb (Mesa's
@@ -23,6 +25,11 @@ offset), the default layout and the 3D view alone, checked by :func:`check_calib
 "No data available", every pane shows pixels of its own colour, every summary line is read
 whole (not cut off), the 3D view framed on the trajectories; ``--docs`` writes
 ``docs/figures/calibration_<set>.png``.
+
+``--advise`` (:func:`advice_main`): ``simcalib advise``'s recording of each of
+:data:`ADVICE_CASES`, the layout and the stops' 3D view alone, checked by
+:func:`check_advice`: no "No data available", the plots in deg and in cm and the summary's
+"from the previous stop" read, every stop labelled, the stops framed.
 
 Needs the Debian packages ``xvfb``, ``mesa-vulkan-drivers`` and ``tesseract-ocr``
 (:func:`missing_prerequisites` says which are absent); rerun-sdk provides the viewer.
@@ -46,10 +53,12 @@ import numpy as np
 from simcalib.report.rerun.common import SCENE_BACKGROUND
 
 __all__ = ["missing_prerequisites", "screenshot", "ocr_text", "check_recording",
-           "ShotReport", "text_contains", "DEFAULT_SCENARIOS", "WINDOW_SIZE", "MIN_SCENE_FILL", "main",
+           "ShotReport", "text_contains", "DEFAULT_SCENARIOS", "WINDOW_SIZE", "MIN_SCENE_FILL",
+           "main",
            "CALIBRATION_SETS", "check_calibration", "run_calibration", "calibration_main",
            "synthetic_calibration_input", "pane_pixels", "framing", "cut_lines",
-           "calibration_pane_boxes"]
+           "calibration_pane_boxes", "ADVICE_CASES", "run_advice", "check_advice",
+           "advice_main", "color_extent"]
 
 DEFAULT_SCENARIOS = ("planar", "3d", "line")
 WINDOW_SIZE = (1600, 1000)
@@ -280,7 +289,7 @@ def run_calibration(inp: Path, out: Path):
     return r, time.perf_counter() - t0
 
 
-def _color_pixels(a: np.ndarray, color) -> int:
+def _color_mask(a: np.ndarray, color) -> np.ndarray:
     """Pixels of ``color``'s hue, however the viewer shades it (bar charts are drawn
     translucent): the chroma (RGB minus its smallest channel) points the same way
     (cosine > 0.995) and is at least 0.4 of the colour's own."""
@@ -290,7 +299,12 @@ def _color_pixels(a: np.ndarray, color) -> int:
     px -= px.min(axis=2, keepdims=True)
     norm = np.linalg.norm(px, axis=2)
     cos = (px @ c) / np.maximum(norm * np.linalg.norm(c), 1e-9)
-    return int(((cos > 0.995) & (norm >= 0.4 * np.linalg.norm(c))).sum())
+    return (cos > 0.995) & (norm >= 0.4 * np.linalg.norm(c))
+
+
+def _color_pixels(a: np.ndarray, color) -> int:
+    """The number of pixels of ``color``'s hue (:func:`_color_mask`)."""
+    return int(_color_mask(a, color).sum())
 
 
 def calibration_pane_boxes(panes) -> dict:
@@ -324,20 +338,39 @@ def pane_pixels(png: Path, present: dict, boxes: dict | None = None) -> dict:
     return out
 
 
-def framing(png: Path) -> float:
+def framing(png: Path, background=None) -> float:
     """The drawn extent of a 3D view shot: the larger of the width and height fractions
-    spanned by pixels differing from the calibration background (below the title bar)."""
+    spanned by pixels differing from ``background`` (default the calibration recording's;
+    below the title bar)."""
     from PIL import Image
-    from simcalib.report.rerun.calibration import CALIBRATION_BACKGROUND
+    if background is None:
+        from simcalib.report.rerun.calibration import CALIBRATION_BACKGROUND as background
     a = np.asarray(Image.open(png).convert("RGB"), dtype=np.int16)
     h = a.shape[0]
     body = a[int(0.05 * h):int(0.97 * h)]
-    drawn = np.abs(body - np.array(CALIBRATION_BACKGROUND)).sum(axis=2) > 30
+    drawn = np.abs(body - np.array(background)).sum(axis=2) > 30
     if not drawn.any():
         return 0.0
     rows, cols = np.flatnonzero(drawn.any(axis=1)), np.flatnonzero(drawn.any(axis=0))
     return float(max((rows[-1] - rows[0]) / drawn.shape[0], (cols[-1] - cols[0]) /
                      drawn.shape[1]))
+
+
+def color_extent(png: Path, colors) -> float:
+    """The extent of the pixels of ``colors``' hues in a shot (below the title bar): the
+    larger of the width and height fractions they span (0 when there are fewer than 50)."""
+    from PIL import Image
+    a = np.asarray(Image.open(png).convert("RGB"), dtype=np.int16)
+    h = a.shape[0]
+    body = a[int(0.05 * h):int(0.97 * h)]
+    mask = np.zeros(body.shape[:2], dtype=bool)
+    for c in colors:
+        mask |= _color_mask(body, c)
+    if mask.sum() < 50:
+        return 0.0
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    return float(max((rows[-1] - rows[0]) / mask.shape[0], (cols[-1] - cols[0]) /
+                     mask.shape[1]))
 
 
 def _line_ends(line: str, n: int = 18) -> list[str]:
@@ -414,6 +447,79 @@ def calibration_main(names, output: Path, docs: bool) -> int:
     return 1 if failed else 0
 
 
+# ------------------------------------------------------------------- advice recordings
+#: the advice ``--advise`` screenshots: two scenarios (arm, cart) and recorded files (a
+#: synthetic planar rig, platform=cart); each name -> the advise arguments
+ADVICE_CASES = {"scara": ["scenario=scara", "k=5"], "planar": ["scenario=planar", "k=5"],
+                "files": ["platform=cart", "k=4"]}
+
+
+def run_advice(name: str, out: Path) -> Path:
+    """``simcalib advise`` of :data:`ADVICE_CASES` ``name`` into ``out`` (the files case
+    calibrates a synthetic planar rig's TUM files written beside it)."""
+    args = list(ADVICE_CASES[name])
+    if name == "files":
+        from simcalib.report.results import write_tum
+        from simcalib.world.stream_sim import rig_streams
+        s = rig_streams(path="planar", duration_s=20.0, rng=np.random.default_rng(0))
+        inp = Path(out).with_name(f"{Path(out).name}_input")
+        inp.mkdir(parents=True, exist_ok=True)
+        args += [f"a={write_tum(inp / 'a.txt', s.t_a, s.T_a)}",
+                 f"b={write_tum(inp / 'b.txt', s.t_b, s.T_b)}"]
+    cmd = [sys.executable, "-m", "simcalib", "advise", *args, f"output={out}"]
+    proc = subprocess.run(cmd, capture_output=True, text=True, cwd=REPO, check=False,
+                          env=dict(os.environ, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl")))
+    if proc.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)} failed: {proc.stderr.strip()[-600:]}")
+    return Path(out)
+
+
+def check_advice(out: Path, shots: Path, name: str) -> ShotReport:
+    """Screenshot ``out/advice.rrd`` (default layout, the 3D view of the stops alone) and
+    check: no pane says "No data available", the summary says the stops are motions from
+    the previous stop, both plots (deg, cm) are there, every stop's label is read in the 3D
+    view, and the stops' drawing spans at least :data:`MIN_FRAMING` of that view."""
+    from simcalib.report.rerun.advice import ADVICE_APP_ID, advice_blueprint
+    from simcalib.report.rerun.common import CAMERA_COLORS
+    out = Path(out)
+    rep = ShotReport(scenario=f"advise {name}")
+    rrd = out / "advice.rrd"
+    rep.shots["layout"] = screenshot(rrd, shots / f"advice_{name}_layout.png")
+    eye = json.loads((out / "advice_view.json").read_text())["eye"]
+    rbl = shots / f"advice_{name}_stops.rbl"
+    advice_blueprint(eye, only="stops").save(ADVICE_APP_ID, str(rbl))
+    rep.shots["stops"] = screenshot(rrd, shots / f"advice_{name}_stops.png", blueprint=rbl)
+    text = ocr_text(rep.shots["layout"])
+    if "nodataavailable" in _norm(text):
+        rep.problems.append("a pane says 'No data available'")
+    for words in ("from the previous stop", "predicted 1-sigma, rotation [deg]",
+                  "predicted 1-sigma, translation [cm]"):
+        if not text_contains(text, words):
+            rep.problems.append(f"layout: {words!r} not read")
+    labels = ocr_text(rep.shots["stops"], bright_text=True)
+    k = len(json.loads((out / "advice.json").read_text())["motions"])
+    rep.problems += [f"3D view: no label 'stop {j}'" for j in range(1, k + 1)
+                     if not re.search(rf"stop\s*{j}\b", labels, re.IGNORECASE)]
+    rep.scene_fill = color_extent(rep.shots["stops"], CAMERA_COLORS.values())
+    if rep.scene_fill < MIN_FRAMING:
+        rep.problems.append(f"3D view badly framed: the cameras' paths and stops span "
+                            f"{rep.scene_fill:.0%} of the view (< {MIN_FRAMING:.0%})")
+    return rep
+
+
+def advice_main(names, output: Path, docs: bool) -> int:
+    """``--advise``: advise, screenshot and check each case; one line per case."""
+    failed = 0
+    for name in names:
+        rep = check_advice(run_advice(name, output / "advice" / name), output / "shots", name)
+        print(f"advise {name}: 3D framing {rep.scene_fill:.0%}; "
+              + ("OK" if rep.ok else "PROBLEMS: " + "; ".join(rep.problems)), flush=True)
+        failed += not rep.ok
+        if docs:
+            _docs_png(rep.shots["layout"], REPO / "docs" / "figures" / f"advice_{name}.png")
+    return 1 if failed else 0
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m simcalib.tools.screenshots",
                                  description=__doc__.split("\n\n")[0])
@@ -428,6 +534,12 @@ def main(argv=None) -> int:
                     help="calibration recordings instead: " + ", ".join(CALIBRATION_SETS))
     ap.add_argument("--set", action="append", dest="sets",
                     help="with --calibrations: a set (repeatable); default: all")
+    ap.add_argument("--all", action="store_true",
+                    help="every scenario (`python -m simcalib list`) instead of "
+                    + ", ".join(DEFAULT_SCENARIOS))
+    ap.add_argument("--advise", action="append", nargs="?", const="all",
+                    help="advice recordings instead: " + ", ".join(ADVICE_CASES)
+                    + " (repeatable; alone: all)")
     args = ap.parse_args(argv)
     missing = missing_prerequisites()
     if missing:
@@ -436,8 +548,16 @@ def main(argv=None) -> int:
     out = Path(args.output)
     if args.calibrations:
         return calibration_main(args.sets or CALIBRATION_SETS, out, args.docs)
+    if args.advise:
+        cases = list(ADVICE_CASES) if "all" in args.advise else args.advise
+        return advice_main(cases, out, args.docs)
+    if args.all:
+        from simcalib.pipeline.scenario import list_scenarios
+        names = list(list_scenarios())
+    else:
+        names = args.scenario or DEFAULT_SCENARIOS
     failed = 0
-    for name in args.scenario or DEFAULT_SCENARIOS:
+    for name in names:
         run_dir = _run_scenario(name, out / name, args.override)
         rep = check_recording(run_dir, out / "shots", name)
         size_mb = (run_dir / "recording.rrd").stat().st_size / 1e6

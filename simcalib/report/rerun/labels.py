@@ -69,13 +69,14 @@ def _candidates(anchor_xy, size, half_w, half_h):
                     box(right, mid + d), box(left, mid - d), box(left, mid + d))
 
 
-def layout_boxes(anchors_xy, sizes, aspect: float = PANE_ASPECT) -> list[tuple]:
+def layout_boxes(anchors_xy, sizes, aspect: float = PANE_ASPECT, avoid_xy=()) -> list[tuple]:
     """Screen boxes for labels of ``sizes`` at ``anchors_xy`` (screen points), placed
     greedily from the top anchor down: the first candidate (:func:`_candidates`) that
-    overlaps neither a box placed before nor any anchor's dot; in a crowded pane, below
-    everything placed."""
+    overlaps neither a box placed before nor any anchor's dot nor a dot of ``avoid_xy``;
+    in a crowded pane, below everything placed."""
     half_h, half_w = FOV_TAN, FOV_TAN * aspect
-    dots = [(x - _DOT, y - _DOT, x + _DOT, y + _DOT) for x, y in anchors_xy]
+    dots = [(x - _DOT, y - _DOT, x + _DOT, y + _DOT)
+            for x, y in list(anchors_xy) + list(avoid_xy)]
     boxes: list = [None] * len(sizes)
     for i in sorted(range(len(sizes)), key=lambda k: anchors_xy[k][1]):
         others = [b for b in boxes if b is not None] + [d for k, d in enumerate(dots)
@@ -104,18 +105,19 @@ def _onto_sphere(pos, ray, z, max_norm) -> np.ndarray:
 
 
 def place_labels(eye: dict, items, max_norm: float | None = None,
-                 aspect: float = PANE_ASPECT) -> list[np.ndarray]:
+                 aspect: float = PANE_ASPECT, avoid=()) -> list[np.ndarray]:
     """3D positions for labels so that none overlaps another on the screen of ``eye``.
 
     ``items``: ``(anchor (3,), lines)``. Each label is a box of its text's size in the
     viewer (:func:`label_size`) that the viewer centres horizontally just below its point;
     the boxes are laid out by :func:`layout_boxes` inside a pane of ``aspect`` (width over
-    height). The point is put on the anchor's viewing depth, or nearer the eye if that
-    would leave the sphere of radius ``max_norm`` (None: no bound)."""
+    height), clear of the dots of ``avoid`` (3D points no label may cover). The point is
+    put on the anchor's viewing depth, or nearer the eye if that would leave the sphere of
+    radius ``max_norm`` (None: no bound)."""
     pos, f, r, u = screen_basis(eye)
     anchors = [project(eye, a) for a, _ in items]
     boxes = layout_boxes([xy for xy, _ in anchors], [label_size(lines) for _, lines in items],
-                         aspect)
+                         aspect, [project(eye, p)[0] for p in avoid])
     out = []
     for (xy, z), b in zip(anchors, boxes):
         sx, sy = 0.5 * (b[0] + b[2]), b[1] - 0.005   # text centred just below its point
