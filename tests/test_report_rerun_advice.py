@@ -8,6 +8,7 @@ import json
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 from rrd_reading import chunks
 
 from simcalib.geometry import matrix_from_rotvec
@@ -99,3 +100,15 @@ def test_advice_recording_layout_framing_labels_and_units(tmp_path):
             assert not (a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3])
     md = str(np.ravel(ents["/advice/summary"]["TextDocument:text"])[0])
     assert "from the previous stop" in md and "| + stop 6 |" in md and "| — |" in md
+
+
+@pytest.mark.slow
+def test_advice_screenshots(tmp_path):
+    """The real viewer under Xvfb (advice for a planar rig's pose files): no empty pane,
+    both units' plots and the summary read, every stop labelled, the stops framed."""
+    from simcalib.tools.screenshots import check_advice, missing_prerequisites, run_advice
+    missing = missing_prerequisites()
+    if missing:
+        pytest.skip("viewer screenshots need: " + "; ".join(missing))
+    rep = check_advice(run_advice("files", tmp_path / "files"), tmp_path / "shots", "files")
+    assert rep.ok, rep.problems

@@ -194,7 +194,8 @@ def test_summary_markdown_rows():
     row_b = next(ln for ln in md.splitlines() if ln.startswith("| b |"))
     row_a = next(ln for ln in md.splitlines() if ln.startswith("| a |"))
     assert row_b.count("█") > row_a.count("█")
-    assert "| undetermined: translation y |" in row_b and "± —" in row_b
+    assert "± —" in row_b and "- verdict [b]: **undetermined: translation y**" in md
+    assert "- verdict [a]: **determined**" in md
     assert ("translation of X along y: undetermined (no finite 1-sigma: the motions do not "
             "constrain it)") in md
 

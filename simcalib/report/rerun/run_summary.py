@@ -12,8 +12,7 @@ from simcalib.report.rerun.common import decades, fmt, log_bar
 
 __all__ = ["summary_markdown"]
 
-_HEAD = ("| method | rot err ± σ [deg] | log | trans err ± σ [cm] | log | determined [cm] "
-         "| verdict |")
+_HEAD = "| method | rot err ± σ [deg] | log | trans err ± σ [cm] | log | determined [cm] |"
 
 
 def _rows(result, rows) -> tuple[list[str], list[str]]:
@@ -27,15 +26,14 @@ def _rows(result, rows) -> tuple[list[str], list[str]]:
     for v, c in rows:
         if c is None:
             reason = v.failed.replace("|", "/")
-            out.append(f"| **{v.label}** | **FAILED** | | | | | |")
+            out.append(f"| **{v.label}** | **FAILED** | | | | |")
             notes.append(f"**{v.label} FAILED**: "
                          + (reason if len(reason) <= 160 else reason[:157] + "..."))
             continue
         s = by_label[v.label]
         t_cm = 100 * s.translation_error_m
         out.append(f"| {v.label} | {c[1]} | {log_bar(s.rotation_error_deg, rlo, rhi)} | "
-                   f"{c[2]} | {log_bar(t_cm, tlo, thi)} | {c[3]} | "
-                   f"{c[5].replace('|', '/')} |")
+                   f"{c[2]} | {log_bar(t_cm, tlo, thi)} | {c[3]} |")
     if ok:
         notes.append(f"log bars: rotation 1e{int(rlo)}–1e{int(rhi)} deg, translation "
                      f"1e{int(tlo)}–1e{int(thi)} cm")
@@ -65,8 +63,9 @@ def _context_notes(result) -> list[str]:
 
 def summary_markdown(result) -> str:
     """The console summary as markdown: one table row per solver (error ± predicted sigma
-    with log-scale bars, determined error, verdict; FAILED rows in bold, their reason
-    below), then each flagged direction in words, the footnotes of every
+    with log-scale bars, determined error; FAILED rows in bold, their reason below), the
+    verdict of each (the console's cell: a list, since it does not fit a half-wide pane's
+    table), then each flagged direction in words, the footnotes of every
     :data:`~simcalib.report.directions.NOT_MEASURED`, frames, motion pairs and pose-source
     errors."""
     cfg = result.config
@@ -74,6 +73,12 @@ def summary_markdown(result) -> str:
     alphas = sorted({s.alpha for s in result.solvers if s.X is not None and s.alpha is not None})
     table, notes = _rows(result, rows)
     views = [v for v, _ in rows]
+    verdicts: dict[str, list[str]] = {}    # the console's verdict cell, solvers sharing it
+    for v, c in rows:
+        if c is not None:
+            verdicts.setdefault(c[5], []).append(v.label)
+    notes = [f"verdict [{', '.join(labels)}]: **{cell}**" for cell, labels in verdicts.items()
+             ] + notes
     notes += [f"not determined within tolerance ({', '.join(labels)}): " + "; ".join(words)
               + " — along such a direction the error is not a measurement; *determined* = "
               "the translation error with the flagged translation directions projected out"
@@ -82,5 +87,5 @@ def summary_markdown(result) -> str:
     head = (f"**{cfg.scenario}** — kind {cfg.kind}, source {cfg.source}, seed {cfg.seed}, "
             f"{(result.pairing or {}).get('used', '?')} motions, alpha "
             f"{', '.join(fmt(a) for a in alphas) or '–'}")
-    return "\n".join([head, "", _HEAD, "|---|---:|:---|---:|:---|---:|:---|", *table, ""]
+    return "\n".join([head, "", _HEAD, "|---|---:|:---|---:|:---|---:|", *table, ""]
                      + [f"- {n}" for n in notes])
