@@ -91,6 +91,9 @@ def test_synthetic_recording_has_no_room_or_images(tmp_path):
             "/summary"} <= set(ents)
     text = str(ents["/summary"]["TextDocument:text"])
     assert "| method |" in text and "dqopt" in text
+    from simcalib.report.rerun.run import summary_of
+    md = summary_of(out / "recording.rrd")
+    assert md.startswith("**line**") and "- verdict [" in md
     assert json.loads((out / "recording_view.json").read_text())["kind"] == "synthetic"
 
 

@@ -14,6 +14,7 @@ scene alone (blueprint files ``.rbl`` that maximise one view). Checks, each fail
 of the report:
 
 * no pane of the default layout says "No data available" (OCR with tesseract);
+* every verdict line of the summary pane is read whole (not cut off at the pane's edge);
 * the close-up shows a label for every successful estimate (OCR of the close-up shot);
 * simulated runs: the scene is framed on the room/platform (the scene shot is not a speck
   in an empty void: at least ``MIN_SCENE_FILL`` of its pixels differ from the background;
@@ -210,6 +211,11 @@ def check_recording(run_dir: Path, out_dir: Path, scenario: str | None = None) -
         text = ocr_text(rep.shots["layout"])
         if "nodataavailable" in _norm(text) or "no data available" in text.lower():
             rep.problems.append("a pane says 'No data available'")
+        from simcalib.report.rerun.run import summary_of
+        verdicts = "\n".join(ln for ln in summary_of(rrd).splitlines()
+                              if ln.startswith("- verdict ["))
+        rep.problems += [f"summary line not read whole (cut off?): {ln[:60]!r}"
+                         for ln in cut_lines(text, verdicts)]
         close = ocr_text(rep.shots["closeup"], bright_text=True)
         for label, s in (results.get("solvers") or {}).items():
             if s.get("X") is not None and not text_contains(close, label):

@@ -42,7 +42,7 @@ from simcalib.report.rerun.run_scene import SceneLogging
 from simcalib.report.rerun.run_summary import summary_markdown
 from simcalib.report.rerun.worker import finish_stream, open_stream
 
-__all__ = ["RunRecorder", "SCENE_ROOTS"]
+__all__ = ["RunRecorder", "SCENE_ROOTS", "summary_of"]
 
 #: top-level entity roots of a run recording
 SCENE_ROOTS = ("world", "closeup", "errors", "pose_error", "summary")
@@ -167,3 +167,16 @@ class RunRecorder(SceneLogging, CloseupLogging, PlotLogging):
              "closeup_eye": self.closeup_eye,
              "room": None if self.room is None else [v.tolist() for v in self.room]},
             indent=1))
+
+
+def summary_of(rrd) -> str:
+    """The summary pane's markdown of a run recording, read back from the file."""
+    from rerun.chunk import RrdReader
+    for ch in RrdReader(str(rrd)).store().stream():
+        if str(ch.entity_path) == "/summary":
+            rb = ch.to_record_batch()
+            for name in rb.schema.names:
+                if name.startswith("TextDocument:text"):
+                    v = rb.column(name).to_pylist()[0]
+                    return str(v[0] if isinstance(v, list) else v)
+    return ""
