@@ -246,6 +246,13 @@ def parse_file_args(args):
     return parse_options(rest), platform, opts
 
 
+def _prestart_recording(opts: dict) -> None:
+    """rerun's import (the recording's worker) overlaps the advice."""
+    if opts.get("recording", True):
+        from simcalib.report.rerun.worker import prestart_worker
+        prestart_worker()
+
+
 def main_files(args: list[str]) -> int:
     """``advise a=PATH [b=PATH] platform=... output=DIR``: advice for recorded pose files."""
     import numpy as np
@@ -254,6 +261,7 @@ def main_files(args: list[str]) -> int:
     from simcalib.pipeline.calibrate import calibrate
     from simcalib.solvers.kernels.mode import prepare_kernels
     copts, platform, opts = parse_file_args(args)
+    _prestart_recording(opts)
     with prepare_kernels().context():
         r, assessment = calibrate(copts)
     mask = np.asarray(r.robust.inlier_mask, dtype=bool)
@@ -289,6 +297,7 @@ def main(args: list[str]) -> int:
     if any(a.partition("=")[0].strip() == "a" and "=" in a for a in args):
         return main_files(args)
     scenario, overrides, opts = parse_args(args)
+    _prestart_recording(opts)
     from simcalib.pipeline.scenario import load_config
     cfg = load_config(scenario, list(overrides))
     from simcalib.studies.advise.advisor import check_advisable
