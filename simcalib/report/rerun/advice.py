@@ -34,7 +34,7 @@ from simcalib.report.rerun.common import (
     orbital_eye,
     panel_tail,
 )
-from simcalib.report.rerun.labels import place_labels
+from simcalib.report.rerun.labels import layout_labels
 from simcalib.report.rerun.worker import finish_stream, open_stream, worker_pays_off
 
 __all__ = ["record_advice", "record_recorded_advice", "advice_blueprint", "advice_eye",
@@ -58,15 +58,15 @@ def advice_eye(points) -> dict:
 
 
 def _stop_labels(eye, stops: dict) -> list[tuple]:
-    """``(anchor, placed point, text)`` of one label per stop: at the stop of the first
+    """``(anchor, placed point, leader end, text)`` of one label per stop: at the stop of the first
     camera, laid out so that no two labels overlap on the view's screen (both cameras'
     stops are dots that no label covers)."""
     cams = list(stops)
     first = stops[cams[0]]
     items = [(first[k, :3, 3], [f"stop {k + 1}"]) for k in range(len(first))]
     others = [T[:3, 3] for c in cams[1:] for T in stops[c]]
-    placed = place_labels(eye, items, aspect=VIEW_ASPECT, avoid=others)
-    return [(a, p, lines[0]) for (a, lines), p in zip(items, placed)]
+    placed = layout_labels(eye, items, aspect=VIEW_ASPECT, avoid=others)
+    return [(a, p, end, lines[0]) for (a, lines), (p, end) in zip(items, placed)]
 
 
 def _log_camera(rec, rr, cam, T_recorded, ref, Tp) -> None:
@@ -88,9 +88,9 @@ def _log_camera(rec, rr, cam, T_recorded, ref, Tp) -> None:
 
 
 def _log_labels(rec, rr, labels, scale: float) -> None:
-    for k, (anchor, p, text) in enumerate(labels):
-        # dim: a leader crossing its own text must not hide a letter
-        leader = rr.LineStrips3D([[anchor, p]], colors=(110, 110, 120), radii=0.001 * scale)
+    for k, (anchor, p, end, text) in enumerate(labels):
+        # from the stop to the label's nearest edge (never across the text), dim
+        leader = rr.LineStrips3D([[anchor, end]], colors=(110, 110, 120), radii=0.001 * scale)
         rec.log(f"world/advice/labels/{k + 1}", rr.Points3D(
             [p], radii=0.002 * scale, colors=LABEL_COLOR, labels=[text]), leader, static=True)
 

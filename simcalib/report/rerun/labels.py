@@ -12,7 +12,8 @@ import math
 
 import numpy as np
 
-__all__ = ["place_labels", "layout_boxes", "screen_basis", "project", "LINE_H", "CHAR_W", "PAD",
+__all__ = ["place_labels", "layout_labels", "layout_boxes", "screen_basis", "project",
+           "LINE_H", "CHAR_W", "PAD",
            "FOV_TAN", "PANE_ASPECT", "label_size"]
 
 FOV_TAN = math.tan(math.radians(55.0) / 2)
@@ -104,14 +105,16 @@ def _onto_sphere(pos, ray, z, max_norm) -> np.ndarray:
     return pos + (max(roots) if roots else max(-bb / aa, 1e-3)) * ray
 
 
-def place_labels(eye: dict, items, max_norm: float | None = None,
-                 aspect: float = PANE_ASPECT, avoid=()) -> list[np.ndarray]:
-    """3D positions for labels so that none overlaps another on the screen of ``eye``.
+def layout_labels(eye: dict, items, max_norm: float | None = None,
+                  aspect: float = PANE_ASPECT, avoid=()) -> list[tuple]:
+    """``(point, attach)`` per label: the 3D point to log the label at, and where a leader
+    line from its anchor should end — the point of the label's box nearest the anchor (a
+    leader to ``point``, the top of the text, would cross a label placed above it).
 
     ``items``: ``(anchor (3,), lines)``. Each label is a box of its text's size in the
     viewer (:func:`label_size`) that the viewer centres horizontally just below its point;
     the boxes are laid out by :func:`layout_boxes` inside a pane of ``aspect`` (width over
-    height), clear of the dots of ``avoid`` (3D points no label may cover). The point is
+    height), clear of the dots of ``avoid`` (3D points no label may cover). Both points are
     put on the anchor's viewing depth, or nearer the eye if that would leave the sphere of
     radius ``max_norm`` (None: no bound)."""
     pos, f, r, u = screen_basis(eye)
@@ -119,7 +122,16 @@ def place_labels(eye: dict, items, max_norm: float | None = None,
     boxes = layout_boxes([xy for xy, _ in anchors], [label_size(lines) for _, lines in items],
                          aspect, [project(eye, p)[0] for p in avoid])
     out = []
-    for (xy, z), b in zip(anchors, boxes):
+    for ((ax, ay), z), b in zip(anchors, boxes):
         sx, sy = 0.5 * (b[0] + b[2]), b[1] - 0.005   # text centred just below its point
-        out.append(_onto_sphere(pos, f + sx * r - sy * u, z, max_norm))
+        cx, cy = float(np.clip(ax, b[0], b[2])), float(np.clip(ay, b[1], b[3]))
+        out.append((_onto_sphere(pos, f + sx * r - sy * u, z, max_norm),
+                    _onto_sphere(pos, f + cx * r - cy * u, z, max_norm)))
     return out
+
+
+def place_labels(eye: dict, items, max_norm: float | None = None,
+                 aspect: float = PANE_ASPECT, avoid=()) -> list[np.ndarray]:
+    """3D points for labels so that none overlaps another on the screen of ``eye`` (the
+    ``point`` of :func:`layout_labels`)."""
+    return [p for p, _ in layout_labels(eye, items, max_norm, aspect, avoid)]

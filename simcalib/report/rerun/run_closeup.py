@@ -23,7 +23,7 @@ from simcalib.report.rerun.common import (
     orbital_eye,
     wrap,
 )
-from simcalib.report.rerun.labels import place_labels
+from simcalib.report.rerun.labels import layout_labels
 
 __all__ = ["CloseupLogging", "closeup_bound_m"]
 
@@ -153,12 +153,12 @@ class CloseupLogging:
         """The labels at their places on the close-up's screen, with a leader line to what
         each names when it had to move away."""
         rr = self.rr
-        placed = place_labels(self.closeup_eye, [(a, lines) for _, a, lines, _ in labels],
-                              max_norm=1.4 * bound)
-        for (key, anchor, lines, color), p in zip(labels, placed):
-            leader = None
+        placed = layout_labels(self.closeup_eye, [(a, lines) for _, a, lines, _ in labels],
+                               max_norm=1.4 * bound)
+        for (key, anchor, lines, color), (p, end) in zip(labels, placed):
+            leader = None   # to the label's nearest edge (never across the text)
             if np.linalg.norm(p - anchor) > 0.2 * L:
-                leader = rr.LineStrips3D([[anchor, p]], colors=color, radii=0.006 * L)
+                leader = rr.LineStrips3D([[anchor, end]], colors=color, radii=0.006 * L)
             self.rec.log(f"closeup/labels/{key}", *[a for a in (rr.Points3D(
                 [p], radii=0.02 * L, colors=LABEL_COLOR, labels=["\n".join(lines)]), leader)
                 if a is not None], static=True)
