@@ -27,7 +27,8 @@ from pathlib import Path
 import numpy as np
 
 from simcalib.geometry import quat_from_matrix
-from simcalib.report.rerun.common import CAMERA_COLORS, eye_controls, orbital_eye, panel_tail
+from simcalib.report.rerun.common import (CAMERA_COLORS, LABEL_COLOR, eye_controls, orbital_eye,
+                                          panel_tail)
 from simcalib.report.rerun.labels import layout_labels
 from simcalib.report.rerun.worker import finish_stream, open_stream, worker_pays_off
 
@@ -85,11 +86,10 @@ def _log_labels(rec, rr, labels, scale: float) -> None:
     for k, (anchor, p, end, text) in enumerate(labels):
         # from the stop to the label's nearest edge (never across the text), dim
         leader = rr.LineStrips3D([[anchor, end]], colors=(110, 110, 120), radii=0.001 * scale)
-        # the label's point in the background's colour: a white dot just above the text
-        # reads as part of it (OCR read "stop 5" as "stop i)")
+        # the label's point without a size: its dot just above the text read as part of
+        # it (OCR read "stop 5" as "stop i)"); the text takes the point's colour
         rec.log(f"world/advice/labels/{k + 1}", rr.Points3D(
-            [p], radii=0.0005 * scale, colors=ADVICE_BACKGROUND, labels=[text]), leader,
-            static=True)
+            [p], radii=0.0, colors=LABEL_COLOR, labels=[text]), leader, static=True)
 
 
 def _log_predicted_std(rec, rr, before, after) -> None:
