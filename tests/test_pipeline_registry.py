@@ -187,16 +187,16 @@ def test_each_run_gets_its_own_recording_id(tmp_path):
 def test_overlays_are_logged_only_with_the_image_of_their_own_frame():
     from types import SimpleNamespace
 
-    from simcalib.report.rerun_log import _iter_visual_log
+    from simcalib.report.rerun.run_scene import iter_visual_log
     frames = [SimpleNamespace(frame_index=k, ids=np.array([k]),
                               corners_px=np.full((1, 4, 2), float(k))) for k in range(10)]
     log = SimpleNamespace(frames={"cam_a": frames},
                           images_jpeg={"cam_a": {k: b"jpeg%d" % k for k in (0, 4, 8)}})
-    got = list(_iter_visual_log(log, SimpleNamespace(max_images=150)))
+    got = list(iter_visual_log(log, SimpleNamespace(max_images=150)))
     assert [g[1] for g in got] == [0, 4, 8]
     for cam, frame, image, corners, ids in got:
         assert image == b"jpeg%d" % frame and np.all(corners == frame) and ids[0] == frame
-    got = list(_iter_visual_log(log, SimpleNamespace(max_images=2)))
+    got = list(iter_visual_log(log, SimpleNamespace(max_images=2)))
     assert [g[1] for g in got] == [0, 8]
 
 

@@ -1,13 +1,15 @@
 """What the console table and results.json say about numbers that are not measurements
-(simcalib.report.results), and the TUM files simcalib writes."""
+(simcalib.report.directions, rendered by simcalib.report.results and .console), and the TUM
+files simcalib writes."""
 
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
+from simcalib.report import directions
 from simcalib.report import results as reports
-from simcalib.report.console import _verdict_cell, summary_table
+from simcalib.report.console import summary_table
 from simcalib.pipeline.state import SolverResult
 from simcalib.solvers.diagnostics.uncertainty import Direction, direction_state
 
@@ -49,11 +51,11 @@ def test_projected_out_translation_error_is_a_dash_with_its_reason():
                 undetermined_directions=tuple(_direction(axis=a) for a in np.eye(3)))
     table = _table(s)
     assert "e-15" not in table
-    assert f" {reports.NOT_MEASURED} " in _row(table, "dqopt")
-    assert reports.REASON_ALL_PROJECTED in table
+    assert f" {directions.NOT_MEASURED} " in _row(table, "dqopt")
+    assert directions.REASON_ALL_PROJECTED in table
     entry = reports.solver_entry(s)
     assert entry["translation_error_determined_m"] is None
-    assert entry["translation_error_determined_reason"] == reports.REASON_ALL_PROJECTED
+    assert entry["translation_error_determined_reason"] == directions.REASON_ALL_PROJECTED
 
 
 def test_a_partly_projected_error_is_still_a_measurement():
@@ -73,11 +75,11 @@ def test_an_infinite_sigma_is_a_dash_with_its_reason():
                 covariance=cov, undetermined_directions=(_direction(reason="undetermined"),))
     table = _table(s)
     row = _row(table, "dqopt")
-    assert f"± {reports.NOT_MEASURED}" in row and "inf" not in row
-    assert reports.REASON_SIGMA_INFINITE in table
+    assert f"± {directions.NOT_MEASURED}" in row and "inf" not in row
+    assert directions.REASON_SIGMA_INFINITE in table
     entry = reports.solver_entry(s)
     assert entry["sigma_translation_m"] == float("inf")   # written as null by write_json
-    assert entry["sigma_translation_reason"] == reports.REASON_SIGMA_INFINITE
+    assert entry["sigma_translation_reason"] == directions.REASON_SIGMA_INFINITE
     assert entry["sigma_rotation_reason"] is None
 
 
@@ -106,7 +108,7 @@ def test_fixed_by_prior_and_worst_state_first_in_the_verdict_cell():
     s = _solver(prior={"a": 1.0, "b": 1.0}, degenerate=True, verdict="undetermined",
                 covariance=np.diag([1e-4] * 4 + [np.inf, 1e-4]),
                 undetermined_directions=(fixed, free))
-    cell = _verdict_cell(s)
+    cell = directions.solver_view(s).verdict_cell()
     assert cell == "undetermined: translation y; fixed by the prior: translation z"
 
 
@@ -121,7 +123,7 @@ def test_write_tum_starts_with_the_simcalib_signature(tmp_path):
 @pytest.mark.parametrize("value", [None, float("nan")])
 def test_missing_determined_error_stays_missing(value):
     s = _solver(translation_error_determined_m=value)
-    assert reports.determined_translation(s) == (value, None)
+    assert directions.determined_translation(s) == (value, None)
 
 
 def test_progress_reports_frames_within_the_streams_stage(tmp_path, capsys, gl):

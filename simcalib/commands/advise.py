@@ -247,6 +247,13 @@ def parse_file_args(args):
     return parse_options(rest), platform, opts
 
 
+def _prestart_recording(opts: dict) -> None:
+    """rerun's import (the recording's worker) overlaps the advice."""
+    if opts.get("recording", True):
+        from simcalib.report.rerun.worker import prestart_worker
+        prestart_worker()
+
+
 def main_files(args: list[str]) -> int:
     """``advise a=PATH [b=PATH] platform=... output=DIR``: advice for recorded pose files."""
     import numpy as np
@@ -255,6 +262,7 @@ def main_files(args: list[str]) -> int:
     from simcalib.pipeline.calibrate import calibrate
     from simcalib.solvers.kernels.mode import prepare_kernels
     copts, platform, opts = parse_file_args(args)
+    _prestart_recording(opts)
     with prepare_kernels().context():
         r, assessment = calibrate(copts)
     mask = np.asarray(r.robust.inlier_mask, dtype=bool)
@@ -275,9 +283,9 @@ def main_files(args: list[str]) -> int:
     out_dir.mkdir(parents=True, exist_ok=True)
     path = out_dir / "advice.json"
     if opts["recording"]:
-        from simcalib.report.rerun_log import record_recorded_advice
+        from simcalib.report.rerun.advice import record_recorded_advice
         out["recording"] = str(record_recorded_advice(out_dir / "advice.rrd", r.synced.T_a,
-                                                      adv))
+                                                      adv, out))
     path.write_text(json.dumps(out, indent=1, allow_nan=False))
     print_recorded_table(out)
     print(f"wrote {path}" + (f", {out['recording']}" if opts["recording"] else ""))
@@ -293,6 +301,7 @@ def main(args: list[str]) -> int:
     if any(a.partition("=")[0].strip() == "a" and "=" in a for a in args):
         return main_files(args)
     scenario, overrides, opts = parse_args(args)
+    _prestart_recording(opts)
     from simcalib.pipeline.scenario import load_config
     cfg = load_config(scenario, list(overrides))
     from simcalib.studies.advise.advisor import check_advisable
@@ -315,8 +324,8 @@ def main(args: list[str]) -> int:
     path = out_dir / "advice.json"
     path.write_text(json.dumps(out, indent=1, allow_nan=False))
     if opts["recording"]:
-        from simcalib.report.rerun_log import record_advice
-        out["recording"] = str(record_advice(out_dir / "advice.rrd", base, adv))
+        from simcalib.report.rerun.advice import record_advice
+        out["recording"] = str(record_advice(out_dir / "advice.rrd", base, adv, out))
         path.write_text(json.dumps(out, indent=1, allow_nan=False))
     print_table(out)
     print(f"wrote {path}" + (f", {out['recording']}" if opts["recording"] else ""))

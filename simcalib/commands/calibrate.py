@@ -45,6 +45,13 @@ def help_text() -> str:
                         keys="\n".join(describe_keys(CalibrateOptions)))
 
 
+def _recording_off(args) -> bool:
+    """Whether the arguments turn the recording off (read before they are parsed: the
+    recording worker starts first; a worker started for nothing is stopped)."""
+    return any(a.replace(" ", "").lower() in ("recording=false", "recording=0", "recording=no",
+                                              "recording=off") for a in args)
+
+
 @command('calibrate', summary='calibrate X from two recorded pose files (offset, outliers)',
          usage='calibrate a=PATH b=PATH output=DIR [key=value ...]')
 def main(args: list[str]) -> int:
@@ -60,11 +67,17 @@ def main(args: list[str]) -> int:
             raise UsageError(f"list_bag=FILE takes no other keys; received {args}")
         print(list_bag(listing[0].split("=", 1)[1]), end="")
         return 0
+    if not _recording_off(args):   # rerun's import (0.4-1 s) overlaps everything else,
+        from simcalib.report.rerun.worker import prestart_worker   # parsing included
+        prestart_worker()
     from simcalib.pipeline.calibrate import calibrate, parse_options, write_outputs
     from simcalib.report.calibration import format_report
     from simcalib.report.outputs import check_output_dir
     opts = parse_options(args)
     check_output_dir(opts.output, opts.overwrite)   # exit 2, before any work
+    if not opts.recording:
+        from simcalib.report.rerun.worker import cancel_prestarted_worker
+        cancel_prestarted_worker()
     from simcalib.solvers.kernels.mode import INTERPRETED_NOTE, prepare_kernels
     plan = prepare_kernels()        # the first use on an installation: interpreted kernels
     with plan.context():            # (the report's diagnostics may solve too)

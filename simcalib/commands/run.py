@@ -81,7 +81,7 @@ def main(args: list[str]) -> int:
         return 0
     scenario, overrides, flags = parse_args(args)
     if "--dry-run" not in flags:   # rerun's import overlaps loading the configuration too
-        from simcalib.report.rerun_log import prestart_worker
+        from simcalib.report.rerun.worker import prestart_worker
         prestart_worker()
     from simcalib.pipeline.scenario import load_config
     from simcalib.config.engine import to_dict

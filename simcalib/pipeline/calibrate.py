@@ -254,12 +254,13 @@ class Assessment:
     std_rot_deg: tuple | None = None
     std_trans_m: tuple | None = None
     covariance: tuple | None = None
-    undetermined: tuple = ()
+    undetermined: tuple = ()       # each flagged direction in words (state and sigma)
     unverified: bool = False
     plausibility: object = None     # simcalib.estimation.plausibility.Plausibility
     #: signs that the result should not be trusted even when X is determined (sentences)
     warnings: tuple = ()
-    directions: tuple = ()          # the verdict's flagged Directions
+    #: the flagged directions' records (simcalib.report.directions.direction_record)
+    directions: tuple = ()
 
     @property
     def implausible(self) -> bool:
@@ -286,14 +287,18 @@ def assess(r) -> Assessment:
     if solution.uncertainty is None or r.covariance is None:
         return Assessment("FAILED", True, "the residuals of the estimate are not finite; "
                           "no uncertainty", "solver")
+    from simcalib.report.directions import direction_record, direction_words
     v = judge(solution, r.covariance, r.covariance_determined, r.consistency, r.weighting)
+    records = tuple(direction_record(d) for d in v.directions)
+    words = tuple(direction_words(None, d) for d in records)
     fin = lambda vals: tuple(float(x) if math.isfinite(x) else None for x in vals)  # noqa
     source = _source(r.consistency)
     plaus = check_plausibility(r.X, r.synced.T_a, r.synced.T_b, r.conventions)
-    return Assessment(v.verdict, v.degenerate, v.summary(), source, fin(v.std_deg),
-                      fin(v.std_m), tuple(fin(row) for row in np.asarray(r.covariance)),
-                      tuple(d.summary() for d in v.directions), v.unverified, plaus,
-                      tuple(warnings(r)) + tuple(plaus.warnings), tuple(v.directions))
+    return Assessment(v.verdict, v.degenerate, "; ".join(words + tuple(v.notes)), source,
+                      fin(v.std_deg), fin(v.std_m),
+                      tuple(fin(row) for row in np.asarray(r.covariance)), words,
+                      v.unverified, plaus, tuple(warnings(r)) + tuple(plaus.warnings),
+                      records)
 
 
 def _source(check) -> str:
@@ -378,7 +383,7 @@ def write_outputs(opts: CalibrateOptions, r, a: Assessment,
         translation_error_m=trans, X=r.X, synced_time_s=sp.time_s, synced_T_world_a=sp.T_a,
         synced_T_world_b=sp.T_b)
     if opts.recording:
-        from simcalib.report.rerun_log import record_calibration
+        from simcalib.report.rerun.calibration import record_calibration
         record_calibration(out / "recording.rrd", r, report, console=format_report(report))
     return report
 

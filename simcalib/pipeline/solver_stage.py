@@ -136,14 +136,11 @@ def _verdict(sol) -> dict:
     if u is None:
         return {"degenerate": None, "verdict": "unknown", "undetermined": (
             "uncertainty unavailable (the residuals of X are not finite)",)}
+    from simcalib.report.directions import direction_record
     words, dirs, axes = [], [], []
     for d in u.directions:
         words.append(d.summary())
-        dirs.append({"kind": d.kind, "reason": d.reason, "description": d.description,
-                     "rotation_axis_a": np.asarray(d.rotation_axis_a, float).tolist(),
-                     "translation_dir_a": np.asarray(d.translation_dir_a, float).tolist(),
-                     "std_deg": float(d.std_deg), "std_m": float(d.std_m),
-                     "determined_by_prior": bool(d.determined_by_prior)})
+        dirs.append(direction_record(d))   # its state and sigma decided once, with it
         if d.kind == "translation" and not d.determined_by_prior:
             axes.append(np.asarray(d.translation_dir_a, dtype=np.float64))
     cov = np.asarray(u.covariance, dtype=np.float64)

@@ -17,7 +17,7 @@ streams, pairs and evaluation here, the solvers in :mod:`simcalib.pipeline.solve
 none of them branches on ``kind`` or ``source`` (the ground truth comes from
 :func:`simcalib.sources.build_truth`, the measurements from the registered
 :mod:`simcalib.sources`), and none of them writes the recording: after each stage,
-:meth:`simcalib.report.rerun_log.RunRecorder.record_stage` logs what it produced.
+:meth:`simcalib.report.rerun.run.RunRecorder.record_stage` logs what it produced.
 """
 
 from __future__ import annotations
@@ -146,16 +146,16 @@ def _prepared_output(cfg: ScenarioConfig) -> Path:
 
 
 def _recorder(cfg: ScenarioConfig, out: Path):
-    """The run's :class:`~simcalib.report.rerun_log.RunRecorder`, or None without a
+    """The run's :class:`~simcalib.report.rerun.run.RunRecorder`, or None without a
     recording (a worker process started ahead for it is then cancelled)."""
     # the worker hides rerun's import: a process that imported it already logs itself
     background = cfg.recording.background and "rerun" not in sys.modules
-    if not (cfg.recording.enabled and background) and "simcalib.report.rerun_log" in sys.modules:
-        # a worker `simcalib run` started ahead would only compete for the CPU
-        sys.modules["simcalib.report.rerun_log"].cancel_prestarted_worker()
+    worker = sys.modules.get("simcalib.report.rerun.worker")
+    if worker is not None and not (cfg.recording.enabled and background):
+        worker.cancel_prestarted_worker()   # one `simcalib run` started would only compete
     if not cfg.recording.enabled:
         return None
-    from simcalib.report.rerun_log import RunRecorder
+    from simcalib.report.rerun.run import RunRecorder
     return RunRecorder(out / "recording.rrd", cfg, background=background)
 
 

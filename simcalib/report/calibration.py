@@ -11,7 +11,7 @@ import numpy as np
 
 from simcalib.errors import EXIT_DEGENERATE, EXIT_OK
 
-__all__ = ["SCHEMA", "report_dict", "format_report"]
+__all__ = ["SCHEMA", "report_dict", "format_report", "sigma_line", "verdict_line"]
 
 SCHEMA = "simcalib.calibration/1"
 
@@ -37,6 +37,21 @@ def _stream(s) -> dict:
             "sample_index_as_time": s.synthetic_time, "repairs": dict(s.repairs)}
 
 
+def _uncertainty(a) -> dict:
+    return {"source": a.source, "std_rotation_deg": a.std_rot_deg,
+            "std_translation_m": a.std_trans_m,
+            # why an axis' 1-sigma is null (not a number), else null
+            "std_reason": _std_reason(a), "covariance": a.covariance,
+            "covariance_order": "(wx, wy, wz, vx, vy, vz), rad and m, frame a"}
+
+
+def _verdict(a) -> dict:
+    return {"verdict": a.verdict, "degenerate": a.degenerate,
+            "directions": list(a.undetermined),
+            # each flagged direction: kind, axes, state and sigma (the words above)
+            "direction_details": [dict(d) for d in a.directions], "message": a.summary}
+
+
 def report_dict(opts, r, a, solver_kernels: str = "compiled") -> dict:
     """The content of ``calibration.json`` (schema :data:`SCHEMA`, docs/calibrate.md) of the
     calibration ``r`` (:class:`simcalib.estimation.path.StreamCalibration`) with options
@@ -55,11 +70,8 @@ def report_dict(opts, r, a, solver_kernels: str = "compiled") -> dict:
         "X": _pose(r.X),
         "frames": "X = T_a_b: pose of sensor b in sensor a (p_a = X p_b); metres, "
                   "quaternion (x, y, z, w)",
-        "uncertainty": {"source": a.source, "std_rotation_deg": a.std_rot_deg,
-                        "std_translation_m": a.std_trans_m, "covariance": a.covariance,
-                        "covariance_order": "(wx, wy, wz, vx, vy, vz), rad and m, frame a"},
-        "verdict": {"verdict": a.verdict, "degenerate": a.degenerate,
-                    "directions": list(a.undetermined), "message": a.summary},
+        "uncertainty": _uncertainty(a),
+        "verdict": _verdict(a),
         "time_offset": {"offset_s": off.offset_s, "uncertainty_s": _fin(off.uncertainty_s),
                         "estimated": off.decision == "estimated",
                         "decision": off.decision, "evidence": _fin(off.evidence),
@@ -107,6 +119,32 @@ def report_dict(opts, r, a, solver_kernels: str = "compiled") -> dict:
 
 
 
+def _std_reason(a) -> str | None:
+    from simcalib.report.directions import REASON_AXIS_INFINITE
+    std = list(a.std_rot_deg or ()) + list(a.std_trans_m or ())
+    return REASON_AXIS_INFINITE if any(x is None for x in std) and std else None
+
+
+def sigma_line(u: dict) -> str:
+    """The 1-sigma per axis of calibration.json's ``uncertainty`` in words: every report
+    of a calibration (console, the recording's summary) says it so; an axis with no
+    finite 1-sigma is :data:`~simcalib.report.directions.NOT_MEASURED`."""
+    from simcalib.report.directions import NOT_MEASURED, axis_sigmas
+    if not u.get("std_rotation_deg"):
+        return "uncertainty (1 sigma, frame a): not available"
+    rot = ", ".join(axis_sigmas(u["std_rotation_deg"], 1.0, 4))
+    tr = ", ".join(axis_sigmas(u["std_translation_m"], 1e3, 2))
+    return (f"uncertainty (1 sigma, frame a): rotation [{rot}] deg, translation [{tr}] mm"
+            + (f" ({NOT_MEASURED}: {u['std_reason']})" if u.get("std_reason") else ""))
+
+
+def verdict_line(v: dict, bold: bool = False) -> str:
+    """``verdict: WORD - <each flagged direction: state (sigma)>; <notes>`` (``bold``: the
+    words up to the verdict in markdown bold)."""
+    head = f"verdict: {v['verdict'].upper()}"
+    return (f"**{head}**" if bold else head) + (f" - {v['message']}" if v["message"] else "")
+
+
 def _vec(v, scale=1.0, digits=3):
     if v is None:
         return "n/a"
@@ -125,9 +163,8 @@ def format_report(rep: dict) -> str:
         f"  translation (m):        {_vec(rep['X']['translation_m'], digits=5)}",
         f"  quaternion (x,y,z,w):   {_vec(rep['X']['quaternion_xyzw'], digits=6)}",
         f"  rotation vector (deg):  {_vec(rep['X']['rotvec_deg'], digits=3)}",
-        f"uncertainty (1 sigma, frame a): rotation {_vec(u['std_rotation_deg'], digits=4)} deg,"
-        f" translation {_vec(u['std_translation_m'], 1e3, 2)} mm  [{u['source']}]",
-        f"verdict: {v['verdict'].upper()}" + (f" - {v['message']}" if v["message"] else ""),
+        f"{sigma_line(u)}  [{u['source']}]",
+        verdict_line(v),
         f"sampling: {rep['sampling']['reason']}",
         f"motions: {rep['motions']['policy']} ({rep['motions']['reason']})",
         f"time offset t_b - t_a: {1e3 * off['offset_s']:.2f}"

@@ -1,90 +1,143 @@
 """The console table of a run: each solver's error +- predicted sigma, its verdict and the
-footnotes for every number that is not a measurement; rendered from the same entries as
-results.json (:mod:`simcalib.report.results`), so the two cannot disagree.
+footnotes for every number that is not a measurement; rendered from each solver's
+:class:`~simcalib.report.directions.SolverView`, as results.json and the recording's
+summary pane are, so that none can disagree with another.
 """
 
 from __future__ import annotations
 
-import math
+from simcalib.report.directions import (determined_cell, fmt_number, not_measured_notes,
+                                        pm_cell, solver_view)
 
-import numpy as np
+__all__ = ["summary_table", "solver_rows", "direction_lines", "unknown_lines"]
 
-from simcalib.report.results import (NOT_MEASURED, REASON_ALL_PROJECTED, REASON_SIGMA_INFINITE,
-                                     _sigma_reason, determined_translation, direction_state_of)
-
-__all__ = ["summary_table"]
-
-def _fmt(v, scale=1.0, digits=3):
-    if v is None or (isinstance(v, float) and not math.isfinite(v)):
-        return "-"
-    v = v * scale
-    if v != 0 and (abs(v) >= 1e5 or abs(v) < 10 ** -digits):
-        return f"{v:.2e}"
-    return f"{v:.{digits}f}"
+_fmt = fmt_number
 
 
-def _pm(err, sigma, scale, digits):
-    """``error ± predicted sigma`` (sigma :data:`NOT_MEASURED` when infinite: footnoted)."""
-    e = _fmt(err, scale, digits)
-    if sigma is None:
-        return e
-    sg = NOT_MEASURED if not math.isfinite(sigma) else _fmt(sigma, scale, digits)
-    return f"{e} ± {sg}"
+def solver_rows(result) -> list[tuple]:
+    """``(view, cells)`` per solver: its :class:`~simcalib.report.directions.SolverView`
+    and the table's cells (alpha, rotation and translation error ± sigma, determined,
+    time, verdict); a failed solver has no cells."""
+    rows = []
+    for s in result.solvers:
+        v = solver_view(s)
+        if v.failed is not None:
+            rows.append((v, None))
+            continue
+        rows.append((v, [_fmt(s.alpha, digits=3),
+                         pm_cell(s.rotation_error_deg, v.sigma_rotation_deg,
+                                 v.sigma_rotation_reason, 1.0, 3),
+                         pm_cell(s.translation_error_m, v.sigma_translation_m,
+                                 v.sigma_translation_reason, 100, 2),
+                         determined_cell(v), _fmt(s.runtime_s, 1e3, 2), v.verdict_cell()]))
+    return rows
 
 
-def _direction_tag(d: dict) -> str:
-    word = d["kind"] if d["kind"] != "coupled" else "rot+trans"
-    ax = d["translation_dir_a"] if d["kind"] == "translation" else d["rotation_axis_a"]
-    i = int(np.argmax(np.abs(ax)))
-    return f"{word} {'xyz'[i]}" if abs(ax[i]) > 0.9 else word
+def direction_lines(views) -> list[tuple[list[str], list[str]]]:
+    """``(labels, sentences)``: the flagged directions of the solvers that share them, each
+    in its words (state and the 1-sigma that applies)."""
+    groups: dict[tuple, list[str]] = {}
+    for v in views:
+        if v.failed is None and v.directions:
+            groups.setdefault(tuple(d["words"] for d in v.directions), []).append(v.label)
+    return [(labels, list(words)) for words, labels in groups.items()]
 
 
-def _verdict_cell(s) -> str:
-    """The flagged directions grouped by their state (worst first), each state in the words
-    of ``Direction.summary`` (:func:`direction_state_of`)."""
-    from simcalib.solvers.diagnostics.uncertainty import DIRECTION_STATES
-    if s.verdict in ("determined", "unknown", "FAILED") or not s.undetermined_directions:
-        return s.verdict
-    by_state: dict[str, list[str]] = {}
-    for d in s.undetermined_directions:
-        tags = by_state.setdefault(direction_state_of(s, d), [])
-        if _direction_tag(d) not in tags:
-            tags.append(_direction_tag(d))
-    order = sorted(by_state, key=lambda st: -DIRECTION_STATES.index(st)
-                   if st in DIRECTION_STATES else 1)
-    parts, shown = [], 0
-    for st in order:
-        tags = by_state[st][:max(0, 3 - shown)]
-        shown += len(tags)
-        if tags:
-            parts.append(f"{st}: {', '.join(tags)}")
-    hidden = sum(len(t) for t in by_state.values()) - shown
-    return "; ".join(parts) + (f", +{hidden}" if hidden else "")
+def unknown_lines(views) -> list[str]:
+    """Why a solver has no verdict (its uncertainty could not be computed)."""
+    return [f"no verdict [{v.label}]: {v.unknown_reason}" for v in views
+            if v.failed is None and v.unknown_reason]
 
 
-def _determined_cell(s) -> str:
-    value, reason = determined_translation(s)
-    return NOT_MEASURED if reason else _fmt(value, 100, 2)
+_HEAD = ["method", "alpha", "rot err ± σ [deg]", "trans err ± σ [cm]", "determined [cm]",
+         "time [ms]", "verdict"]
 
 
-def _not_measured_notes(solvers) -> list[str]:
-    """One footnote per reason a number of the table is shown as :data:`NOT_MEASURED`."""
-    ok = [s for s in solvers if s.X is not None]
-    notes = []
-    projected = [s.label for s in ok if determined_translation(s)[1]]
-    if projected:
-        notes.append(f"{NOT_MEASURED} in 'determined [cm]' [{', '.join(projected)}]: "
-                     f"{REASON_ALL_PROJECTED}")
-    infinite = [s.label for s in ok if _sigma_reason(s.sigma_rotation_deg)
-                or _sigma_reason(s.sigma_translation_m)]
-    if infinite:
-        notes.append(f"{NOT_MEASURED} as σ [{', '.join(infinite)}]: {REASON_SIGMA_INFINITE}")
-    return notes
+def _table(result, srows) -> list[str]:
+    """The title, the header and one aligned row per solver (a failed one: its reason)."""
+    rows = [[v.label, f"FAILED: {v.failed}"] if c is None else [v.label, *c]
+            for v, c in srows]
+    full = [r for r in rows if len(r) == len(_HEAD)]
+    widths = [max(len(h), *(len(r[i]) for r in full)) if full else len(h)
+              for i, h in enumerate(_HEAD)]
+    widths[0] = max([widths[0]] + [len(r[0]) for r in rows])
+
+    def align(cells):
+        return "  ".join(c.ljust(w) if i in (0, len(_HEAD) - 1) else c.rjust(w)
+                         for i, (c, w) in enumerate(zip(cells, widths)))
+    line = align(_HEAD)
+    out = [f"scenario {result.config.scenario!r} (source={result.config.source}, "
+           f"seed={result.config.seed}, {result.pairing.get('used', '?')} motions)",
+           line, "-" * len(line)]
+    for r in rows:
+        out.append(align(r) if len(r) == len(_HEAD) else f"{r[0].ljust(widths[0])}  {r[1]}")
+    return out
 
 
-#: the columns of the console table
-COLUMNS = ["method", "alpha", "rot err ± σ [deg]", "trans err ± σ [cm]", "determined [cm]",
-           "time [ms]", "verdict"]
+def _verdict_notes(views) -> list[str]:
+    """Each flagged direction in words, and the footnotes of every '—'."""
+    out = []
+    flagged = direction_lines(views)
+    for labels, words in flagged:
+        out.append(f"not determined within tolerance [{', '.join(labels)}]: "
+                   + "; ".join(words))
+    if flagged:
+        out.append("  -> along an undetermined direction the estimate is arbitrary (its error "
+                   "is not a measurement); 'determined [cm]' = the translation error with the "
+                   "flagged translation directions that no prior fixed projected out")
+    out += unknown_lines(views) + not_measured_notes(views)
+    return out
+
+
+def _context(result) -> list[str]:
+    """alpha and how it was chosen, the oracle alpha, the kernels' note, frames, motion
+    pairs and the pose-source errors."""
+    out = []
+    choice = next((s.alpha_choice for s in result.solvers if s.alpha_choice), None)
+    if choice:
+        out.append(f"alpha = {_fmt(choice['alpha'], digits=3)} ({choice['source']}: "
+                   f"{choice['how']})")
+    orc = [s for s in result.solvers if s.oracle]
+    if orc:
+        out.append("oracle_alpha (USES THE GROUND TRUTH, for comparison only): " + "; ".join(
+            f"{s.label} alpha {_fmt(s.oracle['oracle_alpha'], digits=3)}: "
+            f"{_fmt(s.oracle['rotation_error_deg'], digits=3)} deg / "
+            f"{_fmt(s.oracle['translation_error_m'], 100, 2)} cm" for s in orc))
+    if getattr(result, "solver_kernels", "compiled") == "interpreted":
+        from simcalib.solvers.kernels.mode import INTERPRETED_NOTE
+        out.append(INTERPRETED_NOTE)
+    fr = result.frames or {}
+    if fr.get("rendered"):
+        cams = []
+        for cam in result.camera_names:
+            c = fr.get(cam) or {}
+            reasons = ", ".join(f"{k} {v}" for k, v in (c.get("drop_reasons") or {}).items())
+            cams.append(f"{cam} used {c.get('used')}, dropped {c.get('dropped')}"
+                        + (f" ({reasons})" if reasons else ""))
+        n = {(fr.get(cam) or {}).get("frames") for cam in result.camera_names}
+        head = (f"{fr['rendered']} per camera" if len(n) == 1 else "per camera "
+                + ", ".join(f"{cam} {(fr.get(cam) or {}).get('frames')}"
+                            for cam in result.camera_names))
+        out.append(f"frames: {head}; " + "; ".join(cams))
+    p = result.pairing or {}
+    if p.get("candidate_pairs") is not None and p.get("matched") is not None:
+        out.append(f"motion pairs: {p.get('used')} used of {p.get('candidate_pairs')} "
+                   f"candidates (pre-filter dropped {p.get('dropped_translation')} for "
+                   f"translation, {p.get('dropped_rotation')} for rotation; "
+                   f"{p.get('dropped_time_diff')} datapoints for timestamp difference)")
+    if result.pose_errors:
+        parts = []
+        for cam, e in result.pose_errors.items():
+            sm = e.summary()
+            if sm["n"]:
+                parts.append(f"{cam}: median {_fmt(sm['rotation_deg']['median'], digits=3)} deg "
+                             f"/ {_fmt(sm['translation_m']['median'], 1000, 2)} mm, p95 "
+                             f"{_fmt(sm['rotation_deg']['p95'], digits=3)} deg / "
+                             f"{_fmt(sm['translation_m']['p95'], 1000, 2)} mm")
+        if parts:
+            src = next(iter(result.pose_errors.values())).source
+            out.append(f"pose error of source '{src}' vs ground truth: " + "; ".join(parts))
+    return out
 
 
 def summary_table(result) -> str:
@@ -92,129 +145,6 @@ def summary_table(result) -> str:
     FAILED rows with the reason), the flagged directions beneath, the data-chosen alpha and
     the oracle alpha (labelled: it uses the ground truth), then pose-source errors and
     pairing counts."""
-    out = [f"scenario {result.config.scenario!r} (source={result.config.source}, "
-           f"seed={result.config.seed}, {result.pairing.get('used', '?')} motions)"]
-    out += _table(_solver_rows(result.solvers))
-    out += _flagged_lines(result.solvers)
-    out += _not_measured_notes(result.solvers)
-    out += _alpha_lines(result.solvers)
-    if getattr(result, "solver_kernels", "compiled") == "interpreted":
-        from simcalib.solvers.kernels.mode import INTERPRETED_NOTE
-        out.append(INTERPRETED_NOTE)
-    out += _frames_line(result) + _pairing_line(result) + _pose_error_line(result)
-    return "\n".join(out)
-
-
-def _solver_rows(solvers) -> list[list[str]]:
-    """One row of cells per solver (:data:`COLUMNS`); a failed solver's row is its label and
-    ``FAILED: <reason>``."""
-    rows = []
-    for s in solvers:
-        if s.X is None:
-            rows.append([s.label, f"FAILED: {s.error or 'no estimate'}"])
-            continue
-        rows.append([s.label, _fmt(s.alpha, digits=3),
-                     _pm(s.rotation_error_deg, s.sigma_rotation_deg, 1.0, 3),
-                     _pm(s.translation_error_m, s.sigma_translation_m, 100, 2),
-                     _determined_cell(s),
-                     _fmt(s.runtime_s, 1e3, 2), _verdict_cell(s)])
-    return rows
-
-
-def _table(rows) -> list[str]:
-    """The header, a rule and the rows, columns aligned (first and last left, the numbers
-    right); a failed solver's reason runs past the columns."""
-    full = [r for r in rows if len(r) == len(COLUMNS)]
-    widths = [max(len(h), *(len(r[i]) for r in full)) if full else len(h)
-              for i, h in enumerate(COLUMNS)]
-    widths[0] = max([widths[0]] + [len(r[0]) for r in rows])
-    line = "  ".join(h.ljust(w) if i in (0, len(COLUMNS) - 1) else h.rjust(w)
-                     for i, (h, w) in enumerate(zip(COLUMNS, widths)))
-    out = [line, "-" * len(line)]
-    for r in rows:
-        if len(r) != len(COLUMNS):  # a failed solver: its reason instead of numbers
-            out.append(f"{r[0].ljust(widths[0])}  {r[1]}")
-            continue
-        out.append("  ".join(c.ljust(w) if i in (0, len(COLUMNS) - 1) else c.rjust(w)
-                             for i, (c, w) in enumerate(zip(r, widths))))
-    return out
-
-
-def _flagged_lines(solvers) -> list[str]:
-    """The directions not determined within tolerance, per group of solvers that share
-    them, and what that means for the error columns."""
-    undet = {}
-    for s in solvers:
-        if s.X is None or not s.degenerate:
-            continue
-        undet.setdefault(tuple(s.verdict_directions or s.undetermined), []).append(s.label)
-    out = [f"not determined within tolerance [{', '.join(labels)}]: " + "; ".join(dirs)
-           for dirs, labels in undet.items()]
-    if undet:
-        out.append("  -> along an undetermined direction the estimate is arbitrary (its error "
-                   "is not a measurement); 'determined [cm]' = the translation error with the "
-                   "flagged translation directions that no prior fixed projected out")
-    return out
-
-
-def _alpha_lines(solvers) -> list[str]:
-    """How alpha was chosen, and the oracle alpha (labelled: it uses the ground truth)."""
-    out = []
-    choice = next((s.alpha_choice for s in solvers if s.alpha_choice), None)
-    if choice:
-        out.append(f"alpha = {_fmt(choice['alpha'], digits=3)} ({choice['source']}: "
-                   f"{choice['how']})")
-    orc = [s for s in solvers if s.oracle]
-    if orc:
-        out.append("oracle_alpha (USES THE GROUND TRUTH, for comparison only): " + "; ".join(
-            f"{s.label} alpha {_fmt(s.oracle['oracle_alpha'], digits=3)}: "
-            f"{_fmt(s.oracle['rotation_error_deg'], digits=3)} deg / "
-            f"{_fmt(s.oracle['translation_error_m'], 100, 2)} cm" for s in orc))
-    return out
-
-
-def _frames_line(result) -> list[str]:
-    """Rendered frames per camera: used, dropped and why (none without rendering)."""
-    fr = result.frames or {}
-    if not fr.get("rendered"):
-        return []
-    cams = []
-    for cam in result.camera_names:
-        c = fr.get(cam) or {}
-        reasons = ", ".join(f"{k} {v}" for k, v in (c.get("drop_reasons") or {}).items())
-        cams.append(f"{cam} used {c.get('used')}, dropped {c.get('dropped')}"
-                    + (f" ({reasons})" if reasons else ""))
-    n = {(fr.get(cam) or {}).get("frames") for cam in result.camera_names}
-    head = (f"{fr['rendered']} per camera" if len(n) == 1 else "per camera "
-            + ", ".join(f"{cam} {(fr.get(cam) or {}).get('frames')}"
-                        for cam in result.camera_names))
-    return [f"frames: {head}; " + "; ".join(cams)]
-
-
-def _pairing_line(result) -> list[str]:
-    """The motion pairs used of the candidates, and what the pre-filter dropped."""
-    p = result.pairing or {}
-    if p.get("candidate_pairs") is None or p.get("matched") is None:
-        return []
-    return [f"motion pairs: {p.get('used')} used of {p.get('candidate_pairs')} "
-            f"candidates (pre-filter dropped {p.get('dropped_translation')} for "
-            f"translation, {p.get('dropped_rotation')} for rotation; "
-            f"{p.get('dropped_time_diff')} datapoints for timestamp difference)"]
-
-
-def _pose_error_line(result) -> list[str]:
-    """The pose source's errors against the ground truth per camera (median, p95)."""
-    if not result.pose_errors:
-        return []
-    parts = []
-    for cam, e in result.pose_errors.items():
-        sm = e.summary()
-        if sm["n"]:
-            parts.append(f"{cam}: median {_fmt(sm['rotation_deg']['median'], digits=3)} deg "
-                         f"/ {_fmt(sm['translation_m']['median'], 1000, 2)} mm, p95 "
-                         f"{_fmt(sm['rotation_deg']['p95'], digits=3)} deg / "
-                         f"{_fmt(sm['translation_m']['p95'], 1000, 2)} mm")
-    if not parts:
-        return []
-    src = next(iter(result.pose_errors.values())).source
-    return [f"pose error of source '{src}' vs ground truth: " + "; ".join(parts)]
+    srows = solver_rows(result)
+    return "\n".join(_table(result, srows) + _verdict_notes([v for v, _ in srows])
+                     + _context(result))

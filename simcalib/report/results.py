@@ -17,8 +17,7 @@ import numpy as np
 from simcalib.geometry import quat_from_matrix, rotvec_from_matrix
 
 __all__ = ["SCHEMA_VERSION", "TIMING_FIELDS", "results_dict", "write_json", "write_tum",
-           "extrinsics_dict", "strip_timing", "solver_entry", "determined_translation",
-           "NOT_MEASURED", "REASON_ALL_PROJECTED", "REASON_SIGMA_INFINITE"]
+           "extrinsics_dict", "strip_timing", "solver_entry"]
 
 SCHEMA_VERSION = 1
 #: keys (anywhere in results.json) that hold wall-clock durations; everything else is
@@ -69,61 +68,12 @@ def pose_dict(T: np.ndarray) -> dict:
             "rotvec_deg": np.rad2deg(rotvec_from_matrix(T[:3, :3])).tolist()}
 
 
-#: what the console shows for a number that is not a measurement (with a footnote)
-NOT_MEASURED = "—"
-#: the reasons, in the words of the console footnotes and of results.json
-REASON_ALL_PROJECTED = ("every translation direction is undetermined or poorly determined "
-                        "and was projected out: no translation error is left to measure")
-REASON_SIGMA_INFINITE = ("a direction of X is undetermined: its 1-sigma is infinite "
-                         "(no finite uncertainty to report)")
-
-
-def determined_translation(s) -> tuple[float | None, str | None]:
-    """``(translation_error_determined_m, None)``, or ``(None, reason)`` when every
-    translation direction was projected out (what is left is rounding, ~1e-15 m: not a
-    measurement)."""
-    axes = s.undetermined_translation_axes
-    if s.translation_error_determined_m is None or axes is None:
-        return s.translation_error_determined_m, None
-    axes = np.atleast_2d(np.asarray(axes, dtype=np.float64))
-    if axes.size and np.linalg.matrix_rank(axes, tol=1e-6) >= 3:
-        return None, REASON_ALL_PROJECTED
-    return s.translation_error_determined_m, None
-
-
-def _sigma_reason(sigma) -> str | None:
-    if sigma is not None and not math.isfinite(sigma):
-        return REASON_SIGMA_INFINITE
-    return None
-
-
-def direction_state_of(s, d: dict) -> str:
-    """The state of flagged direction ``d`` (an entry of ``s.undetermined_directions``) of
-    solver result ``s``, by the one rule of
-    :func:`simcalib.solvers.diagnostics.uncertainty.direction_state` (the words of
-    ``Direction.summary``): with a prior, a direction the motions leave undetermined is
-    bounded by the prior when the covariance is finite on the axes it touches."""
-    from simcalib.solvers.diagnostics.uncertainty import direction_state as state
-    if d.get("state"):
-        return str(d["state"])
-    with_prior = s.prior is not None
-    return state(d["reason"], bool(d.get("determined_by_prior")), with_prior,
-                 with_prior and _finite_along(s.covariance, d))
-
-
-def _finite_along(cov, d: dict) -> bool:
-    """True when ``cov`` (6x6, inf on undetermined axes) is finite on every axis that
-    direction ``d`` has a part along (rotation axis, translation direction; > 5 %)."""
-    if cov is None:
-        return False
-    part = np.concatenate([np.abs(d.get("rotation_axis_a", np.zeros(3))),
-                           np.abs(d.get("translation_dir_a", np.zeros(3)))])
-    var = np.diag(np.asarray(cov, dtype=np.float64))
-    return bool(np.isfinite(var[part > 0.05]).all())
-
-
 def solver_entry(s) -> dict:
-    """results.json entry of one :class:`simcalib.pipeline.state.SolverResult`."""
+    """results.json entry of one :class:`simcalib.pipeline.state.SolverResult`; what it
+    says of the directions, the sigmas and the determined error is the solver's
+    :class:`~simcalib.report.directions.SolverView`, as every report's."""
+    from simcalib.report.directions import solver_view
+    v = solver_view(s)
     return {
         "method": s.method,
         "prior": s.prior,
@@ -131,16 +81,16 @@ def solver_entry(s) -> dict:
         "X": None if s.X is None else np.asarray(s.X).tolist(),
         "rotation_error_deg": s.rotation_error_deg,
         "translation_error_m": s.translation_error_m,
-        "translation_error_determined_m": determined_translation(s)[0],
+        "translation_error_determined_m": v.determined_m,
         # why translation_error_determined_m is null (not a measurement), else null
-        "translation_error_determined_reason": determined_translation(s)[1],
+        "translation_error_determined_reason": v.determined_reason,
         "cost": s.cost,
         "runtime_s": s.runtime_s,
         "success": s.success,
         "degenerate": s.degenerate,
         "undetermined": list(s.undetermined),
-        "undetermined_directions": [dict(d) | {"state": direction_state_of(s, d)}
-                                    for d in s.undetermined_directions],
+        "undetermined_directions": [{k: x for k, x in d.items() if k not in ("tag", "words")}
+                                    for d in v.directions],
         "undetermined_translation_axes": None if s.undetermined_translation_axes is None
         else np.asarray(s.undetermined_translation_axes).tolist(),
         "singular_values": None if s.singular_values is None
@@ -156,9 +106,11 @@ def solver_entry(s) -> dict:
         "sigma_rotation_deg": s.sigma_rotation_deg,
         "sigma_translation_m": s.sigma_translation_m,
         # why sigma_rotation_deg / sigma_translation_m is null (not a number), else null
-        "sigma_rotation_reason": _sigma_reason(s.sigma_rotation_deg),
-        "sigma_translation_reason": _sigma_reason(s.sigma_translation_m),
-        "verdict": {"verdict": s.verdict, "directions": list(s.verdict_directions)},
+        "sigma_rotation_reason": v.sigma_rotation_reason,
+        "sigma_translation_reason": v.sigma_translation_reason,
+        # each flagged direction in words (a verdict "unknown" gives its reason instead)
+        "verdict": {"verdict": s.verdict, "directions": [d["words"] for d in v.directions]
+                    or list(s.verdict_directions)},
         "alpha_choice": s.alpha_choice,
         "oracle_alpha": s.oracle,
         "convergence": [dict(e) for e in s.convergence],

@@ -2,8 +2,10 @@
 
     python -m simcalib.tools.screenshots                 # planar, 3d, line -> runs/screenshots
     python -m simcalib.tools.screenshots --docs          # also refresh docs/figures/recording_*.png
+    python -m simcalib.tools.screenshots --all           # every scenario
     python -m simcalib.tools.screenshots --scenario planar --override world.duration_s=6
     python -m simcalib.tools.screenshots --calibrations --docs   # calibration recordings
+    python -m simcalib.tools.screenshots --advise        # advice recordings (scara, planar, files)
 
 Each scenario is run (``python -m simcalib run``), its ``recording.rrd`` opened with
 ``rerun FILE --port auto --screenshot-to PNG --window-size 1600x1000`` under Xvfb (Mesa's
@@ -12,6 +14,7 @@ scene alone (blueprint files ``.rbl`` that maximise one view). Checks, each fail
 of the report:
 
 * no pane of the default layout says "No data available" (OCR with tesseract);
+* every verdict line of the summary pane is read whole (not cut off at the pane's edge);
 * the close-up shows a label for every successful estimate (OCR of the close-up shot);
 * simulated runs: the scene is framed on the room/platform (the scene shot is not a speck
   in an empty void: at least ``MIN_SCENE_FILL`` of its pixels differ from the background;
@@ -23,6 +26,11 @@ offset), the default layout and the 3D view alone, checked by :func:`check_calib
 "No data available", every pane shows pixels of its own colour, every summary line is read
 whole (not cut off), the 3D view framed on the trajectories; ``--docs`` writes
 ``docs/figures/calibration_<set>.png``.
+
+``--advise`` (:func:`advice_main`): ``simcalib advise``'s recording of each of
+:data:`ADVICE_CASES`, the layout and the stops' 3D view alone, checked by
+:func:`check_advice`: no "No data available", the plots in deg and in cm and the summary's
+"from the previous stop" read, every stop labelled, the stops framed.
 
 Needs the Debian packages ``xvfb``, ``mesa-vulkan-drivers`` and ``tesseract-ocr``
 (:func:`missing_prerequisites` says which are absent); rerun-sdk provides the viewer.
@@ -43,13 +51,15 @@ from pathlib import Path
 
 import numpy as np
 
-from simcalib.report.rerun_log import CLOSEUP_BACKGROUND, SCENE_BACKGROUND
+from simcalib.report.rerun.common import SCENE_BACKGROUND
 
 __all__ = ["missing_prerequisites", "screenshot", "ocr_text", "check_recording",
-           "ShotReport", "text_contains", "DEFAULT_SCENARIOS", "WINDOW_SIZE", "MIN_SCENE_FILL", "main",
+           "ShotReport", "text_contains", "DEFAULT_SCENARIOS", "WINDOW_SIZE", "MIN_SCENE_FILL",
+           "main",
            "CALIBRATION_SETS", "check_calibration", "run_calibration", "calibration_main",
            "synthetic_calibration_input", "pane_pixels", "framing", "cut_lines",
-           "calibration_pane_boxes"]
+           "calibration_pane_boxes", "ADVICE_CASES", "run_advice", "check_advice",
+           "advice_main", "color_extent"]
 
 DEFAULT_SCENARIOS = ("planar", "3d", "line")
 WINDOW_SIZE = (1600, 1000)
@@ -172,19 +182,10 @@ class ShotReport:
 def _single_view_blueprint(rrd_dir: Path, which: str, path: Path) -> Path:
     """A blueprint file showing only ``which`` ("closeup" or "scene") of a run recording,
     with the eye the recording's own blueprint uses (from ``recording_view.json``)."""
-    import rerun.blueprint as rrb
+    from simcalib.report.rerun.run_layout import single_view_blueprint
     views = json.loads((rrd_dir / "recording_view.json").read_text())
-    e = views.get("closeup_eye" if which == "closeup" else "eye")
-    eye = None if e is None else rrb.EyeControls3D(
-        kind=rrb.Eye3DKind.Orbital, position=e["position"], look_target=e["look_target"],
-        eye_up=e["eye_up"])
-    view = rrb.Spatial3DView(origin="closeup" if which == "closeup" else "world",
-                             name=which, eye_controls=eye, background=(
-                                 CLOSEUP_BACKGROUND if which == "closeup" else SCENE_BACKGROUND),
-                             line_grid=rrb.LineGrid3D(visible=False))
-    rrb.Blueprint(view, rrb.TimePanel(state="hidden"), rrb.BlueprintPanel(state="hidden"),
-                  rrb.SelectionPanel(state="hidden"), rrb.TopPanel(state="hidden"),
-                  auto_views=False).save("simcalib", str(path))
+    eye = views.get("closeup_eye" if which == "closeup" else "eye")
+    single_view_blueprint(which, eye).save("simcalib", str(path))
     return path
 
 
@@ -210,6 +211,11 @@ def check_recording(run_dir: Path, out_dir: Path, scenario: str | None = None) -
         text = ocr_text(rep.shots["layout"])
         if "nodataavailable" in _norm(text) or "no data available" in text.lower():
             rep.problems.append("a pane says 'No data available'")
+        from simcalib.report.rerun.run import summary_of
+        verdicts = "\n".join(ln for ln in summary_of(rrd).splitlines()
+                              if ln.startswith("- verdict ["))
+        rep.problems += [f"summary line not read whole (cut off?): {ln[:60]!r}"
+                         for ln in cut_lines(text, verdicts)]
         close = ocr_text(rep.shots["closeup"], bright_text=True)
         for label, s in (results.get("solvers") or {}).items():
             if s.get("X") is not None and not text_contains(close, label):
@@ -289,7 +295,7 @@ def run_calibration(inp: Path, out: Path):
     return r, time.perf_counter() - t0
 
 
-def _color_pixels(a: np.ndarray, color) -> int:
+def _color_mask(a: np.ndarray, color) -> np.ndarray:
     """Pixels of ``color``'s hue, however the viewer shades it (bar charts are drawn
     translucent): the chroma (RGB minus its smallest channel) points the same way
     (cosine > 0.995) and is at least 0.4 of the colour's own."""
@@ -299,11 +305,16 @@ def _color_pixels(a: np.ndarray, color) -> int:
     px -= px.min(axis=2, keepdims=True)
     norm = np.linalg.norm(px, axis=2)
     cos = (px @ c) / np.maximum(norm * np.linalg.norm(c), 1e-9)
-    return int(((cos > 0.995) & (norm >= 0.4 * np.linalg.norm(c))).sum())
+    return (cos > 0.995) & (norm >= 0.4 * np.linalg.norm(c))
+
+
+def _color_pixels(a: np.ndarray, color) -> int:
+    """The number of pixels of ``color``'s hue (:func:`_color_mask`)."""
+    return int(_color_mask(a, color).sum())
 
 
 def calibration_pane_boxes(panes) -> dict:
-    """Where each pane of :func:`simcalib.report.rerun_log.calibration_blueprint` lies in a
+    """Where each pane of :func:`simcalib.report.rerun.calibration.calibration_blueprint` lies in a
     layout shot, as fractions ``(x0, x1, y0, y1)`` of the image (a margin inside the pane):
     the trajectories top left (11/20 of the width, 5/8 of the body), the plots ``panes``
     (in the layout's order) stacked evenly on the right."""
@@ -319,10 +330,10 @@ def calibration_pane_boxes(panes) -> dict:
 
 def pane_pixels(png: Path, present: dict, boxes: dict | None = None) -> dict:
     """Pixels of each pane's own colour in ``png`` (``present``: pane -> colour names of
-    :data:`simcalib.report.rerun_log.CALIBRATION_COLORS`), counted inside the pane's box
+    :data:`simcalib.report.rerun.calibration.CALIBRATION_COLORS`), counted inside the pane's box
     (``boxes``: pane -> fractions ``(x0, x1, y0, y1)``; default the whole image)."""
     from PIL import Image
-    from simcalib.report.rerun_log import CALIBRATION_COLORS
+    from simcalib.report.rerun.calibration import CALIBRATION_COLORS
     a = np.asarray(Image.open(png).convert("RGB"), dtype=np.int16)
     H, W = a.shape[:2]
     out = {}
@@ -333,20 +344,39 @@ def pane_pixels(png: Path, present: dict, boxes: dict | None = None) -> dict:
     return out
 
 
-def framing(png: Path) -> float:
+def framing(png: Path, background=None) -> float:
     """The drawn extent of a 3D view shot: the larger of the width and height fractions
-    spanned by pixels differing from the calibration background (below the title bar)."""
+    spanned by pixels differing from ``background`` (default the calibration recording's;
+    below the title bar)."""
     from PIL import Image
-    from simcalib.report.rerun_log import CALIBRATION_BACKGROUND
+    if background is None:
+        from simcalib.report.rerun.calibration import CALIBRATION_BACKGROUND as background
     a = np.asarray(Image.open(png).convert("RGB"), dtype=np.int16)
     h = a.shape[0]
     body = a[int(0.05 * h):int(0.97 * h)]
-    drawn = np.abs(body - np.array(CALIBRATION_BACKGROUND)).sum(axis=2) > 30
+    drawn = np.abs(body - np.array(background)).sum(axis=2) > 30
     if not drawn.any():
         return 0.0
     rows, cols = np.flatnonzero(drawn.any(axis=1)), np.flatnonzero(drawn.any(axis=0))
     return float(max((rows[-1] - rows[0]) / drawn.shape[0], (cols[-1] - cols[0]) /
                      drawn.shape[1]))
+
+
+def color_extent(png: Path, colors) -> float:
+    """The extent of the pixels of ``colors``' hues in a shot (below the title bar): the
+    larger of the width and height fractions they span (0 when there are fewer than 50)."""
+    from PIL import Image
+    a = np.asarray(Image.open(png).convert("RGB"), dtype=np.int16)
+    h = a.shape[0]
+    body = a[int(0.05 * h):int(0.97 * h)]
+    mask = np.zeros(body.shape[:2], dtype=bool)
+    for c in colors:
+        mask |= _color_mask(body, c)
+    if mask.sum() < 50:
+        return 0.0
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    return float(max((rows[-1] - rows[0]) / mask.shape[0], (cols[-1] - cols[0]) /
+                     mask.shape[1]))
 
 
 def _line_ends(line: str, n: int = 18) -> list[str]:
@@ -373,8 +403,9 @@ def check_calibration(out: Path, r, shots: Path, name: str) -> ShotReport:
     no pane says "No data available", every pane shows its data (pixels of its colour),
     every line of the summary is read whole (its first and last letters), the 3D view
     is framed on the trajectories (:data:`MIN_FRAMING`)."""
-    from simcalib.report.rerun_log import (CALIBRATION_PANE_COLORS, calibration_summary,
-                                    save_calibration_blueprint)
+    from simcalib.report.rerun.calibration import (CALIBRATION_PANE_COLORS,
+                                                   calibration_summary,
+                                                   save_calibration_blueprint)
     rep = ShotReport(scenario=name)
     rrd = Path(out) / "recording.rrd"
     rep.shots["layout"] = screenshot(rrd, shots / f"calibration_{name}_layout.png")
@@ -401,8 +432,8 @@ def check_calibration(out: Path, r, shots: Path, name: str) -> ShotReport:
 
 
 def _has_correlation(r) -> bool:
-    from simcalib.report.rerun_log import _has_correlation as has
-    return has(r.time_offset)
+    from simcalib.report.rerun.calibration import has_correlation
+    return has_correlation(r.time_offset)
 
 
 def calibration_main(names, output: Path, docs: bool) -> int:
@@ -422,6 +453,79 @@ def calibration_main(names, output: Path, docs: bool) -> int:
     return 1 if failed else 0
 
 
+# ------------------------------------------------------------------- advice recordings
+#: the advice ``--advise`` screenshots: two scenarios (arm, cart) and recorded files (a
+#: synthetic planar rig, platform=cart); each name -> the advise arguments
+ADVICE_CASES = {"scara": ["scenario=scara", "k=5"], "planar": ["scenario=planar", "k=5"],
+                "files": ["platform=cart", "k=4"]}
+
+
+def run_advice(name: str, out: Path) -> Path:
+    """``simcalib advise`` of :data:`ADVICE_CASES` ``name`` into ``out`` (the files case
+    calibrates a synthetic planar rig's TUM files written beside it)."""
+    args = list(ADVICE_CASES[name])
+    if name == "files":
+        from simcalib.report.results import write_tum
+        from simcalib.world.stream_sim import rig_streams
+        s = rig_streams(path="planar", duration_s=20.0, rng=np.random.default_rng(0))
+        inp = Path(out).with_name(f"{Path(out).name}_input")
+        inp.mkdir(parents=True, exist_ok=True)
+        args += [f"a={write_tum(inp / 'a.txt', s.t_a, s.T_a)}",
+                 f"b={write_tum(inp / 'b.txt', s.t_b, s.T_b)}"]
+    cmd = [sys.executable, "-m", "simcalib", "advise", *args, f"output={out}"]
+    proc = subprocess.run(cmd, capture_output=True, text=True, cwd=REPO, check=False,
+                          env=dict(os.environ, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl")))
+    if proc.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)} failed: {proc.stderr.strip()[-600:]}")
+    return Path(out)
+
+
+def check_advice(out: Path, shots: Path, name: str) -> ShotReport:
+    """Screenshot ``out/advice.rrd`` (default layout, the 3D view of the stops alone) and
+    check: no pane says "No data available", the summary says the stops are motions from
+    the previous stop, both plots (deg, cm) are there, every stop's label is read in the 3D
+    view, and the stops' drawing spans at least :data:`MIN_FRAMING` of that view."""
+    from simcalib.report.rerun.advice import ADVICE_APP_ID, advice_blueprint
+    from simcalib.report.rerun.common import CAMERA_COLORS
+    out = Path(out)
+    rep = ShotReport(scenario=f"advise {name}")
+    rrd = out / "advice.rrd"
+    rep.shots["layout"] = screenshot(rrd, shots / f"advice_{name}_layout.png")
+    eye = json.loads((out / "advice_view.json").read_text())["eye"]
+    rbl = shots / f"advice_{name}_stops.rbl"
+    advice_blueprint(eye, only="stops").save(ADVICE_APP_ID, str(rbl))
+    rep.shots["stops"] = screenshot(rrd, shots / f"advice_{name}_stops.png", blueprint=rbl)
+    text = ocr_text(rep.shots["layout"])
+    if "nodataavailable" in _norm(text):
+        rep.problems.append("a pane says 'No data available'")
+    for words in ("from the previous stop", "predicted 1-sigma, rotation [deg]",
+                  "predicted 1-sigma, translation [cm]"):
+        if not text_contains(text, words):
+            rep.problems.append(f"layout: {words!r} not read")
+    labels = ocr_text(rep.shots["stops"], bright_text=True)
+    k = len(json.loads((out / "advice.json").read_text())["motions"])
+    rep.problems += [f"3D view: no label 'stop {j}'" for j in range(1, k + 1)
+                     if not re.search(rf"stop\s*{j}\b", labels, re.IGNORECASE)]
+    rep.scene_fill = color_extent(rep.shots["stops"], CAMERA_COLORS.values())
+    if rep.scene_fill < MIN_FRAMING:
+        rep.problems.append(f"3D view badly framed: the cameras' paths and stops span "
+                            f"{rep.scene_fill:.0%} of the view (< {MIN_FRAMING:.0%})")
+    return rep
+
+
+def advice_main(names, output: Path, docs: bool) -> int:
+    """``--advise``: advise, screenshot and check each case; one line per case."""
+    failed = 0
+    for name in names:
+        rep = check_advice(run_advice(name, output / "advice" / name), output / "shots", name)
+        print(f"advise {name}: 3D framing {rep.scene_fill:.0%}; "
+              + ("OK" if rep.ok else "PROBLEMS: " + "; ".join(rep.problems)), flush=True)
+        failed += not rep.ok
+        if docs:
+            _docs_png(rep.shots["layout"], REPO / "docs" / "figures" / f"advice_{name}.png")
+    return 1 if failed else 0
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m simcalib.tools.screenshots",
                                  description=__doc__.split("\n\n")[0])
@@ -436,6 +540,12 @@ def main(argv=None) -> int:
                     help="calibration recordings instead: " + ", ".join(CALIBRATION_SETS))
     ap.add_argument("--set", action="append", dest="sets",
                     help="with --calibrations: a set (repeatable); default: all")
+    ap.add_argument("--all", action="store_true",
+                    help="every scenario (`python -m simcalib list`) instead of "
+                    + ", ".join(DEFAULT_SCENARIOS))
+    ap.add_argument("--advise", action="append", nargs="?", const="all",
+                    help="advice recordings instead: " + ", ".join(ADVICE_CASES)
+                    + " (repeatable; alone: all)")
     args = ap.parse_args(argv)
     missing = missing_prerequisites()
     if missing:
@@ -444,8 +554,16 @@ def main(argv=None) -> int:
     out = Path(args.output)
     if args.calibrations:
         return calibration_main(args.sets or CALIBRATION_SETS, out, args.docs)
+    if args.advise:
+        cases = list(ADVICE_CASES) if "all" in args.advise else args.advise
+        return advice_main(cases, out, args.docs)
+    if args.all:
+        from simcalib.pipeline.scenario import list_scenarios
+        names = list(list_scenarios())
+    else:
+        names = args.scenario or DEFAULT_SCENARIOS
     failed = 0
-    for name in args.scenario or DEFAULT_SCENARIOS:
+    for name in names:
         run_dir = _run_scenario(name, out / name, args.override)
         rep = check_recording(run_dir, out / "shots", name)
         size_mb = (run_dir / "recording.rrd").stat().st_size / 1e6

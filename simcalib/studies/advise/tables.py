@@ -160,7 +160,7 @@ measured with each seed's noise), `random_joint`, `random_joint_median`,
 field, the recorded
 camera trajectories, the reference and each proposed camera pose (axes, labelled
 `stop k`, lines from the reference), and the predicted 1-sigma against the number of
-added stops (`simcalib.report.rerun_log.record_advice`).
+added stops (`simcalib.report.rerun.advice.record_advice`).
 
 Python: `simcalib.studies.advise.baseline(cfg)`, `advise(base, k, seed=, n_candidates=1000,
 when_determined=, systematic=True, ranges="wide")`, `verify(base, adv, seeds=)`,

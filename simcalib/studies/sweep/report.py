@@ -209,7 +209,7 @@ def write_report(output: str | Path) -> Path:
                   f"{(c['error'] or {}).get('message')}" for c in st["failed_cells"]]
         lines.append("")
     if rows:
-        from simcalib.report.rerun_log import record_sweep
+        from simcalib.report.rerun.studies import record_sweep
         record_sweep(out / "report.rrd", summ)
         lines += ["The same plots as a rerun recording: `rerun report.rrd`.", ""]
     path = out / "report.md"

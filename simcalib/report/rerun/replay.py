@@ -1,8 +1,9 @@
-"""The recording worker: a separate process that imports rerun and replays the calls a run's
-:class:`simcalib.report.rerun_log.RunRecorder` made, so that importing rerun (0.4-1 s) and writing
-the file overlap the run instead of adding to it.
+"""The recording worker: a separate process that imports rerun and replays the calls a
+recording made through the stand-ins of :mod:`simcalib.report.rerun.worker` (a run's
+:class:`~simcalib.report.rerun.run.RunRecorder`, a calibration's recording), so that
+importing rerun (0.4-1 s) and writing the file overlap the work instead of adding to it.
 
-Run as a script (``python -P simcalib/report/_rerun_replay.py SPOOL STATUS_JSON PARENT_PID``; no
+Run as a script (``python -P simcalib/report/rerun/replay.py SPOOL STATUS_JSON PARENT_PID``; no
 simcalib import, only numpy and rerun). It follows the spool file SPOOL, which the run
 appends length-prefixed pickles to (appending to a file never blocks the run, unlike a
 full pipe while the worker still imports rerun):
@@ -90,7 +91,7 @@ def main(argv) -> int:
     spool_path, status_path, parent_pid = argv[1], argv[2], int(argv[3])
     t0 = time.perf_counter()
     import rerun as rr
-    import rerun.blueprint  # noqa: F401  (rr.blueprint.<...> references)
+    import rerun.blueprint
     import_s = time.perf_counter() - t0
     spool = open(spool_path, "rb", buffering=0)
     rec = None

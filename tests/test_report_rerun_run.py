@@ -1,6 +1,6 @@
 """The run recording read back: expected entities per scenario kind, every position within
 the scene bounds, the close-up's off-scale / failed / uncertainty handling, the summary,
-sweep and experiment recordings; and (where the viewer can run) screenshots checked."""
+the layouts; and (where the viewer can run) screenshots checked."""
 
 from __future__ import annotations
 
@@ -10,15 +10,13 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from rrd_reading import chunks, points, solver_stub
 
 from simcalib.cli import main
-from simcalib.report.rerun_log import closeup_bound_m
-from rrd_reading import chunks, points
+from simcalib.report.rerun.run_closeup import closeup_bound_m
 
 SIM_SHORT = ("world.duration_s=4", "pairing.step=1", "progress=false",
              "solvers=[dqopt,daniilidis,dq2steps]")
-
-
 
 
 def _world_positions(ents: dict) -> np.ndarray:
@@ -93,6 +91,9 @@ def test_synthetic_recording_has_no_room_or_images(tmp_path):
             "/summary"} <= set(ents)
     text = str(ents["/summary"]["TextDocument:text"])
     assert "| method |" in text and "dqopt" in text
+    from simcalib.report.rerun.run import summary_of
+    md = summary_of(out / "recording.rrd")
+    assert md.startswith("**line**") and "- verdict [" in md
     assert json.loads((out / "recording_view.json").read_text())["kind"] == "synthetic"
 
 
@@ -110,19 +111,8 @@ def test_arm_recording_draws_the_arm_links_and_images(tmp_path):
     assert json.loads((out / "recording_view.json").read_text())["images"] is True
 
 
-def _solver(label, X, rot=0.1, trans=0.01, cov=None):
-    ns = SimpleNamespace(label=label, X=X, rotation_error_deg=None if X is None else rot,
-                         translation_error_m=None if X is None else trans,
-                         translation_error_determined_m=None if X is None else trans,
-                         degenerate=False, alpha=1.0, error=None if X is not None else "boom",
-                         undetermined_directions=(), undetermined=())
-    if cov is not None:
-        ns.covariance = cov
-    return ns
-
-
 def test_closeup_offscale_failed_and_uncertainty(tmp_path):
-    from simcalib.report.rerun_log import RunRecorder
+    from simcalib.report.rerun.run import RunRecorder
     cfg = SimpleNamespace(kind="synthetic", recording=SimpleNamespace(max_images=0,
                                                                       jpeg_quality=70))
     X = np.eye(4)
@@ -134,8 +124,8 @@ def test_closeup_offscale_failed_and_uncertainty(tmp_path):
     cov = np.diag([1e-6, 1e-6, 1e-6, 4e-4, 1e-4, np.inf])
     cov[3, 4] = cov[4, 3] = 0.0
     rec = RunRecorder(tmp_path / "r.rrd", cfg)
-    rec.log_estimates([_solver("good", near, cov=cov), _solver("wild", far, trans=1.7e5),
-                       _solver("broken", None)], X)
+    rec.log_estimates([solver_stub("good", near, cov=cov), solver_stub("wild", far, trans=1.7e5),
+                       solver_stub("broken", None)], X)
     rec.close()
     ents = chunks(tmp_path / "r.rrd")
     assert "/closeup/estimates/good" in ents and "/closeup/estimates/wild" not in ents
@@ -163,7 +153,7 @@ def test_closeup_offscale_failed_and_uncertainty(tmp_path):
 
 
 def test_closeup_clips_huge_ellipsoids_inside_the_bound(tmp_path):
-    from simcalib.report.rerun_log import RunRecorder
+    from simcalib.report.rerun.run import RunRecorder
     cfg = SimpleNamespace(kind="synthetic", recording=SimpleNamespace(max_images=0,
                                                                       jpeg_quality=70))
     X = np.eye(4)
@@ -172,7 +162,7 @@ def test_closeup_clips_huge_ellipsoids_inside_the_bound(tmp_path):
     cov = np.diag([1e-6, 1e-6, 1e-6, 1e-4, 0.25, 1e-4])
     allinf = np.full((6, 6), np.inf)
     rec = RunRecorder(tmp_path / "r.rrd", cfg)
-    rec.log_estimates([_solver("wide", X, cov=cov), _solver("nothing", X, cov=allinf)], X)
+    rec.log_estimates([solver_stub("wide", X, cov=cov), solver_stub("nothing", X, cov=allinf)], X)
     rec.close()
     ents = chunks(tmp_path / "r.rrd")
     bound = closeup_bound_m(0.2)
@@ -189,66 +179,28 @@ def test_closeup_clips_huge_ellipsoids_inside_the_bound(tmp_path):
     assert text.count("wide") == 2 and "wide, nothing" in text
 
 
-def test_closeup_labels_do_not_overlap_on_screen():
-    from simcalib.report.rerun_log import _place_labels, _screen_basis, _LINE_H, _CHAR_W
-    eye = {"position": [-0.7, -0.8, -2.0], "look_target": [0.0, 0.2, 0.0],
-           "eye_up": [0, -1, 0]}
-    rng = np.random.default_rng(0)
-    items = [(np.array([0.0, 0.28, 0.0]) + 0.01 * rng.standard_normal(3), [f"label {k}"])
-             for k in range(6)] + [(np.zeros(3), ["cam a (origin)", "FAILED: x"])]
-    pts = _place_labels(eye, items, max_norm=1.4)
-    pos, f, r, u = _screen_basis(eye)
-    boxes = []
-    for p, (_, lines) in zip(pts, items):
-        d = p - pos
-        x, y = d @ r / (d @ f), -(d @ u) / (d @ f)
-        w, h = max(map(len, lines)) * _CHAR_W, len(lines) * _LINE_H
-        boxes.append((x - w / 2, y, x + w / 2, y + h))
-        assert np.linalg.norm(p) <= 1.4 + 1e-9
-    for i, a in enumerate(boxes):
-        for b in boxes[:i]:
-            assert not (a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3])
-
-
 def test_summary_markdown_rows():
-    from simcalib.report.rerun_log import summary_markdown
+    from simcalib.report.rerun.run_summary import summary_markdown
     res = SimpleNamespace(
         config=SimpleNamespace(scenario="x", kind="sim", source="aruco", seed=0),
         pairing={"used": 5}, frames={}, pose_errors={}, camera_names=("cam_a", "cam_b"),
-        solvers=[_solver("a", np.eye(4), rot=0.01, trans=0.001),
-                 _solver("b", np.eye(4), rot=100.0, trans=1e5), _solver("c", None)])
-    res.solvers[1].degenerate = True
+        solvers=[solver_stub("a", np.eye(4), rot=0.01, trans=0.001),
+                 solver_stub("b", np.eye(4), rot=100.0, trans=1e5), solver_stub("c", None)])
+    b = res.solvers[1]
+    b.degenerate, b.verdict, b.sigma_translation_m = True, "undetermined", float("inf")
+    b.undetermined_directions = ({
+        "kind": "translation", "reason": "undetermined", "description": "translation of X "
+        "along y", "rotation_axis_a": [0, 0, 0], "translation_dir_a": [0, 1, 0],
+        "std_deg": 0.0, "std_m": float("inf"), "determined_by_prior": False},)
     md = summary_markdown(res)
     assert "| **c** | **FAILED** |" in md and "**c FAILED**: boom" in md
     row_b = next(ln for ln in md.splitlines() if ln.startswith("| b |"))
     row_a = next(ln for ln in md.splitlines() if ln.startswith("| a |"))
-    assert "**YES**" in row_b and row_b.count("█") > row_a.count("█")
-
-
-def test_record_sweep_and_experiment(tmp_path):
-    from simcalib.report.rerun_log import log_experiment, record_sweep
-
-    def st(m):
-        return {"rot_med": m, "rot_q1": 0.5 * m, "rot_q3": 2 * m, "tr_med": 0.01 * m,
-                "tr_q1": 0.005 * m, "tr_q3": 0.02 * m, "failed": 0.0}
-    summary = {"per_axis": {"noise.sigma_r_deg": {v: {"dqopt": st(v), "daniilidis": st(3 * v)}
-                                                  for v in (0.1, 0.5, 1.0)}}}
-    p = record_sweep(tmp_path / "sweep.rrd", summary)
-    ents = chunks(p)
-    med = ents["/sweep/noise_sigma_r_deg/log10_rotation_deg/dqopt/median"]["Scalars:scalars"]
-    np.testing.assert_allclose(np.ravel(med), np.log10([0.1, 0.5, 1.0]))
-    assert "/sweep/noise_sigma_r_deg/values" in ents
-    with pytest.raises(TypeError, match="summary must be a dict"):
-        record_sweep(tmp_path / "bad.rrd", [1, 2])
-    from PIL import Image
-    png = tmp_path / "f.png"
-    Image.new("RGB", (8, 8)).save(png)
-    q = log_experiment(tmp_path / "exp.rrd", "table2", {"table2_sweep": png},
-                       {"table2": "| a |\n|---|\n| 1 |"})
-    ents = chunks(q)
-    assert "/figures/table2_sweep" in ents and "/tables/table2" in ents
-    from rerun.chunk import RrdReader
-    assert RrdReader(str(q)).blueprints() and RrdReader(str(p)).blueprints()
+    assert row_b.count("█") > row_a.count("█")
+    assert "± —" in row_b and "- verdict [b]: **undetermined: translation y**" in md
+    assert "- verdict [a]: **determined**" in md
+    assert ("translation of X along y: undetermined (no finite 1-sigma: the motions do not "
+            "constrain it)") in md
 
 
 def test_scene_geometry_poses_the_cart():
@@ -302,7 +254,7 @@ def _view_origins(bp) -> set:
 
 
 def test_blueprint_per_kind_shows_only_views_with_data():
-    from simcalib.report.rerun_log import default_blueprint
+    from simcalib.report.rerun.run_layout import default_blueprint
     full = {"scene", "closeup", "pose_error", "summary"}
     aruco = _view_origins(default_blueprint("sim", images=True, present=full))
     assert {"world/cam_a/image", "world/cam_b/image", "world", "closeup", "summary"} <= aruco
@@ -320,7 +272,8 @@ def test_only_cameras_that_logged_images_get_an_image_pane(tmp_path):
     """handeye / scara: cam_a is the flange pose from forward kinematics and logs no image,
     so its pane must not be in the layout (it said "No data available")."""
     import cv2
-    from simcalib.report.rerun_log import RunRecorder
+
+    from simcalib.report.rerun.run import RunRecorder
     from simcalib.streams import CameraIntrinsics
     cfg = SimpleNamespace(kind="sim", recording=SimpleNamespace(max_images=2,
                                                                 jpeg_quality=70))
@@ -334,53 +287,6 @@ def test_only_cameras_that_logged_images_get_an_image_pane(tmp_path):
     origins = _view_origins(rec.blueprint())
     rec.close()
     assert "world/cam_b/image" in origins and "world/cam_a/image" not in origins
-
-
-def test_worker_and_in_process_recordings_match(tmp_path):
-    """The recording worker (rerun imported and the file written in another process)
-    writes what logging in-process writes; its errors surface at close."""
-    from simcalib.report.rerun_log import RunRecorder
-    cfg = SimpleNamespace(kind="synthetic", recording=SimpleNamespace(max_images=0,
-                                                                      jpeg_quality=70))
-    X = np.eye(4)
-    X[:3, 3] = [0.0, 0.2, 0.0]
-    cov = np.diag([1e-6, 1e-6, 1e-6, 4e-4, 1e-4, 1e-4])
-    got = {}
-    for background in (True, False):
-        rec = RunRecorder(tmp_path / f"{background}.rrd", cfg, background=background)
-        assert rec.background is background
-        rec.log_estimates([_solver("good", X, cov=cov), _solver("broken", None)], X)
-        rec.log_summary("**hello**")
-        rec.close()
-        got[background] = chunks(tmp_path / f"{background}.rrd")
-        view = json.loads((tmp_path / "recording_view.json").read_text())
-        assert (view["worker"] is not None) is background
-    assert set(got[True]) == set(got[False])
-    for ent in ("/closeup/labels/0", "/closeup/uncertainty/good", "/summary"):
-        assert got[True][ent] == got[False][ent]
-    from rerun.chunk import RrdReader
-    assert RrdReader(str(tmp_path / "True.rrd")).blueprints()
-    bad = RunRecorder(tmp_path / "bad.rrd", cfg, background=True)
-    bad.rec.log("x", bad.rr.NoSuchArchetype([1.0]))
-    with pytest.raises(RuntimeError, match="(?s)recording worker failed.*NoSuchArchetype"):
-        bad.close()
-
-
-def test_prestarted_worker_is_adopted_or_stopped(tmp_path):
-    import simcalib.report.rerun_log as R
-    R.cancel_prestarted_worker()
-    R._PRESTARTED.append(R._WorkerStream())       # what prestart_worker() does
-    w = R._PRESTARTED[0]
-    cfg = SimpleNamespace(kind="synthetic", recording=SimpleNamespace(max_images=0,
-                                                                      jpeg_quality=70))
-    rec = R.RunRecorder(tmp_path / "r.rrd", cfg, background=True)
-    assert rec.rec is w and not R._PRESTARTED
-    rec.close()
-    assert "/closeup" in chunks(tmp_path / "r.rrd")
-    R._PRESTARTED.append(R._WorkerStream())
-    w = R._PRESTARTED[0]
-    R.cancel_prestarted_worker()
-    assert w._proc.poll() is not None and not w._spool_path.exists() and not R._PRESTARTED
 
 
 def test_recording_cost_tool_rejects_unknown_variants(tmp_path, capsys):

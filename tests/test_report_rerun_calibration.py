@@ -1,4 +1,4 @@
-"""The calibration recording (``simcalib calibrate``'s recording.rrd, issue 31): read back
+"""The calibration recording (``simcalib calibrate``'s recording.rrd): read back
 with ``rerun.chunk.RrdReader`` (entities; outlier poses as marks, not in the trajectory
 strips; residual plots on the inliers' scale) and, where the viewer can run, screenshot
 checked (simcalib.tools.screenshots)."""
@@ -10,11 +10,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from simcalib.report.rerun_log import rejected_instants, trajectory_strips
 from rrd_reading import chunks, points
 
-
+from simcalib.report.rerun.calibration import rejected_instants, trajectory_strips
 
 
 def _strips(values) -> list[np.ndarray]:
@@ -31,8 +29,8 @@ def calibrated(tmp_path_factory):
     """A 20 s synthetic rig with 15 % outlier poses in b and a 100 ms offset, calibrated
     as ``simcalib calibrate`` does (outputs and recording written)."""
     from simcalib.report.results import write_tum
-    from simcalib.world.stream_sim import rig_streams
     from simcalib.tools.screenshots import run_calibration
+    from simcalib.world.stream_sim import rig_streams
     d = tmp_path_factory.mktemp("cal")
     s = rig_streams(offset_s=0.1, outlier_fraction=0.15, duration_s=20.0,
                     rng=np.random.default_rng(1))
@@ -76,7 +74,7 @@ def test_calibration_recording_entities(calibrated):
 
 
 def test_outlier_poses_are_marks_not_part_of_the_trajectory_strips(calibrated):
-    from simcalib.report.rerun_log import calibration_scene
+    from simcalib.report.rerun.calibration import calibration_scene
     s, r, out = calibrated
     sc = calibration_scene(r)
     # every true outlier pose of b is a rejected instant (b is the reference: its stamps)
@@ -107,10 +105,10 @@ def test_outlier_poses_are_marks_not_part_of_the_trajectory_strips(calibrated):
 
 
 def test_residual_plots_are_on_the_inliers_scale(calibrated):
-    from simcalib.report.rerun_log import _residual_caps, _residuals
+    from simcalib.report.rerun.calibration import residual_caps, residuals
     _, r, out = calibrated
     ents = chunks(out / "recording.rrd")
-    caps, res = _residual_caps(r), _residuals(r)
+    caps, res = residual_caps(r), residuals(r)
     inl = np.asarray(r.robust.inlier_mask)
     for q in ("rotation_deg", "translation_mm"):
         assert caps[q] == pytest.approx(1.25 * res[q][inl].max())
@@ -120,11 +118,11 @@ def test_residual_plots_are_on_the_inliers_scale(calibrated):
 
 
 def test_stamp_paired_calibration_has_no_correlation_pane():
-    from simcalib.report.rerun_log import _has_correlation
     from simcalib.estimation.alignment import TimeOffset
+    from simcalib.report.rerun.calibration import has_correlation
     off = TimeOffset(0.0, 0.0, 0.0, float("nan"), np.zeros(0), np.zeros(0),
                      decision="shared_stamps")
-    assert not _has_correlation(off)
+    assert not has_correlation(off)
 
 
 @pytest.mark.slow
@@ -157,7 +155,11 @@ def test_cut_summary_lines_are_found():
 
 def test_pane_pixels_count_shaded_colours_and_framing_measures_the_drawing(tmp_path):
     from PIL import Image
-    from simcalib.report.rerun_log import CALIBRATION_BACKGROUND, CALIBRATION_COLORS
+
+    from simcalib.report.rerun.calibration import (
+        CALIBRATION_BACKGROUND,
+        CALIBRATION_COLORS,
+    )
     from simcalib.tools.screenshots import framing, pane_pixels
     a = np.tile(np.array(CALIBRATION_BACKGROUND, np.uint8), (200, 300, 1))
     teal = np.array(CALIBRATION_COLORS["correlation"], float)
@@ -168,3 +170,45 @@ def test_pane_pixels_count_shaded_colours_and_framing_measures_the_drawing(tmp_p
     n = pane_pixels(p, {"corr": ("correlation",), "traj": ("b_from_a",)})
     assert n == {"corr": 500, "traj": 0}
     assert framing(p) == pytest.approx(250 / 300, abs=0.01)
+
+
+def test_worker_writes_the_calibration_recording_as_in_process(calibrated, tmp_path):
+    """``simcalib calibrate`` hands its recording to the worker process (rerun's import off
+    its critical path): the file holds what logging in-process writes, blueprint included."""
+    from rerun.chunk import RrdReader
+
+    from simcalib.report.rerun.calibration import record_calibration
+    _, r, out = calibrated
+    report = json.loads((out / "calibration.json").read_text())
+    got = {}
+    for background in (True, False):
+        p = record_calibration(tmp_path / f"{background}.rrd", r, report, "console text",
+                               background=background)
+        got[background] = chunks(p)
+        assert RrdReader(str(p)).blueprints()
+    assert set(got[True]) == set(got[False])
+    for ent in ("/summary", "/report", "/world/b_from_a/trajectory",
+                "/residuals/rotation_deg/inliers", "/time_offset/window"):
+        assert got[True][ent] == got[False][ent], ent
+
+
+def test_calibrate_command_records_through_the_worker(tmp_path):
+    """The command starts the recording worker before it reads the files, and its process
+    never imports rerun."""
+    import subprocess
+    import sys
+    from simcalib.report.results import write_tum
+    from simcalib.world.stream_sim import rig_streams
+    s = rig_streams(offset_s=0.0, outlier_fraction=0.0, duration_s=8.0,
+                    rng=np.random.default_rng(2))
+    write_tum(tmp_path / "a.txt", s.t_a, s.T_a)
+    write_tum(tmp_path / "b.txt", s.t_b, s.T_b)
+    code = ("import sys; from simcalib.cli import main; "
+            f"rc = main(['calibrate', 'a={tmp_path / 'a.txt'}', 'b={tmp_path / 'b.txt'}', "
+            f"'output={tmp_path / 'out'}']); "
+            "print('RERUN', 'rerun' in sys.modules, 'RC', rc)")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=600)
+    assert "RERUN False" in proc.stdout, (proc.stdout, proc.stderr)
+    ents = chunks(tmp_path / "out" / "recording.rrd")
+    assert {"/summary", "/world/b_from_a/trajectory"} <= set(ents)
