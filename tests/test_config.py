@@ -463,3 +463,18 @@ def test_every_source_owns_its_margins_and_rng_stream():
         assert src.info.rng_stream in RNG_STREAMS
         m, deg = src.pose_margins(cfg)
         assert m >= 0.0 and deg >= 0.0
+
+
+def test_an_arm_standing_in_for_a_scara_never_tilts():
+    """world.arm.motions: 'scara' (the scara scenario's UR5e stands in for a SCARA) needs a
+    path that neither rolls nor pitches the flange; anything else is named."""
+    assert load_config("scara").world.arm.motions == "scara"
+    assert load_config("3d").world.arm.motions == "6dof"
+    for override, fragment in (
+            ("world.path=3d", "path '3d' tilts the flange by up to 20 deg"),
+            ("world.perturbation.roll_deg=2", "the perturbation by roll 2 / pitch 0 deg"),
+            ("world.arm.motions=scra", "(did you mean 'scara'?)")):
+        with pytest.raises(ConfigError) as e:
+            load_config("scara", [override])
+        assert "world.arm.motions must be" in str(e.value) and fragment in str(e.value), \
+            str(e.value)
