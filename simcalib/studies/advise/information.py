@@ -31,12 +31,11 @@ from simcalib.solvers.diagnostics.inputs import (_PURE, ROTATION_FLOOR_RAD,
                                                  TRANSLATION_FLOOR_REL)
 
 __all__ = ["AXES", "std_dict", "finite_or_none", "largest_std", "tolerance_scale",
-           "motion_information", "predicted_motions", "systematic_scores", "predicted_std", "systematic_std",
-           "determined_inverse", "with_systematic", "variance_shares", "complement",
-           "check_undetermined",
-           "max_std_tolerance_units", "undeterminable_directions", "undeterminable",
-           "describe_direction", "PRIOR_KEYS_SCENARIO", "PRIOR_KEYS_CALIBRATE",
-           "TILT_HINT_CART"]
+           "motion_information", "predicted_motions", "systematic_scores", "predicted_std",
+           "systematic_std", "determined_inverse", "with_systematic", "variance_shares",
+           "complement", "check_undetermined", "max_std_tolerance_units",
+           "undeterminable_directions", "undeterminable", "describe_direction",
+           "PRIOR_KEYS_SCENARIO", "PRIOR_KEYS_CALIBRATE", "TILT_HINT_CART"]
 
 #: the six axes of X's error, camera-a frame (rotation deg, translation m)
 AXES = ("wx_deg", "wy_deg", "wz_deg", "vx_m", "vy_m", "vz_m")

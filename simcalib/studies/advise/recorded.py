@@ -193,7 +193,7 @@ def recorded_advice_dict(adv: RecordedAdvice, source: dict | None = None) -> dic
         motions.append({
             "step": step + 1,
             "T_frame_a_target": (adv.T_ref_a @ Mj).tolist(),
-            "from": "the reference (the last recorded pose)" if step == 0 else f"stop {step}",
+            "from": "the reference" if step == 0 else f"stop {step}",
             "sensor_motions": {"a": relative_motion(rel), "b": relative_motion(Xi @ rel @ X)},
             "predicted_std_after": info.std_dict(adv.std_after[step]),
             "max_std_tolerance_units_after": info.finite_or_none(adv.max_std_tol[step + 1])})
