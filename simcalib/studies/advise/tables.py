@@ -299,8 +299,8 @@ def _targets(checks) -> str:
         verdict = _verdicts(ver)
         tol_ok = bool(ver.verdicts) and all(v == "determined" for v in ver.verdicts)
         within = ("all directions within tolerance in every solve" if tol_ok else
-                  "the direction no motion of this platform determines stays undetermined: "
-                  "see the statements" if cannot else
+                  "the direction no motion of this platform determines stays beyond the "
+                  "tolerance: see the statements" if cannot else
                   "NOT within tolerance in every solve")
         iv = getattr(ver, "ratio_interval", {}) or {}
         ivtxt = f" (90 % interval over rigs {_interval(iv)})" if iv else ""

@@ -319,7 +319,7 @@ tolerance; the advised stops lower its error further (see the statement below; u
 commit 83eefa2 no motion was proposed then). Neither the `planar` cart nor the `scara`
 SCARA can determine X's translation along the vertical with any motion they make: see
 the statements below; their translation errors and sigmas leave it out, and their
-verdicts stay "undetermined" (the scenario's prior, `prior.b`, is what fixes it). The
+verdicts stay short of "determined" (the scenario's prior, `prior.b`, is what fixes it). The
 `scara` rows of this version are those of a SCARA (turns about the vertical only, for
 the advice and the random baselines alike; no joint-jog baseline): not comparable with
 the history above, whose `scara` stops tilted the flange by up to 90 deg.
