@@ -475,3 +475,18 @@ def test_every_source_owns_its_margins_and_rng_stream():
     seeds = np.random.SeedSequence(7).spawn(len(RNG_STREAMS))     # the historic positions
     assert all(first[n] == np.random.default_rng(s).integers(0, 2**63)
                for n, s in zip(RNG_STREAMS, seeds))
+
+
+def test_an_arm_standing_in_for_a_scara_never_tilts():
+    """world.arm.motions: 'scara' (the scara scenario's UR5e stands in for a SCARA) needs a
+    path that neither rolls nor pitches the flange; anything else is named."""
+    assert load_config("scara").world.arm.motions == "scara"
+    assert load_config("3d").world.arm.motions == "6dof"
+    for override, fragment in (
+            ("world.path=3d", "path '3d' tilts the flange by up to 20 deg"),
+            ("world.perturbation.roll_deg=2", "the perturbation by roll 2 / pitch 0 deg"),
+            ("world.arm.motions=scra", "(did you mean 'scara'?)")):
+        with pytest.raises(ConfigError) as e:
+            load_config("scara", [override])
+        assert "world.arm.motions must be" in str(e.value) and fragment in str(e.value), \
+            str(e.value)

@@ -10,6 +10,7 @@ import pytest
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
+from simcalib.studies.advise import information as info  # noqa: E402
 from simcalib.studies.advise import planner as pl  # noqa: E402
 from simcalib.geometry import matrix_from_rotvec  # noqa: E402
 
@@ -39,7 +40,7 @@ def test_information_adds_up_to_the_uncertainty_models():
     X = _X()
     C = _motions(rng, 30)
     H = np.linalg.inv(X) @ C @ X
-    F = pl.motion_information(C, H, X, 0.01, 0.002).sum(axis=0)
+    F = info.motion_information(C, H, X, 0.01, 0.002).sum(axis=0)
     u = covariance(C, H, X, 1.0, noise=NoiseModel(0.01, 0.002))
     np.testing.assert_allclose(F, u.information, rtol=1e-6, atol=1e-9 * np.abs(F).max())
 
@@ -48,17 +49,17 @@ def test_greedy_picks_the_motion_that_fixes_the_degeneracy_and_decreases_monoton
     rng = np.random.default_rng(1)
     X = _X()
     Cb = _motions(rng, 40, axes=np.tile([0.0, 0.0, 1.0], (40, 1)))     # one rotation axis
-    Fb = pl.motion_information(Cb, np.linalg.inv(X) @ Cb @ X, X, 0.005, 0.001).sum(0)
+    Fb = info.motion_information(Cb, np.linalg.inv(X) @ Cb @ X, X, 0.005, 0.001).sum(0)
     Cc = np.concatenate([_motions(rng, 20, axes=np.tile([0.0, 0.0, 1.0], (20, 1))),
                          _motions(rng, 20)])
-    Fc = pl.motion_information(Cc, np.linalg.inv(X) @ Cc @ X, X, 0.005, 0.001)
+    Fc = info.motion_information(Cc, np.linalg.inv(X) @ Cc @ X, X, 0.005, 0.001)
     g = pl.greedy(Fb, Fc, 4)
     assert g.order[0] >= 20                      # a motion about another axis comes first
     assert np.isinf(g.max_std_tol[0]) or g.max_std_tol[0] > 1e3
     assert np.all(np.diff(g.criterion) <= 1e-12)
     assert np.all(np.diff(g.max_std_tol[1:]) <= 1e-12)
     assert len(set(g.order.tolist())) == 4
-    s0 = pl.predicted_std(Fb)
+    s0 = info.predicted_std(Fb)
     assert np.isinf(s0[5])                       # translation along z undetermined
     feas = np.zeros(40, bool)
     feas[:20] = True                             # only motions about z are feasible
@@ -72,11 +73,66 @@ def test_undeterminable_names_the_vertical_translation_and_its_fix():
     X = _X()
     C = _motions(rng, 30, axes=np.tile([0.0, 0.0, 1.0], (30, 1)))
     C[:, 2, 3] = 0.0                              # planar
-    F = pl.motion_information(C, np.linalg.inv(X) @ C @ X, X, 0.005, 0.001)
-    out = pl.undeterminable(F.sum(0), F)
+    F = info.motion_information(C, np.linalg.inv(X) @ C @ X, X, 0.005, 0.001)
+    out = info.undeterminable(F.sum(0), F)
     assert len(out) == 1 and out[0]["kind"] == "translation"
     assert abs(out[0]["translation_dir_a"][2]) > 0.99
     assert "prior" in out[0]["fix"]
+
+
+def test_one_rotation_axis_leaves_one_direction_undetermined_and_five_determined():
+    """Motions that all rotate about one axis (a SCARA's, a cart's vertical) leave X's
+    translation along it undetermined, and only that: the other five directions get finite
+    1-sigma on the determined subspace — also when the recorded motions carry a little
+    spurious information along the undetermined direction, mixed with the others (a
+    marker map's tilt), which inverting the whole information turned into 'every axis
+    undetermined' — and the choice ranks stops by what they improve there."""
+    rng = np.random.default_rng(7)
+    X = _X()
+    about_z = lambda n: _motions(rng, n, axes=np.tile([0.0, 0.0, 1.0], (n, 1)))  # noqa: E731
+    Cb, M = about_z(40), about_z(60)
+    Fb = info.motion_information(Cb, np.linalg.inv(X) @ Cb @ X, X, 0.005, 0.001).sum(0)
+    v = np.array([0.02, 0.0, 0.0, 0.0, 0.03, 1.0])                # mostly vz, mixed
+    dsc = info.tolerance_scale(1.0, 0.01)
+    Fb_spurious = Fb + 0.5 * np.outer(v / dsc, v / dsc) / (v @ v)  # 1-sigma ~1.4 cm along v
+    Fc = info.motion_information(M, np.linalg.inv(X) @ M @ X, X, 0.005, 0.001)
+    for F0 in (Fb, Fb_spurious):
+        U = info.undeterminable_directions(F0, Fc)
+        assert U.shape == (6, 1) and abs(U[5, 0]) > 0.999        # X's translation along z
+        out = info.undeterminable(F0, Fc)
+        assert len(out) == 1 and out[0]["kind"] == "translation"
+        assert abs(out[0]["translation_dir_a"][2]) > 0.99
+        g, added = pl.greedy_chain(F0, M, X, 0.005, 0.001, 4, undetermined=U)
+        s = info.predicted_std(F0 + added.sum(0), undetermined=U)
+        assert np.isinf(s[5]) and np.isfinite(s[:5]).all() and (s[:5] > 0).all()
+        # the choice works on the five: its largest 1-sigma is finite and never rises
+        assert np.isfinite(g.max_std_tol).all() and np.all(np.diff(g.max_std_tol) <= 1e-12)
+        assert np.all(np.diff(g.criterion) <= 1e-12) and len(set(g.order.tolist())) == 4
+        # its criterion is that of the information restricted to the five directions
+        Bc = info.complement(U)
+        Fr = Bc.T @ ((F0 + added.sum(0)) * np.outer(dsc, dsc)) @ Bc
+        lam = np.linalg.eigvalsh(Fr)
+        crit = np.max(1 / (lam + pl.EPS)) + np.mean(1 / (lam + pl.EPS))
+        assert g.criterion[-1] == pytest.approx(crit, rel=1e-9)
+    # the spurious information alone leaves only vz (and the axes it mixes by < 5 %)
+    # finite: no axis but vz is reported undetermined
+    s = info.predicted_std(Fb_spurious + Fc[:3].sum(0), range_m=0.001)
+    assert np.isinf(s[5]) and np.isfinite(s[:5]).all()
+    # without undetermined directions the choice is the one it always was
+    g0, a0 = pl.greedy_chain(Fb, M, X, 0.005, 0.001, 3)
+    g1, a1 = pl.greedy_chain(Fb, M, X, 0.005, 0.001, 3, undetermined=np.zeros((6, 0)))
+    np.testing.assert_array_equal(g0.order, g1.order)
+    np.testing.assert_array_equal(g0.criterion, g1.criterion)
+    with pytest.raises(ValueError, match="undetermined must be"):
+        pl.greedy_chain(Fb, M, X, 0.005, 0.001, 2, undetermined=np.ones((6, 1)))
+
+
+def _six_dof(world):
+    """The scara world with its UR5e free to tilt (``world.arm.motions='6dof'``): for the
+    feasibility tests of draws about any axis."""
+    cfg = world.config
+    return dataclasses.replace(world, config=dataclasses.replace(
+        cfg, arm=dataclasses.replace(cfg.arm, motions="6dof")))
 
 
 @pytest.fixture(scope="module")
@@ -111,7 +167,7 @@ def test_every_proposed_stop_is_feasible(scara_advice):
         ang = np.arccos(np.clip((np.trace(R.T @ cand.T_world_target[j, :3, :3]) - 1) / 2,
                                 -1, 1))
         assert ang <= world.config.ik.fail_rot_rad
-    from simcalib.studies.advise.advisor import lens_distortion
+    from simcalib.studies.advise.feasibility import lens_distortion
     for c in base.aruco_cameras:
         v = visible_markers(world.marker_field, cand.T_world_cam[c][adv.chosen],
                             world.intrinsics[c], distortion=lens_distortion(base.cfg)).sum(axis=1)
@@ -132,12 +188,14 @@ def test_every_proposed_stop_is_feasible(scara_advice):
 def test_advice_monotone_and_json(scara_advice):
     from simcalib.studies.advise import advice_dict
     base, adv = scara_advice
-    worst = [np.max(np.r_[s[:3] / adv.tolerance_deg, s[3:] / adv.tolerance_m])
-             for s in adv.std_after]
+    worst = [np.max(np.delete(np.r_[s[:3] / adv.tolerance_deg, s[3:] / adv.tolerance_m], 4))
+             for s in adv.std_after]                     # vy: no SCARA motion determines it
     assert np.all(np.diff(worst) <= 1e-12)
     assert np.all(np.diff(adv.max_std_tol) <= 1e-12)
-    assert not np.isfinite(adv.std_before).all()           # scara: vertical undetermined
-    assert np.isfinite(adv.std_after[-1]).all()
+    # scara: X's translation along the vertical (the flange's y axis) is undetermined by
+    # any motion a SCARA makes; the other five directions are determined
+    assert np.isinf(adv.std_before[4]) and np.isinf(adv.std_after[:, 4]).all()
+    assert np.isfinite(np.delete(adv.std_after, 4, axis=1)).all()
     out = json.loads(json.dumps(advice_dict(base, adv), allow_nan=False))
     # scara: the arm's DH error (robot_fk flange) and the map / calibration of the ArUco
     # wrist camera are weighed in the choice and in the predicted sigma
@@ -161,6 +219,7 @@ def test_advice_monotone_and_json(scara_advice):
         assert abs(sum(shares.values()) - 1.0) < 1e-9, axis
     std = adv.std_after[-1]
     in_tol = np.r_[std[:3] / adv.tolerance_deg, std[3:] / adv.tolerance_m]
+    in_tol[4] = -np.inf                                   # vy: left to cannot_help
     assert lb["axis"] == ["wx_deg", "wy_deg", "wz_deg", "vx_m", "vy_m", "vz_m"][
         int(np.argmax(in_tol))]
     assert lb["dominant"] == max(lb["shares"], key=lb["shares"].get)
@@ -170,9 +229,63 @@ def test_advice_monotone_and_json(scara_advice):
     assert eg["stops"] == len(out["motions"]) and eg["chains"] == adv.random_chains.shape[0]
     assert adv.random_chains_std.shape == (eg["chains"], 6)
     assert set(adv.random_chains.ravel()) <= set(np.flatnonzero(adv.candidates.feasible))
-    assert eg["advised_max_std_cm"] == pytest.approx(100 * std[3:].max())
+    assert eg["advised_max_std_cm"] == pytest.approx(100 * std[[3, 5]].max())
     assert eg["advised_max_std_cm"] < eg["random_max_std_cm_median"]
     assert eg["advised_max_std_deg"] < eg["random_max_std_deg_median"]
+
+
+@pytest.mark.slow
+def test_scara_advice_proposes_only_moves_a_scara_can_make(scara_advice):
+    """scara: the UR5e stands in for a SCARA (``world.arm.motions: scara``): every candidate
+    (the advice's and the random baseline's) and every advised stop turns the flange about
+    the vertical only; the advice predicts finite 1-sigma on the five directions such
+    motions determine and names the sixth (X's translation along the vertical) as
+    undetermined, with its fix; the console says each stop is a motion from the previous
+    stop (the first from the reference)."""
+    import mujoco
+    from simcalib.geometry import rotvec_from_matrix
+    from simcalib.studies.advise import advice_dict
+    from simcalib.studies.advise.advisor import random_baseline_candidates
+    from simcalib.studies.advise.console import advice_lines
+    from simcalib.studies.advise.information import AXES
+    base, adv = scara_advice
+    assert base.cfg.world.arm.motions == "scara"
+    cand = adv.candidates
+    for c in (cand, random_baseline_candidates(base, 20)):
+        assert np.allclose(c.rotvec_world_rad[:, :2], 0.0)
+        assert np.abs(c.rotvec_world_rad[:, 2]).min() >= np.radians(5.0) - 1e-12
+    # the flange at each advised stop (forward kinematics of its joint targets) is the
+    # reference flange turned about the vertical: no tilt beyond the IK's tolerance
+    world = base.truth.world
+    m, d = world.model, mujoco.MjData(world.model)
+    sid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, world.scene.mount_site)
+    R_ref = cand.ref["T_world_target"][:3, :3]
+    for j in adv.chosen:
+        d.qpos[:] = cand.qpos[j]
+        mujoco.mj_kinematics(m, d)
+        rv = rotvec_from_matrix(d.site_xmat[sid].reshape(3, 3) @ R_ref.T)
+        assert np.hypot(rv[0], rv[1]) <= 2 * world.config.ik.fail_rot_rad
+        assert abs(rv[2]) >= np.radians(4.0)
+    # undetermined: X's translation along the vertical, seen from camera a (the flange)
+    up_a = cand.ref["T_world_cam"]["cam_a"][:3, :3].T @ np.array([0.0, 0.0, 1.0])
+    assert len(adv.cannot_help) == 1
+    h = adv.cannot_help[0]
+    assert h["kind"] == "translation" and abs(np.dot(h["translation_dir_a"], up_a)) > 0.99
+    assert "prior" in h["fix"] and "SCARA" in h["fix"]
+    k = 3 + int(np.argmax(np.abs(up_a)))
+    for s in (adv.std_before, *adv.std_after):
+        assert np.isinf(s[k]) and np.isfinite(np.delete(s, k)).all()
+    out = json.loads(json.dumps(advice_dict(base, adv), allow_nan=False))
+    for mo in out["motions"]:
+        assert mo["predicted_std_after"][AXES[k]] is None
+        assert all(mo["predicted_std_after"][a] > 0 for a in AXES if a != AXES[k])
+        rv = mo["target_motion"]["rotvec_world_deg"]
+        assert np.hypot(rv[0], rv[1]) <= 1e-6 * max(abs(rv[2]), 1.0)
+    text = "\n".join(advice_lines(out))
+    assert "each stop is a motion from the previous stop (stop 1: from the reference" in text
+    assert "stop 1 (from the reference stop): flange turns" in text
+    assert "stop 2 (from stop 1): flange turns" in text and "deg about the vertical" in text
+    assert "cannot help: translation of X along" in text
 
 
 @pytest.mark.slow
@@ -195,18 +308,22 @@ def test_cart_states_what_it_cannot_help():
     assert h["kind"] == "translation" and abs(np.dot(h["translation_dir_a"], up_a)) > 0.9
     assert "prior" in h["fix"]
     # what limits the determined axes never names the undeterminable one (cannot_help has it)
-    from simcalib.studies.advise.advisor import cannot_help_axes
+    from simcalib.studies.advise.systematic import cannot_help_axes
     excluded = cannot_help_axes(adv.cannot_help)
     vert = ["vx_m", "vy_m", "vz_m"][int(np.argmax(np.abs(up_a)))]
     assert vert in excluded
     if adv.limited_by:
         assert adv.limited_by["axis"] not in excluded
         assert "cannot_help" in adv.limited_by["statement"]
-    # the model's floor has no number for the translation no chain determines
-    from simcalib.studies.advise.advisor import choice_floor
+    # the predicted 1-sigma: the vertical undetermined, the other axes finite
+    k = ["vx_m", "vy_m", "vz_m"].index(vert) + 3
+    assert np.isinf(adv.std_after[-1][k])
+    assert np.isfinite(np.delete(adv.std_after[-1], k)).all()
+    # the model's floor: on the directions the cart determines (the vertical left out)
+    from simcalib.studies.advise.bounds import choice_floor
     fl = choice_floor(base, adv, n_starts=1, n_random=40, n_chains=10)
-    assert fl["floor_expected_cm"] is None and fl["ratio_floor_translation"] is None
-    assert 0 < fl["floor_expected_deg"] <= fl["advised_expected_deg"]
+    for u in ("deg", "cm"):
+        assert 0 < fl[f"floor_expected_{u}"] <= fl[f"advised_expected_{u}"] * (1 + 1e-12)
 
 
 @pytest.mark.slow
@@ -252,7 +369,7 @@ def test_exchange_refinement_never_worse_than_greedy_and_noise_scale_steers():
     rng = np.random.default_rng(3)
     X = _X()
     Cb = _motions(rng, 30, axes=np.tile([0.0, 0.0, 1.0], (30, 1)))
-    Fb = pl.motion_information(Cb, np.linalg.inv(X) @ Cb @ X, X, 0.005, 0.001).sum(0)
+    Fb = info.motion_information(Cb, np.linalg.inv(X) @ Cb @ X, X, 0.005, 0.001).sum(0)
     M = _motions(rng, 60)
     g0, a0 = pl.greedy_chain(Fb, M, X, 0.005, 0.001, 4, refine=False)
     g1, a1 = pl.greedy_chain(Fb, M, X, 0.005, 0.001, 4, refine=True)
@@ -271,7 +388,7 @@ def test_exchange_refinement_never_worse_than_greedy_and_noise_scale_steers():
 def test_candidate_ranges_jog_and_wide(scara_advice):
     from simcalib.studies.advise.feasibility import RANGES, candidates
     base, adv = scara_advice
-    world = base.truth.world
+    world = _six_dof(base.truth.world)
     ang = {}
     for r in ("jog", "wide"):
         c = candidates(world, 60, np.random.default_rng(1), ranges=r)
@@ -291,11 +408,11 @@ def test_candidates_count_the_markers_the_lens_shows(scara_advice):
     """The candidates' marker check and view quality are judged in the image the camera
     sees: the scenario's barrel lens shows markers past the pinhole image's edge (as the
     render does), and the advice counts them."""
-    from simcalib.studies.advise.advisor import lens_distortion
+    from simcalib.studies.advise.feasibility import lens_distortion
     from simcalib.studies.advise.feasibility import candidates, view_quality
     from simcalib.world.layout import visible_markers
     base, adv = scara_advice
-    world = base.truth.world
+    world = _six_dof(base.truth.world)
     lens = lens_distortion(base.cfg)
     assert lens is not None and np.any(lens != 0)              # the realistic preset's lens
     cams = base.aruco_cameras
@@ -307,7 +424,7 @@ def test_candidates_count_the_markers_the_lens_shows(scara_advice):
         assert dis.visible[c].sum() > pin.visible[c].sum()      # the lens shows more
         np.testing.assert_array_equal(adv.candidates.visible[c], visible_markers(
             world.marker_field, adv.candidates.T_world_cam[c], world.intrinsics[c],
-            distortion=lens).sum(axis=1))
+            distortion=lens).sum(axis=1))                  # the advice's (SCARA) candidates
         q_pin = view_quality(world, dis.T_world_cam[c], c)
         q_lens = view_quality(world, dis.T_world_cam[c], c, lens)
         assert q_pin.shape == q_lens.shape == (60,) and not np.allclose(q_pin, q_lens)
@@ -352,7 +469,9 @@ def test_a_stop_the_render_never_measures_is_never_advised(scara_advice):
 def test_joint_jog_baseline_stops_are_feasible(scara_advice):
     from simcalib.studies.advise.feasibility import joint_candidates, view_quality
     base, adv = scara_advice
-    world = base.truth.world
+    with pytest.raises(ValueError, match="joint_candidates needs a 6-DoF arm"):
+        joint_candidates(base.truth.world, 2, np.random.default_rng(0))  # a SCARA's tilts
+    world = _six_dof(base.truth.world)
     jc = joint_candidates(world, 12, np.random.default_rng(0),
                           aruco_cameras=base.aruco_cameras, max_joint_deg=15.0)
     m = world.model
@@ -374,11 +493,11 @@ def test_joint_jog_baseline_stops_are_feasible(scara_advice):
 def test_stops_are_measured_at_rest():
     """Stop and go: a stop's frame is one instantaneous render (no sub-frames that would
     interpolate the pose towards the next stop); every other camera effect is kept."""
-    from simcalib.studies.advise.feasibility import _stop_config
+    from simcalib.studies.advise.stops import stop_config
     from simcalib.pipeline.scenario import load_config
     cfg = load_config("3d", ["vision.preset=realistic"])
     assert cfg.vision.effects().timed                   # realistic: blur, rolling shutter
-    at_rest = _stop_config(cfg)
+    at_rest = stop_config(cfg)
     eff, eff0 = at_rest.vision.effects(), cfg.vision.effects()
     assert not eff.timed and at_rest.workers == 1
     assert eff.distortion == eff0.distortion and eff.map_position_std_m > 0
@@ -386,7 +505,7 @@ def test_stops_are_measured_at_rest():
 
 
 def test_average_stop_frames_takes_the_mean_pose_of_each_stop():
-    from simcalib.studies.advise.feasibility import average_stop_frames
+    from simcalib.studies.advise.stops import average_stop_frames
     from simcalib.geometry import matrix_from_rotvec
     from simcalib.streams import PoseStream
     truth = np.stack([np.eye(4)] * 3)
@@ -415,7 +534,7 @@ def test_average_stop_frames_takes_the_mean_pose_of_each_stop():
 def test_stops_measured_with_several_frames_at_rest(scara_advice):
     """frames_per_stop: each stop's pose is the mean of its frames, each with its own noise
     (the frames differ), stop indices as with one frame."""
-    from simcalib.studies.advise.feasibility import execute_stops
+    from simcalib.studies.advise.stops import execute_stops
     base, adv = scara_advice
     idx = adv.chosen[:2]
     one = execute_stops(base.truth, base.cfg, adv.candidates, idx, np.random.default_rng(1))
@@ -439,7 +558,7 @@ def test_stops_are_measured_by_the_recorded_runs_rig(scara_advice, monkeypatch):
     is the one the recorded run's drew."""
     import simcalib.sources.vision.stream as vision
     from simcalib.pipeline import stages as pipeline
-    from simcalib.studies.advise.feasibility import execute_stops
+    from simcalib.studies.advise.stops import execute_stops
     base, adv = scara_advice
     seen = []
     real = vision.visual_streams
@@ -464,8 +583,8 @@ def test_hindsight_stops_are_the_best_by_the_truth():
     on its frame number)."""
     import simcalib
     from simcalib.studies.advise import advise, baseline
-    from simcalib.studies.advise import feasibility as fz
-    from simcalib.studies.advise.advisor import hindsight_stops
+    from simcalib.studies.advise import stops as fz
+    from simcalib.studies.advise.bounds import hindsight_stops
     from simcalib.pipeline.scenario import load_config
     from simcalib.geometry import rotation_error_rad
     cfg = load_config("linear", SMALL + ["world.platform=arm", "vision.preset=ideal",
@@ -514,22 +633,22 @@ def test_variance_shares_split_the_covariance_by_source():
     F = A @ A.T * 1e4 + 1e3 * np.eye(6)
     G = rng.standard_normal((6, 5)) * 30
     labels = ["map", "map", "cal", "dh", "cal"]
-    shares, names = pl.variance_shares(F, G, labels)
+    shares, names = info.variance_shares(F, G, labels)
     assert names == ["white noise", "map", "cal", "dh"]
     np.testing.assert_allclose(shares.sum(axis=1), 1.0)
     # the parts add up to the diagonal of F^-1 + F^-1 G G^T F^-1 (systematic_std, squared)
     Fi = np.linalg.inv(F)
     var = np.diag(Fi + Fi @ G @ G.T @ Fi)
-    s = pl.systematic_std(F, G)
+    s = info.systematic_std(F, G)
     np.testing.assert_allclose(np.r_[np.radians(s[:3]), s[3:]] ** 2, var, rtol=1e-9)
     # the map's share is its columns' part of that diagonal
     FG = Fi @ G[:, :2]
     np.testing.assert_allclose(shares[:, 1], np.sum(FG * FG, axis=1) / var, rtol=1e-9)
     # without systematic columns everything is white noise; bad shapes are named
-    sh0, n0 = pl.variance_shares(F, np.zeros((6, 0)), [])
+    sh0, n0 = info.variance_shares(F, np.zeros((6, 0)), [])
     assert n0 == ["white noise"] and np.allclose(sh0, 1.0)
     with pytest.raises(ValueError, match="P group labels"):
-        pl.variance_shares(F, G, labels[:3])
+        info.variance_shares(F, G, labels[:3])
 
 
 @pytest.mark.slow
@@ -538,7 +657,7 @@ def test_choice_floor_is_no_worse_than_the_advice_and_states_its_search(scara_ad
     the advice's expected error; its chains are usable candidates of k distinct stops;
     the ratios are the expected errors over the random baseline's; the advised expected
     error is the model's for the chosen chain."""
-    from simcalib.studies.advise import advisor as A
+    from simcalib.studies.advise import bounds as A
     from simcalib.studies.advise import planner as pl
     base, adv = scara_advice
     fl = A.choice_floor(base, adv, n_starts=2, n_random=60, n_chains=20)
@@ -557,7 +676,8 @@ def test_choice_floor_is_no_worse_than_the_advice_and_states_its_search(scara_ad
     # alone, as a lower bound: the shared errors only add)
     F, G = pl.chain_information(adv.F_base, adv.candidates.motion["cam_a"], adv.X,
                                 *adv.noise, adv.chosen[None], noise_scale=adv.noise_scale)
-    white = pl.expected_errors(F, G)[0]
+    white = pl.expected_errors(F, G, undetermined=adv.undetermined)[0]   # vy left out
+    assert adv.undetermined is not None and np.isfinite(white).all()
     assert fl["advised_expected_deg"] >= white[0] and fl["advised_expected_cm"] >= 100 * white[1]
     assert A.choice_floor(base, dataclasses.replace(adv, chosen=adv.chosen[:2])) == {}
 

@@ -150,6 +150,9 @@ def test_cart_files_state_what_they_cannot_help_and_bad_options(tmp_path, capsys
     assert any(c["kind"] == "translation" and abs(c["translation_dir_a"][2]) > 0.99
                for c in res["cannot_help"])
     assert "prior_weight_translation" in res["cannot_help"][0]["fix"]
+    # the vertical is undetermined (null), the five other axes are predicted finite
+    for std in [res["predicted_std_before"]] + [m["predicted_std_after"] for m in res["motions"]]:
+        assert std["vz_m"] is None and all(v is not None for k, v in std.items() if k != "vz_m")
     for m in res["motions"]:                 # about the plane's normal (estimated), in it
         rv = np.asarray(m["sensor_motions"]["a"]["rotvec_deg"])
         t = np.asarray(m["sensor_motions"]["a"]["translation_m"])

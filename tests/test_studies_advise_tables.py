@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from simcalib.studies.advise import tables
-from simcalib.studies.advise.advisor import Verification
+from simcalib.studies.advise.verification import Verification
 
 
 def _r(rot, trans, sd=0.1, scm=0.2, verdict="determined"):
@@ -48,7 +48,7 @@ def test_pool_without_a_hindsight_bound_leaves_its_cells_empty():
 
 def test_ranking_row_takes_medians_over_the_rigs():
     from types import SimpleNamespace
-    advs = [SimpleNamespace(random_chains=np.zeros((200, 5), int),
+    advs = [SimpleNamespace(cannot_help=[], random_chains=np.zeros((200, 5), int),
                             random_chains_std=np.tile(np.r_[r, r, r, 0.01, 0.01, 0.02], (200, 1)),
                             std_after=np.array([[0.1, 0.05, 0.05, 0.004, 0.004, 0.004]]))
             for r in (0.2, 0.5, 0.4)]                 # expected ratio 0.5, 0.2, 0.25

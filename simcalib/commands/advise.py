@@ -3,7 +3,6 @@ which motions to record next (docs/advice.md)."""
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
@@ -21,7 +20,11 @@ self-collision, markers visible and detected in the render for ArUco cameras), a
 scenario's recorded run. With verify=true the advised stops are executed in the
 simulator (render, detect, solve with dqopt) and compared with k random feasible stops
 for `seeds` seeds. Writes DIR/advice.json and DIR/advice.rrd (proposed poses in 3D);
-prints the predicted 1-sigma per axis before and after each motion.
+prints the predicted 1-sigma per axis before and after each motion, and each stop as the
+motion from the previous stop (the first from the reference: the run's last pose). A
+platform moves as it can: an arm about any axis, an arm standing in for a SCARA
+(world.arm.motions=scara, scenario scara) and a cart about the vertical only; what no
+such motion determines is stated (cannot help) and left out of the choice.
 
 Advice options: k, verify, seeds, candidates, max_rotation_deg, max_translation_m
 (the stops drawn: arm up to 90 deg / 0.30 m by default, cart 90 deg / 1 m),
@@ -86,137 +89,6 @@ def parse_args(args):
     return scenario, overrides, opts
 
 
-def _std_row(label, s) -> str:
-    vals = [s.get(a) for a in ("wx_deg", "wy_deg", "wz_deg")]
-    tr = [s.get(a) for a in ("vx_m", "vy_m", "vz_m")]
-    f = lambda v, m=1.0: "    inf" if v is None else f"{v * m:7.3f}"   # noqa: E731
-    return f"{label:<10}" + " ".join(f(v) for v in vals) + "  " + " ".join(
-        f(v, 100) for v in tr)
-
-
-def _print_std_rows(out: dict) -> None:
-    print("predicted 1-sigma   wx      wy      wz [deg]   vx      vy      vz [cm]")
-    print(_std_row("before", out["predicted_std_before"]))
-    for m in out["motions"]:
-        print(_std_row(f"+ stop {m['step']}", m["predicted_std_after"]))
-
-
-def _print_notes(out: dict) -> None:
-    if out.get("message"):
-        print(out["message"])
-    for c in out["cannot_help"]:
-        print(f"cannot help: {c['statement']}. Fix: {c['fix']}")
-    if (out.get("limited_by") or {}).get("statement"):
-        print(f"after the stops, {out['limited_by']['statement']}")
-    eg = out.get("expected_gain") or {}
-    if eg:
-        print(f"expected (predicted largest 1-sigma, no simulation): these stops "
-              f"{_n(eg['advised_max_std_deg'])} deg / {_n(eg['advised_max_std_cm'])} cm; "
-              f"{eg['stops']} random stops of the same candidates (median of {eg['chains']}) "
-              f"{_n(eg['random_max_std_deg_median'])} deg / "
-              f"{_n(eg['random_max_std_cm_median'])} cm")
-    fl = out.get("choice_floor") or {}
-    if fl:
-        print(f"model floor (expected RMS error, no simulation): the best choice of "
-              f"{fl['stops']} of these candidates found {_n(fl['floor_expected_deg'])} deg / "
-              f"{_n(fl['floor_expected_cm'])} cm; these stops {_n(fl['advised_expected_deg'])}"
-              f" / {_n(fl['advised_expected_cm'])}; {fl['stops']} random stops "
-              f"{_n(fl['random_expected_deg'])} / {_n(fl['random_expected_cm'])} (floor / "
-              f"random: rotation {_n(fl['ratio_floor_rotation'])}, translation "
-              f"{_n(fl['ratio_floor_translation'])})")
-    print(f"advice took {out['timing_s']['total']:.1f} s")
-
-
-def print_table(out: dict) -> None:
-    print(f"advice for {out['scenario']} ({out['platform']}, {out['recorded_motions']} recorded "
-          f"motions; {out['candidates']['feasible']} of {out['candidates']['drawn']} candidates "
-          f"feasible)")
-    _print_std_rows(out)
-    for m in out["motions"]:
-        cm = m["camera_motions"]
-        desc = ", ".join(f"{c}: {v['angle_deg']:.1f} deg / "
-                         f"{100 * math.hypot(*v['translation_m']):.1f} cm" for c, v in cm.items())
-        joints = m.get("joint_targets_rad")
-        jt = (" joints [deg] " + " ".join(f"{math.degrees(v):.1f}" for v in joints.values())
-              if joints else f" cart {m['cart_pose']}")
-        print(f"stop {m['step']}: {desc};{jt}")
-    _print_notes(out)
-    ver = out.get("verification")
-    if ver:
-        print("verification (dqopt; actual error vs truth, predicted largest 1-sigma):")
-        print(f"{'':<12}{'rot [deg]':>10}{'trans [cm]':>12}{'σ rot [deg]':>13}{'σ trans [cm]':>14}")
-
-        def vr(label, r):
-            if not r.get("success"):
-                print(f"{label:<12} FAILED: {r.get('error')}")
-                return
-            print(f"{label:<12}{r['rotation_error_deg']:>10.3f}{r['translation_error_cm']:>12.3f}"
-                  f"{_n(r.get('max_std_deg')):>13}{_n(r.get('max_std_cm')):>14}")
-        vr("baseline", ver["baseline"])
-        vr("advised", ver["advised"])
-        for r in ver.get("advised_seeds", []):
-            vr(f"advised s{r['seed']}", r)
-        for tag, key, name in BASELINES:
-            for r in ver.get(key, []):
-                vr(f"{tag} s{r['seed']}", r)
-            med = ver.get(f"{key}_median") or {}
-            if med:
-                print(f"{tag + ' med':<12}{_n(med['rotation_error_deg']):>10}"
-                      f"{_n(med['translation_error_cm']):>12}{_n(med['max_std_deg']):>13}"
-                      f"{_n(med['max_std_cm']):>14}")
-        for tag, key, name in BASELINES:
-            rt = ver.get(f"ratio_advised_to_{key}_median") or {}
-            if rt:
-                print(f"advised median / {name} median: rotation "
-                      f"{_n(rt['rotation_error_deg'])}, translation "
-                      f"{_n(rt['translation_error_cm'])}")
-        hs = ver.get("hindsight") or {}
-        if hs:
-            vr("hindsight", hs)
-            rt = ver.get("ratio_hindsight_to_random_median") or {}
-            print(f"hindsight (stops picked knowing the true X: a bound, not advice) / random "
-                  f"median: rotation {_n(rt.get('rotation_error_deg'))}, translation "
-                  f"{_n(rt.get('translation_error_cm'))}")
-            rk = hs.get("ranking") or {}
-            if rk:
-                print(f"prediction vs actual over {rk['chains']} random chains of the "
-                      f"candidates: rank correlation rotation "
-                      f"{_n(rk['spearman_rotation'])}, translation "
-                      f"{_n(rk['spearman_translation'])}; best-predicted tenth's actual "
-                      f"error / all: {_n(rk['best_tenth_over_all_rotation'])}, "
-                      f"{_n(rk['best_tenth_over_all_translation'])}")
-
-
-#: (console tag, advice.json key, name) of the verification's random baselines
-BASELINES = (("random", "random", "random (jog ranges)"),
-             ("jog", "random_joint", "joint-jog"),
-             ("wide", "random_wide", "random from the advice's candidates"))
-
-
-def _n(v):
-    return "inf/n/a" if v is None else f"{v:.3f}"
-
-
-def print_recorded_table(out: dict) -> None:
-    """Console summary of advice for recorded pose files."""
-    print(f"advice for your pose files ({out['platform']}, {out['recorded_motions']} recorded "
-          f"motions, {out['candidates']['drawn']} candidates)")
-    _print_std_rows(out)
-    for m in out["motions"]:
-        desc = ", ".join(f"sensor {c}: {v['angle_deg']:.1f} deg about "
-                         f"[{', '.join(f'{x:.2f}' for x in _axis(v))}] / "
-                         f"{100 * math.hypot(*v['translation_m']):.1f} cm"
-                         for c, v in m["sensor_motions"].items())
-        print(f"stop {m['step']}: {desc}")
-    print(f"not checked: {out['not_checked']}")
-    _print_notes(out)
-
-
-def _axis(v) -> list:
-    n = math.hypot(*v["rotvec_deg"])
-    return [x / n for x in v["rotvec_deg"]] if n > 0 else [0.0, 0.0, 0.0]
-
-
 #: advice options that apply to recorded pose files (the others need a simulated scenario)
 FILE_KEYS = ("k", "candidates", "max_rotation_deg", "max_translation_m", "recording", "force")
 
@@ -256,39 +128,19 @@ def _prestart_recording(opts: dict) -> None:
 
 def main_files(args: list[str]) -> int:
     """``advise a=PATH [b=PATH] platform=... output=DIR``: advice for recorded pose files."""
-    import numpy as np
-
-    from simcalib.studies.advise.recorded import advise_recorded, recorded_advice_dict
-    from simcalib.pipeline.calibrate import calibrate
-    from simcalib.solvers.kernels.mode import prepare_kernels
+    from simcalib.studies.advise.console import recorded_advice_lines
+    from simcalib.studies.advise.session import files_session
     copts, platform, opts = parse_file_args(args)
     _prestart_recording(opts)
-    with prepare_kernels().context():
-        r, assessment = calibrate(copts)
-    mask = np.asarray(r.robust.inlier_mask, dtype=bool)
-    kw = {k: opts[k] for k in ("max_rotation_deg", "max_translation_m") if k in opts}
+    ranges = {k: opts[k] for k in ("max_rotation_deg", "max_translation_m") if k in opts}
     try:
-        adv = advise_recorded(r.C[mask], r.H[mask], r.X, r.synced.T_a[-1], opts["k"],
-                              platform=platform, rng=np.random.default_rng([copts.seed, 13]),
-                              alpha=copts.alpha, n_candidates=opts["candidates"],
-                              when_determined="advise" if opts["force"] else "stop",
-                              passes=r.motions.passes, **kw)
+        out = files_session(copts, platform, k=opts["k"], n_candidates=opts["candidates"],
+                            force=opts["force"], recording=opts["recording"], **ranges)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
-    out = recorded_advice_dict(adv, {"a": str(copts.a), "b": str(copts.b) if copts.b else None,
-                                     "calibration": assessment.verdict,
-                                     "conventions": r.summary.get("conventions"),
-                                     "inlier_motions": int(mask.sum())})
-    out_dir = Path(copts.output)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    path = out_dir / "advice.json"
-    if opts["recording"]:
-        from simcalib.report.rerun.advice import record_recorded_advice
-        out["recording"] = str(record_recorded_advice(out_dir / "advice.rrd", r.synced.T_a,
-                                                      adv, out))
-    path.write_text(json.dumps(out, indent=1, allow_nan=False))
-    print_recorded_table(out)
-    print(f"wrote {path}" + (f", {out['recording']}" if opts["recording"] else ""))
+    print("\n".join(recorded_advice_lines(out)))
+    print(f"wrote {Path(copts.output) / 'advice.json'}"
+          + (f", {out['recording']}" if opts["recording"] else ""))
     return 0
 
 
@@ -303,30 +155,22 @@ def main(args: list[str]) -> int:
     scenario, overrides, opts = parse_args(args)
     _prestart_recording(opts)
     from simcalib.pipeline.scenario import load_config
-    cfg = load_config(scenario, list(overrides))
     from simcalib.studies.advise.advisor import check_advisable
+    from simcalib.studies.advise.console import advice_lines
+    from simcalib.studies.advise.session import scenario_session
+    cfg = load_config(scenario, list(overrides))
     check_advisable(cfg)
     out_dir = Path(cfg.output) if cfg.output else Path("runs") / f"advise-{cfg.scenario}"
-    out_dir.mkdir(parents=True, exist_ok=True)
-    from simcalib.studies.advise import advice_dict, advise, baseline, verify
-    from simcalib.studies.advise.advisor import choice_floor
-    base = baseline(cfg)
-    kw = {k: opts[k] for k in ("max_rotation_deg", "max_translation_m", "min_markers")
-          if k in opts}
-    adv = advise(base, opts["k"], seed=cfg.seed, n_candidates=opts["candidates"],
-                 when_determined="advise" if opts.get("force", True) else "stop",
-                 systematic=opts.get("systematic", True), **kw)
-    ver = verify(base, adv, seeds=tuple(range(opts["seeds"])),
-                 frames_per_stop=opts.get("stop_frames", 1),
-                 hindsight=opts.get("hindsight", False)) if opts["verify"] else None
-    floor = choice_floor(base, adv) if opts.get("floor", False) else None
-    out = advice_dict(base, adv, ver, floor)
-    path = out_dir / "advice.json"
-    path.write_text(json.dumps(out, indent=1, allow_nan=False))
-    if opts["recording"]:
-        from simcalib.report.rerun.advice import record_advice
-        out["recording"] = str(record_advice(out_dir / "advice.rrd", base, adv, out))
-        path.write_text(json.dumps(out, indent=1, allow_nan=False))
-    print_table(out)
-    print(f"wrote {path}" + (f", {out['recording']}" if opts["recording"] else ""))
+    ranges = {k: opts[k] for k in ("max_rotation_deg", "max_translation_m", "min_markers")
+              if k in opts}
+    out = scenario_session(cfg, out_dir, k=opts["k"], n_candidates=opts["candidates"],
+                           force=opts.get("force", True),
+                           systematic=opts.get("systematic", True), verify=opts["verify"],
+                           seeds=opts["seeds"], stop_frames=opts.get("stop_frames", 1),
+                           hindsight=opts.get("hindsight", False),
+                           floor=opts.get("floor", False), recording=opts["recording"],
+                           **ranges)
+    print("\n".join(advice_lines(out)))
+    print(f"wrote {out_dir / 'advice.json'}"
+          + (f", {out['recording']}" if opts["recording"] else ""))
     return 0

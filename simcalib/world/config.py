@@ -33,6 +33,9 @@ PAPER_X_ROTVEC_DEG = tuple(round(math.degrees(v), 10) for v in PAPER_X_ROTVEC_RA
 __all__ = ["CameraConfig", "IKConfig", "MarkerFieldConfig", "PerturbationConfig",
            "RigConfig", "RoomConfig", "WorldConfig", "ArmControlConfig", "VehicleConfig"]
 
+#: what ``world.arm.motions`` may say the arm stands for (:class:`ArmControlConfig`)
+ARM_MOTIONS = ("6dof", "scara")
+
 
 # ----------------------------------------------------------------------------- helpers
 def _nested(name: str, value, cls):
@@ -265,17 +268,23 @@ class ArmControlConfig:
       slower than 1e-3 rad/s, or after ``settle_max_s``).
     * ``mount``: ``"eye_in_hand"`` (default: the rig's cameras on the flange) or
       ``"eye_to_hand"`` (a camera on a stand sees a board on the flange; cam_a = the flange,
-      cam_b = the board in the fixed camera's frame: :mod:`simcalib.world.eyetohand`)."""
+      cam_b = the board in the fixed camera's frame: :mod:`simcalib.world.eyetohand`).
+    * ``motions``: the motions the arm stands for: ``"6dof"`` (default: any flange pose the
+      UR5e reaches) or ``"scara"`` (a 4-DoF SCARA: the flange translates and rotates about
+      the vertical axis only; the path and the perturbation must not roll or pitch it, and
+      motion advice proposes only such stops; the UR5e executes them)."""
     control: str = "kinematic"
     capture: str = "continuous"
     gain_scale: float = 1.0
     settle_tol_rad: float = 1e-4
     settle_max_s: float = 3.0
     mount: str = "eye_in_hand"
+    motions: str = "6dof"
 
     def __post_init__(self):
         from simcalib.world.eyetohand import MOUNTS
         check_in("control", self.control, ("kinematic", "physics"))
+        check_in("motions", self.motions, ARM_MOTIONS)
         check_in("mount", self.mount, MOUNTS)
         check_in("capture", self.capture, ("continuous", "stop_and_go"))
         set_fields(self,
@@ -367,6 +376,8 @@ class WorldConfig:
             ("perturbation", PerturbationConfig), ("rig", RigConfig), ("cam_a", CameraConfig),
             ("cam_b", CameraConfig), ("room", RoomConfig), ("markers", MarkerFieldConfig),
             ("ik", IKConfig), ("vehicle", VehicleConfig), ("arm", ArmControlConfig))})
+        if self.arm.motions == "scara":
+            self._check_scara_motion()
         if self.platform == "car":
             check_that(not self.perturbation.active, "perturbation", self.perturbation,
                        "off with platform 'car' (its roll, pitch and heave come from the "
@@ -395,6 +406,22 @@ class WorldConfig:
             raise
         except ValueError as exc:
             raise ConfigError(str(exc), key="path", value=self.path) from None
+
+    def _check_scara_motion(self) -> None:
+        """``arm.motions='scara'``: an arm whose path never rolls or pitches the flange."""
+        from simcalib.world.paths import sample_path
+        check_that(self.platform == "arm", "arm.motions", self.arm.motions,
+                   f"only set with platform 'arm'; here platform={self.platform!r}")
+        s = sample_path(self.path, self.platform, self.nominal_times_s(), self.duration_s,
+                        self.path_params)
+        tilt = float(np.degrees(np.max(np.abs(np.concatenate([s.roll, s.pitch])))))
+        pert = self.perturbation
+        check_that(tilt == 0.0 and not (pert.roll_deg or pert.pitch_deg), "arm.motions",
+                   self.arm.motions,
+                   f"'6dof' with this motion: 'scara' needs a path without roll or pitch (a "
+                   f"SCARA rotates about the vertical only); path {self.path!r} tilts the "
+                   f"flange by up to {tilt:.3g} deg, the perturbation by roll "
+                   f"{pert.roll_deg:g} / pitch {pert.pitch_deg:g} deg")
 
     @property
     def n_frames(self) -> int:

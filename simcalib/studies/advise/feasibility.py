@@ -1,4 +1,5 @@
-"""Feasible candidate motions of a platform, and executing chosen stops in the simulator.
+"""Feasible candidate motions of a platform (the chosen stops are measured by
+:mod:`simcalib.studies.advise.stops`).
 
 A *candidate* is a stop: the platform's target frame (arm flange / cart base) moved from a
 reference pose ``T_world_target_ref`` (the last pose of the recorded run) to
@@ -9,6 +10,9 @@ from the previous stop (``motion`` holds the one from the reference).
 
 Feasibility:
 
+* the rotations the platform makes: about any axis for a 6-DoF arm, about the vertical
+  only for a cart and for an arm standing in for a SCARA (``world.arm.motions='scara'``:
+  it translates in 3D and yaws; :func:`rotation_axes`);
 * arm: damped-least-squares IK (:func:`simcalib.world.ik.solve_ik`, warm-started at the
   reference joints) converged within ``world.ik.fail_pos_m`` / ``fail_rot_rad``; the joints
   inside their ranges; no self-collision — MuJoCo contacts between the arm's, the
@@ -20,7 +24,7 @@ Feasibility:
   pose (:func:`simcalib.world.layout.visible_markers`) in the camera's image — the lens's
   distorted one when ``distortion`` is given (a barrel lens shows markers past the
   pinhole image's edge, as the render does); chosen stops are also rendered and
-  detected (:func:`execute_stops`).
+  detected (:func:`simcalib.studies.advise.stops.execute_stops`).
 """
 
 from __future__ import annotations
@@ -28,13 +32,15 @@ from __future__ import annotations
 import copy
 import dataclasses
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
 from simcalib.geometry import invert_transform, matrix_from_rotvec
 
-__all__ = ["Candidates", "SelfCollision", "candidates", "joint_candidates", "view_quality",
-           "stop_state", "execute_stops", "reference_index", "ROOM_MARGIN_M", "RANGES"]
+__all__ = ["Candidates", "Reference", "SelfCollision", "candidates", "joint_candidates",
+           "view_quality", "rotation_axes", "tilt_hint", "lens_distortion", "camera_ids",
+           "reference_index", "ROOM_MARGIN_M", "RANGES"]
 
 ROOM_MARGIN_M = 0.05
 CART_ROOM_MARGIN_M = 0.3
@@ -42,9 +48,11 @@ CART_ROOM_MARGIN_M = 0.3
 #: ``(max rotation deg, max translation m)`` of the drawn stops, per range and platform:
 #: ``"jog"`` — the moves a user adds without advice (flange rotated up to 40 deg about an
 #: axis, moved up to 15 cm; cart yaw +-90 deg, 1 m): the random baseline of
-#: :func:`simcalib.studies.advise.verify`; ``"wide"`` — what the planner searches (the arm's flange
-#: rotated up to 90 deg, moved up to 30 cm; the same cart moves): advice includes *how far*
-#: to move, within what IK, limits, collisions and the markers allow.
+#: :func:`simcalib.studies.advise.verification.verify`; ``"wide"`` — what the planner
+#: searches (the arm's flange rotated up to 90 deg, moved up to 30 cm; the same cart
+#: moves): advice includes *how far* to move, within what IK, limits, collisions and the
+#: markers allow. An arm standing in for a SCARA rotates by the same angles about the
+#: vertical only (:func:`rotation_axes`).
 RANGES = {"jog": {"arm": (40.0, 0.15), "cart": (90.0, 1.0)},
           "wide": {"arm": (90.0, 0.30), "cart": (90.0, 1.0)}}
 
@@ -168,7 +176,8 @@ class SelfCollision:
                 for p in sorted(hits - self.allowed)]
 
 
-def _camera_ids(model, cameras):
+def camera_ids(model, cameras) -> list:
+    """MuJoCo ids of the cameras named ``cameras``."""
     import mujoco
     return [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, c) for c in cameras]
 
@@ -180,13 +189,24 @@ def _inside_room(cfg, p, margin):
             & (p[..., 2] >= margin) & (p[..., 2] <= size[2] - margin))
 
 
-def _reference(world):
-    """MjData at the reference stop, its state, frame index, target pose and camera poses."""
+class Reference(NamedTuple):
+    """The reference stop (the last frame of the recorded run): an ``MjData`` posed there,
+    the MuJoCo state (``qpos``, ``mocap_pos``, ``mocap_quat_wxyz``), its ``frame`` index,
+    the target frame's pose and each camera's pose."""
+    data: object
+    qpos: np.ndarray
+    mocap_pos: np.ndarray
+    mocap_quat_wxyz: np.ndarray
+    frame: int
+    T_world_target: np.ndarray
+    T_world_cam: dict
+
+
+def _reference(world) -> Reference:
+    """The world's :class:`Reference` stop."""
     import mujoco
     from simcalib.world.simulate import camera_poses_from_state
-    platform = world.config.platform
     model = world.model
-    cams = tuple(world.camera_names)
     fr = world.frames("cam_b")
     k_ref = reference_index(world)
     q_ref = np.asarray(fr.qpos[k_ref], dtype=np.float64)
@@ -198,19 +218,86 @@ def _reference(world):
         data.mocap_pos[:] = mp_ref
         data.mocap_quat[:] = mq_ref
     mujoco.mj_kinematics(model, data)
-    site = world.scene.mount_site
-    if platform == "arm":
-        T_ref_target = _site_pose(model, data, site)
+    if world.config.platform == "arm":
+        T_ref_target = _site_pose(model, data, world.scene.mount_site)
     else:
         from simcalib.geometry import matrix_from_quat, quat_xyzw_from_wxyz
         T_ref_target = np.eye(4)
         T_ref_target[:3, :3] = matrix_from_quat(quat_xyzw_from_wxyz(mq_ref[0]))
         T_ref_target[:3, 3] = mp_ref[0]
-    cam_ids = _camera_ids(model, cams)
-    T_ref_cam = camera_poses_from_state(model, q_ref[None], mp_ref[None], mq_ref[None])[0]
-    T_ref_cam = {c: T_ref_cam[i] for c, i in zip(cams, cam_ids)}
+    cams = tuple(world.camera_names)
+    T_cam = camera_poses_from_state(model, q_ref[None], mp_ref[None], mq_ref[None])[0]
+    T_ref_cam = {c: T_cam[i] for c, i in zip(cams, camera_ids(model, cams))}
+    return Reference(data, q_ref, mp_ref, mq_ref, k_ref, T_ref_target, T_ref_cam)
 
-    return data, q_ref, mp_ref, mq_ref, k_ref, T_ref_target, T_ref_cam
+
+def rotation_axes(cfg) -> str:
+    """The rotations a platform makes at a stop (``cfg`` its WorldConfig): ``"any"`` axis
+    (a 6-DoF arm) or the ``"vertical"`` only (a cart's yaw; an arm standing in for a SCARA,
+    ``world.arm.motions='scara'``)."""
+    if cfg.platform == "arm" and cfg.arm.motions != "scara":
+        return "any"
+    return "vertical"
+
+
+#: how an arm standing in for a SCARA could rotate about another axis (the example in the
+#: fix of a direction it cannot determine; a cart's is the information module's default)
+TILT_HINT_SCARA = ("a SCARA rotates about the vertical only: e.g. a session with the camera "
+                   "on a 6-DoF arm")
+
+
+def tilt_hint(cfg) -> str | None:
+    """How the platform of ``cfg`` (a WorldConfig) could rotate about another axis than the
+    vertical, for the fix of a direction it cannot determine (None: the default, a
+    cart's)."""
+    return TILT_HINT_SCARA if cfg.platform == "arm" and rotation_axes(cfg) != "any" else None
+
+
+def lens_distortion(run_cfg) -> "np.ndarray | None":
+    """The ArUco cameras' lens distortion (k1, k2, p1, p2, k3) of the run's vision
+    configuration (what the render images through), None without a run configuration:
+    the candidates' visibility and view quality are judged in the image the camera sees."""
+    return None if run_cfg is None else np.asarray(run_cfg.vision.effects().distortion,
+                                                   dtype=np.float64)
+
+
+def _check_draw(n, rng, ranges, platform) -> None:
+    """ValueError / TypeError for a bad draw of :func:`candidates`."""
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+        raise ValueError(f"n must be an integer >= 1; received {n!r}")
+    if not isinstance(rng, np.random.Generator):
+        raise TypeError(f"rng must be a numpy.random.Generator; received {type(rng).__name__}")
+    if ranges not in RANGES:
+        raise ValueError(f"ranges must be one of {sorted(RANGES)}; received {ranges!r}")
+    if platform not in ("arm", "cart"):
+        raise ValueError(f"motion advice supports platforms 'arm' and 'cart'; received "
+                         f"{platform!r}")
+
+
+def _unit_rows(rng, n) -> np.ndarray:
+    d = rng.standard_normal((n, 3))
+    return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+def _draw_moves(platform, axes, n, rng, max_r, max_t, min_r) -> tuple:
+    """``(omega (n, 3) rad, dp (n, 3) m)``: world rotation vectors and moves of the target.
+    Arm, any axis: a uniform axis, an angle uniform in ``[min_r, max_r]`` deg, a move
+    uniform in a ball; arm, vertical axis (SCARA): the same angle about +-z, the same ball;
+    cart: yaw uniform in +-``max_r``, a move uniform in a horizontal disc."""
+    if platform == "arm":
+        if axes == "any":
+            axis = _unit_rows(rng, n)
+        else:
+            axis = np.zeros((n, 3))
+            axis[:, 2] = rng.choice([-1.0, 1.0], n)
+        ang = np.deg2rad(rng.uniform(min(min_r, max_r), max_r, n))
+        dp = _unit_rows(rng, n) * (max_t * rng.random(n) ** (1 / 3))[:, None]
+        return axis * ang[:, None], dp
+    omega = np.zeros((n, 3))
+    omega[:, 2] = np.deg2rad(rng.uniform(-max_r, max_r, n))
+    phi = rng.uniform(0, 2 * np.pi, n)
+    r = max_t * np.sqrt(rng.random(n))
+    return omega, np.stack([r * np.cos(phi), r * np.sin(phi), np.zeros(n)], axis=1)
 
 
 def candidates(world, n: int, rng: np.random.Generator, *, aruco_cameras=(),
@@ -219,8 +306,9 @@ def candidates(world, n: int, rng: np.random.Generator, *, aruco_cameras=(),
                ranges: str = "jog", distortion=None) -> Candidates:
     """``n`` random candidate stops around the world's reference pose, with feasibility.
 
-    Arm: rotation about a uniform axis by an angle uniform in ``[min_rotation_deg,
-    max_rotation_deg]`` and a translation uniform in a ball of radius
+    Arm: rotation about a uniform axis — about the vertical only for an arm standing in for
+    a SCARA (``world.arm.motions='scara'``, :func:`rotation_axes`) — by an angle uniform in
+    ``[min_rotation_deg, max_rotation_deg]`` and a translation uniform in a ball of radius
     ``max_translation_m``. Cart: yaw uniform in +-``max_rotation_deg`` and a planar
     translation in a disc of radius ``max_translation_m``; roll, pitch and height are not
     drivable. Unset maxima come from ``RANGES[ranges]`` (``"jog"``: arm 40 deg / 0.15 m,
@@ -228,94 +316,68 @@ def candidates(world, n: int, rng: np.random.Generator, *, aruco_cameras=(),
     whose poses come from the marker field (visibility checked); ``distortion``: their
     lens (k1, k2, p1, p2, k3, e.g. ``VisionConfig.effects().distortion``; default none:
     pinhole), the markers counted in the distorted image."""
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
-        raise ValueError(f"n must be an integer >= 1; received {n!r}")
-    if not isinstance(rng, np.random.Generator):
-        raise TypeError(f"rng must be a numpy.random.Generator; received {type(rng).__name__}")
-    if ranges not in RANGES:
-        raise ValueError(f"ranges must be one of {sorted(RANGES)}; received {ranges!r}")
     cfg = world.config
-    platform = cfg.platform
-    if platform not in ("arm", "cart"):
-        raise ValueError(f"motion advice supports platforms 'arm' and 'cart'; received "
-                         f"{platform!r}")
-    default_r, default_t = RANGES[ranges][platform]
-    model = world.model
-    data, q_ref, mp_ref, mq_ref, k_ref, T_ref_target, T_ref_cam = _reference(world)
-    site = world.scene.mount_site
-
-    # ---- draw the moves
-    if platform == "arm":
-        max_r = default_r if max_rotation_deg is None else float(max_rotation_deg)
-        max_t = default_t if max_translation_m is None else float(max_translation_m)
-        axis = rng.standard_normal((n, 3))
-        axis /= np.linalg.norm(axis, axis=1, keepdims=True)
-        ang = np.deg2rad(rng.uniform(min(min_rotation_deg, max_r), max_r, n))
-        omega = axis * ang[:, None]
-        d = rng.standard_normal((n, 3))
-        d /= np.linalg.norm(d, axis=1, keepdims=True)
-        dp = d * (max_t * rng.random(n) ** (1 / 3))[:, None]
-    else:
-        max_r = default_r if max_rotation_deg is None else float(max_rotation_deg)
-        max_t = default_t if max_translation_m is None else float(max_translation_m)
-        yaw = np.deg2rad(rng.uniform(-max_r, max_r, n))
-        omega = np.zeros((n, 3))
-        omega[:, 2] = yaw
-        phi = rng.uniform(0, 2 * np.pi, n)
-        r = max_t * np.sqrt(rng.random(n))
-        dp = np.stack([r * np.cos(phi), r * np.sin(phi), np.zeros(n)], axis=1)
+    _check_draw(n, rng, ranges, cfg.platform)
+    default_r, default_t = RANGES[ranges][cfg.platform]
+    max_r = default_r if max_rotation_deg is None else float(max_rotation_deg)
+    max_t = default_t if max_translation_m is None else float(max_translation_m)
+    ref = _reference(world)
+    omega, dp = _draw_moves(cfg.platform, rotation_axes(cfg), n, rng, max_r, max_t,
+                            min_rotation_deg)
     T_t = np.zeros((n, 4, 4))
-    T_t[:, :3, :3] = matrix_from_rotvec(omega) @ T_ref_target[:3, :3]
-    T_t[:, :3, 3] = T_ref_target[:3, 3] + dp
+    T_t[:, :3, :3] = matrix_from_rotvec(omega) @ ref.T_world_target[:3, :3]
+    T_t[:, :3, 3] = ref.T_world_target[:3, 3] + dp
     T_t[:, 3, 3] = 1.0
-
-    reason = [""] * n
-    ep = np.zeros(n)
-    er = np.zeros(n)
-    if platform == "arm":
-        from simcalib.world.ik import solve_ik
-        ik = cfg.ik
-        qpos = np.zeros((n, model.nq))
-        collide = SelfCollision(model, q_ref)
-        lim = model.jnt_limited.astype(bool)
-        lo, hi = model.jnt_range[:, 0], model.jnt_range[:, 1]
-        for i in range(n):
-            q, ep[i], er[i], _ = solve_ik(model, data, site, T_t[i], q_ref, damping=ik.damping,
-                                          max_iter=ik.max_iter, tol_pos_m=ik.tol_pos_m,
-                                          tol_rot_rad=ik.tol_rot_rad)
-            qpos[i] = q
-            if ep[i] > ik.fail_pos_m or er[i] > ik.fail_rot_rad:
-                reason[i] = (f"IK does not reach it ({ep[i] * 1e3:.3g} mm, "
-                             f"{np.rad2deg(er[i]):.3g} deg)")
-                continue
-            if (lim & ((q < lo - 1e-9) | (q > hi + 1e-9))).any():
-                reason[i] = "joint limit"
-                continue
-            hits = collide(q)
-            if hits:
-                reason[i] = f"self-collision ({hits[0][0]} / {hits[0][1]})"
-        mocap_pos = np.repeat(mp_ref[None], n, axis=0)
-        mocap_quat = np.repeat(mq_ref[None], n, axis=0)
+    if cfg.platform == "arm":
+        states = _arm_states(world, ref, T_t)
     else:
         from simcalib.world.platforms import get_platform
         mot = get_platform("cart").drive(world.scene, T_t, np.arange(n, dtype=float), cfg)
-        qpos, mocap_pos, mocap_quat = mot.qpos, mot.mocap_pos, mot.mocap_quat_wxyz
-    return _finish(world, platform, omega, dp, T_t, qpos, mocap_pos, mocap_quat, ep, er,
-                   reason, aruco_cameras, min_markers, T_ref_cam, q_ref, mp_ref, mq_ref,
-                   T_ref_target, k_ref, distortion)
+        states = (mot.qpos, mot.mocap_pos, mot.mocap_quat_wxyz, np.zeros(n), np.zeros(n),
+                  [""] * n)
+    return _finish(world, ref, omega, dp, T_t, states, aruco_cameras, min_markers, distortion)
 
 
-def _finish(world, platform, omega, dp, T_t, qpos, mocap_pos, mocap_quat, ep, er, reason,
-            aruco_cameras, min_markers, T_ref_cam, q_ref, mp_ref, mq_ref, T_ref_target, k_ref,
-            distortion):
-    """Room and marker checks, camera poses and motions of drawn stops -> Candidates."""
+def _arm_states(world, ref: Reference, T_t) -> tuple:
+    """``(qpos, mocap_pos, mocap_quat, ik position error, ik rotation error, reason)`` of
+    the arm at the target poses ``T_t`` (IK from the reference joints; reason: why each
+    is infeasible — IK, joint limit, self-collision — "" when it is not)."""
+    from simcalib.world.ik import solve_ik
+    model, ik, n = world.model, world.config.ik, T_t.shape[0]
+    qpos, ep, er, reason = np.zeros((n, model.nq)), np.zeros(n), np.zeros(n), [""] * n
+    collide = SelfCollision(model, ref.qpos)
+    lim = model.jnt_limited.astype(bool)
+    lo, hi = model.jnt_range[:, 0], model.jnt_range[:, 1]
+    for i in range(n):
+        q, ep[i], er[i], _ = solve_ik(model, ref.data, world.scene.mount_site, T_t[i],
+                                      ref.qpos, damping=ik.damping, max_iter=ik.max_iter,
+                                      tol_pos_m=ik.tol_pos_m, tol_rot_rad=ik.tol_rot_rad)
+        qpos[i] = q
+        if ep[i] > ik.fail_pos_m or er[i] > ik.fail_rot_rad:
+            reason[i] = (f"IK does not reach it ({ep[i] * 1e3:.3g} mm, "
+                         f"{np.rad2deg(er[i]):.3g} deg)")
+            continue
+        if (lim & ((q < lo - 1e-9) | (q > hi + 1e-9))).any():
+            reason[i] = "joint limit"
+            continue
+        hits = collide(q)
+        if hits:
+            reason[i] = f"self-collision ({hits[0][0]} / {hits[0][1]})"
+    return (qpos, np.repeat(ref.mocap_pos[None], n, axis=0),
+            np.repeat(ref.mocap_quat_wxyz[None], n, axis=0), ep, er, reason)
+
+
+def _finish(world, ref: Reference, omega, dp, T_t, states, aruco_cameras, min_markers,
+            distortion) -> Candidates:
+    """Room and marker checks, camera poses and motions of drawn stops -> Candidates
+    (``states``: qpos, mocap_pos, mocap_quat, IK errors and reasons of :func:`_arm_states`)."""
     from simcalib.world.layout import visible_markers
     from simcalib.world.simulate import camera_poses_from_state
+    qpos, mocap_pos, mocap_quat, ep, er, reason = states
     model, cfg, cams = world.model, world.config, tuple(world.camera_names)
-    cam_ids = _camera_ids(model, cams)
     Tc = camera_poses_from_state(model, qpos, mocap_pos, mocap_quat)
-    T_world_cam = {c: Tc[:, i] for c, i in zip(cams, cam_ids)}
-    margin = ROOM_MARGIN_M if platform == "arm" else CART_ROOM_MARGIN_M
+    T_world_cam = {c: Tc[:, i] for c, i in zip(cams, camera_ids(model, cams))}
+    margin = ROOM_MARGIN_M if cfg.platform == "arm" else CART_ROOM_MARGIN_M
     for c in cams:
         out = ~_inside_room(cfg, T_world_cam[c][:, :3, 3], margin)
         for i in np.flatnonzero(out):
@@ -327,15 +389,16 @@ def _finish(world, platform, omega, dp, T_t, qpos, mocap_pos, mocap_quat, ep, er
         visible[c] = v.astype(np.int64)
         for i in np.flatnonzero(v < min_markers):
             reason[i] = reason[i] or f"{c} sees {int(v[i])} < {min_markers} markers"
-    motion = {c: invert_transform(T_ref_cam[c]) @ T_world_cam[c] for c in cams}
-    feasible = np.array([r == "" for r in reason])
-    ref = {"qpos": q_ref, "mocap_pos": mp_ref, "mocap_quat_wxyz": mq_ref,
-           "T_world_target": T_ref_target, "T_world_cam": T_ref_cam, "frame": k_ref}
-    return Candidates(platform=platform, rotvec_world_rad=omega, dp_world_m=dp,
+    motion = {c: invert_transform(ref.T_world_cam[c]) @ T_world_cam[c] for c in cams}
+    refd = {"qpos": ref.qpos, "mocap_pos": ref.mocap_pos,
+            "mocap_quat_wxyz": ref.mocap_quat_wxyz, "T_world_target": ref.T_world_target,
+            "T_world_cam": ref.T_world_cam, "frame": ref.frame}
+    return Candidates(platform=cfg.platform, rotvec_world_rad=omega, dp_world_m=dp,
                       T_world_target=T_t, qpos=qpos, mocap_pos=mocap_pos,
                       mocap_quat_wxyz=mocap_quat, T_world_cam=T_world_cam, motion=motion,
                       ik_pos_error_m=ep, ik_rot_error_rad=er, visible=visible,
-                      feasible=feasible, reason=tuple(reason), ref=ref)
+                      feasible=np.array([r == "" for r in reason]), reason=tuple(reason),
+                      ref=refd)
 
 
 def joint_candidates(world, n: int, rng: np.random.Generator, *, aruco_cameras=(),
@@ -345,9 +408,10 @@ def joint_candidates(world, n: int, rng: np.random.Generator, *, aruco_cameras=(
     reference by an angle uniform in +-``max_joint_deg`` (what a user adds without advice:
     random joint perturbations around the current pose), with the same feasibility checks
     as :func:`candidates` (joint limits, self-collision, room, markers seen through
-    ``distortion``). Used as the
-    random baseline of :func:`simcalib.studies.advise.verify`; the cart has no joints to jog
-    (use :func:`candidates`)."""
+    ``distortion``). Used as the random baseline of
+    :func:`simcalib.studies.advise.verification.verify`; the cart has no joints to jog, and
+    jogging the UR5e's six joints tilts the flange, which an arm standing in for a SCARA
+    cannot (both: use :func:`candidates`)."""
     import mujoco
     from simcalib.geometry import rotvec_from_matrix
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
@@ -357,41 +421,49 @@ def joint_candidates(world, n: int, rng: np.random.Generator, *, aruco_cameras=(
     if not (isinstance(max_joint_deg, (int, float)) and 0 < max_joint_deg <= 180):
         raise ValueError(f"max_joint_deg must be in (0, 180]; received {max_joint_deg!r}")
     cfg = world.config
-    if cfg.platform != "arm":
-        raise ValueError(f"joint_candidates needs platform 'arm'; received {cfg.platform!r}")
+    if cfg.platform != "arm" or rotation_axes(cfg) != "any":
+        raise ValueError(f"joint_candidates needs a 6-DoF arm (platform 'arm', arm.motions "
+                         f"'6dof'); received platform {cfg.platform!r}, motions "
+                         f"{cfg.arm.motions!r}")
     model = world.model
-    data, q_ref, mp_ref, mq_ref, k_ref, T_ref_target, T_ref_cam = _reference(world)
-    site = world.scene.mount_site
+    ref = _reference(world)
     hinge = np.zeros(model.nq, bool)
     for j in range(model.njnt):
         if int(model.jnt_type[j]) == int(mujoco.mjtJoint.mjJNT_HINGE):
             hinge[int(model.jnt_qposadr[j])] = True
-    qpos = np.repeat(q_ref[None], n, axis=0)
+    qpos = np.repeat(ref.qpos[None], n, axis=0)
     qpos[:, hinge] += np.deg2rad(rng.uniform(-max_joint_deg, max_joint_deg,
                                              (n, int(hinge.sum()))))
+    T_t, reason = _jog_states(world, ref, qpos)
+    omega = rotvec_from_matrix(T_t[:, :3, :3] @ ref.T_world_target[:3, :3].T)
+    dp = T_t[:, :3, 3] - ref.T_world_target[:3, 3]
+    states = (qpos, np.repeat(ref.mocap_pos[None], n, axis=0),
+              np.repeat(ref.mocap_quat_wxyz[None], n, axis=0), np.zeros(n), np.zeros(n), reason)
+    return _finish(world, ref, omega, dp, T_t, states, aruco_cameras, min_markers, distortion)
+
+
+def _jog_states(world, ref: Reference, qpos) -> tuple[np.ndarray, list]:
+    """``(T_world_target (n, 4, 4), reason)`` of the joint states ``qpos``: the flange pose
+    and why each is infeasible (joint limit, self-collision; "" when it is not)."""
+    import mujoco
+    model, data, n = world.model, ref.data, qpos.shape[0]
     lim = model.jnt_limited.astype(bool)
     lo, hi = model.jnt_range[:, 0], model.jnt_range[:, 1]
-    adr = model.jnt_qposadr
-    collide = SelfCollision(model, q_ref)
+    collide = SelfCollision(model, ref.qpos)
     reason = [""] * n
     T_t = np.zeros((n, 4, 4))
     for i in range(n):
         data.qpos[:] = qpos[i]
         mujoco.mj_kinematics(model, data)
-        T_t[i] = _site_pose(model, data, site)
-        q = qpos[i][adr]
+        T_t[i] = _site_pose(model, data, world.scene.mount_site)
+        q = qpos[i][model.jnt_qposadr]
         if (lim & ((q < lo - 1e-9) | (q > hi + 1e-9))).any():
             reason[i] = "joint limit"
             continue
         hits = collide(qpos[i])
         if hits:
             reason[i] = f"self-collision ({hits[0][0]} / {hits[0][1]})"
-    omega = rotvec_from_matrix(T_t[:, :3, :3] @ T_ref_target[:3, :3].T)
-    dp = T_t[:, :3, 3] - T_ref_target[:3, 3]
-    return _finish(world, "arm", omega, dp, T_t, qpos, np.repeat(mp_ref[None], n, axis=0),
-                   np.repeat(mq_ref[None], n, axis=0), np.zeros(n), np.zeros(n), reason,
-                   aruco_cameras, min_markers, T_ref_cam, q_ref, mp_ref, mq_ref,
-                   T_ref_target, k_ref, distortion)
+    return T_t, reason
 
 
 def view_quality(world, T_world_cam, camera: str, distortion=None) -> np.ndarray:
@@ -409,141 +481,3 @@ def view_quality(world, T_world_cam, camera: str, distortion=None) -> np.ndarray
     return np.sqrt(np.sum(np.where(vis, edges, 0.0) ** 2, axis=1))
 
 
-def stop_state(cand: Candidates, idx) -> tuple:
-    """``(qpos, mocap_pos, mocap_quat_wxyz)`` of the stops: the reference first, then the
-    candidates ``idx`` (stop-and-go: the platform rests at each)."""
-    idx = np.asarray(idx, dtype=np.int64)
-    r = cand.ref
-    return (np.concatenate([r["qpos"][None], cand.qpos[idx]]),
-            np.concatenate([r["mocap_pos"][None], cand.mocap_pos[idx]]),
-            np.concatenate([r["mocap_quat_wxyz"][None], cand.mocap_quat_wxyz[idx]]))
-
-
-def execute_stops(truth, cfg, cand: Candidates, idx, rng: np.random.Generator,
-                  stop_interval_s: float = 2.0, frames_per_stop: int = 1) -> dict:
-    """Drive the platform to the reference stop and then to the candidates ``idx`` (stop and
-    go), measure each camera there with the run's pose sources (ArUco renders and detects,
-    robot_fk reads the encoders ...), and return camera -> ``PoseStream`` over the stops
-    (frame 0 = the reference stop; stops without a pose are absent). The rig is the recorded
-    run's: the same true arm (DH deviation), marker map survey and camera calibrations
-    (:func:`recorded_rig_entropy`); ``rng`` draws only the per-frame noise (images,
-    encoders). ``frames_per_stop``:
-    frames recorded while the platform rests at each stop (at the run's fps, each with its
-    own sensor noise); a stop's pose is their mean (:func:`average_stop_frames`)."""
-    from simcalib.sources import camera_sources, get_source
-    from simcalib.streams import Trajectory
-    from simcalib.world.simulate import SimCameraFrames, camera_poses_from_state
-    if isinstance(frames_per_stop, bool) or not isinstance(frames_per_stop, (int, np.integer)) \
-            or frames_per_stop < 1:
-        raise ValueError(f"frames_per_stop must be an integer >= 1; received "
-                         f"{frames_per_stop!r}")
-    world = truth.world
-    qpos, mpos, mquat = stop_state(cand, idx)
-    stop_of = np.repeat(np.arange(qpos.shape[0]), int(frames_per_stop))
-    qpos, mpos, mquat = qpos[stop_of], mpos[stop_of], mquat[stop_of]
-    n = qpos.shape[0]
-    t_end = float(np.max(world.frames("cam_b").time_s))
-    t = (t_end + stop_interval_s * (1 + stop_of)
-         + (np.arange(n) % int(frames_per_stop)) / float(world.config.fps))
-    Tc = camera_poses_from_state(world.model, qpos, mpos, mquat)
-    ids = _camera_ids(world.model, world.camera_names)
-    from simcalib.world.layout import visible_markers
-    frames = {}
-    for c, i in zip(world.camera_names, ids):
-        vis = visible_markers(world.marker_field, Tc[:, i], world.intrinsics[c]).sum(axis=1)
-        frames[c] = SimCameraFrames(camera=c, time_s=t, T_world_cam=Tc[:, i], qpos=qpos,
-                                    mocap_pos=mpos, mocap_quat_wxyz=mquat, nominal_time_s=t,
-                                    stamp_s=t, delivered=np.ones(n, bool),
-                                    visible_markers=vis.astype(np.int64))
-    traj = Trajectory(cam_a=frames["cam_a"], cam_b=frames["cam_b"],
-                      T_a_b=world.trajectory.T_a_b, meta=dict(world.trajectory.meta))
-    w2 = dataclasses.replace(world, trajectory=traj)
-    t2 = dataclasses.replace(truth, world=w2, rig_entropy=recorded_rig_entropy(cfg))
-    srcs = camera_sources(cfg, truth.kind)
-    by_source: dict = {}
-    for cam, name in srcs.items():
-        by_source.setdefault(name, []).append(cam)
-    out = {}
-    children = rng.spawn(len(by_source))
-    for (name, cams), r in zip(sorted(by_source.items()), children):
-        res = get_source(name, truth.kind).measure(t2, _stop_config(cfg), r, tuple(cams))
-        out.update({c: res.streams[c] for c in cams})
-    if frames_per_stop > 1:
-        out = {c: average_stop_frames(s, stop_of) for c, s in out.items()}
-    return out
-
-
-def average_stop_frames(stream, stop_of) -> object:
-    """``stream`` (a PoseStream over the frames at rest) with one pose per stop: frame ``f``
-    belongs to stop ``stop_of[f]``; a stop's pose is the chordal mean rotation and the
-    mean translation of its measured frames; ``info["frames_averaged"]`` counts them,
-    the other ``info`` arrays keep the stop's first measured frame. Stops no frame
-    measured stay absent."""
-    from simcalib.geometry import chordal_mean_rotation
-    fi = np.asarray(stream.frame_index, dtype=np.int64)
-    stop_of = np.asarray(stop_of, dtype=np.int64)
-    stops, first = np.unique(stop_of[fi], return_index=True)
-    T = np.asarray(stream.T_world_cam)
-    mean = np.repeat(np.eye(4)[None], stops.size, axis=0)
-    count = np.zeros(stops.size, dtype=np.int64)
-    for k, st in enumerate(stops):
-        rows = np.flatnonzero(stop_of[fi] == st)
-        mean[k, :3, :3] = chordal_mean_rotation(T[rows, :3, :3])
-        mean[k, :3, 3] = T[rows, :3, 3].mean(axis=0)
-        count[k] = rows.size
-    info = {key: np.asarray(v)[first] for key, v in stream.info.items()
-            if np.ndim(v) >= 1 and len(v) == fi.size}
-    info["frames_averaged"] = count
-    return dataclasses.replace(stream, frame_index=stops,
-                               timestamp_s=np.asarray(stream.timestamp_s)[first],
-                               T_world_cam=mean, n_frames=int(stop_of.max()) + 1, info=info)
-
-
-def recorded_rig_entropy(cfg) -> dict:
-    """``{"vision": n}``: the number the recorded run of ``cfg`` drew for its rig's fixed
-    errors (marker map survey, camera calibrations): the stops are measured by the same rig
-    (the same map and calibrations as the recorded run), with their own per-frame noise."""
-    from simcalib.pipeline.state import run_rngs
-    from simcalib.sources.vision.stream import rig_entropy_of
-    return {"vision": rig_entropy_of(run_rngs(cfg.seed)["vision"])}
-
-
-def _stop_config(cfg):
-    """``cfg`` for measuring stops: rendering in this process (small batches: no worker
-    pool) and with the platform **at rest**: one instantaneous render per frame. At rest
-    motion blur and rolling shutter vanish; the sub-frame renders would instead interpolate
-    the state towards the next stop, seconds away, as if the platform moved through the
-    exposure."""
-    try:
-        cfg = dataclasses.replace(cfg, workers=1)
-    except (TypeError, ValueError):
-        return cfg
-    vision = getattr(cfg, "vision", None)
-    if vision is not None and dataclasses.is_dataclass(vision):
-        cfg = dataclasses.replace(cfg, vision=dataclasses.replace(vision, subframes=1))
-    return cfg
-
-
-def stop_motions(streams: dict, chain: bool = True
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(C, H, stop index)``: the motion of each camera between the stops both cameras
-    measured: from the previous measured stop to each stop (``chain``, stop and go), or from
-    the reference stop (0) to each (``chain=False``)."""
-    sa, sb = streams["cam_a"], streams["cam_b"]
-    fa, fb = np.asarray(sa.frame_index), np.asarray(sb.frame_index)
-    if 0 not in fa or 0 not in fb:
-        return np.zeros((0, 4, 4)), np.zeros((0, 4, 4)), np.zeros(0, dtype=np.int64)
-    common = np.intersect1d(fa, fb)
-    common = common[common > 0]
-    ia = {int(f): k for k, f in enumerate(fa)}
-    ib = {int(f): k for k, f in enumerate(fb)}
-    Ta = np.asarray(sa.T_world_cam)
-    Tb = np.asarray(sb.T_world_cam)
-    if not common.size:
-        return np.zeros((0, 4, 4)), np.zeros((0, 4, 4)), common
-    start = np.concatenate([[0], common[:-1]]) if chain else np.zeros_like(common)
-    Ta0 = Ta[[ia[int(f)] for f in start]]
-    Tb0 = Tb[[ib[int(f)] for f in start]]
-    C = invert_transform(Ta0) @ Ta[[ia[int(f)] for f in common]]
-    H = invert_transform(Tb0) @ Tb[[ib[int(f)] for f in common]]
-    return C, H, common

@@ -1,22 +1,23 @@
-"""Motion advice: which stops to add so that X becomes best determined (pure numpy).
+"""Which stops to add so that X becomes best determined: the choice of a stop-and-go chain
+(pure numpy; the information model is :mod:`simcalib.studies.advise.information`).
 
-Information model (the one of :mod:`simcalib.solvers.diagnostics.uncertainty`): each motion ``i``
-carries the Fisher information ``F_i = K_i^T Q_i^-1 K_i`` on the error
-``delta = (omega, v)`` of X (rad, m; camera-a frame), with ``K_i`` the Jacobian of the
-residual of ``C_i X = X H_i`` and ``Q_i`` the eq. 38 noise (``sigma_r``, ``sigma_t``) of
-``C_i`` and ``H_i`` propagated to it. Information adds over motions, so the information
-after adding candidate motions is ``F_base + sum F_c``, with ``F_c`` computed from the
-candidate's predicted camera motions (``C_c`` from the platform's kinematics, ``H_c =
-X^-1 C_c X`` at the current estimate) and the noise level fitted to the recorded data.
+Information after adding candidate motions is ``F_base + sum F_c``, with ``F_c`` computed
+from the candidate's predicted camera motions (``C_c`` from the platform's kinematics,
+``H_c = X^-1 C_c X`` at the current estimate) and the noise level fitted to the recorded
+data.
 
 Criterion (tolerance units: ``omega / tolerance_deg``, ``v / tolerance_m``; ``lambda`` the
 eigenvalues of the scaled information, ``1/sqrt(lambda)`` the 1-sigma of a direction):
 minimise ``max_k 1/(lambda_k + eps) + mean_k 1/(lambda_k + eps)`` — the largest variance
 (= maximise the smallest eigenvalue), with the mean (A-optimality) to rank candidates
 that cannot yet fix every undetermined direction at once. ``eps = 1e-6`` (1-sigma of
-1000 tolerances) keeps undetermined directions finite. Greedy over the feasible
-candidate set: each step adds the candidate with the best criterion (one batched
-eigen-decomposition of all candidates per step).
+1000 tolerances) keeps undetermined directions finite. Directions no feasible candidate
+can determine (``undetermined``, :func:`simcalib.studies.advise.information.
+undeterminable_directions`) are left out: the criterion is that of the information on
+their orthogonal complement, so stops are ranked by what they can improve (with such a
+direction in, its constant ``1/eps`` would be the maximum of every chain). Greedy over the
+feasible candidate set: each step adds the candidate with the best criterion (one batched
+eigen-decomposition of all candidates per step), then exchange passes.
 """
 
 from __future__ import annotations
@@ -28,63 +29,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from simcalib.geometry import invert_transform
+from simcalib.studies.advise.information import (check_undetermined, complement,
+                                                 motion_information, predicted_motions,
+                                                 systematic_scores, tolerance_scale,
+                                                 with_systematic)
 
-__all__ = ["motion_information", "predicted_std", "greedy", "greedy_chain", "GreedyResult",
-           "undeterminable", "EPS", "systematic_scores", "systematic_std",
-           "greedy_chain_systematic", "check_chain_systematic", "max_std_tolerance_units",
-           "variance_shares", "chain_information", "best_expected_chains", "expected_errors"]
+__all__ = ["greedy", "greedy_chain", "GreedyResult", "EPS", "greedy_chain_systematic",
+           "check_chain_systematic", "chain_information", "best_expected_chains",
+           "expected_errors"]
 
 EPS = 1e-6
-_FLOOR_R = math.sqrt(np.finfo(float).eps)
-
-
-def _scale(tolerance_deg, tolerance_m) -> np.ndarray:
-    return np.array([math.radians(tolerance_deg)] * 3 + [tolerance_m] * 3)
-
-
-def motion_information(C, H, X, sigma_r_rad: float, sigma_t_m: float) -> np.ndarray:
-    """``(N, 6, 6)`` Fisher information of each motion on ``delta`` (rad, m) at ``X``."""
-    from simcalib.solvers.diagnostics.uncertainty import linear_model
-    C = np.asarray(C, dtype=np.float64)
-    H = np.asarray(H, dtype=np.float64)
-    if C.ndim != 3 or C.shape[1:] != (4, 4) or H.shape != C.shape:
-        raise ValueError(f"C and H must be (N, 4, 4) of the same shape; received {C.shape}, "
-                         f"{H.shape}")
-    if C.shape[0] == 0:
-        return np.zeros((0, 6, 6))
-    _, K, Qr, Qt = linear_model(C, H, np.asarray(X, dtype=np.float64))
-    L = max(float(np.linalg.norm(X[:3, 3])), 1e-3)
-    Q = ((sigma_r_rad ** 2 + _FLOOR_R ** 2) * Qr
-         + (sigma_t_m ** 2 + (1e-9 * L) ** 2) * Qt)
-    Qinv = np.linalg.inv(Q)
-    F = np.einsum("nki,nkl,nlj->nij", K, Qinv, K)
-    return 0.5 * (F + np.swapaxes(F, -1, -2))
-
-
-def predicted_motions(motion_a, X) -> tuple[np.ndarray, np.ndarray]:
-    """``(C, H)`` of motions of camera a ``motion_a`` with camera b following through X."""
-    C = np.asarray(motion_a, dtype=np.float64)
-    return C, invert_transform(X) @ C @ X
-
-
-def predicted_std(F, *, tolerance_deg: float = 1.0, tolerance_m: float = 0.01,
-                  range_rad: float = 1.0, range_m: float = 1.0) -> np.ndarray:
-    """1-sigma per axis ``(wx, wy, wz)`` deg, ``(vx, vy, vz)`` m from information ``F``;
-    ``inf`` on axes touched by a direction whose 1-sigma exceeds the range (1 rad, or
-    ``range_m``): undetermined."""
-    dsc = _scale(tolerance_deg, tolerance_m)
-    Ft = np.asarray(F) * np.outer(dsc, dsc)
-    lam, U = np.linalg.eigh(0.5 * (Ft + Ft.T))
-    sig = np.where(lam > 0, 1.0 / np.sqrt(np.maximum(lam, 1e-300)), np.inf)
-    rng_sc = np.array([range_rad] * 3 + [range_m] * 3) / dsc
-    undet = sig * np.sqrt(np.sum((U / rng_sc[:, None]) ** 2, axis=0)) > 1.0
-    B = U[:, ~undet]
-    cov_t = (B / lam[~undet]) @ B.T if B.shape[1] else np.zeros((6, 6))
-    s = np.sqrt(np.clip(np.diag(cov_t), 0, None)) * dsc
-    if undet.any():
-        touched = np.linalg.norm(U[:, undet], axis=1) > 1e-6
-        s[touched] = np.inf
-    return np.concatenate([np.degrees(s[:3]), s[3:]])
 
 
 def _criterion(Ft) -> np.ndarray:
@@ -92,6 +46,22 @@ def _criterion(Ft) -> np.ndarray:
     lam = np.linalg.eigvalsh(0.5 * (Ft + np.swapaxes(Ft, -1, -2)))
     v = 1.0 / (np.maximum(lam, 0.0) + EPS)
     return v.max(axis=-1) + v.mean(axis=-1)
+
+
+def _criterion_systematic(Ft, Gt) -> np.ndarray:
+    """Batched criterion with systematic errors (tolerance units; ``Ft`` ``(..., n, n)``,
+    ``Gt`` ``(..., n, P)``): max + mean eigenvalue of ``Fe^-1 + Fe^-1 G G^T Fe^-1`` with
+    ``Fe = F + EPS I`` — :func:`_criterion` exactly when ``G = 0``."""
+    S = _regularised_covariance(Ft, Gt)
+    lam = np.linalg.eigvalsh(0.5 * (S + np.swapaxes(S, -1, -2)))
+    return lam.max(axis=-1) + lam.mean(axis=-1)
+
+
+def _regularised_covariance(Ft, Gt) -> np.ndarray:
+    """Batched ``Fe^-1 + Fe^-1 G G^T Fe^-1`` with ``Fe = F + EPS I`` (tolerance units):
+    what the chain criteria judge (undetermined directions kept finite)."""
+    Fe = 0.5 * (Ft + np.swapaxes(Ft, -1, -2)) + EPS * np.eye(Ft.shape[-1])
+    return with_systematic(np.linalg.inv(Fe), Gt)
 
 
 @dataclass(frozen=True)
@@ -111,7 +81,7 @@ def greedy(F_base, F_cand, k: int, *, feasible=None, tolerance_deg: float = 1.0,
     most once. Fewer than ``k`` are returned when fewer are feasible."""
     if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
         raise ValueError(f"k must be an integer >= 1; received {k!r}")
-    dsc = _scale(tolerance_deg, tolerance_m)
+    dsc = tolerance_scale(tolerance_deg, tolerance_m)
     S = np.outer(dsc, dsc)
     Fb = np.asarray(F_base, dtype=np.float64) * S
     Fc = np.asarray(F_cand, dtype=np.float64) * S
@@ -130,125 +100,6 @@ def greedy(F_base, F_cand, k: int, *, feasible=None, tolerance_deg: float = 1.0,
         crit.append(float(_criterion(cur)))
         mx.append(_max_std(cur))
     return GreedyResult(np.array(order, dtype=np.int64), np.array(crit), np.array(mx))
-
-
-def _adinv(T):
-    """``Ad(T^-1)`` (…, 6, 6): ``exp(-xi) T = T exp(-Ad(T^-1) xi)``."""
-    from simcalib.geometry import adjoint_from_transform
-    return adjoint_from_transform(invert_transform(T))
-
-
-def systematic_scores(C, H, X, sigma_r_rad: float, sigma_t_m: float, B_start_a, B_end_a,
-                      B_start_b, B_end_b) -> np.ndarray:
-    """``(N, 6, P)``: how systematic pose errors move each motion's information-weighted
-    score ``K_i^T Q_i^-1 e_i`` (the estimate's error is ``F^-1 sum_i`` of it): the poses
-    at each motion's start and end carry the errors ``xi = B @ eta`` (``B_*`` ``(N, 6, P)``
-    per camera, or ``(6, P)`` when every motion starts or ends at the same pose;
-    ``eta ~ N(0, I)`` shared), the motion the error ``xi_end - Ad(M^-1) xi_start``
-    (right-multiplied), the residual its first-order response (the eq. 38 noise Jacobians
-    of :func:`simcalib.solvers.diagnostics.uncertainty.linear_model`)."""
-    from simcalib.solvers.diagnostics.uncertainty import (linear_model_jacobians,
-                                                          noise_covariance_parts)
-    C = np.asarray(C, dtype=np.float64)
-    H = np.asarray(H, dtype=np.float64)
-    X = np.asarray(X, dtype=np.float64)
-    _, K, Jc, Jh = linear_model_jacobians(C, H, X)
-    Qr, Qt = noise_covariance_parts(Jc, Jh)
-    L = max(float(np.linalg.norm(X[:3, 3])), 1e-3)
-    Q = ((sigma_r_rad ** 2 + _FLOOR_R ** 2) * Qr + (sigma_t_m ** 2 + (1e-9 * L) ** 2) * Qt)
-    KQ = np.swapaxes(K, -1, -2) @ np.linalg.inv(Q)
-    Mc, Mh = KQ @ Jc, KQ @ Jh          # (N, 6, 6): the products with the bases come last
-    return (_times_basis(Mc, B_end_a) - _times_basis(Mc @ _adinv(C), B_start_a)
-            + _times_basis(Mh, B_end_b) - _times_basis(Mh @ _adinv(H), B_start_b))
-
-
-def _times_basis(M, B) -> np.ndarray:
-    """``M @ B`` for ``M`` ``(N, 6, 6)`` and an error basis ``B``: ``(N, 6, P)`` (one per
-    motion) or ``(6, P)`` (one pose shared by every motion: a single 2-D product)."""
-    B = np.asarray(B, dtype=np.float64)
-    if B.ndim == 2:
-        return (M.reshape(-1, 6) @ B).reshape(M.shape[0], 6, B.shape[-1])
-    return M @ B
-
-
-def systematic_std(F, G, *, tolerance_deg: float = 1.0, tolerance_m: float = 0.01,
-                   range_rad: float = 1.0, range_m: float = 1.0) -> np.ndarray:
-    """:func:`predicted_std` with the systematic pose errors: over the determined
-    directions the covariance ``F^-1 + F^-1 G G^T F^-1`` (``G`` ``(6, P)``, the summed
-    :func:`systematic_scores`); ``inf`` where ``F`` leaves a direction undetermined."""
-    white = predicted_std(F, tolerance_deg=tolerance_deg, tolerance_m=tolerance_m,
-                          range_rad=range_rad, range_m=range_m)
-    dsc = _scale(tolerance_deg, tolerance_m)
-    Fi = _determined_inverse(F, dsc, range_rad, range_m)
-    S = _with_systematic(Fi, np.asarray(G) * dsc[:, None])
-    s = np.sqrt(np.clip(np.diag(S), 0, None)) * dsc
-    s = np.concatenate([np.degrees(s[:3]), s[3:]])
-    return np.where(np.isfinite(white), s, np.inf)
-
-
-def _determined_inverse(F, dsc, range_rad: float, range_m: float) -> np.ndarray:
-    """Inverse of the scaled information ``F * dsc dsc^T`` over its determined directions
-    (1-sigma within ``range_rad`` / ``range_m``), zero along the others."""
-    Ft = np.asarray(F) * np.outer(dsc, dsc)
-    lam, U = np.linalg.eigh(0.5 * (Ft + Ft.T))
-    rng_sc = np.array([range_rad] * 3 + [range_m] * 3) / dsc
-    sig = np.where(lam > 0, 1.0 / np.sqrt(np.maximum(lam, 1e-300)), np.inf)
-    det = sig * np.sqrt(np.sum((U / rng_sc[:, None]) ** 2, axis=0)) <= 1.0
-    B = U[:, det]
-    return (B / lam[det]) @ B.T if B.shape[1] else np.zeros((6, 6))
-
-
-def variance_shares(F, G, groups, *, tolerance_deg: float = 1.0, tolerance_m: float = 0.01,
-                    range_rad: float = 1.0, range_m: float = 1.0) -> tuple[np.ndarray, list]:
-    """Where the predicted variance of each axis of X comes from: ``(shares (6, 1 + n),
-    names)`` with ``names = ["white noise", *the n distinct groups]`` and ``shares[a, j]``
-    the fraction of axis ``a``'s variance (the diagonal of
-    ``F^-1 + F^-1 G G^T F^-1`` over the determined directions, :func:`systematic_std`) that
-    the white noise (``F^-1``) or the columns of ``G`` (6, P) labelled with group ``j``
-    (``groups``: P labels, e.g. "marker map") add — exactly, since ``G G^T`` is the sum
-    of its column groups' ``G_g G_g^T``. Rows of undetermined axes (zero variance over
-    the determined directions) are NaN."""
-    G = np.asarray(G, dtype=np.float64)
-    labels = list(groups)
-    if G.ndim != 2 or G.shape[0] != 6 or len(labels) != G.shape[1]:
-        raise ValueError(f"G must be (6, P) with P group labels; received G of shape "
-                         f"{G.shape} and {len(labels)} labels")
-    dsc = _scale(tolerance_deg, tolerance_m)
-    Fi = _determined_inverse(F, dsc, range_rad, range_m)
-    names = ["white noise"] + list(dict.fromkeys(labels))
-    parts = [np.diag(Fi)]
-    Gt = G * dsc[:, None]
-    for name in names[1:]:
-        FG = Fi @ Gt[:, [i for i, g in enumerate(labels) if g == name]]
-        parts.append(np.sum(FG * FG, axis=1))
-    V = np.stack(parts, axis=1)
-    total = V.sum(axis=1, keepdims=True)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        shares = np.where(total > 0, V / np.where(total > 0, total, 1.0), np.nan)
-    return shares, names
-
-
-def _with_systematic(Fi, Gt) -> np.ndarray:
-    """The covariance ``Fi + Fi G G^T Fi`` (batched): white-noise covariance ``Fi`` plus
-    what the shared pose errors with score ``G`` add."""
-    FG = Fi @ Gt
-    return Fi + FG @ np.swapaxes(FG, -1, -2)
-
-
-def _criterion_systematic(Ft, Gt) -> np.ndarray:
-    """Batched criterion with systematic errors (tolerance units; ``Ft`` ``(..., 6, 6)``,
-    ``Gt`` ``(..., 6, P)``): max + mean eigenvalue of ``Fe^-1 + Fe^-1 G G^T Fe^-1`` with
-    ``Fe = F + EPS I`` — :func:`_criterion` exactly when ``G = 0``."""
-    S = _regularised_covariance(Ft, Gt)
-    lam = np.linalg.eigvalsh(0.5 * (S + np.swapaxes(S, -1, -2)))
-    return lam.max(axis=-1) + lam.mean(axis=-1)
-
-
-def _regularised_covariance(Ft, Gt) -> np.ndarray:
-    """Batched ``Fe^-1 + Fe^-1 G G^T Fe^-1`` with ``Fe = F + EPS I`` (tolerance units):
-    what the chain criteria judge (undetermined directions kept finite)."""
-    Fe = 0.5 * (Ft + np.swapaxes(Ft, -1, -2)) + EPS * np.eye(6)
-    return _with_systematic(np.linalg.inv(Fe), Gt)
 
 
 def _link(T_from, T_to, X, s_r, s_t, scale_from, scale_to, B_from=None, B_to=None):
@@ -288,7 +139,8 @@ def check_chain_systematic(systematic, n: int):
 def greedy_chain(F_base, motion_a, X, sigma_r_rad: float, sigma_t_m: float, k: int, *,
                  feasible=None, tolerance_deg: float = 1.0, tolerance_m: float = 0.01,
                  noise_scale=None, ref_noise_scale: float = 1.0, refine: bool = True,
-                 max_passes: int = 4, systematic=None) -> tuple[GreedyResult, np.ndarray]:
+                 max_passes: int = 4, systematic=None,
+                 undetermined=None) -> tuple[GreedyResult, np.ndarray]:
     """Choice of ``k`` stops visited in order (stop and go): the motion each stop adds is the
     one from the previous stop (the reference for the first), so a stop's pose error enters
     two consecutive motions instead of one shared reference error entering all.
@@ -301,7 +153,10 @@ def greedy_chain(F_base, motion_a, X, sigma_r_rad: float, sigma_t_m: float, k: i
     the criterion is then that of the covariance ``F^-1 + F^-1 G G^T F^-1`` with ``G`` the
     summed :func:`systematic_scores` of the recorded motions and the chain's links
     (:func:`_criterion_systematic`), so the choice weighs what a stop's view adds in
-    systematic error against the information it brings.
+    systematic error against the information it brings. ``undetermined``: ``(6, r)``
+    directions (tolerance units, orthonormal) no feasible candidate determines
+    (:func:`simcalib.studies.advise.information.undeterminable_directions`): the criterion
+    and the largest 1-sigma are those of the other directions.
 
     Greedy first (each step adds the stop with the best criterion); then, with ``refine``,
     exchange passes (Fedorov-style): each chosen stop in turn is replaced by the available
@@ -316,7 +171,8 @@ def greedy_chain(F_base, motion_a, X, sigma_r_rad: float, sigma_t_m: float, k: i
                                   feasible=feasible, tolerance_deg=tolerance_deg,
                                   tolerance_m=tolerance_m, noise_scale=noise_scale,
                                   ref_noise_scale=ref_noise_scale, refine=refine,
-                                  max_passes=max_passes, systematic=systematic)
+                                  max_passes=max_passes, systematic=systematic,
+                                  undetermined=undetermined)
     return res, added
 
 
@@ -354,27 +210,29 @@ def chain_information(F_base, motion_a, X, sigma_r_rad: float, sigma_t_m: float,
     return F, G
 
 
-def expected_errors(F, G, *, tolerance_deg: float = 1.0, tolerance_m: float = 0.01
-                    ) -> np.ndarray:
+def expected_errors(F, G, *, tolerance_deg: float = 1.0, tolerance_m: float = 0.01,
+                    undetermined=None) -> np.ndarray:
     """``(n, 2)``: the expected (root-mean-square) norm of X's rotation error (deg) and
     translation error (m) under information ``F`` ``(n, 6, 6)`` and systematic score ``G``
     ``(n, 6, P)`` (rad, m) — the root of the trace of each block of the covariance
     ``Fe^-1 + Fe^-1 G G^T Fe^-1`` that :func:`best_expected_chains` minimises (an
-    undetermined direction counts with the 1-sigma of 1000 tolerances that ``EPS`` gives)."""
+    undetermined direction counts with the 1-sigma of 1000 tolerances that ``EPS`` gives;
+    the ``undetermined`` directions of :func:`greedy_chain` are left out)."""
     F = np.asarray(F, dtype=np.float64)
     G = np.asarray(G, dtype=np.float64)
     if F.ndim != 3 or F.shape[1:] != (6, 6) or G.ndim != 3 or G.shape[:2] != (F.shape[0], 6):
         raise ValueError(f"F must be (n, 6, 6) and G (n, 6, P); received {F.shape}, {G.shape}")
-    dsc = _scale(tolerance_deg, tolerance_m)
-    Ft, Gt = F * np.outer(dsc, dsc), G * dsc[:, None]
-    return np.stack([tolerance_deg * np.sqrt(_block_variance(Ft, Gt, 0)),
-                     tolerance_m * np.sqrt(_block_variance(Ft, Gt, 1))], axis=1)
+    dsc = tolerance_scale(tolerance_deg, tolerance_m)
+    Bc = _determinable_basis(undetermined)
+    Ft, Gt = _restricted(Bc, F * np.outer(dsc, dsc), G * dsc[:, None])
+    return np.stack([tolerance_deg * np.sqrt(_block_variance(Ft, Gt, 0, Bc)),
+                     tolerance_m * np.sqrt(_block_variance(Ft, Gt, 1, Bc))], axis=1)
 
 
 def best_expected_chains(F_base, motion_a, X, sigma_r_rad: float, sigma_t_m: float, starts, *,
                          feasible=None, tolerance_deg: float = 1.0, tolerance_m: float = 0.01,
                          noise_scale=None, ref_noise_scale: float = 1.0, systematic=None,
-                         max_passes: int = 20) -> dict:
+                         max_passes: int = 20, undetermined=None) -> dict:
     """How small the expected error of X can be made by a choice of ``k`` stops among the
     feasible candidates, under this model (white noise and the shared pose errors, the same
     as :func:`greedy_chain`), as far as a local search finds: for X's rotation and its
@@ -389,21 +247,11 @@ def best_expected_chains(F_base, motion_a, X, sigma_r_rad: float, sigma_t_m: flo
 
     Returns ``{"rotation": {"expected_deg", "chain", "per_start_deg"}, "translation":
     {"expected_m", "chain", "per_start_m"}}``: the smallest root-mean-square error norm the
-    search reached (deg, m), its chain and what each start converged to."""
-    st = np.asarray(starts)
+    search reached (deg, m), its chain and what each start converged to; ``undetermined``:
+    as for :func:`greedy_chain`."""
     m0 = _chain_model(motion_a, X, sigma_r_rad, sigma_t_m, noise_scale, ref_noise_scale,
-                      systematic, tolerance_deg, tolerance_m)
-    N = m0.M.shape[0]
-    if st.ndim != 2 or st.size == 0 or not np.issubdtype(st.dtype, np.integer) \
-            or st.min() < 0 or st.max() >= N \
-            or any(len(set(row.tolist())) != st.shape[1] for row in st):
-        raise ValueError(f"starts must be a non-empty (n, k) integer array of distinct "
-                         f"candidate indices in [0, {N}) per row; received shape {st.shape}, "
-                         f"dtype {st.dtype}")
-    feas = np.ones(N, bool) if feasible is None else np.asarray(feasible, bool)
-    if feas.shape != (N,) or not feas[st].all():
-        raise ValueError(f"feasible must be ({N},) bool and hold every start's stops; "
-                         f"received shape {feas.shape}")
+                      systematic, tolerance_deg, tolerance_m, undetermined)
+    st, feas = _check_starts(starts, feasible, m0.M.shape[0])
     F0 = np.asarray(F_base, dtype=np.float64)
     out = {}
     for block, name, unit, tol in ((0, "rotation", "deg", tolerance_deg),
@@ -424,6 +272,22 @@ def best_expected_chains(F_base, motion_a, X, sigma_r_rad: float, sigma_t_m: flo
     return out
 
 
+def _check_starts(starts, feasible, N: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(starts (n, k), feasible (N,))`` of :func:`best_expected_chains`, checked."""
+    st = np.asarray(starts)
+    if st.ndim != 2 or st.size == 0 or not np.issubdtype(st.dtype, np.integer) \
+            or st.min() < 0 or st.max() >= N \
+            or any(len(set(row.tolist())) != st.shape[1] for row in st):
+        raise ValueError(f"starts must be a non-empty (n, k) integer array of distinct "
+                         f"candidate indices in [0, {N}) per row; received shape {st.shape}, "
+                         f"dtype {st.dtype}")
+    feas = np.ones(N, bool) if feasible is None else np.asarray(feasible, bool)
+    if feas.shape != (N,) or not feas[st].all():
+        raise ValueError(f"feasible must be ({N},) bool and hold every start's stops; "
+                         f"received shape {feas.shape}")
+    return st, feas
+
+
 def greedy_chain_systematic(*args, **kw) -> tuple[GreedyResult, np.ndarray, np.ndarray]:
     """:func:`greedy_chain` returning also the systematic score ``(k, 6, P)`` each stop of
     the final chain adds."""
@@ -432,12 +296,13 @@ def greedy_chain_systematic(*args, **kw) -> tuple[GreedyResult, np.ndarray, np.n
 
 def _greedy_chain(F_base, motion_a, X, sigma_r_rad, sigma_t_m, k, *, feasible=None,
                   tolerance_deg=1.0, tolerance_m=0.01, noise_scale=None,
-                  ref_noise_scale=1.0, refine=True, max_passes=4, systematic=None):
+                  ref_noise_scale=1.0, refine=True, max_passes=4, systematic=None,
+                  undetermined=None):
     """:func:`greedy_chain_systematic`: the greedy chain, its exchange passes, its result."""
     if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 1:
         raise ValueError(f"k must be an integer >= 1; received {k!r}")
     m = _chain_model(motion_a, X, sigma_r_rad, sigma_t_m, noise_scale, ref_noise_scale,
-                     systematic, tolerance_deg, tolerance_m)
+                     systematic, tolerance_deg, tolerance_m, undetermined)
     N = m.M.shape[0]
     avail = np.ones(N, bool) if feasible is None else np.asarray(feasible, bool).copy()
     F0 = np.asarray(F_base, dtype=np.float64)
@@ -467,6 +332,9 @@ class _ChainModel:
     #: exchanges must leave every stop lowering the criterion (the planner's rule with
     #: systematic errors); off for :func:`best_expected_chains`, which judges whole chains
     monotone: bool = True
+    #: (6, m) orthonormal basis (tolerance units) of the directions a chain can determine:
+    #: the complement of those no feasible candidate determines; None: all six
+    Bc: np.ndarray | None = None
 
 
 def _check_noise_scale(noise_scale, N: int) -> np.ndarray:
@@ -479,15 +347,32 @@ def _check_noise_scale(noise_scale, N: int) -> np.ndarray:
 
 
 def _chain_model(motion_a, X, s_r, s_t, noise_scale, ref_noise_scale, systematic,
-                 tolerance_deg, tolerance_m) -> _ChainModel:
-    """The checked inputs of a chain choice (noise factors and systematic errors)."""
-    dsc = _scale(tolerance_deg, tolerance_m)
+                 tolerance_deg, tolerance_m, undetermined=None) -> _ChainModel:
+    """The checked inputs of a chain choice (noise factors, systematic errors, the
+    directions no candidate determines)."""
+    dsc = tolerance_scale(tolerance_deg, tolerance_m)
     M = np.asarray(motion_a, dtype=np.float64)
     N = M.shape[0]
     sc = _check_noise_scale(noise_scale, N)
     sysm = check_chain_systematic(systematic, N)
     G0 = sysm[0] if sysm is not None else np.zeros((6, 0))
-    return _ChainModel(M, X, s_r, s_t, sc, ref_noise_scale, sysm, G0, dsc, np.outer(dsc, dsc))
+    return _ChainModel(M, X, s_r, s_t, sc, ref_noise_scale, sysm, G0, dsc, np.outer(dsc, dsc),
+                       Bc=_determinable_basis(undetermined))
+
+
+def _determinable_basis(undetermined) -> np.ndarray | None:
+    """The complement of the ``undetermined`` directions ``(6, r)`` (tolerance units,
+    orthonormal), or None when there are none."""
+    U = check_undetermined(undetermined)
+    return None if U is None else complement(U)
+
+
+def _restricted(Bc, Ft, Gt) -> tuple:
+    """``(Bc^T Ft Bc, Bc^T Gt)``: information and score on the determinable directions
+    (unchanged when ``Bc`` is None)."""
+    if Bc is None:
+        return Ft, Gt
+    return Bc.T @ Ft @ Bc, Bc.T @ Gt
 
 
 def _stop_pose_scale(m: _ChainModel, j):
@@ -511,19 +396,27 @@ def _chain_link(m: _ChainModel, prev, idx, nxt=None):
 
 
 def _chain_criterion(m: _ChainModel, F, G):
-    """Criterion (batched) of information ``F`` and systematic score ``G`` (rad, m)."""
+    """Criterion (batched) of information ``F`` and systematic score ``G`` (rad, m), on the
+    determinable directions."""
+    Ft, Gt = _restricted(m.Bc, F * m.S, G * m.dsc[:, None])
     if m.block is not None:
-        return _block_variance(F * m.S, G * m.dsc[:, None], m.block)
+        return _block_variance(Ft, Gt, m.block, m.Bc)
     if m.sysm is None:
-        return _criterion(F * m.S)
-    return _criterion_systematic(F * m.S, G * m.dsc[:, None])
+        return _criterion(Ft)
+    return _criterion_systematic(Ft, Gt)
 
 
-def _block_variance(Ft, Gt, block: int) -> np.ndarray:
+def _block_variance(Ft, Gt, block: int, Bc=None) -> np.ndarray:
     """Batched expected squared norm of the rotation (``block`` 0) or translation (1) error
     of X: the trace of that block of ``Fe^-1 + Fe^-1 G G^T Fe^-1`` (tolerance units,
-    ``Fe = F + EPS I`` as in :func:`_criterion_systematic`)."""
-    d = np.diagonal(_regularised_covariance(Ft, Gt), axis1=-2, axis2=-1)
+    ``Fe = F + EPS I`` as in :func:`_criterion_systematic`); with ``Bc``, ``Ft`` and ``Gt``
+    are on the determinable directions ``Bc`` (:func:`_restricted`), the covariance mapped
+    back to the axes."""
+    S = _regularised_covariance(Ft, Gt)
+    if Bc is None:
+        d = np.diagonal(S, axis1=-2, axis2=-1)
+    else:
+        d = np.einsum("ij,...jk,ik->...i", Bc, S, Bc)
     return d[..., 3 * block:3 * block + 3].sum(axis=-1)
 
 
@@ -618,41 +511,32 @@ def _chain_result(m: _ChainModel, F0, order):
     """(GreedyResult, information, systematic score of each stop) of the chain ``order``."""
     LF, LG = _chain_links(m, order) if order else ([], [])
     cur_F, cur_G = F0.copy(), m.G0.copy()
-    crits, mx = [float(_chain_criterion(m, cur_F, cur_G))], [_max_std_sys(cur_F, cur_G, m.dsc)]
+    crits = [float(_chain_criterion(m, cur_F, cur_G))]
+    mx = [_max_std_sys(cur_F, cur_G, m.dsc, m.Bc)]
     for Fa, Ga in zip(LF, LG):
         cur_F, cur_G = cur_F + Fa, cur_G + Ga
         crits.append(float(_chain_criterion(m, cur_F, cur_G)))
-        mx.append(_max_std_sys(cur_F, cur_G, m.dsc))
+        mx.append(_max_std_sys(cur_F, cur_G, m.dsc, m.Bc))
     P = m.G0.shape[1]
     return (GreedyResult(np.array(order, dtype=np.int64), np.array(crits), np.array(mx)),
             np.array(LF).reshape(-1, 6, 6),
             np.array(LG).reshape((len(LF), 6, P)) if LG else np.zeros((0, 6, P)))
 
 
-def _max_std_sys(F, G, dsc) -> float:
-    """Largest 1-sigma in tolerance units: of the information alone without systematic
-    errors (:func:`_max_std`), else of ``Fe^-1 + Fe^-1 G G^T Fe^-1``."""
-    Ft = F * np.outer(dsc, dsc)
-    if G.shape[-1] == 0:
-        return _max_std(Ft)
+def _max_std_sys(F, G, dsc, Bc=None) -> float:
+    """Largest 1-sigma in tolerance units on the determinable directions (``Bc``, None: all
+    six): of the information alone without systematic errors (:func:`_max_std`), else of
+    ``F^-1 + F^-1 G G^T F^-1``."""
+    Ft, Gt = _restricted(Bc, F * np.outer(dsc, dsc), G * dsc[:, None])
     w = _max_std(Ft)
-    if not math.isfinite(w):
-        return math.inf
+    if G.shape[-1] == 0 or not math.isfinite(w):
+        return w
     try:
         Fi = np.linalg.inv(0.5 * (Ft + Ft.T))
     except np.linalg.LinAlgError:           # numerically singular: a direction undetermined
         return math.inf
-    S = _with_systematic(Fi, G * dsc[:, None])
-    lam = np.linalg.eigvalsh(S)[-1]
+    lam = np.linalg.eigvalsh(with_systematic(Fi, Gt))[-1]
     return float(math.sqrt(max(lam, 0.0)))
-
-
-def max_std_tolerance_units(F, *, tolerance_deg: float = 1.0,
-                            tolerance_m: float = 0.01) -> float:
-    """Largest 1-sigma of information ``F`` (rad, m) in tolerance units
-    (``1/sqrt(lambda_min)``; inf when a direction is undetermined)."""
-    dsc = _scale(tolerance_deg, tolerance_m)
-    return _max_std(np.asarray(F, dtype=np.float64) * np.outer(dsc, dsc))
 
 
 def _max_std(Ft) -> float:
@@ -660,74 +544,3 @@ def _max_std(Ft) -> float:
     return float(1.0 / math.sqrt(lam)) if lam > 0 else math.inf
 
 
-#: how a prior on X is given, named in the fix of :func:`undeterminable`: a scenario's keys
-PRIOR_KEYS_SCENARIO = {"translation": "prior.translation_m with a weight prior.b",
-                       "rotation": "prior.rotvec_deg with a weight prior.a"}
-#: ... and ``calibrate``'s (pose files)
-PRIOR_KEYS_CALIBRATE = {
-    "translation": "prior=[tx,ty,tz,qx,qy,qz,qw] with a weight prior_weight_translation",
-    "rotation": "prior=[tx,ty,tz,qx,qy,qz,qw] with a weight prior_weight_rotation"}
-
-
-def undeterminable(F_base, F_cand, *, feasible=None, tolerance_deg: float = 1.0,
-                   tolerance_m: float = 0.01, range_rad: float = 1.0,
-                   range_m: float = 1.0, prior_keys: dict | None = None) -> list[dict]:
-    """Directions of X that no feasible candidate motion can determine: undetermined (1-sigma
-    beyond the range) by the feasible candidates alone, each added 100 times, and not
-    determined within the tolerance by the recorded motions (``F_base``). The candidates
-    are judged alone because the recorded motions' information along such a direction may
-    be made by their errors (a systematic tilt of the measured poses looks like the
-    rotation that would determine it) and adding candidates cannot change that. Each is a
-    dict:
-    ``kind`` (rotation / translation / coupled), ``rotation_axis_a``, ``translation_dir_a``
-    (unit, camera-a frame, zeros when that part is < 5 %), ``description``, ``fix`` (the
-    prior or extra measurement that would determine it; ``prior_keys``: how the prior is
-    given, :data:`PRIOR_KEYS_SCENARIO` by default)."""
-    keys = PRIOR_KEYS_SCENARIO if prior_keys is None else prior_keys
-    dsc = _scale(tolerance_deg, tolerance_m)
-    Fb = np.asarray(F_base, dtype=np.float64) * np.outer(dsc, dsc)
-    Fc = np.asarray(F_cand, dtype=np.float64)
-    if feasible is not None:
-        Fc = Fc[np.asarray(feasible, bool)]
-    Ft = 100.0 * Fc.sum(axis=0) * np.outer(dsc, dsc)
-    lam, U = np.linalg.eigh(0.5 * (Ft + Ft.T))
-    sig = np.where(lam > 0, 1.0 / np.sqrt(np.maximum(lam, 1e-300)), np.inf)
-    rng_sc = np.array([range_rad] * 3 + [range_m] * 3) / dsc
-    out = []
-    for k in range(6):
-        u = U[:, k]
-        if not sig[k] * math.sqrt(float(np.sum((u / rng_sc) ** 2))) > 1.0:
-            continue
-        if float(u @ Fb @ u) >= 1.0:      # the recorded motions determine it (1-sigma <= tol)
-            continue
-        w, t = u[:3], u[3:]
-        nw, nt = np.linalg.norm(w), np.linalg.norm(t)
-        tot = math.hypot(nw, nt)
-        ax = w / nw if nw > 0.05 * tot else np.zeros(3)
-        td = t / nt if nt > 0.05 * tot else np.zeros(3)
-        vec = lambda v: "[" + ", ".join(f"{x:+.3f}" for x in v) + "]"   # noqa: E731
-        if ax.any() and td.any():
-            kind = "coupled"
-            desc = (f"rotation of X about {vec(ax)} coupled with translation along {vec(td)} "
-                    "(camera-a frame)")
-        elif ax.any():
-            kind, desc = "rotation", f"rotation of X about {vec(ax)} (camera-a frame)"
-        else:
-            kind, desc = "translation", f"translation of X along {vec(td)} (camera-a frame)"
-        fix = []
-        if td.any():
-            fix.append(f"a prior on X's translation along {vec(td)} ({keys['translation']}, "
-                       "e.g. the camera offset measured with a ruler or taken from the CAD "
-                       "model, to within the tolerance)")
-            fix.append("or motions rotating about an axis not parallel to it — which this "
-                       "platform cannot make (e.g. tilt the rig: drive over a ramp, or mount "
-                       "it on an arm)")
-        if ax.any():
-            fix.append(f"a prior on X's rotation about {vec(ax)} ({keys['rotation']}), or "
-                       "motions with rotations about two non-parallel axes")
-        out.append({"kind": kind, "rotation_axis_a": ax.tolist(),
-                    "translation_dir_a": td.tolist(), "description": desc,
-                    "statement": (f"{desc}: no motion this platform can make determines it "
-                                  "(undetermined even with every feasible candidate)"),
-                    "fix": "; ".join(fix)})
-    return out

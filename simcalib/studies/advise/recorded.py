@@ -28,11 +28,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from simcalib.studies.advise import feasibility as fz
-from simcalib.studies.advise import planner as pl
-from simcalib.studies.advise.advisor import (StopPlan, _f, _rel, _std_dict, check_when_determined,
-                                     determined_message, predicted_along_chain,
-                                     recorded_information)
+import simcalib.studies.advise.feasibility as fz
+import simcalib.studies.advise.information as info
+import simcalib.studies.advise.planner as pl
+from simcalib.studies.advise.advice_json import relative_motion
+from simcalib.studies.advise.advisor import (StopPlan, check_when_determined,
+                                             determined_message, predicted_along_chain,
+                                             recorded_information)
 
 __all__ = ["PLATFORMS", "RecordedAdvice", "plane_normal", "motion_candidates",
            "advise_recorded", "recorded_advice_dict"]
@@ -156,18 +158,21 @@ def advise_recorded(C, H, X, T_ref_a, k: int = 5, *, platform: str, rng: np.rand
     s_r, s_t, F_base, L = recorded_information(C, H, X, alpha, **kw)
     F_base = F_base / max(int(passes), 1)
     M = motion_candidates(C, n_candidates, rng, platform, **ranges)
-    Cc, Hc = pl.predicted_motions(M, X)
-    F_cand = pl.motion_information(Cc, Hc, X, s_r, s_t)
+    Cc, Hc = info.predicted_motions(M, X)
+    F_cand = info.motion_information(Cc, Hc, X, s_r, s_t)
+    U = info.undeterminable_directions(F_base, F_cand, range_m=L, **kw)
+    U = U if U.shape[1] else None
     message, propose = determined_message(F_base, when_determined, **kw)
     feasible = np.full(M.shape[0], propose)
-    g, added = pl.greedy_chain(F_base, M, X, s_r, s_t, k, feasible=feasible, **kw)
-    before, after = predicted_along_chain(F_base, added, None, None, L, **kw)
-    cannot = pl.undeterminable(F_base, F_cand, range_m=L, prior_keys=pl.PRIOR_KEYS_CALIBRATE,
+    g, added = pl.greedy_chain(F_base, M, X, s_r, s_t, k, feasible=feasible, undetermined=U,
                                **kw)
+    before, after = predicted_along_chain(F_base, added, None, None, L, U, **kw)
+    cannot = [info.describe_direction(u, info.PRIOR_KEYS_CALIBRATE)
+              for u in (U.T if U is not None else ())]
     return RecordedAdvice(int(k), g.order, before, after, g.max_std_tol, g.criterion,
                           (s_r, s_t), tolerance_deg, tolerance_m, cannot,
                           np.asarray(X, dtype=np.float64), {"total": time.perf_counter() - t0},
-                          platform=platform, motion_a=M, T_ref_a=T_ref_a,
+                          undetermined=U, platform=platform, motion_a=M, T_ref_a=T_ref_a,
                           recorded_motions=int(np.asarray(C).shape[0]), message=message)
 
 
@@ -192,9 +197,10 @@ def recorded_advice_dict(adv: RecordedAdvice, source: dict | None = None) -> dic
         motions.append({
             "step": step + 1,
             "T_frame_a_target": (adv.T_ref_a @ Mj).tolist(),
-            "sensor_motions": {"a": _rel(rel), "b": _rel(Xi @ rel @ X)},
-            "predicted_std_after": _std_dict(adv.std_after[step]),
-            "max_std_tolerance_units_after": _f(adv.max_std_tol[step + 1])})
+            "from": "the reference" if step == 0 else f"stop {step}",
+            "sensor_motions": {"a": relative_motion(rel), "b": relative_motion(Xi @ rel @ X)},
+            "predicted_std_after": info.std_dict(adv.std_after[step]),
+            "max_std_tolerance_units_after": info.finite_or_none(adv.max_std_tol[step + 1])})
         prev = Mj
     return {"source": dict(source or {}), "platform": adv.platform, "k": adv.k,
             "criterion": ("greedy along the stop-and-go chain, then exchange passes: "
@@ -210,8 +216,8 @@ def recorded_advice_dict(adv: RecordedAdvice, source: dict | None = None) -> dic
                           "meaning": "sensor a's last recorded pose T_world_a in file "
                                      "a's world frame (after the conventions detected, see "
                                      "source.conventions)"},
-            "predicted_std_before": _std_dict(adv.std_before),
-            "max_std_tolerance_units_before": _f(adv.max_std_tol[0]),
+            "predicted_std_before": info.std_dict(adv.std_before),
+            "max_std_tolerance_units_before": info.finite_or_none(adv.max_std_tol[0]),
             "message": adv.message, "motions": motions, "cannot_help": adv.cannot_help,
             "not_checked": NOT_CHECKED[adv.platform],
             "candidates": {"drawn": int(adv.motion_a.shape[0])},
