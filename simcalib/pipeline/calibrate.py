@@ -259,8 +259,9 @@ class Assessment:
     plausibility: object = None     # simcalib.estimation.plausibility.Plausibility
     #: signs that the result should not be trusted even when X is determined (sentences)
     warnings: tuple = ()
-    #: the flagged directions' records (simcalib.report.directions.direction_record)
-    directions: tuple = ()
+    directions: tuple = ()          # the verdict's flagged Directions
+    #: the same directions as records (simcalib.report.directions.direction_record)
+    direction_records: tuple = ()
 
     @property
     def implausible(self) -> bool:
@@ -298,7 +299,7 @@ def assess(r) -> Assessment:
                       fin(v.std_deg), fin(v.std_m),
                       tuple(fin(row) for row in np.asarray(r.covariance)), words,
                       v.unverified, plaus, tuple(warnings(r)) + tuple(plaus.warnings),
-                      records)
+                      tuple(v.directions), records)
 
 
 def _source(check) -> str:

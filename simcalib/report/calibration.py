@@ -49,7 +49,7 @@ def _verdict(a) -> dict:
     return {"verdict": a.verdict, "degenerate": a.degenerate,
             "directions": list(a.undetermined),
             # each flagged direction: kind, axes, state and sigma (the words above)
-            "direction_details": [dict(d) for d in a.directions], "message": a.summary}
+            "direction_details": [dict(d) for d in a.direction_records], "message": a.summary}
 
 
 def report_dict(opts, r, a, solver_kernels: str = "compiled") -> dict:
