@@ -62,7 +62,9 @@ def _row(entry: RealSet, r: SetResult) -> str:
     ref = entry.reference or "none"
     err = ("–" if r.rotation_error_deg is None else
            f"{r.rotation_error_deg:.2f} / {r.translation_error_mm:.1f}")
-    flagged = "; ".join(f"{f.reason[:4]}. {f.kind}" for f in r.flagged) or "–"
+    tags = [f"{f.reason[:4]}. {f.kind}" for f in r.flagged]
+    flagged = "; ".join(t + (f" x{tags.count(t)}" if tags.count(t) > 1 else "")
+                        for t in dict.fromkeys(tags)) or "–"
     inl = "–" if r.n_motions is None else f"{r.n_inliers}/{r.n_motions}"
     off = "–" if r.offset_s is None else f"{1e3 * r.offset_s:.1f}" + (
         f" ± {1e3 * r.offset_sigma_s:.1f}" if r.offset_sigma_s else "")
@@ -158,7 +160,7 @@ def _how_to_read() -> list[str]:
         "- **X**: `T_a_b`, translation in mm, rotation vector in degrees. **1σ**: the "
         "reported per-axis standard deviation (frame a; inf = undetermined).",
         "- **flagged**: the directions of the verdict (`unde.` undetermined, `poor.` poorly "
-        "determined).",
+        "determined; `x3`: three such directions).",
         "- **error**: `pose_error(X_ref, X)` of `simcalib.solvers.diagnostics.uncertainty` "
         "(rotation vector of `R_ref R^T`, `t_ref - t`, frame a): its rotation norm, and the "
         "translation norm over the reference's valid axes (scara: x, y).",
