@@ -346,16 +346,16 @@ def _grid_signal(t_mid, speed, t0, t1, dt, smooth_s):
 def _normalised_xcorr(x: np.ndarray, y: np.ndarray, min_overlap: int):
     """Pearson r between x[i] and y[i + L] for every lag L (FFT); lags with fewer than
     ``min_overlap`` overlapping samples get NaN. Returns (lags, r)."""
-    from scipy.signal import correlate, correlation_lags
+    from simcalib.estimation.signals import correlate_full, correlation_lags_full
     ox, oy = np.ones_like(x), np.ones_like(y)
-    c = lambda a, b: correlate(a, b, mode="full", method="fft")  # noqa: E731
+    c = correlate_full
     n = np.rint(c(oy, ox))
     sxy = c(y, x)
     sx = c(oy, x)
     sy = c(y, ox)
     sxx = c(oy, x * x)
     syy = c(y * y, ox)
-    lags = correlation_lags(y.size, x.size, mode="full")
+    lags = correlation_lags_full(y.size, x.size)
     with np.errstate(invalid="ignore", divide="ignore"):
         num = n * sxy - sx * sy
         den = np.sqrt(np.clip(n * sxx - sx * sx, 0, None) * np.clip(n * syy - sy * sy, 0, None))
@@ -368,10 +368,10 @@ def _despike(w: np.ndarray, size: int = 9) -> np.ndarray:
     """Angular speeds with outlier poses' spikes removed: a running median over ``size``
     samples (two passes), which ignores spikes of any share below half of a window
     (an outlier pose makes two adjacent spikes), then a short median over 3."""
-    from scipy.ndimage import median_filter
+    from simcalib.estimation.signals import running_median
     for _ in range(2):
-        w = median_filter(w, size=size, mode="nearest")
-    return median_filter(w, size=3, mode="nearest")
+        w = running_median(w, size)
+    return running_median(w, 3)
 
 
 def _raise_if_unmeasurable(ta, tb, x, y, min_overlap):

@@ -380,15 +380,14 @@ KERNEL_BLOCKS = 256
 def _time_sum(Gs, index, ell) -> np.ndarray:
     """``sum_j rho(|index_i - index_j| / ell) Gs_j`` for every i (FFT convolution over the
     recording positions)."""
-    from scipy.signal import fftconvolve
+    from simcalib.estimation.signals import fft_convolve
     idx = np.asarray(index, np.int64) - int(index[0])
     L = int(idx[-1]) + 1
     full = np.zeros((L,) + Gs.shape[1:])
     full[idx] = Gs
     half = int(min(L - 1, math.ceil(5.0 * ell)))
     k = np.exp(-0.5 * (np.arange(-half, half + 1) / ell) ** 2)
-    shape = (k.size,) + (1,) * (Gs.ndim - 1)
-    out = fftconvolve(full, k.reshape(shape), mode="same", axes=0)
+    out = fft_convolve(full, k, axis=0)[half:half + L]     # "same": centred on each
     return out[idx]
 
 

@@ -1,0 +1,68 @@
+"""The few signal operations the estimation path needs, in numpy alone.
+
+``scipy.signal`` would give them too, but importing it costs ~0.7 s per process (it pulls
+in ``scipy.stats`` and parses their docstrings), which is a third of ``calibrate``'s
+wall time on a small recording. Each function here matches its ``scipy.signal`` /
+``scipy.ndimage`` counterpart to rounding (``tests/test_estimation_signals.py``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["fft_convolve", "correlate_full", "correlation_lags_full", "running_median"]
+
+
+def _fft_length(n: int) -> int:
+    """A length >= ``n`` whose FFT is fast (a product of 2, 3 and 5)."""
+    best = 1 << max(0, int(n - 1).bit_length())
+    p5 = 1
+    while p5 < best:
+        p35 = p5
+        while p35 < best:
+            m = p35
+            while m < n:
+                m *= 2
+            best = min(best, m)
+            p35 *= 3
+        p5 *= 5
+    return best
+
+
+def fft_convolve(a: np.ndarray, kernel: np.ndarray, axis: int = 0) -> np.ndarray:
+    """The full linear convolution of ``a`` with the 1-D ``kernel`` along ``axis`` (length
+    ``a.shape[axis] + kernel.size - 1``), by real FFT."""
+    a = np.asarray(a, np.float64)
+    kernel = np.asarray(kernel, np.float64).ravel()
+    n_out = a.shape[axis] + kernel.size - 1
+    n = _fft_length(n_out)
+    shape = [1] * a.ndim
+    shape[axis] = -1
+    spec = np.fft.rfft(a, n, axis=axis) * np.fft.rfft(kernel, n).reshape(shape)
+    out = np.fft.irfft(spec, n, axis=axis)
+    return np.take(out, np.arange(n_out), axis=axis)
+
+
+def correlate_full(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """``scipy.signal.correlate(x, y, mode="full")`` for real 1-D arrays: entry k is
+    ``sum_i x[i + k - (y.size - 1)] * y[i]``."""
+    return fft_convolve(np.asarray(x, np.float64), np.asarray(y, np.float64)[::-1])
+
+
+def correlation_lags_full(x_size: int, y_size: int) -> np.ndarray:
+    """``scipy.signal.correlation_lags(x_size, y_size, mode="full")``: the lag of each entry
+    of :func:`correlate_full`."""
+    return np.arange(-int(y_size) + 1, int(x_size))
+
+
+def running_median(w: np.ndarray, size: int) -> np.ndarray:
+    """``scipy.ndimage.median_filter(w, size=size, mode="nearest")`` of a 1-D array: the
+    median over ``size`` (odd) samples centred on each (the ends repeated outward)."""
+    if int(size) != size or size < 1 or size % 2 == 0:
+        raise ValueError(f"running_median needs an odd window size >= 1; received {size!r}")
+    w = np.asarray(w, np.float64)
+    if w.size == 0 or size == 1:
+        return w.copy()
+    half = int(size) // 2
+    padded = np.pad(w, (half, half), mode="edge")
+    return np.median(np.lib.stride_tricks.sliding_window_view(padded, int(size)), axis=1)

@@ -1,0 +1,42 @@
+"""simcalib.estimation.signals against the scipy functions it stands in for."""
+
+import numpy as np
+import pytest
+from scipy.ndimage import median_filter
+from scipy.signal import correlate, correlation_lags, fftconvolve
+
+from simcalib.estimation.signals import (correlate_full, correlation_lags_full, fft_convolve,
+                                         running_median)
+
+
+@pytest.mark.parametrize("nx, ny", [(1, 1), (7, 3), (100, 173), (1000, 999), (2, 50)])
+def test_correlation_matches_scipy(nx, ny):
+    rng = np.random.default_rng(nx * 1000 + ny)
+    x, y = rng.standard_normal(nx), rng.standard_normal(ny)
+    np.testing.assert_allclose(correlate_full(x, y), correlate(x, y, mode="full"),
+                               rtol=1e-10, atol=1e-10)
+    np.testing.assert_array_equal(correlation_lags_full(nx, ny),
+                                  correlation_lags(nx, ny, mode="full"))
+
+
+@pytest.mark.parametrize("shape, half", [((50,), 3), ((37, 6, 6), 10), ((5, 2), 0)])
+def test_convolution_matches_scipy_along_the_first_axis(shape, half):
+    rng = np.random.default_rng(len(shape) + half)
+    a = rng.standard_normal(shape)
+    k = np.exp(-0.5 * (np.arange(-half, half + 1) / 2.5) ** 2)
+    ref = fftconvolve(a, k.reshape((-1,) + (1,) * (a.ndim - 1)), mode="full", axes=0)
+    np.testing.assert_allclose(fft_convolve(a, k, axis=0), ref, rtol=1e-10, atol=1e-10)
+
+
+@pytest.mark.parametrize("n, size", [(1, 3), (2, 9), (20, 3), (101, 9), (64, 5)])
+def test_running_median_matches_scipy(n, size):
+    w = np.random.default_rng(n + size).standard_normal(n)
+    w[::7] = 50.0                                   # spikes
+    np.testing.assert_array_equal(running_median(w, size),
+                                  median_filter(w, size=size, mode="nearest"))
+
+
+@pytest.mark.parametrize("size", [0, 4, 2.5])
+def test_running_median_refuses_an_even_or_broken_window(size):
+    with pytest.raises(ValueError, match="odd window size"):
+        running_median(np.arange(5.0), size)
