@@ -349,11 +349,25 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     check, weighting, cov, cov_det = _consistency(
         ms, rob, sp, method=method, alpha=alpha, prior=prior,
         offset_sigma_s=_offset_sigma(off, sampling))
-    C, H, i, j = ms.C, ms.H, ms.i, ms.j
     ms0, plain = _plain(sa, sb, sampling, off, sp, ms, step_s=step_s, alpha=alpha,
                         min_rotation_deg=min_rotation_deg, max_rotation_deg=max_rotation_deg)
-    aligned = robust_solve(C, H, "none", alpha=alpha)     # offset applied, no rejection
-    summary = {
+    aligned = robust_solve(ms.C, ms.H, "none", alpha=alpha)     # offset applied, no rejection
+    i, j = ms.i, ms.j
+    return StreamCalibration(rob.X, None if plain is None else plain.X, off, conv, rob, plain,
+                             sa, sb, ms.C, ms.H, sp.time_s[i],
+                             _summary(sa, sb, conv, off, ms, rob, ms0, plain, aligned),
+                             synced=sp, motion_index=(i, j),
+                             X_aligned=aligned.X, sampling=sampling, motions=ms,
+                             consistency=check, covariance=cov, covariance_determined=cov_det,
+                             robust_choice=why, weighting=weighting)
+
+
+def _summary(sa, sb, conv, off, ms, rob, ms0, plain, aligned) -> dict:
+    """``StreamCalibration.summary``: the streams, the reading, the offset, the motions and
+    inliers, X and its residuals, beside the plain solve's (offset 0, every motion, no
+    rejection) and the aligned one's (offset applied, no rejection)."""
+    C, H = ms.C, ms.H
+    return {
         "a": sa.describe(), "b": sb.describe(), "conventions": conv.message,
         "offset_ms": 1e3 * off.offset_s, "offset_sigma_ms": 1e3 * off.uncertainty_s,
         "offset_message": off.message, "n_motions": int(C.shape[0]),
@@ -372,11 +386,6 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
             1e3 * np.linalg.norm(rob.X[:3, 3] - plain.X[:3, 3])),
         "degenerate": bool(rob.solution.degenerate) if rob.solution is not None else None,
     }
-    return StreamCalibration(rob.X, None if plain is None else plain.X, off, conv, rob, plain, sa, sb, C, H, sp.time_s[i],
-                             summary, synced=sp, motion_index=(i, j),
-                             X_aligned=aligned.X, sampling=sampling, motions=ms,
-                             consistency=check, covariance=cov, covariance_determined=cov_det,
-                             robust_choice=why, weighting=weighting)
 
 
 def _plain(sa, sb, sampling, off, sp, ms, *, step_s, alpha, min_rotation_deg,

@@ -140,16 +140,10 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
     parities = _parities(invert_a, invert_b)
     has_order = (len(_swap_options(stream_a, scalar_first_a)) > 1,
                  len(_swap_options(stream_b, scalar_first_b)) > 1)
-    scores, n_mot = {}, 0
-    for sw_a, sw_b in itertools.product(_swap_options(stream_a, scalar_first_a),
-                                        _swap_options(stream_b, scalar_first_b)):
-        for inv_a, inv_b in parities:
-            sa, sb = _apply(stream_a, sw_a, inv_a), _apply(stream_b, sw_b, inv_b)
-            C, H = _motions(sa, sb, off, n_pairs, np.random.default_rng(seed), sampling)
-            if C.shape[0] < 3:
-                continue
-            scores[(sw_a, sw_b, inv_a, inv_b)] = _reading_score(C, H, alpha, seed)
-            n_mot = int(C.shape[0])
+    scores, n_mot = _score_readings(stream_a, stream_b, off, parities,
+                                    (_swap_options(stream_a, scalar_first_a),
+                                     _swap_options(stream_b, scalar_first_b)),
+                                    n_pairs=n_pairs, alpha=alpha, seed=seed, sampling=sampling)
     if not scores:
         from simcalib.errors import DataError
         raise DataError("too few overlapping poses with rotation to check the conventions "
@@ -178,6 +172,23 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
                             clear=clear, forced=forced,
                             offset_s=float(getattr(off, "offset_s", off)), n_motions=n_mot,
                             message="; ".join(lines))
+
+
+def _score_readings(stream_a, stream_b, off, parities, swaps, *, n_pairs, alpha, seed,
+                    sampling) -> tuple[dict, int]:
+    """``({(swap_a, swap_b, invert_a, invert_b): score}, motions scored)``: every reading's
+    :func:`_reading_score` on the same random pairs of instants (readings with fewer than 3
+    motions left out)."""
+    scores, n_mot = {}, 0
+    for sw_a, sw_b in itertools.product(*swaps):
+        for inv_a, inv_b in parities:
+            sa, sb = _apply(stream_a, sw_a, inv_a), _apply(stream_b, sw_b, inv_b)
+            C, H = _motions(sa, sb, off, n_pairs, np.random.default_rng(seed), sampling)
+            if C.shape[0] < 3:
+                continue
+            scores[(sw_a, sw_b, inv_a, inv_b)] = _reading_score(C, H, alpha, seed)
+            n_mot = int(C.shape[0])
+    return scores, n_mot
 
 
 def _reading_offset(stream_a, stream_b, offset, sampling):

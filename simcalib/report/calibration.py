@@ -57,7 +57,7 @@ def report_dict(opts, r, a, solver_kernels: str = "compiled") -> dict:
     calibration ``r`` (:class:`simcalib.estimation.path.StreamCalibration`) with options
     ``opts`` and assessment ``a`` (:class:`simcalib.pipeline.calibrate.Assessment`)."""
     from simcalib.config.engine import to_dict
-    off, conv, rob, s = r.time_offset, r.conventions, r.robust, r.summary
+    rob, s = r.robust, r.summary
     status = {EXIT_OK: "determined", EXIT_DEGENERATE: "degenerate"}.get(a.exit_code,
                                                                         "failed")
     if a.implausible and not a.degenerate and a.verdict != "FAILED":
@@ -72,16 +72,7 @@ def report_dict(opts, r, a, solver_kernels: str = "compiled") -> dict:
                   "quaternion (x, y, z, w)",
         "uncertainty": _uncertainty(a),
         "verdict": _verdict(a),
-        "time_offset": {"offset_s": off.offset_s, "uncertainty_s": _fin(off.uncertainty_s),
-                        "estimated": off.decision == "estimated",
-                        "decision": off.decision, "evidence": _fin(off.evidence),
-                        "peak_z": _fin(off.peak_z),
-                        "window_s": [_fin(x) for x in off.window_s],
-                        "coarse_offset_s": off.coarse_offset_s,
-                        "peak_correlation": _fin(off.peak_correlation),
-                        "drift": off.drift, "t_ref_s": off.t_ref_s,
-                        "convention": "offset_s = t_b - t_a for the same instant",
-                        "message": off.message},
+        "time_offset": _time_offset(r.time_offset),
         "sampling": r.sampling.to_dict(),
         "motions": {"policy": r.motions.policy, "reason": r.motions.reason,
                     "counts": dict(r.motions.counts)},
@@ -94,12 +85,7 @@ def report_dict(opts, r, a, solver_kernels: str = "compiled") -> dict:
         "residuals": {"inliers": s["residuals_inliers"], "all": s["residuals_all"],
                       "definition": "per-motion errors of C X = X H (rotation angle, "
                                     "translation norm)"},
-        "conventions": {"invert_a": conv.invert_a, "invert_b": conv.invert_b,
-                        "swap_scalar_a": conv.swap_scalar_a,
-                        "swap_scalar_b": conv.swap_scalar_b, "ratio": _fin(conv.ratio),
-                        "clear": conv.clear, "runner_up": conv.runner_up,
-                        "scores": conv.scores, "forced": list(conv.forced),
-                        "message": conv.message},
+        "conventions": _conventions(r.conventions),
         "streams": {"a": _stream(r.stream_a), "b": _stream(r.stream_b),
                     "synchronised": dict(r.synced.counts), "reference": r.synced.reference},
         "plain": None if r.X_plain is None else {
@@ -117,6 +103,29 @@ def report_dict(opts, r, a, solver_kernels: str = "compiled") -> dict:
                   "recording": "recording.rrd" if opts.recording else None},
     }
 
+
+def _time_offset(off) -> dict:
+    """calibration.json ``time_offset`` (:class:`simcalib.estimation.alignment.TimeOffset`)."""
+    return {"offset_s": off.offset_s, "uncertainty_s": _fin(off.uncertainty_s),
+            "estimated": off.decision == "estimated",
+            "decision": off.decision, "evidence": _fin(off.evidence),
+            "peak_z": _fin(off.peak_z),
+            "window_s": [_fin(x) for x in off.window_s],
+            "coarse_offset_s": off.coarse_offset_s,
+            "peak_correlation": _fin(off.peak_correlation),
+            "drift": off.drift, "t_ref_s": off.t_ref_s,
+            "convention": "offset_s = t_b - t_a for the same instant",
+            "message": off.message}
+
+
+def _conventions(conv) -> dict:
+    """calibration.json ``conventions``: the reading used and how clearly it won."""
+    return {"invert_a": conv.invert_a, "invert_b": conv.invert_b,
+            "swap_scalar_a": conv.swap_scalar_a,
+            "swap_scalar_b": conv.swap_scalar_b, "ratio": _fin(conv.ratio),
+            "clear": conv.clear, "runner_up": conv.runner_up,
+            "scores": conv.scores, "forced": list(conv.forced),
+            "message": conv.message}
 
 
 def _std_reason(a) -> str | None:
