@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from simcalib.errors import DataError
-from simcalib.estimation.alignment import interpolation_valid, smooth_poses
+from simcalib.estimation.interpolation import interpolation_valid, smooth_poses
 from simcalib.geometry import invert_transform, quat_from_matrix, rotation_angle_rad
 
 __all__ = ["OffsetCost", "split_check", "SplitCheck", "EVIDENCE_MIN", "RESIDUALS_PER_MOTION",

@@ -20,10 +20,9 @@ import numpy as np
 
 from simcalib.solvers.diagnostics import uncertainty as U
 
-COVERAGE_CASES = (("dqopt", 0.3, False), ("dqopt", 1.0, False), ("dqopt", 3.0, False),
-                  ("dq2steps", 1.0, False), ("daniilidis", 1.0, False), ("dqopt", 1.0, True))
-FLAG_ALPHAS = (0.1, 1.0, 10.0, 30.0)
-PRIOR_AB = (100.0, 100.0)
+from simcalib.studies.experiments.coverage_params import (ALPHA_GRID, CART_SCENARIOS,
+                                                          COVERAGE_CASES, FLAG_ALPHAS,
+                                                          PRIOR_AB)
 
 
 def _datasets(motion: str, trials: int, n: int, seed: int):
@@ -237,8 +236,6 @@ def alpha_case(motion: str, trials: int, n: int = 100, seed: int = 0) -> dict:
 
 
 # ------------------------------------------------------------------ simulated scenarios
-CART_SCENARIOS = ("planar", "linear", "circular", "rotation", "3d")
-ALPHA_GRID = np.logspace(-2, 1.7, 40)
 
 
 def scenario_data(scenario: str, overrides=(), seeds=range(3), one_world=False) -> list:

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 
-from simcalib.studies.experiments.coverage import ALPHA_GRID, PRIOR_AB
+from simcalib.studies.experiments.coverage_params import ALPHA_GRID, PRIOR_AB
 
 __all__ = ["render"]
 
