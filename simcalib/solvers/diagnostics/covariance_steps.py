@@ -397,6 +397,7 @@ def _score_meats(g, lag):
         Mh += cross + cross.T
     return M0, Mh
 
+
 def _rescale_meat(Ms, M0, Mh):
     """``Ms`` with its spectrum rescaled, direction by direction (eigenvectors of ``M0``
     whitened by ``Ms``), by the ratio of the serial-correlated empirical meat ``Mh`` to the
@@ -407,7 +408,9 @@ def _rescale_meat(Ms, M0, Mh):
     A0 = W.T @ M0 @ W
     Ah = W.T @ Mh @ W
     l0, U0 = np.linalg.eigh(0.5 * (A0 + A0.T))
-    ratio = np.clip(np.einsum("ki,kl,li->i", U0, Ah, U0) / np.maximum(l0, 1e-300), 0.05, 20.0)
+    with np.errstate(over="ignore"):   # a null direction of M0: the ratio is clipped to 20
+        ratio = np.clip(np.einsum("ki,kl,li->i", U0, Ah, U0) / np.maximum(l0, 1e-300),
+                        0.05, 20.0)
     Wi = V * np.sqrt(lam)                                  # inverse whitening
     R = U0 @ np.diag(ratio) @ U0.T
     out = Wi @ R @ Wi.T
