@@ -30,8 +30,14 @@ from typing import Any, Literal, Mapping, Sequence
 
 from simcalib.errors import ConfigError, did_you_mean
 
-__all__ = ["apply_overrides", "build", "describe_keys", "leaf_paths", "parse_override", "parse_overrides", "resolve_key", "resolve_keys",
-           "to_dict"]
+__all__ = ["apply_overrides", "build", "describe_keys", "key_help", "leaf_paths",
+           "parse_override", "parse_overrides", "resolve_key", "resolve_keys", "to_dict"]
+
+
+def key_help(text: str) -> dict:
+    """``field(..., metadata=key_help("..."))``: a config key's help text, which
+    :func:`describe_keys` (``--help``) prints beside the key."""
+    return {"help": text}
 
 
 # --------------------------------------------------------------------- type handling

@@ -10,15 +10,13 @@ from dataclasses import dataclass, field
 from typing import Literal
 
 from simcalib.config.checks import check_positive, check_range, check_that, set_fields
+from simcalib.config.engine import key_help
 
 __all__ = ["EstimationConfig", "FILE_FORMS"]
 
 #: how stream b is handed to the estimation path (a simulated file's form)
 FILE_FORMS = ("as_written", "inverted", "scalar_first", "inverted_scalar_first")
 
-
-def _doc(text: str) -> dict:
-    return {"help": text}
 
 
 @dataclass(frozen=True)
@@ -28,25 +26,25 @@ class EstimationConfig:
     on the run's streams, with everything it decides scored against the truth in
     results.json ``estimation``."""
     motions: Literal["pairing", "auto", "stations", "spans", "consecutive", "keyframes"] = \
-        field(default="pairing", metadata=_doc(
+        field(default="pairing", metadata=key_help(
             "pairing: the paper's D.1 pairing (pairing.*); auto/stations/spans/consecutive/"
             "keyframes: the calibrate path's motion policy (auto: chosen from the data)"))
-    time_offset: Literal["stamps", "estimate"] | float = field(default="stamps", metadata=_doc(
+    time_offset: Literal["stamps", "estimate"] | float = field(default="stamps", metadata=key_help(
         "stamps: the stamps as they are; estimate: the clock offset estimated where the "
         "data tell it (calibrate's default); a number: t_b - t_a in seconds"))
-    reading: Literal["as_written", "detect"] = field(default="as_written", metadata=_doc(
+    reading: Literal["as_written", "detect"] = field(default="as_written", metadata=key_help(
         "as_written: the streams read as delivered; detect: inverse poses and quaternion "
         "order decided from the data (calibrate's default)"))
-    robust: Literal["none", "auto", "ransac", "irls"] = field(default="none", metadata=_doc(
+    robust: Literal["none", "auto", "ransac", "irls"] = field(default="none", metadata=key_help(
         "outlier motions: none, or calibrate's auto / ransac / irls; the solvers get the "
         "inliers"))
     b_file: Literal["as_written", "inverted", "scalar_first", "inverted_scalar_first"] = field(
-        default="as_written", metadata=_doc(
+        default="as_written", metadata=key_help(
             "how stream b is handed over, as a file might hold it: inverted (T_cam_world), "
             "scalar_first (quaternion numbers w first read as x first), or both"))
-    step_s: float = field(default=1.0, metadata=_doc(
+    step_s: float = field(default=1.0, metadata=key_help(
         "consecutive motions span this time step, s"))
-    min_rotation_deg: float = field(default=2.0, metadata=_doc(
+    min_rotation_deg: float = field(default=2.0, metadata=key_help(
         "motions rotating less are dropped (recorded-data path)"))
 
     def __post_init__(self):

@@ -17,20 +17,18 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from simcalib.config.engine import key_help
+
 __all__ = ["Verdict", "judge", "Tolerances"]
-
-
-def _doc(text: str) -> dict:
-    return {"help": text}
 
 
 @dataclass(frozen=True)
 class Tolerances:
     """``verdict.*`` of ``calibrate``: a direction of X whose 1-sigma exceeds a tolerance is
     "poorly determined" (the same meaning as a scenario's ``verdict.tolerance_*``)."""
-    tolerance_deg: float = field(default=1.0, metadata=_doc(
+    tolerance_deg: float = field(default=1.0, metadata=key_help(
         "1-sigma rotation tolerance, degrees (above it: poorly determined)"))
-    tolerance_m: float = field(default=0.01, metadata=_doc(
+    tolerance_m: float = field(default=0.01, metadata=key_help(
         "1-sigma translation tolerance, metres (above it: poorly determined)"))
 
     def __post_init__(self):

@@ -25,6 +25,7 @@ from typing import Literal
 import numpy as np
 
 from simcalib.config.checks import check_positive, check_range, check_that, set_fields
+from simcalib.config.engine import key_help
 from simcalib.estimation.verdict import Tolerances
 from simcalib.errors import (EXIT_DEGENERATE, EXIT_OK, EXIT_SOLVER, ConfigError, DataError,
                              SolverError, UsageError, unknown_choice)
@@ -32,77 +33,74 @@ from simcalib.errors import (EXIT_DEGENERATE, EXIT_OK, EXIT_SOLVER, ConfigError,
 __all__ = ["CalibrateOptions", "Assessment", "assess", "parse_options", "calibrate",
            "load_prior", "warnings", "write_outputs", "write_ros_exports"]
 
-def _doc(text: str) -> dict:
-    return {"help": text}
-
 
 @dataclass(frozen=True)
 class CalibrateOptions:
     """Options of ``simcalib calibrate`` (every key ``key=value``)."""
-    a: Path = field(metadata=_doc("pose file of sensor a (X = T_a_b); a two-stream file "
-                                  "(easy_handeye, moveit) may give both, then omit b"))
-    output: Path = field(metadata=_doc("output directory (created)"))
-    overwrite: bool = field(default=False, metadata=_doc(
+    a: Path = field(metadata=key_help("pose file of sensor a (X = T_a_b); a two-stream file "
+                                      "(easy_handeye, moveit) may give both, then omit b"))
+    output: Path = field(metadata=key_help("output directory (created)"))
+    overwrite: bool = field(default=False, metadata=key_help(
         "replace an earlier calibration's results in output (else an output holding "
         "calibration.json, results.json or extrinsics.json is refused before any work)"))
-    b: Path | None = field(default=None, metadata=_doc("pose file of sensor b"))
-    format: str | None = field(default=None, metadata=_doc(
+    b: Path | None = field(default=None, metadata=key_help("pose file of sensor b"))
+    format: str | None = field(default=None, metadata=key_help(
         "format of both files (default: detected); see format_a / format_b"))
-    format_a: str | None = field(default=None, metadata=_doc("format of file a"))
-    format_b: str | None = field(default=None, metadata=_doc("format of file b"))
-    time_offset: float | Literal["estimate"] = field(default="estimate", metadata=_doc(
+    format_a: str | None = field(default=None, metadata=key_help("format of file a"))
+    format_b: str | None = field(default=None, metadata=key_help("format of file b"))
+    time_offset: float | Literal["estimate"] = field(default="estimate", metadata=key_help(
         "clock offset t_b - t_a in seconds, or 'estimate'"))
-    drift: bool = field(default=False, metadata=_doc("also estimate a linear clock drift"))
-    robust: Literal["auto", "ransac", "irls", "none"] = field(default="auto", metadata=_doc(
+    drift: bool = field(default=False, metadata=key_help("also estimate a linear clock drift"))
+    robust: Literal["auto", "ransac", "irls", "none"] = field(default="auto", metadata=key_help(
         "outlier rejection over motions (auto: RANSAC where the motions give minimal sets, "
         "IRLS where they do not, none below 8 motions)"))
     motions: Literal["auto", "stations", "spans", "consecutive", "keyframes"] = field(
-        default="auto", metadata=_doc(
+        default="auto", metadata=key_help(
             "which pose pairs become motions (auto: every/far pair for stamp-paired "
             "stop-and-go data, spans of 1, 2, 4, 8 x step_s for continuous streams; "
             "consecutive: step_s only)"))
-    threshold: float | None = field(default=None, metadata=_doc(
+    threshold: float | None = field(default=None, metadata=key_help(
         "RANSAC inlier threshold on the screw residual (default: automatic, LMedS)"))
-    method: str = field(default="dqopt", metadata=_doc("solver of the final estimate"))
-    alpha: float = field(default=1.0, metadata=_doc(
+    method: str = field(default="dqopt", metadata=key_help("solver of the final estimate"))
+    alpha: float = field(default=1.0, metadata=key_help(
         "weight of translation in the cost, 1/m"))
-    prior: str | None = field(default=None, metadata=_doc(
+    prior: str | None = field(default=None, metadata=key_help(
         "prior X: a JSON file (a calibration.json, {\"X\": 4x4} or {\"translation_m\", "
         "\"quaternion_xyzw\"}) or inline [tx,ty,tz,qx,qy,qz,qw] / 16 numbers row-major"))
-    prior_weight_rotation: float = field(default=1e-4, metadata=_doc(
+    prior_weight_rotation: float = field(default=1e-4, metadata=key_help(
         "prior weight a (rotation; small: determined directions keep the data value)"))
-    prior_weight_translation: float = field(default=1e-2, metadata=_doc(
+    prior_weight_translation: float = field(default=1e-2, metadata=key_help(
         "prior weight b (translation)"))
-    invert_a: bool | None = field(default=None, metadata=_doc(
+    invert_a: bool | None = field(default=None, metadata=key_help(
         "force reading file a as inverted (it holds T_sensor_world); default: detected"))
-    invert_b: bool | None = field(default=None, metadata=_doc("the same for file b"))
-    scalar_first_a: bool | None = field(default=None, metadata=_doc(
+    invert_b: bool | None = field(default=None, metadata=key_help("the same for file b"))
+    scalar_first_a: bool | None = field(default=None, metadata=key_help(
         "force reading a's quaternion numbers in the other order; default: detected"))
-    scalar_first_b: bool | None = field(default=None, metadata=_doc("the same for file b"))
-    step_s: float = field(default=1.0, metadata=_doc(
+    scalar_first_b: bool | None = field(default=None, metadata=key_help("the same for file b"))
+    step_s: float = field(default=1.0, metadata=key_help(
         "consecutive motions span this time step, s"))
-    min_rotation_deg: float = field(default=2.0, metadata=_doc(
+    min_rotation_deg: float = field(default=2.0, metadata=key_help(
         "motions rotating less are dropped (they carry no information)"))
-    max_rotation_deg: float | None = field(default=None, metadata=_doc(
+    max_rotation_deg: float | None = field(default=None, metadata=key_help(
         "motions rotating more are dropped (tracking jumps)"))
-    seed: int = field(default=0, metadata=_doc("seed of RANSAC and convention scoring"))
-    recording: bool = field(default=True, metadata=_doc("write recording.rrd"))
-    verdict: Tolerances = field(default_factory=Tolerances, metadata=_doc(
+    seed: int = field(default=0, metadata=key_help("seed of RANSAC and convention scoring"))
+    recording: bool = field(default=True, metadata=key_help("write recording.rrd"))
+    verdict: Tolerances = field(default_factory=Tolerances, metadata=key_help(
         "verdict.tolerance_deg / verdict.tolerance_m: 1-sigma above which a direction is "
         "poorly determined"))
-    bag: Path | None = field(default=None, metadata=_doc(
+    bag: Path | None = field(default=None, metadata=key_help(
         "a ROS bag (ROS 1 .bag; ROS 2 directory, .mcap or .db3): a and b are then stream "
         "specs, '/tf:PARENT->CHILD' (pose of CHILD in PARENT through the tf tree) or a topic "
         "of PoseStamped, PoseWithCovarianceStamped, Odometry or TransformStamped "
         "(docs/ros.md); list a bag with list_bag=FILE"))
-    export: tuple[str, ...] = field(default=(), metadata=_doc(
+    export: tuple[str, ...] = field(default=(), metadata=key_help(
         "also write X for ROS into output: any of urdf, static_tf, launch, easy_handeye2, "
         "kalibr, e.g. export=[urdf,launch] (docs/ros.md)"))
-    frame_a: str | None = field(default=None, metadata=_doc(
+    frame_a: str | None = field(default=None, metadata=key_help(
         "frame name of sensor a in the exports (default with bag=: from a's spec)"))
-    frame_b: str | None = field(default=None, metadata=_doc(
+    frame_b: str | None = field(default=None, metadata=key_help(
         "frame name of sensor b in the exports (default with bag=: from b's spec)"))
-    eye: Literal["in_hand", "on_base"] | None = field(default=None, metadata=_doc(
+    eye: Literal["in_hand", "on_base"] | None = field(default=None, metadata=key_help(
         "for export=easy_handeye2: in_hand (frame_a is the robot effector) or on_base "
         "(frame_a is the robot base); frame_b is the camera"))
 

@@ -27,7 +27,7 @@ from typing import Any, Literal, Mapping, Sequence
 from simcalib.config import engine
 from simcalib.config.checks import (check_in, check_int, check_names, check_positive,
                                     check_range, check_that, check_vector, set_fields)
-from simcalib.config.engine import build, to_dict
+from simcalib.config.engine import build, key_help, to_dict
 from simcalib.config.files import _yaml_error_text, describe_yaml_files, find_yaml
 from simcalib.errors import ConfigError, unknown_choice
 
@@ -47,16 +47,13 @@ from simcalib.world.robot_error import RobotConfig  # noqa: E402
 from simcalib.world.synthetic import SyntheticConfig  # noqa: E402
 
 
-def _doc(text: str) -> dict:
-    return {"help": text}
-
 
 @dataclass(frozen=True)
 class NoiseConfig:
     """Pose noise of the ``noisy`` source (paper eq. 38), applied to each camera's poses."""
-    sigma_r_deg: float = field(default=0.57, metadata=_doc(
+    sigma_r_deg: float = field(default=0.57, metadata=key_help(
         "rotation noise: angle ~ N(0, sigma_r^2) about a uniform axis, degrees"))
-    sigma_t_m: float = field(default=0.01, metadata=_doc(
+    sigma_t_m: float = field(default=0.01, metadata=key_help(
         "translation noise per axis ~ N(0, sigma_t^2), metres"))
 
     def __post_init__(self):
@@ -75,19 +72,19 @@ class PairingConfig:
     in which either camera moved more than ``max_translation_m`` or ``max_rotation_deg``.
     ``mode=random`` then draws ``n_pairs`` of the surviving pairs at random (appendix D).
     """
-    mode: Literal["consecutive", "random"] = field(default="consecutive", metadata=_doc(
+    mode: Literal["consecutive", "random"] = field(default="consecutive", metadata=key_help(
         "consecutive: every surviving pair; random: draw n_pairs of them"))
-    step: int = field(default=1, metadata=_doc(
+    step: int = field(default=1, metadata=key_help(
         "pair matched datapoint k with k + step"))
-    n_pairs: int = field(default=100, metadata=_doc(
+    n_pairs: int = field(default=100, metadata=key_help(
         "random mode: number of pairs drawn (without replacement when enough exist)"))
-    prefilter: bool = field(default=True, metadata=_doc(
+    prefilter: bool = field(default=True, metadata=key_help(
         "apply the appendix D.1 pre-filter (the three thresholds below)"))
-    max_time_diff_s: float = field(default=0.1, metadata=_doc(
+    max_time_diff_s: float = field(default=0.1, metadata=key_help(
         "drop datapoints whose two camera timestamps differ by more than this, seconds"))
-    max_translation_m: float = field(default=0.10, metadata=_doc(
+    max_translation_m: float = field(default=0.10, metadata=key_help(
         "drop pairs where a camera moved more than this, metres"))
-    max_rotation_deg: float = field(default=11.5, metadata=_doc(
+    max_rotation_deg: float = field(default=11.5, metadata=key_help(
         "drop pairs where a camera rotated more than this, degrees"))
 
     def __post_init__(self):
@@ -109,21 +106,21 @@ class PriorConfig:
     default, the true ``X`` perturbed by ``rotation_error_deg`` about a random axis and
     ``translation_error_m`` in a random direction — a CAD value as a user would know it.
     """
-    enabled: bool = field(default=False, metadata=_doc("run the methods below with the prior"))
-    methods: tuple[str, ...] = field(default=("dqopt",), metadata=_doc(
+    enabled: bool = field(default=False, metadata=key_help("run the methods below with the prior"))
+    methods: tuple[str, ...] = field(default=("dqopt",), metadata=key_help(
         "methods run a second time with the prior"))
-    a: float = field(default=1e-4, metadata=_doc(
+    a: float = field(default=1e-4, metadata=key_help(
         "weight of the rotation prior (relative to the data cost: small, so determined "
         "directions keep the data value)"))
-    b: float = field(default=1e-2, metadata=_doc(
+    b: float = field(default=1e-2, metadata=key_help(
         "weight of the translation prior (the undetermined translation takes its value)"))
-    rotation_error_deg: float = field(default=2.0, metadata=_doc(
+    rotation_error_deg: float = field(default=2.0, metadata=key_help(
         "error of the simulated nominal extrinsic's rotation, degrees"))
-    translation_error_m: float = field(default=0.02, metadata=_doc(
+    translation_error_m: float = field(default=0.02, metadata=key_help(
         "error of the simulated nominal extrinsic's translation, metres"))
-    translation_m: tuple[float, float, float] | None = field(default=None, metadata=_doc(
+    translation_m: tuple[float, float, float] | None = field(default=None, metadata=key_help(
         "explicit nominal translation of X (metres); with rotvec_deg"))
-    rotvec_deg: tuple[float, float, float] | None = field(default=None, metadata=_doc(
+    rotvec_deg: tuple[float, float, float] | None = field(default=None, metadata=key_help(
         "explicit nominal rotation of X (axis-angle, degrees); with translation_m"))
 
     def __post_init__(self):
@@ -144,11 +141,11 @@ class PriorConfig:
 @dataclass(frozen=True)
 class RecordingConfig:
     """The rerun recording (``recording.rrd`` in the run directory)."""
-    enabled: bool = field(default=True, metadata=_doc("write recording.rrd"))
-    jpeg_quality: int = field(default=70, metadata=_doc("JPEG quality of logged images"))
-    max_images: int = field(default=150, metadata=_doc(
+    enabled: bool = field(default=True, metadata=key_help("write recording.rrd"))
+    jpeg_quality: int = field(default=70, metadata=key_help("JPEG quality of logged images"))
+    max_images: int = field(default=150, metadata=key_help(
         "at most this many images per camera are logged (evenly subsampled)"))
-    background: bool = field(default=True, metadata=_doc(
+    background: bool = field(default=True, metadata=key_help(
         "write it from a worker process, so rerun's import and the logging overlap the run "
         "(a process that has imported rerun already logs in-process)"))
 
@@ -162,11 +159,11 @@ class VerdictConfig:
     """When an estimate is trusted: a direction of X whose predicted 1-sigma
     exceeds a tolerance is "poorly determined" (``Solution.verdict``), and the curve of
     error and predicted sigma against the number of motions used (``convergence``)."""
-    tolerance_deg: float = field(default=1.0, metadata=_doc(
+    tolerance_deg: float = field(default=1.0, metadata=key_help(
         "1-sigma rotation tolerance, degrees (above it: poorly determined)"))
-    tolerance_m: float = field(default=0.01, metadata=_doc(
+    tolerance_m: float = field(default=0.01, metadata=key_help(
         "1-sigma translation tolerance, metres (above it: poorly determined)"))
-    convergence_points: int = field(default=10, metadata=_doc(
+    convergence_points: int = field(default=10, metadata=key_help(
         "solve on the first k motions for this many log-spaced k (0: no curve)"))
 
     def __post_init__(self):
@@ -187,48 +184,48 @@ SOURCES = sources_for_kind("sim")
 class _ScenarioSections:
     """The scenario's own sections and the shared ones; :data:`ScenarioConfig` adds the
     sections the registered pose sources own (``SourceInfo.config``)."""
-    scenario: str = field(default="custom", metadata=_doc("scenario name"))
-    description: str = field(default="", metadata=_doc("one-line description"))
-    kind: Literal[KINDS] = field(default="sim", metadata=_doc(
+    scenario: str = field(default="custom", metadata=key_help("scenario name"))
+    description: str = field(default="", metadata=key_help("one-line description"))
+    kind: Literal[KINDS] = field(default="sim", metadata=key_help(
         "sim: MuJoCo world (world.*, vision.*); synthetic: paper appendix D.2 (synthetic.*)"))
     source: str = field(
-        default="aruco", metadata=_doc("pose source of both streams (unless streams.a/b.source "
-                                       "says otherwise): a registered source "
-                                       "(simcalib.sources)"))
-    seed: int = field(default=0, metadata=_doc("seed of every random draw of the run"))
-    output: str | None = field(default=None, metadata=_doc(
+        default="aruco", metadata=key_help(
+            "pose source of both streams (unless streams.a/b.source says otherwise): a "
+            "registered source (simcalib.sources)"))
+    seed: int = field(default=0, metadata=key_help("seed of every random draw of the run"))
+    output: str | None = field(default=None, metadata=key_help(
         "run directory (default runs/<scenario>-<timestamp>)"))
-    overwrite: bool = field(default=False, metadata=_doc(
+    overwrite: bool = field(default=False, metadata=key_help(
         "replace an earlier run's results in output (else an output holding results.json "
         "or extrinsics.json is refused before any work)"))
     solvers: tuple[str, ...] = field(default=("dqopt", "dq2ndord", "dqconvrlx", "dq2steps",
-                                              "daniilidis"), metadata=_doc(
+                                              "daniilidis"), metadata=key_help(
         "methods to run (python -m simcalib list)"))
-    alpha: Literal["auto"] | float | tuple[float, ...] = field(default="auto", metadata=_doc(
+    alpha: Literal["auto"] | float | tuple[float, ...] = field(default="auto", metadata=key_help(
         "translation weight alpha (1/m): auto (chosen from the data: "
         "simcalib.solvers.diagnostics.uncertainty.choose_alpha), a number, or a list (a "
         "sweep: every alpha is reported; the headline stays the data-chosen alpha and the "
         "list's alpha best against the ground truth is reported beside it as oracle_alpha)"))
-    workers: int = field(default=2, metadata=_doc("parallel render workers"))
-    progress: bool = field(default=True, metadata=_doc("show progress bars"))
-    world: WorldConfig = field(default_factory=WorldConfig, metadata=_doc("simulated world"))
-    vision: VisionConfig = field(default_factory=VisionConfig, metadata=_doc(
+    workers: int = field(default=2, metadata=key_help("parallel render workers"))
+    progress: bool = field(default=True, metadata=key_help("show progress bars"))
+    world: WorldConfig = field(default_factory=WorldConfig, metadata=key_help("simulated world"))
+    vision: VisionConfig = field(default_factory=VisionConfig, metadata=key_help(
         "visual (ArUco) pose source"))
-    synthetic: SyntheticConfig = field(default_factory=SyntheticConfig, metadata=_doc(
+    synthetic: SyntheticConfig = field(default_factory=SyntheticConfig, metadata=key_help(
         "synthetic generator"))
     noise: NoiseConfig = field(default_factory=NoiseConfig)
     pairing: PairingConfig = field(default_factory=PairingConfig)
     prior: PriorConfig = field(default_factory=PriorConfig)
     recording: RecordingConfig = field(default_factory=RecordingConfig)
-    streams: StreamsConfig = field(default_factory=StreamsConfig, metadata=_doc(
+    streams: StreamsConfig = field(default_factory=StreamsConfig, metadata=key_help(
         "per-stream pose sources (a = cam_a, b = cam_b)"))
-    robot: RobotConfig = field(default_factory=RobotConfig, metadata=_doc(
+    robot: RobotConfig = field(default_factory=RobotConfig, metadata=key_help(
         "arm kinematic error and encoders (robot_fk)"))
-    outliers: OutliersConfig = field(default_factory=OutliersConfig, metadata=_doc(
+    outliers: OutliersConfig = field(default_factory=OutliersConfig, metadata=key_help(
         "injected outliers with ground-truth labels"))
-    verdict: VerdictConfig = field(default_factory=VerdictConfig, metadata=_doc(
+    verdict: VerdictConfig = field(default_factory=VerdictConfig, metadata=key_help(
         "tolerances of the degeneracy verdict and the convergence curve"))
-    estimation: EstimationConfig = field(default_factory=EstimationConfig, metadata=_doc(
+    estimation: EstimationConfig = field(default_factory=EstimationConfig, metadata=key_help(
         "streams -> motions: the paper's pairing, or calibrate's recorded-data path"))
 
     def __post_init__(self):
@@ -328,7 +325,7 @@ def _assemble(base: type) -> type:
                             "already a key of the scenario; rename the source")
         sections.append((name, info.config, field(
             default_factory=info.config,
-            metadata=_doc(f"pose source {name}: {info.description}"))))
+            metadata=key_help(f"pose source {name}: {info.description}"))))
     cls = dataclasses.make_dataclass("ScenarioConfig", sections, bases=(base,), frozen=True)
     cls.__module__ = __name__
     hints = typing.get_type_hints(cls)

@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from simcalib.config.checks import check_in, check_names, check_range, set_fields
+from simcalib.config.engine import key_help
 
 __all__ = ["OUTLIER_KINDS", "OutliersConfig", "inject_outliers", "outlier_pairs",
            "clock_report"]
@@ -37,21 +38,18 @@ __all__ = ["OUTLIER_KINDS", "OutliersConfig", "inject_outliers", "outlier_pairs"
 OUTLIER_KINDS = ("random_pose", "flipped_marker", "swapped_frames")
 
 
-def _doc(text: str) -> dict:
-    return {"help": text}
-
 
 @dataclass(frozen=True)
 class OutliersConfig:
     """Injected outliers (``outliers.*``); off by default (``fraction=0``)."""
-    fraction: float = field(default=0.0, metadata=_doc(
+    fraction: float = field(default=0.0, metadata=key_help(
         "fraction of each selected stream's delivered poses replaced by outliers, [0, 0.5]"))
-    kind: str = field(default="mixed", metadata=_doc(
+    kind: str = field(default="mixed", metadata=key_help(
         "random_pose | flipped_marker | swapped_frames | mixed (each outlier's kind drawn "
         "uniformly)"))
-    apply_to: tuple[str, ...] = field(default=("a", "b"), metadata=_doc(
+    apply_to: tuple[str, ...] = field(default=("a", "b"), metadata=key_help(
         "streams that get outliers: a (cam_a), b (cam_b)"))
-    random_margin_m: float = field(default=0.5, metadata=_doc(
+    random_margin_m: float = field(default=0.5, metadata=key_help(
         "random_pose: positions uniform in the stream's bounding box grown by this, metres"))
 
     def __post_init__(self):

@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from simcalib.config.checks import check_int, check_range, check_vector, set_fields
+from simcalib.config.engine import key_help
 from simcalib.sources.base import CAMERAS, GroundTruth, SourceHooks, SourceInfo, SourceOutput
 from simcalib.sources.registry import register
 
@@ -56,33 +57,30 @@ TRACKING_FOV_DEG = 80.0
 TRACKING_AIM_HEIGHT_M = 1.0
 
 
-def _doc(text: str) -> dict:
-    return {"help": text}
-
 
 @dataclass(frozen=True)
 class MocapConfig:
     """The motion-capture tracker of source ``mocap`` (module docstring)."""
-    markers: int = field(default=4, metadata=_doc(
+    markers: int = field(default=4, metadata=key_help(
         "markers on the tracked body (3 to 6; at least 3 must be seen to track it)"))
-    body_size_m: float = field(default=0.10, metadata=_doc(
+    body_size_m: float = field(default=0.10, metadata=key_help(
         "span of the marker plate, metres"))
     body_offset_m: tuple[float, float, float] = field(default=(0.0, -0.07, -0.02),
-                                                      metadata=_doc(
+                                                      metadata=key_help(
         "the body's origin in the camera frame (x right, y down, z forward), metres"))
     body_rotvec_deg: tuple[float, float, float] = field(default=(90.0, 0.0, 0.0),
-                                                        metadata=_doc(
+                                                        metadata=key_help(
         "the body's orientation in the camera frame, axis-angle degrees (default: plate "
         "normal = camera up)"))
-    marker_sigma_m: float = field(default=0.0002, metadata=_doc(
+    marker_sigma_m: float = field(default=0.0002, metadata=key_help(
         "triangulation noise of a marker per axis, metres"))
-    min_views: int = field(default=2, metadata=_doc(
+    min_views: int = field(default=2, metadata=key_help(
         "mocap cameras that must see a marker for it to count"))
-    marker_view_deg: float = field(default=80.0, metadata=_doc(
+    marker_view_deg: float = field(default=80.0, metadata=key_help(
         "a marker is seen from within this angle of the plate's normal, degrees"))
-    offset_sigma_m: float = field(default=0.0, metadata=_doc(
+    offset_sigma_m: float = field(default=0.0, metadata=key_help(
         "1-sigma error per axis of the body-to-camera translation the user applies, m"))
-    offset_sigma_deg: float = field(default=0.0, metadata=_doc(
+    offset_sigma_deg: float = field(default=0.0, metadata=key_help(
         "1-sigma error per axis of the body-to-camera rotation the user applies, deg"))
 
     def __post_init__(self):

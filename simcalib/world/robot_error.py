@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from simcalib.config.checks import check_int, check_range, set_fields
+from simcalib.config.engine import key_help
 
 __all__ = ["UR5E_DH", "DH_COLUMNS", "KinematicErrorConfig", "EncoderConfig", "RobotConfig",
            "dh_fk", "draw_dh_error", "true_dh", "check_dh_error", "apply_dh_to_spec",
@@ -50,9 +51,6 @@ ARM_FLANGE_SITE = "rig_mount"
 ARM_BASE_BODY = "ur5e_base"
 
 
-def _doc(text: str) -> dict:
-    return {"help": text}
-
 
 def _check_sigma(name: str, v) -> float:
     return check_range(name, v, lo=0.0)
@@ -63,11 +61,11 @@ class KinematicErrorConfig:
     """Std of the deviation of each DH parameter of the true arm from the nominal table
     (every joint, independently, Gaussian). Zero (default): the true arm is the nominal
     one. Typical uncalibrated industrial arm: ~1 mm and ~1 mrad."""
-    sigma_theta_rad: float = field(default=0.0, metadata=_doc(
+    sigma_theta_rad: float = field(default=0.0, metadata=key_help(
         "joint zero offset error per joint, radians"))
-    sigma_d_m: float = field(default=0.0, metadata=_doc("DH d error per joint, metres"))
-    sigma_a_m: float = field(default=0.0, metadata=_doc("DH a error per joint, metres"))
-    sigma_alpha_rad: float = field(default=0.0, metadata=_doc(
+    sigma_d_m: float = field(default=0.0, metadata=key_help("DH d error per joint, metres"))
+    sigma_a_m: float = field(default=0.0, metadata=key_help("DH a error per joint, metres"))
+    sigma_alpha_rad: float = field(default=0.0, metadata=key_help(
         "DH alpha (link twist) error per joint, radians"))
 
     def __post_init__(self):
@@ -88,11 +86,11 @@ class KinematicErrorConfig:
 @dataclass(frozen=True)
 class EncoderConfig:
     """Joint encoders read by ``robot_fk``: resolution, noise, backlash."""
-    counts_per_rev: int = field(default=0, metadata=_doc(
+    counts_per_rev: int = field(default=0, metadata=key_help(
         "encoder counts per joint revolution (0: no quantisation); UR-class arms ~2^18"))
-    noise_rad: float = field(default=0.0, metadata=_doc(
+    noise_rad: float = field(default=0.0, metadata=key_help(
         "Gaussian reading noise per joint and frame, radians (std)"))
-    backlash_rad: float = field(default=0.0, metadata=_doc(
+    backlash_rad: float = field(default=0.0, metadata=key_help(
         "joint backlash (full play), radians: the reading leads the link by half of it in "
         "the direction of the latest motion"))
 
