@@ -233,6 +233,17 @@ def _dqopt_newton(S, WV, V, xi, q, Z, lam, E):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def _k_entry(V, WV, xi, a, b):
+    """Entry (a, b) of K = sym(M^1/2 W M^-1/2) in M's eigenbasis (appendix C)."""
+    wab = 0.0
+    wba = 0.0
+    for i in range(4):
+        wab += V[i, a] * WV[i, b]
+        wba += V[i, b] * WV[i, a]
+    return 0.5 * (np.sqrt(xi[a] / xi[b]) * wab + np.sqrt(xi[b] / xi[a]) * wba)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def _dqopt_bracket(V, WV, xi):
     """The bracket of mu* (appendix C): mu* lies in [k_min, k_max], the extreme eigenvalues
     of K = sym(M^1/2 W M^-1/2); here the cheaper valid bound |mu*| <= ||K||_F (the exact
@@ -240,12 +251,7 @@ def _dqopt_bracket(V, WV, xi):
     kf = 0.0
     for a in range(4):
         for b in range(4):
-            wab = 0.0
-            wba = 0.0
-            for i in range(4):
-                wab += V[i, a] * WV[i, b]
-                wba += V[i, b] * WV[i, a]
-            kab = 0.5 * (np.sqrt(xi[a] / xi[b]) * wab + np.sqrt(xi[b] / xi[a]) * wba)
+            kab = _k_entry(V, WV, xi, a, b)
             kf += kab * kab
     kf = np.sqrt(kf)
     return -kf * (1.0 + 1e-12) - 1e-300, kf * (1.0 + 1e-12) + 1e-300
@@ -417,12 +423,7 @@ def _eval_mu(S, W, M, mu, lam, E, out):
     K = np.empty((4, 4))
     for a in range(4):
         for b in range(4):
-            wab = 0.0
-            wba = 0.0
-            for i in range(4):
-                wab += V[i, a] * WV[i, b]
-                wba += V[i, b] * WV[i, a]
-            K[a, b] = 0.5 * (np.sqrt(xi[a] / xi[b]) * wab + np.sqrt(xi[b] / xi[a]) * wba)
+            K[a, b] = _k_entry(V, WV, xi, a, b)
     kw = np.empty(4)
     KV = np.empty((4, 4))
     _eigh(K, kw, KV)
