@@ -143,3 +143,25 @@ def test_pose_sensitivities_sum_to_the_common_error_map_in_the_path():
     W = np.einsum("nij,jk,nlk->il", G, res.T @ res / (idx.size - 2), G)
     assert np.allclose(r.consistency.white_covariance, widening_factor(idx.size) * W,
                        rtol=1e-9)
+
+
+def test_coverage_against_the_workspace_x_only_where_every_run_has_one():
+    from simcalib.studies.experiments.calibrate_coverage import coverage_rows, markdown
+    base = {"dof": 6, "nees_model": 1.0, "error_deg": 0.1, "error_mm": 1.0, "sigma_deg": 0.1,
+            "sigma_mm": 1.0, "time_s": 0.1, "verdict": "determined"}
+    trials = ([dict(base, kind="robot_error", seed=s, nees=nees, nees_workspace=ws)
+               for s, (nees, ws) in enumerate([(20.0, 5.0), (5.0, 5.0), (30.0, 20.0),
+                                               (1.0, 2.0)])]
+              + [dict(base, kind="stations", seed=0, nees=3.0, nees_workspace=None)])
+    rows = {r["kind"]: r for r in coverage_rows(trials)}
+    assert rows["robot_error"]["coverage"] == 0.5            # bound 12.59 for 6 dof
+    assert rows["robot_error"]["coverage_workspace"] == 0.75
+    assert rows["stations"]["coverage_workspace"] is None
+    md = markdown(list(rows.values()), "cmd")
+    assert "| robot_error | 4 (4) | 0.50 | 0.75 |" in md and "| stations | 1 (1) | 1.00 | — |" in md
+
+
+def test_a_robot_error_trial_scores_against_both_references():
+    t = trial("robot_error", 0)
+    assert t["nees_workspace"] is not None and t["nees_workspace"] != t["nees"]
+    assert trial("stations", 0)["nees_workspace"] is None

@@ -174,6 +174,32 @@ def test_robot_error_is_systematic_and_camera_error_grows_with_distance():
         assert np.abs(err[far]).mean() > np.abs(err[~far]).mean(), (d, err)
 
 
+def test_workspace_x_takes_up_a_constant_hand_error_exactly():
+    """A hand error that is the same at every pose, E0, moves X to E0^-1 X with no
+    residual: the dense solve returns exactly that."""
+    rng = np.random.default_rng(3)
+    X = transform_from_rotation_translation(matrix_from_rotvec([0.2, -0.1, 0.4]),
+                                            [0.05, -0.02, 0.08])
+    Y = transform_from_rotation_translation(matrix_from_rotvec([0.0, 0.0, 1.0]),
+                                            [0.5, 0.0, 0.0])
+    E0 = transform_from_rotation_translation(matrix_from_rotvec([0.004, -0.003, 0.002]),
+                                             [0.002, 0.001, -0.003])
+    X_ws = RK.workspace_X(rng, X, Y, lambda A: np.broadcast_to(E0, A.shape), 0.0,
+                          stations=50)
+    np.testing.assert_allclose(X_ws, invert_transform(E0) @ X, atol=1e-12)
+
+
+def test_workspace_x_only_where_the_errors_are_systematic():
+    for seed in (0, 1):
+        rec = RK.generate("robot_error", seed)
+        D = invert_transform(rec.X_true) @ rec.X_workspace
+        deg, mm = np.degrees(rotation_angle_rad(D[:3, :3])), 1e3 * np.linalg.norm(D[:3, 3])
+        assert 0.0 < deg < 1.0 and 0.0 < mm < 6.0, (deg, mm)
+        assert rec.truth_dict()["X_workspace"] == rec.X_workspace.tolist()
+    assert RK.generate("robot_error", 0, noise=False).X_workspace is None
+    assert all(RK.generate(k, 0).X_workspace is None for k in KINDS if k != "robot_error")
+
+
 def test_planar_and_scara_rotate_about_one_axis_only():
     for kind in ("planar", "scara"):
         rec = RK.generate(kind, 0, noise=False)

@@ -27,7 +27,7 @@ R_DOWN = np.diag([1.0, -1.0, -1.0])
 WORKSPACE_CENTRE = np.array([0.5, 0.0, 0.45])
 #: camera axes (x right, y down, z forward) in a vehicle frame (x forward, y left, z up)
 R_FORWARD = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
-_RNG_STREAMS = ("rig", "motion", "noise_a", "noise_b", "clock", "events")
+_RNG_STREAMS = ("rig", "motion", "noise_a", "noise_b", "clock", "events", "workspace")
 
 
 # ----------------------------------------------------------------------------- truth
@@ -44,6 +44,11 @@ class Recording:
     the offset (continuous motion); ``expect``: ``determined``, ``degenerate`` (then
     ``undetermined_a``, a unit vector in frame a, is the direction of X's translation the
     motion cannot determine) or ``data_error`` (the calibration must refuse it).
+    ``X_workspace`` (kinds with systematic error, else None): the X that the hand's REPORTED
+    poses and the camera's biased poses imply over the whole workspace, free of noise (a
+    dense solve, :func:`simcalib.studies.experiments.recording_kinds.workspace_X`): what an
+    unlimited number of error-free stations would return. It differs from ``X_true`` by the
+    errors' part common to every pose, which no recording of this rig can reveal.
     """
     kind: str
     seed: int
@@ -63,6 +68,7 @@ class Recording:
     offset_determined: bool
     expect: str
     undetermined_a: np.ndarray | None = None
+    X_workspace: np.ndarray | None = None
 
     def offset_at(self, t_a) -> np.ndarray:
         """The true offset ``t_b - t_a`` at clock-a times ``t_a``."""
@@ -80,7 +86,8 @@ class Recording:
                 "outliers_b": np.flatnonzero(self.outliers_b).tolist(),
                 "offset_determined": self.offset_determined, "expect": self.expect,
                 "undetermined_a": None if self.undetermined_a is None
-                else self.undetermined_a.tolist()}
+                else self.undetermined_a.tolist(),
+                "X_workspace": None if self.X_workspace is None else self.X_workspace.tolist()}
 
 
 @dataclass(frozen=True)
@@ -153,6 +160,8 @@ class _Draft:
     scalar_first_a: bool = False
     scalar_first_b: bool = False
     undetermined_a: np.ndarray | None = None
+    Y: np.ndarray | None = None   # T_wa_wb, world b in world a (stations: T_base_target)
+    X_workspace: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -321,4 +330,4 @@ def _stations_draft(rngs, s: Settings, k_range, label, poses=None) -> _Draft:
                rngs["noise_b"], s.noise)
     A = _noisy(A, s.sigma_rot_a_deg, s.sigma_trans_a_m, rngs["noise_a"], s.noise)
     return _Draft(t, A, t.copy(), B, X, f"{label}: {k} stations, {how}, eye-in-hand "
-                  "(b = T_target_cam)", 0.0, 0.0, float(t[0]))
+                  "(b = T_target_cam)", 0.0, 0.0, float(t[0]), Y=Y)
