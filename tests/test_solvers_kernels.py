@@ -340,7 +340,7 @@ def test_threaded_batch_equals_serial_and_single_solves(monkeypatch):
         out[threads] = simcalib.solve_batch(C, H, alpha=alphas)
     np.testing.assert_array_equal(out[1].X, out[3].X)
     np.testing.assert_array_equal(out[1].cost, out[3].cost)
-    for b in (0, 63, 64, 199):   # chunk boundaries
+    for b in (0, kb._CHUNK - 1, kb._CHUNK, B - 1):   # chunk boundaries
         s = simcalib.solve(C[b], H[b], alpha=float(alphas[b]))
         np.testing.assert_array_equal(s.X, out[3].X[b])
 

@@ -369,10 +369,13 @@ def _one(b0, b1, method, opt, T, C, H, Qin, use_q, align, alphas, wts, weighted,
 _ZERO4 = np.zeros((4, 4))
 _DUMMY4 = np.zeros((1, 1, 4, 4))
 _DUMMYQ = np.zeros((1, 16, 1))
-#: a batch is cut into about 4 chunks per thread (at least _CHUNK problems each), taken by
-#: the threads in turn: both cores stay busy when one is shared with another process
-_CHUNK = 64
-_POOL = None   # (threads, pid, ThreadPoolExecutor), made at the first batch that uses threads
+#: batches up to this size run on the calling thread
+_MIN_THREADED = 64
+#: problems a thread takes at a time: the threads (the calling one included) take chunks
+#: from a shared counter until none is left, so a core that the machine slows down takes
+#: fewer (a call costs ~3 us; 32 problems ~0.6 ms)
+_CHUNK = 32
+_POOL = None   # (workers, pid, ThreadPoolExecutor), made at the first batch that uses threads
 
 
 def _threads() -> int:
@@ -385,28 +388,40 @@ def _threads() -> int:
     return int(numba.get_num_threads())
 
 
-def _run_chunks(nb: int, args: tuple) -> None:
-    """Run problems 0..nb-1 of ``args`` on the calling thread or, for larger batches, in
-    chunks on ``_threads()`` threads (``_one`` releases the GIL)."""
+def _pool(workers: int):
+    """The thread pool of ``workers`` helper threads (made again after a fork: a child
+    inherits the pool object but not its threads)."""
     global _POOL
-    if nb <= _CHUNK:   # one chunk: the calling thread (without asking numba for threads)
-        _one(0, nb, *args)
-        return
-    nthreads = min(_threads(), -(-nb // _CHUNK))
-    if nthreads <= 1:
-        _one(0, nb, *args)
-        return
     import os
-    if _POOL is None or _POOL[:2] != (nthreads, os.getpid()):
-        # (a forked child inherits the pool object but not its threads: make a new one)
+    if _POOL is None or _POOL[:2] != (workers, os.getpid()):
         from concurrent.futures import ThreadPoolExecutor
         if _POOL is not None and _POOL[1] == os.getpid():
             _POOL[2].shutdown(wait=False)
-        _POOL = (nthreads, os.getpid(),
-                 ThreadPoolExecutor(nthreads, thread_name_prefix="simcalib-batch"))
-    chunk = max(_CHUNK, -(-nb // (4 * nthreads)))
-    futures = [_POOL[2].submit(_one, b0, min(b0 + chunk, nb), *args)
-               for b0 in range(0, nb, chunk)]
+        _POOL = (workers, os.getpid(),
+                 ThreadPoolExecutor(workers, thread_name_prefix="simcalib-batch"))
+    return _POOL[2]
+
+
+def _run_chunks(nb: int, args: tuple) -> None:
+    """Run problems 0..nb-1 of ``args`` on the calling thread or, for larger batches, on
+    ``_threads()`` threads (the calling one and pool helpers; ``_one`` releases the GIL)
+    taking chunks of ``_CHUNK`` problems from one counter."""
+    nthreads = min(_threads(), -(-nb // _CHUNK))
+    if nb <= _MIN_THREADED or nthreads <= 1:
+        _one(0, nb, *args)
+        return
+    import itertools
+    counter = itertools.count()   # next() is atomic under the GIL
+
+    def work():
+        while True:
+            b0 = next(counter) * _CHUNK
+            if b0 >= nb:
+                return
+            _one(b0, min(b0 + _CHUNK, nb), *args)
+
+    futures = [_pool(nthreads - 1).submit(work) for _ in range(nthreads - 1)]
+    work()
     for f in futures:
         f.result()
 
