@@ -2,7 +2,7 @@
 itself, and the acceptance of the ``calibrate`` defaults on every kind: no worse than
 OpenCV Park given the true offset and reading, the offset and the reading found, bad input
 refused, undetermined directions flagged (seeds 0-2 here; docs/recordings.md has seeds
-0-5 from its command)."""
+0-19 from its command)."""
 
 from __future__ import annotations
 
@@ -276,8 +276,8 @@ def outcome(tmp_path_factory):
 
 
 #: cases the estimation path does not meet yet, ``(test, kind, seed) -> why``: strict xfail,
-#: so a case that starts passing fails the suite until it is removed from here (none now:
-#: every kind passes on seeds 0-5, docs/recordings.md)
+#: so a case that starts passing fails the suite until it is removed from here (none on the
+#: seeds tested here; docs/recordings.md, seeds 0-19, has one miss: outliers seed 7)
 KNOWN_LIMITS: dict = {}
 
 
