@@ -86,6 +86,9 @@ def test_outputs_schema_recording_and_given_offset(tmp_path, capsys):
     assert rep["time_offset"]["offset_s"] == 0.02 and not rep["time_offset"]["estimated"]
     assert rep["inliers"]["robust"] == "none"
     assert rep["options"]["step_s"] == 0.5
+    # what sigma cannot hold is said in the file and on the console
+    assert "common to every pose" in rep["uncertainty"]["not_included"]
+    assert f"not in sigma: {rep['uncertainty']['not_included']}" in text
     q = np.array(rep["X"]["quaternion_xyzw"])
     assert abs(np.linalg.norm(q) - 1) < 1e-9
     assert np.degrees(rotation_error_rad(np.array(rep["X"]["T_a_b"]), rs.X)) < 0.05

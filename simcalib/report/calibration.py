@@ -37,12 +37,18 @@ def _stream(s) -> dict:
             "sample_index_as_time": s.synthetic_time, "repairs": dict(s.repairs)}
 
 
+#: what no sigma from the data can hold (docs/calibrate-coverage.md, robot_error)
+NOT_IN_SIGMA = ("an error common to every pose (a robot's absolute accuracy, a target's "
+                "scale) moves X without a residual: no recording shows it")
+
+
 def _uncertainty(a) -> dict:
     return {"source": a.source, "std_rotation_deg": a.std_rot_deg,
             "std_translation_m": a.std_trans_m,
             # why an axis' 1-sigma is null (not a number), else null
             "std_reason": _std_reason(a), "covariance": a.covariance,
-            "covariance_order": "(wx, wy, wz, vx, vy, vz), rad and m, frame a"}
+            "covariance_order": "(wx, wy, wz, vx, vy, vz), rad and m, frame a",
+            "not_included": NOT_IN_SIGMA}
 
 
 def _verdict(a) -> dict:
@@ -173,6 +179,7 @@ def format_report(rep: dict) -> str:
         f"  quaternion (x,y,z,w):   {_vec(rep['X']['quaternion_xyzw'], digits=6)}",
         f"  rotation vector (deg):  {_vec(rep['X']['rotvec_deg'], digits=3)}",
         f"{sigma_line(u)}  [{u['source']}]",
+        f"  not in sigma: {u['not_included']}",
         verdict_line(v),
         f"sampling: {rep['sampling']['reason']}",
         f"motions: {rep['motions']['policy']} ({rep['motions']['reason']})",
