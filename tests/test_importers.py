@@ -234,14 +234,16 @@ def test_repairs_are_counted(tmp_path, rig):
     R = np.vstack([R, R[10:13]])                 # 3 duplicate rows, out of order
     R[20, 4:] *= 1.01                            # non-unit quaternion
     R[30, 2] = np.nan                            # NaN row
+    R[40, 1] = 1e300                             # corrupt position
     p = tmp_path / "bad.csv"
-    np.savetxt(p, R, fmt="%.10f", delimiter=",")
+    np.savetxt(p, R, fmt="%.10g", delimiter=",")
     s = read_pose_stream(p)
     assert s.repairs["nan_rows_dropped"] == 1
+    assert s.repairs["far_rows_dropped"] == 1
     assert s.repairs["quaternions_renormalised"] == 1
     assert s.repairs["duplicate_rows_dropped"] == 3
     assert s.repairs["out_of_order_rows_sorted"] > 0
-    assert s.n == 49 and np.all(np.diff(s.timestamps_s) > 0)
+    assert s.n == 48 and np.all(np.diff(s.timestamps_s) > 0)
     assert "nan_rows_dropped: 1" in s.describe()
 
 

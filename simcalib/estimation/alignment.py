@@ -253,6 +253,10 @@ def make_motions(synced: SyncedPoses, *, step_s: float | None = None, step: int 
 
 
 # ----------------------------------------------------------------- cross-correlation
+#: the most samples a stream's angular-speed signal gets on the correlation grid
+MAX_GRID = 2 ** 22
+
+
 def _grid_signal(t_mid, speed, t0, t1, dt, smooth_s):
     grid = np.arange(t0, t1 + 0.5 * dt, dt)
     y = np.interp(grid, t_mid, speed)
@@ -316,7 +320,9 @@ def _coarse_offset(ta, Ta, tb, Tb, max_offset_s, min_overlap_frac, robust=True):
     if robust:      # outlier poses make spikes: running medians
         wa, wb = _despike(wa), _despike(wb)
     dt_a, dt_b = float(np.median(np.diff(ta))), float(np.median(np.diff(tb)))
-    dt = 0.5 * min(dt_a, dt_b)
+    # half the faster stream's period, but never more than MAX_GRID samples per stream
+    # (streams stamped in different units, ns and s, would ask for 1e10)
+    dt = max(0.5 * min(dt_a, dt_b), max(ta[-1] - ta[0], tb[-1] - tb[0]) / MAX_GRID)
     smooth = max(dt_a, dt_b)
     ga, x = _grid_signal(tma, wa, tma[0], tma[-1], dt, smooth)
     gb, y = _grid_signal(tmb, wb, tmb[0], tmb[-1], dt, smooth)

@@ -325,6 +325,7 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     """
     from simcalib.estimation.motions import form_motions
     from simcalib.estimation.sampling import classify_sampling
+    from simcalib.estimation.units import check_translation_units
     from simcalib.solvers.robust import robust_solve
     sa, sb = _read(a, format_a), _read(b, format_b)
     check_streams_move(sa, sb)
@@ -341,6 +342,7 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
         from simcalib.errors import DataError
         raise DataError(f"only {ms.n} motion(s) from {sp.n} synchronised poses ({ms.reason};"
                         f" {ms.counts}); at least 2 rotating motions are needed")
+    check_translation_units(ms.C, ms.H)
     prior = _per_pass(prior, ms.passes)
     rob, why = robust_fit(ms.C, ms.H, robust, alpha=alpha, method=method, seed=seed,
                           options=robust_options)

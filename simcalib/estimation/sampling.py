@@ -28,6 +28,8 @@ __all__ = ["Sampling", "classify_sampling", "pair_by_stamp", "SHARED_FRACTION"]
 
 #: share of the sparser stream's stamps that must have a partner for "shared stamps"
 SHARED_FRACTION = 0.8
+#: streams whose periods differ by this factor or more are refused (stamp units)
+MAX_PERIOD_RATIO = 1e6
 
 
 @dataclass(frozen=True)
@@ -84,12 +86,29 @@ def _partners(t_a: np.ndarray, t_b: np.ndarray, tol: float) -> tuple[np.ndarray,
     return ia, ib
 
 
+def _check_time_units(t_a, t_b, pa: float, pb: float) -> None:
+    """DataError when the two streams' periods differ by MAX_PERIOD_RATIO or more: no two
+    pose sensors of one rig do (1 kHz motion capture against one pose in 17 minutes is
+    1e6); stamps in different units (ns and s) or sample numbers against times do."""
+    if not (pa > 0 and pb > 0) or max(pa, pb) < MAX_PERIOD_RATIO * min(pa, pb):
+        return
+    from simcalib.errors import DataError
+    raise DataError(
+        f"the streams' stamps step by {pa:.3g} (a) and {pb:.3g} (b) per pose (median; a "
+        f"starts at {t_a[0]:.6g} and spans {t_a[-1] - t_a[0]:.6g}, b starts at {t_b[0]:.6g} "
+        f"and spans {t_b[-1] - t_b[0]:.6g}), a factor of "
+        f"{max(pa, pb) / min(pa, pb):.3g}: more than two pose sensors of one rig differ "
+        f"(at most {MAX_PERIOD_RATIO:.0e}); the stamps are in different units (ns, us, ms, "
+        "s?) or one stream is stamped with sample numbers: write both in seconds")
+
+
 def classify_sampling(stream_a, stream_b) -> Sampling:
     """The :class:`Sampling` of two :class:`simcalib.importers.PoseStreamData` (or any
     object with ``timestamps_s``; ``synthetic_time`` marks a file without times)."""
     t_a = np.asarray(stream_a.timestamps_s, dtype=np.float64)
     t_b = np.asarray(stream_b.timestamps_s, dtype=np.float64)
     pa, pb = _period(t_a), _period(t_b)
+    _check_time_units(t_a, t_b, pa, pb)
     tol = 1e-3 * min(pa, pb) + 1e-9
     sparse, dense = (t_a, t_b) if t_a.size <= t_b.size else (t_b, t_a)
     ia, _ = _partners(sparse, dense, tol)

@@ -138,6 +138,7 @@ def motions_from_streams(streams: dict, cfg, rng, sensing: dict):
     from simcalib.estimation.path import align_and_read, robust_fit, synchronised
     from simcalib.estimation.motions import form_motions
     from simcalib.estimation.sampling import classify_sampling
+    from simcalib.estimation.units import check_translation_units
     a = file_form(streams["cam_a"], "as_written")
     b = file_form(streams["cam_b"], est.b_file)
     sampling = classify_sampling(a, b)
@@ -151,6 +152,7 @@ def motions_from_streams(streams: dict, cfg, rng, sensing: dict):
     ms = form_motions(synced, est.motions, paired_by_stamp=sampling.paired_by_stamp,
                       index_stamps=sampling.kind == "index_stamps", step_s=est.step_s,
                       min_rotation_deg=est.min_rotation_deg)
+    check_translation_units(ms.C, ms.H)
     if est.robust == "none":
         keep, why = np.ones(ms.n, dtype=bool), "none (given)"
     else:

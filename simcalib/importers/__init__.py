@@ -269,6 +269,9 @@ def stream_from_arrays(timestamps_s, T_world_sensor, *, source: str = "<memory>"
 
 # ------------------------------------------------------------------- validation/repair
 QUAT_NORM_TOL = 1e-3      # beyond this deviation from 1 a quaternion is renormalised (counted)
+#: a position coordinate beyond this (m) is a corrupt row, dropped as a repair (no rig is
+#: 1e9 m from its origin: 2.6x the Moon's distance)
+MAX_POSITION_M = 1e9
 QUAT_NORM_MAX_DEV = 0.2   # beyond this it is not a unit quaternion at all: error
 
 
@@ -309,6 +312,13 @@ def _finite_poses(raw: RawStream, label: str, repairs: dict) -> tuple[np.ndarray
         repairs["nan_rows_dropped"] = n_bad
         if n_bad == n0:
             raise data_error(f"{label}: all {n0} rows contain NaN or inf")
+    trans = M[:, :3, 3] if raw.matrices is not None else pos
+    far = finite & ~(np.abs(np.where(finite[:, None], trans, 0.0)) <= MAX_POSITION_M).all(1)
+    if far.any():   # no rig is that far: a corrupt row (and 1e300 m would overflow the math)
+        repairs["far_rows_dropped"] = int(far.sum())
+        finite = finite & ~far
+        if not finite.any():
+            raise data_error(f"{label}: every row's position is beyond {MAX_POSITION_M:g} m")
     keep = finite
     if raw.matrices is not None:
         t, M = t[keep], M[keep]
