@@ -143,6 +143,9 @@ class SetResult:
     #: the reference-free split-half check (X of the recording's first half against its
     #: second, :class:`simcalib.estimation.consistency.SplitCheck`) as a :class:`Nees`
     split: "Nees | None" = None
+    #: b's length scale against a's from the motions' screw pitch (1 in equal units;
+    #: :func:`simcalib.estimation.units.pitch_scale`)
+    length_scale: float | None = None
 
     @property
     def ran(self) -> bool:
@@ -274,11 +277,12 @@ def _evaluate(entry, r, a, rep, ref, wall) -> SetResult:
     off, inl = rep["time_offset"], rep["inliers"]
     sc = getattr(r.consistency, "split", None)
     split = None if sc is None else Nees(sc.nees, sc.dof, sc.bound, ())
+    from simcalib.estimation.units import pitch_scale
     return SetResult(
         entry.name, int(rep["exit_code"]), rep["status"], "", wall, X, cov, a.std_rot_deg,
         _mm(a.std_trans_m), a.verdict, _flagged(r.robust.solution, a), off["offset_s"],
         off["uncertainty_s"], inl["n_inliers"], inl["n_motions"], ref, e, rot, trans, n0, n1,
-        park, tsai, split)
+        park, tsai, split, length_scale=pitch_scale(r.motions.C, r.motions.H)[0])
 
 
 # ----------------------------------------------------------------------------- checks
@@ -449,6 +453,7 @@ class Summary:
     n_nees_plain_within: int = 0    # NEES with the estimate's covariance alone
     n_split_sets: int = 0           # sets whose two halves could be compared
     n_split_within: int = 0         # ... within the 95 % bound of their predicted difference
+    length_scales: tuple = ()       # (min, max) of SetResult.length_scale over the sets run
 
     @property
     def nees_share(self) -> float:
@@ -486,7 +491,14 @@ def summarise(results: dict) -> Summary:
                    sum(_strictly_within(ents[n], results[n]) for n in refd),
                    sum(results[n].nees is not None and results[n].nees.within for n in nsets),
                    sum(r.split is not None for r in ran),
-                   sum(r.split is not None and r.split.within for r in ran))
+                   sum(r.split is not None and r.split.within for r in ran),
+                   length_scales=_scale_range(ran))
+
+
+def _scale_range(ran) -> tuple:
+    s = [r.length_scale for r in ran if r.length_scale is not None
+         and math.isfinite(r.length_scale)]
+    return (min(s), max(s), len(s)) if s else ()
 
 
 def _strictly_within(entry: RealSet, res: SetResult) -> bool:

@@ -148,6 +148,10 @@ def _summary_lines(s, results: dict, total_time_s: float) -> list[str]:
         f"second, their difference against the covariance the pose-error model predicts for "
         f"it) within its 95 % bound on **{s.n_split_within} of {s.n_split_sets}** sets whose "
         "halves could be compared.",
+        *([f"- Length scale of b against a from the motions' screw pitch "
+           f"(`simcalib.estimation.units`; 1 in equal units, refused beyond 3x): "
+           f"{s.length_scales[0]:.3f}-{s.length_scales[1]:.3f} over {s.length_scales[2]} "
+           "sets."] if s.length_scales else []),
         "- Cross-set agreement (sets sharing a mount; loop of three streams of one rig):",
         *["  " + _agreement_line(g) for g in (*s.agreements, *s.loops)],
         f"- Total wall time of the calibrations {sum(r.wall_time_s for r in results.values()):.1f}"
