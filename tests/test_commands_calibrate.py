@@ -291,3 +291,10 @@ def test_verdict_tolerances_are_keys_of_calibrate(tmp_path, capsys):
     assert rt["verdict"]["verdict"] == "poorly determined" and rt["exit_code"] == 6
     assert rl["verdict"]["verdict"] == "determined" and rl["exit_code"] == 0
     assert rl["options"]["verdict"] == {"tolerance_deg": 10.0, "tolerance_m": 1.0}
+
+
+def test_the_same_file_twice_is_warned_about(tmp_path, capsys):
+    _, pa, _ = _rig_files(tmp_path)
+    code, text, err = _calibrate(capsys, f"a={pa}", f"b={pa}", f"output={tmp_path / 'o'}",
+                                 "recording=false")
+    assert code in (0, 6) and "hold the same poses" in text + err, (code, text, err)

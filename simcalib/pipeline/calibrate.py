@@ -418,4 +418,8 @@ def warnings(r) -> list[str]:
                    "may be wrong")
     if r.robust.inlier_fraction < 0.5:
         out.append(f"only {r.robust.inlier_fraction:.0%} of the motions are inliers")
+    Ta, Tb = np.asarray(r.synced.T_a), np.asarray(r.synced.T_b)
+    if Ta.shape == Tb.shape and np.allclose(Ta, Tb, rtol=0.0, atol=1e-9):
+        out.append("streams a and b hold the same poses, so X is the identity: the same "
+                   "file or topic given twice?")
     return out
