@@ -385,3 +385,13 @@ def test_standard_tum_header_alone_is_plain_tum_not_simcalib_output(tmp_path, ri
     s = read_pose_stream(p)
     assert s.format == "tum" and "simcalib" not in s.detection
     _same(s, rig.t_a, rig.T_a)
+
+
+def test_empty_and_comment_only_files_say_so(tmp_path):
+    empty, comments = tmp_path / "empty.txt", tmp_path / "comments.txt"
+    empty.write_text("\n\n")
+    comments.write_text("# timestamp tx ty tz qx qy qz qw\n\n# nothing recorded\n")
+    with pytest.raises(ValueError, match="is empty"):
+        read_pose_stream(empty)
+    with pytest.raises(ValueError, match="holds no pose rows: its 3 lines"):
+        read_pose_stream(comments)

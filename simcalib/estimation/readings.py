@@ -146,8 +146,13 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
                                     n_pairs=n_pairs, alpha=alpha, seed=seed, sampling=sampling)
     if not scores:
         from simcalib.errors import DataError
-        raise DataError("too few overlapping poses with rotation to check the conventions "
-                         "(do the streams overlap in time, and does the rig rotate?)")
+        ta, tb = stream_a.timestamps_s, stream_b.timestamps_s
+        off = float(getattr(off, "offset_s", off))     # a given TimeOffset, or seconds
+        raise DataError(
+            "too few overlapping poses with rotation to check the conventions: with the "
+            f"offset t_b - t_a = {off:.6g} s, a spans {ta[0]:.6g}..{ta[-1]:.6g} s and b "
+            f"{tb[0] - off:.6g}..{tb[-1] - off:.6g} s ({ta.size} and {tb.size} poses); do the "
+            "stamps share a unit and a clock, and does the rig rotate?")
     ranked = sorted(scores, key=scores.get)
     ratio = scores[ranked[1]] / max(scores[ranked[0]], 1e-15) if len(ranked) > 1 \
         else math.inf

@@ -176,6 +176,10 @@ def _read_text(path) -> tuple[Path, str]:
                          f"(formats: {', '.join(available())})") from None
     if not text.strip():
         raise data_error(f"pose file {str(p)!r} is empty")
+    lines = text.strip().splitlines()
+    if all(not ln.strip() or ln.lstrip().startswith(("#", "%", "//")) for ln in lines):
+        raise data_error(f"pose file {str(p)!r} holds no pose rows: its {len(lines)} lines are "
+                         "comments or blank")
     return p, text
 
 
