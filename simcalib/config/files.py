@@ -8,7 +8,22 @@ from pathlib import Path
 
 from simcalib.errors import ConfigError, unknown_choice
 
-__all__ = ["describe_yaml_files", "find_yaml"]
+__all__ = ["describe_yaml_files", "find_yaml", "output_folder"]
+
+
+def output_folder(path, key: str = "output") -> Path:
+    """The folder ``path`` of config key ``key``, created if missing; a folder that cannot
+    be created or written is a ConfigError naming the key, the path and the reason."""
+    out = Path(path)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"{key}={str(path)!r}: cannot create the folder "
+                          f"({exc.strerror or exc}); choose a writable folder") from None
+    if not os.access(out, os.W_OK | os.X_OK):
+        raise ConfigError(f"{key}={str(path)!r}: the folder is not writable; choose a "
+                          "writable folder")
+    return out
 
 
 def describe_yaml_files(folder: Path) -> dict[str, str]:

@@ -366,8 +366,8 @@ def write_outputs(opts: CalibrateOptions, r, a: Assessment,
     """Write calibration.json, motions.npz and recording.rrd into ``opts.output``."""
     from simcalib.report.calibration import format_report, report_dict
     from simcalib.solvers.robust import constraint_errors
-    out = Path(opts.output)
-    out.mkdir(parents=True, exist_ok=True)
+    from simcalib.config.files import output_folder
+    out = output_folder(opts.output)
     report = report_dict(opts, r, a, solver_kernels)
     if opts.export:
         report["files"]["exports"] = {k: p.name for k, p in write_ros_exports(opts, r).items()}

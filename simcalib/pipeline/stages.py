@@ -139,8 +139,8 @@ def _prepared_output(cfg: ScenarioConfig) -> Path:
     """The run directory (:func:`_output_dir`), created, with the resolved ``config.yaml``."""
     import yaml
     from simcalib.config.engine import to_dict
-    out = _output_dir(cfg)
-    out.mkdir(parents=True, exist_ok=True)
+    from simcalib.config.files import output_folder
+    out = output_folder(_output_dir(cfg))
     (out / "config.yaml").write_text(yaml.safe_dump(to_dict(cfg), sort_keys=False))
     return out
 

@@ -567,8 +567,8 @@ def write_exports(out_dir, X, kinds, frames: ExportFrames) -> dict[str, Path]:
     _check_frame(frames.frame_a, "frame_a")
     _check_frame(frames.frame_b, "frame_b")
     texts = {k: _render(k, X, frames) for k in _check_kinds(kinds)}
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    from simcalib.config.files import output_folder
+    out = output_folder(out_dir)
     paths = {}
     for k, text in texts.items():
         p = out / EXPORT_FILES[k].format(name=frames.name)

@@ -16,7 +16,8 @@ __all__ = ["scenario_session", "files_session"]
 def _write(out: dict, out_dir: Path, record=None) -> dict:
     """Write ``out`` to DIR/advice.json and, with ``record(path) -> path``, the recording
     DIR/advice.rrd (its path then in ``out["recording"]``)."""
-    out_dir.mkdir(parents=True, exist_ok=True)
+    from simcalib.config.files import output_folder
+    output_folder(out_dir)
     path = out_dir / "advice.json"
     path.write_text(json.dumps(out, indent=1, allow_nan=False))
     if record is not None:

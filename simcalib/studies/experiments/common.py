@@ -375,7 +375,8 @@ def output_dir(path) -> Path:
     p = Path(os.fspath(path))
     if p.exists() and not p.is_dir():
         raise ValueError(f"output must be a directory; {str(p)!r} is a file")
-    p.mkdir(parents=True, exist_ok=True)
+    from simcalib.config.files import output_folder
+    output_folder(p)
     return p
 
 

@@ -96,7 +96,8 @@ def run_sweep(spec: SweepSpec, output: str | Path, *, executor: str = "local",
     cells = expand(spec)
     resolved = resolve_cells(spec, cells, output=out)
     ex = get_executor(executor, **({"address": address} if executor == "ray" else {}))
-    out.mkdir(parents=True, exist_ok=True)
+    from simcalib.config.files import output_folder
+    output_folder(out)
     store.write_manifest(out, spec, [c for c, _ in resolved])
     finished = store.finished_keys(out)
     todo = [(c, cfg) for c, cfg in resolved if c.key not in finished]
