@@ -26,4 +26,4 @@ def test_the_run_command_says_so_with_exit_2(tmp_path, capsys):
     blocker = tmp_path / "file"
     blocker.write_text("x")
     assert main(["run", "scenario=line", f"output={blocker / 'sub'}"]) == 2
-    assert "cannot create the folder" in capsys.readouterr().err
+    assert "cannot be written" in capsys.readouterr().err   # before any work

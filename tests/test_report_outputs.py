@@ -27,3 +27,13 @@ def test_new_empty_or_unrelated_directories_are_fine(tmp_path):
     assert check_output_dir(tmp_path) == tmp_path
     assert check_output_dir(tmp_path / "new" / "dir") == tmp_path / "new" / "dir"
     assert not (tmp_path / "new").exists()          # creates nothing
+
+
+def test_an_output_below_a_file_is_refused_before_any_work(tmp_path):
+    from simcalib.errors import UsageError
+    from simcalib.report.outputs import check_output_dir
+    blocker = tmp_path / "f"
+    blocker.write_text("x")
+    with pytest.raises(UsageError, match="is a file; give a writable directory"):
+        check_output_dir(blocker / "a" / "b")
+    assert not (tmp_path / "f" / "a").exists()

@@ -8,6 +8,7 @@ directory that already holds an earlier run's results (without ``overwrite=true`
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 from simcalib.errors import UsageError
@@ -31,6 +32,13 @@ def check_output_dir(path, overwrite: bool = False) -> Path:
     if out.exists() and not out.is_dir():
         raise UsageError(f"output={str(out)!r} is an existing file, not a directory; give "
                          "a directory (new, or one without earlier results)")
+    base = out.absolute()
+    while not base.exists():      # the nearest folder that exists must let us write
+        base = base.parent
+    if not base.is_dir() or not os.access(base, os.W_OK | os.X_OK):
+        raise UsageError(f"output={str(out)!r} cannot be written: {str(base)!r} is "
+                         f"{'a file' if not base.is_dir() else 'not writable'}; give a "
+                         "writable directory")
     found = earlier_results(out) if out.is_dir() else []
     if found and not overwrite:
         raise UsageError(f"output={str(out)!r} already holds an earlier run's results "
