@@ -147,7 +147,8 @@ class CalibrateOptions:
                    "> 0 when prior_weight_translation is 0 (omit prior instead)")
 
     def _check_ros(self):
-        from simcalib.ros.exports import EXPORT_KINDS
+        if self.export:
+            from simcalib.ros.exports import EXPORT_KINDS
         for k in self.export:
             if k not in EXPORT_KINDS:
                 raise unknown_choice("export kind", k, EXPORT_KINDS, key="export")
@@ -170,14 +171,13 @@ class CalibrateOptions:
 def parse_options(args: list[str]) -> CalibrateOptions:
     """``["a=x.csv", "b=y.csv", "output=out"]`` -> :class:`CalibrateOptions` through the
     config engine (typed values, closest match for unknown keys; :class:`ConfigError`)."""
-    from simcalib.pipeline.scenario import apply_overrides
-    from simcalib.config.engine import build
+    from simcalib.config.engine import apply_overrides, build
     for a in args:
         if a.startswith("-"):
             raise UsageError(f"unknown option {a!r}; options: --help, --debug "
                              "(everything else is key=value)")
     try:
-        return build(CalibrateOptions, apply_overrides({}, args, cls=CalibrateOptions))
+        return build(CalibrateOptions, apply_overrides({}, args, CalibrateOptions))
     except ConfigError as exc:      # the engine's key hint names `run --help`
         msg = str(exc).replace("python -m simcalib run --help", "calibrate --help")
         if msg == str(exc):
