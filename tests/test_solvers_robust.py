@@ -168,3 +168,21 @@ def test_solve_robust_reports_inliers_and_weights(robust):
     assert np.array_equal(boot.X, sol.X)                  # the same robust estimate
     assert boot.uncertainty.method == "bootstrap" and boot.bootstrap_samples == 20
     assert np.all(np.isfinite(boot.std)) and boot.uncertainty.n_motions == sol.n_motions
+
+
+def test_ransac_residuals_in_blocks_equal_the_whole(monkeypatch):
+    """Many motions: the hypotheses' residuals are computed a few hypotheses at a time
+    (memory): the same to rounding (einsum may sum in another order for other shapes;
+    below 2,000,000 / 64 = 31,250 motions nothing is split)."""
+    from simcalib.solvers import robust as R
+    rng = np.random.default_rng(5)
+    C = transform_from_rotation_translation(random_rotation_matrices(rng, 50),
+                                              rng.normal(size=(50, 3)))
+    H = transform_from_rotation_translation(random_rotation_matrices(rng, 50),
+                                              rng.normal(size=(50, 3)))
+    Xs = transform_from_rotation_translation(random_rotation_matrices(rng, 9),
+                                               rng.normal(size=(9, 3)))
+    mats = R._motion_matrices(C, H)
+    monkeypatch.setattr(R, "_RESIDUAL_BLOCK", 120)      # 2 hypotheses at a time
+    np.testing.assert_allclose(R._chunked_residuals(mats, Xs, 1.3),
+                               R._residuals(mats, Xs, 1.3), rtol=1e-13, atol=0)

@@ -227,12 +227,15 @@ def neighbour_pairs(T_a, k_pose: int = 3, k_time: int = 2) -> dict:
     with the ``k_time`` next in the recording."""
     q, p = pose_coordinates(T_a)
     n = q.shape[0]
+    k = min(k_pose, n - 1)
     a, b = [], []
-    for s in range(0, n, 512):
-        I = np.arange(s, min(n, s + 512))
+    for s in range(0, n, 128):      # 128 rows at a time: a few MB per block, not GB
+        I = np.arange(s, min(n, s + 128))
         D = pose_distances(q[I], p[I], q, p)
         D[np.arange(I.size), I] = np.inf
-        nb = np.argsort(D, axis=1)[:, :min(k_pose, n - 1)]
+        # the k nearest of each row (their order does not matter: the pairs are sorted)
+        nb = np.argpartition(D, k - 1, axis=1)[:, :k] if 0 < k < n - 1 else \
+            np.argsort(D, axis=1)[:, :k]
         a.append(np.repeat(I, nb.shape[1]))
         b.append(nb.ravel())
     P = np.unique(np.sort(np.stack([np.concatenate(a), np.concatenate(b)], 1), axis=1),

@@ -299,7 +299,7 @@ def _best_hypothesis(C, H, mats, rng, axes, sample_size, min_axis, threshold, al
         Xs = sol.X[sol.success]
         if Xs.shape[0] == 0:
             continue
-        r = _residuals(mats, Xs, alpha)                              # (B, N)
+        r = _chunked_residuals(mats, Xs, alpha)                      # (B, N)
         score = _hypothesis_scores(r, threshold)
         k = int(np.argmax(score))
         if score[k] > best_score:
@@ -309,6 +309,21 @@ def _best_hypothesis(C, H, mats, rng, axes, sample_size, min_axis, threshold, al
         raise SolverError("RANSAC found no usable minimal set (are all rotation axes "
                          "parallel? such motions do not determine X)")
     return best_X, iters
+
+
+def _chunked_residuals(mats: tuple, Xs: np.ndarray, alpha: float) -> np.ndarray:
+    """:func:`_residuals` of hypotheses ``Xs (B, 4, 4)``, a few at a time when the motions
+    are many (each hypothesis' temporaries hold ~24 numbers per motion: 64 hypotheses of
+    140,000 motions would take ~2 GB at once)."""
+    step = max(1, _RESIDUAL_BLOCK // max(mats[0].shape[0], 1))
+    if step >= Xs.shape[0]:
+        return _residuals(mats, Xs, alpha)
+    return np.concatenate([_residuals(mats, Xs[i:i + step], alpha)
+                           for i in range(0, Xs.shape[0], step)])
+
+
+#: motions x hypotheses whose residuals RANSAC computes at once
+_RESIDUAL_BLOCK = 2_000_000
 
 
 def _hypothesis_scores(r: np.ndarray, threshold) -> np.ndarray:
