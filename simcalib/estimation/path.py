@@ -325,7 +325,6 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     """
     from simcalib.estimation.motions import form_motions
     from simcalib.estimation.sampling import classify_sampling
-    from simcalib.estimation.units import check_translation_units
     from simcalib.solvers.robust import robust_solve
     sa, sb = _read(a, format_a), _read(b, format_b)
     check_streams_move(sa, sb)
@@ -338,11 +337,7 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     ms = form_motions(sp, motions, paired_by_stamp=sampling.paired_by_stamp,
                       index_stamps=sampling.kind == "index_stamps", step_s=step_s,
                       min_rotation_deg=min_rotation_deg, max_rotation_deg=max_rotation_deg)
-    if ms.n < 2:
-        from simcalib.errors import DataError
-        raise DataError(f"only {ms.n} motion(s) from {sp.n} synchronised poses ({ms.reason};"
-                        f" {ms.counts}); at least 2 rotating motions are needed")
-    check_translation_units(ms.C, ms.H)
+    _check_motions(ms, sp)
     prior = _per_pass(prior, ms.passes)
     rob, why = robust_fit(ms.C, ms.H, robust, alpha=alpha, method=method, seed=seed,
                           options=robust_options)
@@ -362,6 +357,17 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
                              X_aligned=aligned.X, sampling=sampling, motions=ms,
                              consistency=check, covariance=cov, covariance_determined=cov_det,
                              robust_choice=why, weighting=weighting)
+
+
+def _check_motions(ms, sp) -> None:
+    """DataError for fewer than 2 motions, or for streams in different length units
+    (:mod:`simcalib.estimation.units`)."""
+    from simcalib.estimation.units import check_translation_units
+    if ms.n < 2:
+        from simcalib.errors import DataError
+        raise DataError(f"only {ms.n} motion(s) from {sp.n} synchronised poses ({ms.reason};"
+                        f" {ms.counts}); at least 2 rotating motions are needed")
+    check_translation_units(ms.C, ms.H)
 
 
 def _summary(sa, sb, conv, off, ms, rob, ms0, plain, aligned) -> dict:

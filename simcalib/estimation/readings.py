@@ -145,14 +145,7 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
                                      _swap_options(stream_b, scalar_first_b)),
                                     n_pairs=n_pairs, alpha=alpha, seed=seed, sampling=sampling)
     if not scores:
-        from simcalib.errors import DataError
-        ta, tb = stream_a.timestamps_s, stream_b.timestamps_s
-        off = float(getattr(off, "offset_s", off))     # a given TimeOffset, or seconds
-        raise DataError(
-            "too few overlapping poses with rotation to check the conventions: with the "
-            f"offset t_b - t_a = {off:.6g} s, a spans {ta[0]:.6g}..{ta[-1]:.6g} s and b "
-            f"{tb[0] - off:.6g}..{tb[-1] - off:.6g} s ({ta.size} and {tb.size} poses); do the "
-            "stamps share a unit and a clock, and does the rig rotate?")
+        raise _no_overlap(stream_a, stream_b, off)
     ranked = sorted(scores, key=scores.get)
     ratio = scores[ranked[1]] / max(scores[ranked[0]], 1e-15) if len(ranked) > 1 \
         else math.inf
@@ -194,6 +187,19 @@ def _score_readings(stream_a, stream_b, off, parities, swaps, *, n_pairs, alpha,
             scores[(sw_a, sw_b, inv_a, inv_b)] = _reading_score(C, H, alpha, seed)
             n_mot = int(C.shape[0])
     return scores, n_mot
+
+
+def _no_overlap(stream_a, stream_b, off):
+    """The DataError for streams without enough overlapping, rotating poses at ``off`` (a
+    given TimeOffset, or seconds): both streams' spans on a's clock."""
+    from simcalib.errors import DataError
+    ta, tb = stream_a.timestamps_s, stream_b.timestamps_s
+    off = float(getattr(off, "offset_s", off))
+    return DataError(
+        "too few overlapping poses with rotation to check the conventions: with the "
+        f"offset t_b - t_a = {off:.6g} s, a spans {ta[0]:.6g}..{ta[-1]:.6g} s and b "
+        f"{tb[0] - off:.6g}..{tb[-1] - off:.6g} s ({ta.size} and {tb.size} poses); do the "
+        "stamps share a unit and a clock, and does the rig rotate?")
 
 
 def _reading_offset(stream_a, stream_b, offset, sampling):
