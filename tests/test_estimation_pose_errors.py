@@ -150,3 +150,23 @@ def test_model_covariance_of_a_long_recording_uses_blocks_within_a_few_percent()
     dense = np.einsum("nm,nij,jk,mlk->il", Kp, G, M, G)
     got = pe.model_covariance(G, m, A, np.arange(n))
     assert np.allclose(np.diag(got), np.diag(dense), rtol=0.05)
+
+
+def test_nearest_poses_by_the_tree_equal_the_brute_force():
+    """The k-d tree with the chord bound finds exactly the k nearest poses of the pose
+    metric (random poses, and a pose recorded twice: its twin is its nearest)."""
+    from simcalib import geometry as geo
+    from simcalib.estimation.pose_errors import (_nearest_poses, pose_coordinates,
+                                                 pose_distances)
+    rng = np.random.default_rng(8)
+    T = geo.transform_from_rotation_translation(geo.matrix_from_rotvec(rng.normal(size=(300, 3))),
+                                                rng.normal(scale=0.3, size=(300, 3)))
+    T[17] = T[230]
+    q, p = pose_coordinates(T)
+    nb = _nearest_poses(q, p, 3)
+    D = pose_distances(q, p, q, p)
+    np.fill_diagonal(D, np.inf)
+    brute = np.sort(D, axis=1)[:, :3]
+    # the same distances (which of two poses at one distance is taken is a tie)
+    np.testing.assert_array_equal(np.sort(np.take_along_axis(D, nb, 1), axis=1), brute)
+    assert nb[17][0] == 230 and nb[230][0] == 17

@@ -228,22 +228,52 @@ def neighbour_pairs(T_a, k_pose: int = 3, k_time: int = 2) -> dict:
     q, p = pose_coordinates(T_a)
     n = q.shape[0]
     k = min(k_pose, n - 1)
-    a, b = [], []
-    for s in range(0, n, 128):      # 128 rows at a time: a few MB per block, not GB
-        I = np.arange(s, min(n, s + 128))
-        D = pose_distances(q[I], p[I], q, p)
-        D[np.arange(I.size), I] = np.inf
-        # the k nearest of each row (their order does not matter: the pairs are sorted)
-        nb = np.argpartition(D, k - 1, axis=1)[:, :k] if 0 < k < n - 1 else \
-            np.argsort(D, axis=1)[:, :k]
-        a.append(np.repeat(I, nb.shape[1]))
-        b.append(nb.ravel())
-    P = np.unique(np.sort(np.stack([np.concatenate(a), np.concatenate(b)], 1), axis=1),
+    nb = _nearest_poses(q, p, k)
+    P = np.unique(np.sort(np.stack([np.repeat(np.arange(n), k), nb.ravel()], 1), axis=1),
                   axis=0)
     ks = range(1, min(k_time, n - 1) + 1)
     T = (np.concatenate([np.arange(n - k) for k in ks]),
          np.concatenate([np.arange(k, n) for k in ks]))
     return {"pose": (P[:, 0], P[:, 1]), "time": T}
+
+
+def _nearest_poses(q, p, k: int) -> np.ndarray:
+    """``(n, k)`` indices of each pose's ``k`` nearest other poses in the metric of
+    :func:`pose_distances`, exactly, in O(n log n): ``angle >= 2 chord`` (``chord = |q -
+    q'|`` for the nearer sign) makes the Euclidean distance in the embedding ``(2q, p)``
+    (both signs of q) a lower bound of the pose distance. A k-d tree gives each pose's
+    ``k`` nearest by that bound; their exact distances bound the k-th nearest, ``t``;
+    every pose whose bound is at most ``t`` is a candidate, and the exact distances of the
+    candidates give the answer."""
+    from scipy.spatial import cKDTree
+    n = q.shape[0]
+    if k <= 0:
+        return np.zeros((n, 0), dtype=np.int64)
+    emb = np.concatenate([np.hstack([2.0 * q, p]), np.hstack([-2.0 * q, p])])
+    tree = cKDTree(emb)
+    m = min(2 * n, 2 * (k + 1))      # both signs of each pose: 2 (k + 1) cover k others
+    _, cand = tree.query(np.hstack([2.0 * q, p]), m)
+    out = np.empty((n, k), dtype=np.int64)
+    for i in range(n):
+        out[i] = _exact_k(q, p, i, np.unique(cand[i] % n), k, tree)
+    return out
+
+
+def _exact_k(q, p, i: int, first: np.ndarray, k: int, tree) -> np.ndarray:
+    """The ``k`` nearest poses to pose ``i`` (not itself) by the exact distance, from the
+    bound's candidates (:func:`_nearest_poses`)."""
+    n = q.shape[0]
+    first = first[first != i]
+    d = pose_distances(q[i:i + 1], p[i:i + 1], q[first], p[first])[0]
+    t = np.partition(d, k - 1)[k - 1] if first.size >= k else np.inf
+    # (a margin above t: the bound is computed differently from the distance, and near 0
+    # the arccos of the distance loses what the chord keeps; more candidates are harmless)
+    r = t * (1.0 + 1e-9) + 1e-6
+    ball = np.unique(np.asarray(tree.query_ball_point(np.hstack([2.0 * q[i], p[i]]), r),
+                                dtype=np.int64) % n) if np.isfinite(t) else np.arange(n)
+    ball = ball[ball != i]
+    d = pose_distances(q[i:i + 1], p[i:i + 1], q[ball], p[ball])[0]
+    return ball[np.argsort(d, kind="stable")[:k]]
 
 
 def neighbour_correlation(r, pairs, permutations: int = 99) -> tuple[float, float]:
