@@ -453,7 +453,7 @@ class Summary:
     n_nees_plain_within: int = 0    # NEES with the estimate's covariance alone
     n_split_sets: int = 0           # sets whose two halves could be compared
     n_split_within: int = 0         # ... within the 95 % bound of their predicted difference
-    length_scales: tuple = ()       # (min, max) of SetResult.length_scale over the sets run
+    length_scales: tuple = ()       # (min, max, count) of SetResult.length_scale, sets run
 
     @property
     def nees_share(self) -> float:
