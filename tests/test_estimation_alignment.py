@@ -106,6 +106,7 @@ def test_bad_inputs():
 
 @pytest.mark.skipif(not ETH.is_dir(),
                     reason=f"ETH data sets not present at {ETH} (set SIMCALIB_ETH_DIR)")
+@pytest.mark.slow
 def test_eth_offsets_refine_the_cost():
     from simcalib.studies.experiments.streams import eth_files
     from simcalib.estimation.readings import apply_conventions, detect_conventions

@@ -94,6 +94,7 @@ def test_few_poses_are_unverified_and_widened():
     assert assess(r).unverified
 
 
+@pytest.mark.slow
 def test_the_clock_offset_uncertainty_adds_its_share():
     """An offset sigma moves every pose of b by its velocity: one error common to the
     recording, added on its own (its share of the residuals is taken out of the fit)."""

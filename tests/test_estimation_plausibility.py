@@ -55,6 +55,7 @@ def test_bad_shapes_are_a_clear_error():
         check_plausibility(np.eye(3), np.zeros((2, 4, 4)), np.zeros((2, 4, 4)), AS_WRITTEN)
 
 
+@pytest.mark.slow
 def test_command_flags_a_hand_file_holding_the_inverse_poses(tmp_path, capsys):
     """The issue's case: the hand file holds T_tool_base. The poses fit the twin exactly, so
     calibrate answers T_wa_wb (metres); the check turns it into a warning and exit 6, and

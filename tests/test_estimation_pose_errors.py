@@ -134,6 +134,7 @@ def test_model_covariance_is_the_kernel_sum():
                        atol=1e-5 * np.abs(dense).max())
 
 
+@pytest.mark.slow
 def test_model_covariance_of_a_long_recording_uses_blocks_within_a_few_percent():
     rng = np.random.default_rng(8)
     n = 3 * pe.KERNEL_BLOCKS

@@ -336,6 +336,7 @@ def test_stream_from_arrays(rig):
 
 @pytest.mark.skipif(not ETH.is_dir(), reason=f"ETH data sets not present at {ETH} "
                     "(set SIMCALIB_ETH_DIR)")
+@pytest.mark.slow
 def test_eth_data_conventions_and_calibration():
     from simcalib.estimation.path import calibrate_streams
     from simcalib.studies.experiments.streams import eth_files

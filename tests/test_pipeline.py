@@ -131,6 +131,7 @@ def test_ground_truth_source_recovers_X_exactly(tmp_path):
     assert res["pose_error"]["cam_a"]["rotation_deg"]["p95"] == 0.0
 
 
+@pytest.mark.slow
 def test_same_config_and_seed_give_identical_results(tmp_path):
     args = ["scenario=planar", "source=noisy", SOLVERS, *SIM_SHORT, f"output={tmp_path / 'r'}"]
     assert main(["run", *args]) == 0

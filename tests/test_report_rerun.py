@@ -7,6 +7,8 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
+import pytest
+
 PKG = Path(__file__).resolve().parents[1] / "simcalib"
 RERUN_DIR = PKG / "report" / "rerun"
 
@@ -24,6 +26,7 @@ def _rerun_imports(tree) -> list[tuple[int, bool]]:
     return out
 
 
+@pytest.mark.slow
 def test_only_the_rerun_folder_imports_rerun_and_only_lazily():
     outside, eager = [], []
     for p in PKG.rglob("*.py"):

@@ -192,6 +192,7 @@ def test_worker_writes_the_calibration_recording_as_in_process(calibrated, tmp_p
         assert got[True][ent] == got[False][ent], ent
 
 
+@pytest.mark.slow
 def test_calibrate_command_records_through_the_worker(tmp_path):
     """The command starts the recording worker before it reads the files, and its process
     never imports rerun."""

@@ -126,6 +126,7 @@ def test_missing_determined_error_stays_missing(value):
     assert directions.determined_translation(s) == (value, None)
 
 
+@pytest.mark.slow
 def test_progress_reports_frames_within_the_streams_stage(tmp_path, capsys, gl):
     """A rendered run with progress on says, while the streams stage renders, how many
     frames are done — throttled (a few lines, not one per frame) and before the stage ends."""

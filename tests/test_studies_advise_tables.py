@@ -67,6 +67,7 @@ def test_ranking_row_takes_medians_over_the_rigs():
     assert cells[4] == "0.8 / 0.8"
 
 
+@pytest.mark.slow
 def test_ratio_interval_bootstraps_the_rigs():
     """The pooled ratio's interval over resampled rigs: a point when every rig gives the
     same results, a spread that contains the pooled ratio when rigs differ, deterministic,
