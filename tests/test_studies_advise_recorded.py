@@ -163,3 +163,15 @@ def test_cart_files_state_what_they_cannot_help_and_bad_options(tmp_path, capsys
                       (["platform=free", "verify=true"], "verify needs a simulated scenario")):
         assert main(["advise", f"a={a}", f"b={b}", f"output={out}", *args]) == 2
         assert msg in capsys.readouterr().err
+
+
+def test_bad_pose_files_are_bad_input_as_in_calibrate(tmp_path, capsys):
+    """Pose files in different length units: exit 3 (bad input), not 2 (usage)."""
+    from simcalib.cli import main
+    a, b = _write_files(tmp_path, _trajectory("vertical_axis"))
+    rows = np.loadtxt(a)
+    mm = tmp_path / "a_mm.tum"
+    np.savetxt(mm, np.column_stack([rows[:, 0], 1e3 * rows[:, 1:4], rows[:, 4:]]))
+    assert main(["advise", f"a={mm}", f"b={b}", "platform=free",
+                 f"output={tmp_path / 'out'}"]) == 3
+    assert "different units" in capsys.readouterr().err

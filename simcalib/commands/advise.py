@@ -7,7 +7,7 @@ import math
 from pathlib import Path
 
 from simcalib.cli import command
-from simcalib.errors import UsageError
+from simcalib.errors import SimcalibError, UsageError
 
 USAGE = """usage: python -m simcalib advise scenario=NAME [k=5] [verify=true|false]
        [seeds=5] [candidates=1000] [output=DIR] [key=value ...] [--debug]
@@ -136,6 +136,8 @@ def main_files(args: list[str]) -> int:
     try:
         out = files_session(copts, platform, k=opts["k"], n_candidates=opts["candidates"],
                             force=opts["force"], recording=opts["recording"], **ranges)
+    except SimcalibError:   # its own exit code (bad pose files: 3, like calibrate)
+        raise
     except ValueError as exc:
         raise UsageError(str(exc)) from None
     print("\n".join(recorded_advice_lines(out)))
