@@ -175,6 +175,18 @@ def _m_eig_wv(S, W, M, xi, V, WV):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def _z_eigen(S, WV, V, xi, mu, first, Z, E0, lam, E):
+    """Z(mu) (eq. 12) and its eigen-decomposition (lam, E), warm-started from the previous
+    eigenvectors E (identity when ``first``: then exactly _eigh); the iterations of dqopt
+    and dqitr each call it at one site, so the compiled code holds one eigensolver each."""
+    _zmat(S, WV, V, xi, mu, Z)
+    for i in range(4):
+        for j in range(4):
+            E0[i, j] = (1.0 if i == j else 0.0) if first else E[i, j]
+    _eigh_warm(Z, E0, lam, E)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def _dqopt_newton(S, WV, V, xi, q, Z, lam, E):
     """DQOpt (section 3.1): the root of f(mu) = q0 . q0' by safeguarded Newton inside the
     bracket, q = the eigenvector of Z(mu*) of the smallest eigenvalue (lam, E: the last
@@ -193,13 +205,7 @@ def _dqopt_newton(S, WV, V, xi, q, Z, lam, E):
     f = np.nan
     df = np.nan
     for it in range(200):
-        _zmat(S, WV, V, xi, mu, Z)
-        # warm start from the previous eigenvectors (identity at first: then exactly
-        # _eigh); one call site keeps one copy of the eigensolver in the compiled code
-        for i in range(4):
-            for j in range(4):
-                E0[i, j] = (1.0 if i == j else 0.0) if it == 0 else E[i, j]
-        _eigh_warm(Z, E0, lam, E)
+        _z_eigen(S, WV, V, xi, mu, it == 0, Z, E0, lam, E)
         f, df = _f_df(E, lam, WV, V, xi, mu, pv, pu, pva, pua)
         iters += 1
         qdn = 0.0
@@ -288,13 +294,7 @@ def _dqitr_iterate(S, W, WV, V, xi, q, Z, lam, E):
             wscale = max(wscale, abs(W[i, j]) / max(np.sqrt(xi[3]), 1e-300))
     E0 = np.empty((4, 4))
     for it in range(500):
-        _zmat(S, WV, V, xi, mu, Z)
-        # warm start from the previous eigenvectors (identity at first: then exactly
-        # _eigh); one call site keeps one copy of the eigensolver in the compiled code
-        for i in range(4):
-            for j in range(4):
-                E0[i, j] = (1.0 if i == j else 0.0) if it == 0 else E[i, j]
-        _eigh_warm(Z, E0, lam, E)
+        _z_eigen(S, WV, V, xi, mu, it == 0, Z, E0, lam, E)
         iters += 1
         for i in range(4):
             q[i] = E[i, 0]
