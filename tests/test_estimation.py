@@ -45,10 +45,25 @@ def test_pair_by_stamp_is_one_to_one_and_exact():
     assert np.abs(invert_transform(sp.T_a) @ sp.T_b - X).max() < 1e-12
 
 
+def _bursts(stations=8, frames=4, seed=0):
+    """Stop-and-go streams with ``frames`` poses a stop: the station poses of ``_streams``
+    at stops 2 s apart, each repeated over a burst of 30 Hz frames."""
+    t_stop = 1000.0 + 2.0 * np.arange(stations)
+    rs = rig_streams(duration_s=30.0, rng=np.random.default_rng(seed))
+    from simcalib.world.stream_sim import rig_path
+    T = np.repeat(rig_path(t_stop - 1000.0), frames, axis=0)
+    t = (t_stop[:, None] + np.arange(frames)[None] / 30.0).ravel()
+    return stream_from_arrays(t, T), stream_from_arrays(t, T @ rs.X), rs.X
+
+
+#: data of the kind a policy is for (continuous 10 Hz streams for the others)
+_POLICY_DATA = {"bursts": _bursts}
+
+
 @pytest.mark.parametrize("policy", sorted(POLICIES))
 def test_every_policy_forms_motions_that_satisfy_CX_XH(policy):
     t = np.arange(0, 20, 0.1)
-    a, b, X = _streams(t, t)
+    a, b, X = _POLICY_DATA[policy]() if policy in _POLICY_DATA else _streams(t, t)
     sp = pair_by_stamp(a, b, classify_sampling(a, b))
     ms = form_motions(sp, policy, paired_by_stamp=True, step_s=1.0)
     assert ms.n >= 3 and ms.policy == policy
@@ -92,6 +107,51 @@ def test_spans_join_every_pose_once_per_span_and_cross_gaps():
     auto = form_motions(sp, "auto", paired_by_stamp=False)
     assert auto.policy == "spans" and "continuous" in auto.reason
     assert auto.subset(auto.i < 50).passes == 4
+
+
+def test_bursts_join_frame_r_of_every_pair_of_stations_never_within_one():
+    """Stop-and-go with several poses a stop: ``auto`` sees the stations (runs that stand
+    still) and joins frame r of a station to frame r of every other one; a station with
+    fewer frames takes part with those it has; poses of one station are never joined."""
+    a, b, X = _bursts(stations=8, frames=4)
+    sp = pair_by_stamp(a, b, classify_sampling(a, b))
+    ms = form_motions(sp, "auto", paired_by_stamp=True, min_rotation_deg=0.0)
+    assert ms.policy == "bursts" and "8 stations" in ms.reason
+    assert ms.n == 28 * 4 and np.abs(ms.C @ X - X @ ms.H).max() < 1e-9
+    assert ms.stations.tolist() == np.repeat(np.arange(8), 4).tolist()
+    assert np.all(ms.stations[ms.i] != ms.stations[ms.j])
+    assert np.all((ms.i % 4) == (ms.j % 4))                   # frame r with frame r
+    assert np.bincount(np.concatenate([ms.i, ms.j])).tolist() == [7] * 32
+    keep = np.ones(32, dtype=bool)
+    keep[[9, 10, 11]] = False                                 # station 2: one frame
+    a1 = stream_from_arrays(a.timestamps_s[keep], a.T_world_sensor[keep])
+    b1 = stream_from_arrays(b.timestamps_s[keep], b.T_world_sensor[keep])
+    sp1 = pair_by_stamp(a1, b1, classify_sampling(a1, b1))
+    ms1 = form_motions(sp1, "auto", paired_by_stamp=True, min_rotation_deg=0.0)
+    assert ms1.policy == "bursts" and ms1.n == 21 * 4 + 7
+
+
+def test_station_runs_only_for_poses_that_stand_still():
+    from simcalib.estimation.motions import station_runs
+    t = np.arange(0, 20, 0.1)
+    a, b, _ = _streams(t, t)                                  # continuous: no stations
+    assert station_runs(pair_by_stamp(a, b, classify_sampling(a, b))) is None
+    a, b, _ = _bursts(stations=2)                             # too few stations
+    assert station_runs(pair_by_stamp(a, b, classify_sampling(a, b))) is None
+    a, b, _ = _streams(t, t)
+    with pytest.raises(DataError, match="motions=bursts needs poses that stand still"):
+        form_motions(pair_by_stamp(a, b, classify_sampling(a, b)), "bursts",
+                     paired_by_stamp=True)
+
+
+def test_block_jackknife_leaves_out_one_station_of_bursts():
+    a, b, X = _bursts(stations=12, frames=3)
+    sp = pair_by_stamp(a, b, classify_sampling(a, b))
+    ms = form_motions(sp, "auto", paired_by_stamp=True)
+    import simcalib
+    check = block_jackknife(ms, sp.n, lambda C, H: simcalib.solve(C, H).X, X)
+    assert check.checked and check.blocks == 12 and check.single_poses
+    assert "12 stations" in check.message
 
 
 def test_unknown_policy_names_the_valid_ones():

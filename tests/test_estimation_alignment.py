@@ -165,3 +165,49 @@ def test_split_check_raises_the_sigma_only_when_the_parts_disagree():
     assert 0.03 < jump.offset_s < 0.05 and "sigma raised" in jump.message
     assert 0.003 < jump.uncertainty_s < 0.01 and steady.uncertainty_s < 1e-4
     assert jump.split.to_dict()["raised"] is True
+
+
+def test_holes_of_a_stream_that_drops_often_are_bridged_and_gaps_are_not():
+    """A 100 Hz stream losing 20 % of its frames has 30-40 ms holes every second: they are
+    bridged (else nearly every 1 s motion of the offset cost crosses one, at some offset
+    of its bracket), while a 1 s gap is still refused; a clean stream keeps 2.5 periods."""
+    from simcalib.estimation.interpolation import max_hole_s
+    from simcalib.estimation.offset_cost import OffsetCost
+    rng = np.random.default_rng(3)
+    t = np.arange(0.0, 60.0, 0.01)
+    assert max_hole_s(t) == pytest.approx(0.025)
+    keep = rng.random(t.size) >= 0.2
+    td = t[keep]
+    assert 0.03 <= max_hole_s(td) < 0.1
+    gap = (td > 30.0) & (td < 31.0)
+    _, ok = interpolate_poses(td[~gap], np.tile(np.eye(4), (int((~gap).sum()), 1, 1)),
+                              np.array([30.5, 20.0]), max_hole_s(td[~gap]))
+    assert ok.tolist() == [False, True]
+    rs = rig_streams(rate_a_hz=100.0, rate_b_hz=5.0, rng=np.random.default_rng(1))
+    kd = rng.random(rs.t_a.size) >= 0.2
+    a = (rs.t_a[kd], rs.T_a[kd])
+    cost = OffsetCost(*a, rs.t_b, rs.T_b, (-0.4, 0.4), step_s=1.0, alpha=1.0,
+                      smooth_s=0.01, robust=False)
+    full = OffsetCost(rs.t_a, rs.T_a, rs.t_b, rs.T_b, (-0.4, 0.4), step_s=1.0, alpha=1.0,
+                      smooth_s=0.01, robust=False)
+    assert cost.n >= 0.9 * full.n, (cost.n, full.n)
+
+
+def test_offset_zero_used_keeps_the_estimate_in_its_sigma():
+    """Where the data do not tell the offset apart from 0, 0 is used; its sigma then covers
+    the estimate the data gave (root sum of squares), so a true offset there stays inside
+    it instead of several sigmas out."""
+    import re
+    seen = 0
+    for seed in range(4):
+        rs = rig_streams(rate_a_hz=100.0, rate_b_hz=5.0, sigma_r_rad=np.radians(1.0),
+                         sigma_t_m=0.01, duration_s=20.0, rng=np.random.default_rng(seed))
+        est = estimate_time_offset(rs.a, rs.b)
+        if est.decision != "zero":
+            continue
+        seen += 1
+        best, sigma = map(float, re.search(r"refined to (-?[\d.]+) \+- ([\d.]+) ms",
+                                           est.message).groups())
+        assert est.offset_s == 0.0
+        assert est.uncertainty_s * 1e3 == pytest.approx(np.hypot(best, sigma), rel=1e-2)
+    assert seen >= 2

@@ -25,7 +25,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from simcalib.errors import DataError
-from simcalib.estimation.interpolation import interpolate_poses, smooth_poses
+from simcalib.estimation.interpolation import interpolate_poses, max_hole_s, smooth_poses
 from simcalib.geometry import invert_transform, rotation_angle_rad
 
 __all__ = ["TimeOffset", "SyncedPoses", "as_time_poses", "angular_speed",
@@ -78,7 +78,9 @@ class TimeOffset:
     ``uncertainty_s``: 1-sigma from the curvature of the calibration cost (it treats the
     motion residuals as independent after thinning by the motion step), raised to the
     spread of the offsets of contiguous parts of the overlap where that spread is beyond
-    chance (``split``: :class:`simcalib.estimation.offset_cost.SplitCheck`).
+    chance (``split``: :class:`simcalib.estimation.offset_cost.SplitCheck`); when 0 is used
+    because the data do not tell the offset apart from it (``decision`` "zero"), the root
+    sum of squares of that sigma and the estimate (the error of using 0 instead).
     ``coarse_offset_s``: from the angular-speed cross-correlation; ``lags_s`` /
     ``correlation``: that curve (Pearson r per lag); ``peak_correlation``: its maximum;
     ``cost_offsets_s`` / ``cost``: the refinement curve (mean cost per motion).
@@ -155,8 +157,8 @@ def synchronise(stream_a, stream_b, offset=0.0, *, reference: str | None = None,
                 smooth_s: float | None = None) -> SyncedPoses:
     """Pair two streams: the faster stream (or the one not named by ``reference``, ``"a"``
     or ``"b"``) is interpolated at the other one's stamps, shifted by ``offset`` (seconds
-    ``t_b - t_a`` or a :class:`TimeOffset`). ``max_gap_s`` (default 2.5x the interpolated
-    stream's median period): interpolation across longer gaps is refused (counted).
+    ``t_b - t_a`` or a :class:`TimeOffset`). ``max_gap_s`` (default :func:`max_hole_s` of
+    the interpolated stream): interpolation across longer gaps is refused (counted).
     ``window_s`` (lo, hi): keep only reference stamps within it (in the reference stream's
     own clock, so the kept stamps do not change with the offset). ``smooth_s``: both
     streams' poses by Gaussian kernel regression with this bandwidth instead of plain
@@ -171,14 +173,14 @@ def synchronise(stream_a, stream_b, offset=0.0, *, reference: str | None = None,
     if reference == "a":
         t_ref = ta
         tq = off.b_from_a(ta)
-        gap = max_gap_s if max_gap_s is not None else 2.5 * float(np.median(np.diff(tb)))
+        gap = max_gap_s if max_gap_s is not None else max_hole_s(tb)
         T_other, valid = interpolate_poses(tb, Tb, tq, gap)
         T_a_all, T_b_all = Ta, T_other
         inside = (tq >= tb[0]) & (tq <= tb[-1])
     else:
         tq = off.a_from_b(tb)
         t_ref = tq
-        gap = max_gap_s if max_gap_s is not None else 2.5 * float(np.median(np.diff(ta)))
+        gap = max_gap_s if max_gap_s is not None else max_hole_s(ta)
         T_other, valid = interpolate_poses(ta, Ta, tq, gap)
         T_a_all, T_b_all = T_other, Tb
         inside = (tq >= ta[0]) & (tq <= ta[-1])
@@ -463,8 +465,11 @@ def _refined(streams, tried, half, kw, drift, msg, fields) -> TimeOffset:
     msg += (f"; refined to {best * 1e3:.2f} +- {sigma * 1e3:.2f} ms by the dqopt cost over "
             f"{chosen.cost.n} motions of {kw['step_s']:.2f} s")
     if decision == "zero":
+        # 0 is used where the data put the offset at ``best``: its error is up to that far
+        sigma = math.hypot(sigma, best)
         msg += (f"; but the cost at 0 is not worse beyond chance (evidence {evidence:.1f} <= "
-                f"{oc.EVIDENCE_MIN:g}): the data do not tell an offset, 0 is used")
+                f"{oc.EVIDENCE_MIN:g}): the data do not tell an offset, 0 is used (sigma "
+                f"{sigma * 1e3:.2f} ms: the estimate's and its distance from 0)")
         best, d = 0.0, 0.0
     elif math.isfinite(evidence):
         msg += f"; it beats offset 0 with evidence {evidence:.1f} (> {oc.EVIDENCE_MIN:g})"

@@ -25,10 +25,12 @@ class EstimationConfig:
     the streams as stamped; any other policy runs the recorded-data path of ``calibrate``
     on the run's streams, with everything it decides scored against the truth in
     results.json ``estimation``."""
-    motions: Literal["pairing", "auto", "stations", "spans", "consecutive", "keyframes"] = \
+    motions: Literal["pairing", "auto", "stations", "bursts", "spans", "consecutive",
+                     "keyframes"] = \
         field(default="pairing", metadata=key_help(
-            "pairing: the paper's D.1 pairing (pairing.*); auto/stations/spans/consecutive/"
-            "keyframes: the calibrate path's motion policy (auto: chosen from the data)"))
+            "pairing: the paper's D.1 pairing (pairing.*); auto/stations/bursts/spans/"
+            "consecutive/keyframes: the calibrate path's motion policy (auto: chosen from "
+            "the data)"))
     time_offset: Literal["stamps", "estimate"] | float = field(default="stamps", metadata=key_help(
         "stamps: the stamps as they are; estimate: the clock offset estimated where the "
         "data tell it (calibrate's default); a number: t_b - t_a in seconds"))

@@ -92,18 +92,20 @@ def block_jackknife(motions, n_poses: int, solve_fn, X: np.ndarray,
     ``motions`` (:class:`simcalib.estimation.motions.MotionSet`) join. ``solve_fn(C, H)``
     returns the X of a subset (the same estimator as X). ``blocks``: how many (default:
     one pose a block up to :data:`MAX_BLOCKS` for ``stations`` motions, where every pose is
-    its own measurement; :data:`CONTIGUOUS_BLOCKS` contiguous blocks otherwise, long
+    its own measurement, and one station a block for ``bursts``; :data:`CONTIGUOUS_BLOCKS` contiguous blocks otherwise, long
     against the serial correlation of a continuous recording)."""
     from simcalib.solvers.diagnostics.uncertainty import pose_error
+    runs = getattr(motions, "stations", None)
+    units = n_poses if runs is None else int(runs[-1]) + 1   # poses, or stations (bursts)
     if blocks is None:
-        blocks = MAX_BLOCKS if motions.policy == "stations" else CONTIGUOUS_BLOCKS
-    G = int(min(blocks, n_poses))
+        blocks = MAX_BLOCKS if motions.policy in ("stations", "bursts") else CONTIGUOUS_BLOCKS
+    G = int(min(blocks, units))
 
     if G < MIN_BLOCKS:
-        return Consistency(False, 0, message=f"{n_poses} poses are too few for the data to "
-                           f"check their own consistency (>= {MIN_BLOCKS} needed): sigma is "
-                           "the model's alone")
-    block = _block_of(n_poses, G)
+        return Consistency(False, 0, message=f"{units} {'poses' if runs is None else 'stations'}"
+                           " are too few for the data to check their own consistency (>= "
+                           f"{MIN_BLOCKS} needed): sigma is the model's alone")
+    block = _block_of(n_poses, G) if runs is None else _block_of(units, G)[runs]
     bi, bj = block[motions.i], block[motions.j]
     deltas = []
     for g in range(G):
@@ -123,9 +125,10 @@ def block_jackknife(motions, n_poses: int, solve_fn, X: np.ndarray,
     D = D - D.mean(axis=0)
     k = D.shape[0]
     cov = (k - 1) / k * (D.T @ D)
-    single = G == n_poses
+    single = G == units
+    what = "poses" if runs is None else "stations"
     return Consistency(True, k, cov, single_poses=single, message=(
-        f"X re-estimated without each of {k} " + ("poses" if single else "blocks of poses")
+        f"X re-estimated without each of {k} " + (what if single else f"blocks of {what}")
         + (f" (the spread widened x{estimated_covariance_factor(k):.2f} for its own "
            "uncertainty)" if single else "")))
 

@@ -17,7 +17,26 @@ import numpy as np
 from simcalib.geometry import (matrix_from_quat, quat_from_matrix,
                                transform_from_rotation_translation)
 
-__all__ = ["interpolate_poses", "interpolation_valid", "smooth_poses"]
+__all__ = ["interpolate_poses", "interpolation_valid", "smooth_poses", "max_hole_s"]
+
+#: a hole up to this many median periods is bridged in any stream ...
+HOLE_PERIODS = 2.5
+#: ... and up to twice the period this share of the stream's steps reach: a stream that
+#: drops frames often has holes of several periods everywhere, and a gap is a hole beyond
+#: what the stream usually has
+HOLE_QUANTILE = 0.99
+
+
+def max_hole_s(t: np.ndarray) -> float:
+    """The longest hole between stamps ``t`` that interpolation bridges (longer ones are
+    gaps): ``HOLE_PERIODS`` median periods, or twice the ``HOLE_QUANTILE`` quantile of the
+    periods when frames drop often (a 100 Hz stream losing 20 % of its frames at random
+    has 30-40 ms holes every second or so; bridging them costs nothing on a smooth
+    motion, refusing them loses most motions that span a second)."""
+    dt = np.diff(np.asarray(t, dtype=np.float64))
+    if dt.size == 0:
+        return 0.0
+    return float(max(HOLE_PERIODS * np.median(dt), 2.0 * np.quantile(dt, HOLE_QUANTILE)))
 
 
 def _slerp(q0: np.ndarray, q1: np.ndarray, u: np.ndarray) -> np.ndarray:

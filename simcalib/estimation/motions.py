@@ -17,6 +17,13 @@ A policy is a small function ``(synced, options) -> MotionSet`` in :data:`POLICI
   (overlapping motions of a continuous recording; one span of ``spans``, in time).
 * ``keyframes`` — non-overlapping motions, each ending where stream a has turned by
   ``min_rotation_deg`` since the last keyframe.
+* ``bursts`` — stop-and-go data with several poses per stop (a camera taking a burst of
+  frames at each station, or detecting the target only while the arm stands still): the
+  poses fall into runs that stand still (:func:`station_runs`), and frame ``r`` of a
+  station is joined to frame ``r`` of every other station (of a geometric set of them
+  above :data:`ALL_PAIRS_MAX` stations). Poses of one station are never joined: their
+  motion is noise. Each pose meets every other station once, so no pose's noise counts
+  more than another's.
 
 Why ``spans`` counts samples, not seconds: joined by a fixed index distance, every pose
 starts exactly one motion and ends exactly one of each span, so along a smooth path the
@@ -29,8 +36,9 @@ seeds 3, 5: 1.3 / 0.8 mm by time, 0.3 / 0.1 mm by samples; OpenCV Park 0.49 / 0.
 
 ``auto`` (the default) takes ``stations`` for sample-index data and stamp-paired
 stop-and-go data (consecutive poses far apart) of at most :data:`STATIONS_MAX` poses, and
-``spans`` otherwise (continuous tracks, even when they share their stamps), and says
-why. Motions whose
+``bursts`` when the synchronised poses come in runs that stand still (several poses per
+stop), and ``spans`` otherwise (continuous tracks, even when they share their stamps), and
+says why. Motions whose
 rotation (mean of the two streams' angles) is below ``min_rotation_deg`` are dropped (they
 carry no information) unless fewer than 3 would remain; above ``max_rotation_deg`` too.
 
@@ -49,8 +57,8 @@ import numpy as np
 from simcalib.errors import DataError, unknown_choice
 from simcalib.geometry import invert_transform, rotation_angle_rad
 
-__all__ = ["MotionSet", "form_motions", "span_pairs", "span_strides", "POLICIES",
-           "ALL_PAIRS_MAX", "STATIONS_MAX", "MAX_SPANS", "SPAN_SHARE"]
+__all__ = ["MotionSet", "form_motions", "span_pairs", "span_strides", "station_runs",
+           "POLICIES", "ALL_PAIRS_MAX", "STATIONS_MAX", "MAX_SPANS", "SPAN_SHARE"]
 
 ALL_PAIRS_MAX = 64          # up to this many poses: every pair
 STATIONS_MAX = 600          # stamp-paired recordings up to this many poses: stations
@@ -71,6 +79,8 @@ class MotionSet:
     #: how many times the motions pass over the same poses (``spans``: one full set per
     #: span); the cost sums them, so a prior's weights are scaled by it
     passes: int = 1
+    #: ``bursts``: the station (0, 1, ...) of every synchronised pose; None otherwise
+    stations: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def n(self) -> int:
@@ -83,7 +93,7 @@ class MotionSet:
     def subset(self, mask) -> "MotionSet":
         m = np.asarray(mask, dtype=bool)
         return MotionSet(self.C[m], self.H[m], self.i[m], self.j[m], self.policy,
-                         self.reason, dict(self.counts), self.passes)
+                         self.reason, dict(self.counts), self.passes, self.stations)
 
 
 def _strides(n: int) -> np.ndarray:
@@ -96,8 +106,8 @@ def _strides(n: int) -> np.ndarray:
     return np.asarray(out, dtype=np.int64)
 
 
-def _stations(t, options):
-    n = t.size
+def _stations(synced, options):
+    n = synced.n
     if n <= ALL_PAIRS_MAX:
         i, j = np.triu_indices(n, k=1)
         how = f"every pair of the {n} poses"
@@ -125,9 +135,9 @@ def span_pairs(t: np.ndarray, step_s: float) -> tuple[np.ndarray, np.ndarray]:
     return i[ok], j[ok]
 
 
-def _consecutive(t, options):
+def _consecutive(synced, options):
     step_s = options.get("step_s", 1.0)
-    i, j = span_pairs(t, step_s)
+    i, j = span_pairs(synced.time_s, step_s)
     return i, j, f"from every instant to the first {step_s:g} s later"
 
 
@@ -153,7 +163,8 @@ def span_strides(t: np.ndarray, step_s: float) -> np.ndarray:
     return k[k < t.size]
 
 
-def _spans(t, options):
+def _spans(synced, options):
+    t = synced.time_s
     step_s = options.get("step_s", 1.0)
     k = span_strides(t, step_s)
     i = np.concatenate([np.arange(t.size - s) for s in k]) if k.size else np.zeros(0)
@@ -164,9 +175,10 @@ def _spans(t, options):
             + f" samples later (~{', '.join(f'{s * period:.3g}' for s in k)} s)")
 
 
-def _keyframes(t, options, T_a):
+def _keyframes(synced, options):
+    t = synced.time_s
     thr = math.radians(options.get("min_rotation_deg") or 5.0)
-    R = T_a[:, :3, :3]
+    R = synced.T_a[:, :3, :3]
     ii, jj, i = [], [], 0
     while i < t.size - 1:
         hit = np.flatnonzero(rotation_angle_rad(R[i].T[None] @ R[i + 1:]) >= thr)
@@ -179,13 +191,71 @@ def _keyframes(t, options, T_a):
             f"keyframes every {math.degrees(thr):g} deg of a's rotation")
 
 
-POLICIES = {"stations": _stations, "consecutive": _consecutive, "spans": _spans,
-            "keyframes": _keyframes}
-
-
 #: a stamp-paired recording whose consecutive poses turn by less than this (median) is a
-#: continuous track that happens to share its stamps, not stop-and-go stations
+#: continuous track that happens to share its stamps, not stop-and-go stations; a turn this
+#: large between consecutive poses (in both streams) starts a new station of ``bursts``
 STATION_STEP_DEG = 5.0
+#: a run of poses that stays within this of its first pose (in the stiller stream) stands
+#: still: one station of ``bursts``
+STATION_SPREAD_DEG = 1.0
+
+
+def _turn_deg(T, i, j) -> np.ndarray:
+    R = T[:, :3, :3]
+    return np.degrees(rotation_angle_rad(np.swapaxes(R[i], -1, -2) @ R[j]))
+
+
+def station_runs(synced) -> np.ndarray | None:
+    """The station (0, 1, ...) of every synchronised pose when the poses come in runs that
+    stand still (stop-and-go with several poses per stop): a new run starts where both
+    streams turn by :data:`STATION_STEP_DEG` or more from one pose to the next, and every
+    run stays within :data:`STATION_SPREAD_DEG` of its first pose (in the stream that
+    moves less there: one noisy or outlying stream cannot split or join stations). None
+    when that is not so, or fewer than 3 stations."""
+    n = synced.n
+    if n < 3:
+        return None
+    i, j = np.arange(n - 1), np.arange(1, n)
+    step = np.minimum(_turn_deg(synced.T_a, i, j), _turn_deg(synced.T_b, i, j))
+    cut = step >= STATION_STEP_DEG
+    labels = np.concatenate([[0], np.cumsum(cut)]).astype(np.int64)
+    if labels[-1] + 1 < 3:
+        return None
+    first = np.flatnonzero(np.concatenate([[True], cut]))[labels]
+    idx = np.arange(n)
+    spread = np.minimum(_turn_deg(synced.T_a, first, idx), _turn_deg(synced.T_b, first, idx))
+    return labels if float(spread.max()) < STATION_SPREAD_DEG else None
+
+
+def _bursts(synced, options):
+    runs = station_runs(synced)
+    if runs is None:
+        raise DataError(f"motions=bursts needs poses that stand still in runs of a station "
+                        f"each (>= 3 stations, each within {STATION_SPREAD_DEG:g} deg, "
+                        f"{STATION_STEP_DEG:g} deg or more between them); these "
+                        f"{synced.n} poses do not: use motions=auto")
+    first = np.flatnonzero(np.diff(np.concatenate([[-1], runs])))
+    size = np.diff(np.concatenate([first, [synced.n]]))
+    k = first.size
+    if k <= ALL_PAIRS_MAX:
+        s, u = np.triu_indices(k, k=1)
+        which = "every other station"
+    else:
+        d = _strides(k)
+        s = np.concatenate([np.arange(k - x) for x in d])
+        u = np.concatenate([np.arange(x, k) for x in d])
+        which = f"the stations {', '.join(map(str, d[:6]))}{', ...' if d.size > 6 else ''} on"
+    m = np.minimum(size[s], size[u])
+    r = np.arange(m.sum()) - np.repeat(np.cumsum(m) - m, m)
+    i = np.repeat(first[s], m) + r
+    j = np.repeat(first[u], m) + r
+    return (i.astype(np.int64), j.astype(np.int64),
+            f"frame r of each station joined to frame r of {which} ({synced.n} poses at "
+            f"{k} stations, {int(size.min())}..{int(size.max())} a station)", runs)
+
+
+POLICIES = {"stations": _stations, "consecutive": _consecutive, "spans": _spans,
+            "keyframes": _keyframes, "bursts": _bursts}
 
 
 def _median_step_deg(synced) -> float:
@@ -205,6 +275,11 @@ def auto_policy(synced, paired_by_stamp: bool, index_stamps: bool = False
                             + ("sample-index stamps" if index_stamps else
                                f"stop-and-go: consecutive poses {step:.3g} deg apart")
                             + "): pairs of poses far apart")
+    runs = station_runs(synced)
+    if runs is not None:
+        return "bursts", (f"{synced.n} {'stamp-paired ' if paired_by_stamp else ''}poses "
+                          f"standing still at {int(runs[-1]) + 1} stations (stop-and-go, "
+                          "several poses a stop): pairs of stations")
     if paired_by_stamp and synced.n <= STATIONS_MAX:
         return "spans", (f"{synced.n} stamp-paired poses of a continuous track "
                          f"(consecutive poses {step:.3g} deg apart): motions over several "
@@ -231,11 +306,7 @@ def form_motions(synced, policy: str = "auto", *, paired_by_stamp: bool = False,
     if policy not in POLICIES:
         raise unknown_choice("motion policy", policy, list(POLICIES) + ["auto"], key="motions")
     opts = {"step_s": step_s, "min_rotation_deg": min_rotation_deg}
-    t = synced.time_s
-    if policy == "keyframes":
-        i, j, how = _keyframes(t, opts, synced.T_a)
-    else:
-        i, j, how = POLICIES[policy](t, opts)
+    i, j, how, *runs = POLICIES[policy](synced, opts)
     C = invert_transform(synced.T_a[i]) @ synced.T_a[j]
     H = invert_transform(synced.T_b[i]) @ synced.T_b[j]
     ang = 0.5 * (rotation_angle_rad(C[:, :3, :3]) + rotation_angle_rad(H[:, :3, :3]))
@@ -253,4 +324,4 @@ def form_motions(synced, policy: str = "auto", *, paired_by_stamp: bool = False,
     counts["kept"] = int(keep.sum())
     passes = int(np.unique(j - i).size) if policy == "spans" and i.size else 1
     return MotionSet(C[keep], H[keep], i[keep], j[keep], policy,
-                     f"{reason}; {how}", counts, passes)
+                     f"{reason}; {how}", counts, passes, runs[0] if runs else None)

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from simcalib.errors import DataError
-from simcalib.estimation.interpolation import interpolation_valid, smooth_poses
+from simcalib.estimation.interpolation import interpolation_valid, max_hole_s, smooth_poses
 from simcalib.geometry import invert_transform, quat_from_matrix, rotation_angle_rad
 
 __all__ = ["OffsetCost", "split_check", "SplitCheck", "EVIDENCE_MIN", "RESIDUALS_PER_MOTION",
@@ -69,11 +69,11 @@ class OffsetCost:
         lo_o, hi_o = bracket
         margin = 5 * smooth_s + slow
         if self.reference == "a":
-            own, T_own, self.t_other, self.T_other, gap = ta, Ta, tb, Tb, 2.5 * pb
+            own, T_own, self.t_other, self.T_other, gap = ta, Ta, tb, Tb, max_hole_s(tb)
             lo = max(ta[0], tb[0] - lo_o) + margin
             hi = min(ta[-1], tb[-1] - hi_o) - margin
         else:
-            own, T_own, self.t_other, self.T_other, gap = tb, Tb, ta, Ta, 2.5 * pa
+            own, T_own, self.t_other, self.T_other, gap = tb, Tb, ta, Ta, max_hole_s(ta)
             lo = max(tb[0], ta[0] + hi_o) + margin
             hi = min(tb[-1], ta[-1] + lo_o) - margin
         if hi - lo < 4 * step_s:

@@ -54,11 +54,11 @@ class CalibrateOptions:
     robust: Literal["auto", "ransac", "irls", "none"] = field(default="auto", metadata=key_help(
         "outlier rejection over motions (auto: RANSAC where the motions give minimal sets, "
         "IRLS where they do not, none below 8 motions)"))
-    motions: Literal["auto", "stations", "spans", "consecutive", "keyframes"] = field(
+    motions: Literal["auto", "stations", "bursts", "spans", "consecutive", "keyframes"] = field(
         default="auto", metadata=key_help(
             "which pose pairs become motions (auto: every/far pair for stamp-paired "
-            "stop-and-go data, spans of 1, 2, 4, 8 x step_s for continuous streams; "
-            "consecutive: step_s only)"))
+            "stop-and-go data, pairs of stations for several poses a stop (bursts), spans "
+            "of 1, 2, 4, 8 x step_s for continuous streams; consecutive: step_s only)"))
     threshold: float | None = field(default=None, metadata=key_help(
         "RANSAC inlier threshold on the screw residual (default: automatic, LMedS)"))
     method: str = field(default="dqopt", metadata=key_help("solver of the final estimate"))
