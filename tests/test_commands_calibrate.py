@@ -298,3 +298,22 @@ def test_the_same_file_twice_is_warned_about(tmp_path, capsys):
     code, text, err = _calibrate(capsys, f"a={pa}", f"b={pa}", f"output={tmp_path / 'o'}",
                                  "recording=false")
     assert code in (0, 6) and "hold the same poses" in text + err, (code, text, err)
+
+
+@pytest.mark.slow
+def test_camera_seen_only_while_still_uses_offset_zero_and_says_why(tmp_path, capsys):
+    """stop_and_go: b sees the target only while the arm stands still, so no offset shows;
+    the command uses 0, says why and what to do, and pairs the stations (bursts)."""
+    from simcalib.studies.experiments.recording_kinds import generate, write_tum
+    rec = generate("stop_and_go", 1)
+    paths = write_tum(rec, tmp_path)
+    code, text, err = _calibrate(capsys, f"a={paths['a']}", f"b={paths['b']}",
+                                 f"output={tmp_path / 'out'}", "recording=false")
+    assert code == 0, err
+    assert "motions: bursts" in text and "not told by the data: 0 used" in text
+    assert "cannot tell an offset" in text
+    assert "the data do not tell the offset, so 0 is used" in text + err
+    cal = json.loads((tmp_path / "out" / "calibration.json").read_text())
+    assert cal["time_offset"]["decision"] == "zero" and cal["time_offset"]["offset_s"] == 0.0
+    X = np.asarray(cal["X"]["T_a_b"])
+    assert np.degrees(rotation_error_rad(X, rec.X_true)) < 0.05

@@ -413,7 +413,11 @@ def warnings(r) -> list[str]:
                    f"{r.conventions.ratio:.2f} <= 3): check the files or force invert_a/_b, "
                    "scalar_first_a/_b")
     peak = r.time_offset.peak_correlation
-    if math.isfinite(peak) and peak < 0.5:
+    if math.isfinite(peak) and peak < 0.5 and r.time_offset.decision == "zero":
+        out.append(f"weak angular-speed correlation (peak r = {peak:.2f}) and the data do "
+                   "not tell the offset, so 0 is used: if the clocks differ, give "
+                   "time_offset=<seconds>")
+    elif math.isfinite(peak) and peak < 0.5:
         out.append(f"weak angular-speed correlation (peak r = {peak:.2f}): the offset "
                    "may be wrong")
     if r.robust.inlier_fraction < 0.5:
