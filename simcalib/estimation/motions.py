@@ -1,6 +1,8 @@
 """Motion formation: which pairs of synchronised poses become the motions ``(C_i, H_i)``.
 
-A policy is a small function ``(synced, options) -> MotionSet`` in :data:`POLICIES`:
+A policy is a small function ``(synced, options) -> (i, j, how[, stations])`` in
+:data:`POLICIES` (the pose pairs, in words how, and the station of every pose for
+``bursts``); :func:`form_motions` makes the :class:`MotionSet`:
 
 * ``stations`` — pairs of poses far apart in the recording: every pair ``i < j`` when there
   are at most :data:`ALL_PAIRS_MAX` poses (what OpenCV's solvers build from stop-and-go
