@@ -11,7 +11,7 @@ from simcalib.cli import main
 from simcalib.errors import EXIT_DEGENERATE, EXIT_OK
 from simcalib.estimation.plausibility import check_plausibility
 from simcalib.estimation.readings import ConventionReport
-from simcalib.geometry import invert_transform, matrix_from_rotvec, \
+from simcalib.geometry import invert_transform, matrix_from_rotvec, rotation_error_rad, \
     transform_from_rotation_translation
 from simcalib.report.results import write_tum
 from simcalib.world.stream_sim import rig_streams
@@ -43,6 +43,10 @@ def test_plausible_answer_and_its_twin_is_flagged():
                               AS_WRITTEN)
     assert not twin.plausible and twin.twin_translation_m == pytest.approx(0.1)
     assert "invert_a=true invert_b=true" in twin.warnings[0]
+    # the twin's answer is given whole: T_wa_wb for X, and X back for the twin
+    np.testing.assert_allclose(p.twin_X, T_wa_wb, atol=1e-9)
+    np.testing.assert_allclose(twin.twin_X, X, atol=1e-9)
+    assert np.asarray(p.to_dict()["twin_T_a_b"]).shape == (4, 4)
 
 
 def test_far_apart_sensors_with_near_worlds_are_not_flagged_by_a_short_twin_margin():
@@ -68,6 +72,9 @@ def test_command_flags_a_hand_file_holding_the_inverse_poses(tmp_path, capsys):
     rep = json.loads((tmp_path / "out" / "calibration.json").read_text())
     assert code == EXIT_DEGENERATE and rep["status"] == "implausible", text
     assert not rep["plausibility"]["plausible"] and "WARNING: X's translation" in text
+    twin = np.asarray(rep["plausibility"]["twin_T_a_b"])     # the right X, printed too
+    assert np.degrees(rotation_error_rad(twin, rs.X)) < 0.1
+    assert "read with both streams inverted, the same data give X" in text
     hint = rep["plausibility"]["twin_hint"].split()
     code = main(["calibrate", f"a={pa}", f"b={pb}", f"output={tmp_path / 'fixed'}", *hint])
     capsys.readouterr()

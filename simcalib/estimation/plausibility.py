@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from simcalib.geometry import invert_transform
+from simcalib.geometry import chordal_mean_rotation, invert_transform
 
 __all__ = ["Plausibility", "check_plausibility", "TWIN_RATIO", "TWIN_MARGIN_M"]
 
@@ -31,13 +31,16 @@ TWIN_MARGIN_M = 0.25
 @dataclass(frozen=True)
 class Plausibility:
     """``translation_m``: |t| of X; ``twin_translation_m``: |t| of the both-inverted
-    reading's answer ``T_wa_wb`` (the mean of ``T_wa_a X T_b_wb`` over the synchronised
-    poses); ``twin_hint``: the keys that would select the twin; ``warnings``: sentences
-    for people (empty: nothing implausible)."""
+    reading's answer ``T_wa_wb`` (``twin_X``: the chordal mean rotation and the mean
+    translation of ``T_wa_a X T_b_wb`` over the synchronised poses); ``twin_hint``: the
+    keys that would select the twin; ``warnings``: sentences for people (empty: nothing
+    implausible)."""
     translation_m: float
     twin_translation_m: float
     twin_hint: str
     warnings: tuple = ()
+    #: the twin's answer ``T_wa_wb`` (4, 4): X if both files hold the inverse poses
+    twin_X: np.ndarray | None = None
 
     @property
     def plausible(self) -> bool:
@@ -46,6 +49,7 @@ class Plausibility:
     def to_dict(self) -> dict:
         return {"translation_m": self.translation_m,
                 "twin_translation_m": self.twin_translation_m,
+                "twin_T_a_b": None if self.twin_X is None else self.twin_X.tolist(),
                 "twin_hint": self.twin_hint, "plausible": self.plausible,
                 "warnings": list(self.warnings)}
 
@@ -60,8 +64,11 @@ def check_plausibility(X, T_wa_a, T_wb_b, conventions) -> Plausibility:
         raise ValueError(f"check_plausibility needs X (4, 4) and two (N, 4, 4) pose arrays "
                          f"of one shape; received {X.shape}, {T_wa_a.shape}, {T_wb_b.shape}")
     T_wa_wb = T_wa_a @ X @ invert_transform(T_wb_b)
+    twin = np.eye(4)
+    twin[:3, :3] = chordal_mean_rotation(T_wa_wb[:, :3, :3])
+    twin[:3, 3] = T_wa_wb[:, :3, 3].mean(axis=0)
     t = float(np.linalg.norm(X[:3, 3]))
-    t_twin = float(np.linalg.norm(T_wa_wb[:, :3, 3].mean(axis=0)))
+    t_twin = float(np.linalg.norm(twin[:3, 3]))
     hint = (f"invert_a={str(not conventions.invert_a).lower()} "
             f"invert_b={str(not conventions.invert_b).lower()}")
     warnings = ()
@@ -71,4 +78,4 @@ def check_plausibility(X, T_wa_a, T_wb_b, conventions) -> Plausibility:
                     "both readings fit the poses exactly alike: if sensor b sits closer "
                     "to a than that, the files hold the inverse poses (T_sensor_world) - "
                     f"rerun with {hint}",)
-    return Plausibility(t, t_twin, hint, warnings)
+    return Plausibility(t, t_twin, hint, warnings, twin)

@@ -196,6 +196,14 @@ def format_report(rep: dict) -> str:
         f"{res['trans_median_mm']:.2f} / rms {res['trans_rms_mm']:.2f} mm",
         f"conventions: {conv['message']}",
     ]
+    twin = (rep.get("plausibility") or {}).get("twin_T_a_b")
+    if twin is not None:
+        alt = _pose(twin)
+        lines.append(f"  read with both streams inverted, the same data give X: t = "
+                     f"{_vec(alt['translation_m'], 1e3, 2)} mm, rotvec "
+                     f"{_vec(alt['rotvec_deg'], digits=3)} deg (this X's T_world_a_world_b): "
+                     "that is X if both files hold the inverse of the poses as read ("
+                     f"{rep['plausibility']['twin_hint']})")
     for k in ("a", "b"):
         s = rep["streams"][k]
         rep_txt = ", ".join(f"{n}: {c}" for n, c in s["repairs"].items() if c) or "none"
