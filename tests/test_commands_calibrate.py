@@ -11,7 +11,7 @@ import pytest
 from simcalib.cli import main
 from simcalib.errors import EXIT_CONFIG, EXIT_DEGENERATE, EXIT_INPUT, EXIT_OK
 from simcalib.geometry import (invert_transform, quat_from_matrix, rotation_error_rad,
-                               transform_from_rotation_translation, translation_error_m)
+                               translation_error_m)
 from simcalib.report.results import write_tum
 from simcalib.world.stream_sim import rig_streams
 

@@ -9,7 +9,7 @@ from simcalib.errors import ConfigError, DataError
 from simcalib.estimation.consistency import Consistency, block_jackknife, combine
 from simcalib.estimation.motions import ALL_PAIRS_MAX, POLICIES, form_motions
 from simcalib.estimation.sampling import classify_sampling, pair_by_stamp
-from simcalib.geometry import invert_transform, rotation_error_rad
+from simcalib.geometry import invert_transform
 from simcalib.importers import stream_from_arrays
 from simcalib.world.stream_sim import rig_streams
 

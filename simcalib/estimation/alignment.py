@@ -428,18 +428,25 @@ def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = Non
         cands.append(0.0)
     still: list = []
     tried = oc._refine_candidates(ta, Ta, tb, Tb, cands, half, kw, still)
-    if not tried and still:
-        return TimeOffset(0.0, float("nan"), coarse, peak, lags, corr, refined=False,
-                          decision="zero", message=msg + f"; but {still[0]}: 0 is used",
-                          **base)
     if not tried:
-        return TimeOffset(coarse, grid_dt, coarse, peak, lags, corr, refined=False,
-                          message=msg + "; the overlap is too short to refine it", **base)
+        return _unrefined(coarse, grid_dt, peak, lags, corr, msg, still, base)
     if len(tried) > 1:
         msg += ("; refined around " + ", ".join(f"{t.centre * 1e3:.0f}" for t in tried)
                 + " ms: calibration costs " + ", ".join(f"{t.cost_best:.3g}" for t in tried))
     return _refined((ta, Ta, tb, Tb), tried, half, kw, drift, msg,
                     dict(peak_correlation=peak, lags_s=lags, correlation=corr, **base))
+
+
+def _unrefined(coarse, grid_dt, peak, lags, corr, msg, still, base) -> TimeOffset:
+    """No candidate could be refined: where the reference stream stands still between its
+    samples (``still``: why) the cost cannot tell an offset and 0 is used; else the
+    overlap is too short and the correlation's offset stands."""
+    if still:
+        return TimeOffset(0.0, float("nan"), coarse, peak, lags, corr, refined=False,
+                          decision="zero", message=msg + f"; but {still[0]}: 0 is used",
+                          **base)
+    return TimeOffset(coarse, grid_dt, coarse, peak, lags, corr, refined=False,
+                      message=msg + "; the overlap is too short to refine it", **base)
 
 
 def _refined(streams, tried, half, kw, drift, msg, fields) -> TimeOffset:

@@ -350,6 +350,13 @@ def summarise(outcomes: list[Outcome]) -> list[dict]:
     return rows
 
 
+def _own_tolerances() -> str:
+    """`` (kind: N ms, ...)`` for the kinds with their own offset tolerance."""
+    own = [f"{k}: {v.offset_tol_ms:g} ms" for k, v in KINDS.items()
+           if v.offset_tol_ms is not None]
+    return f" ({', '.join(own)})" if own else ""
+
+
 def markdown(rows: list[dict], outcomes: list[Outcome], command: str) -> str:
     """The markdown report: the per-kind table, then the failed runs' messages."""
     head = ["kind", "runs", "exit codes (code:count)", "rot med / max (deg)",
@@ -379,9 +386,8 @@ def markdown(rows: list[dict], outcomes: list[Outcome], command: str) -> str:
         "",
         f"Acceptance (tests/test_studies_experiments_recordings.py): errors <= max({PARK_FACTOR:g} x Park's, "
         f"{ROT_FLOOR_DEG:g} deg / {TRANS_FLOOR_MM:g} mm) (kinds with outliers: also vs Park "
-        f"on the inlier poses), |offset error| <= {OFFSET_TOL_MS:g} ms (low_rate_camera: "
-        f"{KINDS['low_rate_camera'].offset_tol_ms:g} ms, ~3 sigma), the right reading, "
-        "exit 0 or 6 (6 and the undetermined direction flagged for planar / scara; exit 3 "
+        f"on the inlier poses), |offset error| <= {OFFSET_TOL_MS:g} ms{_own_tolerances()}, "
+        "the right reading, exit 0 or 6 (6 and the undetermined direction flagged for planar / scara; exit 3 "
         f"for no_motion_b), inlier precision >= {MIN_PRECISION:g} and recall >= "
         f"{MIN_RECALL:g} for outliers. With rotations about one axis only (scara, planar) "
         "Park's rotation step is rank-deficient and its translation solve ill-conditioned, "
