@@ -92,8 +92,9 @@ def block_jackknife(motions, n_poses: int, solve_fn, X: np.ndarray,
     ``motions`` (:class:`simcalib.estimation.motions.MotionSet`) join. ``solve_fn(C, H)``
     returns the X of a subset (the same estimator as X). ``blocks``: how many (default:
     one pose a block up to :data:`MAX_BLOCKS` for ``stations`` motions, where every pose is
-    its own measurement, and one station a block for ``bursts``; :data:`CONTIGUOUS_BLOCKS` contiguous blocks otherwise, long
-    against the serial correlation of a continuous recording)."""
+    its own measurement, and one station a block for ``bursts``; :data:`CONTIGUOUS_BLOCKS`
+    contiguous blocks otherwise, long against the serial correlation of a continuous
+    recording)."""
     from simcalib.solvers.diagnostics.uncertainty import pose_error
     runs = getattr(motions, "stations", None)
     units = n_poses if runs is None else int(runs[-1]) + 1   # poses, or stations (bursts)
