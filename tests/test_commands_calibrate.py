@@ -317,3 +317,31 @@ def test_camera_seen_only_while_still_uses_offset_zero_and_says_why(tmp_path, ca
     assert cal["time_offset"]["decision"] == "zero" and cal["time_offset"]["offset_s"] == 0.0
     X = np.asarray(cal["X"]["T_a_b"])
     assert np.degrees(rotation_error_rad(X, rec.X_true)) < 0.05
+
+
+def test_a_reading_the_data_cannot_tell_and_that_moves_x_is_undetermined(tmp_path, capsys):
+    """Three stations, the camera file holding T_cam_target: both readings fit (ratio ~1),
+    so the files are read as written, and X under the runner-up reading is far beyond the
+    sigma: a warning gives that X and the command exits 6 instead of trusting the sigma."""
+    from simcalib.geometry import rotvec_from_matrix
+    from simcalib.studies.experiments.recording_kinds import generate
+    rec = generate("stations_short", 3)
+    a, b = rec.stream_a, rec.stream_b
+    pa = write_tum(tmp_path / "a.tum", a.timestamps_s, a.T_world_sensor)
+    pb = write_tum(tmp_path / "b.tum", b.timestamps_s, invert_transform(b.T_world_sensor))
+    code, text, err = _calibrate(capsys, f"a={pa}", f"b={pb}", f"output={tmp_path / 'o'}",
+                                 "recording=false")
+    assert code == EXIT_DEGENERATE, text + err
+    rep = json.loads((tmp_path / "o" / "calibration.json").read_text())
+    assert not rep["conventions"]["clear"]
+    warning = next(w for w in rep["warnings"] if w.startswith("the reading is not told"))
+    assert "beyond 3 sigma" in warning and "did not clearly win" not in " ".join(rep["warnings"])
+    # the runner-up's X it names is the true one (b inverted), to the noise of 3 stations
+    rv = np.degrees(rotvec_from_matrix(rec.X_true[:3, :3]))
+    named = [float(x) for x in warning.split("rotvec [")[1].split("]")[0].split(", ")]
+    assert np.abs(np.asarray(named) - rv).max() < 3.0, (named, rv)
+    # the reading forced (both streams: with b alone forced, a's is chosen relative to it
+    # and is as ambiguous), nothing is left to tell
+    code2, text2, _ = _calibrate(capsys, f"a={pa}", f"b={pb}", f"output={tmp_path / 'f'}",
+                                 "recording=false", "invert_a=false", "invert_b=true")
+    assert "the reading is not told" not in text2 and "did not clearly win" not in text2

@@ -45,7 +45,8 @@ class ConventionReport:
     per-motion screw residual (dqopt) of every candidate reading; ``ratio``: runner-up score
     / winner score and ``runner_up`` its description; ``clear`` when ``ratio`` exceeds
     :data:`CLEAR_RATIO`. ``forced`` lists what the caller fixed; ``offset_s`` the clock offset
-    used to pair the poses; ``n_motions`` the motions scored per candidate.
+    used to pair the poses; ``n_motions`` the motions scored per candidate; ``runner_up_X``
+    the X the runner-up reading gives (how much the reading matters when it is not clear).
     """
     invert_a: bool
     invert_b: bool
@@ -59,6 +60,8 @@ class ConventionReport:
     offset_s: float = 0.0
     n_motions: int = 0
     message: str = ""
+    #: the runner-up reading's X (RANSAC + dqopt on the scored motions; None: no runner-up)
+    runner_up_X: np.ndarray | None = field(default=None, repr=False)
 
 
 def _swap_options(stream, forced):
@@ -140,7 +143,7 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
     parities = _parities(invert_a, invert_b)
     has_order = (len(_swap_options(stream_a, scalar_first_a)) > 1,
                  len(_swap_options(stream_b, scalar_first_b)) > 1)
-    scores, n_mot = _score_readings(stream_a, stream_b, off, parities,
+    scores, n_mot, xs = _score_readings(stream_a, stream_b, off, parities,
                                     (_swap_options(stream_a, scalar_first_a),
                                      _swap_options(stream_b, scalar_first_b)),
                                     n_pairs=n_pairs, alpha=alpha, seed=seed, sampling=sampling)
@@ -169,24 +172,26 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
                             runner_up=desc(ranked[1]) if len(ranked) > 1 else "",
                             clear=clear, forced=forced,
                             offset_s=float(getattr(off, "offset_s", off)), n_motions=n_mot,
-                            message="; ".join(lines))
+                            message="; ".join(lines),
+                            runner_up_X=xs[ranked[1]] if len(ranked) > 1 else None)
 
 
 def _score_readings(stream_a, stream_b, off, parities, swaps, *, n_pairs, alpha, seed,
                     sampling) -> tuple[dict, int]:
-    """``({(swap_a, swap_b, invert_a, invert_b): score}, motions scored)``: every reading's
-    :func:`_reading_score` on the same random pairs of instants (readings with fewer than 3
-    motions left out)."""
-    scores, n_mot = {}, 0
+    """``({(swap_a, swap_b, invert_a, invert_b): score}, motions scored, {reading: X})``:
+    every reading's :func:`_reading_score` on the same random pairs of instants (readings
+    with fewer than 3 motions left out)."""
+    scores, n_mot, xs = {}, 0, {}
     for sw_a, sw_b in itertools.product(*swaps):
         for inv_a, inv_b in parities:
             sa, sb = _apply(stream_a, sw_a, inv_a), _apply(stream_b, sw_b, inv_b)
             C, H = _motions(sa, sb, off, n_pairs, np.random.default_rng(seed), sampling)
             if C.shape[0] < 3:
                 continue
-            scores[(sw_a, sw_b, inv_a, inv_b)] = _reading_score(C, H, alpha, seed)
+            key = (sw_a, sw_b, inv_a, inv_b)
+            scores[key], xs[key] = _reading_score(C, H, alpha, seed)
             n_mot = int(C.shape[0])
-    return scores, n_mot
+    return scores, n_mot, xs
 
 
 def _no_overlap(stream_a, stream_b, off):
@@ -227,8 +232,8 @@ def _parities(invert_a, invert_b) -> list[tuple[bool, bool]]:
     return [(base_a, False), (base_a, True)]
 
 
-def _reading_score(C, H, alpha: float, seed: int) -> float:
-    """The median screw residual of a robust fit (outlier poses must not decide the
+def _reading_score(C, H, alpha: float, seed: int) -> tuple[float, np.ndarray]:
+    """``(median screw residual, X)`` of a robust fit (outlier poses must not decide the
     reading): RANSAC + dqopt, plain dqopt when RANSAC cannot run."""
     from simcalib.solvers.api import solve
     from simcalib.solvers.robust import ransac, screw_residuals
@@ -236,7 +241,7 @@ def _reading_score(C, H, alpha: float, seed: int) -> float:
         X = ransac(C, H, alpha=alpha, rng=np.random.default_rng(seed), max_iterations=256).X
     except (ValueError, RuntimeError):   # RANSAC: too few motions / no consensus
         X = solve(C, H, method="dqopt", alpha=alpha).X
-    return float(np.median(screw_residuals(C, H, X, alpha=alpha)))
+    return float(np.median(screw_residuals(C, H, X, alpha=alpha))), X
 
 
 def _reading_lines(desc, scores, ranked, ratio, clear, fallback, invert_a, invert_b,

@@ -293,11 +293,38 @@ def assess(r) -> Assessment:
     fin = lambda vals: tuple(float(x) if math.isfinite(x) else None for x in vals)  # noqa
     source = _source(r.consistency)
     plaus = check_plausibility(r.X, r.synced.T_a, r.synced.T_b, r.conventions)
-    return Assessment(v.verdict, v.degenerate, "; ".join(words + tuple(v.notes)), source,
+    reading = reading_ambiguity(r, v.std_deg, v.std_m)
+    return Assessment(v.verdict, v.degenerate or reading is not None,
+                      "; ".join(words + tuple(v.notes)), source,
                       fin(v.std_deg), fin(v.std_m),
                       tuple(fin(row) for row in np.asarray(r.covariance)), words,
-                      v.unverified, plaus, tuple(warnings(r)) + tuple(plaus.warnings),
+                      v.unverified, plaus, tuple(warnings(r, reading)) + tuple(plaus.warnings),
                       tuple(v.directions), records)
+
+
+def reading_ambiguity(r, std_deg, std_m) -> str | None:
+    """A warning when the files' reading did not clearly win AND the runner-up reading
+    moves X by more than 3 reported sigmas (the sigma holds for the reading used only):
+    the data then do not determine X, whatever its sigma says (exit 6). None otherwise."""
+    conv = r.conventions
+    alt = getattr(conv, "runner_up_X", None)
+    if conv.clear or alt is None:
+        return None
+    from simcalib.geometry import rotation_error_rad, rotvec_from_matrix
+    d_deg = math.degrees(float(rotation_error_rad(alt, r.X)))
+    d_m = float(np.linalg.norm(np.asarray(alt)[:3, 3] - r.X[:3, 3]))
+    s_deg = max([x for x in std_deg if math.isfinite(x)], default=math.inf)
+    s_m = max([x for x in std_m if math.isfinite(x)], default=math.inf)
+    if d_deg <= 3 * s_deg and d_m <= 3 * s_m:
+        return None
+    alt = np.asarray(alt)
+    t_mm = ", ".join(f"{1e3 * x:.1f}" for x in alt[:3, 3])
+    rv = ", ".join(f"{x:.2f}" for x in np.degrees(rotvec_from_matrix(alt[:3, :3])))
+    return (f"the reading is not told by the data (ratio {conv.ratio:.2f} <= 3) and it "
+            f"matters: the runner-up ({conv.runner_up}) gives X {d_deg:.3g} deg / "
+            f"{1e3 * d_m:.3g} mm away, beyond 3 sigma (t = [{t_mm}] mm, rotvec [{rv}] deg): "
+            "X is undetermined until the reading is forced (invert_a/_b, "
+            "scalar_first_a/_b)")
 
 
 def _source(check) -> str:
@@ -405,10 +432,12 @@ def write_ros_exports(opts: CalibrateOptions, r) -> dict:
     return write_exports(opts.output, r.X, opts.export, frames)
 
 
-def warnings(r) -> list[str]:
-    """Signs that the result should not be trusted even when X is determined."""
-    out = []
-    if not r.conventions.clear:
+def warnings(r, reading_ambiguity: str | None = None) -> list[str]:
+    """Signs that the result should not be trusted even when X is determined
+    (``reading_ambiguity``: the sharper sentence of :func:`reading_ambiguity`, which then
+    replaces the general one about the reading)."""
+    out = [reading_ambiguity] if reading_ambiguity else []
+    if not r.conventions.clear and not reading_ambiguity:
         out.append(f"the reading of the files did not clearly win (ratio "
                    f"{r.conventions.ratio:.2f} <= 3): check the files or force invert_a/_b, "
                    "scalar_first_a/_b")

@@ -363,8 +363,7 @@ def markdown(rows: list[dict], outcomes: list[Outcome], command: str) -> str:
             "trans med / max (mm)", "Park rot med / max (deg)", "Park trans med / max (mm)",
             "Park on inlier poses rot / trans med (deg / mm)",
             "|offset err| med / max (ms)", "reading right (seeds)", "inlier precision",
-            "inlier recall",
-            "time med (s)", "acceptance fails (seeds)"]
+            "inlier recall", "time med (s)", "acceptance fails (seeds)"]
     lines = [
         "# Benchmark recordings: calibrate defaults vs OpenCV Park",
         "",
