@@ -230,7 +230,8 @@ def station_runs(synced) -> np.ndarray | None:
 
 
 def _bursts(synced, options):
-    runs = station_runs(synced)
+    runs = options.get("stations")          # auto has found them already
+    runs = station_runs(synced) if runs is None else runs
     if runs is None:
         raise DataError(f"motions=bursts needs poses that stand still in runs of a station "
                         f"each (>= 3 stations, each within {STATION_SPREAD_DEG:g} deg, "
@@ -266,30 +267,31 @@ def _median_step_deg(synced) -> float:
 
 
 def auto_policy(synced, paired_by_stamp: bool, index_stamps: bool = False
-                ) -> tuple[str, str]:
-    """``(policy, reason)`` chosen from the data: ``stations`` for sample-index data and
-    for stamp-paired data whose consecutive poses are far apart (median turn >=
-    :data:`STATION_STEP_DEG`), up to :data:`STATIONS_MAX` poses; ``spans`` else."""
+                ) -> tuple[str, str, np.ndarray | None]:
+    """``(policy, reason, stations)`` chosen from the data: ``stations`` for sample-index
+    data and for stamp-paired data whose consecutive poses are far apart (median turn >=
+    :data:`STATION_STEP_DEG`), up to :data:`STATIONS_MAX` poses; ``bursts`` where the poses
+    stand still in runs (``stations``: :func:`station_runs`, else None); ``spans`` else."""
     step = _median_step_deg(synced) if synced.n > 1 else 0.0
     if paired_by_stamp and synced.n <= STATIONS_MAX and (index_stamps
                                                          or step >= STATION_STEP_DEG):
         return "stations", (f"{synced.n} stamp-paired poses ("
                             + ("sample-index stamps" if index_stamps else
                                f"stop-and-go: consecutive poses {step:.3g} deg apart")
-                            + "): pairs of poses far apart")
+                            + "): pairs of poses far apart"), None
     runs = station_runs(synced)
     if runs is not None:
         return "bursts", (f"{synced.n} {'stamp-paired ' if paired_by_stamp else ''}poses "
                           f"standing still at {int(runs[-1]) + 1} stations (stop-and-go, "
-                          "several poses a stop): pairs of stations")
+                          "several poses a stop): pairs of stations"), runs
     if paired_by_stamp and synced.n <= STATIONS_MAX:
         return "spans", (f"{synced.n} stamp-paired poses of a continuous track "
                          f"(consecutive poses {step:.3g} deg apart): motions over several "
-                         "time spans")
+                         "time spans"), None
     if paired_by_stamp:
         return "spans", (f"{synced.n} stamp-paired poses, too many for pairs: motions over "
-                         "several time spans")
-    return "spans", "a continuous recording: motions over several time spans"
+                         "several time spans"), None
+    return "spans", "a continuous recording: motions over several time spans", None
 
 
 def form_motions(synced, policy: str = "auto", *, paired_by_stamp: bool = False,
@@ -302,12 +304,12 @@ def form_motions(synced, policy: str = "auto", *, paired_by_stamp: bool = False,
     if synced.n < 2:
         raise DataError(f"only {synced.n} synchronised pose(s); at least 2 are needed (do "
                         "the streams overlap in time?)")
-    reason = "given"
+    reason, runs = "given", None
     if policy == "auto":
-        policy, reason = auto_policy(synced, paired_by_stamp, index_stamps)
+        policy, reason, runs = auto_policy(synced, paired_by_stamp, index_stamps)
     if policy not in POLICIES:
         raise unknown_choice("motion policy", policy, list(POLICIES) + ["auto"], key="motions")
-    opts = {"step_s": step_s, "min_rotation_deg": min_rotation_deg}
+    opts = {"step_s": step_s, "min_rotation_deg": min_rotation_deg, "stations": runs}
     i, j, how, *runs = POLICIES[policy](synced, opts)
     C = invert_transform(synced.T_a[i]) @ synced.T_a[j]
     H = invert_transform(synced.T_b[i]) @ synced.T_b[j]

@@ -337,7 +337,7 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     ms = form_motions(sp, motions, paired_by_stamp=sampling.paired_by_stamp,
                       index_stamps=sampling.kind == "index_stamps", step_s=step_s,
                       min_rotation_deg=min_rotation_deg, max_rotation_deg=max_rotation_deg)
-    _check_motions(ms, sp)
+    length_scale = _check_motions(ms, sp)
     prior = _per_pass(prior, ms.passes)
     rob, why = robust_fit(ms.C, ms.H, robust, alpha=alpha, method=method, seed=seed,
                           options=robust_options)
@@ -352,22 +352,24 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     i, j = ms.i, ms.j
     return StreamCalibration(rob.X, None if plain is None else plain.X, off, conv, rob, plain,
                              sa, sb, ms.C, ms.H, sp.time_s[i],
-                             _summary(sa, sb, conv, off, ms, rob, ms0, plain, aligned),
+                             _summary(sa, sb, conv, off, ms, rob, ms0, plain, aligned)
+                             | {"length_scale": length_scale},
                              synced=sp, motion_index=(i, j),
                              X_aligned=aligned.X, sampling=sampling, motions=ms,
                              consistency=check, covariance=cov, covariance_determined=cov_det,
                              robust_choice=why, weighting=weighting)
 
 
-def _check_motions(ms, sp) -> None:
+def _check_motions(ms, sp) -> float:
     """DataError for fewer than 2 motions, or for streams in different length units
-    (:mod:`simcalib.estimation.units`)."""
+    (:mod:`simcalib.estimation.units`); returns b's length scale against a's (NaN: the
+    motions cannot tell)."""
     from simcalib.estimation.units import check_translation_units
     if ms.n < 2:
         from simcalib.errors import DataError
         raise DataError(f"only {ms.n} motion(s) from {sp.n} synchronised poses ({ms.reason};"
                         f" {ms.counts}); at least 2 rotating motions are needed")
-    check_translation_units(ms.C, ms.H)
+    return check_translation_units(ms.C, ms.H)
 
 
 def _summary(sa, sb, conv, off, ms, rob, ms0, plain, aligned) -> dict:

@@ -177,7 +177,7 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
 
 
 def _score_readings(stream_a, stream_b, off, parities, swaps, *, n_pairs, alpha, seed,
-                    sampling) -> tuple[dict, int]:
+                    sampling) -> tuple[dict, int, dict]:
     """``({(swap_a, swap_b, invert_a, invert_b): score}, motions scored, {reading: X})``:
     every reading's :func:`_reading_score` on the same random pairs of instants (readings
     with fewer than 3 motions left out)."""

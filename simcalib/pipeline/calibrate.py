@@ -432,23 +432,21 @@ def write_ros_exports(opts: CalibrateOptions, r) -> dict:
     return write_exports(opts.output, r.X, opts.export, frames)
 
 
-def warnings(r, reading_ambiguity: str | None = None) -> list[str]:
+def warnings(r, reading: str | None = None) -> list[str]:
     """Signs that the result should not be trusted even when X is determined
-    (``reading_ambiguity``: the sharper sentence of :func:`reading_ambiguity`, which then
-    replaces the general one about the reading)."""
-    out = [reading_ambiguity] if reading_ambiguity else []
-    if not r.conventions.clear and not reading_ambiguity:
+    (``reading``: the sentence of :func:`reading_ambiguity`, which then replaces the
+    general one about the reading)."""
+    out = [reading] if reading else []
+    if not r.conventions.clear and not reading:
         out.append(f"the reading of the files did not clearly win (ratio "
                    f"{r.conventions.ratio:.2f} <= 3): check the files or force invert_a/_b, "
                    "scalar_first_a/_b")
     peak = r.time_offset.peak_correlation
-    if math.isfinite(peak) and peak < 0.5 and r.time_offset.decision == "zero":
-        out.append(f"weak angular-speed correlation (peak r = {peak:.2f}) and the data do "
-                   "not tell the offset, so 0 is used: if the clocks differ, give "
-                   "time_offset=<seconds>")
-    elif math.isfinite(peak) and peak < 0.5:
-        out.append(f"weak angular-speed correlation (peak r = {peak:.2f}): the offset "
-                   "may be wrong")
+    if math.isfinite(peak) and peak < 0.5:
+        out.append(f"weak angular-speed correlation (peak r = {peak:.2f})" + (
+            " and the data do not tell the offset, so 0 is used: if the clocks differ, give "
+            "time_offset=<seconds>" if r.time_offset.decision == "zero"
+            else ": the offset may be wrong"))
     if r.robust.inlier_fraction < 0.5:
         out.append(f"only {r.robust.inlier_fraction:.0%} of the motions are inliers")
     Ta, Tb = np.asarray(r.synced.T_a), np.asarray(r.synced.T_b)

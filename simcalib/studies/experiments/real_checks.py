@@ -277,12 +277,11 @@ def _evaluate(entry, r, a, rep, ref, wall) -> SetResult:
     off, inl = rep["time_offset"], rep["inliers"]
     sc = getattr(r.consistency, "split", None)
     split = None if sc is None else Nees(sc.nees, sc.dof, sc.bound, ())
-    from simcalib.estimation.units import pitch_scale
     return SetResult(
         entry.name, int(rep["exit_code"]), rep["status"], "", wall, X, cov, a.std_rot_deg,
         _mm(a.std_trans_m), a.verdict, _flagged(r.robust.solution, a), off["offset_s"],
         off["uncertainty_s"], inl["n_inliers"], inl["n_motions"], ref, e, rot, trans, n0, n1,
-        park, tsai, split, length_scale=pitch_scale(r.motions.C, r.motions.H)[0])
+        park, tsai, split, length_scale=r.summary["length_scale"])
 
 
 # ----------------------------------------------------------------------------- checks
