@@ -166,3 +166,24 @@ def test_a_robot_error_trial_scores_against_both_references():
     t = trial("robot_error", 0)
     assert t["nees_workspace"] is not None and t["nees_workspace"] != t["nees"]
     assert trial("stations", 0)["nees_workspace"] is None
+
+
+@pytest.mark.parametrize("seed", [1, 3])
+def test_a_station_of_bursts_counts_as_one_measurement(seed):
+    """Each station's pose written 4 times (a burst of identical frames): X, the
+    uncertainty and its message count stations, so the covariance is exactly that of the
+    recording with one pose a station (not a correlated error the model extrapolates)."""
+    from simcalib.importers import stream_from_arrays
+    rec = generate("stations", seed)
+
+    def burst(s, m=4):
+        t = (s.timestamps_s[:, None] + np.arange(m)[None] / 30.0).ravel()
+        return stream_from_arrays(t, np.repeat(s.T_world_sensor, m, axis=0))
+    one = calibrate_streams(rec.stream_a, rec.stream_b)
+    four = calibrate_streams(burst(rec.stream_a), burst(rec.stream_b))
+    assert (one.motions.policy, four.motions.policy) == ("stations", "bursts")
+    np.testing.assert_allclose(four.X, one.X, atol=1e-12)
+    np.testing.assert_allclose(four.covariance, one.covariance, rtol=1e-9, atol=1e-18)
+    k = one.synced.n
+    assert f"{k} stations ({4 * k} poses)" in four.consistency.message
+    assert four.consistency.widening == pytest.approx(widening_factor(k))

@@ -2,9 +2,10 @@
 
 Without a prior (the default), X's covariance comes from the poses' own errors
 (:func:`pose_consistency`, the model of :mod:`simcalib.estimation.pose_errors`): the
-per-pose residuals, X's exact sensitivity to each pose, white or - when neighbouring poses'
-residuals correlate beyond chance - white plus parts correlated over the pose space and
-along the recording, widened for having been estimated from few poses, plus the clock
+per-pose residuals, X's exact sensitivity to each pose (for ``bursts`` motions per station:
+the mean residual of its poses and their summed sensitivity, a station's error being
+largely one), white or - when neighbouring poses' residuals correlate beyond chance - white
+plus parts correlated over the pose space and along the recording, widened for having been estimated from few poses, plus the clock
 offset's uncertainty; directions only the pose errors determine (errors in the variables)
 are undetermined. It is checked without any reference by the recording's two halves
 (:class:`SplitCheck`): X of the first half against X of the second, their difference
@@ -444,14 +445,14 @@ def _covariances(r, Gs, T_a, idx, few: bool):
     return f * C, f * W, model
 
 
-def _message(n, f, ratio, few, split, offset_ratio) -> str:
-    msg = (f"sigma from the errors of {n} poses" + (
+def _message(what, f, ratio, few, split, offset_ratio) -> str:
+    msg = (f"sigma from the errors of {what}" + (
         f" (widened x{math.sqrt(f):.3g} for being estimated from them)" if f > 1.1 else "")
         + (f"; errors correlated over the workspace or the recording raise X's variance up "
            f"to {ratio:.3g}x what independent pose errors give" if ratio > 1.1 else
            "; their errors look independent"))
     if few:
-        msg += (f"; {n} poses are too few to check it (>= {MIN_CHECKED_POSES} needed for the "
+        msg += (f"; {what} are too few to check it (>= {MIN_CHECKED_POSES} needed for the "
                 "correlated errors and the split-half check)")
     elif split is None:
         msg += "; the recording's halves could not be compared (too few motions each)"
@@ -481,7 +482,9 @@ def pose_consistency(motions, synced, X, alpha: float, basis, solve_fn,
         return PoseConsistency(False, n, message=(
             f"{n} poses are too few for their residuals to estimate their own errors "
             f"(>= {MIN_POSES} needed): sigma is the solver's model alone"))
-    few = n < MIN_CHECKED_POSES
+    runs = getattr(motions, "stations", None)
+    units = n if runs is None else int(np.unique(runs[idx]).size)
+    few = units < MIN_CHECKED_POSES
     T_a = np.asarray(synced.T_a)[idx]
     r, _ = pe.pose_residuals(T_a, np.asarray(synced.T_b)[idx], X)
     U = pe.noise_determined(motions.C, motions.H, X, alpha, motions.pose_pairs, r, idx,
@@ -496,7 +499,8 @@ def pose_consistency(motions, synced, X, alpha: float, basis, solve_fn,
     if s_off > 0:
         r = _without_offset(r, V)
     offset_g = np.einsum("nij,nj->i", Gs, V) * s_off
-    C, W, model = _covariances(r, Gs, T_a, idx, few)
+    C, W, model = _covariances(*((r, Gs, T_a, idx) if runs is None else
+                                 _by_station(runs[idx], r, Gs, T_a)), few)
     ratio = _variance_ratio(C[:6, :6], W[:6, :6], B) if B.shape[1] else float("nan")
     off = np.outer(offset_g, offset_g)
     off_ratio = _variance_ratio(C[:6, :6] + off[:6, :6], C[:6, :6], B) - 1.0 \
@@ -507,10 +511,28 @@ def pose_consistency(motions, synced, X, alpha: float, basis, solve_fn,
         m2, k = _nees(halves[0], C[6:, 6:], B)
         split = SplitCheck(halves[0], C[6:, 6:], m2, k, float(chdtri(k, 0.05)))
         factor = max(1.0, m2 / split.bound)
-    f = widening_factor(n)
+    f = widening_factor(units)
+    what = f"{n} poses" if runs is None else f"{units} stations ({n} poses)"
     return PoseConsistency(split is not None, n, factor * C[:6, :6], W[:6, :6], model, ratio,
-                           f, split, factor, _message(n, f, ratio, few, split, off_ratio),
+                           f, split, factor, _message(what, f, ratio, few, split, off_ratio),
                            B, U)
+
+
+def _by_station(station, r, Gs, T_a):
+    """``(r, Gs, T_a, index)`` per station (the runs of ``bursts``: poses that stand still
+    together, whose errors are largely one - a still target seen from one viewpoint): the
+    mean residual of each station's poses, their summed sensitivities, the first pose and
+    the station's ordinal. An error common to a station moves X by the summed
+    sensitivities; one per pose by each pose's, whose share the mean residual carries at
+    its variance over the station's size - exact where a station's poses weigh alike."""
+    _, first, inv, counts = np.unique(station, return_index=True, return_inverse=True,
+                                      return_counts=True)
+    k = first.size
+    r_s = np.zeros((k, r.shape[1]))
+    np.add.at(r_s, inv, r)
+    G_s = np.zeros((k,) + Gs.shape[1:])
+    np.add.at(G_s, inv, Gs)
+    return r_s / counts[:, None], G_s, T_a[first], np.arange(k)
 
 
 def _without_offset(r, V) -> np.ndarray:
