@@ -211,3 +211,71 @@ def test_offset_zero_used_keeps_the_estimate_in_its_sigma():
         assert est.offset_s == 0.0
         assert est.uncertainty_s * 1e3 == pytest.approx(np.hypot(best, sigma), rel=1e-2)
     assert seen >= 2
+
+
+def _streams_of(kind, seed, **settings):
+    from simcalib.studies.experiments.recording_kinds import generate
+    rec = generate(kind, seed, **settings)
+    return rec, rec.stream_a, rec.stream_b
+
+
+def _first_seconds(stream, t0, secs):
+    from simcalib.importers import stream_from_arrays
+    keep = stream.timestamps_s <= t0 + secs
+    return stream_from_arrays(stream.timestamps_s[keep], stream.T_world_sensor[keep])
+
+
+def test_a_cost_falling_to_its_bracket_edge_slides_to_the_minimum():
+    """A candidate 2.5 bracket half-widths from the true offset: the bracket slides until
+    the minimum is inside it (not the edge taken as the estimate); with a window that ends
+    before the minimum the candidate is unbounded and gives no curvature sigma."""
+    from simcalib.estimation import offset_cost as oc
+    from simcalib.estimation.alignment import as_time_poses
+    rec, a, b = _streams_of("offset", 1)
+    ta, Ta = as_time_poses(a, "a")
+    tb, Tb = as_time_poses(b, "b")
+    half = 2.0 * float(np.median(np.diff(tb)))
+    kw = dict(step_s=1.0, alpha=1.0, robust=True, smooth_s=float(np.median(np.diff(ta))))
+    start = rec.offset_s - 2.5 * half
+    r = oc._refine_one(ta, Ta, tb, Tb, start, half, kw, window=(-1.0, 1.0))
+    assert not r.unbounded and r.centre == start
+    assert abs(r.best - rec.offset_s) < 3e-3
+    assert np.isfinite(oc._offset_and_sigma(r)[1])
+    stuck = oc._refine_one(ta, Ta, tb, Tb, start, half, kw, window=(start - half, start))
+    assert stuck.unbounded and abs(stuck.best - rec.offset_s) > half
+    assert np.isnan(oc._offset_and_sigma(stuck)[1])
+
+
+def test_a_noisy_camera_whose_correlation_peaks_off_gets_the_offset_by_sliding():
+    """1 deg / 1 cm camera noise: the angular-speed peak lies ~100 ms off; the cost's
+    minimum beyond its first bracket is followed (was: the bracket's edge, -100 ms, at
+    16 sigma from the true -134 ms, X 3x worse than Park)."""
+    rec, a, b = _streams_of("offset", 1, sigma_rot_b_deg=1.0, sigma_trans_b_m=0.01)
+    est = estimate_time_offset(a, b)
+    assert est.decision == "estimated"
+    assert abs(est.offset_s - rec.offset_s) < 3e-3, est.message
+    assert abs(est.offset_s - rec.offset_s) < 3 * est.uncertainty_s
+
+
+@pytest.mark.parametrize("secs", [3.0, 4.0])
+def test_a_short_recording_refines_its_offset_with_shorter_motions(secs):
+    """Overlaps under 4 x 1 s: the cost's motions shorten to fit 5 of them (were: the
+    overlap refused as too short and the correlation's offset used unrefined, 14 ms off)."""
+    rec, a, b = _streams_of("offset", 1, offset_s=0.04)
+    t0 = max(a.timestamps_s[0], b.timestamps_s[0] - rec.offset_s)
+    est = estimate_time_offset(_first_seconds(a, t0, secs),
+                               _first_seconds(b, t0 + rec.offset_s, secs))
+    assert est.refined and est.decision == "estimated", est.message
+    assert abs(est.offset_s - rec.offset_s) < 3e-3, est.message
+
+
+def test_an_unrefined_offset_is_used_only_where_its_peak_is_clear():
+    from simcalib.estimation.alignment import PEAK_Z_MIN, _unrefined
+    lags, corr = np.linspace(-1, 1, 11), np.zeros(11)
+    weak = _unrefined(0.08, 0.005, 0.4, lags, corr, "m", [], dict(peak_z=PEAK_Z_MIN - 1,
+                                                                   window_s=(-1, 1)))
+    assert weak.decision == "zero" and weak.offset_s == 0.0
+    assert weak.uncertainty_s == pytest.approx(np.hypot(0.005, 0.08))
+    clear = _unrefined(0.08, 0.005, 0.9, lags, corr, "m", [], dict(peak_z=PEAK_Z_MIN + 1,
+                                                                    window_s=(-1, 1)))
+    assert clear.decision == "estimated" and clear.offset_s == 0.08

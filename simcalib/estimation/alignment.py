@@ -419,15 +419,15 @@ def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = Non
     if not refine:
         return TimeOffset(coarse, grid_dt, coarse, peak, lags, corr, refined=False,
                           message=msg, **base)
-    step_s = max(oc.OFFSET_STEP_S, 4 * slow_dt) if step_s is None else step_s
     half = 2.0 * slow_dt
+    step_s = _offset_step_s(ta, tb, coarse, slow_dt, half) if step_s is None else step_s
     kw = dict(step_s=step_s, alpha=alpha, robust=robust,
               smooth_s=min(float(np.median(np.diff(ta))), float(np.median(np.diff(tb)))))
     cands = [coarse] + _other_peaks(lags, corr, peak, coarse, 4 * slow_dt)
     if window[0] <= 0.0 <= window[1] and all(abs(c) > half for c in cands):
         cands.append(0.0)
     still: list = []
-    tried = oc._refine_candidates(ta, Ta, tb, Tb, cands, half, kw, still)
+    tried = oc._refine_candidates(ta, Ta, tb, Tb, cands, half, kw, still, window)
     if not tried:
         return _unrefined(coarse, grid_dt, peak, lags, corr, msg, still, base)
     if len(tried) > 1:
@@ -437,16 +437,53 @@ def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = Non
                     dict(peak_correlation=peak, lags_s=lags, correlation=corr, **base))
 
 
+def _offset_step_s(ta, tb, coarse, slow_dt, half) -> float:
+    """The span of the offset cost's motions: :data:`~simcalib.estimation.offset_cost.
+    OFFSET_STEP_S` and >= 4 slower periods; shorter on a short overlap, so that 5 motions
+    fit into what the cost's bracket and margins leave of it (never below 4 periods)."""
+    from simcalib.estimation import offset_cost as oc
+    overlap = min(ta[-1], tb[-1] - coarse) - max(ta[0], tb[0] - coarse)
+    usable = overlap - 2.0 * half - 2.0 * (5.0 * min(np.median(np.diff(ta)),
+                                                     np.median(np.diff(tb))) + slow_dt)
+    return float(max(4.0 * slow_dt, min(oc.OFFSET_STEP_S, usable / 5.0)))
+
+
+#: the correlation's peak must stand this many robust sigmas above its other lags for an
+#: offset the cost could not refine to be used (else 0 is)
+PEAK_Z_MIN = 5.0
+
+
 def _unrefined(coarse, grid_dt, peak, lags, corr, msg, still, base) -> TimeOffset:
     """No candidate could be refined: where the reference stream stands still between its
     samples (``still``: why) the cost cannot tell an offset and 0 is used; else the
-    overlap is too short and the correlation's offset stands."""
+    overlap is too short, and the correlation's offset stands only where its peak is
+    clear (:data:`PEAK_Z_MIN`; else 0, its sigma up to the peak's offset)."""
     if still:
         return TimeOffset(0.0, float("nan"), coarse, peak, lags, corr, refined=False,
                           decision="zero", message=msg + f"; but {still[0]}: 0 is used",
                           **base)
+    msg += "; the overlap is too short to refine it"
+    if not base["peak_z"] >= PEAK_Z_MIN:
+        return TimeOffset(0.0, math.hypot(grid_dt, coarse), coarse, peak, lags, corr,
+                          refined=False, decision="zero", message=msg + (
+                              f", and its peak is not clear (< {PEAK_Z_MIN:g} robust sigma): "
+                              "0 is used"), **base)
     return TimeOffset(coarse, grid_dt, coarse, peak, lags, corr, refined=False,
-                      message=msg + "; the overlap is too short to refine it", **base)
+                      message=msg, **base)
+
+
+def _unbounded(chosen, msg, fields) -> TimeOffset:
+    """The best candidate's cost still fell at the edge of the offsets searched (the
+    allowed window, or :data:`~simcalib.estimation.offset_cost.MAX_SLIDES` slides of its
+    bracket): no minimum, no curvature; 0 is used and its sigma is unknown."""
+    from simcalib.estimation import offset_cost as oc
+    return TimeOffset(0.0, float("nan"), chosen.centre, refined=True,
+                      cost_offsets_s=chosen.offsets, cost=chosen.costs, decision="zero",
+                      message=msg + (f"; the calibration cost still falls at "
+                                     f"{chosen.best * 1e3:.1f} ms, the edge of the offsets "
+                                     f"searched (the allowed window or {oc.MAX_SLIDES} slides"
+                                     " of the bracket): the data do not bound an offset, 0 is "
+                                     "used"), **fields)
 
 
 def _refined(streams, tried, half, kw, drift, msg, fields) -> TimeOffset:
@@ -454,9 +491,12 @@ def _refined(streams, tried, half, kw, drift, msg, fields) -> TimeOffset:
     again around its estimate, its sigma split-checked, compared with 0, drift fitted."""
     from simcalib.estimation import offset_cost as oc
     chosen, decision, evidence, _ = oc._decide(tried, half)
-    again = oc._refine_candidates(*streams, [chosen.best], half / 2, kw)
+    again = oc._refine_candidates(*streams, [chosen.best], half / 2, kw,
+                                  window=fields["window_s"])
     if again:     # centred on the estimate: the inliers chosen there, a narrower bracket
-        chosen = replace(again[0], centre=chosen.centre)
+        chosen = replace(again[0], centre=chosen.centre, origin=chosen.origin)
+    if chosen.unbounded:
+        return _unbounded(chosen, msg, fields)
     best, sigma = oc._offset_and_sigma(chosen)
     split = oc.split_check(*streams, best, half, kw, chosen.cost.window)
     if split.raised and split.sigma_s > sigma:

@@ -28,7 +28,8 @@ from simcalib.estimation.interpolation import interpolation_valid, max_hole_s, s
 from simcalib.geometry import invert_transform, quat_from_matrix, rotation_angle_rad
 
 __all__ = ["OffsetCost", "StillReference", "split_check", "SplitCheck", "EVIDENCE_MIN",
-           "RESIDUALS_PER_MOTION", "OFFSET_STEP_S", "SPLIT_PARTS", "SPLIT_LEVEL", "MIN_TURNING"]
+           "RESIDUALS_PER_MOTION", "OFFSET_STEP_S", "SPLIT_PARTS", "SPLIT_LEVEL", "MIN_TURNING",
+           "MAX_SLIDES"]
 
 #: ``n_eff ln(cost at 0 / cost at the estimate)`` above which an estimated offset is used
 #: instead of 0 (the log-likelihood-ratio statistic of Gaussian residuals, ~chi2(1) when
@@ -186,16 +187,53 @@ class _Refined:
     offsets: np.ndarray
     costs: np.ndarray
     cost: OffsetCost
+    #: the cost built around the candidate itself (before any slide; None: ``cost``): the
+    #: one whose motions hold at offsets near the candidate, offset 0 for the zero one
+    origin: OffsetCost | None = None
+    #: the cost still fell to the edge of the last bracket: the slides ran out or left the
+    #: allowed window, so no minimum is bracketed (no curvature sigma)
+    unbounded: bool = False
 
 
-def _refine_candidates(ta, Ta, tb, Tb, cands, half, kw, still=None) -> list:
-    """The :class:`_Refined` of every candidate whose cost could be built; the messages of
-    the candidates refused because the reference stream stands still go to ``still``."""
+#: a candidate whose cost falls to an edge of its bracket is refined again around that
+#: edge, at most this many times (each a bracket's half width further); beyond, the data
+#: do not bound an offset there
+MAX_SLIDES = 6
+
+
+def _refine_one(ta, Ta, tb, Tb, c, half, kw, window=None) -> _Refined:
+    """:class:`_Refined` of candidate ``c``: the cost minimised over ``c +- half``; while
+    its grid minimum lies on an edge, the bracket slides to that edge (inside ``window``,
+    at most :data:`MAX_SLIDES` times). Raises DataError when no cost can be built at
+    ``c``."""
+    lo_w, hi_w = window if window is not None else (-math.inf, math.inf)
+    centre, origin, last = c, None, None
+    for _ in range(MAX_SLIDES + 1):
+        try:
+            cost = OffsetCost(ta, Ta, tb, Tb, (centre - half, centre + half), **kw)
+        except DataError:
+            if last is None:
+                raise
+            break                     # the overlap ends past the edge: keep the last
+        origin = origin or cost
+        last = (_refine(cost, centre, half), cost)
+        offs, costs = last[0][3], last[0][4]
+        k = int(np.nanargmin(costs))
+        edge = k in (0, costs.size - 1)
+        if not edge or not lo_w <= offs[k] <= hi_w:
+            break
+        centre = float(offs[k])
+    return _Refined(c, *last[0], last[1], origin=origin, unbounded=edge)
+
+
+def _refine_candidates(ta, Ta, tb, Tb, cands, half, kw, still=None, window=None) -> list:
+    """The :class:`_Refined` of every candidate whose cost could be built
+    (:func:`_refine_one`); the messages of the candidates refused because the reference
+    stream stands still go to ``still``."""
     out = []
     for c in cands:
         try:
-            cost = OffsetCost(ta, Ta, tb, Tb, (c - half, c + half), **kw)
-            out.append(_Refined(c, *_refine(cost, c, half), cost))
+            out.append(_refine_one(ta, Ta, tb, Tb, c, half, kw, window))
         except StillReference as exc:
             if still is not None:
                 still.append(str(exc))
@@ -213,7 +251,7 @@ def _decide(tried, half):
     if not zero:
         return chosen, "estimated", float("nan"), float("nan")
     z = zero[0]
-    j_zero = z.cost(0.0)
+    j_zero = (z.origin or z.cost)(0.0)
     n_eff = RESIDUALS_PER_MOTION * chosen.cost.n / chosen.cost.thin
     if not (math.isfinite(j_zero) and chosen.cost_best > 0):
         return chosen, "estimated", float("nan"), j_zero
@@ -226,7 +264,7 @@ def _offset_and_sigma(r: _Refined) -> tuple[float, float]:
     """The refined offset and its 1-sigma from the cost's curvature: ``2 J / (m J'')`` for
     ``m`` independent residual components (:data:`RESIDUALS_PER_MOTION` per motion, the
     motions counted once per pose they share)."""
-    if r.curvature > 0 and r.cost.n > 0:
+    if r.curvature > 0 and r.cost.n > 0 and not r.unbounded:
         return r.best, math.sqrt(2.0 * r.cost_best * r.cost.thin
                                  / (RESIDUALS_PER_MOTION * r.cost.n * r.curvature))
     return r.best, float("nan")

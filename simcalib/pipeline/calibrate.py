@@ -447,6 +447,9 @@ def warnings(r, reading: str | None = None) -> list[str]:
             " and the data do not tell the offset, so 0 is used: if the clocks differ, give "
             "time_offset=<seconds>" if r.time_offset.decision == "zero"
             else ": the offset may be wrong"))
+    elif r.time_offset.decision == "zero" and not math.isfinite(r.time_offset.uncertainty_s):
+        out.append("the data do not bound the clock offset, so 0 is used: if the clocks "
+                   "differ, give time_offset=<seconds>")
     if r.robust.inlier_fraction < 0.5:
         out.append(f"only {r.robust.inlier_fraction:.0%} of the motions are inliers")
     Ta, Tb = np.asarray(r.synced.T_a), np.asarray(r.synced.T_b)
