@@ -187,3 +187,20 @@ def test_a_station_of_bursts_counts_as_one_measurement(seed):
     k = one.synced.n
     assert f"{k} stations ({4 * k} poses)" in four.consistency.message
     assert four.consistency.widening == pytest.approx(widening_factor(k))
+
+
+def test_stations_share_errors_only_where_their_means_spread_beyond_their_scatter():
+    """The one-way analysis of variance: a burst's frames seeing one still target share
+    the station's error (its mean residuals spread far beyond the frames' scatter); a
+    camera whose every frame has its own error does not, and keeps one pose a unit."""
+    from simcalib.estimation.consistency import stations_share_errors
+    rng = np.random.default_rng(0)
+    station = np.repeat(np.arange(12), 5)
+    white = rng.normal(size=(60, 6))
+    common = np.repeat(rng.normal(size=(12, 6)), 5, axis=0) + 0.2 * white
+    assert stations_share_errors(station, common)
+    assert not stations_share_errors(station, white)
+    assert stations_share_errors(np.arange(8), white[:8])          # one pose a station
+    for kind, per_station in (("bursts", True), ("stop_and_go", False)):
+        _, r = _calibrated(kind, 0)
+        assert ("stations (" in r.consistency.message) is per_station, r.consistency.message

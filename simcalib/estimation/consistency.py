@@ -2,9 +2,9 @@
 
 Without a prior (the default), X's covariance comes from the poses' own errors
 (:func:`pose_consistency`, the model of :mod:`simcalib.estimation.pose_errors`): the
-per-pose residuals, X's exact sensitivity to each pose (for ``bursts`` motions per station:
-the mean residual of its poses and their summed sensitivity, a station's error being
-largely one), white or - when neighbouring poses' residuals correlate beyond chance - white
+per-pose residuals, X's exact sensitivity to each pose (for ``bursts`` motions whose
+stations' poses share their error - :func:`stations_share_errors` - per station: the mean
+residual of its poses and their summed sensitivity), white or - when neighbouring poses' residuals correlate beyond chance - white
 plus parts correlated over the pose space and along the recording, widened for having been estimated from few poses, plus the clock
 offset's uncertainty; directions only the pose errors determine (errors in the variables)
 are undetermined. It is checked without any reference by the recording's two halves
@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 __all__ = ["Consistency", "block_jackknife", "combine", "MIN_BLOCKS", "MAX_BLOCKS",
+           "stations_share_errors", "STATION_LEVEL",
            "CONTIGUOUS_BLOCKS", "estimated_covariance_factor",
            "WeightingCheck", "weighting_check"]
 
@@ -482,11 +483,12 @@ def pose_consistency(motions, synced, X, alpha: float, basis, solve_fn,
         return PoseConsistency(False, n, message=(
             f"{n} poses are too few for their residuals to estimate their own errors "
             f"(>= {MIN_POSES} needed): sigma is the solver's model alone"))
-    runs = getattr(motions, "stations", None)
-    units = n if runs is None else int(np.unique(runs[idx]).size)
-    few = units < MIN_CHECKED_POSES
     T_a = np.asarray(synced.T_a)[idx]
     r, _ = pe.pose_residuals(T_a, np.asarray(synced.T_b)[idx], X)
+    runs = getattr(motions, "stations", None)
+    runs = runs if runs is not None and stations_share_errors(runs[idx], r) else None
+    units = n if runs is None else int(np.unique(runs[idx]).size)
+    few = units < MIN_CHECKED_POSES
     U = pe.noise_determined(motions.C, motions.H, X, alpha, motions.pose_pairs, r, idx,
                             basis)
     B = _reduced_basis(np.asarray(basis), U)
@@ -516,6 +518,35 @@ def pose_consistency(motions, synced, X, alpha: float, basis, solve_fn,
     return PoseConsistency(split is not None, n, factor * C[:6, :6], W[:6, :6], model, ratio,
                            f, split, factor, _message(what, f, ratio, few, split, off_ratio),
                            B, U)
+
+
+#: the poses of a station share one error when their mean residuals spread beyond what
+#: their own scatter gives at this level (:func:`stations_share_errors`)
+STATION_LEVEL = 0.05
+
+
+def stations_share_errors(station, r) -> bool:
+    """Do the poses of one station (``station``: each pose's) share their error? The
+    one-way analysis of variance of the residuals ``r`` (n, 6), whitened by their scatter
+    within the stations: the stations' means spread beyond what that scatter gives (the F
+    test at :data:`STATION_LEVEL`), or there is no scatter within a station to tell
+    (one pose a station, or frames that repeat one pose)."""
+    from scipy.special import fdtri
+    _, inv, counts = np.unique(station, return_inverse=True, return_counts=True)
+    k, n = counts.size, r.shape[0]
+    if k < 2 or n - k < 6:
+        return True
+    means = np.zeros((k, r.shape[1]))
+    np.add.at(means, inv, r)
+    means /= counts[:, None]
+    dev = r - means[inv]
+    within = dev.T @ dev / (n - k)
+    d = means - counts @ means / n
+    between = (d * counts[:, None]).T @ d / (k - 1)
+    if np.trace(within) <= 1e-12 * np.trace(between):
+        return True
+    f = float(np.trace(np.linalg.pinv(within) @ between)) / r.shape[1]
+    return f > float(fdtri(r.shape[1] * (k - 1), r.shape[1] * (n - k), 1.0 - STATION_LEVEL))
 
 
 def _by_station(station, r, Gs, T_a):
