@@ -228,6 +228,43 @@ def test_a_stream_that_does_not_rotate_is_a_data_error():
         calibrate_streams(a, stream_from_arrays(t, T))
 
 
+@pytest.mark.parametrize("t_b_shift_s", [0.0, 0.013])      # stations / two clocks
+def test_pure_translation_is_degenerate_not_bad_data(t_b_shift_s, tmp_path, capsys):
+    """Neither stream rotates (noisy poses, pure translation): a degenerate motion (exit
+    6) that names what it cannot determine (X's translation), with no clock offset
+    estimated from the noise in the message."""
+    from simcalib.cli import main
+    from simcalib.errors import EXIT_DEGENERATE, DegenerateResultError
+    from simcalib.estimation.path import calibrate_streams
+    from simcalib.geometry import matrix_from_rotvec
+    from simcalib.report.results import write_tum
+    rng = np.random.default_rng(7)
+    X = np.eye(4)
+    X[:3, :3], X[:3, 3] = matrix_from_rotvec([0.3, -0.5, 0.2]), [0.05, 0.02, 0.1]
+    t_a = 100.0 + np.arange(0.0, 20.0, 0.1)
+    t_b = t_a[::3] + t_b_shift_s
+    path = lambda t: np.column_stack([0.2 * np.sin(0.7 * t), 0.15 * np.sin(1.1 * t + 1),  # noqa
+                                      0.1 * np.sin(0.5 * t + 2)])
+
+    def poses(t, noise_deg):
+        T = np.repeat(np.eye(4)[None], t.size, axis=0)
+        T[:, :3, :3] = matrix_from_rotvec(np.radians(noise_deg) * rng.normal(size=(t.size, 3)))
+        T[:, :3, 3] = path(t)
+        return T
+    a = stream_from_arrays(t_a, poses(t_a, 0.02))
+    b = stream_from_arrays(t_b, poses(t_b, 0.1) @ X)
+    with pytest.raises(DegenerateResultError) as e:
+        calibrate_streams(a, b)
+    msg = str(e.value)
+    assert e.value.exit_code == EXIT_DEGENERATE and "neither stream rotates" in msg
+    assert "translation undetermined" in msg and "offset" not in msg
+    pa = write_tum(tmp_path / "a.tum", t_a, a.T_world_sensor)
+    pb = write_tum(tmp_path / "b.tum", t_b, b.T_world_sensor)
+    code = main(["calibrate", f"a={pa}", f"b={pb}", f"output={tmp_path / 'o'}",
+                 "recording=false"])
+    assert code == EXIT_DEGENERATE and "neither stream rotates" in capsys.readouterr().err
+
+
 def test_estimation_config_pairing_takes_the_streams_as_stamped():
     from simcalib.estimation.config import EstimationConfig
     with pytest.raises(ConfigError, match="motions=auto"):

@@ -359,3 +359,59 @@ def test_write_exports_checks_before_writing(tmp_path):
     with pytest.raises(ConfigError, match="one or more of"):
         write_exports(tmp_path / "d", np.eye(4), [], frames)
     assert not any((tmp_path / d).exists() for d in "abcd")
+
+
+# ------------------------------------------------------- the command without a bag
+@pytest.fixture(scope="module")
+def pose_files(tmp_path_factory):
+    """Two TUM files of a simulated rigid pair (X = T_a_b), no bag."""
+    from simcalib.report.results import write_tum
+    from simcalib.world.stream_sim import rig_streams
+    d = tmp_path_factory.mktemp("files")
+    rs = rig_streams(duration_s=8.0, rng=np.random.default_rng(2))
+    return (write_tum(d / "a.tum", rs.t_a, rs.T_a), write_tum(d / "b.tum", rs.t_b, rs.T_b))
+
+
+@pytest.mark.parametrize("eye, base, effector", [("in_hand", "base_link", "tool0"),
+                                                 ("on_base", "base_link", "tool0")])
+def test_command_writes_easy_handeye2_without_a_bag(pose_files, tmp_path, capsys, eye, base,
+                                                    effector):
+    """export=[easy_handeye2] from pose files: frame_a / frame_b / eye and the robot's
+    other frame (robot_frame: the base in hand, the effector on base) as keys."""
+    import json
+
+    from simcalib.cli import main
+    frame_a, robot = (effector, base) if eye == "in_hand" else (base, effector)
+    out = tmp_path / "calib"
+    code = main(["calibrate", f"a={pose_files[0]}", f"b={pose_files[1]}", f"output={out}",
+                 "recording=false", f"eye={eye}", f"frame_a={frame_a}", "frame_b=camera",
+                 f"robot_frame={robot}", "marker_frame=board", "export=[easy_handeye2]",
+                 "time_offset=0"])
+    capsys.readouterr()
+    assert code in (0, 6)
+    rep = json.loads((out / "calibration.json").read_text())
+    eh = parse_easy_handeye2((out / rep["files"]["exports"]["easy_handeye2"]).read_text())
+    p = eh.details["parameters"]
+    assert (p["robot_base_frame"], p["robot_effector_frame"]) == (base, effector)
+    assert (p["tracking_base_frame"], p["tracking_marker_frame"]) == ("camera", "board")
+    assert (eh.parent, eh.child) == (frame_a, "camera")
+    assert np.abs(eh.X - np.asarray(rep["X"]["T_a_b"])).max() < 1e-9
+
+
+@pytest.mark.parametrize("drop, needle", [
+    ("robot_frame", "give robot_frame=NAME, the robot base frame with eye=in_hand"),
+    ("frame_b", "frame_b must be given for export= without bag="),
+])
+def test_command_names_the_missing_export_key(pose_files, tmp_path, capsys, drop, needle):
+    """Without bag= the frames come from keys only: a missing one is named before any work
+    (exit 2, no output written)."""
+    from simcalib.cli import main
+    keys = {"eye": "in_hand", "frame_a": "tool0", "frame_b": "camera",
+            "robot_frame": "base_link"}
+    del keys[drop]
+    out = tmp_path / "calib"
+    code = main(["calibrate", f"a={pose_files[0]}", f"b={pose_files[1]}", f"output={out}",
+                 "recording=false", "export=[easy_handeye2]",
+                 *(f"{k}={v}" for k, v in keys.items())])
+    assert code == 2 and needle in capsys.readouterr().err
+    assert not (out / "calibration.json").exists()

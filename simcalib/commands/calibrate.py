@@ -4,7 +4,8 @@ from two recorded pose files or a ROS bag (docs/calibrate.md).
 A thin layer over :mod:`simcalib.pipeline.calibrate` (the library: options, the one
 estimation path, the assessment, the outputs): it parses, prints and returns the exit code.
 
-Exit status: 0 determined, 6 degenerate or implausible (the outputs are still written), 5
+Exit status: 0 determined, 6 degenerate or implausible (the outputs are still written, but
+for a rig that does not rotate at all: no X), 5
 the solver failed, 3 bad data (``DataError``), 2 bad options.
 """
 
@@ -32,8 +33,8 @@ formats: {formats}
 keys (type = default):
 {keys}
 
-exit status: 0 determined, 6 degenerate or implausible (outputs written), 5 solver failed, 3 bad data,
-2 bad options.
+exit status: 0 determined, 6 degenerate or implausible (outputs written; none when neither
+stream rotates), 5 solver failed, 3 bad data, 2 bad options.
 """
 
 

@@ -100,13 +100,28 @@ def _rotation_extent_deg(stream) -> float:
     return float(np.degrees(np.percentile(rotation_angle_rad(R[0].T[None] @ R), 90)))
 
 
+#: a stream whose poses (90 %) lie within this angle of its first pose does not rotate
+STILL_DEG = 1.0
+
+
 def check_streams_move(sa, sb) -> None:
     """A stream that does not rotate while the other does is bad input (a wrong topic or
-    file, a frozen tracker), not a degenerate motion: a clear DataError."""
-    from simcalib.errors import DataError
+    file, a frozen tracker), not a degenerate motion: a clear DataError. Neither stream
+    rotating is a degenerate motion (pure translation): DegenerateResultError (exit 6)
+    naming what it cannot determine, before any offset is estimated from the noise."""
+    from simcalib.errors import DataError, DegenerateResultError
     ext = {"a": _rotation_extent_deg(sa), "b": _rotation_extent_deg(sb)}
+    if max(ext.values()) < STILL_DEG:
+        raise DegenerateResultError(
+            f"degenerate motion: neither stream rotates (90 % of the poses lie within "
+            f"{ext['a']:.2g} deg (a) and {ext['b']:.2g} deg (b) of the first pose): a pure "
+            "translation. It leaves X's translation undetermined on every axis (C X = X H "
+            "holds for any translation of X when nothing turns); only X's rotation follows "
+            "from the translations (R_X t_b = t_a), which this path does not solve without "
+            "rotating motions, so no X is estimated. Record with rotations about two or "
+            "more axes")
     for name, other in (("a", "b"), ("b", "a")):
-        if ext[name] < 1.0 and ext[other] > 5.0 * max(ext[name], 0.2):
+        if ext[name] < STILL_DEG and ext[other] > 5.0 * max(ext[name], 0.2):
             s = sa if name == "a" else sb
             raise DataError(
                 f"stream {name} ({s.source}) does not rotate: 90 % of its poses lie within "

@@ -101,8 +101,18 @@ class CalibrateOptions:
     frame_b: str | None = field(default=None, metadata=key_help(
         "frame name of sensor b in the exports (default with bag=: from b's spec)"))
     eye: Literal["in_hand", "on_base"] | None = field(default=None, metadata=key_help(
-        "for export=easy_handeye2: in_hand (frame_a is the robot effector) or on_base "
-        "(frame_a is the robot base); frame_b is the camera"))
+        "where the camera (b) is: in_hand (a's sensor is the effector: X = T_ee_cam) or "
+        "on_base (a read as T_ee_base, e.g. invert_a=true on a T_base_ee file: X = "
+        "T_base_cam, metres long by nature, so not flagged implausible; a short X with a "
+        "long twin is). Also the easy_handeye2 export's calibration_type, frame_a being "
+        "the effector (in_hand) or the base (on_base)"))
+    robot_frame: str | None = field(default=None, metadata=key_help(
+        "for export=easy_handeye2: the robot's other frame, the base with eye=in_hand or "
+        "the effector with eye=on_base (default with bag=: the other end of a's spec; "
+        "needed without bag=)"))
+    marker_frame: str | None = field(default=None, metadata=key_help(
+        "for export=easy_handeye2: the tracking marker frame (default with bag=: the other "
+        "end of b's spec; else tracking_marker)"))
 
     def __post_init__(self):
         self._check_ros()
@@ -159,9 +169,14 @@ class CalibrateOptions:
                        self.format or self.format_a or self.format_b, "omitted with bag=")
         check_that("easy_handeye2" not in self.export or self.eye is not None, "eye",
                    self.eye, "in_hand or on_base with export=easy_handeye2")
-        check_that(not self.export or self.bag is not None
-                   or (self.frame_a is not None and self.frame_b is not None), "frame_a",
-                   self.frame_a, "given with frame_b for export= without bag=")
+        for key in ("frame_a", "frame_b"):
+            check_that(not self.export or self.bag is not None
+                       or getattr(self, key) is not None, key, getattr(self, key),
+                       "given for export= without bag= (frame_a=NAME frame_b=NAME: the "
+                       "parent and child of X = T_a_b)")
+        if "easy_handeye2" in self.export and self.bag is None and self.robot_frame is None:
+            from simcalib.ros.exports import ROBOT_FRAME_NEEDED
+            raise ConfigError(key="robot_frame", value=None, allowed=ROBOT_FRAME_NEEDED)
 
     @property
     def formats(self) -> tuple[str | None, str | None]:
@@ -272,10 +287,11 @@ class Assessment:
         return EXIT_DEGENERATE if self.degenerate or self.implausible else EXIT_OK
 
 
-def assess(r) -> Assessment:
+def assess(r, eye: str | None = None) -> Assessment:
     """The verdict on a calibration ``r`` (:class:`simcalib.estimation.path.
     StreamCalibration`): :func:`simcalib.estimation.verdict.judge` on its solution with the
-    reported covariance (the model's, raised to the data's own consistency). A failed
+    reported covariance (the model's, raised to the data's own consistency), and the
+    plausibility of X for the caller's ``eye`` (``in_hand``, ``on_base`` or None). A failed
     solve, or one whose uncertainty cannot be computed, is FAILED."""
     from simcalib.estimation.plausibility import check_plausibility
     from simcalib.estimation.verdict import judge
@@ -292,7 +308,7 @@ def assess(r) -> Assessment:
     words = tuple(direction_words(None, d) for d in records)
     fin = lambda vals: tuple(float(x) if math.isfinite(x) else None for x in vals)  # noqa
     source = _source(r.consistency)
-    plaus = check_plausibility(r.X, r.synced.T_a, r.synced.T_b, r.conventions)
+    plaus = check_plausibility(r.X, r.synced.T_a, r.synced.T_b, r.conventions, eye)
     reading = reading_ambiguity(r, v.std_deg, v.std_m)
     return Assessment(v.verdict, v.degenerate or reading is not None,
                       "; ".join(words + tuple(v.notes)), source,
@@ -383,7 +399,7 @@ def calibrate(opts: CalibrateOptions):
         raise
     except ValueError as exc:                   # too few motions, no overlap ...
         raise DataError(f"cannot calibrate these streams: {exc}") from None
-    return r, assess(r)
+    return r, assess(r, opts.eye)
 
 
 
@@ -417,7 +433,10 @@ def write_outputs(opts: CalibrateOptions, r, a: Assessment,
 def write_ros_exports(opts: CalibrateOptions, r) -> dict:
     """The exports ``opts.export`` of ``r.X`` into ``opts.output`` (docs/ros.md); the frames
     come from the bag specs (the sensor end of each, as the conventions read it), overridden
-    by frame_a / frame_b."""
+    by frame_a / frame_b (robot_frame / marker_frame for easy_handeye2: without bag= the
+    robot frame must be given)."""
+    import dataclasses
+
     from simcalib.ros.exports import ExportFrames, write_exports
     conv = r.conventions
     if opts.bag is not None:
@@ -429,6 +448,8 @@ def write_ros_exports(opts: CalibrateOptions, r) -> dict:
     else:
         frames = ExportFrames(opts.frame_a, opts.frame_b, eye=opts.eye,
                               name=Path(opts.output).name or "simcalib")
+    frames = dataclasses.replace(frames, robot_frame=opts.robot_frame or frames.robot_frame,
+                                 marker_frame=opts.marker_frame or frames.marker_frame)
     return write_exports(opts.output, r.X, opts.export, frames)
 
 

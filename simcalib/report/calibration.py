@@ -204,6 +204,7 @@ def format_report(rep: dict) -> str:
                      f"{_vec(alt['rotvec_deg'], digits=3)} deg (this X's T_world_a_world_b): "
                      "that is X if both files hold the inverse of the poses as read ("
                      f"{rep['plausibility']['twin_hint']})")
+    lines += [f"  note: {n}" for n in (rep.get("plausibility") or {}).get("notes") or ()]
     for k in ("a", "b"):
         s = rep["streams"][k]
         rep_txt = ", ".join(f"{n}: {c}" for n, c in s["repairs"].items() if c) or "none"

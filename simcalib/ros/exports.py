@@ -528,15 +528,20 @@ def _check_kinds(kinds) -> list[str]:
     return list(dict.fromkeys(kinds))
 
 
+#: what the easy_handeye2 export needs besides frame_a / frame_b (the keys to set)
+ROBOT_FRAME_NEEDED = ("the robot's other frame for the easy_handeye2 export: give "
+                      "robot_frame=NAME, the robot base frame with eye=in_hand (frame_a is "
+                      "the effector) or the effector frame with eye=on_base (frame_a is the "
+                      "base); with bag= it is the other end of a's tf spec")
+
+
 def _easy_handeye2_from_frames(X, f: ExportFrames) -> str:
     if f.eye not in EYES:
         raise ConfigError(key="eye", value=f.eye, allowed="in_hand or on_base for the "
                           "easy_handeye2 export (in_hand: frame_a is the effector; on_base: "
                           "frame_a is the robot base)")
     if f.robot_frame is None:
-        raise ConfigError(key="robot_frame", value=None, allowed=(
-            "the robot base frame (eye in hand) or effector frame (eye on base) for the "
-            "easy_handeye2 export"))
+        raise ConfigError(key="robot_frame", value=None, allowed=ROBOT_FRAME_NEEDED)
     in_hand = f.eye == "in_hand"
     base, eff = (f.robot_frame, f.frame_a) if in_hand else (f.frame_a, f.robot_frame)
     return easy_handeye2_calib(X, in_hand, base, eff, f.frame_b,
