@@ -4,8 +4,9 @@ Without a prior (the default), X's covariance comes from the poses' own errors
 (:func:`pose_consistency`, the model of :mod:`simcalib.estimation.pose_errors`): the
 per-pose residuals, X's exact sensitivity to each pose (for ``bursts`` motions whose
 stations' poses share their error - :func:`stations_share_errors` - per station: the mean
-residual of its poses and their summed sensitivity), white or - when neighbouring poses' residuals correlate beyond chance - white
-plus parts correlated over the pose space and along the recording, widened for having been estimated from few poses, plus the clock
+residual of its poses and their summed sensitivity), white or - when neighbouring poses'
+residuals correlate beyond chance - white plus parts correlated over the pose space and
+along the recording, widened for having been estimated from few poses, plus the clock
 offset's uncertainty; directions only the pose errors determine (errors in the variables)
 are undetermined. It is checked without any reference by the recording's two halves
 (:class:`SplitCheck`): X of the first half against X of the second, their difference
