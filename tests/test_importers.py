@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 import yaml
 
+from simcalib.errors import DataError
 from simcalib.estimation.readings import apply_conventions, detect_conventions
 from simcalib.geometry import invert_transform, quat_from_matrix
 from simcalib.importers import (PoseStreamData, available, detect_format, read_pose_stream,
@@ -396,3 +397,76 @@ def test_empty_and_comment_only_files_say_so(tmp_path):
         read_pose_stream(empty)
     with pytest.raises(ValueError, match="holds no pose rows: its 3 lines"):
         read_pose_stream(comments)
+
+
+@pytest.mark.parametrize("unit,factor", [("ms", 1e3), ("us", 1e6), ("ns", 1e9)])
+def test_unix_stamps_in_ms_us_ns_are_rescaled_to_seconds_and_counted(tmp_path, rig, unit,
+                                                                      factor):
+    t = 1.7e9 + rig.t_a[:60]
+    p = tmp_path / f"{unit}.txt"
+    np.savetxt(p, _rows(np.round(t * factor), rig.T_a[:60]), fmt="%.17g")
+    s = read_pose_stream(p, format="tum")
+    assert np.allclose(s.timestamps_s, t, atol=1 / factor + 1e-6, rtol=0)
+    assert s.repairs == {f"stamps_{unit}_to_s": 60}
+    assert f"unix time in {unit}" in s.detection and f"stamps_{unit}_to_s: 60" in s.describe()
+
+
+def test_seconds_index_and_relative_stamps_stay_seconds_and_unknown_units_are_refused(
+        tmp_path, rig):
+    p = tmp_path / "s.txt"
+    for t in (1.7e9 + rig.t_a[:40], rig.t_a[:40], np.arange(40.0), 600.0 * np.arange(40)):
+        np.savetxt(p, _rows(t, rig.T_a[:40]), fmt="%.17g")
+        s = read_pose_stream(p, format="tum")
+        assert np.allclose(s.timestamps_s, t) and not s.repairs
+    # relative stamps in ns (30 Hz): 3.3e7 a pose - neither seconds nor told apart from us
+    np.savetxt(p, _rows(np.round(1e9 * rig.t_a[:40]), rig.T_a[:40]), fmt="%.17g")
+    with pytest.raises(DataError, match=r"step by 3\.333e\+07 .*unit cannot be told.*allowed: "
+                                        r"stamps in seconds, or unix time in s, ms, us or ns"):
+        read_pose_stream(p, format="tum")
+
+
+def test_nine_columns_named_tum_is_a_data_error_naming_the_line(tmp_path, rig):
+    p = tmp_path / "nine.txt"
+    R = np.column_stack([_rows(rig.t_a[:10], rig.T_a[:10]), np.ones(10)])
+    p.write_text("# header\n\n" + "\n".join(" ".join(f"{v:.9g}" for v in r) for r in R))
+    for fmt, sep in (("tum", " "), ("eth", ", ")):
+        p.write_text("# header\n\n" + "\n".join(sep.join(f"{v:.9g}" for v in r) for r in R))
+        with pytest.raises(DataError, match=r"line 3: 9 values a row; .* rows have 8"):
+            read_pose_stream(p, format=fmt)
+
+
+def test_a_byte_order_mark_is_ignored(tmp_path, rig):
+    p = tmp_path / "bom.txt"
+    R = _rows(rig.t_a[:20], rig.T_a[:20])
+    text = "\n".join(" ".join(f"{v:.12g}" for v in r) for r in R) + "\n"
+    p.write_bytes(b"\xef\xbb\xbf" + text.encode())
+    for fmt in (None, "tum"):
+        s = read_pose_stream(p, format=fmt)
+        assert s.format == "tum" and s.n == 20
+        _same(s, rig.t_a[:20], rig.T_a[:20])
+
+
+def test_repeated_stamps_keep_the_row_consistent_with_the_neighbours(rig):
+    t, T = rig.t_a[:80], rig.T_a[:80]
+    k = np.arange(5, 75, 7)
+    # a stale pose (the previous frame's) re-published at the stamp, before the right one
+    s = stream_from_arrays(np.concatenate([t[k], t]), np.concatenate([T[k - 1], T]))
+    _same(s, t, T)
+    assert s.repairs == {"out_of_order_rows_sorted": s.repairs["out_of_order_rows_sorted"],
+                         "duplicate_timestamps_kept_consistent": k.size}
+    # the next frame's pose stamped early, after the right one
+    s = stream_from_arrays(np.concatenate([t, t[k]]), np.concatenate([T, T[k + 1]]))
+    _same(s, t, T)
+    # a different pose that repeats no neighbour: the one nearest the neighbours' path
+    s = stream_from_arrays(np.concatenate([t[k], t]), np.concatenate([T[k + 3], T]))
+    _same(s, t, T)
+    # identical repeats stay one row
+    s = stream_from_arrays(np.concatenate([t, t[k]]), np.concatenate([T, T[k]]))
+    _same(s, t, T)
+    assert s.repairs["duplicate_rows_dropped"] == k.size
+
+
+def test_stamps_that_all_repeat_cannot_be_told_and_are_dropped(rig):
+    t, T = np.floor(rig.t_a[:90]), rig.T_a[:90]          # 1 s stamps for 30 Hz poses
+    with pytest.raises(DataError, match="0 usable poses .*dropped_ambiguous: 90.*too coarsely"):
+        stream_from_arrays(t, T)

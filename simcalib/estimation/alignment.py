@@ -99,7 +99,7 @@ class TimeOffset:
     message: str = ""
     #: how the offset was decided: ``estimated`` (the data tell it), ``zero`` (the data do
     #: not tell it apart from 0, which is used), ``given``, ``shared_stamps`` (paired by
-    #: stamp, never shifted)
+    #: stamp, shifted only by a constant stamp shift: ``Sampling.shift_s``)
     decision: str = "estimated"
     #: ``n_eff ln(cost at 0 / cost at the estimate)``: the evidence against 0 (~chi2(1)
     #: under no offset; > :data:`EVIDENCE_MIN` to use the estimate); NaN where not compared

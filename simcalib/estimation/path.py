@@ -145,8 +145,9 @@ def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift=False, alp
         off = _as_offset(time_offset)
         conv = detect(off)
         return (*apply_conventions(sa, sb, conv), conv, off)
-    if sampling.paired_by_stamp:
-        off = TimeOffset(0.0, 0.0, 0.0, float("nan"), np.zeros(0), np.zeros(0),
+    if sampling.paired_by_stamp:            # equal stamps, or equal after a constant shift
+        shift = float(getattr(sampling, "shift_s", 0.0))
+        off = TimeOffset(shift, 0.0, shift, float("nan"), np.zeros(0), np.zeros(0),
                          refined=False, decision="shared_stamps", message=sampling.reason)
         conv = detect(off)
         return (*apply_conventions(sa, sb, conv), conv, off)

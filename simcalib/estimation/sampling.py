@@ -6,7 +6,9 @@ Three kinds of recording need different handling, and none of them needs a key t
   one image per stop, "station" data; sample-index stamps; two trackers of the same frames,
   e.g. a SLAM estimate stamped with the ground truth's frame times). The poses are paired
   by stamp; a clock offset cannot be told from such stamps, so none is estimated (0, or the
-  value given).
+  value given). Shared must beat chance (coarsely written stamps coincide by chance), and
+  stamps shared up to a constant shift (one file relative, the other unix time) are paired
+  after that shift, which is the offset used (``Sampling.shift_s``).
 * ``index_stamps`` — the stamps are sample numbers, not times (0, 1, 2, ... with gaps, or a
   file without a time column). Paired by stamp as well, never shifted.
 * ``continuous`` — two clocks sampling a moving rig at their own rates. The faster stream is
@@ -24,12 +26,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Sampling", "classify_sampling", "pair_by_stamp", "SHARED_FRACTION"]
+__all__ = ["Sampling", "classify_sampling", "pair_by_stamp", "resolution",
+           "SHARED_FRACTION"]
 
 #: share of the sparser stream's stamps that must have a partner for "shared stamps"
 SHARED_FRACTION = 0.8
 #: streams whose periods differ by this factor or more are refused (stamp units)
 MAX_PERIOD_RATIO = 1e6
+#: a share of partners that chance would give with a probability below this is not chance
+CHANCE_P = 1e-6
+#: stamps shared up to a shift: no other shift may pair more than this share as many
+SHIFT_RUNNER_UP = 0.5
+#: lags (in samples) between the two files' first common stamp that the shift search tries
+MAX_SHIFT_LAGS = 16
 
 
 @dataclass(frozen=True)
@@ -40,7 +49,9 @@ class Sampling:
     the poses are paired by equal stamps (no interpolation, no offset search);
     ``tolerance_s``: the stamp difference still counted as equal; ``shared``: how many
     stamps of the sparser stream have a partner; ``period_a_s`` / ``period_b_s``: median
-    sampling periods; ``reason``: one line for people."""
+    sampling periods; ``reason``: one line for people; ``shift_s``: the constant stamp shift
+    ``t_b - t_a`` after which the stamps are shared (0 for equal stamps; the offset used);
+    ``resolution_s``: the finer of the two streams' stamp resolutions (:func:`resolution`)."""
     kind: str
     paired_by_stamp: bool
     tolerance_s: float
@@ -50,12 +61,15 @@ class Sampling:
     period_a_s: float
     period_b_s: float
     reason: str
+    shift_s: float = 0.0
+    resolution_s: float = 0.0
 
     def to_dict(self) -> dict:
         return {"kind": self.kind, "paired_by_stamp": self.paired_by_stamp,
                 "tolerance_s": self.tolerance_s, "shared_stamps": self.shared,
                 "poses_a": self.n_a, "poses_b": self.n_b,
                 "period_a_s": self.period_a_s, "period_b_s": self.period_b_s,
+                "shift_s": self.shift_s, "resolution_s": self.resolution_s,
                 "reason": self.reason}
 
 
@@ -102,20 +116,84 @@ def _check_time_units(t_a, t_b, pa: float, pb: float) -> None:
         "s?) or one stream is stamped with sample numbers: write both in seconds")
 
 
+def resolution(t) -> float:
+    """The stamps' resolution (s): the largest power of ten (1000 s down) of which 95 % of
+    the stamps are multiples (a file written with ``%.2f``: 0.01), else the spacing of the
+    floats at the largest stamp (what the numbers can show)."""
+    t = np.asarray(t, dtype=np.float64)
+    if t.size == 0:
+        return 0.0
+    eps = float(np.spacing(np.max(np.abs(t))))
+    for k in range(3, -10, -1):
+        r = 10.0 ** k
+        if r < 1e3 * eps:
+            break
+        if np.mean(np.abs(t - np.round(t / r) * r) <= 1e-3 * r + 4 * eps) >= 0.95:
+            return r
+    return eps
+
+
+def _chance_share(sparse, dense, tol: float, res: float) -> float:
+    """The share of the sparse stream's stamps that would find a partner in the dense one by
+    chance: a window of ``2 tol`` plus the stamps' common resolution ``res`` (stamps on one
+    coarse grid coincide whenever the dense stream holds that grid point) against the dense
+    stream's mean spacing."""
+    spacing = (dense[-1] - dense[0]) / max(dense.size - 1, 1)
+    return float(min(1.0, (2.0 * tol + res) / spacing)) if spacing > 0 else 1.0
+
+
+def _beats_chance(shared: int, n: int, chance: float) -> bool:
+    """Whether ``shared`` of ``n`` partners are more than chance would give (binomial tail
+    below :data:`CHANCE_P`)."""
+    from scipy.stats import binom
+    return bool(shared > 0 and binom.sf(shared - 1, n, chance) < CHANCE_P)
+
+
+def _shift(sparse, dense, tol: float):
+    """``(shift, paired, runner_up)``: the constant shift ``dense - sparse`` after which the
+    most sparse stamps have a partner within ``tol``, found among the median stamp
+    differences at lags -16..16 (the same poses, some missing at either end), and the
+    second best lag's count; ``None`` for fewer than 3 stamps."""
+    if sparse.size < 3:
+        return None
+    best = []
+    for lag in range(-MAX_SHIFT_LAGS, MAX_SHIFT_LAGS + 1):
+        i0, j0 = max(0, -lag), max(0, lag)
+        m = min(sparse.size - i0, dense.size - j0)
+        if m < 3:
+            continue
+        shift = float(np.median(dense[j0:j0 + m] - sparse[i0:i0 + m]))
+        best.append((_partners(sparse + shift, dense, tol)[0].size, shift))
+    if not best:
+        return None
+    best.sort(key=lambda x: -x[0])
+    runner = next((c for c, sh in best[1:] if abs(sh - best[0][1]) > tol), 0)
+    return best[0][1], best[0][0], runner
+
+
 def classify_sampling(stream_a, stream_b) -> Sampling:
     """The :class:`Sampling` of two :class:`simcalib.importers.PoseStreamData` (or any
-    object with ``timestamps_s``; ``synthetic_time`` marks a file without times)."""
+    object with ``timestamps_s``; ``synthetic_time`` marks a file without times).
+
+    Shared stamps must beat chance: stamps written coarsely (``%.2f``: 10 ms) put a 30 Hz
+    stream's stamps on a 100 Hz stream's grid by chance. So the sparse stream's partners
+    count only when chance would not give them (:func:`_chance_share`, binomial tail below
+    :data:`CHANCE_P`) or when the dense stream is mostly paired too (the same stations).
+    Failing that, stamps shared up to a constant shift (one file relative, the other unix
+    time) are paired after it when no other shift pairs half as many."""
     t_a = np.asarray(stream_a.timestamps_s, dtype=np.float64)
     t_b = np.asarray(stream_b.timestamps_s, dtype=np.float64)
     pa, pb = _period(t_a), _period(t_b)
     _check_time_units(t_a, t_b, pa, pb)
     tol = 1e-3 * min(pa, pb) + 1e-9
-    sparse, dense = (t_a, t_b) if t_a.size <= t_b.size else (t_b, t_a)
-    ia, _ = _partners(sparse, dense, tol)
+    a_sparse = t_a.size <= t_b.size
+    sparse, dense = (t_a, t_b) if a_sparse else (t_b, t_a)
+    ia, ib = _partners(sparse, dense, tol)
     shared = int(ia.size)
     share = shared / max(sparse.size, 1)
+    res = min(resolution(t_a), resolution(t_b))
     common = dict(tolerance_s=tol, shared=shared, n_a=int(t_a.size), n_b=int(t_b.size),
-                  period_a_s=pa, period_b_s=pb)
+                  period_a_s=pa, period_b_s=pb, resolution_s=res)
     synthetic = bool(getattr(stream_a, "synthetic_time", False)
                      or getattr(stream_b, "synthetic_time", False))
     if synthetic or (_is_index(t_a) and _is_index(t_b)):
@@ -124,15 +202,45 @@ def classify_sampling(stream_a, stream_b) -> Sampling:
         return Sampling("index_stamps", True, reason=f"{why}: poses paired by index "
                         f"({shared} of {sparse.size} shared), no clock offset estimated",
                         **{**common, "tolerance_s": 1e-6})
-    if share >= SHARED_FRACTION:
+    chance = _chance_share(sparse, dense, tol, res)
+    if share >= SHARED_FRACTION and (_beats_chance(shared, sparse.size, chance)
+                                     or ib.size >= SHARED_FRACTION * dense.size):
         return Sampling("shared_stamps", True, reason=(
             f"{shared} of {sparse.size} stamps are shared by both streams (within "
-            f"{tol * 1e3:.3g} ms): poses paired by stamp; equal stamps cannot show a clock "
-            "offset, so none is estimated (give time_offset= to shift b)"), **common)
+            f"{tol * 1e3:.3g} ms; chance would pair {100 * chance:.3g} %): poses paired by "
+            "stamp; equal stamps cannot show a clock offset, so none is estimated (give "
+            "time_offset= to shift b)"), **common)
+    shifted = _shifted(sparse, dense, tol, res, min(pa, pb), a_sparse, common)
+    if shifted is not None:
+        return shifted
+    why = (f"; {100 * share:.3g} % shared, but stamps of {res:.3g} s resolution pair "
+           f"{100 * chance:.3g} % by chance" if share >= SHARED_FRACTION else "")
     return Sampling("continuous", False, reason=(
         f"two clocks ({1 / pa:.3g} Hz and {1 / pb:.3g} Hz, {shared} of {sparse.size} "
-        "stamps shared): the faster stream is interpolated at the slower one's stamps"),
-        **common)
+        f"stamps shared{why}): the faster stream is interpolated at the slower one's "
+        "stamps"), **common)
+
+
+def _shifted(sparse, dense, tol, res, period, a_sparse, common) -> Sampling | None:
+    """The ``shared_stamps`` :class:`Sampling` of stamps shared after a constant shift
+    (:func:`_shift`, within ``tol`` plus the stamps' resolution, at most a tenth of a
+    period), when it pairs :data:`SHARED_FRACTION` of the sparse stream's stamps and no
+    other shift pairs half as many (regular stamps, equal at many shifts, cannot tell one);
+    else None."""
+    tol_s = tol + min(res, 0.1 * period)
+    found = _shift(sparse, dense, tol_s)
+    if found is None:
+        return None
+    shift, paired, runner = found
+    if paired < SHARED_FRACTION * sparse.size or runner > SHIFT_RUNNER_UP * paired:
+        return None
+    offset = shift if a_sparse else -shift                  # t_b - t_a
+    return Sampling("shared_stamps", True, reason=(
+        f"{paired} of {sparse.size} stamps are shared by both streams after a constant "
+        f"shift of {offset:.9g} s (t_b - t_a; the next best shift pairs {runner}): poses "
+        "paired by stamp after that shift, which is the offset reported; no other offset "
+        "is estimated (give time_offset= to set it)"),
+        **{**common, "tolerance_s": tol_s, "shared": paired}, shift_s=offset)
 
 
 def pair_by_stamp(stream_a, stream_b, sampling: Sampling, offset_s: float = 0.0):

@@ -170,7 +170,7 @@ def _read_text(path) -> tuple[Path, str]:
     if not p.is_file():
         raise data_error(f"pose file {str(path)!r} does not exist or is not a file")
     try:
-        text = p.read_text(encoding="utf-8", errors="strict")
+        text = p.read_text(encoding="utf-8-sig", errors="strict")   # a byte-order mark is dropped
     except UnicodeDecodeError:
         raise data_error(f"pose file {str(p)!r} is not UTF-8 text; pose files are text "
                          f"(formats: {', '.join(available())})") from None
@@ -288,13 +288,18 @@ def _finalise(raw: RawStream, source: str, fmt: str, detection: str) -> PoseStre
     t, T = _finite_poses(raw, label, repairs)
     t, T = _ordered_unique(t, T, repairs)
     if t.size < MIN_POSES:
+        hint = ("; rows sharing a stamp hold different poses that no neighbouring stamp "
+                "tells apart: are the stamps written too coarsely?"
+                if repairs.get("duplicate_timestamps_dropped_ambiguous") else "")
         raise data_error(f"{label}: {t.size} usable poses after repairs "
                          f"({', '.join(f'{k}: {v}' for k, v in repairs.items()) or 'none'}); "
-                         f"at least {MIN_POSES} are needed")
+                         f"at least {MIN_POSES} are needed{hint}")
+    t, unit_note = _stamps_in_seconds(t, label, repairs)
     t.setflags(write=False)
     T.setflags(write=False)
     return PoseStreamData(timestamps_s=t, T_world_sensor=T, source=source, format=fmt,
-                          detection=detection + (f"; {raw.note}" if raw.note else ""),
+                          detection=detection + "".join(f"; {n}" for n in (raw.note, unit_note)
+                                                        if n),
                           repairs=repairs, quat_order=raw.quat_order, name=raw.name,
                           synthetic_time=raw.synthetic_time)
 
@@ -343,25 +348,137 @@ def _finite_poses(raw: RawStream, label: str, repairs: dict) -> tuple[np.ndarray
 
 
 def _ordered_unique(t: np.ndarray, T: np.ndarray, repairs: dict) -> tuple:
-    """``(t, T)`` sorted by time (stable) and without repeated timestamps (the first row of
-    each kept; counted apart when the repeated rows are the same pose or not)."""
+    """``(t, T)`` sorted by time (stable) and without repeated timestamps. Repeated rows of
+    one pose keep one (``duplicate_rows_dropped``); rows of one stamp with different poses
+    keep the one consistent with the neighbouring stamps (:func:`_consistent_rows`;
+    ``duplicate_timestamps_kept_consistent``), or none of them when that cannot be told
+    (``duplicate_timestamps_dropped_ambiguous``): a re-published stale pose may come first
+    or last."""
     if t.size >= 2 and np.any(np.diff(t) < 0):
         order = np.argsort(t, kind="stable")
         repairs["out_of_order_rows_sorted"] = int(np.sum(order != np.arange(t.size)))
         t, T = t[order], T[order]
-    if t.size >= 2:
-        dup = np.concatenate([[False], np.diff(t) == 0])
-        if dup.any():
-            same = np.zeros_like(dup)
-            same[1:] = np.abs(T[1:] - T[:-1]).max(axis=(1, 2)) < 1e-9
-            n_same = int((dup & same).sum())
-            n_diff = int((dup & ~same).sum())
-            if n_same:
-                repairs["duplicate_rows_dropped"] = n_same
-            if n_diff:
-                repairs["duplicate_timestamps_dropped_kept_first"] = n_diff
-            t, T = t[~dup], T[~dup]
-    return t, T
+    if t.size < 2 or not np.any(np.diff(t) == 0):
+        return t, T
+    same = np.zeros(t.size, dtype=bool)          # the same stamp and pose as the row before
+    same[1:] = (np.diff(t) == 0) & (np.abs(T[1:] - T[:-1]).max(axis=(1, 2)) < 1e-9)
+    if same.any():
+        repairs["duplicate_rows_dropped"] = int(same.sum())
+        t, T = t[~same], T[~same]
+    keep, n_kept, n_dropped = _consistent_rows(t, T)
+    if n_kept:
+        repairs["duplicate_timestamps_kept_consistent"] = n_kept
+    if n_dropped:
+        repairs["duplicate_timestamps_dropped_ambiguous"] = n_dropped
+    return t[keep], T[keep]
+
+
+def _consistent_rows(t: np.ndarray, T: np.ndarray) -> tuple[np.ndarray, int, int]:
+    """``(keep mask, rows dropped from stamps kept, rows of stamps dropped)`` for rows
+    sharing a stamp (``t`` sorted) with different poses. A row repeating a neighbouring
+    stamp's pose is a copy of it (a stale pose re-published, a frame stamped late); of the
+    others the one nearest the pose interpolated between the neighbouring stamps' (one
+    neighbour's at an end; distances in the stream's median step of rotation plus
+    translation) is kept. When no neighbouring stamp holds a single row to compare with
+    (every stamp repeated: stamps written too coarsely), the stamp is dropped."""
+    start = np.concatenate([[True], np.diff(t) > 0])
+    first = np.flatnonzero(start)
+    size = np.diff(np.append(first, t.size))
+    keep = np.ones(t.size, dtype=bool)
+    if first.size == t.size:
+        return keep, 0, 0
+    scale = _step_scale(T[first])
+    n_kept = n_dropped = 0
+    for g in np.flatnonzero(size > 1):
+        rows = np.arange(first[g], first[g] + size[g])
+        nbg = [k for k in (g - 1, g + 1) if 0 <= k < first.size]
+        nb_rows = np.concatenate([np.arange(first[k], first[k] + size[k]) for k in nbg]) \
+            if nbg else np.zeros(0, dtype=np.int64)
+        copy = np.array([np.abs(T[nb_rows] - T[r]).max(axis=(1, 2)).min() < 1e-9
+                         if nb_rows.size else False for r in rows])
+        cand = rows[~copy] if (~copy).any() else rows
+        keep[rows] = False
+        if cand.size == 1:
+            keep[cand[0]] = True
+            n_kept += rows.size - 1
+            continue
+        single = [first[k] for k in nbg if size[k] == 1]
+        if single:
+            keep[cand[int(np.argmin(_off_neighbours(t, T, single, cand, scale)))]] = True
+            n_kept += rows.size - 1
+        else:
+            n_dropped += rows.size
+    return keep, n_kept, n_dropped
+
+
+def _step_scale(Tu: np.ndarray) -> tuple[float, float]:
+    """The median rotation (rad) and translation (m) between consecutive poses."""
+    from simcalib.geometry import rotation_angle_rad
+    if Tu.shape[0] < 2:
+        return 1.0, 1.0
+    r = np.median(rotation_angle_rad(np.swapaxes(Tu[:-1, :3, :3], 1, 2) @ Tu[1:, :3, :3]))
+    p = np.median(np.linalg.norm(np.diff(Tu[:, :3, 3], axis=0), axis=1))
+    return max(float(r), 1e-12), max(float(p), 1e-12)
+
+
+def _off_neighbours(t, T, single, cand, scale) -> np.ndarray:
+    """How far each candidate row lies from the pose interpolated at its stamp between the
+    neighbouring rows ``single``, in median steps (rotation plus translation)."""
+    from simcalib.geometry import rotation_angle_rad
+    R_ref, p_ref = _between(t, T, single, t[cand[0]])
+    d_r = rotation_angle_rad(np.swapaxes(T[cand, :3, :3], 1, 2) @ R_ref)
+    d_p = np.linalg.norm(T[cand, :3, 3] - p_ref, axis=1)
+    return d_r / scale[0] + d_p / scale[1]
+
+
+def _between(t, T, rows, t_q):
+    """``(R, p)``: the pose at ``t_q`` interpolated between the rows ``rows`` (one or two,
+    around ``t_q``): the chordal mean of the rotations weighted by nearness, linear
+    translation."""
+    if len(rows) == 1:
+        return T[rows[0], :3, :3], T[rows[0], :3, 3]
+    i, j = rows
+    w = (t_q - t[i]) / (t[j] - t[i])
+    M = (1.0 - w) * T[i, :3, :3] + w * T[j, :3, :3]
+    U, _, Vt = np.linalg.svd(M)
+    R = U @ np.diag([1.0, 1.0, np.linalg.det(U @ Vt)]) @ Vt
+    return R, (1.0 - w) * T[i, :3, 3] + w * T[j, :3, 3]
+
+
+#: unix time in seconds of a plausible recording (1990-01-01 .. 2100-01-01): stamps of that
+#: magnitude in another unit are rescaled (:func:`_stamps_in_seconds`)
+UNIX_TIME_S = (6.3e8, 4.11e9)
+STAMP_UNITS = (("s", 1.0), ("ms", 1e3), ("us", 1e6), ("ns", 1e9))
+#: the longest median period (s) of any pose sensor (one pose in 2.8 h)
+MAX_PERIOD_S = 1e4
+
+
+def _stamps_in_seconds(t: np.ndarray, label: str, repairs: dict) -> tuple[np.ndarray, str]:
+    """``(t in seconds, note)``. Stamps whose median is unix time in ms, us or ns (1.7e12,
+    1.7e15, 1.7e18 around 2024; with a median period of at most :data:`MAX_PERIOD_S` in
+    that unit: relative ns of a few seconds are not unix seconds) are rescaled to seconds,
+    counted in ``repairs`` (``stamps_ns_to_s``, ...) and named in the note. Other stamps
+    are seconds (relative times, sample indices) unless their median period exceeds
+    :data:`MAX_PERIOD_S`: then no unit can be told (relative ns at 30 Hz read as us is a
+    pose every 33 s) and it is a DataError naming the stamps and the units allowed."""
+    mid = float(np.median(t))
+    period = float(np.median(np.diff(t))) if t.size >= 2 else 0.0
+    for unit, factor in STAMP_UNITS:       # unix time in that unit, a plausible period too
+        if UNIX_TIME_S[0] <= mid / factor <= UNIX_TIME_S[1] and period / factor <= MAX_PERIOD_S:
+            if factor == 1.0:
+                return t, ""
+            repairs[f"stamps_{unit}_to_s"] = int(t.size)
+            return t / factor, (f"stamps read as unix time in {unit} (median {mid:.6g}) "
+                                "and rescaled to seconds")
+    if period <= MAX_PERIOD_S:
+        return t, ""
+    raise data_error(
+        f"{label}: the stamps step by {period:.4g} per pose (median; first {t[0]:.6g}, "
+        f"last {t[-1]:.6g}): read as seconds that is a pose every {period / 3600:.3g} h, "
+        f"beyond any pose sensor (at most {MAX_PERIOD_S:g} s), and the unit cannot be told "
+        f"(ms, us and ns would give {period / 1e3:.3g}, {period / 1e6:.3g} and "
+        f"{period / 1e9:.3g} s); allowed: stamps in seconds, or unix time in s, ms, us or "
+        "ns (told by its magnitude)")
 
 
 def _project_rigid(M: np.ndarray, label: str, repairs: dict) -> np.ndarray:
@@ -430,8 +547,10 @@ def read_pose_rows(path, text: str, sep: str | None, fmt: str, layout: str,
         raise TypeError(f"{fmt} reader takes no options; received {sorted(options)}")
     rows, _ = numeric_rows(text, sep)
     if rows.shape[1] != 8:
-        raise ValueError(f"{path}: {fmt.upper()} rows have 8 values ({layout}); "
-                         f"received {rows.shape[1]}")
+        lineno = next(k for k, ln in enumerate(text.splitlines(), 1)
+                      if ln.strip() and not ln.strip().startswith(("#", "%")))
+        raise data_error(f"{path}: line {lineno}: {rows.shape[1]} values a row; {fmt.upper()} "
+                         f"rows have 8 ({layout})")
     return [RawStream(rows[:, 0], position_m=rows[:, 1:4], quat_xyzw=rows[:, 4:8])]
 
 
