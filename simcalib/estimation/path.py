@@ -65,6 +65,9 @@ class StreamCalibration:
     covariance_determined: np.ndarray | None = field(default=None, repr=False)
     robust_choice: str = ""
     weighting: object = None
+    #: the stated error common to every pose (:class:`simcalib.estimation.common_error.
+    #: CommonError`) added to the covariance; None: not stated
+    common_error: object = None
 
 
 def _errors_summary(C, H, X, mask=None):
@@ -324,7 +327,7 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
                       scalar_first_b: bool | None = None, drift: bool = False,
                       robust_options: dict | None = None, method: str = "dqopt",
                       prior=None, seed: int = 0, motions: str = "auto",
-                      tolerances=None) -> StreamCalibration:
+                      tolerances=None, common_error=None) -> StreamCalibration:
     """Calibrate ``X = T_a_b`` from two pose streams (paths or PoseStreamData): the one
     estimation path (docs/calibrate.md).
 
@@ -336,8 +339,11 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     dropped) -> outliers (``robust``: ``auto``, ``ransac``, ``irls``, ``none``) -> ``method``
     on the inliers (with ``prior``, a :class:`simcalib.Prior`, if given) -> uncertainty and
     its consistency check (:mod:`simcalib.estimation.consistency`); ``tolerances``: a
-    :class:`simcalib.estimation.verdict.Tolerances` (default 1 deg / 1 cm). Bad files and streams
-    that cannot calibrate raise :class:`simcalib.errors.DataError`.
+    :class:`simcalib.estimation.verdict.Tolerances` (default 1 deg / 1 cm);
+    ``common_error``: a :class:`simcalib.estimation.common_error.CommonError` the user
+    states (a robot's absolute accuracy: no data can show it), added to the covariance on
+    the determined directions. Bad files and streams that cannot calibrate raise
+    :class:`simcalib.errors.DataError`.
     """
     from simcalib.estimation.motions import form_motions
     from simcalib.estimation.sampling import classify_sampling
@@ -362,6 +368,7 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     check, weighting, cov, cov_det = _consistency(
         ms, rob, sp, method=method, alpha=alpha, prior=prior,
         offset_sigma_s=_offset_sigma(off, sampling))
+    cov, cov_det = _with_common_error(cov, cov_det, rob, check, common_error)
     ms0, plain = _plain(sa, sb, sampling, off, sp, ms, step_s=step_s, alpha=alpha,
                         min_rotation_deg=min_rotation_deg, max_rotation_deg=max_rotation_deg)
     aligned = robust_solve(ms.C, ms.H, "none", alpha=alpha)     # offset applied, no rejection
@@ -373,7 +380,25 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
                              synced=sp, motion_index=(i, j),
                              X_aligned=aligned.X, sampling=sampling, motions=ms,
                              consistency=check, covariance=cov, covariance_determined=cov_det,
-                             robust_choice=why, weighting=weighting)
+                             robust_choice=why, weighting=weighting,
+                             common_error=common_error if cov is not None
+                             and common_error is not None and common_error.stated else None)
+
+
+def _with_common_error(cov, cov_det, rob, check, common):
+    """The covariances with the stated ``common`` error's (:class:`~simcalib.estimation.
+    common_error.CommonError`) added on the determined directions (the basis the
+    consistency check reports, else the model's); undetermined axes stay ``inf``."""
+    if cov is None or common is None or not common.stated:
+        return cov, cov_det
+    basis = getattr(check, "basis", None)
+    B = np.asarray(rob.solution.uncertainty.determined_basis if basis is None else basis)
+    P = B @ B.T
+    add = P @ common.covariance(rob.X) @ P
+    out = cov.copy()
+    fin = np.isfinite(out)
+    out[fin] = out[fin] + add[fin]
+    return out, cov_det + add
 
 
 def _check_motions(ms, sp) -> float:

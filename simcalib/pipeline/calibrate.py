@@ -26,6 +26,7 @@ import numpy as np
 
 from simcalib.config.checks import check_positive, check_range, check_that, set_fields
 from simcalib.config.engine import key_help
+from simcalib.estimation.common_error import CommonError
 from simcalib.estimation.verdict import Tolerances
 from simcalib.errors import (EXIT_DEGENERATE, EXIT_OK, EXIT_SOLVER, ConfigError, DataError,
                              SolverError, UsageError, unknown_choice)
@@ -85,6 +86,10 @@ class CalibrateOptions:
         "motions rotating more are dropped (tracking jumps)"))
     seed: int = field(default=0, metadata=key_help("seed of RANSAC and convention scoring"))
     recording: bool = field(default=True, metadata=key_help("write recording.rrd"))
+    common_error: CommonError = field(default_factory=CommonError, metadata=key_help(
+        "common_error.rotation_a_deg / translation_a_m / rotation_b_deg / translation_b_m: "
+        "the rms of an error common to every pose of a stream in its own frame (a robot's "
+        "absolute accuracy), which moves X without a residual: added to sigma when stated"))
     verdict: Tolerances = field(default_factory=Tolerances, metadata=key_help(
         "verdict.tolerance_deg / verdict.tolerance_m: 1-sigma above which a direction is "
         "poorly determined"))
@@ -394,7 +399,7 @@ def calibrate(opts: CalibrateOptions):
                               scalar_first_a=opts.scalar_first_a,
                               scalar_first_b=opts.scalar_first_b, drift=opts.drift,
                               robust_options=robust_options, method=opts.method,
-                              prior=prior, seed=opts.seed)
+                              prior=prior, seed=opts.seed, common_error=opts.common_error)
     except (DataError, SolverError):
         raise
     except ValueError as exc:                   # too few motions, no overlap ...

@@ -42,13 +42,17 @@ NOT_IN_SIGMA = ("an error common to every pose (a robot's absolute accuracy, a t
                 "scale) moves X without a residual: no recording shows it")
 
 
-def _uncertainty(a) -> dict:
+def _uncertainty(a, common=None) -> dict:
+    """``common``: the stated :class:`simcalib.estimation.common_error.CommonError` that the
+    covariance includes (None: none stated)."""
     return {"source": a.source, "std_rotation_deg": a.std_rot_deg,
             "std_translation_m": a.std_trans_m,
             # why an axis' 1-sigma is null (not a number), else null
             "std_reason": _std_reason(a), "covariance": a.covariance,
             "covariance_order": "(wx, wy, wz, vx, vy, vz), rad and m, frame a",
-            "not_included": NOT_IN_SIGMA}
+            "common_error_included": None if common is None else common.to_dict(),
+            "not_included": NOT_IN_SIGMA if common is None else (
+                "an error common to every pose beyond the stated common_error.*")}
 
 
 def _verdict(a) -> dict:
@@ -76,7 +80,7 @@ def report_dict(opts, r, a, solver_kernels: str = "compiled") -> dict:
         "X": _pose(r.X),
         "frames": "X = T_a_b: pose of sensor b in sensor a (p_a = X p_b); metres, "
                   "quaternion (x, y, z, w)",
-        "uncertainty": _uncertainty(a),
+        "uncertainty": _uncertainty(a, getattr(r, "common_error", None)),
         "verdict": _verdict(a),
         "time_offset": _time_offset(r.time_offset),
         "sampling": r.sampling.to_dict(),
@@ -179,6 +183,9 @@ def format_report(rep: dict) -> str:
         f"  quaternion (x,y,z,w):   {_vec(rep['X']['quaternion_xyzw'], digits=6)}",
         f"  rotation vector (deg):  {_vec(rep['X']['rotvec_deg'], digits=3)}",
         f"{sigma_line(u)}  [{u['source']}]",
+        *([f"  in sigma: the stated common error ("
+           + ", ".join(f"{k} {v:g}" for k, v in u["common_error_included"].items() if v)
+           + ")"] if u.get("common_error_included") else []),
         f"  not in sigma: {u['not_included']}",
         verdict_line(v),
         f"sampling: {rep['sampling']['reason']}",

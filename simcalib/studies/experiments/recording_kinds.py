@@ -101,17 +101,18 @@ def _kind_gaps(rngs, s):
     return replace(d, t_b=d.t_b[keep], B=d.B[keep], description=desc)
 
 
-def _robot_error_field(rng) -> Callable:
+def _robot_error_field(rng) -> tuple[Callable, tuple[float, float]]:
     """A systematic, pose-dependent kinematic error: three random low-order (sinusoidal)
     functions of the pose (position and rotation vector) with an rms of 0.1..0.5 deg /
     1..3 mm over the workspace (correlated between nearby poses, not white). Returns
-    ``T_true_hand -> E`` (N, 4, 4), the error in the hand frame: the robot REPORTS
-    ``T_true_hand @ E``."""
+    ``(T_true_hand -> E, (rms deg, rms m))``: the error in the hand frame (the robot
+    REPORTS ``T_true_hand @ E``) and the rms its maker would state as its accuracy."""
     w = rng.normal(0.0, 1.0, (3, 6))
     ph = rng.uniform(0.0, 2 * np.pi, 3)
     # each sin term has mean square ~1/2, three terms along unit vectors: rms ~ amp
-    amp_r = math.radians(rng.uniform(0.1, 0.5)) / math.sqrt(1.5)
-    amp_t = rng.uniform(0.001, 0.003) / math.sqrt(1.5)
+    rms_deg, rms_m = rng.uniform(0.1, 0.5), rng.uniform(0.001, 0.003)
+    amp_r = math.radians(rms_deg) / math.sqrt(1.5)
+    amp_t = rms_m / math.sqrt(1.5)
     dirs_r = _unit(rng, 3) * amp_r
     dirs_t = _unit(rng, 3) * amp_t
 
@@ -121,7 +122,7 @@ def _robot_error_field(rng) -> Callable:
         basis = np.sin(f @ w.T + ph)                               # (N, 3)
         return transform_from_rotation_translation(matrix_from_rotvec(basis @ dirs_r),
                                                    basis @ dirs_t)
-    return error
+    return error, (float(rms_deg), float(rms_m))
 
 
 def _depth_biased(B, bias: float) -> np.ndarray:
@@ -174,11 +175,12 @@ def _kind_robot_error(rngs, s):
     clean = replace(s, sigma_rot_b_deg=0.0, sigma_trans_b_m=0.0)
     d = _stations_draft(rngs, clean, (10, 40), "robot_error")
     r = rngs["events"]
-    error = _robot_error_field(r)
+    error, accuracy = _robot_error_field(r)
     A = d.A @ error(d.A) if s.noise else d.A
     B, bias = _camera_error(r, d.B, s.noise, s.sigma_rot_b_deg, s.sigma_trans_b_m)
     X_ws = workspace_X(rngs["workspace"], d.X, d.Y, error, bias) if s.noise else None
-    return replace(d, A=A, B=B, X_workspace=X_ws, description=d.description
+    return replace(d, A=A, B=B, X_workspace=X_ws, accuracy_a=accuracy,
+                   description=d.description
                    + ", systematic pose-dependent robot error (rms 0.1..0.5 deg / 1..3 mm), "
                    "distance-dependent camera error")
 
@@ -382,7 +384,8 @@ def generate(kind: str, seed: int, **overrides) -> Recording:
         offset_determined=spec.offset_determined, expect=spec.expect,
         undetermined_a=None if d.undetermined_a is None else _frozen(
             d.undetermined_a / np.linalg.norm(d.undetermined_a)),
-        X_workspace=None if d.X_workspace is None else _frozen(d.X_workspace))
+        X_workspace=None if d.X_workspace is None else _frozen(d.X_workspace),
+        accuracy_a=d.accuracy_a)
 
 
 def true_streams(rec: Recording) -> tuple[PoseStreamData, PoseStreamData]:

@@ -69,6 +69,9 @@ class Recording:
     expect: str
     undetermined_a: np.ndarray | None = None
     X_workspace: np.ndarray | None = None
+    #: the robot's accuracy its maker would state (kinds with systematic robot error):
+    #: ``(rms rotation deg, rms translation m)`` of its error over the workspace, else None
+    accuracy_a: tuple | None = None
 
     def offset_at(self, t_a) -> np.ndarray:
         """The true offset ``t_b - t_a`` at clock-a times ``t_a``."""
@@ -87,7 +90,8 @@ class Recording:
                 "offset_determined": self.offset_determined, "expect": self.expect,
                 "undetermined_a": None if self.undetermined_a is None
                 else self.undetermined_a.tolist(),
-                "X_workspace": None if self.X_workspace is None else self.X_workspace.tolist()}
+                "X_workspace": None if self.X_workspace is None else self.X_workspace.tolist(),
+                "accuracy_a": None if self.accuracy_a is None else list(self.accuracy_a)}
 
 
 @dataclass(frozen=True)
@@ -162,6 +166,7 @@ class _Draft:
     undetermined_a: np.ndarray | None = None
     Y: np.ndarray | None = None   # T_wa_wb, world b in world a (stations: T_base_target)
     X_workspace: np.ndarray | None = None
+    accuracy_a: tuple | None = None
 
 
 @dataclass(frozen=True)
