@@ -339,11 +339,9 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     dropped) -> outliers (``robust``: ``auto``, ``ransac``, ``irls``, ``none``) -> ``method``
     on the inliers (with ``prior``, a :class:`simcalib.Prior`, if given) -> uncertainty and
     its consistency check (:mod:`simcalib.estimation.consistency`); ``tolerances``: a
-    :class:`simcalib.estimation.verdict.Tolerances` (default 1 deg / 1 cm);
-    ``common_error``: a :class:`simcalib.estimation.common_error.CommonError` the user
-    states (a robot's absolute accuracy: no data can show it), added to the covariance on
-    the determined directions. Bad files and streams that cannot calibrate raise
-    :class:`simcalib.errors.DataError`.
+    :class:`simcalib.estimation.verdict.Tolerances` (default 1 deg / 1 cm); ``common_error``:
+    a stated :class:`simcalib.estimation.common_error.CommonError`, added to the covariance.
+    Bad files and streams that cannot calibrate raise :class:`simcalib.errors.DataError`.
     """
     from simcalib.estimation.motions import form_motions
     from simcalib.estimation.sampling import classify_sampling
@@ -368,7 +366,7 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     check, weighting, cov, cov_det = _consistency(
         ms, rob, sp, method=method, alpha=alpha, prior=prior,
         offset_sigma_s=_offset_sigma(off, sampling))
-    cov, cov_det = _with_common_error(cov, cov_det, rob, check, common_error)
+    cov, cov_det, common_error = _with_common_error(cov, cov_det, rob, check, common_error)
     ms0, plain = _plain(sa, sb, sampling, off, sp, ms, step_s=step_s, alpha=alpha,
                         min_rotation_deg=min_rotation_deg, max_rotation_deg=max_rotation_deg)
     aligned = robust_solve(ms.C, ms.H, "none", alpha=alpha)     # offset applied, no rejection
@@ -381,16 +379,16 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
                              X_aligned=aligned.X, sampling=sampling, motions=ms,
                              consistency=check, covariance=cov, covariance_determined=cov_det,
                              robust_choice=why, weighting=weighting,
-                             common_error=common_error if cov is not None
-                             and common_error is not None and common_error.stated else None)
+                             common_error=common_error)
 
 
 def _with_common_error(cov, cov_det, rob, check, common):
-    """The covariances with the stated ``common`` error's (:class:`~simcalib.estimation.
-    common_error.CommonError`) added on the determined directions (the basis the
-    consistency check reports, else the model's); undetermined axes stay ``inf``."""
+    """``(cov, cov_det, common)``: the covariances with the stated ``common`` error's
+    (:class:`~simcalib.estimation.common_error.CommonError`) added on the determined
+    directions (the basis the consistency check reports, else the model's; undetermined
+    axes stay ``inf``), and ``common`` where it was added (else None)."""
     if cov is None or common is None or not common.stated:
-        return cov, cov_det
+        return cov, cov_det, None
     basis = getattr(check, "basis", None)
     B = np.asarray(rob.solution.uncertainty.determined_basis if basis is None else basis)
     P = B @ B.T
@@ -398,7 +396,7 @@ def _with_common_error(cov, cov_det, rob, check, common):
     out = cov.copy()
     fin = np.isfinite(out)
     out[fin] = out[fin] + add[fin]
-    return out, cov_det + add
+    return out, cov_det + add, common
 
 
 def _check_motions(ms, sp) -> float:
