@@ -328,8 +328,7 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
                       robust_options: dict | None = None, method: str = "dqopt",
                       prior=None, seed: int = 0, motions: str = "auto",
                       tolerances=None, common_error=None) -> StreamCalibration:
-    """Calibrate ``X = T_a_b`` from two pose streams (paths or PoseStreamData): the one
-    estimation path (docs/calibrate.md).
+    """Calibrate ``X = T_a_b`` from two pose streams (paths or PoseStreamData), the one path:
 
     sampling (:func:`~simcalib.estimation.sampling.classify_sampling`: stamp-paired or two
     clocks) -> reading and clock offset (:func:`align_and_read`; ``time_offset``:
