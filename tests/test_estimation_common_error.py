@@ -9,7 +9,8 @@ import pytest
 from simcalib.errors import ConfigError
 from simcalib.estimation.common_error import CommonError
 from simcalib.estimation.path import calibrate_streams
-from simcalib.geometry import matrix_from_rotvec, transform_from_rotation_translation
+from simcalib.geometry import (matrix_from_rotvec, skew_matrix,
+                               transform_from_rotation_translation)
 from simcalib.importers import stream_from_arrays
 from simcalib.solvers.diagnostics.inputs import pose_error
 from simcalib.studies.experiments.recording_kinds import generate
@@ -48,14 +49,10 @@ def test_a_constant_error_of_every_pose_moves_x_by_the_stated_map():
         np.testing.assert_allclose(r.X, expected, atol=1e-9)
         # the first-order map: Cov = J J^T for unit variance per axis, so J is a square root
         J = {"a": np.block([[-np.eye(3), np.zeros((3, 3))],
-                            [_skew(X0[:3, 3]), -np.eye(3)]]),
+                            [skew_matrix(X0[:3, 3]), -np.eye(3)]]),
              "b": np.kron(np.eye(2), X0[:3, :3])}[side]
         np.testing.assert_allclose(pose_error(r.X, X0), J @ eps, atol=1e-9)   # 2nd order: ~3e-10
         np.testing.assert_allclose(_jacobians(X0)[side], J @ J.T, atol=1e-12)
-
-
-def _skew(v):
-    return np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
 
 
 def test_the_path_adds_it_on_the_determined_directions_only():

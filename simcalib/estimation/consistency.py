@@ -533,13 +533,10 @@ def stations_share_errors(station, r) -> bool:
     test at :data:`STATION_LEVEL`), or there is no scatter within a station to tell
     (one pose a station, or frames that repeat one pose)."""
     from scipy.special import fdtri
-    _, inv, counts = np.unique(station, return_inverse=True, return_counts=True)
+    _, inv, counts, means = _station_means(station, r)
     k, n = counts.size, r.shape[0]
     if k < 2 or n - k < 6:
         return True
-    means = np.zeros((k, r.shape[1]))
-    np.add.at(means, inv, r)
-    means /= counts[:, None]
     dev = r - means[inv]
     within = dev.T @ dev / (n - k)
     d = means - counts @ means / n
@@ -550,6 +547,15 @@ def stations_share_errors(station, r) -> bool:
     return f > float(fdtri(r.shape[1] * (k - 1), r.shape[1] * (n - k), 1.0 - STATION_LEVEL))
 
 
+def _station_means(station, r):
+    """``(first pose, station of each pose (0..k-1), poses a station, mean residual)``."""
+    _, first, inv, counts = np.unique(station, return_index=True, return_inverse=True,
+                                      return_counts=True)
+    means = np.zeros((first.size, r.shape[1]))
+    np.add.at(means, inv, r)
+    return first, inv, counts, means / counts[:, None]
+
+
 def _by_station(station, r, Gs, T_a):
     """``(r, Gs, T_a, index)`` per station (the runs of ``bursts``: poses that stand still
     together, whose errors are largely one - a still target seen from one viewpoint): the
@@ -557,14 +563,10 @@ def _by_station(station, r, Gs, T_a):
     the station's ordinal. An error common to a station moves X by the summed
     sensitivities; one per pose by each pose's, whose share the mean residual carries at
     its variance over the station's size - exact where a station's poses weigh alike."""
-    _, first, inv, counts = np.unique(station, return_index=True, return_inverse=True,
-                                      return_counts=True)
-    k = first.size
-    r_s = np.zeros((k, r.shape[1]))
-    np.add.at(r_s, inv, r)
-    G_s = np.zeros((k,) + Gs.shape[1:])
+    first, inv, _, means = _station_means(station, r)
+    G_s = np.zeros((first.size,) + Gs.shape[1:])
     np.add.at(G_s, inv, Gs)
-    return r_s / counts[:, None], G_s, T_a[first], np.arange(k)
+    return means, G_s, T_a[first], np.arange(first.size)
 
 
 def _without_offset(r, V) -> np.ndarray:

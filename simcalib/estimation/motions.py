@@ -262,8 +262,8 @@ POLICIES = {"stations": _stations, "consecutive": _consecutive, "spans": _spans,
 
 
 def _median_step_deg(synced) -> float:
-    R = synced.T_a[:, :3, :3]
-    return float(np.degrees(np.median(rotation_angle_rad(np.swapaxes(R[:-1], 1, 2) @ R[1:]))))
+    return float(np.median(_turn_deg(synced.T_a, np.arange(synced.n - 1),
+                                     np.arange(1, synced.n))))
 
 
 def auto_policy(synced, paired_by_stamp: bool, index_stamps: bool = False
