@@ -10,15 +10,12 @@ determine (``uncertainty.not_included`` says so) unless the user states that err
 :class:`CommonError` gives its covariance in X's ``pose_error`` coordinates, which the
 estimation path adds to the determined directions.
 
-To first order, with ``E = exp(eps)`` on a's poses and ``F = exp(phi)`` on b's
-(``eps = (omega, v)``, right-multiplied):
-
-    X' = E^-1 X:  delta = (-omega, [t_X]x omega - v)
-    X' = X F:     delta = (R_X omega_F, R_X v_F)
-
-(``delta`` as :func:`simcalib.solvers.diagnostics.inputs.pose_error`: rotation in frame a,
-translation difference.) Each error is isotropic: its rotation angle and translation length
-have the stated rms, i.e. ``rms / sqrt(3)`` per axis.
+To first order (``E = exp(eps)`` on a's poses and ``F = exp(phi)`` on b's, right-multiplied)
+X becomes ``E^-1 X F``: the map of
+:func:`simcalib.solvers.diagnostics.inputs.pose_bias_jacobians`, the same one that carries a
+simulated camera's calibration error (``PoseBias``) into the covariance of ``run``. Each
+error is isotropic: its rotation angle and translation length have the stated rms, i.e.
+``rms / sqrt(3)`` per axis.
 """
 
 from __future__ import annotations
@@ -29,7 +26,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from simcalib.config.engine import key_help
-from simcalib.geometry import skew_matrix
 
 __all__ = ["CommonError"]
 
@@ -63,18 +59,16 @@ class CommonError:
     def covariance(self, X) -> np.ndarray:
         """``(6, 6)``: the covariance these errors give X (``pose_error`` coordinates:
         ``(wx, wy, wz, vx, vy, vz)``, rad and m, frame a)."""
-        X = np.asarray(X, dtype=np.float64)
-        R, t = X[:3, :3], X[:3, 3]
-        I = np.eye(3)
-        J_a = np.block([[-I, np.zeros((3, 3))], [skew_matrix(t), -I]])
-        J_b = np.block([[R, np.zeros((3, 3))], [np.zeros((3, 3)), R]])
-        out = np.zeros((6, 6))
-        for J, deg, m in ((J_a, self.rotation_a_deg, self.translation_a_m),
-                          (J_b, self.rotation_b_deg, self.translation_b_m)):
-            S = np.diag([math.radians(deg) ** 2 / 3.0] * 3 + [m ** 2 / 3.0] * 3)
-            out += J @ S @ J.T
-        return 0.5 * (out + out.T)
+        from simcalib.solvers.diagnostics.inputs import pose_bias_covariance
+        return pose_bias_covariance(X, _isotropic(self.rotation_a_deg, self.translation_a_m),
+                                    _isotropic(self.rotation_b_deg, self.translation_b_m))
 
     def to_dict(self) -> dict:
         return {"rotation_a_deg": self.rotation_a_deg, "translation_a_m": self.translation_a_m,
                 "rotation_b_deg": self.rotation_b_deg, "translation_b_m": self.translation_b_m}
+
+
+def _isotropic(rotation_deg: float, translation_m: float) -> np.ndarray:
+    """``(6, 6)``: the covariance of an isotropic pose error whose rotation angle and
+    translation length have the given rms (``rms**2 / 3`` per axis)."""
+    return np.diag([math.radians(rotation_deg) ** 2 / 3.0] * 3 + [translation_m ** 2 / 3.0] * 3)
