@@ -169,12 +169,13 @@ def noise_determined(C, H, X, alpha: float, pose_pairs, residuals, index, basis,
     DB = _q_and_jacobian(np.asarray(X))[1] @ B
     Hm = DB.T @ _gram(qC, qCd, qH, qHd, alpha, w) @ DB
     n = r.shape[0]
-    eta = np.zeros((draws, int(P.max()) + 1, 6))
-    for k in range(draws):
-        eta[k, np.asarray(index)] = (-1.0) ** k * np.roll(r, ((k + 1) * n) // (draws + 1), 0)
-    qh, qhd = _perturb(qH, qHd, P, _dq_from_xi(eta))
-    dH = np.einsum("ia,kab,bj->kij", DB.T, _gram(qC[None], qCd[None], qh, qhd, alpha, w[None]),
-                   DB) - Hm[None]
+    dH = np.empty((draws,) + Hm.shape)
+    for k in range(draws):          # one dose at a time: (draws, N, 4, 4) stacks are GBs
+        eta = np.zeros((1, int(P.max()) + 1, 6))
+        eta[0, np.asarray(index)] = (-1.0) ** k * np.roll(r, ((k + 1) * n) // (draws + 1), 0)
+        qh, qhd = _perturb(qH, qHd, P, _dq_from_xi(eta))
+        dH[k] = np.einsum("ia,kab,bj->kij", DB.T,
+                          _gram(qC[None], qCd[None], qh, qhd, alpha, w[None]), DB)[0] - Hm
     mean = dH.mean(axis=0)
     lam, V = np.linalg.eigh(0.5 * (Hm + Hm.T))
     Wh = V / np.sqrt(np.maximum(lam, 1e-300))             # Wh^T Hm Wh = I

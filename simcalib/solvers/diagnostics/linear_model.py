@@ -111,12 +111,12 @@ def _noise_null_test(Kw, Bw, dsc, lag, dof_noise) -> _NullTest:
     # scipy.special, not scipy.stats: the same quantiles without ~0.5 s of import per process
     from scipy.special import chdtri, fdtri
     A = Kw.reshape(-1, 6) * dsc
-    B = Bw.reshape(-1, 6) * dsc
-    Fn = B.T @ B
+    Bf = Bw.reshape(-1, 6)                                 # B = Bf diag(dsc), never formed:
+    Fn = dsc[:, None] * (Bf.T @ Bf) * dsc                  # a long recording's is ~0.25 GB
     try:
         R = np.linalg.cholesky(0.5 * (Fn + Fn.T)).T       # Fn = R^T R
     except np.linalg.LinAlgError:
-        R = np.linalg.qr(B, mode="r")
+        R = np.linalg.qr(Bf * dsc, mode="r")
     M = np.linalg.solve(R.T, A.T).T                        # A R^-1
     _, s, Vt = np.linalg.svd(M, full_matrices=False)
     order = np.argsort(s)
@@ -124,11 +124,8 @@ def _noise_null_test(Kw, Bw, dsc, lag, dof_noise) -> _NullTest:
     G = np.linalg.solve(R, Vt[order].T)                    # g = R^-1 v (F_noise-normalised)
     # Satterthwaite: g^T F g = sum_i |sum_j xi_ij b_ij|^2 under the null, a quadratic form
     # in Gaussian noise with per-motion Gram matrices M_i = [b_ij . b_il]
-    b = (B @ G).reshape(Bw.shape[0], 6, 6, 6)              # (N, 6 noise, 6 rows, 6 dirs)
-    b = np.moveaxis(b, 3, 0)                               # (6 dirs, N, 6 noise, 6 rows)
-    gram = b @ np.swapaxes(b, -1, -2)                      # (6, N, 6, 6)
-    mean = np.trace(gram, axis1=2, axis2=3).sum(axis=1)
-    dof = mean ** 2 / np.maximum(np.sum(gram * gram, axis=(1, 2, 3)), 1e-300)
+    mean, square = _gram_moments(Bf, dsc[:, None] * G, Bw.shape[0])
+    dof = mean ** 2 / np.maximum(square, 1e-300)
     dof = np.maximum(dof / (1.0 + lag), 1.0)
     if math.isfinite(dof_noise):
         thr = fdtri(dof, max(dof_noise / (1.0 + lag), 1.0), 1.0 - NULL_LEVEL)
@@ -136,6 +133,21 @@ def _noise_null_test(Kw, Bw, dsc, lag, dof_noise) -> _NullTest:
         thr = chdtri(dof, NULL_LEVEL) / dof
     G = G / np.linalg.norm(G, axis=0)
     return _NullTest(r, G, dof, thr, r <= thr)
+
+
+def _gram_moments(Bf, G, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per direction ``d`` (column of ``G``): the sums over the ``n`` motions of
+    ``trace(M_i)`` and ``|M_i|_F^2``, ``M_i = b_i b_i^T`` with ``b_i`` (6 noise, 6 rows)
+    motion ``i``'s block of ``Bf @ G[:, d]`` (``Bf``: the (n * 36, 6) null rows). One
+    direction at a time: a long recording's (6, n, 6, 6) Gram stack would be ~1 GB (140k
+    motions)."""
+    mean, square = np.empty(6), np.empty(6)
+    for d in range(6):
+        bd = (Bf @ G[:, d]).reshape(n, 6, 6)
+        gram = bd @ np.swapaxes(bd, -1, -2)                 # (n, 6, 6)
+        mean[d] = np.trace(gram, axis1=1, axis2=2).sum()
+        square[d] = np.sum(gram * gram)
+    return mean, square
 
 
 def _span(blocks, tol: float = _PURE) -> np.ndarray:
