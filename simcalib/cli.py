@@ -187,10 +187,12 @@ def _run_command(cmd: str, rest: list[str]) -> int:
             raise UsageError(f"command {cmd!r} is not available in this installation "
                              f"({module} is missing)") from None
         raise
-    except ImportError as exc:
+    except ImportError:
         if module in sys.modules and sys.modules[module] is None:
             raise UsageError(f"command {cmd!r} is not available in this installation "
                              f"({module} is missing)") from None
         raise
-    status = fn(rest)
+    from simcalib.parallel import one_blas_thread
+    with one_blas_thread():           # small matrices only: BLAS threads just contend
+        status = fn(rest)
     return EXIT_OK if status is None else int(status)

@@ -5,6 +5,14 @@
 may hold an OpenGL context or numba threads) used by rendering (:mod:`simcalib.world.render_map`)
 and the experiments (:mod:`simcalib.studies.experiments.common`).
 
+BLAS threads: every matrix simcalib multiplies is small (6x6 stacks, a few thousand rows
+of 36 at most); OpenBLAS's own threads gain nothing there and, on a busy machine, cost up
+to 100x (a thread spinning for a core another process holds: one variogram fit of
+``calibrate`` took 0.45 s instead of 4 ms at load 5). The parallelism is numba's threads
+and the worker processes. So the CLI runs each command inside :func:`one_blas_thread`,
+and every pool worker sets it for its life (an ``OPENBLAS_NUM_THREADS`` set in a worker is
+read too late: the spawned worker has loaded numpy to unpickle its initializer).
+
 Ctrl-C: a terminal sends SIGINT to the whole foreground process group, so every worker
 would print its own ``KeyboardInterrupt`` traceback (or an ``UnpicklingError`` when it is
 interrupted while reading its task). Workers therefore ignore SIGINT (:func:`_quiet_init`
@@ -22,7 +30,15 @@ import os
 import signal
 from typing import Any, Callable, Iterator, Sequence
 
-__all__ = ["worker_pool", "default_workers", "terminate_pool", "deferred_interrupt"]
+__all__ = ["worker_pool", "default_workers", "terminate_pool", "deferred_interrupt",
+           "one_blas_thread"]
+
+
+def one_blas_thread():
+    """Context manager: BLAS and LAPACK (numpy's and scipy's OpenBLAS) on one thread inside
+    the block, the previous limits restored after (module doc)."""
+    from threadpoolctl import threadpool_limits
+    return threadpool_limits(limits=1, user_api="blas")
 
 
 def default_workers() -> int:
@@ -37,6 +53,7 @@ def default_workers() -> int:
 def _quiet_init(initializer: Callable | None, initargs: Sequence[Any]) -> None:
     # The parent decides what an interrupt means; a worker just stops when told to.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    one_blas_thread()                 # for the worker's life: the processes are the parallelism
     if initializer is not None:
         initializer(*initargs)
 

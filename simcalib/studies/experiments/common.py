@@ -382,9 +382,10 @@ def output_dir(path) -> Path:
 
 # ---------------------------------------------------------------------- parallel tasks
 def _worker_init() -> None:
-    """Worker processes: one thread per library (the processes are the parallelism)."""
-    for var in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS",
-                "MKL_NUM_THREADS"):
+    """Worker processes: one thread per library (the processes are the parallelism; BLAS:
+    :func:`simcalib.parallel.one_blas_thread`, set by the pool). ``NUMBA_NUM_THREADS`` is
+    read when numba loads, which is later (:mod:`simcalib.solvers.kernels.jit`)."""
+    for var in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS"):
         os.environ[var] = "1"
     try:
         import cv2
