@@ -62,8 +62,9 @@ def stamps_in_seconds(t: np.ndarray, label: str, repairs: dict,
         return t, "", "s"
     if unit is not None:
         repairs[f"stamps_{unit}_to_s"] = int(t.size)
-        return t / UNIT_FACTORS[unit], (f"stamps read as unix time in {unit} (median "
-                                        f"{float(np.median(t)):.6g}) and rescaled to seconds"), unit
+        note = (f"stamps read as unix time in {unit} (median {float(np.median(t)):.6g}) and "
+                "rescaled to seconds")
+        return t / UNIT_FACTORS[unit], note, unit
     period = _period(t)
     if period <= MAX_PERIOD_S or stamps_unit == "pair":
         return t, "", ""

@@ -1,9 +1,8 @@
 """The kinds of generated recording (:data:`KINDS`: stations, short, bursts, stop-and-go,
-continuous, a low-rate camera,
-offsets and drift, outliers, gaps, robot error, planar, SCARA, inverted, scalar-first,
-stamps in ms / us / ns, no motion) and :func:`generate` (a kind and a seed -> a :class:`Recording`), the true
-streams, and the TUM files a recording is written as (``a.txt``, ``b.txt``,
-``truth.json``).
+continuous, a low-rate camera, offsets and drift, outliers, gaps, robot error, planar,
+SCARA, inverted, scalar-first, stamps in ms / us / ns, no motion) and :func:`generate` (a
+kind and a seed -> a :class:`Recording`), the true streams, and the TUM files a recording
+is written as (``a.txt``, ``b.txt``, ``truth.json``).
 """
 
 from __future__ import annotations
