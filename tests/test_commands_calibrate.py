@@ -141,12 +141,18 @@ def test_errors_have_exit_codes(tmp_path, capsys):
     bad = tmp_path / "bad.txt"
     bad.write_text("1 2 3 4 5 6 7 8\n")
     rows = np.loadtxt(pa)
-    mm, ns = tmp_path / "a_mm.txt", tmp_path / "a_ns.txt"
+    mm, ns, ns_b = tmp_path / "a_mm.txt", tmp_path / "a_ns.txt", tmp_path / "b_ns.txt"
     np.savetxt(mm, np.column_stack([rows[:, 0], 1e3 * rows[:, 1:4], rows[:, 4:]]))
-    np.savetxt(ns, np.column_stack([1e9 * rows[:, 0], rows[:, 1:]]), fmt="%.17g")  # relative
+    # both files relative ns, 20 poses each: too few to show a motion, the same span
+    for path, src in ((ns, rows), (ns_b, np.loadtxt(pb))):
+        few = src[::10][:20]
+        np.savetxt(path, np.column_stack([1e9 * few[:, 0], few[:, 1:]]), fmt="%.17g")
     cases = [
         ([f"a={mm}", f"b={pb}", f"output={tmp_path}"], EXIT_INPUT, "different units"),
-        ([f"a={ns}", f"b={pb}", f"output={tmp_path}"], EXIT_INPUT, "the unit cannot be told"),
+        ([f"a={ns}", f"b={ns_b}", f"output={tmp_path}"], EXIT_INPUT, "the unit cannot be told"),
+        ([f"a={ns}", f"b={ns_b}", f"output={tmp_path}"], EXIT_INPUT, "stamps_unit_a=ms"),
+        ([f"a={pa}", f"b={pb}", f"output={tmp_path}", "stamps_unit_a=min"], EXIT_CONFIG,
+         "stamps_unit_a"),
         ([f"a={pa}", f"b={pb}", f"output={tmp_path}", "robus=none"], EXIT_CONFIG,
          "did you mean 'robust'"),
         ([f"a={pa}", f"b={pb}", f"output={tmp_path}", "method=dqop"], EXIT_CONFIG,
@@ -167,6 +173,36 @@ def test_errors_have_exit_codes(tmp_path, capsys):
     for args, want, words in cases:
         code, _, err = _calibrate(capsys, *args)
         assert code == want and words in err, (args, code, err)
+
+
+def test_stamps_relative_in_ms_are_told_rescaled_and_named_as_a_repair(tmp_path, capsys):
+    # file a stamped from its first pose in ms, b in seconds: read as they are, a would
+    # span 1000 times b (before: "too few overlapping poses", exit 3)
+    rs, pa, pb = _rig_files(tmp_path, offset_s=0.02)
+    rows = np.loadtxt(pa)
+    ms = tmp_path / "a_ms.txt"
+    np.savetxt(ms, np.column_stack([1e3 * (rows[:, 0] - rows[0, 0]), rows[:, 1:]]),
+               fmt="%.17g")
+    out = tmp_path / "ms"
+    code, text, err = _calibrate(capsys, f"a={ms}", f"b={pb}", f"output={out}",
+                                 "recording=false")
+    assert code in (EXIT_OK, EXIT_DEGENERATE), err
+    rep = json.loads((out / "calibration.json").read_text())
+    assert rep["streams"]["a"]["repairs"] == {"stamps_ms_to_s": rows.shape[0]}
+    assert rep["streams"]["b"]["repairs"] == {}
+    assert "stamps_ms_to_s" in text and "relative to the recording" in text
+    X = np.array(rep["X"]["T_a_b"])
+    assert np.degrees(rotation_error_rad(X, rs.X)) < 0.5
+    assert abs(rep["time_offset"]["offset_s"] - (0.02 + rows[0, 0])) < 3e-3
+    # the unit given: read as seconds on request, the spans then 1000x apart again
+    code, _, err = _calibrate(capsys, f"a={ms}", f"b={pb}", f"output={tmp_path / 's'}",
+                              "recording=false", "stamps_unit_a=s")
+    assert code == EXIT_INPUT, err
+    code, _, err = _calibrate(capsys, f"a={ms}", f"b={pb}", f"output={tmp_path / 'g'}",
+                              "recording=false", "stamps_unit_a=ms")
+    assert code in (EXIT_OK, EXIT_DEGENERATE), err
+    rep = json.loads((tmp_path / "g" / "calibration.json").read_text())
+    assert rep["streams"]["a"]["repairs"] == {} and "(given)" in rep["streams"]["a"]["detection"]
 
 
 @pytest.mark.slow

@@ -470,3 +470,15 @@ def test_stamps_that_all_repeat_cannot_be_told_and_are_dropped(rig):
     t, T = np.floor(rig.t_a[:90]), rig.T_a[:90]          # 1 s stamps for 30 Hz poses
     with pytest.raises(DataError, match="0 usable poses .*dropped_ambiguous: 90.*too coarsely"):
         stream_from_arrays(t, T)
+
+
+def test_stamps_unit_given_or_left_for_the_pair(tmp_path, rig):
+    p = tmp_path / "rel_ns.txt"
+    np.savetxt(p, _rows(np.round(1e9 * rig.t_a[:40]), rig.T_a[:40]), fmt="%.17g")
+    s = read_pose_stream(p, format="tum", stamps_unit="ns")
+    assert np.allclose(s.timestamps_s, rig.t_a[:40], atol=1e-9) and s.stamps_unit == "ns"
+    assert not s.repairs and "stamps in ns (given)" in s.detection
+    s = read_pose_stream(p, format="tum", stamps_unit="pair")     # the pair will judge
+    assert np.array_equal(s.timestamps_s, np.round(1e9 * rig.t_a[:40])) and not s.stamps_unit
+    with pytest.raises(ValueError, match="stamps_unit must be one of auto, pair, s, ms"):
+        read_pose_stream(p, format="tum", stamps_unit="min")

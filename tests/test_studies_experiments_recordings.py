@@ -401,3 +401,22 @@ def test_main_writes_the_table(tmp_path, capsys):
     assert R.main(["--kinds", "stations", "--seeds", "1", "--output", str(out)]) == 0
     text = out.read_text()
     assert "| stations | 1 |" in text and "Park" in text and text in capsys.readouterr().out
+
+
+def test_stamp_units_kind_writes_each_file_in_its_unit_and_keeps_the_truth_in_seconds():
+    seen = set()
+    for seed in range(6):
+        rec = RK.generate("stamp_units", seed)
+        units = (rec.stamps_unit_a, rec.stamps_unit_b)
+        seen.add(units)
+        sa, sb = RK.true_streams(rec)
+        for s, true, u in ((rec.stream_a, sa, units[0]), (rec.stream_b, sb, units[1])):
+            if u != "s":            # relative to the file's first pose, in its unit
+                assert s.timestamps_s[0] == 0.0 and not s.repairs
+                f = {"ms": 1e3, "us": 1e6, "ns": 1e9}[u]
+                np.testing.assert_allclose(true.timestamps_s, s.timestamps_s / f)
+        # the truth is in seconds: b's true stamps follow a's through the offset model
+        assert np.median(np.diff(sa.timestamps_s)) == pytest.approx(0.01, rel=0.05)
+        assert np.median(np.diff(sb.timestamps_s)) == pytest.approx(1 / 30, rel=0.05)
+        assert abs(rec.drift) > 0 if seed % 2 else rec.drift == 0.0
+    assert {("ms", "s"), ("s", "ms"), ("ms", "ms"), ("us", "s"), ("s", "ns")} <= seen

@@ -2,6 +2,8 @@
 what ``simcalib calibrate`` runs on recorded files and ``simcalib run`` on its simulated
 streams (``estimation.*``):
 
+* :mod:`~simcalib.estimation.stamp_units` — the stamps' unit where both streams tell it
+  (relative ms / us / ns) and :mod:`~simcalib.estimation.units` — the lengths' unit;
 * :mod:`~simcalib.estimation.sampling` — how the streams were stamped (paired by stamp, or
   two clocks);
 * :mod:`~simcalib.estimation.readings` — which reading of the files (inverse poses,

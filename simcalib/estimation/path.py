@@ -90,9 +90,22 @@ def _pose_summary(X):
             "rotvec_deg": np.degrees(rotvec_from_matrix(X[:3, :3])).tolist()}
 
 
-def _read(s, fmt):
+def _read(s, fmt, unit="auto"):
+    """A stream of a path (its stamps' unit: given, or left for the pair to tell) or as
+    given."""
     from simcalib.importers import PoseStreamData, read_pose_stream
-    return s if isinstance(s, PoseStreamData) else read_pose_stream(s, fmt)
+    if isinstance(s, PoseStreamData):
+        return s
+    return read_pose_stream(s, fmt, stamps_unit="pair" if unit in (None, "auto") else unit)
+
+
+def read_pair(a, b, format_a=None, format_b=None, unit_a="auto", unit_b="auto"):
+    """Both streams (paths or PoseStreamData) with their stamps in seconds where the data
+    tell the unit (:func:`simcalib.estimation.stamp_units.stamps_to_seconds`; ``unit_a`` /
+    ``unit_b``: ``auto`` or the unit given)."""
+    from simcalib.estimation.stamp_units import stamps_to_seconds
+    return stamps_to_seconds(_read(a, format_a, unit_a), _read(b, format_b, unit_b),
+                             unit_a, unit_b)
 
 
 def _rotation_extent_deg(stream) -> float:
@@ -327,7 +340,8 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
                       scalar_first_b: bool | None = None, drift: bool = False,
                       robust_options: dict | None = None, method: str = "dqopt",
                       prior=None, seed: int = 0, motions: str = "auto",
-                      tolerances=None, common_error=None) -> StreamCalibration:
+                      tolerances=None, common_error=None, stamps_unit_a: str = "auto",
+                      stamps_unit_b: str = "auto") -> StreamCalibration:
     """Calibrate ``X = T_a_b`` from two pose streams (paths or PoseStreamData), the one path:
 
     sampling (:func:`~simcalib.estimation.sampling.classify_sampling`: stamp-paired or two
@@ -339,13 +353,13 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     on the inliers (with ``prior``, a :class:`simcalib.Prior`, if given) -> uncertainty and
     its consistency check (:mod:`simcalib.estimation.consistency`); ``tolerances``: a
     :class:`simcalib.estimation.verdict.Tolerances` (default 1 deg / 1 cm); ``common_error``:
-    a stated :class:`simcalib.estimation.common_error.CommonError`, added to the covariance.
-    Bad files and streams that cannot calibrate raise :class:`simcalib.errors.DataError`.
+    a stated :class:`simcalib.estimation.common_error.CommonError`, added to the covariance;
+    ``stamps_unit_a`` / ``_b``: :func:`read_pair`. Bad data raise DataError.
     """
     from simcalib.estimation.motions import form_motions
     from simcalib.estimation.sampling import classify_sampling
     from simcalib.solvers.robust import robust_solve
-    sa, sb = _read(a, format_a), _read(b, format_b)
+    sa, sb = read_pair(a, b, format_a, format_b, stamps_unit_a, stamps_unit_b)
     check_streams_move(sa, sb)
     sampling = classify_sampling(sa, sb)
     forced = {"invert_a": invert_a, "invert_b": invert_b, "scalar_first_a": scalar_first_a,

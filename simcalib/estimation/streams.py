@@ -139,8 +139,9 @@ def motions_from_streams(streams: dict, cfg, rng, sensing: dict):
     from simcalib.estimation.motions import form_motions
     from simcalib.estimation.sampling import classify_sampling
     from simcalib.estimation.units import check_translation_units
-    a = file_form(streams["cam_a"], "as_written")
-    b = file_form(streams["cam_b"], est.b_file)
+    from simcalib.estimation.stamp_units import stamps_to_seconds
+    a, b = stamps_to_seconds(file_form(streams["cam_a"], "as_written"),
+                             file_form(streams["cam_b"], est.b_file))
     sampling = classify_sampling(a, b)
     forced = ({} if est.reading == "detect" else
               {"invert_a": False, "invert_b": est.b_file.startswith("inverted"),

@@ -32,6 +32,7 @@ from simcalib.errors import DataError, unknown_choice
 from simcalib.geometry import (invert_transform, matrix_from_quat, quat_from_matrix,
                                transform_from_rotation_translation)
 from simcalib.registry import Registry
+from simcalib.importers._stamps import stamps_in_seconds as _stamps_in_seconds
 
 __all__ = ["PoseStreamData", "RawStream", "data_error", "available", "read_pose_stream",
            "read_pose_streams", "detect_format", "stream_from_arrays", "MIN_POSES", "FORMATS",
@@ -86,7 +87,10 @@ class PoseStreamData:
     repair name to its count (e.g. ``{"duplicate_rows_dropped": 3}``); ``quat_order`` the
     file's quaternion order (``xyzw``/``wxyz``) or ``matrix``; ``name`` the stream label;
     ``inverted``/``scalar_first_reinterpreted`` record convention changes applied since
-    reading; ``synthetic_time``: the file had no timestamps (sample index used as time).
+    reading; ``synthetic_time``: the file had no timestamps (sample index used as time);
+    ``stamps_unit``: the unit the file's stamps were told to be in (``s``, ``ms``, ``us``,
+    ``ns``: given, unix time, or told with the other stream by
+    :mod:`simcalib.estimation.stamp_units`), ``""`` while read as seconds untold.
     """
     timestamps_s: np.ndarray
     T_world_sensor: np.ndarray
@@ -99,6 +103,7 @@ class PoseStreamData:
     inverted: bool = False
     scalar_first_reinterpreted: bool = False
     synthetic_time: bool = False
+    stamps_unit: str = ""
 
     def __len__(self) -> int:
         return int(self.timestamps_s.shape[0])
@@ -220,12 +225,14 @@ def write_pose_streams(path, streams, format: str) -> list[Path]:
     return [Path(p) for p in module.write(Path(path), streams)]
 
 
-def read_pose_streams(path, format: str | None = None, **options) -> list[PoseStreamData]:
+def read_pose_streams(path, format: str | None = None, *, stamps_unit: str = "auto",
+                      **options) -> list[PoseStreamData]:
     """All streams of a file (one for single-stream formats, two for easy_handeye / moveit).
 
-    ``format``: a name from :func:`available`, or None to detect it. ``options`` go to the
-    format reader (e.g. ``columns=`` for csv). Raises the project's DataError (ValueError)
-    on bad input that cannot be repaired.
+    ``format``: a name from :func:`available`, or None to detect it. ``stamps_unit``: how
+    the stamps' unit is read (:mod:`simcalib.importers._stamps`: ``auto``, ``pair``, or the
+    unit). ``options`` go to the format reader (e.g. ``columns=`` for csv). Raises the
+    project's DataError (ValueError) on bad input that cannot be repaired.
     """
     p, text = _read_text(path)
     if format is None:
@@ -234,14 +241,14 @@ def read_pose_streams(path, format: str | None = None, **options) -> list[PoseSt
         _module(format)
         detection = f"format {format!r} named explicitly"
     raws = _module(format).read(p, text, **options)
-    return [_finalise(r, str(p), format, detection) for r in raws]
+    return [_finalise(r, str(p), format, detection, stamps_unit) for r in raws]
 
 
 def read_pose_stream(path, format: str | None = None, stream: str | int | None = None,
-                     **options) -> PoseStreamData:
+                     *, stamps_unit: str = "auto", **options) -> PoseStreamData:
     """One stream of a file. For two-stream formats ``stream`` picks it by name or index
-    (required there)."""
-    streams = read_pose_streams(path, format, **options)
+    (required there); ``stamps_unit`` as for :func:`read_pose_streams`."""
+    streams = read_pose_streams(path, format, stamps_unit=stamps_unit, **options)
     if len(streams) == 1 and stream in (None, 0, streams[0].name):
         return streams[0]
     names = [s.name for s in streams]
@@ -258,8 +265,10 @@ def read_pose_stream(path, format: str | None = None, stream: str | int | None =
 
 
 def stream_from_arrays(timestamps_s, T_world_sensor, *, source: str = "<memory>",
-                       name: str = "", quat_order: str = "xyzw") -> PoseStreamData:
-    """A validated :class:`PoseStreamData` from arrays (same checks and repairs as files)."""
+                       name: str = "", quat_order: str = "xyzw",
+                       stamps_unit: str = "auto") -> PoseStreamData:
+    """A validated :class:`PoseStreamData` from arrays (same checks and repairs as files;
+    ``stamps_unit`` as for :func:`read_pose_streams`)."""
     T = np.asarray(T_world_sensor, dtype=np.float64)
     t = np.asarray(timestamps_s, dtype=np.float64)
     if T.ndim != 3 or T.shape[1:] != (4, 4):
@@ -267,7 +276,7 @@ def stream_from_arrays(timestamps_s, T_world_sensor, *, source: str = "<memory>"
     if t.shape != (T.shape[0],):
         raise ValueError(f"timestamps_s must have shape ({T.shape[0]},); received {t.shape}")
     raw = RawStream(t, matrices=T, quat_order="matrix", name=name)
-    s = _finalise(raw, source, "arrays", "given as arrays")
+    s = _finalise(raw, source, "arrays", "given as arrays", stamps_unit)
     return replace(s, quat_order=quat_order)
 
 
@@ -279,7 +288,8 @@ MAX_POSITION_M = 1e9
 QUAT_NORM_MAX_DEV = 0.2   # beyond this it is not a unit quaternion at all: error
 
 
-def _finalise(raw: RawStream, source: str, fmt: str, detection: str) -> PoseStreamData:
+def _finalise(raw: RawStream, source: str, fmt: str, detection: str,
+              stamps_unit: str = "auto") -> PoseStreamData:
     """The validated :class:`PoseStreamData` of ``raw``: rows with NaN/inf dropped,
     quaternions renormalised or rotation blocks re-orthonormalised when slightly off,
     sorted by time, duplicates dropped — each repair counted in ``repairs``."""
@@ -294,14 +304,14 @@ def _finalise(raw: RawStream, source: str, fmt: str, detection: str) -> PoseStre
         raise data_error(f"{label}: {t.size} usable poses after repairs "
                          f"({', '.join(f'{k}: {v}' for k, v in repairs.items()) or 'none'}); "
                          f"at least {MIN_POSES} are needed{hint}")
-    t, unit_note = _stamps_in_seconds(t, label, repairs)
+    t, unit_note, unit = _stamps_in_seconds(t, label, repairs, stamps_unit)
     t.setflags(write=False)
     T.setflags(write=False)
     return PoseStreamData(timestamps_s=t, T_world_sensor=T, source=source, format=fmt,
                           detection=detection + "".join(f"; {n}" for n in (raw.note, unit_note)
                                                         if n),
                           repairs=repairs, quat_order=raw.quat_order, name=raw.name,
-                          synthetic_time=raw.synthetic_time)
+                          synthetic_time=raw.synthetic_time, stamps_unit=unit)
 
 
 def _finite_poses(raw: RawStream, label: str, repairs: dict) -> tuple[np.ndarray, np.ndarray]:
@@ -443,42 +453,6 @@ def _between(t, T, rows, t_q):
     U, _, Vt = np.linalg.svd(M)
     R = U @ np.diag([1.0, 1.0, np.linalg.det(U @ Vt)]) @ Vt
     return R, (1.0 - w) * T[i, :3, 3] + w * T[j, :3, 3]
-
-
-#: unix time in seconds of a plausible recording (1990-01-01 .. 2100-01-01): stamps of that
-#: magnitude in another unit are rescaled (:func:`_stamps_in_seconds`)
-UNIX_TIME_S = (6.3e8, 4.11e9)
-STAMP_UNITS = (("s", 1.0), ("ms", 1e3), ("us", 1e6), ("ns", 1e9))
-#: the longest median period (s) of any pose sensor (one pose in 2.8 h)
-MAX_PERIOD_S = 1e4
-
-
-def _stamps_in_seconds(t: np.ndarray, label: str, repairs: dict) -> tuple[np.ndarray, str]:
-    """``(t in seconds, note)``. Stamps whose median is unix time in ms, us or ns (1.7e12,
-    1.7e15, 1.7e18 around 2024; with a median period of at most :data:`MAX_PERIOD_S` in
-    that unit: relative ns of a few seconds are not unix seconds) are rescaled to seconds,
-    counted in ``repairs`` (``stamps_ns_to_s``, ...) and named in the note. Other stamps
-    are seconds (relative times, sample indices) unless their median period exceeds
-    :data:`MAX_PERIOD_S`: then no unit can be told (relative ns at 30 Hz read as us is a
-    pose every 33 s) and it is a DataError naming the stamps and the units allowed."""
-    mid = float(np.median(t))
-    period = float(np.median(np.diff(t))) if t.size >= 2 else 0.0
-    for unit, factor in STAMP_UNITS:       # unix time in that unit, a plausible period too
-        if UNIX_TIME_S[0] <= mid / factor <= UNIX_TIME_S[1] and period / factor <= MAX_PERIOD_S:
-            if factor == 1.0:
-                return t, ""
-            repairs[f"stamps_{unit}_to_s"] = int(t.size)
-            return t / factor, (f"stamps read as unix time in {unit} (median {mid:.6g}) "
-                                "and rescaled to seconds")
-    if period <= MAX_PERIOD_S:
-        return t, ""
-    raise data_error(
-        f"{label}: the stamps step by {period:.4g} per pose (median; first {t[0]:.6g}, "
-        f"last {t[-1]:.6g}): read as seconds that is a pose every {period / 3600:.3g} h, "
-        f"beyond any pose sensor (at most {MAX_PERIOD_S:g} s), and the unit cannot be told "
-        f"(ms, us and ns would give {period / 1e3:.3g}, {period / 1e6:.3g} and "
-        f"{period / 1e9:.3g} s); allowed: stamps in seconds, or unix time in s, ms, us or "
-        "ns (told by its magnitude)")
 
 
 def _project_rigid(M: np.ndarray, label: str, repairs: dict) -> np.ndarray:

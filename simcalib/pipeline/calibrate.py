@@ -49,6 +49,15 @@ class CalibrateOptions:
         "format of both files (default: detected); see format_a / format_b"))
     format_a: str | None = field(default=None, metadata=key_help("format of file a"))
     format_b: str | None = field(default=None, metadata=key_help("format of file b"))
+    stamps_unit_a: Literal["auto", "s", "ms", "us", "ns"] = field(
+        default="auto", metadata=key_help(
+            "unit of file a's stamps; auto: seconds, unless their magnitude shows unix time in "
+            "ms / us / ns, or both streams tell stamps relative to the start in ms / us / ns "
+            "(their spans and steps a unit apart, or a dense motion stepping by seconds): "
+            "rescaled and counted as a repair; suspect stamps the data cannot tell are "
+            "refused (docs/calibrate.md, Bad input)"))
+    stamps_unit_b: Literal["auto", "s", "ms", "us", "ns"] = field(
+        default="auto", metadata=key_help("the same for file b"))
     time_offset: float | Literal["estimate"] = field(default="estimate", metadata=key_help(
         "clock offset t_b - t_a in seconds, or 'estimate'"))
     drift: bool = field(default=False, metadata=key_help("also estimate a linear clock drift"))
@@ -172,6 +181,9 @@ class CalibrateOptions:
                        "a stream spec with bag= ('/tf:PARENT->CHILD' or a topic)")
             check_that(not (self.format or self.format_a or self.format_b), "format",
                        self.format or self.format_a or self.format_b, "omitted with bag=")
+            for k in ("stamps_unit_a", "stamps_unit_b"):
+                check_that(getattr(self, k) == "auto", k, getattr(self, k),
+                           "auto with bag= (a bag's stamps are ROS times in seconds)")
         check_that("easy_handeye2" not in self.export or self.eye is not None, "eye",
                    self.eye, "in_hand or on_base with export=easy_handeye2")
         for key in ("frame_a", "frame_b"):
@@ -377,13 +389,15 @@ def calibrate(opts: CalibrateOptions):
         from simcalib.ros.bag import read_bag_streams
         a, b = read_bag_streams(opts.bag, str(opts.a), str(opts.b))
     elif opts.b is None:
-        streams = read_pose_streams(opts.a, fa)
+        ua, ub = opts.stamps_unit_a, opts.stamps_unit_b
+        streams = read_pose_streams(opts.a, fa, stamps_unit=ua if ua == ub != "auto" else "pair")
         if len(streams) != 2:
             raise DataError(f"{str(opts.a)!r} holds {len(streams)} stream(s); give b=PATH "
                             "(only easy_handeye / moveit sample files hold both)")
         a, b = streams
     else:
-        a, b = read_pose_stream(opts.a, fa), read_pose_stream(opts.b, fb)
+        a, b = (read_pose_stream(p, f, stamps_unit="pair" if u == "auto" else u) for p, f, u in
+                ((opts.a, fa, opts.stamps_unit_a), (opts.b, fb, opts.stamps_unit_b)))
     prior = None
     if opts.prior is not None:
         prior = Prior(load_prior(opts.prior), opts.prior_weight_rotation,
@@ -399,7 +413,8 @@ def calibrate(opts: CalibrateOptions):
                               scalar_first_a=opts.scalar_first_a,
                               scalar_first_b=opts.scalar_first_b, drift=opts.drift,
                               robust_options=robust_options, method=opts.method,
-                              prior=prior, seed=opts.seed, common_error=opts.common_error)
+                              prior=prior, seed=opts.seed, common_error=opts.common_error,
+                              stamps_unit_a=opts.stamps_unit_a, stamps_unit_b=opts.stamps_unit_b)
     except (DataError, SolverError):
         raise
     except ValueError as exc:                   # too few motions, no overlap ...

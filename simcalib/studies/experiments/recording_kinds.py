@@ -1,9 +1,8 @@
 """The kinds of generated recording (:data:`KINDS`: stations, short, bursts, stop-and-go,
-continuous, a low-rate camera,
-offsets and drift, outliers, gaps, robot error, planar, SCARA, inverted, scalar-first, no
-motion) and :func:`generate` (a kind and a seed -> a :class:`Recording`), the true
-streams, and the TUM files a recording is written as (``a.txt``, ``b.txt``,
-``truth.json``).
+continuous, a low-rate camera, offsets and drift, outliers, gaps, robot error, planar,
+SCARA, inverted, scalar-first, stamps in ms / us / ns, no motion) and :func:`generate` (a
+kind and a seed -> a :class:`Recording`), the true streams, and the TUM files a recording
+is written as (``a.txt``, ``b.txt``, ``truth.json``).
 """
 
 from __future__ import annotations
@@ -20,6 +19,7 @@ from simcalib.geometry import (invert_transform, matrix_from_quat, matrix_from_r
                                quat_from_matrix, random_rotation_matrices, rotvec_from_matrix,
                                transform_from_rotation_translation)
 from simcalib.importers import PoseStreamData, stream_from_arrays
+from simcalib.importers._stamps import UNIT_FACTORS
 from simcalib.studies.experiments.recording_models import (Kind, R_DOWN, R_FORWARD, Recording,
                                                            Settings, WORKSPACE_CENTRE, _continuous,
                                                            _camera_poses, _Draft,
@@ -282,6 +282,29 @@ def _kind_low_rate_camera(rngs, s):
     return _continuous(rngs, s, offset_s=_small_offset(rngs, s), label="low_rate_camera")
 
 
+#: which file writes its stamps in which unit, relative to its first stamp, by seed % 6
+_STAMP_UNIT_CYCLE = (("ms", "s"), ("s", "ms"), ("ms", "ms"), ("us", "s"), ("s", "ns"),
+                     ("us", "us"))
+
+
+def _kind_stamp_units(rngs, s):
+    """continuous, an offset of +-0.2 s (30..100 ppm drift in odd seeds), one or both files
+    stamped relative to their first pose in ms, us or ns (:data:`_STAMP_UNIT_CYCLE`)."""
+    r = rngs["events"]
+    off = float(r.uniform(-0.2, 0.2)) if s.offset_s is None else float(s.offset_s)
+    drift_ppm = float(r.choice([-1.0, 1.0]) * r.uniform(30.0, 100.0))
+    drift_ppm = (drift_ppm if rngs["seed"] % 2 else 0.0) if s.drift_ppm is None \
+        else float(s.drift_ppm)
+    d = _continuous(rngs, s, offset_s=off, drift=1e-6 * drift_ppm, label="stamp_units")
+    ua, ub = _STAMP_UNIT_CYCLE[rngs["seed"] % len(_STAMP_UNIT_CYCLE)]
+    sa = float(d.t_a[0]) if ua != "s" else 0.0         # relative to the file's first pose
+    sb = float(d.t_b[0]) if ub != "s" else 0.0
+    return replace(d, t_a=d.t_a - sa, t_b=d.t_b - sb, offset_s=d.offset_s - sb + sa,
+                   t_ref_s=d.t_ref_s - sa, stamps_unit_a=ua, stamps_unit_b=ub,
+                   description=d.description + f", stamps of a in {ua}, of b in {ub}"
+                   + " (relative to the first pose)")
+
+
 def _kind_no_motion_b(rngs, s):
     d = _continuous(rngs, s, label="no_motion_b")
     B = np.broadcast_to(d.B[0], d.B.shape).copy()
@@ -329,21 +352,29 @@ KINDS: dict[str, Kind] = {
                             defaults={"rate_b_hz": 5.0, "sigma_rot_b_deg": 0.5,
                                       "sigma_trans_b_m": 0.005, "duration_s": 60.0,
                                       "drop_fraction": 0.2}, offset_tol_ms=20.0),
+    "stamp_units": Kind(_kind_stamp_units, "continuous, offset +-0.2 s (30..100 ppm drift in "
+                        "odd seeds), one or both files stamped from their first pose in ms, us "
+                        "or ns (by seed: a ms, b ms, both ms, a us, b ns, both us)", True,
+                        extra=("offset_s", "drift_ppm")),
     "no_motion_b": Kind(_kind_no_motion_b, "bad input: b does not move", True, "data_error"),
 }
 
 
 # -------------------------------------------------------------------------- generate
-def _file_stream(t, T, invert: bool, scalar_first: bool, name: str) -> PoseStreamData:
+def _file_stream(t, T, invert: bool, scalar_first: bool, name: str,
+                 unit: str = "s") -> PoseStreamData:
     """The stream as a file holds it: ``T_sensor_world`` when ``invert``; with
     ``scalar_first`` the quaternion numbers ``(w, x, y, z)`` in the places a TUM reader
-    takes for ``(x, y, z, w)``."""
+    takes for ``(x, y, z, w)``; the stamps ``t`` (s) written in ``unit``."""
     if invert:
         T = invert_transform(T)
     if scalar_first:
         q = quat_from_matrix(T[:, :3, :3])
         T = transform_from_rotation_translation(
             matrix_from_quat(np.concatenate([q[:, 3:], q[:, :3]], axis=1)), T[:, :3, 3])
+    if unit != "s":         # the numbers a file in that unit holds, read as they are
+        return stream_from_arrays(t * UNIT_FACTORS[unit], T, source=f"<{name}>", name=name,
+                                  quat_order="xyzw", stamps_unit="pair")
     return stream_from_arrays(t, T, source=f"<{name}>", name=name, quat_order="xyzw")
 
 
@@ -375,8 +406,8 @@ def generate(kind: str, seed: int, **overrides) -> Recording:
     ob = d.outliers_b if d.outliers_b is not None else np.zeros(nb, dtype=bool)
     return Recording(
         kind=kind, seed=int(seed),
-        stream_a=_file_stream(d.t_a, d.A, d.invert_a, d.scalar_first_a, "a"),
-        stream_b=_file_stream(d.t_b, d.B, d.invert_b, d.scalar_first_b, "b"),
+        stream_a=_file_stream(d.t_a, d.A, d.invert_a, d.scalar_first_a, "a", d.stamps_unit_a),
+        stream_b=_file_stream(d.t_b, d.B, d.invert_b, d.scalar_first_b, "b", d.stamps_unit_b),
         X_true=_frozen(d.X), offset_s=float(d.offset_s), drift=float(d.drift),
         t_ref_s=float(d.t_ref_s), invert_a=d.invert_a, invert_b=d.invert_b,
         scalar_first_a=d.scalar_first_a, scalar_first_b=d.scalar_first_b,
@@ -385,15 +416,18 @@ def generate(kind: str, seed: int, **overrides) -> Recording:
         undetermined_a=None if d.undetermined_a is None else _frozen(
             d.undetermined_a / np.linalg.norm(d.undetermined_a)),
         X_workspace=None if d.X_workspace is None else _frozen(d.X_workspace),
-        accuracy_a=d.accuracy_a)
+        accuracy_a=d.accuracy_a, stamps_unit_a=d.stamps_unit_a, stamps_unit_b=d.stamps_unit_b)
 
 
 def true_streams(rec: Recording) -> tuple[PoseStreamData, PoseStreamData]:
-    """Both streams read the TRUE way (``T_world_sensor``, quaternion order fixed), in the
-    order simcalib.estimation.readings applies a reading (swap, then invert)."""
+    """Both streams read the TRUE way (``T_world_sensor``, quaternion order fixed, stamps in
+    seconds), in the order simcalib.estimation.readings applies a reading (swap, then
+    invert)."""
     out = []
-    for s, inv, sf in ((rec.stream_a, rec.invert_a, rec.scalar_first_a),
-                       (rec.stream_b, rec.invert_b, rec.scalar_first_b)):
+    for s, inv, sf, unit in ((rec.stream_a, rec.invert_a, rec.scalar_first_a, rec.stamps_unit_a),
+                             (rec.stream_b, rec.invert_b, rec.scalar_first_b, rec.stamps_unit_b)):
+        if unit != "s":
+            s = replace(s, timestamps_s=np.asarray(s.timestamps_s) / UNIT_FACTORS[unit])
         if sf:
             s = s.with_swapped_scalar()
         if inv:

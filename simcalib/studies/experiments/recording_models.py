@@ -72,6 +72,10 @@ class Recording:
     #: the robot's accuracy its maker would state (kinds with systematic robot error):
     #: ``(rms rotation deg, rms translation m)`` of its error over the workspace, else None
     accuracy_a: tuple | None = None
+    #: the unit each FILE writes its stamps in (``s``, ``ms``, ``us``, ``ns``); the truth
+    #: (offset, ``t_ref_s``) is in seconds of those stamps read in their unit
+    stamps_unit_a: str = "s"
+    stamps_unit_b: str = "s"
 
     def offset_at(self, t_a) -> np.ndarray:
         """The true offset ``t_b - t_a`` at clock-a times ``t_a``."""
@@ -91,7 +95,8 @@ class Recording:
                 "undetermined_a": None if self.undetermined_a is None
                 else self.undetermined_a.tolist(),
                 "X_workspace": None if self.X_workspace is None else self.X_workspace.tolist(),
-                "accuracy_a": None if self.accuracy_a is None else list(self.accuracy_a)}
+                "accuracy_a": None if self.accuracy_a is None else list(self.accuracy_a),
+                "stamps_unit_a": self.stamps_unit_a, "stamps_unit_b": self.stamps_unit_b}
 
 
 @dataclass(frozen=True)
@@ -167,6 +172,8 @@ class _Draft:
     Y: np.ndarray | None = None   # T_wa_wb, world b in world a (stations: T_base_target)
     X_workspace: np.ndarray | None = None
     accuracy_a: tuple | None = None
+    stamps_unit_a: str = "s"    # the unit the file writes the stamps in (t_a, t_b: seconds)
+    stamps_unit_b: str = "s"
 
 
 @dataclass(frozen=True)

@@ -142,8 +142,9 @@ def motion_outliers(rec: Recording, synced_time_s, index_start, index_end, offse
     an outlier pose of either stream."""
     t = np.asarray(synced_time_s, dtype=np.float64)
     tb = t + offset_s + drift * (t - t_ref_s)
-    bad = (_contaminated(t, rec.stream_a.timestamps_s, rec.outliers_a)
-           | _contaminated(tb, rec.stream_b.timestamps_s, rec.outliers_b))
+    sa, sb = true_streams(rec)                              # stamps in seconds
+    bad = (_contaminated(t, sa.timestamps_s, rec.outliers_a)
+           | _contaminated(tb, sb.timestamps_s, rec.outliers_b))
     return bad[np.asarray(index_start)] | bad[np.asarray(index_end)]
 
 

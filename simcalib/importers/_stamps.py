@@ -1,0 +1,77 @@
+"""The unit of one file's stamps, as far as the file alone can tell (the importers'
+``stamps_unit`` option; both streams together: :mod:`simcalib.estimation.stamp_units`).
+
+``auto`` (the default): stamps whose median is unix time in ms, us or ns (1.7e12, 1.7e15,
+1.7e18 around 2024) are rescaled to seconds and counted as a repair; other stamps are read
+as seconds (relative times, sample indices) unless their median period exceeds
+:data:`MAX_PERIOD_S`, where no unit can be told and it is a DataError. ``pair``: the same,
+but such stamps are left as they are for the caller, who judges them with the other
+stream. A unit name (``s``, ``ms``, ``us``, ``ns``): the file's numbers are in that unit,
+no detection.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from simcalib.errors import DataError
+
+__all__ = ["UNIX_TIME_S", "STAMP_UNITS", "UNIT_FACTORS", "MAX_PERIOD_S", "STAMPS_UNIT_CHOICES",
+           "stamps_in_seconds", "unix_unit"]
+
+#: unix time in seconds of a plausible recording (1990-01-01 .. 2100-01-01): stamps of that
+#: magnitude in another unit are rescaled (:func:`stamps_in_seconds`)
+UNIX_TIME_S = (6.3e8, 4.11e9)
+STAMP_UNITS = (("s", 1.0), ("ms", 1e3), ("us", 1e6), ("ns", 1e9))
+UNIT_FACTORS = dict(STAMP_UNITS)
+#: the longest median period (s) of any pose sensor (one pose in 2.8 h)
+MAX_PERIOD_S = 1e4
+#: the values of the ``stamps_unit`` reading option
+STAMPS_UNIT_CHOICES = ("auto", "pair", "s", "ms", "us", "ns")
+
+
+def _period(t: np.ndarray) -> float:
+    return float(np.median(np.diff(t))) if t.size >= 2 else 0.0
+
+
+def unix_unit(t) -> str | None:
+    """The unit in which stamps ``t`` are unix time (``s``, ``ms``, ``us``, ``ns``: their
+    median a date of 1990..2100 and their period at most :data:`MAX_PERIOD_S` in that
+    unit), else None."""
+    t = np.asarray(t, dtype=np.float64)
+    mid, period = float(np.median(t)), _period(t)
+    for unit, factor in STAMP_UNITS:
+        if UNIX_TIME_S[0] <= mid / factor <= UNIX_TIME_S[1] and period / factor <= MAX_PERIOD_S:
+            return unit
+    return None
+
+
+def stamps_in_seconds(t: np.ndarray, label: str, repairs: dict,
+                      stamps_unit: str = "auto") -> tuple[np.ndarray, str, str]:
+    """``(t in seconds, note, unit)`` of one file's stamps under ``stamps_unit`` (module
+    doc); ``unit`` is the unit decided (``""``: read as seconds, not told). A rescale of
+    unix time is counted in ``repairs`` (``stamps_ns_to_s``, ...) and named in the note."""
+    if stamps_unit not in STAMPS_UNIT_CHOICES:
+        raise ValueError(f"stamps_unit must be one of {', '.join(STAMPS_UNIT_CHOICES)}; "
+                         f"received {stamps_unit!r}")
+    if stamps_unit in UNIT_FACTORS:
+        note = "" if stamps_unit == "s" else f"stamps in {stamps_unit} (given), read as seconds"
+        return t / UNIT_FACTORS[stamps_unit], note, stamps_unit
+    unit = unix_unit(t)
+    if unit == "s":
+        return t, "", "s"
+    if unit is not None:
+        repairs[f"stamps_{unit}_to_s"] = int(t.size)
+        note = (f"stamps read as unix time in {unit} (median {float(np.median(t)):.6g}) and "
+                "rescaled to seconds")
+        return t / UNIT_FACTORS[unit], note, unit
+    period = _period(t)
+    if period <= MAX_PERIOD_S or stamps_unit == "pair":
+        return t, "", ""
+    raise DataError(
+        f"{label}: the stamps step by {period:.4g} per pose (median; first {t[0]:.6g}, "
+        f"last {t[-1]:.6g}): read as seconds that is a pose every {period / 3600:.3g} h, "
+        f"beyond any pose sensor (at most {MAX_PERIOD_S:g} s), and the unit cannot be told "
+        f"(ms, us and ns would give {period / 1e3:.3g}, {period / 1e6:.3g} and "
+        f"{period / 1e9:.3g} s); allowed: stamps in seconds, or unix time in s, ms, us or "
+        "ns (told by its magnitude)")
