@@ -81,9 +81,11 @@ def _apply(stream, swap, invert):
     return s
 
 
-def _motions(sa, sb, offset, n_pairs, rng, sampling=None):
+def _motions(sa, sb, offset, n_pairs, rng, sampling=None, signal="rotation"):
     """Motions between random pairs of synchronised instants (large motions separate the
-    readings best; consecutive steps are too small to tell them apart). ``sampling``: a
+    readings best; consecutive steps are too small to tell them apart) that turn by more
+    than 1 deg (``signal`` ``translation``, a rig that does not turn: that translate by a
+    tenth of the median motion or more). ``sampling``: a
     :class:`simcalib.estimation.sampling.Sampling` that pairs by stamp."""
     from simcalib.geometry import invert_transform
     from simcalib.estimation.alignment import synchronise
@@ -101,8 +103,12 @@ def _motions(sa, sb, offset, n_pairs, rng, sampling=None):
     i, j = i[keep], j[keep]
     C = invert_transform(sp.T_a[i]) @ sp.T_a[j]
     H = invert_transform(sp.T_b[i]) @ sp.T_b[j]
-    ang = 0.5 * (rotation_angle_rad(C[:, :3, :3]) + rotation_angle_rad(H[:, :3, :3]))
-    keep = ang > np.radians(1.0)
+    if signal == "translation":
+        d = 0.5 * (np.linalg.norm(C[:, :3, 3], axis=1) + np.linalg.norm(H[:, :3, 3], axis=1))
+        keep = d > 0.1 * float(np.median(d)) if d.size else d > 0
+    else:
+        ang = 0.5 * (rotation_angle_rad(C[:, :3, :3]) + rotation_angle_rad(H[:, :3, :3]))
+        keep = ang > np.radians(1.0)
     return C[keep], H[keep]
 
 
@@ -120,7 +126,8 @@ def _label(sw, inv, name, has_order):
 def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None = None,
                        invert_b: bool | None = None, scalar_first_a: bool | None = None,
                        scalar_first_b: bool | None = None, alpha: float = 1.0,
-                       n_pairs: int = 400, seed: int = 0, sampling=None) -> ConventionReport:
+                       n_pairs: int = 400, seed: int = 0, sampling=None,
+                       signal: str = "auto") -> ConventionReport:
     """Decide the reading of two :class:`simcalib.importers.PoseStreamData` from the data.
 
     Every candidate reading (quaternion order of each quaternion-format stream x inversion
@@ -134,19 +141,28 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
     (``scalar_first_x=True`` = read the quaternion numbers in the other order than the
     reader did). ``sampling``: how the streams are paired
     (:func:`simcalib.estimation.sampling.classify_sampling`; stamp-paired streams are never
-    interpolated); None: interpolated at the offset.
+    interpolated); None: interpolated at the offset. ``signal``: ``rotation`` or
+    ``translation`` (a rig that does not turn: the motions scored are those that
+    translate, and the offset's correlation is of translation speeds); ``auto``: rotation
+    unless neither stream turns. Without rotation the data tell less: the quaternion order
+    never (a constant misread orientation only rotates every ``t_C`` alike, which X's
+    rotation absorbs), an inverted stream only when the translations span 3-D (in a plane
+    ``-t`` is ``t`` turned by 180 deg about its normal); the ratio says so (about 1).
     """
+    from simcalib.estimation.alignment import _signal
+    signal = _signal(signal, stream_a, stream_b)
     forced = tuple(name for name, v in (("invert_a", invert_a), ("invert_b", invert_b),
                                         ("scalar_first_a", scalar_first_a),
                                         ("scalar_first_b", scalar_first_b)) if v is not None)
-    off = _reading_offset(stream_a, stream_b, offset, sampling)
+    off = _reading_offset(stream_a, stream_b, offset, sampling, signal)
     parities = _parities(invert_a, invert_b)
     has_order = (len(_swap_options(stream_a, scalar_first_a)) > 1,
                  len(_swap_options(stream_b, scalar_first_b)) > 1)
     scores, n_mot, xs = _score_readings(stream_a, stream_b, off, parities,
                                     (_swap_options(stream_a, scalar_first_a),
                                      _swap_options(stream_b, scalar_first_b)),
-                                    n_pairs=n_pairs, alpha=alpha, seed=seed, sampling=sampling)
+                                    n_pairs=n_pairs, alpha=alpha, seed=seed, sampling=sampling,
+                                    signal=signal)
     if not scores:
         raise _no_overlap(stream_a, stream_b, off)
     ranked = sorted(scores, key=scores.get)
@@ -177,7 +193,7 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
 
 
 def _score_readings(stream_a, stream_b, off, parities, swaps, *, n_pairs, alpha, seed,
-                    sampling) -> tuple[dict, int, dict]:
+                    sampling, signal="rotation") -> tuple[dict, int, dict]:
     """``({(swap_a, swap_b, invert_a, invert_b): score}, motions scored, {reading: X})``:
     every reading's :func:`_reading_score` on the same random pairs of instants (readings
     with fewer than 3 motions left out)."""
@@ -185,7 +201,8 @@ def _score_readings(stream_a, stream_b, off, parities, swaps, *, n_pairs, alpha,
     for sw_a, sw_b in itertools.product(*swaps):
         for inv_a, inv_b in parities:
             sa, sb = _apply(stream_a, sw_a, inv_a), _apply(stream_b, sw_b, inv_b)
-            C, H = _motions(sa, sb, off, n_pairs, np.random.default_rng(seed), sampling)
+            C, H = _motions(sa, sb, off, n_pairs, np.random.default_rng(seed), sampling,
+                            signal)
             if C.shape[0] < 3:
                 continue
             key = (sw_a, sw_b, inv_a, inv_b)
@@ -207,7 +224,7 @@ def _no_overlap(stream_a, stream_b, off):
         "stamps share a unit and a clock, and does the rig rotate?")
 
 
-def _reading_offset(stream_a, stream_b, offset, sampling):
+def _reading_offset(stream_a, stream_b, offset, sampling, signal="rotation"):
     """The offset at which the readings are compared: the given one; 0 for sample-indexed
     or stamp-paired files; else the coarse angular-speed correlation's (the same for every
     reading)."""
@@ -218,7 +235,8 @@ def _reading_offset(stream_a, stream_b, offset, sampling):
             or (sampling is not None and sampling.paired_by_stamp)):
         return 0.0
     return _coarse_offset(*as_time_poses(stream_a, "stream_a"),
-                          *as_time_poses(stream_b, "stream_b"), None, 0.3)[0]
+                          *as_time_poses(stream_b, "stream_b"), None, 0.3,
+                          signal=signal)[0]
 
 
 def _parities(invert_a, invert_b) -> list[tuple[bool, bool]]:
