@@ -170,11 +170,11 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
         else math.inf
     clear = ratio > CLEAR_RATIO
     written = (False, False, parities[0][0], parities[0][1])
-    fallback = (not clear and ranked[0] != written and written in scores
-                and scores[written] <= CLEAR_RATIO * scores[ranked[0]])
-    if fallback:            # the data cannot tell: the files as written, and said so
-        ranked.remove(written)
-        ranked.insert(0, written)
+    fallback = _closest_to_written(ranked, scores, written) if not clear else None
+    if fallback is not None:    # the data cannot tell: the files as written, and said so
+        ranked.remove(fallback)
+        ranked.insert(0, fallback)
+        fallback = "written" if fallback == written else "closest"
     best = ranked[0]
     sw_a, sw_b, inv_a, inv_b = best
 
@@ -262,14 +262,28 @@ def _reading_score(C, H, alpha: float, seed: int) -> tuple[float, np.ndarray]:
     return float(np.median(screw_residuals(C, H, X, alpha=alpha))), X
 
 
+def _closest_to_written(ranked, scores, written):
+    """Of the readings that fit within :data:`CLEAR_RATIO` of the best (the data cannot
+    tell them apart), the one that changes the files least (fewest inversions and swapped
+    orders; e.g. a rig that only translates cannot tell any quaternion order); None when
+    that is the best already."""
+    near = [k for k in ranked if scores[k] <= CLEAR_RATIO * scores[ranked[0]]]
+    closest = min(near, key=lambda k: (sum(x != y for x, y in zip(k, written)), scores[k]))
+    return None if closest == ranked[0] else closest
+
+
 def _reading_lines(desc, scores, ranked, ratio, clear, fallback, invert_a, invert_b,
                    forced) -> list[str]:
     """The reading's message, sentence by sentence."""
     best = ranked[0]
     lines = [f"reading used: {desc(best)}"]
-    if fallback:
+    if fallback == "written":
         lines.append("no reading fits clearly better than the files as written (within "
                      f"{CLEAR_RATIO:g}x): they are taken as written")
+    elif fallback == "closest":
+        lines.append("no reading fits clearly better than this one, the closest to the "
+                     f"files as written of those within {CLEAR_RATIO:g}x of the best: it is "
+                     "used")
     if len(ranked) > 1:
         lines.append(f"median screw residual {scores[best]:.3g} vs {scores[ranked[1]]:.3g} "
                      f"for the runner-up ({desc(ranked[1])}): {_fmt_ratio(ratio)}, "
