@@ -9,6 +9,12 @@
     -> (the verdict: estimation.verdict); and, for comparison, a plain solve (offset 0, no
     rejection).
 
+A rig that only translates (neither stream turns: :func:`check_streams_move` returns
+``translation``, :mod:`simcalib.estimation.stillness`) goes through the same stages on its
+translations: the offset from the translation speeds, the readings scored on motions that
+translate, no rotation filter, RANSAC sets by translation direction; X's rotation follows
+from ``t_C = R_X t_H`` and its translation is reported undetermined on every axis (exit 6).
+
 Measured on public recordings by ``python -m simcalib.studies.experiments.real_data``, on generated
 ones by ``python -m simcalib.studies.experiments.recordings``, in simulation by ``python -m simcalib
 experiment streams``.
@@ -341,26 +347,24 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
                       prior=None, seed: int = 0, motions: str = "auto",
                       tolerances=None, common_error=None) -> StreamCalibration:
     """Calibrate ``X = T_a_b`` from two pose streams (paths or PoseStreamData), the one path:
-
-    sampling (:func:`~simcalib.estimation.sampling.classify_sampling`: stamp-paired or two
-    clocks) -> reading and clock offset (:func:`align_and_read`; ``time_offset``:
-    ``"estimate"`` or seconds ``t_b - t_a``) -> synchronised poses -> motions (``motions``:
-    ``auto`` or a policy of :mod:`simcalib.estimation.motions`; ``step_s`` for
-    ``consecutive``; rotation below ``min_rotation_deg`` / above ``max_rotation_deg``
-    dropped) -> outliers (``robust``: ``auto``, ``ransac``, ``irls``, ``none``) -> ``method``
-    on the inliers (with ``prior``, a :class:`simcalib.Prior`, if given) -> uncertainty and
-    its consistency check (:mod:`simcalib.estimation.consistency`); ``tolerances``: a
-    :class:`simcalib.estimation.verdict.Tolerances` (default 1 deg / 1 cm); ``common_error``:
-    a stated :class:`simcalib.estimation.common_error.CommonError`, added to the covariance.
+    how the rig moves (:func:`check_streams_move`) -> sampling (:func:`~simcalib.estimation.
+    sampling.classify_sampling`) -> reading and clock offset (:func:`align_and_read`;
+    ``time_offset``: ``"estimate"`` or seconds ``t_b - t_a``) -> synchronised poses ->
+    motions (``motions``: ``auto`` or a policy of :mod:`simcalib.estimation.motions`;
+    ``step_s``; rotation below ``min_rotation_deg`` (unless nothing turns) / above
+    ``max_rotation_deg`` dropped) -> outliers (``robust``: ``auto``, ``ransac``, ``irls``,
+    ``none``) -> ``method`` on the inliers (``prior``: a :class:`simcalib.Prior`) ->
+    uncertainty and its consistency check (:mod:`simcalib.estimation.consistency`);
+    ``tolerances``: a :class:`simcalib.estimation.verdict.Tolerances` (default 1 deg / 1
+    cm); ``common_error``: a stated :class:`simcalib.estimation.common_error.CommonError`, added to the covariance.
     Bad files and streams that cannot calibrate raise :class:`simcalib.errors.DataError`.
     """
     from simcalib.estimation.motions import form_motions
     from simcalib.estimation.sampling import classify_sampling
     from simcalib.solvers.robust import robust_solve
     sa, sb = _read(a, format_a), _read(b, format_b)
-    signal = check_streams_move(sa, sb)
-    if signal == "translation":     # no motion turns: the rotation filter would keep noise
-        min_rotation_deg = None
+    signal = check_streams_move(sa, sb)     # translation: no rotation filter (all noise)
+    min_rotation_deg = min_rotation_deg if signal == "rotation" else None
     sampling = classify_sampling(sa, sb)
     forced = {"invert_a": invert_a, "invert_b": invert_b, "scalar_first_a": scalar_first_a,
               "scalar_first_b": scalar_first_b}
