@@ -228,41 +228,94 @@ def test_a_stream_that_does_not_rotate_is_a_data_error():
         calibrate_streams(a, stream_from_arrays(t, T))
 
 
-@pytest.mark.parametrize("t_b_shift_s", [0.0, 0.013])      # stations / two clocks
-def test_pure_translation_is_degenerate_not_bad_data(t_b_shift_s, tmp_path, capsys):
-    """Neither stream rotates (noisy poses, pure translation): a degenerate motion (exit
-    6) that names what it cannot determine (X's translation), with no clock offset
-    estimated from the noise in the message."""
-    from simcalib.cli import main
-    from simcalib.errors import EXIT_DEGENERATE, DegenerateResultError
-    from simcalib.estimation.path import calibrate_streams
-    from simcalib.geometry import matrix_from_rotvec
-    from simcalib.report.results import write_tum
-    rng = np.random.default_rng(7)
-    X = np.eye(4)
-    X[:3, :3], X[:3, 3] = matrix_from_rotvec([0.3, -0.5, 0.2]), [0.05, 0.02, 0.1]
+def _translating_streams(t_b_shift_s, X, rng, path=None):
+    """a at 10 Hz and b (every third stamp, shifted) on one path that only translates, with
+    0.02 / 0.1 deg of rotation noise and no translation noise (b = a X: one world)."""
     t_a = 100.0 + np.arange(0.0, 20.0, 0.1)
     t_b = t_a[::3] + t_b_shift_s
-    path = lambda t: np.column_stack([0.2 * np.sin(0.7 * t), 0.15 * np.sin(1.1 * t + 1),  # noqa
-                                      0.1 * np.sin(0.5 * t + 2)])
+    if path is None:
+        path = lambda t: np.column_stack([0.2 * np.sin(0.7 * t),  # noqa: E731
+                                          0.15 * np.sin(1.1 * t + 1), 0.1 * np.sin(0.5 * t + 2)])
 
     def poses(t, noise_deg):
+        from simcalib.geometry import matrix_from_rotvec
         T = np.repeat(np.eye(4)[None], t.size, axis=0)
         T[:, :3, :3] = matrix_from_rotvec(np.radians(noise_deg) * rng.normal(size=(t.size, 3)))
         T[:, :3, 3] = path(t)
         return T
-    a = stream_from_arrays(t_a, poses(t_a, 0.02))
-    b = stream_from_arrays(t_b, poses(t_b, 0.1) @ X)
-    with pytest.raises(DegenerateResultError) as e:
-        calibrate_streams(a, b)
-    msg = str(e.value)
-    assert e.value.exit_code == EXIT_DEGENERATE and "neither stream rotates" in msg
-    assert "translation undetermined" in msg and "offset" not in msg
-    pa = write_tum(tmp_path / "a.tum", t_a, a.T_world_sensor)
-    pb = write_tum(tmp_path / "b.tum", t_b, b.T_world_sensor)
+    return (stream_from_arrays(t_a, poses(t_a, 0.02)),
+            stream_from_arrays(t_b, poses(t_b, 0.1) @ X))
+
+
+def _x_tr():
+    from simcalib.geometry import matrix_from_rotvec
+    X = np.eye(4)
+    X[:3, :3], X[:3, 3] = matrix_from_rotvec([0.3, -0.5, 0.2]), [0.05, 0.02, 0.1]
+    return X
+
+
+@pytest.mark.parametrize("t_b_shift_s", [0.0, 0.013])      # stations / two clocks
+def test_pure_translation_gives_the_rotation_and_flags_the_translation(t_b_shift_s,
+                                                                       tmp_path):
+    """Neither stream rotates (noisy poses, pure translation): a degenerate motion (exit
+    6) that determines X's rotation (t_C = R_X t_H) and leaves its translation undetermined
+    on every axis; calibration.json says so, with a finite rotation sigma."""
+    import json
+
+    from simcalib.cli import main
+    from simcalib.errors import EXIT_DEGENERATE
+    from simcalib.estimation.path import calibrate_streams
+    from simcalib.geometry import rotation_error_rad
+    from simcalib.pipeline.calibrate import assess
+    from simcalib.report.results import write_tum
+    X = _x_tr()
+    a, b = _translating_streams(t_b_shift_s, X, np.random.default_rng(7))
+    r = calibrate_streams(a, b)
+    assert r.signal == "translation"
+    v = assess(r)
+    err = np.degrees(rotation_error_rad(r.X, X))
+    assert v.exit_code == EXIT_DEGENERATE and v.verdict == "undetermined"
+    assert err < 0.2 and all(s is not None and s < 0.2 for s in v.std_rot_deg), (err, v)
+    assert v.std_trans_m == (None, None, None)
+    dirs = np.array([d.translation_dir_a for d in v.directions if d.reason == "undetermined"])
+    assert np.linalg.matrix_rank(dirs, tol=0.1) == 3, dirs
+    pa = write_tum(tmp_path / "a.tum", a.timestamps_s, a.T_world_sensor)
+    pb = write_tum(tmp_path / "b.tum", b.timestamps_s, b.T_world_sensor)
     code = main(["calibrate", f"a={pa}", f"b={pb}", f"output={tmp_path / 'o'}",
                  "recording=false"])
-    assert code == EXIT_DEGENERATE and "neither stream rotates" in capsys.readouterr().err
+    cal = json.loads((tmp_path / "o" / "calibration.json").read_text())
+    assert code == EXIT_DEGENERATE and cal["status"] == "degenerate"
+    assert cal["uncertainty"]["std_translation_m"] == [None, None, None]
+    assert np.degrees(rotation_error_rad(np.array(cal["X"]["T_a_b"]), X)) < 0.2
+
+
+def test_translation_along_one_direction_leaves_the_rotation_about_it_free():
+    """Every translation parallel (a linear stage): X's rotation about that direction is
+    undetermined as well, and reported so; the rest of the rotation is determined."""
+    from simcalib.estimation.path import calibrate_streams
+    from simcalib.pipeline.calibrate import assess
+    X = _x_tr()
+    line = lambda t: np.outer(0.3 * np.sin(0.7 * t), [1.0, 0.0, 0.0])  # noqa: E731
+    a, b = _translating_streams(0.0, X, np.random.default_rng(3), path=line)
+    r = calibrate_streams(a, b)
+    v = assess(r)
+    assert v.exit_code == 6 and v.verdict == "undetermined"
+    rot = [d for d in v.directions if d.reason == "undetermined"
+           and abs(float(np.dot(d.rotation_axis_a, [1.0, 0.0, 0.0]))) > 0.9]
+    assert rot and "rotation of X about [+1.000" in v.summary, v.summary
+    assert v.std_trans_m == (None, None, None) and v.std_rot_deg[0] is None
+
+
+def test_nothing_moving_is_a_data_error(tmp_path):
+    from simcalib.estimation.path import calibrate_streams
+    still = lambda t: np.zeros((t.size, 3)) + 0.0005 * np.sin(t)[:, None]  # noqa: E731
+    a, b = _translating_streams(0.013, _x_tr(), np.random.default_rng(1), path=still)
+    with pytest.raises(DataError, match="nothing moves: neither stream rotates"):
+        calibrate_streams(a, b)
+    # one translating, the other still: a wrong file, not a degenerate motion
+    a2, _ = _translating_streams(0.013, _x_tr(), np.random.default_rng(1))
+    with pytest.raises(DataError, match="stream b .* does not move"):
+        calibrate_streams(a2, b)
 
 
 def test_estimation_config_pairing_takes_the_streams_as_stamped():

@@ -279,3 +279,24 @@ def test_an_unrefined_offset_is_used_only_where_its_peak_is_clear():
     clear = _unrefined(0.08, 0.005, 0.9, lags, corr, "m", [], dict(peak_z=PEAK_Z_MIN + 1,
                                                                     window_s=(-1, 1)))
     assert clear.decision == "estimated" and clear.offset_s == 0.08
+
+
+def test_a_rig_that_only_translates_gets_its_offset_from_the_translation_speeds():
+    """No rotation (a stage translating in 3-D, a cart in a plane): the angular speeds are
+    noise, the translation speeds agree in both sensors; the offset is found within 3 ms
+    (the angular-speed correlation alone cannot)."""
+    from simcalib.estimation.alignment import translation_speed
+    from simcalib.studies.experiments.recording_kinds import generate, true_streams
+    for seed in (0, 1):
+        rec = generate("translation", seed)
+        a, b = true_streams(rec)
+        off = estimate_time_offset(a, b)
+        assert off.decision == "estimated" and "translation-speed" in off.message
+        assert abs(off.offset_s - rec.offset_s) < 0.003, (seed, off.offset_s, rec.offset_s)
+        wrong = estimate_time_offset(a, b, signal="rotation", refine=False)
+        assert abs(wrong.coarse_offset_s - rec.offset_s) > 0.003
+    # translation speed needs no reading when nothing turns: the inverse gives the same
+    a, _ = true_streams(generate("translation", 0, noise=False))
+    _, v = translation_speed(a)
+    _, v_inv = translation_speed(a.with_inverse())
+    np.testing.assert_allclose(v, v_inv, rtol=1e-3)

@@ -49,6 +49,17 @@ def test_plausible_answer_and_its_twin_is_flagged():
     assert np.asarray(p.to_dict()["twin_T_a_b"]).shape == (4, 4)
 
 
+def test_an_undetermined_translation_is_not_judged_by_its_length():
+    """A rig that only translates leaves X's translation undetermined on every axis: its
+    length (whatever the solver returned) and the twin's say nothing, so a long X is not
+    flagged; a note says why."""
+    X, T_wa_wb, T_wa_a, T_wb_b = _pair(np.random.default_rng(0))
+    Ti_a, Ti_b = invert_transform(T_wa_a), invert_transform(T_wb_b)
+    assert not check_plausibility(T_wa_wb, Ti_a, Ti_b, AS_WRITTEN).plausible
+    p = check_plausibility(T_wa_wb, Ti_a, Ti_b, AS_WRITTEN, translation_undetermined=True)
+    assert p.plausible and "undetermined on every axis" in p.notes[0]
+
+
 def test_a_reading_the_caller_chose_keeps_the_twin_as_a_note():
     """Forced invert_a / invert_b (the absolute reading is the caller's) or eye=on_base (X
     is the camera in the robot base, long by nature): the long X is the answer asked for,

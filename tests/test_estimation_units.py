@@ -68,3 +68,20 @@ def test_motions_that_cannot_tell_are_left_alone():
     check_translation_units(C, H)
     s, r1, rs, n = pitch_scale(C[:0], H[:0])
     assert np.isnan(s) and n == 0
+
+
+def test_pure_translation_compares_the_translation_norms():
+    """Motions that do not turn carry no rotation axis, but |t_C| = |t_H| for them
+    (t_C = R_X t_H): equal units give 1, millimetres against metres are refused."""
+    rng = np.random.default_rng(5)
+    X = g.transform_from_rotation_translation(g.matrix_from_rotvec([0.3, -0.2, 0.5]),
+                                              [0.08, -0.03, 0.12])
+    H = g.transform_from_rotation_translation(np.broadcast_to(np.eye(3), (40, 3, 3)),
+                                              rng.normal(scale=0.2, size=(40, 3)))
+    C = X @ H @ g.invert_transform(X)
+    C = g.perturb_transforms(C, np.radians(0.05), 0.001, rng)
+    assert abs(check_translation_units(C, H) - 1.0) < 0.05
+    H_mm = H.copy()
+    H_mm[:, :3, 3] *= 1000.0
+    with pytest.raises(DataError, match=r"stream b moves (999|1e\+03) times as far"):
+        check_translation_units(C, H_mm)

@@ -186,3 +186,25 @@ def test_ransac_residuals_in_blocks_equal_the_whole(monkeypatch):
     monkeypatch.setattr(R, "_RESIDUAL_BLOCK", 120)      # 2 hypotheses at a time
     np.testing.assert_allclose(R._chunked_residuals(mats, Xs, 1.3),
                                R._residuals(mats, Xs, 1.3), rtol=1e-13, atol=0)
+
+
+def test_ransac_on_pure_translation_draws_sets_by_translation_direction():
+    """No motion rotates beyond the noise: the rotation axes are noise, so minimal sets are
+    motions with translations apart (two fix X's rotation, t_C = R_X t_H); gross outliers
+    are still rejected."""
+    from simcalib.geometry import (invert_transform, matrix_from_rotvec, perturb_transforms,
+                                   rotation_error_rad, transform_from_rotation_translation)
+    rng = np.random.default_rng(2)
+    X = transform_from_rotation_translation(matrix_from_rotvec([0.3, -0.5, 0.2]),
+                                            [0.05, 0.02, 0.1])
+    H = transform_from_rotation_translation(np.broadcast_to(np.eye(3), (100, 3, 3)),
+                                            rng.normal(scale=0.2, size=(100, 3)))
+    C = perturb_transforms(X @ H @ invert_transform(X), np.radians(0.05), 0.001, rng)
+    bad = rng.random(100) < 0.2
+    C[bad] = C[bad] @ transform_from_rotation_translation(
+        matrix_from_rotvec(rng.normal(scale=0.5, size=(int(bad.sum()), 3))),
+        rng.normal(scale=0.3, size=(int(bad.sum()), 3)))
+    r = ransac(C, H, rng=np.random.default_rng(0))
+    assert "pure translation" in r.message
+    assert np.array_equal(r.inlier_mask, ~bad)
+    assert np.degrees(rotation_error_rad(r.X, X)) < 0.1

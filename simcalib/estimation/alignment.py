@@ -28,7 +28,7 @@ from simcalib.errors import DataError
 from simcalib.estimation.interpolation import interpolate_poses, max_hole_s, smooth_poses
 from simcalib.geometry import invert_transform, rotation_angle_rad
 
-__all__ = ["TimeOffset", "SyncedPoses", "as_time_poses", "angular_speed",
+__all__ = ["TimeOffset", "SyncedPoses", "as_time_poses", "angular_speed", "translation_speed",
            "estimate_time_offset", "synchronise", "make_motions", "peak_z"]
 
 
@@ -67,6 +67,31 @@ def angular_speed(stream) -> tuple[np.ndarray, np.ndarray]:
     R = T[:, :3, :3]
     ang = rotation_angle_rad(np.swapaxes(R[:-1], 1, 2) @ R[1:])
     return 0.5 * (t[:-1] + t[1:]), ang / np.diff(t)
+
+
+def translation_speed(stream) -> tuple[np.ndarray, np.ndarray]:
+    """``(t_mid, speed_m_s)``: distance between consecutive positions over their time
+    step, at the midpoints. Without rotation it is the same in every sensor of a rigid rig
+    (``|t_C| = |t_H|``) and for a stream and its inverse, so it needs no convention there;
+    the clock offset of a rig that only translates is read from it."""
+    t, T = as_time_poses(stream)
+    d = np.linalg.norm(np.diff(T[:, :3, 3], axis=0), axis=1)
+    return 0.5 * (t[:-1] + t[1:]), d / np.diff(t)
+
+
+#: the speed each motion signal correlates (:mod:`simcalib.estimation.stillness`)
+SPEEDS = {"rotation": angular_speed, "translation": translation_speed}
+
+
+def _signal(signal, stream_a, stream_b) -> str:
+    """The checked motion signal; ``auto``: rotation unless neither stream turns."""
+    if signal == "auto":
+        from simcalib.estimation.stillness import motion_signal
+        return motion_signal(stream_a, stream_b)
+    if signal not in SPEEDS:
+        raise ValueError(f"signal must be 'auto', 'rotation' or 'translation'; received "
+                         f"{signal!r}")
+    return signal
 
 
 # ------------------------------------------------------------------------- results
@@ -299,9 +324,9 @@ def _despike(w: np.ndarray, size: int = 9) -> np.ndarray:
     return running_median(w, 3)
 
 
-def _raise_if_unmeasurable(ta, tb, x, y, min_overlap):
+def _raise_if_unmeasurable(ta, tb, x, y, min_overlap, signal="rotation"):
     """The stamps overlap but the offset cannot be measured: too few poses, or a stream
-    that does not rotate (its angular speed is flat, so nothing correlates)."""
+    that does not move (its speed is flat, so nothing correlates)."""
     lo, hi = max(ta[0], tb[0]), min(ta[-1], tb[-1])
     if hi <= lo:
         return
@@ -312,13 +337,16 @@ def _raise_if_unmeasurable(ta, tb, x, y, min_overlap):
                         f"{tb.size}, too few to correlate; {span}; give time_offset=")
     flat = [n for n, w in (("a", x), ("b", y)) if np.ptp(w) <= 1e-12 * max(1.0, np.abs(w).max())]
     if flat:
+        what = "rotate (its angular" if signal == "rotation" else "translate (its"
         raise DataError(f"the time offset cannot be estimated: stream {' and '.join(flat)} does "
-                        f"not rotate (its angular speed is constant); {span}; give time_offset=")
+                        f"not {what} speed is constant); {span}; give time_offset=")
 
 
-def _coarse_offset(ta, Ta, tb, Tb, max_offset_s, min_overlap_frac, robust=True):
-    tma, wa = angular_speed((ta, Ta))
-    tmb, wb = angular_speed((tb, Tb))
+def _coarse_offset(ta, Ta, tb, Tb, max_offset_s, min_overlap_frac, robust=True,
+                   signal="rotation"):
+    speed = SPEEDS[signal]
+    tma, wa = speed((ta, Ta))
+    tmb, wb = speed((tb, Tb))
     if robust:      # outlier poses make spikes: running medians
         wa, wb = _despike(wa), _despike(wb)
     dt_a, dt_b = float(np.median(np.diff(ta))), float(np.median(np.diff(tb)))
@@ -334,7 +362,7 @@ def _coarse_offset(ta, Ta, tb, Tb, max_offset_s, min_overlap_frac, robust=True):
     if max_offset_s is not None:
         r = np.where(np.abs(offsets) <= max_offset_s, r, np.nan)
     if not np.isfinite(r).any():
-        _raise_if_unmeasurable(ta, tb, x, y, min_overlap)
+        _raise_if_unmeasurable(ta, tb, x, y, min_overlap, signal)
         raise DataError(
             f"the streams do not overlap by {min_overlap_frac:.0%} of the shorter one at any "
             f"allowed offset (a: {ta[0]:.3f}..{ta[-1]:.3f} s, b: {tb[0]:.3f}..{tb[-1]:.3f} s"
@@ -382,7 +410,7 @@ def _other_peaks(offsets, r, peak, best, min_sep_s, rel: float = 0.9, max_n: int
 def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = None,
                          refine: bool = True, drift: bool = False, step_s: float | None = None,
                          alpha: float = 1.0, min_overlap_frac: float = 0.3,
-                         robust: bool = True) -> TimeOffset:
+                         robust: bool = True, signal: str = "auto") -> TimeOffset:
     """Estimate ``offset_s = t_b - t_a`` between two pose streams, where the data tell it.
 
     Coarse: the angular speeds (convention-free; running medians remove outlier poses'
@@ -403,25 +431,29 @@ def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = Non
     offset and 0 is used ("zero"). ``drift=True``: the offset refined on both halves of
     the overlap, a linear drift fitted. Needs the streams' readings resolved for the
     refinement (:mod:`simcalib.estimation.readings`); the coarse step does not.
+
+    ``signal``: ``rotation`` (angular speeds) or ``translation`` (translation speeds, for a
+    rig that does not turn: their norms agree in every sensor, whatever the reading; the
+    cost's motions are the ones that translate); ``auto``: rotation unless neither stream
+    turns (:func:`simcalib.estimation.stillness.motion_signal`).
     """
     from simcalib.estimation import offset_cost as oc
     ta, Ta = as_time_poses(stream_a, "stream_a")
     tb, Tb = as_time_poses(stream_b, "stream_b")
+    signal = _signal(signal, (ta, Ta), (tb, Tb))
     coarse, peak, lags, corr, grid_dt = _coarse_offset(ta, Ta, tb, Tb, max_offset_s,
-                                                       min_overlap_frac, robust)
+                                                       min_overlap_frac, robust, signal)
     z = peak_z(corr, peak)
     window = (float(lags.min()), float(lags.max())) if lags.size else (coarse, coarse)
     slow_dt = max(float(np.median(np.diff(ta))), float(np.median(np.diff(tb))))
-    msg = (f"coarse offset {coarse * 1e3:.1f} ms from angular-speed cross-correlation "
-           f"(peak r = {peak:.3f}, {z:.1f} robust sigma above the other lags; offsets "
-           f"{window[0]:.3g}..{window[1]:.3g} s allowed)")
+    msg = _coarse_message(coarse, peak, z, window, signal)
     base = dict(peak_z=z, window_s=window)
     if not refine:
         return TimeOffset(coarse, grid_dt, coarse, peak, lags, corr, refined=False,
                           message=msg, **base)
     half = 2.0 * slow_dt
     step_s = _offset_step_s(ta, tb, coarse, slow_dt, half) if step_s is None else step_s
-    kw = dict(step_s=step_s, alpha=alpha, robust=robust,
+    kw = dict(step_s=step_s, alpha=alpha, robust=robust, turning=signal == "rotation",
               smooth_s=min(float(np.median(np.diff(ta))), float(np.median(np.diff(tb)))))
     cands = [coarse] + _other_peaks(lags, corr, peak, coarse, 4 * slow_dt)
     if window[0] <= 0.0 <= window[1] and all(abs(c) > half for c in cands):
@@ -435,6 +467,13 @@ def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = Non
                 + " ms: calibration costs " + ", ".join(f"{t.cost_best:.3g}" for t in tried))
     return _refined((ta, Ta, tb, Tb), tried, half, kw, drift, msg,
                     dict(peak_correlation=peak, lags_s=lags, correlation=corr, **base))
+
+
+def _coarse_message(coarse, peak, z, window, signal) -> str:
+    return (f"coarse offset {coarse * 1e3:.1f} ms from "
+            f"{'angular' if signal == 'rotation' else 'translation'}-speed cross-correlation "
+            f"(peak r = {peak:.3f}, {z:.1f} robust sigma above the other lags; offsets "
+            f"{window[0]:.3g}..{window[1]:.3g} s allowed)")
 
 
 def _offset_step_s(ta, tb, coarse, slow_dt, half) -> float:

@@ -225,13 +225,16 @@ def weighting_check(C, H, X, uncertainty, covariance_determined, solve_fn, alpha
                     ratio: float = 100.0) -> WeightingCheck | None:
     """:class:`WeightingCheck` of ``X`` (estimated at ``alpha``) against the estimate at
     ``alpha / ratio`` (``solve_fn(C, H, alpha)`` returns X), with the reported covariance's
-    finite part ``covariance_determined`` on the determined basis of ``uncertainty``."""
+    finite part ``covariance_determined`` on the determined basis of ``uncertainty``.
+    None where it does not apply: nothing determined, or no motion rotating beyond the
+    pose noise (pure translation: X's rotation comes from the translation equations alone,
+    and weighting the rotation ones, which hold only noise, would fit that noise)."""
     from scipy.special import chdtri
 
     from simcalib.solvers.diagnostics.uncertainty import pose_error
-    from simcalib.solvers.problem import ALPHA_MIN
+    from simcalib.solvers.problem import ALPHA_MIN, rotation_shortfall
     B = np.asarray(uncertainty.determined_basis)
-    if B.shape[1] == 0:
+    if B.shape[1] == 0 or rotation_shortfall(C, H) is not None:
         return None
     a_rot = max(alpha / ratio, ALPHA_MIN)
     try:

@@ -71,7 +71,7 @@ class OffsetCost:
     """
 
     def __init__(self, ta, Ta, tb, Tb, bracket, *, step_s, alpha, smooth_s, robust=True,
-                 part=None, n_grid=13):
+                 part=None, n_grid=13, turning=True):
         self.alpha, self.step_s, self.smooth_s = alpha, step_s, smooth_s
         pa, pb = float(np.median(np.diff(ta))), float(np.median(np.diff(tb)))
         self.reference = "a" if pa >= pb else "b"
@@ -105,12 +105,11 @@ class OffsetCost:
         for o in grid:
             valid &= interpolation_valid(self.t_other, self._query(o), gap)
         ok = valid[self.i] & valid[self.j]
-        R = self.T_ref[:, :3, :3]
-        turn = rotation_angle_rad(np.swapaxes(R[self.i], 1, 2) @ R[self.j])
-        self.mask = ok & (turn >= math.radians(1.0))
+        moves, what = self._moving(turning)
+        self.mask = ok & moves
         if self.mask.sum() < MIN_TURNING and part is None:
             raise StillReference(
-                f"stream {self.reference} turns by >= 1 deg over {step_s:g} s in only "
+                f"stream {self.reference} {what} over {step_s:g} s in only "
                 f"{int(self.mask.sum())} motion(s) (< {MIN_TURNING}): it moves only across "
                 "its gaps (stop-and-go, seen only while still), so the cost cannot tell an "
                 "offset")
@@ -124,6 +123,20 @@ class OffsetCost:
         # spans less than a reference period)
         self.thin = 2.0
 
+
+    def _moving(self, turning: bool) -> tuple[np.ndarray, str]:
+        """``(mask, words)``: the motions that move in the reference stream: turn by >= 1
+        deg (``turning``), or, for a rig that only translates, translate by at least a
+        tenth of the recording's typical motion (its median; the offset shows through the
+        change of velocity, which a standing stream does not have)."""
+        T, i, j = self.T_ref, self.i, self.j
+        if turning:
+            R = T[:, :3, :3]
+            turn = rotation_angle_rad(np.swapaxes(R[i], 1, 2) @ R[j])
+            return turn >= math.radians(1.0), "turns by >= 1 deg"
+        d = np.linalg.norm(T[j, :3, 3] - T[i, :3, 3], axis=1)
+        floor = 0.1 * float(np.median(d)) if d.size else 0.0
+        return d > floor, "translates by a tenth of its median motion or more"
 
     def _query(self, offset):
         return self.t_ref + offset if self.reference == "a" else self.t_ref - offset

@@ -9,6 +9,12 @@
     -> (the verdict: estimation.verdict); and, for comparison, a plain solve (offset 0, no
     rejection).
 
+A rig that only translates (neither stream turns: :func:`check_streams_move` returns
+``translation``, :mod:`simcalib.estimation.stillness`) goes through the same stages on its
+translations: the offset from the translation speeds, the readings scored on motions that
+translate, no rotation filter, RANSAC sets by translation direction; X's rotation follows
+from ``t_C = R_X t_H`` and its translation is reported undetermined on every axis (exit 6).
+
 Measured on public recordings by ``python -m simcalib.studies.experiments.real_data``, on generated
 ones by ``python -m simcalib.studies.experiments.recordings``, in simulation by ``python -m simcalib
 experiment streams``.
@@ -21,7 +27,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["StreamCalibration", "calibrate_streams", "align_worlds"]
+from simcalib.estimation.stillness import (STILL_DEG, STILL_M, rotation_extent_deg,
+                                           translation_extent_m)
+
+__all__ = ["StreamCalibration", "calibrate_streams", "align_worlds", "check_streams_move",
+           "STILL_DEG"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -68,6 +78,9 @@ class StreamCalibration:
     #: the stated error common to every pose (:class:`simcalib.estimation.common_error.
     #: CommonError`) added to the covariance; None: not stated
     common_error: object = None
+    #: how the rig moves (:func:`check_streams_move`): ``rotation``, or ``translation``
+    #: (nothing turns: X's rotation from the translations, its translation undetermined)
+    signal: str = "rotation"
 
 
 def _errors_summary(C, H, X, mask=None):
@@ -108,55 +121,60 @@ def read_pair(a, b, format_a=None, format_b=None, unit_a="auto", unit_b="auto"):
                              unit_a, unit_b)
 
 
-def _rotation_extent_deg(stream) -> float:
-    """How far a stream turns: the 90th percentile of its poses' angles from the first
-    pose (outlier poses do not count)."""
-    from simcalib.geometry import rotation_angle_rad
-    R = np.asarray(stream.T_world_sensor)[:, :3, :3]
-    return float(np.degrees(np.percentile(rotation_angle_rad(R[0].T[None] @ R), 90)))
-
-
-#: a stream whose poses (90 %) lie within this angle of its first pose does not rotate
-STILL_DEG = 1.0
-
-
-def check_streams_move(sa, sb) -> None:
-    """A stream that does not rotate while the other does is bad input (a wrong topic or
-    file, a frozen tracker), not a degenerate motion: a clear DataError. Neither stream
-    rotating is a degenerate motion (pure translation): DegenerateResultError (exit 6)
-    naming what it cannot determine, before any offset is estimated from the noise."""
-    from simcalib.errors import DataError, DegenerateResultError
-    ext = {"a": _rotation_extent_deg(sa), "b": _rotation_extent_deg(sb)}
-    if max(ext.values()) < STILL_DEG:
-        raise DegenerateResultError(
-            f"degenerate motion: neither stream rotates (90 % of the poses lie within "
-            f"{ext['a']:.2g} deg (a) and {ext['b']:.2g} deg (b) of the first pose): a pure "
-            "translation. It leaves X's translation undetermined on every axis (C X = X H "
-            "holds for any translation of X when nothing turns); only X's rotation follows "
-            "from the translations (R_X t_b = t_a), which this path does not solve without "
-            "rotating motions, so no X is estimated. Record with rotations about two or "
-            "more axes")
+def check_streams_move(sa, sb) -> str:
+    """How the rig moves (:mod:`simcalib.estimation.stillness`): ``"rotation"`` or
+    ``"translation"`` (neither stream turns, both translate: a degenerate motion that
+    determines X's rotation, not its translation; every stage then works on the
+    translations). Bad input is a clear DataError: a stream that does not rotate while the
+    other does, one that does not move while the other translates, or nothing moving at
+    all (a wrong topic or file, a frozen tracker)."""
+    from simcalib.errors import DataError
+    ext = {"a": rotation_extent_deg(sa), "b": rotation_extent_deg(sb)}
+    streams = {"a": sa, "b": sb}
     for name, other in (("a", "b"), ("b", "a")):
-        if ext[name] < STILL_DEG and ext[other] > 5.0 * max(ext[name], 0.2):
-            s = sa if name == "a" else sb
+        if ext[name] < STILL_DEG and ext[other] > 5.0 * max(ext[name], 0.2 * STILL_DEG):
             raise DataError(
-                f"stream {name} ({s.source}) does not rotate: 90 % of its poses lie within "
-                f"{ext[name]:.2g} deg of its first pose, while stream {other} turns by "
-                f"{ext[other]:.3g} deg; both sensors of a rigid rig turn alike (a wrong "
-                "file or topic, or a frozen tracker?)")
+                f"stream {name} ({streams[name].source}) does not rotate: 90 % of its poses "
+                f"lie within {ext[name]:.2g} deg of its first pose, while stream {other} "
+                f"turns by {ext[other]:.3g} deg; both sensors of a rigid rig turn alike (a "
+                "wrong file or topic, or a frozen tracker?)")
+    if max(ext.values()) >= STILL_DEG:
+        return "rotation"
+    move = {"a": translation_extent_m(sa), "b": translation_extent_m(sb)}
+    if max(move.values()) < STILL_M:
+        raise DataError(
+            f"nothing moves: neither stream rotates (90 % of the poses within "
+            f"{ext['a']:.2g} deg (a) and {ext['b']:.2g} deg (b) of the first) nor translates "
+            f"(90 % of the positions within {1e3 * move['a']:.2g} mm (a) and "
+            f"{1e3 * move['b']:.2g} mm (b) of their median, < {1e3 * STILL_M:g} mm); a "
+            "calibration needs the rig to move (a wrong file or topic, or a frozen "
+            "tracker?)")
+    for name, other in (("a", "b"), ("b", "a")):
+        if move[name] < STILL_M and move[other] > 5.0 * max(move[name], 0.2 * STILL_M):
+            raise DataError(
+                f"stream {name} ({streams[name].source}) does not move: it neither rotates "
+                f"nor translates (90 % of its positions within {1e3 * move[name]:.2g} mm of "
+                f"their median), while stream {other} translates by {1e3 * move[other]:.3g} "
+                "mm; both sensors of a rigid rig that does not turn translate alike (a "
+                "wrong file or topic, or a frozen tracker?)")
+    return "translation"
 
 
 def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift=False, alpha=1.0,
-                   seed=0, forced=None):
+                   seed=0, forced=None, signal="rotation"):
     """The streams' reading and their clock offset, decided in that order and checked
     again: the reading at the correlation's (reading-free) offset, the offset refined with
     that reading, then the reading decided again at the final offset (it is what the run
-    reports). Returns ``(stream_a, stream_b, ConventionReport, TimeOffset)``."""
+    reports). ``signal`` (:func:`check_streams_move`): ``rotation`` correlates angular
+    speeds, ``translation`` (a rig that does not turn) translation speeds, and scores the
+    readings on motions that translate. Returns ``(stream_a, stream_b, ConventionReport,
+    TimeOffset)``."""
     from simcalib.estimation.readings import apply_conventions, detect_conventions
     from simcalib.estimation.alignment import TimeOffset, _as_offset, estimate_time_offset
     forced = forced or {}
     detect = lambda off: detect_conventions(  # noqa: E731
-        sa, sb, offset=off, alpha=alpha, seed=seed, sampling=sampling, **forced)
+        sa, sb, offset=off, alpha=alpha, seed=seed, sampling=sampling, signal=signal,
+        **forced)
     if time_offset != "estimate":
         off = _as_offset(time_offset)
         conv = detect(off)
@@ -167,14 +185,14 @@ def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift=False, alp
                          refined=False, decision="shared_stamps", message=sampling.reason)
         conv = detect(off)
         return (*apply_conventions(sa, sb, conv), conv, off)
-    conv = min((detect(c) for c in _offset_candidates(sa, sb)), key=_best_score)
+    conv = min((detect(c) for c in _offset_candidates(sa, sb, signal)), key=_best_score)
     a1, b1 = apply_conventions(sa, sb, conv)
-    off = estimate_time_offset(a1, b1, drift=drift, alpha=alpha)
+    off = estimate_time_offset(a1, b1, drift=drift, alpha=alpha, signal=signal)
     final = detect(off)
     if (final.invert_a, final.invert_b, final.swap_scalar_a, final.swap_scalar_b) != (
             conv.invert_a, conv.invert_b, conv.swap_scalar_a, conv.swap_scalar_b):
         a1, b1 = apply_conventions(sa, sb, final)       # the reading changed: once more
-        off = estimate_time_offset(a1, b1, drift=drift, alpha=alpha)
+        off = estimate_time_offset(a1, b1, drift=drift, alpha=alpha, signal=signal)
         final = detect(off)
     return (*apply_conventions(sa, sb, final), final, off)
 
@@ -183,12 +201,12 @@ def _best_score(conv) -> float:
     return min(conv.scores.values()) if conv.scores else float("inf")
 
 
-def _offset_candidates(sa, sb) -> list[float]:
-    """Offsets at which to decide the reading: the angular-speed correlation's peak (it
-    does not depend on the reading), its other peaks of similar height (a periodic motion)
-    and 0."""
+def _offset_candidates(sa, sb, signal="rotation") -> list[float]:
+    """Offsets at which to decide the reading: the angular- (or translation-) speed
+    correlation's peak (it does not depend on the reading), its other peaks of similar
+    height (a periodic motion) and 0."""
     from simcalib.estimation.alignment import _other_peaks, as_time_poses, estimate_time_offset
-    coarse = estimate_time_offset(sa, sb, refine=False)
+    coarse = estimate_time_offset(sa, sb, refine=False, signal=signal)
     ta, tb = as_time_poses(sa)[0], as_time_poses(sb)[0]
     slow = max(float(np.median(np.diff(ta))), float(np.median(np.diff(tb))))
     cands = [coarse.offset_s] + _other_peaks(coarse.lags_s, coarse.correlation,
@@ -343,29 +361,30 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
                       tolerances=None, common_error=None, stamps_unit_a: str = "auto",
                       stamps_unit_b: str = "auto") -> StreamCalibration:
     """Calibrate ``X = T_a_b`` from two pose streams (paths or PoseStreamData), the one path:
-
-    sampling (:func:`~simcalib.estimation.sampling.classify_sampling`: stamp-paired or two
-    clocks) -> reading and clock offset (:func:`align_and_read`; ``time_offset``:
-    ``"estimate"`` or seconds ``t_b - t_a``) -> synchronised poses -> motions (``motions``:
-    ``auto`` or a policy of :mod:`simcalib.estimation.motions`; ``step_s`` for
-    ``consecutive``; rotation below ``min_rotation_deg`` / above ``max_rotation_deg``
-    dropped) -> outliers (``robust``: ``auto``, ``ransac``, ``irls``, ``none``) -> ``method``
-    on the inliers (with ``prior``, a :class:`simcalib.Prior`, if given) -> uncertainty and
-    its consistency check (:mod:`simcalib.estimation.consistency`); ``tolerances``: a
-    :class:`simcalib.estimation.verdict.Tolerances` (default 1 deg / 1 cm); ``common_error``:
-    a stated :class:`simcalib.estimation.common_error.CommonError`, added to the covariance;
-    ``stamps_unit_a`` / ``_b``: :func:`read_pair`. Bad data raise DataError.
+    how the rig moves (:func:`check_streams_move`) -> sampling (:func:`~simcalib.estimation.
+    sampling.classify_sampling`) -> reading and clock offset (:func:`align_and_read`;
+    ``time_offset``: ``"estimate"`` or seconds ``t_b - t_a``) -> synchronised poses ->
+    motions (``motions``: ``auto`` or a policy of :mod:`simcalib.estimation.motions`;
+    ``step_s``; rotation below ``min_rotation_deg`` (unless nothing turns) / above
+    ``max_rotation_deg`` dropped) -> outliers (``robust``: ``auto``, ``ransac``, ``irls``,
+    ``none``) -> ``method`` on the inliers (``prior``: a :class:`simcalib.Prior`) ->
+    uncertainty and its consistency check (:mod:`simcalib.estimation.consistency`);
+    ``tolerances``: a :class:`simcalib.estimation.verdict.Tolerances` (default 1 deg / 1
+    cm); ``common_error``: a stated :class:`~simcalib.estimation.common_error.CommonError`,
+    added to the covariance; ``stamps_unit_a`` / ``_b``: :func:`read_pair`. Bad files and
+    streams that cannot calibrate raise :class:`simcalib.errors.DataError`.
     """
     from simcalib.estimation.motions import form_motions
     from simcalib.estimation.sampling import classify_sampling
-    from simcalib.solvers.robust import robust_solve
     sa, sb = read_pair(a, b, format_a, format_b, stamps_unit_a, stamps_unit_b)
-    check_streams_move(sa, sb)
+    signal = check_streams_move(sa, sb)     # translation: no rotation filter (all noise)
+    min_rotation_deg = min_rotation_deg if signal == "rotation" else None
     sampling = classify_sampling(sa, sb)
     forced = {"invert_a": invert_a, "invert_b": invert_b, "scalar_first_a": scalar_first_a,
               "scalar_first_b": scalar_first_b}
     sa, sb, conv, off = align_and_read(sa, sb, sampling, time_offset=time_offset,
-                                       drift=drift, alpha=alpha, seed=seed, forced=forced)
+                                       drift=drift, alpha=alpha, seed=seed, forced=forced,
+                                       signal=signal)
     sp = synchronised(sa, sb, sampling, off)
     ms = form_motions(sp, motions, paired_by_stamp=sampling.paired_by_stamp,
                       index_stamps=sampling.kind == "index_stamps", step_s=step_s,
@@ -382,17 +401,14 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     cov, cov_det, common_error = _with_common_error(cov, cov_det, rob, check, common_error)
     ms0, plain = _plain(sa, sb, sampling, off, sp, ms, step_s=step_s, alpha=alpha,
                         min_rotation_deg=min_rotation_deg, max_rotation_deg=max_rotation_deg)
-    aligned = robust_solve(ms.C, ms.H, "none", alpha=alpha)     # offset applied, no rejection
-    i, j = ms.i, ms.j
+    aligned, summary = _summary(sa, sb, conv, off, ms, rob, ms0, plain, alpha, length_scale)
     return StreamCalibration(rob.X, None if plain is None else plain.X, off, conv, rob, plain,
-                             sa, sb, ms.C, ms.H, sp.time_s[i],
-                             _summary(sa, sb, conv, off, ms, rob, ms0, plain, aligned)
-                             | {"length_scale": length_scale},
-                             synced=sp, motion_index=(i, j),
+                             sa, sb, ms.C, ms.H, sp.time_s[ms.i], summary,
+                             synced=sp, motion_index=(ms.i, ms.j),
                              X_aligned=aligned.X, sampling=sampling, motions=ms,
                              consistency=check, covariance=cov, covariance_determined=cov_det,
                              robust_choice=why, weighting=weighting,
-                             common_error=common_error)
+                             common_error=common_error, signal=signal)
 
 
 def _with_common_error(cov, cov_det, rob, check, common):
@@ -424,12 +440,15 @@ def _check_motions(ms, sp) -> float:
     return check_translation_units(ms.C, ms.H)
 
 
-def _summary(sa, sb, conv, off, ms, rob, ms0, plain, aligned) -> dict:
-    """``StreamCalibration.summary``: the streams, the reading, the offset, the motions and
+def _summary(sa, sb, conv, off, ms, rob, ms0, plain, alpha, length_scale) -> tuple:
+    """``(aligned, summary)``: the aligned solve (offset applied, no rejection) and
+    ``StreamCalibration.summary``: the streams, the reading, the offset, the motions and
     inliers, X and its residuals, beside the plain solve's (offset 0, every motion, no
-    rejection) and the aligned one's (offset applied, no rejection)."""
+    rejection) and the aligned one's."""
+    from simcalib.solvers.robust import robust_solve
     C, H = ms.C, ms.H
-    return {
+    aligned = robust_solve(C, H, "none", alpha=alpha)
+    return aligned, {
         "a": sa.describe(), "b": sb.describe(), "conventions": conv.message,
         "offset_ms": 1e3 * off.offset_s, "offset_sigma_ms": 1e3 * off.uncertainty_s,
         "offset_message": off.message, "n_motions": int(C.shape[0]),
@@ -447,6 +466,7 @@ def _summary(sa, sb, conv, off, ms, rob, ms0, plain, aligned) -> dict:
         "trans_diff_mm": None if plain is None else float(
             1e3 * np.linalg.norm(rob.X[:3, 3] - plain.X[:3, 3])),
         "degenerate": bool(rob.solution.degenerate) if rob.solution is not None else None,
+        "length_scale": length_scale,
     }
 
 

@@ -77,7 +77,8 @@ def chosen_by(conventions, eye: str | None = None) -> str:
     return ", ".join(keys)
 
 
-def check_plausibility(X, T_wa_a, T_wb_b, conventions, eye: str | None = None) -> Plausibility:
+def check_plausibility(X, T_wa_a, T_wb_b, conventions, eye: str | None = None,
+                       translation_undetermined: bool = False) -> Plausibility:
     """The :class:`Plausibility` of ``X = T_a_b`` estimated from the synchronised poses
     ``T_wa_a``, ``T_wb_b`` (``(N, 4, 4)``, in the reading used), the reading chosen
     (``conventions``: :class:`simcalib.estimation.readings.ConventionReport`) and the
@@ -86,7 +87,9 @@ def check_plausibility(X, T_wa_a, T_wb_b, conventions, eye: str | None = None) -
     Flagged (a warning): the unforced reading gives an X at least :data:`TWIN_RATIO` times
     and :data:`TWIN_MARGIN_M` longer than its twin's (with ``eye="on_base"``: shorter).
     A caller who forced invert_a / invert_b asked for this reading: the same shape is
-    only a note."""
+    only a note. ``translation_undetermined`` (no axis of X's translation has a finite
+    sigma: a rig that only translates): the lengths say nothing, nothing is flagged (a
+    note says so)."""
     X = np.asarray(X, dtype=np.float64)
     T_wa_a, T_wb_b = np.asarray(T_wa_a, np.float64), np.asarray(T_wb_b, np.float64)
     if X.shape != (4, 4) or T_wa_a.ndim != 3 or T_wa_a.shape != T_wb_b.shape:
@@ -104,7 +107,10 @@ def check_plausibility(X, T_wa_a, T_wb_b, conventions, eye: str | None = None) -
     forced = any(k in getattr(conventions, "forced", ()) for k in ("invert_a", "invert_b"))
     long_x = _longer(t, t_twin)
     warnings, notes = (), ()
-    if long_x and chosen:
+    if translation_undetermined:
+        notes = ("X's translation is undetermined on every axis (the motions do not turn), "
+                 "so its length and its twin's say nothing about the reading",)
+    elif long_x and chosen:
         notes = (f"X's translation ({t:.3g} m) is {t / max(t_twin, 1e-12):.3g}x the twin's "
                  f"({t_twin:.3g} m, both streams inverted, printed below): expected, as the "
                  f"reading is the caller's ({chosen}); the twin is the other answer (the "

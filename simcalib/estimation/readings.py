@@ -81,9 +81,11 @@ def _apply(stream, swap, invert):
     return s
 
 
-def _motions(sa, sb, offset, n_pairs, rng, sampling=None):
+def _motions(sa, sb, offset, n_pairs, rng, sampling=None, signal="rotation"):
     """Motions between random pairs of synchronised instants (large motions separate the
-    readings best; consecutive steps are too small to tell them apart). ``sampling``: a
+    readings best; consecutive steps are too small to tell them apart) that turn by more
+    than 1 deg (``signal`` ``translation``, a rig that does not turn: that translate by a
+    tenth of the median motion or more). ``sampling``: a
     :class:`simcalib.estimation.sampling.Sampling` that pairs by stamp."""
     from simcalib.geometry import invert_transform
     from simcalib.estimation.alignment import synchronise
@@ -101,8 +103,12 @@ def _motions(sa, sb, offset, n_pairs, rng, sampling=None):
     i, j = i[keep], j[keep]
     C = invert_transform(sp.T_a[i]) @ sp.T_a[j]
     H = invert_transform(sp.T_b[i]) @ sp.T_b[j]
-    ang = 0.5 * (rotation_angle_rad(C[:, :3, :3]) + rotation_angle_rad(H[:, :3, :3]))
-    keep = ang > np.radians(1.0)
+    if signal == "translation":
+        d = 0.5 * (np.linalg.norm(C[:, :3, 3], axis=1) + np.linalg.norm(H[:, :3, 3], axis=1))
+        keep = d > 0.1 * float(np.median(d)) if d.size else d > 0
+    else:
+        ang = 0.5 * (rotation_angle_rad(C[:, :3, :3]) + rotation_angle_rad(H[:, :3, :3]))
+        keep = ang > np.radians(1.0)
     return C[keep], H[keep]
 
 
@@ -117,10 +123,28 @@ def _label(sw, inv, name, has_order):
     return s
 
 
+def _ranked(scores: dict, written: tuple) -> tuple:
+    """``(ranked, ratio, clear, fallback)``: the readings best first, the runner-up's score
+    over the best's and whether that is clear (> :data:`CLEAR_RATIO`); where it is not, the
+    reading closest to the files as ``written`` goes first (``fallback``: "written" or
+    "closest"; None when the data told)."""
+    ranked = sorted(scores, key=scores.get)
+    ratio = scores[ranked[1]] / max(scores[ranked[0]], 1e-15) if len(ranked) > 1 \
+        else math.inf
+    clear = ratio > CLEAR_RATIO
+    fallback = _closest_to_written(ranked, scores, written) if not clear else None
+    if fallback is not None:    # the data cannot tell: the files as written, and said so
+        ranked.remove(fallback)
+        ranked.insert(0, fallback)
+        fallback = "written" if fallback == written else "closest"
+    return ranked, ratio, clear, fallback
+
+
 def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None = None,
                        invert_b: bool | None = None, scalar_first_a: bool | None = None,
                        scalar_first_b: bool | None = None, alpha: float = 1.0,
-                       n_pairs: int = 400, seed: int = 0, sampling=None) -> ConventionReport:
+                       n_pairs: int = 400, seed: int = 0, sampling=None,
+                       signal: str = "auto") -> ConventionReport:
     """Decide the reading of two :class:`simcalib.importers.PoseStreamData` from the data.
 
     Every candidate reading (quaternion order of each quaternion-format stream x inversion
@@ -134,31 +158,31 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
     (``scalar_first_x=True`` = read the quaternion numbers in the other order than the
     reader did). ``sampling``: how the streams are paired
     (:func:`simcalib.estimation.sampling.classify_sampling`; stamp-paired streams are never
-    interpolated); None: interpolated at the offset.
+    interpolated); None: interpolated at the offset. ``signal``: ``rotation`` or
+    ``translation`` (a rig that does not turn: the motions scored are those that
+    translate, and the offset's correlation is of translation speeds); ``auto``: rotation
+    unless neither stream turns. Without rotation the data tell less: the quaternion order
+    never (a constant misread orientation only rotates every ``t_C`` alike, which X's
+    rotation absorbs), an inverted stream only when the translations span 3-D (in a plane
+    ``-t`` is ``t`` turned by 180 deg about its normal); the ratio says so (about 1).
     """
+    from simcalib.estimation.alignment import _signal
+    signal = _signal(signal, stream_a, stream_b)
     forced = tuple(name for name, v in (("invert_a", invert_a), ("invert_b", invert_b),
                                         ("scalar_first_a", scalar_first_a),
                                         ("scalar_first_b", scalar_first_b)) if v is not None)
-    off = _reading_offset(stream_a, stream_b, offset, sampling)
+    off = _reading_offset(stream_a, stream_b, offset, sampling, signal)
     parities = _parities(invert_a, invert_b)
     has_order = (len(_swap_options(stream_a, scalar_first_a)) > 1,
                  len(_swap_options(stream_b, scalar_first_b)) > 1)
     scores, n_mot, xs = _score_readings(stream_a, stream_b, off, parities,
                                     (_swap_options(stream_a, scalar_first_a),
                                      _swap_options(stream_b, scalar_first_b)),
-                                    n_pairs=n_pairs, alpha=alpha, seed=seed, sampling=sampling)
+                                    n_pairs=n_pairs, alpha=alpha, seed=seed, sampling=sampling,
+                                    signal=signal)
     if not scores:
         raise _no_overlap(stream_a, stream_b, off)
-    ranked = sorted(scores, key=scores.get)
-    ratio = scores[ranked[1]] / max(scores[ranked[0]], 1e-15) if len(ranked) > 1 \
-        else math.inf
-    clear = ratio > CLEAR_RATIO
-    written = (False, False, parities[0][0], parities[0][1])
-    fallback = (not clear and ranked[0] != written and written in scores
-                and scores[written] <= CLEAR_RATIO * scores[ranked[0]])
-    if fallback:            # the data cannot tell: the files as written, and said so
-        ranked.remove(written)
-        ranked.insert(0, written)
+    ranked, ratio, clear, fallback = _ranked(scores, (False, False) + parities[0])
     best = ranked[0]
     sw_a, sw_b, inv_a, inv_b = best
 
@@ -177,7 +201,7 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
 
 
 def _score_readings(stream_a, stream_b, off, parities, swaps, *, n_pairs, alpha, seed,
-                    sampling) -> tuple[dict, int, dict]:
+                    sampling, signal="rotation") -> tuple[dict, int, dict]:
     """``({(swap_a, swap_b, invert_a, invert_b): score}, motions scored, {reading: X})``:
     every reading's :func:`_reading_score` on the same random pairs of instants (readings
     with fewer than 3 motions left out)."""
@@ -185,7 +209,8 @@ def _score_readings(stream_a, stream_b, off, parities, swaps, *, n_pairs, alpha,
     for sw_a, sw_b in itertools.product(*swaps):
         for inv_a, inv_b in parities:
             sa, sb = _apply(stream_a, sw_a, inv_a), _apply(stream_b, sw_b, inv_b)
-            C, H = _motions(sa, sb, off, n_pairs, np.random.default_rng(seed), sampling)
+            C, H = _motions(sa, sb, off, n_pairs, np.random.default_rng(seed), sampling,
+                            signal)
             if C.shape[0] < 3:
                 continue
             key = (sw_a, sw_b, inv_a, inv_b)
@@ -207,7 +232,7 @@ def _no_overlap(stream_a, stream_b, off):
         "stamps share a unit and a clock, and does the rig rotate?")
 
 
-def _reading_offset(stream_a, stream_b, offset, sampling):
+def _reading_offset(stream_a, stream_b, offset, sampling, signal="rotation"):
     """The offset at which the readings are compared: the given one; 0 for sample-indexed
     or stamp-paired files; else the coarse angular-speed correlation's (the same for every
     reading)."""
@@ -218,7 +243,8 @@ def _reading_offset(stream_a, stream_b, offset, sampling):
             or (sampling is not None and sampling.paired_by_stamp)):
         return 0.0
     return _coarse_offset(*as_time_poses(stream_a, "stream_a"),
-                          *as_time_poses(stream_b, "stream_b"), None, 0.3)[0]
+                          *as_time_poses(stream_b, "stream_b"), None, 0.3,
+                          signal=signal)[0]
 
 
 def _parities(invert_a, invert_b) -> list[tuple[bool, bool]]:
@@ -244,14 +270,28 @@ def _reading_score(C, H, alpha: float, seed: int) -> tuple[float, np.ndarray]:
     return float(np.median(screw_residuals(C, H, X, alpha=alpha))), X
 
 
+def _closest_to_written(ranked, scores, written):
+    """Of the readings that fit within :data:`CLEAR_RATIO` of the best (the data cannot
+    tell them apart), the one that changes the files least (fewest inversions and swapped
+    orders; e.g. a rig that only translates cannot tell any quaternion order); None when
+    that is the best already."""
+    near = [k for k in ranked if scores[k] <= CLEAR_RATIO * scores[ranked[0]]]
+    closest = min(near, key=lambda k: (sum(x != y for x, y in zip(k, written)), scores[k]))
+    return None if closest == ranked[0] else closest
+
+
 def _reading_lines(desc, scores, ranked, ratio, clear, fallback, invert_a, invert_b,
                    forced) -> list[str]:
     """The reading's message, sentence by sentence."""
     best = ranked[0]
     lines = [f"reading used: {desc(best)}"]
-    if fallback:
+    if fallback == "written":
         lines.append("no reading fits clearly better than the files as written (within "
                      f"{CLEAR_RATIO:g}x): they are taken as written")
+    elif fallback == "closest":
+        lines.append("no reading fits clearly better than this one, the closest to the "
+                     f"files as written of those within {CLEAR_RATIO:g}x of the best: it is "
+                     "used")
     if len(ranked) > 1:
         lines.append(f"median screw residual {scores[best]:.3g} vs {scores[ranked[1]]:.3g} "
                      f"for the runner-up ({desc(ranked[1])}): {_fmt_ratio(ratio)}, "

@@ -12,7 +12,9 @@ data (DataError, exit 3) only when both hold: ``s`` is beyond MAX_SCALE_RATIO fr
 two units of length people use are closer, feet and metres being 3.28 apart), and the
 pitches fit ``s`` clearly better than 1 (median residual at least FIT_GAIN times smaller).
 Motions whose axes carry no pitch (planar driving: vertical axes, horizontal travel) say
-nothing either way, and then nothing is refused.
+nothing either way, and then nothing is refused. A motion that does not turn (below 1 deg,
+pose noise: a rig that only translates) is pitch alone: ``t_C = R_X t_H``, so ``|t_C| =
+|t_H|`` and its translation norms are compared.
 """
 
 from __future__ import annotations
@@ -45,6 +47,12 @@ def _pitches(C: np.ndarray, H: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         np.maximum(ang_c, ang_h) < math.radians(170.0))
     d_c = np.einsum("ni,ni->n", rv_c[ok] / ang_c[ok, None], C[ok, :3, 3])
     d_h = np.einsum("ni,ni->n", rv_h[ok] / ang_h[ok, None], H[ok, :3, 3])
+    # a motion that does not turn (both below 1 deg: pose noise) is all pitch: t_C = R_X t_H,
+    # so |t_C| = |t_H| whatever X is (up to the noise's (I - R_C) t_X)
+    still = np.maximum(ang_c, ang_h) < math.radians(1.0)
+    if still.any():
+        d_c = np.concatenate([d_c, np.linalg.norm(C[still, :3, 3], axis=1)])
+        d_h = np.concatenate([d_h, np.linalg.norm(H[still, :3, 3], axis=1)])
     return d_c, d_h
 
 

@@ -325,7 +325,9 @@ def assess(r, eye: str | None = None) -> Assessment:
     words = tuple(direction_words(None, d) for d in records)
     fin = lambda vals: tuple(float(x) if math.isfinite(x) else None for x in vals)  # noqa
     source = _source(r.consistency)
-    plaus = check_plausibility(r.X, r.synced.T_a, r.synced.T_b, r.conventions, eye)
+    plaus = check_plausibility(r.X, r.synced.T_a, r.synced.T_b, r.conventions, eye,
+                               translation_undetermined=not any(
+                                   math.isfinite(s) for s in v.std_m))
     reading = reading_ambiguity(r, v.std_deg, v.std_m)
     return Assessment(v.verdict, v.degenerate or reading is not None,
                       "; ".join(words + tuple(v.notes)), source,

@@ -278,6 +278,7 @@ def daniilidis_batch(C, H, alphas, prior=None, weights=None) -> dict:
 
 @register("daniilidis", family="classic", uses_alpha=True, supports_prior=False,
           expected_cost_us=1000.0, batch=daniilidis_batch, batch_validates=True,
+          needs_rotation=True,
           description="Daniilidis 1999 dual-quaternion SVD (translation scaled by alpha)")
 def _daniilidis(problem: MotionProblem, alpha: float, prior, rng) -> SolverOutput:
     if prior is not None:

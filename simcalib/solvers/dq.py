@@ -108,4 +108,5 @@ for _name in dqcore.METHOD_CODES:
     register(_name, family="dq", description=DESCRIPTIONS[_name], supports_prior=True,
              certified=(_name == "dqopt"), batch=_make_batch(_name), batch_validates=True,
              supports_weights=True, alpha_independent=(_name == "dq2steps"),
+             needs_rotation=(_name == "dq2steps"),
              expected_cost_us=_EXPECTED_US[_name])(_make_solver(_name))

@@ -366,8 +366,10 @@ def dqoptpoly(problem: MotionProblem, alpha: float = 1.0, prior=None) -> SolverO
     lo = -const
     info = {"lam_upper_start": hi, "lam_upper_from": hi_from, "lam_lower_start": lo,
             "gram_eigenvalues": eG}
-    # noise-free / exact case: the feasible point from the null space has zero cost
-    if hi - lo <= 1e-13 * scale:
+    # noise-free / exact case: the feasible point from the null space has zero cost; more
+    # than 2 zero eigenvalues (exact, degenerate motions, e.g. pure translation) likewise,
+    # where the feasible point found may miss the null space and the polynomial is flat
+    if hi - lo <= 1e-13 * scale or int(np.sum(eG <= 1e-10 * scale)) > 2:
         return _exact_data_output(problem, G, z_feas, eG, hi, scale, info)
 
     radius = max(abs(hi), abs(lo), 1e-300)

@@ -135,5 +135,5 @@ _DESCRIPTIONS = {
 
 for _name in OPENCV_METHODS:
     register(_name, family="opencv", uses_alpha=False, supports_prior=False,
-             expected_cost_us=40000.0,
+             expected_cost_us=40000.0, needs_rotation=True,
              description=_DESCRIPTIONS[_name])(_make(_name))

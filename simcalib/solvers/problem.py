@@ -16,12 +16,40 @@ from simcalib.geometry import as_real_array, check_transforms, dual_quat_from_tr
     quat_left_matrix, quat_right_matrix
 
 __all__ = ["MotionProblem", "SolverOutput", "build_problem", "prepare_problem",
-           "prepare_batch", "problem_cost", "batch_cost", "check_weights", "ALPHA_MIN", "ALPHA_MAX"]
+           "prepare_batch", "problem_cost", "batch_cost", "check_weights", "rotation_shortfall",
+           "ALPHA_MIN", "ALPHA_MAX", "TURN_DEG"]
 
 #: accepted range of alpha (1/m): outside it alpha^2 under/overflows the scale of the
 #: rotation terms and exact data are no longer recovered (tests/test_solvers_api.py)
 ALPHA_MIN = 1e-6
 ALPHA_MAX = 1e6
+
+
+#: a motion turns (beyond the pose noise) when both its rotations, C's and H's, are at least
+#: this large and agree (they are equal for a rigid pair; noise gives unrelated angles)
+TURN_DEG = 1.0
+
+
+def rotation_shortfall(C, H) -> str | None:
+    """Why the motions' rotations alone cannot give X's rotation, or None when they can:
+    fewer than 2 motions (and fewer than 10 %) turn by :data:`TURN_DEG` in both C and H
+    with angles within a quarter of each other. Pure translation (a cart or a linear
+    stage) is such a motion: its rotations are pose noise, so a method that takes X's
+    rotation from the rotation axes alone (two-step methods) would fit the noise; X's
+    rotation then follows from the translations only (``t_C = R_X t_H``: dqopt and the
+    other DQ methods)."""
+    from simcalib.geometry import rotation_angle_rad
+    a = np.degrees(rotation_angle_rad(np.asarray(C)[:, :3, :3]))
+    b = np.degrees(rotation_angle_rad(np.asarray(H)[:, :3, :3]))
+    turns = (np.minimum(a, b) >= TURN_DEG) & (np.abs(a - b) <= 0.25 * np.maximum(a, b))
+    n = int(turns.sum())
+    if n >= 2 and n >= 0.1 * a.size:
+        return None
+    return (f"no motion rotates beyond the pose noise ({n} of {a.size} turn by >= "
+            f"{TURN_DEG:g} deg in both streams alike; largest {max(a.max(), b.max()):.3g} "
+            "deg): a pure translation, so the rotation of X is undetermined by this "
+            "method's rotation step; X's rotation follows from the translations (t_C = R_X "
+            "t_H) with dqopt")
 
 
 @dataclass(frozen=True)

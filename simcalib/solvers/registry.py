@@ -33,7 +33,10 @@ class SolverInfo:
     ``supports_weights`` (per-motion weights of the cost); ``certified``: returns a
     certificate of global optimality; ``stochastic``: uses the rng; ``slow``: a nonlinear
     optimiser (experiments time fewer runs of it); ``expected_cost_us``: rough time of one
-    solve at N = 100 (schedules experiment chunks, slowest first).
+    solve at N = 100 (schedules experiment chunks, slowest first); ``extra``: the other
+    metadata, e.g. ``needs_rotation`` (the method takes X's rotation from the motions'
+    rotations alone: ``simcalib.solve`` reports it failed, naming the motion, where no
+    motion rotates beyond the noise, :func:`simcalib.solvers.problem.rotation_shortfall`).
     """
     name: str
     fn: Callable

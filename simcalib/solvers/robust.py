@@ -6,7 +6,7 @@
   chosen per motion). Units: rotation part ~ half the rotation error (rad), translation part
   ~ ``alpha`` x half the translation error (m).
 * :func:`ransac` — hypotheses from minimal sets of motions (2 motions with non-parallel
-  rotation axes, solved all at once by ``simcalib.solve_batch`` with a DQ method), consensus
+  rotation axes, or translations where nothing rotates beyond the noise, solved all at once by ``simcalib.solve_batch`` with a DQ method), consensus
   by the per-motion residual, threshold given, from the noise level, or automatic (least
   median of squares scale); the best consensus is refined (dqopt on the inliers, re-scored,
   repeated until the inlier set is stable) — the final ``X`` is the plain solve (dqopt) on
@@ -197,8 +197,9 @@ def ransac(C, H, *, alpha: float = 1.0, threshold: float | None = None,
     given = threshold is not None
     threshold = _ransac_threshold(C, H, threshold, noise, alpha)
     auto = threshold is None
-    axes = _rotation_axes(C)
-    sample_size, min_axis, note = _minimal_set_plan(rng, axes, sample_size, min_axis_angle_deg)
+    axes, kind = _set_axes(C, H)
+    sample_size, min_axis, note = _minimal_set_plan(rng, axes, sample_size, min_axis_angle_deg,
+                                                    kind)
     mats = _motion_matrices(C, H)
     best_X, iters = _best_hypothesis(C, H, mats, rng, axes, sample_size, min_axis, threshold,
                                      alpha, minimal_method, max_iterations, confidence)
@@ -267,8 +268,23 @@ def _rotation_axes(C) -> np.ndarray:
     return rv / np.where(ang > 1e-12, ang, 1.0)[:, None]
 
 
-def _minimal_set_plan(rng, axes, sample_size, min_axis_angle_deg) -> tuple:
-    """``(sample_size, min_axis_rad, note)`` of the minimal sets, from a probe of 256 pairs."""
+def _set_axes(C, H) -> tuple[np.ndarray, str]:
+    """``(axes, kind)``: the directions the minimal sets must spread: the motions' rotation
+    axes (``kind`` "rotation"), or, where no motion rotates beyond the pose noise (pure
+    translation, :func:`simcalib.solvers.problem.rotation_shortfall`: the axes are noise),
+    their translation directions ("translation": two non-parallel translations fix X's
+    rotation, ``t_C = R_X t_H``)."""
+    from simcalib.solvers.problem import rotation_shortfall
+    if rotation_shortfall(C, H) is None:
+        return _rotation_axes(C), "rotation"
+    t = C[:, :3, 3]
+    d = np.linalg.norm(t, axis=-1)
+    return t / np.where(d > 0, d, 1.0)[:, None], "translation"
+
+
+def _minimal_set_plan(rng, axes, sample_size, min_axis_angle_deg, kind="rotation") -> tuple:
+    """``(sample_size, min_axis_rad, note)`` of the minimal sets, from a probe of 256 pairs
+    (``kind``: what ``axes`` are, rotation axes or translation directions)."""
     N = axes.shape[0]
     min_axis = math.radians(min_axis_angle_deg)
     note = ""
@@ -278,9 +294,13 @@ def _minimal_set_plan(rng, axes, sample_size, min_axis_angle_deg) -> tuple:
         # use larger unfiltered sets so that each hypothesis is determined
         sample_size = max(sample_size, min(6, N - 1))
         min_axis = 0.0
-        note = (f"; only {probe.shape[0]}/256 motion pairs have rotation axes > "
+        note = (f"; only {probe.shape[0]}/256 motion pairs have {kind} "
+                f"{'axes' if kind == 'rotation' else 'directions'} > "
                 f"{min_axis_angle_deg:g} deg apart (near-degenerate motion): minimal sets of "
                 f"{sample_size} motions, axis filter off")
+    elif kind == "translation":
+        note = ("; no motion rotates beyond the noise (pure translation): minimal sets of "
+                "motions with translations apart")
     return sample_size, min_axis, note
 
 

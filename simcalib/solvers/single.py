@@ -15,7 +15,7 @@ import numpy as np
 
 from simcalib.solvers import registry
 from simcalib.solvers.kernels.batch import warm_up
-from simcalib.solvers.problem import SolverOutput, prepare_problem
+from simcalib.solvers.problem import SolverOutput, prepare_problem, rotation_shortfall
 from simcalib.solvers.solution import PENDING, Solution
 from simcalib.solvers.validation import (_check_method_inputs, _check_rng, _finish_output,
                                          check_alpha)
@@ -140,8 +140,14 @@ def _run_solver(info, C, H, alpha, prior, rng, weights) -> tuple:
     compile_s = warm_up()
     t0 = time.perf_counter()
     problem = prepare_problem(C, H, alpha, weights)
+    shortfall = rotation_shortfall(problem.C, problem.H) \
+        if info.extra.get("needs_rotation") else None
     try:
-        out = info.fn(problem, alpha, prior, rng)
+        if shortfall is not None:       # the method's rotation step would fit the noise
+            out = SolverOutput(X=np.full((4, 4), np.nan), success=False,
+                               message=f"degenerate motions for {info.name}: {shortfall}")
+        else:
+            out = info.fn(problem, alpha, prior, rng)
     except Exception as exc:  # noqa: BLE001 - a solver failing on valid input is reported
         out = SolverOutput(X=np.full((4, 4), np.nan), success=False,
                            message=f"solver raised {type(exc).__name__}: {exc}")

@@ -1,8 +1,8 @@
 """The kinds of generated recording (:data:`KINDS`: stations, short, bursts, stop-and-go,
 continuous, a low-rate camera, offsets and drift, outliers, gaps, robot error, planar,
-SCARA, inverted, scalar-first, stamps in ms / us / ns, no motion) and :func:`generate` (a
-kind and a seed -> a :class:`Recording`), the true streams, and the TUM files a recording
-is written as (``a.txt``, ``b.txt``, ``truth.json``).
+SCARA, pure translation, inverted, scalar-first, stamps in ms / us / ns, no motion) and
+:func:`generate` (a kind and a seed -> a :class:`Recording`), the true streams, and the TUM
+files a recording is written as (``a.txt``, ``b.txt``, ``truth.json``).
 """
 
 from __future__ import annotations
@@ -229,6 +229,31 @@ def _kind_scara(rngs, s):
                    "on a 3-level grid): X's translation along the hand axis is undetermined")
 
 
+def _stage_motion(rng, planar: bool) -> Callable:
+    """``tau -> T_world_stage``: a cart (``planar``: in the floor's plane) or a gantry / linear
+    stage (in 3-D) translating ~0.1..0.3 m (sums of sinusoids) with a fixed orientation."""
+    R0 = random_rotation_matrices(rng)
+    amp, f, ph = _sinusoids(rng, 0.05, 0.15, 0.03, 0.25)
+    if planar:
+        amp = amp * np.array([1.0, 1.0, 0.0])
+    centre = rng.uniform(-1.0, 1.0, 3)
+
+    def poses(tau):
+        p = centre + _eval_sinusoids((amp, f, ph), tau)
+        return transform_from_rotation_translation(np.broadcast_to(R0, (tau.size, 3, 3)), p)
+    return poses
+
+
+def _kind_translation(rngs, s):
+    planar = rngs["seed"] % 2 == 1              # seeds take turns: gantry (3-D), cart (2-D)
+    d = _continuous(rngs, s, hand=_stage_motion(rngs["motion"], planar),
+                    offset_s=_small_offset(rngs, s), label="translation")
+    return replace(d, undetermined_a=np.eye(3), description=d.description + (
+        ", a cart translating in a plane" if planar else ", a stage translating in 3-D")
+        + " without rotating: X's rotation follows from the translations, its translation "
+        "is undetermined")
+
+
 def _kind_inverted(rngs, s):
     d = _continuous(rngs, s, offset_s=_small_offset(rngs, s), label="inverted")
     return replace(d, invert_b=True, description=d.description + ", file b holds "
@@ -333,6 +358,9 @@ KINDS: dict[str, Kind] = {
                    extra=("offset_s",)),
     "scara": Kind(_kind_scara, "4-DoF SCARA stations (vertical rotations, z on a grid)",
                   False, "degenerate"),
+    "translation": Kind(_kind_translation, "a stage (3-D, even seeds) or a cart (in a plane, "
+                        "odd seeds) that translates without rotating, offset +-50 ms: X's "
+                        "translation undetermined", True, "degenerate", extra=("offset_s",)),
     "inverted": Kind(_kind_inverted, "continuous, file b written as T_sensor_world, offset "
                      "+-50 ms", True, extra=("offset_s",)),
     "scalar_first": Kind(_kind_scalar_first, "continuous, one file with the quaternion "
@@ -413,10 +441,16 @@ def generate(kind: str, seed: int, **overrides) -> Recording:
         scalar_first_a=d.scalar_first_a, scalar_first_b=d.scalar_first_b,
         outliers_a=_frozen(oa), outliers_b=_frozen(ob), description=d.description,
         offset_determined=spec.offset_determined, expect=spec.expect,
-        undetermined_a=None if d.undetermined_a is None else _frozen(
-            d.undetermined_a / np.linalg.norm(d.undetermined_a)),
+        undetermined_a=None if d.undetermined_a is None else _frozen(_unit_rows(
+            d.undetermined_a)),
         X_workspace=None if d.X_workspace is None else _frozen(d.X_workspace),
         accuracy_a=d.accuracy_a, stamps_unit_a=d.stamps_unit_a, stamps_unit_b=d.stamps_unit_b)
+
+
+def _unit_rows(u) -> np.ndarray:
+    """Directions ``(k, 3)`` as unit rows (one direction ``(3,)`` -> ``(1, 3)``)."""
+    u = np.atleast_2d(np.asarray(u, dtype=np.float64))
+    return u / np.linalg.norm(u, axis=1, keepdims=True)
 
 
 def true_streams(rec: Recording) -> tuple[PoseStreamData, PoseStreamData]:

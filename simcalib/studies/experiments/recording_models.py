@@ -42,8 +42,9 @@ class Recording:
     ``_b``: the file's quaternion is written ``(w, x, y, z)``; ``outliers_a`` /
     ``outliers_b``: bool per pose of each stream; ``offset_determined``: the data determine
     the offset (continuous motion); ``expect``: ``determined``, ``degenerate`` (then
-    ``undetermined_a``, a unit vector in frame a, is the direction of X's translation the
-    motion cannot determine) or ``data_error`` (the calibration must refuse it).
+    ``undetermined_a``, unit rows ``(k, 3)`` in frame a, span the directions of X's
+    translation the motion cannot determine: one for planar / SCARA motion, all three for
+    pure translation) or ``data_error`` (the calibration must refuse it).
     ``X_workspace`` (kinds with systematic error, else None): the X that the hand's REPORTED
     poses and the camera's biased poses imply over the whole workspace, free of noise (a
     dense solve, :func:`simcalib.studies.experiments.recording_kinds.workspace_X`): what an
