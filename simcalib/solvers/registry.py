@@ -35,8 +35,9 @@ class SolverInfo:
     optimiser (experiments time fewer runs of it); ``expected_cost_us``: rough time of one
     solve at N = 100 (schedules experiment chunks, slowest first); ``extra``: the other
     metadata, e.g. ``needs_rotation`` (the method takes X's rotation from the motions'
-    rotations alone: ``simcalib.solve`` reports it failed, naming the motion, where no
-    motion rotates beyond the noise, :func:`simcalib.solvers.problem.rotation_shortfall`).
+    rotations alone: where no motion rotates beyond the noise,
+    :func:`simcalib.solvers.problem.rotation_shortfall`, ``simcalib.solve`` keeps its answer
+    but names the motion in the message and marks the solution degenerate).
     """
     name: str
     fn: Callable

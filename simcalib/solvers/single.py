@@ -65,10 +65,15 @@ def solve_checked(info, C, H, alpha: float, prior, rng, weights, *, tolerance_de
     and diagnostics evaluated on first read)."""
     boot_rng = bootstrap_rng(uncertainty, rng)
     prior, rng = _check_method_inputs(info, prior, weights, rng)
-    problem, out, runtime, compile_s = _run_solver(info, C, H, alpha, prior, rng, weights)
+    problem, out, runtime, compile_s, shortfall = _run_solver(info, C, H, alpha, prior, rng,
+                                                              weights)
     pose_pairs, pose_error_basis = _check_pose_structure(pose_pairs, pose_error_basis,
                                                          pose_simulation, problem.n, alpha)
     X, success, message, diag = _finish_output(out, info.name)
+    if shortfall is not None:       # the estimate stays (comparisons measure it), named so
+        diag["rotation_shortfall"] = shortfall
+        message = f"degenerate motions for {info.name}: {shortfall}" + (
+            f"; {message}" if message else "")
     diag["sign_flips"] = problem.sign_flips
     diag["compile_s"] = compile_s
     if np.isfinite(X).all():   # cost and objective: evaluated on first read
@@ -136,23 +141,24 @@ def bootstrap_rng(uncertainty, rng) -> np.random.Generator | None:
 
 
 def _run_solver(info, C, H, alpha, prior, rng, weights) -> tuple:
-    """``(problem, solver output, runtime_s, compile_s)`` of the timed solve of ``(C, H)``."""
+    """``(problem, solver output, runtime_s, compile_s, shortfall)`` of the timed solve of
+    ``(C, H)``; ``shortfall``: why the motions' rotations cannot give X's rotation, for a
+    method whose rotation step uses them alone (``needs_rotation``:
+    :func:`~simcalib.solvers.problem.rotation_shortfall`), else None. Such a method still
+    solves (its rotation is then fitted to the noise, as the paper's Table 2 measures on
+    ``line``); the solution's message names the shortfall and ``degenerate`` is True."""
     compile_s = warm_up()
     t0 = time.perf_counter()
     problem = prepare_problem(C, H, alpha, weights)
     shortfall = rotation_shortfall(problem.C, problem.H) \
         if info.extra.get("needs_rotation") else None
     try:
-        if shortfall is not None:       # the method's rotation step would fit the noise
-            out = SolverOutput(X=np.full((4, 4), np.nan), success=False,
-                               message=f"degenerate motions for {info.name}: {shortfall}")
-        else:
-            out = info.fn(problem, alpha, prior, rng)
+        out = info.fn(problem, alpha, prior, rng)
     except Exception as exc:  # noqa: BLE001 - a solver failing on valid input is reported
         out = SolverOutput(X=np.full((4, 4), np.nan), success=False,
                            message=f"solver raised {type(exc).__name__}: {exc}")
     runtime = time.perf_counter() - t0
-    return problem, out, runtime, compile_s
+    return problem, out, runtime, compile_s, shortfall
 
 
 def _check_pose_structure(pose_pairs, pose_error_basis, pose_simulation, n: int,

@@ -209,9 +209,11 @@ class Solution:
     def degenerate(self) -> bool:
         """True when any direction of ``X`` is undetermined or poorly determined (1-sigma
         above ``tolerance_deg`` / ``tolerance_m``), from :attr:`uncertainty`; also True for
-        a failed solve (there is no estimate to trust)."""
+        a failed solve (there is no estimate to trust) and for a method whose rotation step
+        the motions cannot feed (``diagnostics["rotation_shortfall"]``)."""
         u = self.uncertainty
-        return True if u is None else u.degenerate
+        return True if u is None or self.diagnostics.get("rotation_shortfall") \
+            else u.degenerate
 
     @property
     def undetermined(self) -> tuple:
