@@ -131,13 +131,12 @@ def check_streams_move(sa, sb) -> str:
     from simcalib.errors import DataError
     ext = {"a": rotation_extent_deg(sa), "b": rotation_extent_deg(sb)}
     streams = {"a": sa, "b": sb}
-    for name, other in (("a", "b"), ("b", "a")):
-        if ext[name] < STILL_DEG and ext[other] > 5.0 * max(ext[name], 0.2 * STILL_DEG):
-            raise DataError(
-                f"stream {name} ({streams[name].source}) does not rotate: 90 % of its poses "
-                f"lie within {ext[name]:.2g} deg of its first pose, while stream {other} "
-                f"turns by {ext[other]:.3g} deg; both sensors of a rigid rig turn alike (a "
-                "wrong file or topic, or a frozen tracker?)")
+    for name, other in _still_beside_moving(ext, STILL_DEG):
+        raise DataError(
+            f"stream {name} ({streams[name].source}) does not rotate: 90 % of its poses "
+            f"lie within {ext[name]:.2g} deg of its first pose, while stream {other} "
+            f"turns by {ext[other]:.3g} deg; both sensors of a rigid rig turn alike (a "
+            "wrong file or topic, or a frozen tracker?)")
     if max(ext.values()) >= STILL_DEG:
         return "rotation"
     move = {"a": translation_extent_m(sa), "b": translation_extent_m(sb)}
@@ -149,15 +148,21 @@ def check_streams_move(sa, sb) -> str:
             f"{1e3 * move['b']:.2g} mm (b) of their median, < {1e3 * STILL_M:g} mm); a "
             "calibration needs the rig to move (a wrong file or topic, or a frozen "
             "tracker?)")
-    for name, other in (("a", "b"), ("b", "a")):
-        if move[name] < STILL_M and move[other] > 5.0 * max(move[name], 0.2 * STILL_M):
-            raise DataError(
-                f"stream {name} ({streams[name].source}) does not move: it neither rotates "
-                f"nor translates (90 % of its positions within {1e3 * move[name]:.2g} mm of "
-                f"their median), while stream {other} translates by {1e3 * move[other]:.3g} "
-                "mm; both sensors of a rigid rig that does not turn translate alike (a "
-                "wrong file or topic, or a frozen tracker?)")
+    for name, other in _still_beside_moving(move, STILL_M):
+        raise DataError(
+            f"stream {name} ({streams[name].source}) does not move: it neither rotates "
+            f"nor translates (90 % of its positions within {1e3 * move[name]:.2g} mm of "
+            f"their median), while stream {other} translates by {1e3 * move[other]:.3g} "
+            "mm; both sensors of a rigid rig that does not turn translate alike (a "
+            "wrong file or topic, or a frozen tracker?)")
     return "translation"
+
+
+def _still_beside_moving(extent: dict, still: float) -> list[tuple[str, str]]:
+    """``[(name, other)]`` where stream ``name`` stays within ``still`` while ``other``
+    moves 5x as far (and beyond a fifth of ``still``): bad input, not a degenerate motion."""
+    return [(n, o) for n, o in (("a", "b"), ("b", "a"))
+            if extent[n] < still and extent[o] > 5.0 * max(extent[n], 0.2 * still)]
 
 
 def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift=False, alpha=1.0,
