@@ -45,9 +45,9 @@ def rotation_shortfall(C, H) -> str | None:
     n = int(turns.sum())
     if n >= 2 and n >= 0.1 * a.size:
         return None
-    return (f"no motion rotates beyond the pose noise ({n} of {a.size} turn by >= "
+    return (f"too few motions rotate beyond the pose noise ({n} of {a.size} turn by >= "
             f"{TURN_DEG:g} deg in both streams alike; largest {max(a.max(), b.max()):.3g} "
-            "deg): a pure translation, so the rotation of X is undetermined by this "
+            "deg): (nearly) pure translation, so the rotation of X is undetermined by this "
             "method's rotation step; X's rotation follows from the translations (t_C = R_X "
             "t_H) with dqopt")
 

@@ -6,7 +6,8 @@
   chosen per motion). Units: rotation part ~ half the rotation error (rad), translation part
   ~ ``alpha`` x half the translation error (m).
 * :func:`ransac` — hypotheses from minimal sets of motions (2 motions with non-parallel
-  rotation axes, or translations where nothing rotates beyond the noise, solved all at once by ``simcalib.solve_batch`` with a DQ method), consensus
+  rotation axes, or translations where nothing rotates beyond the noise, solved all at
+  once by ``simcalib.solve_batch`` with a DQ method), consensus
   by the per-motion residual, threshold given, from the noise level, or automatic (least
   median of squares scale); the best consensus is refined (dqopt on the inliers, re-scored,
   repeated until the inlier set is stable) — the final ``X`` is the plain solve (dqopt) on
