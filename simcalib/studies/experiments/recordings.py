@@ -56,8 +56,8 @@ from simcalib.studies.experiments.recording_models import Recording
 __all__ = ["PARK_MAX_POSES", "PARK_FACTOR", "ROT_FLOOR_DEG", "TRANS_FLOOR_MM", "OFFSET_TOL_MS",
            "MIN_PRECISION", "MIN_RECALL", "synchronised_truth", "park_baseline",
            "translation_error_determined", "undetermined_covered", "no_worse",
-           "motion_outliers", "Outcome", "evaluate", "acceptance_failures", "summarise", "markdown", "run_all", "RecordingsConfig",
-           "run", "main"]
+           "motion_outliers", "Outcome", "evaluate", "acceptance_failures", "summarise",
+           "markdown", "run_all", "RecordingsConfig", "run", "main"]
 
 
 
