@@ -21,7 +21,7 @@ error is isotropic: its rotation angle and translation length have the stated rm
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
@@ -47,14 +47,12 @@ class CommonError:
 
     def __post_init__(self):
         from simcalib.config.checks import check_positive, set_fields
-        set_fields(self, **{k: check_positive(k, getattr(self, k), allow_zero=True)
-                            for k in ("rotation_a_deg", "translation_a_m", "rotation_b_deg",
-                                      "translation_b_m")})
+        set_fields(self, **{k: check_positive(k, v, allow_zero=True)
+                            for k, v in self.to_dict().items()})
 
     @property
     def stated(self) -> bool:
-        return any(v > 0 for v in (self.rotation_a_deg, self.translation_a_m,
-                                   self.rotation_b_deg, self.translation_b_m))
+        return any(v > 0 for v in self.to_dict().values())
 
     def covariance(self, X) -> np.ndarray:
         """``(6, 6)``: the covariance these errors give X (``pose_error`` coordinates:
@@ -64,8 +62,7 @@ class CommonError:
                                     _isotropic(self.rotation_b_deg, self.translation_b_m))
 
     def to_dict(self) -> dict:
-        return {"rotation_a_deg": self.rotation_a_deg, "translation_a_m": self.translation_a_m,
-                "rotation_b_deg": self.rotation_b_deg, "translation_b_m": self.translation_b_m}
+        return {f.name: getattr(self, f.name) for f in fields(self)}
 
 
 def _isotropic(rotation_deg: float, translation_m: float) -> np.ndarray:

@@ -134,9 +134,9 @@ class OffsetCost:
             R = T[:, :3, :3]
             turn = rotation_angle_rad(np.swapaxes(R[i], 1, 2) @ R[j])
             return turn >= math.radians(1.0), "turns by >= 1 deg"
-        d = np.linalg.norm(T[j, :3, 3] - T[i, :3, 3], axis=1)
-        floor = 0.1 * float(np.median(d)) if d.size else 0.0
-        return d > floor, "translates by a tenth of its median motion or more"
+        from simcalib.estimation.stillness import translates
+        return (translates(np.linalg.norm(T[j, :3, 3] - T[i, :3, 3], axis=1)),
+                "translates by a tenth of its median motion or more")
 
     def _query(self, offset):
         return self.t_ref + offset if self.reference == "a" else self.t_ref - offset

@@ -104,8 +104,9 @@ def _motions(sa, sb, offset, n_pairs, rng, sampling=None, signal="rotation"):
     C = invert_transform(sp.T_a[i]) @ sp.T_a[j]
     H = invert_transform(sp.T_b[i]) @ sp.T_b[j]
     if signal == "translation":
-        d = 0.5 * (np.linalg.norm(C[:, :3, 3], axis=1) + np.linalg.norm(H[:, :3, 3], axis=1))
-        keep = d > 0.1 * float(np.median(d)) if d.size else d > 0
+        from simcalib.estimation.stillness import translates
+        keep = translates(0.5 * (np.linalg.norm(C[:, :3, 3], axis=1)
+                                 + np.linalg.norm(H[:, :3, 3], axis=1)))
     else:
         ang = 0.5 * (rotation_angle_rad(C[:, :3, :3]) + rotation_angle_rad(H[:, :3, :3]))
         keep = ang > np.radians(1.0)

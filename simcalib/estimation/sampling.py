@@ -26,8 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Sampling", "classify_sampling", "pair_by_stamp", "resolution",
-           "SHARED_FRACTION"]
+__all__ = ["Sampling", "classify_sampling", "pair_by_stamp", "resolution", "median_period",
+           "is_sample_numbers", "SHARED_FRACTION"]
 
 #: share of the sparser stream's stamps that must have a partner for "shared stamps"
 SHARED_FRACTION = 0.8
@@ -73,12 +73,14 @@ class Sampling:
                 "reason": self.reason}
 
 
-def _period(t: np.ndarray) -> float:
+def median_period(t: np.ndarray) -> float:
+    """The median step between stamps (NaN for fewer than 2)."""
     return float(np.median(np.diff(t))) if t.size >= 2 else math.nan
 
 
-def _is_index(t: np.ndarray) -> bool:
-    """Stamps that are sample numbers: integers with a unit step most of the time."""
+def is_sample_numbers(t: np.ndarray) -> bool:
+    """Stamps that are sample numbers: integers with a unit step most of the time (from 0
+    or more, below 1e6)."""
     if t.size < 2 or not np.allclose(t, np.round(t), atol=1e-9, rtol=0):
         return False
     d = np.diff(np.round(t))
@@ -184,7 +186,7 @@ def classify_sampling(stream_a, stream_b) -> Sampling:
     time) are paired after it when no other shift pairs half as many."""
     t_a = np.asarray(stream_a.timestamps_s, dtype=np.float64)
     t_b = np.asarray(stream_b.timestamps_s, dtype=np.float64)
-    pa, pb = _period(t_a), _period(t_b)
+    pa, pb = median_period(t_a), median_period(t_b)
     _check_time_units(t_a, t_b, pa, pb)
     tol = 1e-3 * min(pa, pb) + 1e-9
     a_sparse = t_a.size <= t_b.size
@@ -197,7 +199,7 @@ def classify_sampling(stream_a, stream_b) -> Sampling:
                   period_a_s=pa, period_b_s=pb, resolution_s=res)
     synthetic = bool(getattr(stream_a, "synthetic_time", False)
                      or getattr(stream_b, "synthetic_time", False))
-    if synthetic or (_is_index(t_a) and _is_index(t_b)):
+    if synthetic or (is_sample_numbers(t_a) and is_sample_numbers(t_b)):
         why = ("a file has no time column (row index used)" if synthetic else
                "both streams are stamped with sample numbers")
         return Sampling("index_stamps", True, reason=f"{why}: poses paired by index "

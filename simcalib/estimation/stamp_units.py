@@ -37,6 +37,7 @@ import math
 import numpy as np
 
 from simcalib.errors import DataError
+from simcalib.estimation.sampling import is_sample_numbers, median_period
 from simcalib.importers._stamps import MAX_PERIOD_S, UNIT_FACTORS
 
 __all__ = ["stamps_to_seconds", "motion_units", "MIN_SUSPECT_PERIOD", "DENSE_GROWTH",
@@ -60,16 +61,6 @@ SPAN_SLACK = 0.75
 _UNIT_OF = {1e3: "ms", 1e6: "us", 1e9: "ns"}
 
 
-def _period(t) -> float:
-    return float(np.median(np.diff(t))) if t.size >= 2 else math.nan
-
-
-def _is_index(t) -> bool:
-    """Sample numbers: integers stepping by 1 most of the time."""
-    return bool(t.size >= 2 and np.allclose(t, np.round(t), atol=1e-9, rtol=0)
-                and np.median(np.diff(np.round(t))) == 1.0)
-
-
 def _rotation_deg(R, lag: int) -> np.ndarray:
     from simcalib.geometry import rotation_angle_rad
     return np.degrees(rotation_angle_rad(np.swapaxes(R[:-lag], 1, 2) @ R[lag:]))
@@ -81,8 +72,8 @@ def motion_units(stream) -> tuple[list[str], str] | None:
     :data:`MIN_SUSPECT_PERIOD` or more (module doc); ``units`` empty when none fits. None
     when the motion says nothing (steps shorter, too few poses, stations, noise)."""
     t = np.asarray(stream.timestamps_s, dtype=np.float64)
-    p = _period(t)
-    if t.size < MIN_DENSE_POSES or not p >= MIN_SUSPECT_PERIOD or _is_index(t) \
+    p = median_period(t)
+    if t.size < MIN_DENSE_POSES or not p >= MIN_SUSPECT_PERIOD or is_sample_numbers(t) \
             or getattr(stream, "synthetic_time", False):
         return None
     R = np.asarray(stream.T_world_sensor, dtype=np.float64)[:, :3, :3]
@@ -150,19 +141,20 @@ def _given(s, unit: str):
 def _describe(k, s) -> str:
     t = np.asarray(s.timestamps_s, dtype=np.float64)
     return (f"{k} spans {_span(s):.6g} from {t[0]:.6g} in {t.size} poses, a step of "
-            f"{_period(t):.4g}")
+            f"{median_period(t):.4g}")
 
 
 def _by_pair(st: dict, motion: dict) -> dict:
     """Rescale the stream of larger stamps when both spans and periods show the two
     streams a unit apart (module doc); DataError when that contradicts its motion."""
-    if any(_is_index(np.asarray(s.timestamps_s)) or s.synthetic_time for s in st.values()):
+    if any(is_sample_numbers(np.asarray(s.timestamps_s)) or s.synthetic_time
+           for s in st.values()):
         return st
     big, small = sorted(st, key=lambda k: -_span(st[k]))
     f = _unit_factor(_span(st[big]) / max(_span(st[small]), 1e-300))
     if f is None or f == 1.0 or st[big].stamps_unit:
         return st
-    pb, ps = _period(np.asarray(st[big].timestamps_s)), _period(np.asarray(st[small].timestamps_s))
+    pb, ps = (median_period(np.asarray(st[k].timestamps_s)) for k in (big, small))
     if not (pb > 0 and ps > 0) or abs(math.log10(pb / f / ps)) > \
             abs(math.log10(pb / ps)) - PERIOD_GAIN_DECADES:
         return st
@@ -185,7 +177,7 @@ def _check_told(st: dict, motion: dict) -> None:
     for k, s in st.items():
         if s.stamps_unit:
             continue
-        p = _period(np.asarray(s.timestamps_s))
+        p = median_period(np.asarray(s.timestamps_s))
         other = "b" if k == "a" else "a"
         if motion.get(k) is not None:
             units, why = motion[k]

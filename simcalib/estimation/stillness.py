@@ -28,13 +28,16 @@ import numpy as np
 from simcalib.geometry import rotation_angle_rad
 
 __all__ = ["STILL_DEG", "STILL_M", "rotation_extent_deg", "translation_extent_m",
-           "motion_signal"]
+           "motion_signal", "translates", "TRANSLATES_SHARE"]
 
 #: a stream whose poses (90 %) lie within this angle of its first pose does not rotate
 STILL_DEG = 1.0
 #: a stream that does not rotate and whose positions (90 %) lie within this distance of
 #: their median does not move (m)
 STILL_M = 0.005
+#: a motion of a rig that does not turn carries the signal when it translates by at least
+#: this share of the recording's median motion
+TRANSLATES_SHARE = 0.1
 
 
 def _poses(stream) -> np.ndarray:
@@ -65,3 +68,10 @@ def motion_signal(stream_a, stream_b) -> str:
     :func:`simcalib.estimation.path.check_streams_move`)."""
     turns = max(rotation_extent_deg(stream_a), rotation_extent_deg(stream_b))
     return "rotation" if turns >= STILL_DEG else "translation"
+
+
+def translates(d) -> np.ndarray:
+    """Which motions of a rig that does not turn carry a signal: translation lengths ``d``
+    of at least :data:`TRANSLATES_SHARE` of their median (the rest is standing still)."""
+    d = np.asarray(d, dtype=np.float64)
+    return d > TRANSLATES_SHARE * float(np.median(d)) if d.size else d > 0
