@@ -172,24 +172,22 @@ def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift=False, alp
     that reading, then the reading decided again at the final offset (it is what the run
     reports). ``signal`` (:func:`check_streams_move`): ``rotation`` correlates angular
     speeds, ``translation`` (a rig that does not turn) translation speeds, and scores the
-    readings on motions that translate. Returns ``(stream_a, stream_b, ConventionReport,
-    TimeOffset)``."""
+    readings on motions that translate. Streams paired by equal stamps that both sample a
+    continuous motion are checked for an offset the stamps hide
+    (:mod:`simcalib.estimation.hidden_offset`), which unpairs them. Returns ``(stream_a,
+    stream_b, ConventionReport, TimeOffset, Sampling)``."""
     from simcalib.estimation.readings import apply_conventions, detect_conventions
     from simcalib.estimation.alignment import TimeOffset, _as_offset, estimate_time_offset
     forced = forced or {}
-    detect = lambda off: detect_conventions(  # noqa: E731
-        sa, sb, offset=off, alpha=alpha, seed=seed, sampling=sampling, signal=signal,
-        **forced)
+    detect = lambda off, smp=sampling: detect_conventions(  # noqa: E731
+        sa, sb, offset=off, alpha=alpha, seed=seed, sampling=smp, signal=signal, **forced)
     if time_offset != "estimate":
         off = _as_offset(time_offset)
         conv = detect(off)
-        return (*apply_conventions(sa, sb, conv), conv, off)
+        return (*apply_conventions(sa, sb, conv), conv, off, sampling)
     if sampling.paired_by_stamp:            # equal stamps, or equal after a constant shift
-        shift = float(getattr(sampling, "shift_s", 0.0))
-        off = TimeOffset(shift, 0.0, shift, float("nan"), np.zeros(0), np.zeros(0),
-                         refined=False, decision="shared_stamps", message=sampling.reason)
-        conv = detect(off)
-        return (*apply_conventions(sa, sb, conv), conv, off)
+        return _paired_by_stamp(sa, sb, sampling, detect, drift=drift, alpha=alpha,
+                                signal=signal)
     conv = min((detect(c) for c in _offset_candidates(sa, sb, signal)), key=_best_score)
     a1, b1 = apply_conventions(sa, sb, conv)
     off = estimate_time_offset(a1, b1, drift=drift, alpha=alpha, signal=signal)
@@ -199,7 +197,26 @@ def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift=False, alp
         a1, b1 = apply_conventions(sa, sb, final)       # the reading changed: once more
         off = estimate_time_offset(a1, b1, drift=drift, alpha=alpha, signal=signal)
         final = detect(off)
-    return (*apply_conventions(sa, sb, final), final, off)
+    return (*apply_conventions(sa, sb, final), final, off, sampling)
+
+
+def _paired_by_stamp(sa, sb, sampling, detect, *, drift, alpha, signal):
+    """:func:`align_and_read` for stamp-paired streams: the shift (0 for equal stamps) is
+    the offset, unless the motions show one the stamps hide."""
+    from simcalib.estimation.readings import apply_conventions
+    from simcalib.estimation.alignment import TimeOffset
+    from simcalib.estimation.hidden_offset import stamps_hide_offset
+    shift = float(getattr(sampling, "shift_s", 0.0))
+    off = TimeOffset(shift, 0.0, shift, float("nan"), np.zeros(0), np.zeros(0),
+                     refined=False, decision="shared_stamps", message=sampling.reason)
+    conv = detect(off)
+    a1, b1 = apply_conventions(sa, sb, conv)
+    sampling, off = stamps_hide_offset(a1, b1, sampling, off, alpha=alpha, drift=drift,
+                                       signal=signal)
+    if sampling.paired_by_stamp:
+        return a1, b1, conv, off, sampling
+    final = detect(off, sampling)
+    return (*apply_conventions(sa, sb, final), final, off, sampling)
 
 
 def _best_score(conv) -> float:
@@ -387,9 +404,9 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     sampling = classify_sampling(sa, sb)
     forced = {"invert_a": invert_a, "invert_b": invert_b, "scalar_first_a": scalar_first_a,
               "scalar_first_b": scalar_first_b}
-    sa, sb, conv, off = align_and_read(sa, sb, sampling, time_offset=time_offset,
-                                       drift=drift, alpha=alpha, seed=seed, forced=forced,
-                                       signal=signal)
+    sa, sb, conv, off, sampling = align_and_read(sa, sb, sampling, time_offset=time_offset,
+                                                 drift=drift, alpha=alpha, seed=seed,
+                                                 forced=forced, signal=signal)
     sp = synchronised(sa, sb, sampling, off)
     ms = form_motions(sp, motions, paired_by_stamp=sampling.paired_by_stamp,
                       index_stamps=sampling.kind == "index_stamps", step_s=step_s,
