@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from simcalib.estimation.stillness import (STILL_DEG, STILL_M, rotation_extent_deg,
-                                           translation_extent_m)
+                                           translation_extent_m, white_positions)
 
 __all__ = ["StreamCalibration", "calibrate_streams", "align_worlds", "check_streams_move",
            "STILL_DEG"]
@@ -139,23 +139,33 @@ def check_streams_move(sa, sb) -> str:
             "wrong file or topic, or a frozen tracker?)")
     if max(ext.values()) >= STILL_DEG:
         return "rotation"
-    move = {"a": translation_extent_m(sa), "b": translation_extent_m(sb)}
+    move, why = _translation_extents(streams)
     if max(move.values()) < STILL_M:
         raise DataError(
             f"nothing moves: neither stream rotates (90 % of the poses within "
             f"{ext['a']:.2g} deg (a) and {ext['b']:.2g} deg (b) of the first) nor translates "
-            f"(90 % of the positions within {1e3 * move['a']:.2g} mm (a) and "
-            f"{1e3 * move['b']:.2g} mm (b) of their median, < {1e3 * STILL_M:g} mm); a "
-            "calibration needs the rig to move (a wrong file or topic, or a frozen "
-            "tracker?)")
+            f"(a: {why['a']}; b: {why['b']}); a calibration needs the rig to move (a wrong "
+            "file or topic, or a frozen tracker?)")
     for name, other in _still_beside_moving(move, STILL_M):
         raise DataError(
             f"stream {name} ({streams[name].source}) does not move: it neither rotates "
-            f"nor translates (90 % of its positions within {1e3 * move[name]:.2g} mm of "
-            f"their median), while stream {other} translates by {1e3 * move[other]:.3g} "
-            "mm; both sensors of a rigid rig that does not turn translate alike (a "
-            "wrong file or topic, or a frozen tracker?)")
+            f"nor translates ({why[name]}), while stream {other} translates by "
+            f"{1e3 * move[other]:.3g} mm; both sensors of a rigid rig that does not turn "
+            "translate alike (a wrong file or topic, or a frozen tracker?)")
     return "translation"
+
+
+def _translation_extents(streams: dict) -> tuple[dict, dict]:
+    """``({name: extent (m)}, {name: why it is still})``: how far each stream translates,
+    0 where its positions are white noise around one place whatever the length unit
+    (:func:`simcalib.estimation.stillness.white_positions`: a still rig's file in mm)."""
+    move, why = {}, {}
+    for k, s in streams.items():
+        extent, white = translation_extent_m(s), white_positions(s)
+        move[k] = 0.0 if white else extent
+        why[k] = white or (f"90 % of its positions within {1e3 * extent:.2g} mm of their "
+                           f"median, < {1e3 * STILL_M:g} mm")
+    return move, why
 
 
 def _still_beside_moving(extent: dict, still: float) -> list[tuple[str, str]]:
