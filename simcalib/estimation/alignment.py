@@ -135,6 +135,9 @@ class TimeOffset:
     window_s: tuple = (float("-inf"), float("inf"))
     #: the split check of the refined offset (None: not refined or too short to split)
     split: object = None
+    #: the speeds whose correlation gave the candidates and whose moving motions the cost
+    #: used: ``rotation`` (angular) or ``translation``
+    signal: str = "rotation"
 
     def offset_at(self, t_a) -> np.ndarray:
         """Offset ``t_b - t_a`` at clock-a times ``t_a``."""
@@ -435,19 +438,42 @@ def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = Non
     ``signal``: ``rotation`` (angular speeds) or ``translation`` (translation speeds, for a
     rig that does not turn: their norms agree in every sensor, whatever the reading; the
     cost's motions are the ones that translate); ``auto``: rotation unless neither stream
-    turns (:func:`simcalib.estimation.stillness.motion_signal`).
+    turns (:func:`simcalib.estimation.stillness.motion_signal`). Where the rotation signal
+    leaves the offset in doubt (not told from 0, or its sigma above
+    :data:`~simcalib.estimation.offset_cost.CLEAR_SIGMA_S`: a rig that turns only a
+    little) and both streams translate, the translation signal is estimated too and the
+    one that tells the offset more precisely is used (:func:`~simcalib.estimation.
+    offset_cost.clearer`; ``TimeOffset.signal`` says which).
     """
     from simcalib.estimation import offset_cost as oc
     ta, Ta = as_time_poses(stream_a, "stream_a")
     tb, Tb = as_time_poses(stream_b, "stream_b")
     signal = _signal(signal, (ta, Ta), (tb, Tb))
+    kw = dict(max_offset_s=max_offset_s, refine=refine, drift=drift, step_s=step_s,
+              alpha=alpha, min_overlap_frac=min_overlap_frac, robust=robust)
+    first = _estimate(ta, Ta, tb, Tb, signal, **kw)
+    if not (refine and signal == "rotation" and oc.in_doubt(first)
+            and oc.both_translate(Ta, Tb)):
+        return first
+    try:
+        second = _estimate(ta, Ta, tb, Tb, "translation", **kw)
+    except DataError:
+        return first
+    return oc.clearer(first, second)
+
+
+def _estimate(ta, Ta, tb, Tb, signal, *, max_offset_s, refine, drift, step_s, alpha,
+              min_overlap_frac, robust) -> TimeOffset:
+    """:func:`estimate_time_offset` on one ``signal``: its correlation's candidates refined
+    on the cost of the motions that move that way."""
+    from simcalib.estimation import offset_cost as oc
     coarse, peak, lags, corr, grid_dt = _coarse_offset(ta, Ta, tb, Tb, max_offset_s,
                                                        min_overlap_frac, robust, signal)
     z = peak_z(corr, peak)
     window = (float(lags.min()), float(lags.max())) if lags.size else (coarse, coarse)
     slow_dt = max(float(np.median(np.diff(ta))), float(np.median(np.diff(tb))))
     msg = _coarse_message(coarse, peak, z, window, signal)
-    base = dict(peak_z=z, window_s=window)
+    base = dict(peak_z=z, window_s=window, signal=signal)
     if not refine:
         return TimeOffset(coarse, grid_dt, coarse, peak, lags, corr, refined=False,
                           message=msg, **base)
