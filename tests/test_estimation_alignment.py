@@ -300,3 +300,42 @@ def test_a_rig_that_only_translates_gets_its_offset_from_the_translation_speeds(
     _, v = translation_speed(a)
     _, v_inv = translation_speed(a.with_inverse())
     np.testing.assert_allclose(v, v_inv, rtol=1e-3)
+
+
+def test_a_rig_that_turns_only_a_little_gets_its_offset_from_the_translation_speeds():
+    """A stage that turns by ~1.3 deg in all: beyond STILL_DEG, so rotating, but its
+    angular speeds are noise (seed 7: too few 1 s motions turn by 1 deg, 0 used with no
+    sigma; seed 8: 26 motions, 5 ms off at sigma 5 ms). The translation speeds tell the
+    offset: within 3 ms, evidence beyond 9, and the result says which signal gave it."""
+    from simcalib.estimation.stillness import motion_signal
+    from simcalib.studies.experiments.recording_kinds import generate, true_streams
+    for seed in (7, 8):
+        rec = generate("weak_rotation", seed)
+        a, b = true_streams(rec)
+        assert motion_signal(a, b) == "rotation"
+        off = estimate_time_offset(a, b)
+        assert off.decision == "estimated" and off.signal == "translation", off.message
+        assert abs(off.offset_s - rec.offset_s) < 0.003, (seed, off.offset_s, rec.offset_s)
+        assert off.evidence > 9 and off.uncertainty_s < 0.003
+        assert "from the translation speeds" in off.message
+        angular = estimate_time_offset(a, b, signal="rotation")
+        assert angular.signal == "rotation"
+
+
+def test_the_clearer_of_two_signals_is_the_one_that_beats_zero_with_the_smaller_sigma():
+    from simcalib.estimation.offset_cost import CLEAR_SIGMA_S, clearer, in_doubt
+
+    def off(x, sigma, decision, signal):
+        return TimeOffset(x, sigma, x, 0.5, np.zeros(0), np.zeros(0), decision=decision,
+                          signal=signal, message=signal)
+    rot = off(0.010, 0.004, "estimated", "rotation")
+    tra = off(0.012, 0.0005, "estimated", "translation")
+    assert in_doubt(rot) and not in_doubt(tra)
+    assert not in_doubt(off(0.01, CLEAR_SIGMA_S, "estimated", "rotation"))
+    assert clearer(rot, tra).signal == "translation"
+    assert clearer(tra, rot).signal == "translation"
+    zero = off(0.0, 0.02, "zero", "translation")
+    assert clearer(rot, zero).signal == "rotation"         # only one beats 0
+    still = off(0.0, float("nan"), "zero", "rotation")       # the cost could not be built
+    assert clearer(still, zero).offset_s == 0.0 and clearer(still, zero).signal == "translation"
+    assert clearer(zero, off(0.0, 0.05, "zero", "rotation")).uncertainty_s == 0.02

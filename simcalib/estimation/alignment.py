@@ -438,8 +438,8 @@ def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = Non
     ``signal``: ``rotation`` (angular speeds) or ``translation`` (translation speeds, for a
     rig that does not turn: their norms agree in every sensor, whatever the reading; the
     cost's motions are the ones that translate); ``auto``: rotation unless neither stream
-    turns (:func:`simcalib.estimation.stillness.motion_signal`). Where the rotation signal
-    leaves the offset in doubt (not told from 0, or its sigma above
+    turns (:func:`simcalib.estimation.stillness.motion_signal`); with ``auto``, where the
+    rotation signal leaves the offset in doubt (not told from 0, or its sigma above
     :data:`~simcalib.estimation.offset_cost.CLEAR_SIGMA_S`: a rig that turns only a
     little) and both streams translate, the translation signal is estimated too and the
     one that tells the offset more precisely is used (:func:`~simcalib.estimation.
@@ -448,11 +448,11 @@ def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = Non
     from simcalib.estimation import offset_cost as oc
     ta, Ta = as_time_poses(stream_a, "stream_a")
     tb, Tb = as_time_poses(stream_b, "stream_b")
-    signal = _signal(signal, (ta, Ta), (tb, Tb))
+    auto, signal = signal == "auto", _signal(signal, (ta, Ta), (tb, Tb))
     kw = dict(max_offset_s=max_offset_s, refine=refine, drift=drift, step_s=step_s,
               alpha=alpha, min_overlap_frac=min_overlap_frac, robust=robust)
     first = _estimate(ta, Ta, tb, Tb, signal, **kw)
-    if not (refine and signal == "rotation" and oc.in_doubt(first)
+    if not (auto and refine and signal == "rotation" and oc.in_doubt(first)
             and oc.both_translate(Ta, Tb)):
         return first
     try:

@@ -307,9 +307,12 @@ def clearer(first, second):
     else:
         best = first if math.isfinite(first.uncertainty_s) else second
     other = second if best is first else first
-    note = (f" [from the {best.signal} speeds: those of smaller sigma of the two that tell "
-            if ok else f" [from the {best.signal} speeds; neither signal tells the offset "
-            ) + (f"it; the {other.signal} speeds gave: {other.message}]")
+    speeds = {"rotation": "angular", "translation": "translation"}
+    told = (f"{other.offset_s * 1e3:.2f} ms used" if other.decision != "zero" else
+            "0 used") + f", sigma {other.uncertainty_s * 1e3:.2f} ms"
+    note = (f" [from the {speeds[best.signal]} speeds: "
+            + ("the more precise of the two that tell it" if ok else "neither tells it")
+            + f"; the {speeds[other.signal]} speeds: {told}]")
     return dataclasses.replace(best, message=best.message + note)
 
 

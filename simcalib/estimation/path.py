@@ -192,12 +192,15 @@ def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift=False, alp
         return (*apply_conventions(sa, sb, conv), conv, off)
     conv = min((detect(c) for c in _offset_candidates(sa, sb, signal)), key=_best_score)
     a1, b1 = apply_conventions(sa, sb, conv)
-    off = estimate_time_offset(a1, b1, drift=drift, alpha=alpha, signal=signal)
+    # a rotating rig: "auto" (the same rule as check_streams_move) consults the
+    # translation speeds too where the angular ones leave the offset in doubt
+    by = "auto" if signal == "rotation" else signal
+    off = estimate_time_offset(a1, b1, drift=drift, alpha=alpha, signal=by)
     final = detect(off)
     if (final.invert_a, final.invert_b, final.swap_scalar_a, final.swap_scalar_b) != (
             conv.invert_a, conv.invert_b, conv.swap_scalar_a, conv.swap_scalar_b):
         a1, b1 = apply_conventions(sa, sb, final)       # the reading changed: once more
-        off = estimate_time_offset(a1, b1, drift=drift, alpha=alpha, signal=signal)
+        off = estimate_time_offset(a1, b1, drift=drift, alpha=alpha, signal=by)
         final = detect(off)
     return (*apply_conventions(sa, sb, final), final, off)
 
