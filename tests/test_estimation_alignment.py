@@ -10,7 +10,7 @@ import pytest
 import simcalib
 from simcalib.geometry import rotation_error_rad, translation_error_m
 from simcalib.world.stream_sim import rig_streams
-from simcalib.estimation.alignment import (TimeOffset, angular_speed, estimate_time_offset,
+from simcalib.estimation.alignment import (TimeOffset, estimate_time_offset,
                                interpolate_poses, make_motions, synchronise)
 
 # ../shared/data/eth relative to the repo root; SIMCALIB_ETH_DIR overrides (git worktrees)
@@ -85,14 +85,6 @@ def test_synchronise_and_motions():
     assert np.all(np.degrees(rotation_angle_rad(Ck[:, :3, :3])) >= 10.0 - 1e-9)
 
 
-def test_angular_speed_is_convention_free():
-    from simcalib.geometry import invert_transform
-    rs = rig_streams(rng=np.random.default_rng(0))
-    _, w = angular_speed(rs.a)
-    _, w_inv = angular_speed((rs.t_a, invert_transform(rs.T_a)))
-    assert np.allclose(w, w_inv)
-
-
 def test_bad_inputs():
     rs = rig_streams(rng=np.random.default_rng(0))
     with pytest.raises(ValueError, match="strictly increasing"):
@@ -111,7 +103,7 @@ def test_eth_offsets_refine_the_cost():
     from simcalib.studies.experiments.streams import eth_files
     from simcalib.estimation.readings import apply_conventions, detect_conventions
     from simcalib.importers import read_pose_stream
-    from simcalib.estimation.alignment import as_time_poses
+    from simcalib.estimation.speeds import as_time_poses
     from simcalib.estimation.offset_cost import OFFSET_STEP_S, OffsetCost
     for name, (fa, fb) in eth_files(ETH).items():
         a, b = read_pose_stream(fa), read_pose_stream(fb)
@@ -230,7 +222,7 @@ def test_a_cost_falling_to_its_bracket_edge_slides_to_the_minimum():
     the minimum is inside it (not the edge taken as the estimate); with a window that ends
     before the minimum the candidate is unbounded and gives no curvature sigma."""
     from simcalib.estimation import offset_cost as oc
-    from simcalib.estimation.alignment import as_time_poses
+    from simcalib.estimation.speeds import as_time_poses
     rec, a, b = _streams_of("offset", 1)
     ta, Ta = as_time_poses(a, "a")
     tb, Tb = as_time_poses(b, "b")
@@ -285,7 +277,7 @@ def test_a_rig_that_only_translates_gets_its_offset_from_the_translation_speeds(
     """No rotation (a stage translating in 3-D, a cart in a plane): the angular speeds are
     noise, the translation speeds agree in both sensors; the offset is found within 3 ms
     (the angular-speed correlation alone cannot)."""
-    from simcalib.estimation.alignment import translation_speed
+    from simcalib.estimation.speeds import translation_speed
     from simcalib.studies.experiments.recording_kinds import generate, true_streams
     for seed in (0, 1):
         rec = generate("translation", seed)
@@ -314,15 +306,40 @@ def test_fast_noisy_stream_speeds_over_the_slower_period(seed):
     assert est.peak_correlation > 0.9
 
 
-def test_speed_steps_and_bad_step():
-    from simcalib.estimation.alignment import speed_steps, translation_speed
-    t_fast, t_slow = np.arange(0, 10, 1 / 300), np.arange(0, 10, 1 / 30)
-    assert speed_steps(t_fast, t_slow) == (10, 1)
-    assert speed_steps(t_slow, t_slow) == (1, 1)
-    rs = rig_streams(rng=np.random.default_rng(0))
-    t_mid, w = angular_speed(rs.a, 3)
-    assert w.size == rs.t_a.size - 3 and np.allclose(t_mid, 0.5 * (rs.t_a[:-3] + rs.t_a[3:]))
-    assert translation_speed(rs.a, 10 ** 6)[1].size == 1     # capped at the stream's length
-    for bad in (0, 1.5, True, "2"):
-        with pytest.raises(ValueError, match="step must be an integer"):
-            angular_speed(rs.a, bad)
+def test_a_rig_that_turns_only_a_little_gets_its_offset_from_the_translation_speeds():
+    """A stage that turns by ~1.3 deg in all: beyond STILL_DEG, so rotating, but its
+    angular speeds are noise (seed 7: too few 1 s motions turn by 1 deg, 0 used with no
+    sigma; seed 8: 26 motions, 5 ms off at sigma 5 ms). The translation speeds tell the
+    offset: within 3 ms, evidence beyond 9, and the result says which signal gave it."""
+    from simcalib.estimation.stillness import motion_signal
+    from simcalib.studies.experiments.recording_kinds import generate, true_streams
+    for seed in (7, 8):
+        rec = generate("weak_rotation", seed)
+        a, b = true_streams(rec)
+        assert motion_signal(a, b) == "rotation"
+        off = estimate_time_offset(a, b)
+        assert off.decision == "estimated" and off.signal == "translation", off.message
+        assert abs(off.offset_s - rec.offset_s) < 0.003, (seed, off.offset_s, rec.offset_s)
+        assert off.evidence > 9 and off.uncertainty_s < 0.003
+        assert "from the translation speeds" in off.message
+        angular = estimate_time_offset(a, b, signal="rotation")
+        assert angular.signal == "rotation"
+
+
+def test_the_clearer_of_two_signals_is_the_one_that_beats_zero_with_the_smaller_sigma():
+    from simcalib.estimation.offset_cost import CLEAR_SIGMA_S, clearer, in_doubt
+
+    def off(x, sigma, decision, signal):
+        return TimeOffset(x, sigma, x, 0.5, np.zeros(0), np.zeros(0), decision=decision,
+                          signal=signal, message=signal)
+    rot = off(0.010, 0.004, "estimated", "rotation")
+    tra = off(0.012, 0.0005, "estimated", "translation")
+    assert in_doubt(rot) and not in_doubt(tra)
+    assert not in_doubt(off(0.01, CLEAR_SIGMA_S, "estimated", "rotation"))
+    assert clearer(rot, tra).signal == "translation"
+    assert clearer(tra, rot).signal == "translation"
+    zero = off(0.0, 0.02, "zero", "translation")
+    assert clearer(rot, zero).signal == "rotation"         # only one beats 0
+    still = off(0.0, float("nan"), "zero", "rotation")       # the cost could not be built
+    assert clearer(still, zero).offset_s == 0.0 and clearer(still, zero).signal == "translation"
+    assert clearer(zero, off(0.0, 0.05, "zero", "rotation")).uncertainty_s == 0.02

@@ -72,7 +72,8 @@ def stamps_hide_offset(sa, sb, sampling, off, *, alpha: float = 1.0, drift: bool
     paired as before, with the check's outcome in their messages, when it does not; as given
     for station data, sample numbers and stamps shared after a shift (whose shift is the
     offset). ``sa``, ``sb``: the streams in their decided reading."""
-    from simcalib.estimation.alignment import as_time_poses, estimate_time_offset
+    from simcalib.estimation.alignment import estimate_time_offset
+    from simcalib.estimation.speeds import as_time_poses
     from simcalib.estimation.offset_cost import EVIDENCE_MIN
     if sampling.kind != "shared_stamps" or sampling.shift_s != 0.0:
         return sampling, off
@@ -80,7 +81,8 @@ def stamps_hide_offset(sa, sb, sampling, off, *, alpha: float = 1.0, drift: bool
     tb, Tb = as_time_poses(sb, "stream_b")
     if not (continuous(ta, Ta, signal) and continuous(tb, Tb, signal)):
         return sampling, off
-    est = estimate_time_offset(sa, sb, drift=drift, alpha=alpha, signal=signal)
+    by = "auto" if signal == "rotation" else signal     # as align_and_read: both speeds
+    est = estimate_time_offset(sa, sb, drift=drift, alpha=alpha, signal=by)
     shared = (f"{sampling.shared} of {min(sampling.n_a, sampling.n_b)} stamps are shared by "
               "both streams")
     if est.decision != "estimated":

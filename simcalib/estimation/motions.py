@@ -200,6 +200,12 @@ STATION_STEP_DEG = 5.0
 #: a run of poses that stays within this of its first pose (in the stiller stream) stands
 #: still: one station of ``bursts``
 STATION_SPREAD_DEG = 1.0
+#: the same in translation (m; a rig that does not turn stops at stations too, a gantry):
+#: a step this long between consecutive poses (in both streams) starts a new station ...
+STATION_STEP_M = 0.025
+#: ... and a run within this of its first pose (in the stiller stream) stands still
+#: (:data:`simcalib.estimation.stillness.STILL_M`)
+STATION_SPREAD_M = 0.005
 
 
 def _turn_deg(T, i, j) -> np.ndarray:
@@ -207,26 +213,38 @@ def _turn_deg(T, i, j) -> np.ndarray:
     return np.degrees(rotation_angle_rad(np.swapaxes(R[i], -1, -2) @ R[j]))
 
 
+def _shift_m(T, i, j) -> np.ndarray:
+    return np.linalg.norm(T[j, :3, 3] - T[i, :3, 3], axis=-1)
+
+
+def _moved(synced, i, j) -> tuple[np.ndarray, np.ndarray]:
+    """``(turn deg, shift m)`` from pose ``i`` to pose ``j``, each in the stream that moves
+    less there (one noisy or outlying stream cannot split or join stations)."""
+    return (np.minimum(_turn_deg(synced.T_a, i, j), _turn_deg(synced.T_b, i, j)),
+            np.minimum(_shift_m(synced.T_a, i, j), _shift_m(synced.T_b, i, j)))
+
+
 def station_runs(synced) -> np.ndarray | None:
     """The station (0, 1, ...) of every synchronised pose when the poses come in runs that
     stand still (stop-and-go with several poses per stop): a new run starts where both
-    streams turn by :data:`STATION_STEP_DEG` or more from one pose to the next, and every
-    run stays within :data:`STATION_SPREAD_DEG` of its first pose (in the stream that
-    moves less there: one noisy or outlying stream cannot split or join stations). None
-    when that is not so, or fewer than 3 stations."""
+    streams move from one pose to the next - turn by :data:`STATION_STEP_DEG` or translate
+    by :data:`STATION_STEP_M` or more -, every run stays within :data:`STATION_SPREAD_DEG`
+    and :data:`STATION_SPREAD_M` of its first pose (in the stream that moves less there),
+    and most runs hold several poses (a continuous track that moves that far between its
+    poses, a car at 10 Hz, is no station data). None when that is not so, or fewer than 3
+    stations."""
     n = synced.n
     if n < 3:
         return None
-    i, j = np.arange(n - 1), np.arange(1, n)
-    step = np.minimum(_turn_deg(synced.T_a, i, j), _turn_deg(synced.T_b, i, j))
-    cut = step >= STATION_STEP_DEG
+    turn, shift = _moved(synced, np.arange(n - 1), np.arange(1, n))
+    cut = (turn >= STATION_STEP_DEG) | (shift >= STATION_STEP_M)
     labels = np.concatenate([[0], np.cumsum(cut)]).astype(np.int64)
-    if labels[-1] + 1 < 3:
+    if labels[-1] + 1 < 3 or np.median(np.bincount(labels)) < 2:
         return None
     first = np.flatnonzero(np.concatenate([[True], cut]))[labels]
-    idx = np.arange(n)
-    spread = np.minimum(_turn_deg(synced.T_a, first, idx), _turn_deg(synced.T_b, first, idx))
-    return labels if float(spread.max()) < STATION_SPREAD_DEG else None
+    turn, shift = _moved(synced, first, np.arange(n))
+    still = float(turn.max()) < STATION_SPREAD_DEG and float(shift.max()) < STATION_SPREAD_M
+    return labels if still else None
 
 
 def _bursts(synced, options):
@@ -236,7 +254,9 @@ def _bursts(synced, options):
         raise DataError(f"motions=bursts needs poses that stand still in runs of a station "
                         f"each (>= 3 stations, each within {STATION_SPREAD_DEG:g} deg, "
                         f"{STATION_STEP_DEG:g} deg or more between them); these "
-                        f"{synced.n} poses do not: use motions=auto")
+                        f"{synced.n} poses do not (or move {STATION_STEP_M * 1e3:g} mm "
+                        f"between stations, each within {STATION_SPREAD_M * 1e3:g} mm): use "
+                        "motions=auto")
     first = np.flatnonzero(np.diff(np.concatenate([[-1], runs])))
     size = np.diff(np.concatenate([first, [synced.n]]))
     k = first.size

@@ -29,7 +29,7 @@ from simcalib.geometry import invert_transform, quat_from_matrix, rotation_angle
 
 __all__ = ["OffsetCost", "StillReference", "split_check", "SplitCheck", "EVIDENCE_MIN",
            "RESIDUALS_PER_MOTION", "OFFSET_STEP_S", "SPLIT_PARTS", "SPLIT_LEVEL", "MIN_TURNING",
-           "MAX_SLIDES"]
+           "MAX_SLIDES", "CLEAR_SIGMA_S", "in_doubt", "both_translate", "clearer"]
 
 #: ``n_eff ln(cost at 0 / cost at the estimate)`` above which an estimated offset is used
 #: instead of 0 (the log-likelihood-ratio statistic of Gaussian residuals, ~chi2(1) when
@@ -110,9 +110,9 @@ class OffsetCost:
         if self.mask.sum() < MIN_TURNING and part is None:
             raise StillReference(
                 f"stream {self.reference} {what} over {step_s:g} s in only "
-                f"{int(self.mask.sum())} motion(s) (< {MIN_TURNING}): it moves only across "
-                "its gaps (stop-and-go, seen only while still), so the cost cannot tell an "
-                "offset")
+                f"{int(self.mask.sum())} motion(s) (< {MIN_TURNING}): it moves too little, or "
+                "only across its gaps (stop-and-go, seen only while still), so the cost "
+                "cannot tell an offset")
         if self.mask.sum() < MIN_TURNING:
             self.mask = ok
         if robust and self.mask.sum() >= 8:
@@ -271,6 +271,49 @@ def _decide(tried, half):
     evidence = n_eff * math.log(j_zero / chosen.cost_best)
     return chosen, ("estimated" if evidence > EVIDENCE_MIN else "zero"), evidence, j_zero
 
+
+
+#: an offset told from the angular speeds with a sigma above this (s) is in doubt: the
+#: translation speeds are consulted as well (a third of the 3 ms the path aims at)
+CLEAR_SIGMA_S = 1e-3
+
+
+def in_doubt(off) -> bool:
+    """The :class:`~simcalib.estimation.alignment.TimeOffset` ``off`` does not tell the
+    offset clearly: 0 used (not told from it, or the cost could not be built), or a sigma
+    above :data:`CLEAR_SIGMA_S` (or unknown)."""
+    return off.decision != "estimated" or not off.uncertainty_s <= CLEAR_SIGMA_S
+
+
+def both_translate(Ta, Tb) -> bool:
+    """Both streams translate (90 % of the positions beyond
+    :data:`~simcalib.estimation.stillness.STILL_M` of their median): the translation
+    speeds carry a signal."""
+    from simcalib.estimation.stillness import STILL_M, translation_extent_m
+    return min(translation_extent_m((None, Ta)), translation_extent_m((None, Tb))) >= STILL_M
+
+
+def clearer(first, second):
+    """Of two offsets of one recording told from different signals (``TimeOffset.signal``),
+    the one that tells it: of those that beat offset 0 by the evidence ("estimated"), the
+    one of smaller sigma (the cost is the same calibration cost; only its candidates and
+    moving motions differ); of none, ``first`` unless its sigma is unknown. The message
+    names both."""
+    import dataclasses
+    ok = [o for o in (first, second) if o.decision == "estimated"
+          and math.isfinite(o.uncertainty_s)]
+    if ok:
+        best = min(ok, key=lambda o: o.uncertainty_s)
+    else:
+        best = first if math.isfinite(first.uncertainty_s) else second
+    other = second if best is first else first
+    speeds = {"rotation": "angular", "translation": "translation"}
+    told = (f"{other.offset_s * 1e3:.2f} ms used" if other.decision != "zero" else
+            "0 used") + f", sigma {other.uncertainty_s * 1e3:.2f} ms"
+    note = (f" [from the {speeds[best.signal]} speeds: "
+            + ("the more precise of the two that tell it" if ok else "neither tells it")
+            + f"; the {speeds[other.signal]} speeds: {told}]")
+    return dataclasses.replace(best, message=best.message + note)
 
 
 def _offset_and_sigma(r: _Refined) -> tuple[float, float]:

@@ -187,7 +187,7 @@ def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift=False, alp
     (:mod:`simcalib.estimation.hidden_offset`), which unpairs them. Returns ``(stream_a,
     stream_b, ConventionReport, TimeOffset, Sampling)``."""
     from simcalib.estimation.readings import apply_conventions, detect_conventions
-    from simcalib.estimation.alignment import TimeOffset, _as_offset, estimate_time_offset
+    from simcalib.estimation.alignment import _as_offset, estimate_time_offset
     forced = forced or {}
     detect = lambda off, smp=sampling: detect_conventions(  # noqa: E731
         sa, sb, offset=off, alpha=alpha, seed=seed, sampling=smp, signal=signal, **forced)
@@ -200,12 +200,15 @@ def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift=False, alp
                                 signal=signal)
     conv = min((detect(c) for c in _offset_candidates(sa, sb, signal)), key=_best_score)
     a1, b1 = apply_conventions(sa, sb, conv)
-    off = estimate_time_offset(a1, b1, drift=drift, alpha=alpha, signal=signal)
+    # a rotating rig: "auto" (the same rule as check_streams_move) consults the
+    # translation speeds too where the angular ones leave the offset in doubt
+    by = "auto" if signal == "rotation" else signal
+    off = estimate_time_offset(a1, b1, drift=drift, alpha=alpha, signal=by)
     final = detect(off)
     if (final.invert_a, final.invert_b, final.swap_scalar_a, final.swap_scalar_b) != (
             conv.invert_a, conv.invert_b, conv.swap_scalar_a, conv.swap_scalar_b):
         a1, b1 = apply_conventions(sa, sb, final)       # the reading changed: once more
-        off = estimate_time_offset(a1, b1, drift=drift, alpha=alpha, signal=signal)
+        off = estimate_time_offset(a1, b1, drift=drift, alpha=alpha, signal=by)
         final = detect(off)
     return (*apply_conventions(sa, sb, final), final, off, sampling)
 
@@ -237,7 +240,8 @@ def _offset_candidates(sa, sb, signal="rotation") -> list[float]:
     """Offsets at which to decide the reading: the angular- (or translation-) speed
     correlation's peak (it does not depend on the reading), its other peaks of similar
     height (a periodic motion) and 0."""
-    from simcalib.estimation.alignment import _other_peaks, as_time_poses, estimate_time_offset
+    from simcalib.estimation.alignment import _other_peaks, estimate_time_offset
+    from simcalib.estimation.speeds import as_time_poses
     coarse = estimate_time_offset(sa, sb, refine=False, signal=signal)
     ta, tb = as_time_poses(sa)[0], as_time_poses(sb)[0]
     slow = max(float(np.median(np.diff(ta))), float(np.median(np.diff(tb))))

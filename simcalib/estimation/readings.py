@@ -167,8 +167,8 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
     rotation absorbs), an inverted stream only when the translations span 3-D (in a plane
     ``-t`` is ``t`` turned by 180 deg about its normal); the ratio says so (about 1).
     """
-    from simcalib.estimation.alignment import _signal
-    signal = _signal(signal, stream_a, stream_b)
+    from simcalib.estimation.speeds import checked_signal
+    signal = checked_signal(signal, stream_a, stream_b)
     forced = tuple(name for name, v in (("invert_a", invert_a), ("invert_b", invert_b),
                                         ("scalar_first_a", scalar_first_a),
                                         ("scalar_first_b", scalar_first_b)) if v is not None)
@@ -237,7 +237,8 @@ def _reading_offset(stream_a, stream_b, offset, sampling, signal="rotation"):
     """The offset at which the readings are compared: the given one; 0 for sample-indexed
     or stamp-paired files; else the coarse angular-speed correlation's (the same for every
     reading)."""
-    from simcalib.estimation.alignment import _coarse_offset, as_time_poses
+    from simcalib.estimation.alignment import _coarse_offset
+    from simcalib.estimation.speeds import as_time_poses
     if offset is not None:
         return offset
     if (getattr(stream_a, "synthetic_time", False) or getattr(stream_b, "synthetic_time", False)

@@ -124,6 +124,7 @@ def _time_offset(off) -> dict:
             "coarse_offset_s": off.coarse_offset_s,
             "peak_correlation": _fin(off.peak_correlation),
             "drift": off.drift, "t_ref_s": off.t_ref_s,
+            "signal": off.signal if off.decision not in ("given", "shared_stamps") else None,
             "convention": "offset_s = t_b - t_a for the same instant",
             "message": off.message}
 

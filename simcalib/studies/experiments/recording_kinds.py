@@ -254,6 +254,65 @@ def _kind_translation(rngs, s):
         "is undetermined")
 
 
+def _weak_turn(rng, motion: Callable, duration_s: float) -> Callable:
+    """``motion`` with a slight rotation added: sums of sinusoids in the rotation vector,
+    scaled so that the stage turns by 1..5 deg in all (90 % of its poses within that of
+    the first: just beyond :data:`simcalib.estimation.stillness.STILL_DEG`)."""
+    rot = _sinusoids(rng, 0.5, 1.0, 0.03, 0.25)
+    extent_deg = float(rng.uniform(1.0, 5.0))
+    grid = np.linspace(0.0, duration_s, 2001)
+    v = _eval_sinusoids(rot, grid)
+    R = matrix_from_rotvec(v)
+    turn = np.degrees(np.percentile(np.linalg.norm(rotvec_from_matrix(
+        R[0].T[None] @ R), axis=1), 90))
+    scale = extent_deg / max(float(turn), 1e-9)
+
+    def poses(tau):
+        T = motion(tau)
+        T[:, :3, :3] = T[:, :3, :3] @ matrix_from_rotvec(scale * _eval_sinusoids(rot, tau))
+        return T
+    poses.extent_deg = extent_deg
+    return poses
+
+
+def _kind_weak_rotation(rngs, s):
+    """a stage or a cart translating ~0.1..0.3 m that turns only slightly (1..5 deg in all:
+    a cart that barely turns, a gantry whose head wobbles), clock offset +-0.2 s."""
+    planar = rngs["seed"] % 2 == 1
+    r = rngs["events"]
+    off = float(r.uniform(-0.2, 0.2)) if s.offset_s is None else float(s.offset_s)
+    hand = _weak_turn(rngs["motion"], _stage_motion(rngs["motion"], planar), s.duration_s)
+    d = _continuous(rngs, s, hand=hand, offset_s=off, label="weak_rotation")
+    return replace(d, description=d.description + (
+        ", a cart translating in a plane" if planar else ", a stage translating in 3-D")
+        + f" that turns by only {hand.extent_deg:.1f} deg in all")
+
+
+def _kind_translation_bursts(rngs, s):
+    """a gantry that stops at 8..25 stations (fixed orientation) and logs a burst of 3..8
+    frames at 30 Hz at each (both streams), the camera's error mostly common to a burst;
+    X's translation undetermined (nothing turns)."""
+    rig = rngs["rig"]
+    k = s.stations if s.stations is not None else int(rig.integers(8, 25, endpoint=True))
+    m = int(rig.integers(3, 8, endpoint=True))
+    X, Y = _hand_camera_rig(rig)
+    R0 = R_DOWN @ matrix_from_rotvec(_rotvecs(rngs["motion"], 1, 10, 40)[0])
+    p = WORKSPACE_CENTRE + rngs["motion"].uniform(-0.25, 0.25, (k, 3))
+    P = transform_from_rotation_translation(np.broadcast_to(R0, (k, 3, 3)), p)
+    t = (1000.0 + np.cumsum(rngs["clock"].uniform(3.0, 8.0, k))[:, None]
+         + np.arange(m)[None] / 30.0).ravel()
+    B = _noisy(_camera_poses(P, X, Y), s.sigma_rot_b_deg, s.sigma_trans_b_m, rngs["noise_b"],
+               s.noise)
+    B = _noisy(np.repeat(B, m, axis=0), 0.2 * s.sigma_rot_b_deg, 0.2 * s.sigma_trans_b_m,
+               rngs["noise_b"], s.noise)
+    A = _noisy(np.repeat(P, m, axis=0), s.sigma_rot_a_deg, s.sigma_trans_a_m,
+               rngs["noise_a"], s.noise)
+    return _Draft(t, A, t.copy(), B, X, f"translation_bursts: a gantry stopping at {k} "
+                  f"stations x {m} frames at 30 Hz without turning, stamps 3..8 s apart, "
+                  "camera error mostly common to a burst", 0.0, 0.0, float(t[0]), Y=Y,
+                  undetermined_a=np.eye(3))
+
+
 def _kind_inverted(rngs, s):
     d = _continuous(rngs, s, offset_s=_small_offset(rngs, s), label="inverted")
     return replace(d, invert_b=True, description=d.description + ", file b holds "
@@ -361,6 +420,13 @@ KINDS: dict[str, Kind] = {
     "translation": Kind(_kind_translation, "a stage (3-D, even seeds) or a cart (in a plane, "
                         "odd seeds) that translates without rotating, offset +-50 ms: X's "
                         "translation undetermined", True, "degenerate", extra=("offset_s",)),
+    "weak_rotation": Kind(_kind_weak_rotation, "a stage (3-D, even seeds) or a cart (in a "
+                          "plane, odd seeds) translating ~0.1..0.3 m that turns by only 1..5 "
+                          "deg in all, offset +-0.2 s", True, extra=("offset_s",)),
+    "translation_bursts": Kind(_kind_translation_bursts, "a gantry stopping at 8..25 "
+                               "stations without turning, a burst of 3..8 frames at each "
+                               "(both streams): X's translation undetermined", False,
+                               "degenerate"),
     "inverted": Kind(_kind_inverted, "continuous, file b written as T_sensor_world, offset "
                      "+-50 ms", True, extra=("offset_s",)),
     "scalar_first": Kind(_kind_scalar_first, "continuous, one file with the quaternion "
