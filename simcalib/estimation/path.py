@@ -394,9 +394,9 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
                       "scalar_first_a": scalar_first_a, "scalar_first_b": scalar_first_b},
               motions=motions, step_s=step_s, min_rotation_deg=min_rotation_deg,
               max_rotation_deg=max_rotation_deg, robust=robust, method=method,
-              robust_options=robust_options, units=scale_b == "auto")
+              robust_options=robust_options)
     p = _fit_pass(sa0, sb0, sampling, **kw)
-    scale = decide_for(p.ms, p.sp, p.rob.inlier_mask, scale_b, alpha)
+    scale = decide_for(p.ms, p.sp, p.rob.inlier_mask, scale_b, alpha, UNITS_HINT)
     if scale.rescaled and scale.decision == "rescaled":     # once more, b rescaled
         p = _fit_pass(sa0, _scaled_stream(sb0, 1.0 / scale.used), sampling, **kw)
         scale = dataclasses.replace(scale, check=estimate_for(p.ms, p.sp, p.rob.inlier_mask,
@@ -425,10 +425,11 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
 
 def _fit_pass(sa0, sb0, sampling, *, time_offset, drift, alpha, seed, signal, forced,
               motions, step_s, min_rotation_deg, max_rotation_deg, robust, method,
-              robust_options, units):
+              robust_options):
     """One pass of the path from the streams as read to the robust fit: reading and
-    clock offset, synchronised poses, motions (and, when ``units``, the refusal of streams
-    in different length units), outliers. Returns ``(stream_a, stream_b, conventions,
+    clock offset, synchronised poses, motions (fewer than 2 refused), outliers (the
+    streams' length units are judged with their scale: :func:`simcalib.estimation.scale.
+    decide_for`). Returns ``(stream_a, stream_b, conventions,
     offset, synced, motions, pitch scale, RobustSolution, why)``."""
     from simcalib.estimation.motions import form_motions
     sa, sb, conv, off = align_and_read(sa0, sb0, sampling, time_offset=time_offset,
@@ -438,7 +439,7 @@ def _fit_pass(sa0, sb0, sampling, *, time_offset, drift, alpha, seed, signal, fo
     ms = form_motions(sp, motions, paired_by_stamp=sampling.paired_by_stamp,
                       index_stamps=sampling.kind == "index_stamps", step_s=step_s,
                       min_rotation_deg=min_rotation_deg, max_rotation_deg=max_rotation_deg)
-    length_scale = _check_motions(ms, sp, units)
+    length_scale = _check_motions(ms, sp)
     rob, why = robust_fit(ms.C, ms.H, robust, alpha=alpha, method=method, seed=seed,
                           options=robust_options)
     return _Pass(sa, sb, conv, off, sp, ms, length_scale, rob, why)
@@ -496,18 +497,16 @@ def _add_determined(cov, cov_det, rob, check, add):
     return out, cov_det + add
 
 
-def _check_motions(ms, sp, units: bool = True) -> float:
-    """DataError for fewer than 2 motions, or (``units``) for streams in different length
-    units (:mod:`simcalib.estimation.units`); returns b's length scale against a's (NaN:
-    the motions cannot tell)."""
-    from simcalib.estimation.units import check_translation_units, pitch_scale
+def _check_motions(ms, sp) -> float:
+    """DataError for fewer than 2 motions; returns b's length scale against a's by the
+    pitch invariant (:func:`simcalib.estimation.units.pitch_scale`; NaN: the motions
+    cannot tell)."""
+    from simcalib.estimation.units import pitch_scale
     if ms.n < 2:
         from simcalib.errors import DataError
         raise DataError(f"only {ms.n} motion(s) from {sp.n} synchronised poses ({ms.reason};"
                         f" {ms.counts}); at least 2 rotating motions are needed")
-    if not units:
-        return pitch_scale(ms.C, ms.H)[0]
-    return check_translation_units(ms.C, ms.H, hint=UNITS_HINT)
+    return pitch_scale(ms.C, ms.H)[0]
 
 
 #: how the refusal of streams in different units is answered (``scale_b``, docs/calibrate.md)

@@ -39,7 +39,8 @@ import numpy as np
 
 __all__ = ["ScaleEstimate", "ScaleDecision", "estimate_scale", "decide", "scaled_motions",
            "scaled_poses", "scale_covariance", "TOLERANCE", "CLEAR_SIGMAS", "MAX_REL_SIGMA",
-           "MIN_MOTIONS", "MIN_POSES", "MODES", "estimate_for", "decide_for"]
+           "MIN_MOTIONS", "MIN_POSES", "MODES", "estimate_for", "decide_for",
+           "check_unit_mismatch", "UNIT_RATIOS"]
 
 #: the ``scale_b`` values that are not a number
 MODES = ("auto", "estimate")
@@ -318,12 +319,51 @@ def estimate_for(ms, synced, inliers, alpha: float = 1.0) -> ScaleEstimate:
                           alpha=alpha)
 
 
-def decide_for(ms, synced, inliers, scale_b, alpha: float = 1.0) -> ScaleDecision:
+def decide_for(ms, synced, inliers, scale_b, alpha: float = 1.0,
+               hint: str = "") -> ScaleDecision:
     """The :class:`ScaleDecision` of ``scale_b`` on the motions; a given scale's estimate
     is that of the data as rescaled (``check``: close to 1 when the scale given is
-    right)."""
+    right). With ``auto``, a unit mismatch is refused (:func:`check_unit_mismatch`;
+    ``hint``: what its message offers)."""
     import dataclasses
     e = estimate_for(ms, synced, inliers, alpha)
-    if scale_b in MODES:
-        return decide(scale_b, e)
-    return dataclasses.replace(decide(float(scale_b), None), check=e)
+    if scale_b not in MODES:
+        return dataclasses.replace(decide(float(scale_b), None), check=e)
+    if scale_b == "auto":
+        check_unit_mismatch(e, ms.C, ms.H, hint)
+    return decide(scale_b, e)
+
+
+#: b's scale against a's when the files hold other length units: (ratio, the units)
+UNIT_RATIOS = tuple((r, f"b in {ub} against a in {ua}") for r, ub, ua in (
+    (1e3, "mm", "m"), (1e2, "cm", "m"), (1e1, "dm", "m"), (1e-3, "m", "mm"),
+    (1e-2, "m", "cm"), (1e-1, "m", "dm"), (1.0 / 0.3048, "feet", "m"),
+    (0.3048, "m", "feet"), (1.0 / 0.0254, "inches", "m"), (0.0254, "m", "inches"),
+    (25.4, "mm", "inches"), (1.0 / 25.4, "inches", "mm")))
+#: a unit ratio is matched within this relative distance (beyond CLEAR_SIGMAS sigmas)
+UNIT_MATCH = 0.003
+
+
+def check_unit_mismatch(e: ScaleEstimate, C, H, hint: str = "") -> None:
+    """DataError when b's scale is a unit mismatch: beyond
+    :data:`simcalib.estimation.units.MAX_SCALE_RATIO` from 1 and at a ratio of length units
+    (:data:`UNIT_RATIOS`, within :data:`UNIT_MATCH` or :data:`CLEAR_SIGMAS` sigmas). A far
+    scale at no unit ratio (a monocular SLAM track) is left to :func:`decide`; where the
+    estimate does not tell the scale, the pitch invariant's check decides
+    (:func:`simcalib.estimation.units.check_translation_units`)."""
+    from simcalib.estimation.units import MAX_SCALE_RATIO, check_translation_units
+    if not e.determined:
+        if C.shape[0]:
+            check_translation_units(C, H, **({"hint": hint} if hint else {}))
+        return
+    if abs(math.log(e.scale)) <= math.log(MAX_SCALE_RATIO):
+        return
+    for ratio, what in UNIT_RATIOS:
+        if abs(e.scale / ratio - 1.0) <= max(UNIT_MATCH, CLEAR_SIGMAS * e.sigma / e.scale):
+            from simcalib.errors import DataError
+            raise DataError(
+                f"the streams measure translation in different units: stream b moves "
+                f"{e.scale:.5g} +- {e.sigma:.2g} times as far as stream a (the motions' "
+                f"linear fit over {e.n_motions} motions; the pitch invariant "
+                f"{_g(e.pitch_scale)}), {ratio:.5g} within its uncertainty: {what}? "
+                + (hint or "write both in metres"))
