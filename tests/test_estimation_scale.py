@@ -46,6 +46,7 @@ def test_known_scale_recovered_from_exact_motions(s):
     e = estimate_scale(C, H, i=i, j=j)
     assert e.determined and abs(e.scale / s - 1.0) < 1e-11, e
     assert e.sigma < 1e-9 * s and abs(e.pitch_scale / s - 1.0) < 1e-9
+    assert s == 1.0 or e.fit_gain > 1e6
 
 
 def test_scale_robust_to_outlier_motions():
@@ -98,10 +99,12 @@ def test_undeterminable_scales_are_reported():
 
 
 def test_decision_auto_keeps_one_within_tolerance_or_sigma():
-    def est(s, sig):
-        return ScaleEstimate(s, sig, s, True, 100, 50)
+    def est(s, sig, gain=30.0):
+        return ScaleEstimate(s, sig, s, True, 100, 50, fit_gain=gain)
     assert decide("auto", est(1.0 + 0.5 * TOLERANCE, 1e-6)).used == 1.0        # tolerance
     assert decide("auto", est(1.2, 0.2 / (CLEAR_SIGMAS - 1))).used == 1.0       # sigma
+    little = decide("auto", est(1.2, 0.001, gain=1.5))     # other errors, not a scale
+    assert little.used == 1.0 and "explains little" in little.message
     d = decide("auto", est(1.2, 0.001))
     assert d.used == 1.2 and d.decision == "rescaled" and d.sigma_used == 0.001
     assert "monocular SLAM" in d.message and "target" in d.message
