@@ -300,3 +300,29 @@ def test_a_rig_that_only_translates_gets_its_offset_from_the_translation_speeds(
     _, v = translation_speed(a)
     _, v_inv = translation_speed(a.with_inverse())
     np.testing.assert_allclose(v, v_inv, rtol=1e-3)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_fast_noisy_stream_speeds_over_the_slower_period(seed):
+    """A 300 Hz stream whose pose noise (1 deg) swamps its consecutive-pose angular speed:
+    taken over one step, the correlation peaks anywhere (-18 s, -6.6 s for these seeds);
+    over the slower stream's period it finds the offset."""
+    rs = rig_streams(offset_s=0.3, rate_a_hz=300.0, rate_b_hz=30.0,
+                     sigma_r_rad=np.radians(1.0), rng=np.random.default_rng(seed))
+    est = estimate_time_offset(rs.a, rs.b, refine=False)
+    assert abs(est.offset_s - 0.3) < 1.0 / 30.0, est.message
+    assert est.peak_correlation > 0.9
+
+
+def test_speed_steps_and_bad_step():
+    from simcalib.estimation.alignment import speed_steps, translation_speed
+    t_fast, t_slow = np.arange(0, 10, 1 / 300), np.arange(0, 10, 1 / 30)
+    assert speed_steps(t_fast, t_slow) == (10, 1)
+    assert speed_steps(t_slow, t_slow) == (1, 1)
+    rs = rig_streams(rng=np.random.default_rng(0))
+    t_mid, w = angular_speed(rs.a, 3)
+    assert w.size == rs.t_a.size - 3 and np.allclose(t_mid, 0.5 * (rs.t_a[:-3] + rs.t_a[3:]))
+    assert translation_speed(rs.a, 10 ** 6)[1].size == 1     # capped at the stream's length
+    for bad in (0, 1.5, True, "2"):
+        with pytest.raises(ValueError, match="step must be an integer"):
+            angular_speed(rs.a, bad)

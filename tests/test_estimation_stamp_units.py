@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from simcalib.errors import DataError
+from simcalib.estimation.sampling import is_sample_numbers
 from simcalib.estimation.stamp_units import motion_units, stamps_to_seconds
 from simcalib.studies.experiments.recording_kinds import generate
 
@@ -112,3 +113,32 @@ def test_a_dense_motion_no_unit_fits_is_refused(offset_rec):
     with pytest.raises(DataError, match=r"stamps disagree: a spans 1998\d\.\d .*b spans "
                                         r"19\.9\d* .*a's motion says no unit"):
         stamps_to_seconds(slow, _in(offset_rec.stream_b, 1e3))
+
+
+@pytest.fixture(scope="module")
+def khz_rec():
+    return generate("offset", 0, rate_a_hz=1000.0, duration_s=6.0)   # a at 1 kHz
+
+
+def _whole_ms(s, t0):
+    """The stream stamped in whole ms from ``t0`` (what a 1 kHz logger writes)."""
+    t = np.round((np.asarray(s.timestamps_s) - t0) * 1e3)
+    keep = np.concatenate([[True], np.diff(t) > 0])             # rounding repeats a stamp
+    return dataclasses.replace(s, timestamps_s=t[keep], T_world_sensor=s.T_world_sensor[keep])
+
+
+@pytest.mark.parametrize("b_unit", [1.0, 1e3])
+def test_a_1khz_stream_in_whole_ms_is_told_from_sample_numbers_by_the_pair(khz_rec, b_unit):
+    t0 = khz_rec.stream_a.timestamps_s[0]
+    sa = _whole_ms(khz_rec.stream_a, t0)
+    assert is_sample_numbers(np.asarray(sa.timestamps_s))       # alone it counts by 1
+    sb = dataclasses.replace(khz_rec.stream_b, timestamps_s=(
+        np.asarray(khz_rec.stream_b.timestamps_s) - t0) * b_unit)
+    a, b = stamps_to_seconds(sa, sb)
+    assert a.stamps_unit == "ms" and a.repairs["stamps_ms_to_s"] == sa.n
+    assert "count by 1 like sample numbers" in a.detection and "1 kHz" in a.detection
+    np.testing.assert_allclose(a.timestamps_s, sa.timestamps_s / 1e3)
+    assert b.stamps_unit == ("ms" if b_unit == 1e3 else "")
+    # two streams that count by 1 stay sample numbers (paired by index)
+    a2, b2 = stamps_to_seconds(sa, _whole_ms(khz_rec.stream_a, t0))
+    assert a2.stamps_unit == "" and b2.stamps_unit == ""

@@ -482,3 +482,67 @@ def test_stamps_unit_given_or_left_for_the_pair(tmp_path, rig):
     assert np.array_equal(s.timestamps_s, np.round(1e9 * rig.t_a[:40])) and not s.stamps_unit
     with pytest.raises(ValueError, match="stamps_unit must be one of auto, pair, s, ms"):
         read_pose_stream(p, format="tum", stamps_unit="min")
+
+
+def test_a_zero_quaternion_row_is_dropped_as_a_repair(tmp_path, rig):
+    rows = _rows(rig.t_a[:40], rig.T_a[:40])
+    rows[17, 4:] = 0.0                               # a tracker's "no pose" row
+    np.savetxt(tmp_path / "z.tum", rows, fmt="%.9f")
+    s = read_pose_stream(tmp_path / "z.tum")
+    assert s.n == 39 and s.repairs == {"zero_quaternion_rows_dropped": 1}
+    _same(s, np.delete(rig.t_a[:40], 17), np.delete(rig.T_a[:40], 17, axis=0))
+    rows[:, 4:] = 0.0
+    np.savetxt(tmp_path / "z.tum", rows, fmt="%.9f")
+    with pytest.raises(DataError, match=r"every row's quaternion is \(0, 0, 0, 0\)"):
+        read_pose_stream(tmp_path / "z.tum")
+    rows[:, 4:] = [0.0, 0.0, 0.0, 0.5]               # not zero, not unit: still an error
+    np.savetxt(tmp_path / "z.tum", rows, fmt="%.9f")
+    with pytest.raises(DataError, match="row 0 has quaternion .* of norm 0.5"):
+        read_pose_stream(tmp_path / "z.tum")
+
+
+@pytest.mark.parametrize("fmt", ["tum", "csv"])
+def test_a_last_row_cut_off_mid_write_is_dropped_as_a_repair(tmp_path, rig, fmt):
+    rows = _rows(rig.t_a[:40], rig.T_a[:40])
+    path = tmp_path / f"cut.{'txt' if fmt == 'tum' else 'csv'}"
+    if fmt == "tum":
+        np.savetxt(path, rows, fmt="%.9f")
+    else:
+        np.savetxt(path, rows, fmt="%.9f", delimiter=",", header="t,x,y,z,qx,qy,qz,qw",
+                   comments="")
+    text = path.read_text().rstrip("\n")
+    for cut in (text[:text.rfind(" " if fmt == "tum" else ",")],     # a value short
+                text[:text.rfind(" " if fmt == "tum" else ",") - 4] + "1.2e"):  # mid-number
+        path.write_text(cut)
+        s = read_pose_stream(path)
+        assert s.n == 39 and s.repairs == {"truncated_last_row_dropped": 1}, cut[-40:]
+        _same(s, rig.t_a[:39], rig.T_a[:39])
+    # a short row before the last one is no truncation: an error naming the file and line
+    lines = text.splitlines()
+    lines[5] = lines[5][:lines[5].rfind(" " if fmt == "tum" else ",")]
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(DataError, match=rf"{re.escape(str(path))}.*line 6: 7 values"):
+        read_pose_stream(path)
+
+
+def test_windows_line_endings_read_alike(tmp_path, rig):
+    rows = _rows(rig.t_a[:40], rig.T_a[:40])
+    np.savetxt(tmp_path / "w.txt", rows, fmt="%.9f", newline="\r\n",
+               header="timestamp tx ty tz qx qy qz qw")
+    s = read_pose_stream(tmp_path / "w.txt")
+    assert s.format == "tum" and s.repairs == {}
+    _same(s, rig.t_a[:40], rig.T_a[:40])
+
+
+@pytest.mark.parametrize("names", [("sec", "nsec"), ("header.stamp.secs",
+                                                    "header.stamp.nsecs")])
+def test_ros_stamps_in_two_columns_secs_and_nsecs_are_added(tmp_path, rig, names):
+    t = 1701234567.0 + rig.t_a[:40]
+    sec = np.floor(t)
+    nsec = np.round((t - sec) * 1e9)
+    rows = np.column_stack([sec, nsec, _rows(t, rig.T_a[:40])[:, 1:]])
+    np.savetxt(tmp_path / "ros.csv", rows, fmt="%.9f", delimiter=",", comments="",
+               header=",".join(names) + ",x,y,z,qx,qy,qz,qw")
+    s = read_pose_stream(tmp_path / "ros.csv")
+    assert not s.synthetic_time and "ROS secs + nsecs" in s.detection
+    np.testing.assert_allclose(s.timestamps_s, t, atol=2e-6)

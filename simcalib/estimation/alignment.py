@@ -29,7 +29,7 @@ from simcalib.estimation.interpolation import interpolate_poses, max_hole_s, smo
 from simcalib.geometry import invert_transform, rotation_angle_rad
 
 __all__ = ["TimeOffset", "SyncedPoses", "as_time_poses", "angular_speed", "translation_speed",
-           "estimate_time_offset", "synchronise", "make_motions", "peak_z"]
+           "speed_steps", "estimate_time_offset", "synchronise", "make_motions", "peak_z"]
 
 
 # ----------------------------------------------------------------------------- inputs
@@ -59,24 +59,46 @@ def as_time_poses(stream, name: str = "stream") -> tuple[np.ndarray, np.ndarray]
     return t, T
 
 
-def angular_speed(stream) -> tuple[np.ndarray, np.ndarray]:
-    """``(t_mid, speed_rad_s)``: rotation angle between consecutive poses over their time
-    step, at the midpoints. The same for a stream and its inverse (T_world_sensor or
-    T_sensor_world), so it needs no convention."""
+def _step(step, n: int) -> int:
+    """The sample step of a speed: ``step`` (an integer >= 1) capped at ``n - 1``."""
+    if isinstance(step, bool) or not isinstance(step, (int, np.integer)) or step < 1:
+        raise ValueError(f"step must be an integer >= 1; received {step!r}")
+    return int(min(step, max(1, n - 1)))
+
+
+def angular_speed(stream, step: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """``(t_mid, speed_rad_s)``: rotation angle between poses ``step`` samples apart over
+    their time difference, at the midpoints. The same for a stream and its inverse
+    (T_world_sensor or T_sensor_world), so it needs no convention. A fast stream's pose
+    noise over one short step can swamp the motion (0.1 deg at 300 Hz reads as 40 deg/s);
+    over ``step`` samples it is ``step`` times smaller (:func:`speed_steps`)."""
     t, T = as_time_poses(stream)
+    k = _step(step, t.size)
     R = T[:, :3, :3]
-    ang = rotation_angle_rad(np.swapaxes(R[:-1], 1, 2) @ R[1:])
-    return 0.5 * (t[:-1] + t[1:]), ang / np.diff(t)
+    ang = rotation_angle_rad(np.swapaxes(R[:-k], 1, 2) @ R[k:])
+    return 0.5 * (t[:-k] + t[k:]), ang / (t[k:] - t[:-k])
 
 
-def translation_speed(stream) -> tuple[np.ndarray, np.ndarray]:
-    """``(t_mid, speed_m_s)``: distance between consecutive positions over their time
-    step, at the midpoints. Without rotation it is the same in every sensor of a rigid rig
-    (``|t_C| = |t_H|``) and for a stream and its inverse, so it needs no convention there;
-    the clock offset of a rig that only translates is read from it."""
+def translation_speed(stream, step: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """``(t_mid, speed_m_s)``: distance between positions ``step`` samples apart over their
+    time difference, at the midpoints. Without rotation it is the same in every sensor of a
+    rigid rig (``|t_C| = |t_H|``) and for a stream and its inverse, so it needs no
+    convention there; the clock offset of a rig that only translates is read from it."""
     t, T = as_time_poses(stream)
-    d = np.linalg.norm(np.diff(T[:, :3, 3], axis=0), axis=1)
-    return 0.5 * (t[:-1] + t[1:]), d / np.diff(t)
+    k = _step(step, t.size)
+    d = np.linalg.norm(T[k:, :3, 3] - T[:-k, :3, 3], axis=1)
+    return 0.5 * (t[:-k] + t[k:]), d / (t[k:] - t[:-k])
+
+
+def speed_steps(t_a: np.ndarray, t_b: np.ndarray) -> tuple[int, int]:
+    """The sample steps over which the two streams' speeds are taken for the correlation:
+    both over about the slower stream's period (the faster one's speeds are smoothed to
+    that period on the grid anyway, but the noise of a speed's short baseline does not
+    average out: its magnitude is biased, so it stays as a noise floor)."""
+    dt_a, dt_b = float(np.median(np.diff(t_a))), float(np.median(np.diff(t_b)))
+    slow = max(dt_a, dt_b)
+    return (max(1, int(round(slow / dt_a))) if dt_a > 0 else 1,
+            max(1, int(round(slow / dt_b))) if dt_b > 0 else 1)
 
 
 #: the speed each motion signal correlates (:mod:`simcalib.estimation.stillness`)
@@ -345,8 +367,9 @@ def _raise_if_unmeasurable(ta, tb, x, y, min_overlap, signal="rotation"):
 def _coarse_offset(ta, Ta, tb, Tb, max_offset_s, min_overlap_frac, robust=True,
                    signal="rotation"):
     speed = SPEEDS[signal]
-    tma, wa = speed((ta, Ta))
-    tmb, wb = speed((tb, Tb))
+    step_a, step_b = speed_steps(ta, tb)
+    tma, wa = speed((ta, Ta), step_a)
+    tmb, wb = speed((tb, Tb), step_b)
     if robust:      # outlier poses make spikes: running medians
         wa, wb = _despike(wa), _despike(wb)
     dt_a, dt_b = float(np.median(np.diff(ta))), float(np.median(np.diff(tb)))

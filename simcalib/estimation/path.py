@@ -30,7 +30,7 @@ from typing import NamedTuple
 import numpy as np
 
 from simcalib.estimation.stillness import (STILL_DEG, STILL_M, rotation_extent_deg,
-                                           translation_extent_m)
+                                           translation_extent_m, white_positions)
 
 __all__ = ["StreamCalibration", "calibrate_streams", "align_worlds", "check_streams_move",
            "STILL_DEG"]
@@ -143,23 +143,33 @@ def check_streams_move(sa, sb) -> str:
             "wrong file or topic, or a frozen tracker?)")
     if max(ext.values()) >= STILL_DEG:
         return "rotation"
-    move = {"a": translation_extent_m(sa), "b": translation_extent_m(sb)}
+    move, why = _translation_extents(streams)
     if max(move.values()) < STILL_M:
         raise DataError(
             f"nothing moves: neither stream rotates (90 % of the poses within "
             f"{ext['a']:.2g} deg (a) and {ext['b']:.2g} deg (b) of the first) nor translates "
-            f"(90 % of the positions within {1e3 * move['a']:.2g} mm (a) and "
-            f"{1e3 * move['b']:.2g} mm (b) of their median, < {1e3 * STILL_M:g} mm); a "
-            "calibration needs the rig to move (a wrong file or topic, or a frozen "
-            "tracker?)")
+            f"(a: {why['a']}; b: {why['b']}); a calibration needs the rig to move (a wrong "
+            "file or topic, or a frozen tracker?)")
     for name, other in _still_beside_moving(move, STILL_M):
         raise DataError(
             f"stream {name} ({streams[name].source}) does not move: it neither rotates "
-            f"nor translates (90 % of its positions within {1e3 * move[name]:.2g} mm of "
-            f"their median), while stream {other} translates by {1e3 * move[other]:.3g} "
-            "mm; both sensors of a rigid rig that does not turn translate alike (a "
-            "wrong file or topic, or a frozen tracker?)")
+            f"nor translates ({why[name]}), while stream {other} translates by "
+            f"{1e3 * move[other]:.3g} mm; both sensors of a rigid rig that does not turn "
+            "translate alike (a wrong file or topic, or a frozen tracker?)")
     return "translation"
+
+
+def _translation_extents(streams: dict) -> tuple[dict, dict]:
+    """``({name: extent (m)}, {name: why it is still})``: how far each stream translates,
+    0 where its positions are white noise around one place whatever the length unit
+    (:func:`simcalib.estimation.stillness.white_positions`: a still rig's file in mm)."""
+    move, why = {}, {}
+    for k, s in streams.items():
+        extent, white = translation_extent_m(s), white_positions(s)
+        move[k] = 0.0 if white else extent
+        why[k] = white or (f"90 % of its positions within {1e3 * extent:.2g} mm of their "
+                           f"median, < {1e3 * STILL_M:g} mm")
+    return move, why
 
 
 def _still_beside_moving(extent: dict, still: float) -> list[tuple[str, str]]:
@@ -176,24 +186,22 @@ def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift=False, alp
     that reading, then the reading decided again at the final offset (it is what the run
     reports). ``signal`` (:func:`check_streams_move`): ``rotation`` correlates angular
     speeds, ``translation`` (a rig that does not turn) translation speeds, and scores the
-    readings on motions that translate. Returns ``(stream_a, stream_b, ConventionReport,
-    TimeOffset)``."""
+    readings on motions that translate. Streams paired by equal stamps that both sample a
+    continuous motion are checked for an offset the stamps hide
+    (:mod:`simcalib.estimation.hidden_offset`), which unpairs them. Returns ``(stream_a,
+    stream_b, ConventionReport, TimeOffset, Sampling)``."""
     from simcalib.estimation.readings import apply_conventions, detect_conventions
     from simcalib.estimation.alignment import TimeOffset, _as_offset, estimate_time_offset
     forced = forced or {}
-    detect = lambda off: detect_conventions(  # noqa: E731
-        sa, sb, offset=off, alpha=alpha, seed=seed, sampling=sampling, signal=signal,
-        **forced)
+    detect = lambda off, smp=sampling: detect_conventions(  # noqa: E731
+        sa, sb, offset=off, alpha=alpha, seed=seed, sampling=smp, signal=signal, **forced)
     if time_offset != "estimate":
         off = _as_offset(time_offset)
         conv = detect(off)
-        return (*apply_conventions(sa, sb, conv), conv, off)
+        return (*apply_conventions(sa, sb, conv), conv, off, sampling)
     if sampling.paired_by_stamp:            # equal stamps, or equal after a constant shift
-        shift = float(getattr(sampling, "shift_s", 0.0))
-        off = TimeOffset(shift, 0.0, shift, float("nan"), np.zeros(0), np.zeros(0),
-                         refined=False, decision="shared_stamps", message=sampling.reason)
-        conv = detect(off)
-        return (*apply_conventions(sa, sb, conv), conv, off)
+        return _paired_by_stamp(sa, sb, sampling, detect, drift=drift, alpha=alpha,
+                                signal=signal)
     conv = min((detect(c) for c in _offset_candidates(sa, sb, signal)), key=_best_score)
     a1, b1 = apply_conventions(sa, sb, conv)
     off = estimate_time_offset(a1, b1, drift=drift, alpha=alpha, signal=signal)
@@ -203,7 +211,26 @@ def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift=False, alp
         a1, b1 = apply_conventions(sa, sb, final)       # the reading changed: once more
         off = estimate_time_offset(a1, b1, drift=drift, alpha=alpha, signal=signal)
         final = detect(off)
-    return (*apply_conventions(sa, sb, final), final, off)
+    return (*apply_conventions(sa, sb, final), final, off, sampling)
+
+
+def _paired_by_stamp(sa, sb, sampling, detect, *, drift, alpha, signal):
+    """:func:`align_and_read` for stamp-paired streams: the shift (0 for equal stamps) is
+    the offset, unless the motions show one the stamps hide."""
+    from simcalib.estimation.readings import apply_conventions
+    from simcalib.estimation.alignment import TimeOffset
+    from simcalib.estimation.hidden_offset import stamps_hide_offset
+    shift = float(getattr(sampling, "shift_s", 0.0))
+    off = TimeOffset(shift, 0.0, shift, float("nan"), np.zeros(0), np.zeros(0),
+                     refined=False, decision="shared_stamps", message=sampling.reason)
+    conv = detect(off)
+    a1, b1 = apply_conventions(sa, sb, conv)
+    sampling, off = stamps_hide_offset(a1, b1, sampling, off, alpha=alpha, drift=drift,
+                                       signal=signal)
+    if sampling.paired_by_stamp:
+        return a1, b1, conv, off, sampling
+    final = detect(off, sampling)
+    return (*apply_conventions(sa, sb, final), final, off, sampling)
 
 
 def _best_score(conv) -> float:
@@ -401,7 +428,7 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
         p = _fit_pass(sa0, _scaled_stream(sb0, 1.0 / scale.used), sampling, **kw)
         scale = dataclasses.replace(scale, check=estimate_for(p.ms, p.sp, p.rob.inlier_mask,
                                                              alpha))
-    sa, sb, conv, off, sp, ms, length_scale, rob, why = p
+    sa, sb, conv, off, sp, ms, length_scale, rob, why, sampling = p
     prior = _per_pass(prior, ms.passes)
     rob = _final_solve(ms, rob, method=method, alpha=alpha, prior=prior, seed=seed,
                        tolerances=tolerances)
@@ -432,9 +459,9 @@ def _fit_pass(sa0, sb0, sampling, *, time_offset, drift, alpha, seed, signal, fo
     decide_for`). Returns ``(stream_a, stream_b, conventions,
     offset, synced, motions, pitch scale, RobustSolution, why)``."""
     from simcalib.estimation.motions import form_motions
-    sa, sb, conv, off = align_and_read(sa0, sb0, sampling, time_offset=time_offset,
-                                       drift=drift, alpha=alpha, seed=seed, forced=forced,
-                                       signal=signal)
+    sa, sb, conv, off, sampling = align_and_read(
+        sa0, sb0, sampling, time_offset=time_offset, drift=drift, alpha=alpha, seed=seed,
+        forced=forced, signal=signal)
     sp = synchronised(sa, sb, sampling, off)
     ms = form_motions(sp, motions, paired_by_stamp=sampling.paired_by_stamp,
                       index_stamps=sampling.kind == "index_stamps", step_s=step_s,
@@ -442,7 +469,7 @@ def _fit_pass(sa0, sb0, sampling, *, time_offset, drift, alpha, seed, signal, fo
     length_scale = _check_motions(ms, sp)
     rob, why = robust_fit(ms.C, ms.H, robust, alpha=alpha, method=method, seed=seed,
                           options=robust_options)
-    return _Pass(sa, sb, conv, off, sp, ms, length_scale, rob, why)
+    return _Pass(sa, sb, conv, off, sp, ms, length_scale, rob, why, sampling)
 
 
 class _Pass(NamedTuple):
@@ -455,6 +482,7 @@ class _Pass(NamedTuple):
     length_scale: float
     rob: object
     why: str
+    sampling: object
 
 
 def _scaled_stream(s, factor: float):

@@ -26,7 +26,11 @@ by seconds, a step beyond any pose sensor) but the data cannot tell the unit, a 
 :class:`simcalib.errors.DataError` names the spans and steps received and the keys that say
 it (``stamps_unit_a=ms``, ...). Stamps that are sample numbers (0, 1, 2, ...) are not times
 and are never rescaled; station recordings whose stamps share one unit are left alone (the
-unit changes nothing there: they are paired by stamp).
+unit changes nothing there: they are paired by stamp). Stamps that count by 1 are sample
+numbers or a 1 kHz stream written in whole ms, alike on their own; the pair tells them
+apart: beside a stream whose stamps are times, a counting stream of
+:data:`MIN_DENSE_POSES` or more poses spanning 1e3 times as long is the 1 kHz stream, read
+as ms (``stamps_ms_to_s``, the reason named); two counting streams stay sample numbers.
 """
 
 from __future__ import annotations
@@ -144,16 +148,41 @@ def _describe(k, s) -> str:
             f"{median_period(t):.4g}")
 
 
+def _counts(s) -> bool:
+    """Stamps that count by 1 (:func:`simcalib.estimation.sampling.is_sample_numbers`):
+    sample numbers, or a 1 kHz stream in whole ms (a 1 Hz one in whole s), whose unit was
+    not told where it was read."""
+    return not s.stamps_unit and is_sample_numbers(np.asarray(s.timestamps_s))
+
+
+def _ms_counter(st: dict, big: str, small: str, f: float) -> str | None:
+    """Why stream ``big``, whose stamps count by 1, is a 1 kHz stream in whole ms and not
+    sample numbers (None when the pair does not show it): the other stream's stamps are
+    times (they do not count by 1) and ``big`` spans 1e3 times as long, a dense stream's
+    :data:`MIN_DENSE_POSES` or more poses (sample numbers span as many samples as the
+    stream holds, which against seconds is a factor near 1e3 only at 1 kHz: the same
+    stamps)."""
+    if f != 1e3 or _counts(st[small]) or st[big].n < MIN_DENSE_POSES:
+        return None
+    return (f"its stamps count by 1 like sample numbers, but it spans "
+            f"{_span(st[big]) / _span(st[small]):.4g} times stream {small}'s stamps in "
+            f"time: a {st[big].n}-pose stream at 1 kHz in whole ms")
+
+
 def _by_pair(st: dict, motion: dict) -> dict:
     """Rescale the stream of larger stamps when both spans and periods show the two
-    streams a unit apart (module doc); DataError when that contradicts its motion."""
-    if any(is_sample_numbers(np.asarray(s.timestamps_s)) or s.synthetic_time
-           for s in st.values()):
+    streams a unit apart (module doc); DataError when that contradicts its motion. Stamps
+    that count by 1 are sample numbers unless the pair shows them a 1 kHz stream in whole
+    ms (:func:`_ms_counter`)."""
+    if any(s.synthetic_time for s in st.values()):
         return st
     big, small = sorted(st, key=lambda k: -_span(st[k]))
     f = _unit_factor(_span(st[big]) / max(_span(st[small]), 1e-300))
     if f is None or f == 1.0 or st[big].stamps_unit:
         return st
+    if _counts(st[big]) or _counts(st[small]):
+        why = _ms_counter(st, big, small, f) if _counts(st[big]) else None
+        return st if why is None else {**st, big: _rescaled(st[big], "ms", why)}
     pb, ps = (median_period(np.asarray(st[k].timestamps_s)) for k in (big, small))
     if not (pb > 0 and ps > 0) or abs(math.log10(pb / f / ps)) > \
             abs(math.log10(pb / ps)) - PERIOD_GAIN_DECADES:

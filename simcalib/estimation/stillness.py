@@ -16,9 +16,11 @@ What the estimation path correlates, scores and keeps depends on it
   their (noise) rotation.
 
 Positions are taken in metres for :data:`STILL_M` (the threshold below which a stream
-that does not turn is called still); a file in millimetres whose rig does not move at all
-reads as translating by its noise, and the calibration then reports X's rotation as poorly
-determined from that noise.
+that does not turn is called still). That alone would make a file in millimetres whose rig
+does not move read as translating by its noise (1 mm of noise is 1 "m"), so whether a
+densely sampled stream translates is also decided without a length unit
+(:func:`white_positions`): a path wanders from pose to pose far beyond one step, noise
+around one place spreads no farther than its own pose-to-pose steps.
 """
 
 from __future__ import annotations
@@ -28,7 +30,8 @@ import numpy as np
 from simcalib.geometry import rotation_angle_rad
 
 __all__ = ["STILL_DEG", "STILL_M", "rotation_extent_deg", "translation_extent_m",
-           "motion_signal", "translates", "TRANSLATES_SHARE"]
+           "motion_signal", "translates", "TRANSLATES_SHARE", "white_positions", "WHITE_RATIO",
+           "DENSE_PERIOD_S", "MIN_WHITE_POSES"]
 
 #: a stream whose poses (90 %) lie within this angle of its first pose does not rotate
 STILL_DEG = 1.0
@@ -38,6 +41,13 @@ STILL_M = 0.005
 #: a motion of a rig that does not turn carries the signal when it translates by at least
 #: this share of the recording's median motion
 TRANSLATES_SHARE = 0.1
+#: positions within this many median pose-to-pose steps of their median (90 %) are white
+#: noise around one place, in any length unit (i.i.d. noise: 1.2 in 3-D, 1.7 along one axis)
+WHITE_RATIO = 3.0
+#: ... judged on streams sampled at least this densely (median period, s) ...
+DENSE_PERIOD_S = 0.2
+#: ... with at least this many poses (stations, seconds apart, are white by nature)
+MIN_WHITE_POSES = 50
 
 
 def _poses(stream) -> np.ndarray:
@@ -60,6 +70,26 @@ def translation_extent_m(stream) -> float:
     the stream does not rotate (``p' = -R^T p`` with one ``R``)."""
     p = _poses(stream)[:, :3, 3]
     return float(np.percentile(np.linalg.norm(p - np.median(p, axis=0), axis=1), 90))
+
+
+def white_positions(stream) -> str | None:
+    """Why a densely sampled stream's positions are noise around one place, whatever their
+    length unit (None when they trace a path, or the stream is too sparse to tell): 90 % of
+    them within :data:`WHITE_RATIO` median pose-to-pose steps of their median, on
+    :data:`MIN_WHITE_POSES` or more poses at most :data:`DENSE_PERIOD_S` apart. A moving
+    rig sampled densely wanders far beyond one step; stations, seconds apart, are not
+    judged (their scale alone tells)."""
+    t = np.asarray(stream.timestamps_s, dtype=np.float64)
+    p = _poses(stream)[:, :3, 3]
+    if t.size < MIN_WHITE_POSES or not np.median(np.diff(t)) <= DENSE_PERIOD_S:
+        return None
+    step = float(np.median(np.linalg.norm(np.diff(p, axis=0), axis=1)))
+    extent = translation_extent_m(stream)
+    if extent > WHITE_RATIO * step:
+        return None
+    return (f"its positions spread {extent:.3g} (in the file's unit, 90 % from their "
+            f"median) and step {step:.3g} from pose to pose: white noise around one place, "
+            f"not a path (a path wanders beyond {WHITE_RATIO:g} steps)")
 
 
 def motion_signal(stream_a, stream_b) -> str:

@@ -147,8 +147,8 @@ def motions_from_streams(streams: dict, cfg, rng, sensing: dict):
               {"invert_a": False, "invert_b": est.b_file.startswith("inverted"),
                "scalar_first_a": False, "scalar_first_b": "scalar_first" in est.b_file})
     offset = 0.0 if est.time_offset == "stamps" else est.time_offset
-    a, b, conv, off = align_and_read(a, b, sampling, time_offset=offset, seed=cfg.seed,
-                                     forced=forced)
+    a, b, conv, off, sampling = align_and_read(a, b, sampling, time_offset=offset,
+                                               seed=cfg.seed, forced=forced)
     synced = synchronised(a, b, sampling, off)
     ms = form_motions(synced, est.motions, paired_by_stamp=sampling.paired_by_stamp,
                       index_stamps=sampling.kind == "index_stamps", step_s=est.step_s,

@@ -75,6 +75,8 @@ class RawStream:
     name: str = ""
     note: str = ""
     synthetic_time: bool = False
+    #: repairs the reader made (e.g. ``{"truncated_last_row_dropped": 1}``), counted
+    repairs: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -294,7 +296,7 @@ def _finalise(raw: RawStream, source: str, fmt: str, detection: str,
     quaternions renormalised or rotation blocks re-orthonormalised when slightly off,
     sorted by time, duplicates dropped — each repair counted in ``repairs``."""
     label = f"{source}" + (f" [{raw.name}]" if raw.name else "")
-    repairs: dict[str, int] = {}
+    repairs: dict[str, int] = dict(raw.repairs)
     t, T = _finite_poses(raw, label, repairs)
     t, T = _ordered_unique(t, T, repairs)
     if t.size < MIN_POSES:
@@ -342,6 +344,12 @@ def _finite_poses(raw: RawStream, label: str, repairs: dict) -> tuple[np.ndarray
     if raw.matrices is not None:
         t, M = t[keep], M[keep]
         return t, _project_rigid(M, label, repairs)
+    zero = finite & ~q.any(axis=1)      # (0, 0, 0, 0): a tracker's "no pose" row
+    if zero.any():
+        repairs["zero_quaternion_rows_dropped"] = int(zero.sum())
+        keep = finite = finite & ~zero
+        if not finite.any():
+            raise data_error(f"{label}: every row's quaternion is (0, 0, 0, 0) or NaN")
     norm = np.linalg.norm(np.where(finite[:, None], q, [0.0, 0.0, 0.0, 1.0]), axis=1)
     far = np.abs(norm - 1.0) > QUAT_NORM_MAX_DEV
     if far.any():
@@ -519,32 +527,40 @@ def read_pose_rows(path, text: str, sep: str | None, fmt: str, layout: str,
     format in messages. Such readers take no options."""
     if options:
         raise TypeError(f"{fmt} reader takes no options; received {sorted(options)}")
-    rows, _ = numeric_rows(text, sep)
+    try:
+        rows, truncated = numeric_rows(text, sep)
+    except DataError as e:
+        raise data_error(f"{path}: {e}") from None
     if rows.shape[1] != 8:
         lineno = next(k for k, ln in enumerate(text.splitlines(), 1)
                       if ln.strip() and not ln.strip().startswith(("#", "%")))
         raise data_error(f"{path}: line {lineno}: {rows.shape[1]} values a row; {fmt.upper()} "
                          f"rows have 8 ({layout})")
-    return [RawStream(rows[:, 0], position_m=rows[:, 1:4], quat_xyzw=rows[:, 4:8])]
+    return [RawStream(rows[:, 0], position_m=rows[:, 1:4], quat_xyzw=rows[:, 4:8],
+                      repairs={"truncated_last_row_dropped": truncated} if truncated else {})]
 
 
 def numeric_rows(text: str, sep: str | None, comment: str = "#") -> tuple[np.ndarray, int]:
-    """Parse numeric rows (``sep`` None: whitespace). Returns (array, n_lines_skipped);
-    unparsable lines other than blank/comment raise with the line number."""
+    """Parse numeric rows (``sep`` None: whitespace). Returns (array, n_lines_skipped):
+    the file's last row, when it holds fewer values than the rows before it (a recording
+    cut off while writing), is skipped; other unparsable lines raise with the line
+    number."""
+    lines = [(k, ln.strip()) for k, ln in enumerate(text.splitlines(), 1)]
+    lines = [(k, s) for k, s in lines if s and not s.startswith((comment, "%"))]
     rows = []
     width = None
-    for lineno, line in enumerate(text.splitlines(), 1):
-        s = line.strip()
-        if not s or s.startswith(comment) or s.startswith("%"):
-            continue
-        parts = [p for p in (s.split(sep) if sep else s.split())]
-        parts = [p.strip() for p in parts if p.strip() != ""]
+    for i, (lineno, s) in enumerate(lines):
+        parts = [p.strip() for p in (s.split(sep) if sep else s.split()) if p.strip() != ""]
         try:
             vals = [float(p) for p in parts]
         except ValueError:
+            if i == len(lines) - 1 and width is not None and len(parts) <= width:
+                return np.asarray(rows, dtype=np.float64), 1     # cut mid-number
             raise data_error(f"line {lineno}: could not read numbers from {s[:100]!r}") from None
         if width is None:
             width = len(vals)
+        elif len(vals) < width and i == len(lines) - 1:
+            return np.asarray(rows, dtype=np.float64), 1          # the last row cut short
         elif len(vals) != width:
             raise data_error(f"line {lineno}: {len(vals)} values, earlier lines have {width}")
         rows.append(vals)

@@ -51,10 +51,12 @@ def classify(name: str):
     ``("mat", (i, j))`` or ``None`` for a column name."""
     n = _clean(name)
     flat = re.sub(r"[^a-z0-9]+", "_", n).strip("_")
+    if flat in _TIME_NS or flat.endswith(("_nsec", "_nsecs")):
+        return ("time", 1e-9)
+    if flat.endswith(("_sec", "_secs")):                # ROS header.stamp.secs
+        return ("time", 1.0)
     if flat in _TIME or flat.endswith("_time") or flat.endswith("stamp"):
         return ("time", 1.0)
-    if flat in _TIME_NS:
-        return ("time", 1e-9)
     m = _MAT.fullmatch(flat.replace("_", "")) or _MAT.fullmatch(flat)
     if m:
         return ("mat", (int(m.group(1)), int(m.group(2))))
@@ -116,22 +118,21 @@ def sniff(path, text: str) -> float:
     return 0.0
 
 
-def read(path, text: str, **options) -> list[RawStream]:
-    if options:
-        raise TypeError(f"csv reader takes no options; received {sorted(options)}")
-    lineno, names = _header(text)
-    if not names:
-        raise data_error(f"{path}: no header line found")
-    time, pos, quat, qidx, mat = _layout(names)
+def _rows(path, text: str, lineno: int, width: int) -> tuple[np.ndarray, bool]:
+    """``(rows, truncated)``: the data rows under the header; the file's last row, when it
+    holds fewer values than the header names (a recording cut off while writing), is
+    dropped (``truncated``)."""
+    lines = [(k, ln.strip()) for k, ln in enumerate(text.splitlines()[lineno:], lineno + 1)]
+    lines = [(k, s) for k, s in lines if s and not s.startswith("#")]
     rows = []
-    for k, line in enumerate(text.splitlines()[lineno:], lineno + 1):
-        s = line.strip()
-        if not s or s.startswith("#"):
-            continue
+    for i, (k, s) in enumerate(lines):
         parts = _split(s)
-        if len(parts) != len(names):
-            raise data_error(f"{path}, line {k}: {len(parts)} values for {len(names)} "
-                             f"header columns")
+        last = i == len(lines) - 1 and rows
+        if len(parts) < width and last:
+            return np.asarray(rows, dtype=np.float64), True
+        if len(parts) != width:
+            raise data_error(f"{path}, line {k}: {len(parts)} values for {width} header "
+                             "columns")
         try:
             rows.append([float(p) if p.lower() not in ("", "nan", "none", "null") else np.nan
                          for p in parts])
@@ -140,16 +141,36 @@ def read(path, text: str, **options) -> list[RawStream]:
                 from None
     if not rows:
         raise data_error(f"{path}: header but no data rows")
-    A = np.asarray(rows, dtype=np.float64)
-    notes = []
-    if time:
-        col, scale = time[0]
-        t = A[:, col] * scale
-        synthetic = False
-    else:
-        t = np.arange(A.shape[0], dtype=np.float64)
-        synthetic = True
-        notes.append("no time column: the row index is used as time")
+    return np.asarray(rows, dtype=np.float64), False
+
+
+def _times(A: np.ndarray, time: list) -> tuple[np.ndarray, bool, list]:
+    """``(t, synthetic, notes)``: the stamps of the rows ``A`` from the time columns
+    ``time`` (``[(column, scale)]``): a seconds and a nanoseconds column (ROS
+    ``stamp.secs`` / ``stamp.nsecs``) are added, else the first is used; without one the
+    row index (``synthetic``)."""
+    if not time:
+        return np.arange(A.shape[0], dtype=np.float64), True, [
+            "no time column: the row index is used as time"]
+    sec = [c for c, sc in time if sc == 1.0]
+    nsec = [c for c, sc in time if sc == 1e-9]
+    if sec and nsec:
+        return A[:, sec[0]] + 1e-9 * A[:, nsec[0]], False, [
+            "stamps: a seconds column plus a nanoseconds column (ROS secs + nsecs)"]
+    col, scale = time[0]
+    return A[:, col] * scale, False, []
+
+
+def read(path, text: str, **options) -> list[RawStream]:
+    if options:
+        raise TypeError(f"csv reader takes no options; received {sorted(options)}")
+    lineno, names = _header(text)
+    if not names:
+        raise data_error(f"{path}: no header line found")
+    time, pos, quat, qidx, mat = _layout(names)
+    A, truncated = _rows(path, text, lineno, len(names))
+    repairs = {"truncated_last_row_dropped": 1} if truncated else {}
+    t, synthetic, notes = _times(A, time)
     if len(mat) >= 12:
         M = np.zeros((A.shape[0], 4, 4))
         M[:, 3, 3] = 1.0
@@ -160,7 +181,7 @@ def read(path, text: str, **options) -> list[RawStream]:
             raise data_error(f"{path}: matrix columns missing for entries {missing}")
         notes.append("4x4 row-major matrix columns")
         return [RawStream(t, matrices=M, quat_order="matrix", note="; ".join(notes),
-                          synthetic_time=synthetic)]
+                          synthetic_time=synthetic, repairs=repairs)]
     P = A[:, [pos["x"], pos["y"], pos["z"]]]
     if set("xyzw") <= set(quat):
         Q = A[:, [quat["x"], quat["y"], quat["z"], quat["w"]]]
@@ -172,7 +193,7 @@ def read(path, text: str, **options) -> list[RawStream]:
         notes.append("columns q0..q3 read scalar-first (q0 = w); the convention check "
                      "tests the other order")
     return [RawStream(t, position_m=P, quat_xyzw=Q, quat_order=order, note="; ".join(notes),
-                      synthetic_time=synthetic)]
+                      synthetic_time=synthetic, repairs=repairs)]
 
 
 def write(path, streams):

@@ -1,0 +1,77 @@
+"""Shared stamps that hide a clock offset (simcalib.estimation.hidden_offset)."""
+
+import numpy as np
+import pytest
+
+from simcalib.estimation.alignment import TimeOffset
+from simcalib.estimation.hidden_offset import continuous, stamps_hide_offset
+from simcalib.estimation.path import calibrate_streams
+from simcalib.estimation.sampling import classify_sampling
+from simcalib.geometry import random_rotation_matrices, rotation_error_rad
+from simcalib.importers import stream_from_arrays
+from simcalib.world.stream_sim import rig_streams
+
+
+def _grid_streams(offset_s: float, seed: int = 0):
+    """A 1 kHz stream and a 10 Hz one whose stamps land on its 1 ms grid at any offset
+    that is a whole number of ms; both clocks start at a phase of 12.34567 us, so their
+    stamps are fine (not a 1 ms grid that any stamp would hit by chance)."""
+    rs = rig_streams(offset_s=offset_s, duration_s=12.0, rate_a_hz=1000.0, rate_b_hz=10.0,
+                     rng=np.random.default_rng(seed))
+    phase = 1.234567e-5
+    return (rs, stream_from_arrays(rs.t_a + phase, rs.T_a, name="a"),
+            stream_from_arrays(rs.t_b + phase, rs.T_b, name="b"))
+
+
+def _shared_offset(sampling) -> TimeOffset:
+    return TimeOffset(0.0, 0.0, 0.0, float("nan"), np.zeros(0), np.zeros(0), refined=False,
+                      decision="shared_stamps", message=sampling.reason)
+
+
+def test_continuous_tells_streams_from_stations():
+    rs = rig_streams(rng=np.random.default_rng(0))
+    assert continuous(rs.t_a, rs.T_a) and continuous(rs.t_a, rs.T_a, "translation")
+    rng = np.random.default_rng(1)
+    T = np.tile(np.eye(4), (40, 1, 1))
+    T[:, :3, :3] = random_rotation_matrices(rng, (40,))
+    T[:, :3, 3] = rng.uniform(-0.5, 0.5, (40, 3))
+    assert not continuous(np.arange(40.0), T)                    # a new stop every pose
+    t = np.sort(rng.uniform(0, 30, rs.t_a.size))                 # irregular stamps
+    assert not continuous(t, rs.T_a)
+    assert not continuous(rs.t_a[:10], rs.T_a[:10])              # too short to tell
+
+
+@pytest.mark.parametrize("offset_s", [0.25, -0.04])
+def test_an_offset_hidden_by_shared_stamps_is_found(offset_s):
+    rs, a, b = _grid_streams(offset_s)
+    sampling = classify_sampling(a, b)
+    assert sampling.paired_by_stamp and sampling.kind == "shared_stamps"
+    smp, off = stamps_hide_offset(a, b, sampling, _shared_offset(sampling))
+    assert not smp.paired_by_stamp and smp.kind == "continuous"
+    assert off.decision == "estimated" and abs(off.offset_s - offset_s) < 3e-3
+    assert "line up at" in smp.reason
+    cal = calibrate_streams(a, b)                            # the whole path
+    assert not cal.sampling.paired_by_stamp
+    assert abs(cal.time_offset.offset_s - offset_s) < 3e-3
+    assert np.degrees(rotation_error_rad(cal.X, rs.X)) < 0.1
+
+
+def test_stamps_that_agree_with_the_motion_stay_paired():
+    _, a, b = _grid_streams(0.0)
+    sampling = classify_sampling(a, b)
+    off0 = _shared_offset(sampling)
+    smp, off = stamps_hide_offset(a, b, sampling, off0)
+    assert smp.paired_by_stamp and off.offset_s == 0.0 and off.decision == "shared_stamps"
+    assert "no offset of their motions beats 0" in off.message and smp.reason == off.message
+
+
+def test_station_and_index_stamps_are_not_checked():
+    rng = np.random.default_rng(3)
+    rs = rig_streams(rng=rng)
+    idx = np.arange(30.0)
+    T = rs.T_a[::20][:30]
+    a = stream_from_arrays(idx, T, source="<a>", name="a")
+    b = stream_from_arrays(idx, T @ rs.X, source="<b>", name="b")
+    sampling = classify_sampling(a, b)
+    off0 = _shared_offset(sampling)
+    assert stamps_hide_offset(a, b, sampling, off0) == (sampling, off0)
