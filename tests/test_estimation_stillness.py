@@ -52,7 +52,7 @@ def test_a_still_rig_is_nothing_moves_whatever_the_unit(ua, ub):
 
 
 def test_a_translating_rig_in_mm_still_calibrates_its_rotation():
-    from simcalib.estimation.path import check_streams_move
+    from simcalib.estimation.stillness import check_streams_move
     rec = generate("translation", 0)
     assert check_streams_move(_in_mm(rec.stream_a), _in_mm(rec.stream_b)) == "translation"
     # a still stream in mm beside a translating one in m: that stream does not move

@@ -9,7 +9,7 @@
     -> (the verdict: estimation.verdict); and, for comparison, a plain solve (offset 0, no
     rejection).
 
-A rig that only translates (neither stream turns: :func:`check_streams_move` returns
+A rig that only translates (neither stream turns: :func:`~simcalib.estimation.stillness.check_streams_move` returns
 ``translation``, :mod:`simcalib.estimation.stillness`) goes through the same stages on its
 translations: the offset from the translation speeds, the readings scored on motions that
 translate, no rotation filter, RANSAC sets by translation direction; X's rotation follows
@@ -22,16 +22,16 @@ experiment streams``.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
-from simcalib.estimation.stillness import (STILL_DEG, STILL_M, rotation_extent_deg,
-                                           translation_extent_m, white_positions)
+from simcalib.estimation.stillness import check_streams_move
 
-__all__ = ["StreamCalibration", "calibrate_streams", "align_worlds", "check_streams_move",
-           "STILL_DEG"]
+__all__ = ["StreamCalibration", "calibrate_streams", "align_worlds"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -81,6 +81,8 @@ class StreamCalibration:
     #: how the rig moves (:func:`check_streams_move`): ``rotation``, or ``translation``
     #: (nothing turns: X's rotation from the translations, its translation undetermined)
     signal: str = "rotation"
+    #: the scale of b's translations used (:class:`simcalib.estimation.scale.ScaleDecision`)
+    scale: object = None
 
 
 def _errors_summary(C, H, X, mask=None):
@@ -119,60 +121,6 @@ def read_pair(a, b, format_a=None, format_b=None, unit_a="auto", unit_b="auto"):
     from simcalib.estimation.stamp_units import stamps_to_seconds
     return stamps_to_seconds(_read(a, format_a, unit_a), _read(b, format_b, unit_b),
                              unit_a, unit_b)
-
-
-def check_streams_move(sa, sb) -> str:
-    """How the rig moves (:mod:`simcalib.estimation.stillness`): ``"rotation"`` or
-    ``"translation"`` (neither stream turns, both translate: a degenerate motion that
-    determines X's rotation, not its translation; every stage then works on the
-    translations). Bad input is a clear DataError: a stream that does not rotate while the
-    other does, one that does not move while the other translates, or nothing moving at
-    all (a wrong topic or file, a frozen tracker)."""
-    from simcalib.errors import DataError
-    ext = {"a": rotation_extent_deg(sa), "b": rotation_extent_deg(sb)}
-    streams = {"a": sa, "b": sb}
-    for name, other in _still_beside_moving(ext, STILL_DEG):
-        raise DataError(
-            f"stream {name} ({streams[name].source}) does not rotate: 90 % of its poses "
-            f"lie within {ext[name]:.2g} deg of its first pose, while stream {other} "
-            f"turns by {ext[other]:.3g} deg; both sensors of a rigid rig turn alike (a "
-            "wrong file or topic, or a frozen tracker?)")
-    if max(ext.values()) >= STILL_DEG:
-        return "rotation"
-    move, why = _translation_extents(streams)
-    if max(move.values()) < STILL_M:
-        raise DataError(
-            f"nothing moves: neither stream rotates (90 % of the poses within "
-            f"{ext['a']:.2g} deg (a) and {ext['b']:.2g} deg (b) of the first) nor translates "
-            f"(a: {why['a']}; b: {why['b']}); a calibration needs the rig to move (a wrong "
-            "file or topic, or a frozen tracker?)")
-    for name, other in _still_beside_moving(move, STILL_M):
-        raise DataError(
-            f"stream {name} ({streams[name].source}) does not move: it neither rotates "
-            f"nor translates ({why[name]}), while stream {other} translates by "
-            f"{1e3 * move[other]:.3g} mm; both sensors of a rigid rig that does not turn "
-            "translate alike (a wrong file or topic, or a frozen tracker?)")
-    return "translation"
-
-
-def _translation_extents(streams: dict) -> tuple[dict, dict]:
-    """``({name: extent (m)}, {name: why it is still})``: how far each stream translates,
-    0 where its positions are white noise around one place whatever the length unit
-    (:func:`simcalib.estimation.stillness.white_positions`: a still rig's file in mm)."""
-    move, why = {}, {}
-    for k, s in streams.items():
-        extent, white = translation_extent_m(s), white_positions(s)
-        move[k] = 0.0 if white else extent
-        why[k] = white or (f"90 % of its positions within {1e3 * extent:.2g} mm of their "
-                           f"median, < {1e3 * STILL_M:g} mm")
-    return move, why
-
-
-def _still_beside_moving(extent: dict, still: float) -> list[tuple[str, str]]:
-    """``[(name, other)]`` where stream ``name`` stays within ``still`` while ``other``
-    moves 5x as far (and beyond a fifth of ``still``): bad input, not a degenerate motion."""
-    return [(n, o) for n, o in (("a", "b"), ("b", "a"))
-            if extent[n] < still and extent[o] > 5.0 * max(extent[n], 0.2 * still)]
 
 
 def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift=False, alpha=1.0,
@@ -294,8 +242,6 @@ def _final_solve(motions, rob, *, method, alpha, prior, seed, tolerances=None):
     """The estimate on the inliers and its residuals on every motion. Its uncertainty
     (the solver's model) serves for the directions the motions determine; the reported
     covariance comes from the poses' own errors (:func:`_consistency`)."""
-    import dataclasses
-
     from simcalib.solvers.api import solve
     from simcalib.solvers.robust import screw_residuals
     m = rob.inlier_mask
@@ -317,8 +263,6 @@ def _consistency(motions, rob, synced, *, method, alpha, prior, offset_sigma_s=0
     pose_consistency`: white and correlated parts, checked by the recording's two halves);
     with a prior, the model's covariance raised to the block jackknife. Then the move of X
     under a rotation-weighted cost is added when it is beyond the sigma."""
-    import dataclasses
-
     from simcalib.estimation.consistency import (block_jackknife, combine, pose_consistency,
                                                  weighting_check)
     from simcalib.solvers.api import solve
@@ -395,7 +339,7 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
                       robust_options: dict | None = None, method: str = "dqopt",
                       prior=None, seed: int = 0, motions: str = "auto",
                       tolerances=None, common_error=None, stamps_unit_a: str = "auto",
-                      stamps_unit_b: str = "auto") -> StreamCalibration:
+                      stamps_unit_b: str = "auto", scale_b="auto") -> StreamCalibration:
     """Calibrate ``X = T_a_b`` from two pose streams (paths or PoseStreamData), the one path:
     how the rig moves (:func:`check_streams_move`) -> sampling (:func:`~simcalib.estimation.
     sampling.classify_sampling`) -> reading and clock offset (:func:`align_and_read`;
@@ -407,73 +351,144 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     uncertainty and its consistency check (:mod:`simcalib.estimation.consistency`);
     ``tolerances``: a :class:`simcalib.estimation.verdict.Tolerances` (default 1 deg / 1
     cm); ``common_error``: a stated :class:`~simcalib.estimation.common_error.CommonError`,
-    added to the covariance; ``stamps_unit_a`` / ``_b``: :func:`read_pair`. Bad files and
+    added to the covariance; ``stamps_unit_a`` / ``_b``: :func:`read_pair`; ``scale_b``:
+    ``auto``, ``estimate`` or a number, the scale of b's translations against a's
+    (:mod:`simcalib.estimation.scale`; a rescale runs the path once more). Bad files and
     streams that cannot calibrate raise :class:`simcalib.errors.DataError`.
     """
-    from simcalib.estimation.motions import form_motions
     from simcalib.estimation.sampling import classify_sampling
-    sa, sb = read_pair(a, b, format_a, format_b, stamps_unit_a, stamps_unit_b)
-    signal = check_streams_move(sa, sb)     # translation: no rotation filter (all noise)
+    from simcalib.estimation.scale import MODES, decide_for, estimate_for
+    sa0, sb0 = read_pair(a, b, format_a, format_b, stamps_unit_a, stamps_unit_b)
+    if scale_b not in MODES:                # a scale given: b's translations divided by it
+        sb0 = _scaled_stream(sb0, 1.0 / float(scale_b))
+    signal = check_streams_move(sa0, sb0)   # translation: no rotation filter (all noise)
     min_rotation_deg = min_rotation_deg if signal == "rotation" else None
-    sampling = classify_sampling(sa, sb)
-    forced = {"invert_a": invert_a, "invert_b": invert_b, "scalar_first_a": scalar_first_a,
-              "scalar_first_b": scalar_first_b}
-    sa, sb, conv, off, sampling = align_and_read(sa, sb, sampling, time_offset=time_offset,
-                                                 drift=drift, alpha=alpha, seed=seed,
-                                                 forced=forced, signal=signal)
-    sp = synchronised(sa, sb, sampling, off)
-    ms = form_motions(sp, motions, paired_by_stamp=sampling.paired_by_stamp,
-                      index_stamps=sampling.kind == "index_stamps", step_s=step_s,
-                      min_rotation_deg=min_rotation_deg, max_rotation_deg=max_rotation_deg)
-    length_scale = _check_motions(ms, sp)
+    sampling = classify_sampling(sa0, sb0)
+    kw = dict(time_offset=time_offset, drift=drift, alpha=alpha, seed=seed, signal=signal,
+              forced={"invert_a": invert_a, "invert_b": invert_b,
+                      "scalar_first_a": scalar_first_a, "scalar_first_b": scalar_first_b},
+              motions=motions, step_s=step_s, min_rotation_deg=min_rotation_deg,
+              max_rotation_deg=max_rotation_deg, robust=robust, method=method,
+              robust_options=robust_options)
+    p = _fit_pass(sa0, sb0, sampling, **kw)
+    scale = decide_for(p.ms, p.sp, p.rob.inlier_mask, scale_b, alpha, UNITS_HINT)
+    if scale.rescaled and scale.decision == "rescaled":     # once more, b rescaled
+        p = _fit_pass(sa0, _scaled_stream(sb0, 1.0 / scale.used), sampling, **kw)
+        scale = dataclasses.replace(scale, check=estimate_for(p.ms, p.sp, p.rob.inlier_mask,
+                                                             alpha))
+    sa, sb, conv, off, sp, ms, length_scale, rob, why, sampling = p
     prior = _per_pass(prior, ms.passes)
-    rob, why = robust_fit(ms.C, ms.H, robust, alpha=alpha, method=method, seed=seed,
-                          options=robust_options)
     rob = _final_solve(ms, rob, method=method, alpha=alpha, prior=prior, seed=seed,
                        tolerances=tolerances)
     check, weighting, cov, cov_det = _consistency(
         ms, rob, sp, method=method, alpha=alpha, prior=prior,
         offset_sigma_s=_offset_sigma(off, sampling))
     cov, cov_det, common_error = _with_common_error(cov, cov_det, rob, check, common_error)
+    cov, cov_det = _with_scale(cov, cov_det, rob, check, ms, scale, alpha)
     ms0, plain = _plain(sa, sb, sampling, off, sp, ms, step_s=step_s, alpha=alpha,
                         min_rotation_deg=min_rotation_deg, max_rotation_deg=max_rotation_deg)
     aligned, summary = _summary(sa, sb, conv, off, ms, rob, ms0, plain, alpha, length_scale)
     return StreamCalibration(rob.X, None if plain is None else plain.X, off, conv, rob, plain,
-                             sa, sb, ms.C, ms.H, sp.time_s[ms.i], summary,
+                             sa, sb, ms.C, ms.H, sp.time_s[ms.i], summary | {
+                                 "scale_b": scale.to_dict()},
                              synced=sp, motion_index=(ms.i, ms.j),
                              X_aligned=aligned.X, sampling=sampling, motions=ms,
                              consistency=check, covariance=cov, covariance_determined=cov_det,
                              robust_choice=why, weighting=weighting,
-                             common_error=common_error, signal=signal)
+                             common_error=common_error, signal=signal, scale=scale)
+
+
+def _fit_pass(sa0, sb0, sampling, *, time_offset, drift, alpha, seed, signal, forced,
+              motions, step_s, min_rotation_deg, max_rotation_deg, robust, method,
+              robust_options):
+    """One pass of the path from the streams as read to the robust fit: reading and
+    clock offset, synchronised poses, motions (fewer than 2 refused), outliers (the
+    streams' length units are judged with their scale: :func:`simcalib.estimation.scale.
+    decide_for`). Returns ``(stream_a, stream_b, conventions,
+    offset, synced, motions, pitch scale, RobustSolution, why)``."""
+    from simcalib.estimation.motions import form_motions
+    sa, sb, conv, off, sampling = align_and_read(
+        sa0, sb0, sampling, time_offset=time_offset, drift=drift, alpha=alpha, seed=seed,
+        forced=forced, signal=signal)
+    sp = synchronised(sa, sb, sampling, off)
+    ms = form_motions(sp, motions, paired_by_stamp=sampling.paired_by_stamp,
+                      index_stamps=sampling.kind == "index_stamps", step_s=step_s,
+                      min_rotation_deg=min_rotation_deg, max_rotation_deg=max_rotation_deg)
+    length_scale = _check_motions(ms, sp)
+    rob, why = robust_fit(ms.C, ms.H, robust, alpha=alpha, method=method, seed=seed,
+                          options=robust_options)
+    return _Pass(sa, sb, conv, off, sp, ms, length_scale, rob, why, sampling)
+
+
+class _Pass(NamedTuple):
+    sa: object
+    sb: object
+    conv: object
+    off: object
+    sp: object
+    ms: object
+    length_scale: float
+    rob: object
+    why: str
+    sampling: object
+
+
+def _scaled_stream(s, factor: float):
+    """The stream with its translations times ``factor``."""
+    from simcalib.estimation.scale import scaled_poses
+    return dataclasses.replace(s, T_world_sensor=scaled_poses(s.T_world_sensor, factor))
+
+
+def _with_scale(cov, cov_det, rob, check, ms, scale, alpha):
+    """The covariances with the estimated scale's 1-sigma carried into X (on the
+    determined directions), where the scale used was estimated."""
+    if cov is None or not scale.sigma_used > 0.0:
+        return cov, cov_det
+    from simcalib.estimation.scale import scale_covariance
+    add = scale_covariance(ms.C, ms.H, rob.inlier_mask.astype(np.float64),
+                           scale.sigma_used / scale.used, alpha)
+    return _add_determined(cov, cov_det, rob, check, add)
 
 
 def _with_common_error(cov, cov_det, rob, check, common):
     """``(cov, cov_det, common)``: the covariances with the stated ``common`` error's
     (:class:`~simcalib.estimation.common_error.CommonError`) added on the determined
-    directions (the basis the consistency check reports, else the model's; undetermined
-    axes stay ``inf``), and ``common`` where it was added (else None)."""
+    directions, and ``common`` where it was added (else None)."""
     if cov is None or common is None or not common.stated:
         return cov, cov_det, None
+    return (*_add_determined(cov, cov_det, rob, check, common.covariance(rob.X)), common)
+
+
+def _add_determined(cov, cov_det, rob, check, add):
+    """``(cov, cov_det)`` with the 6x6 ``add`` projected on the determined directions (the
+    basis the consistency check reports, else the model's; undetermined axes stay
+    ``inf``)."""
     basis = getattr(check, "basis", None)
     B = np.asarray(rob.solution.uncertainty.determined_basis if basis is None else basis)
     P = B @ B.T
-    add = P @ common.covariance(rob.X) @ P
+    add = P @ add @ P
     out = cov.copy()
     fin = np.isfinite(out)
     out[fin] = out[fin] + add[fin]
-    return out, cov_det + add, common
+    return out, cov_det + add
 
 
 def _check_motions(ms, sp) -> float:
-    """DataError for fewer than 2 motions, or for streams in different length units
-    (:mod:`simcalib.estimation.units`); returns b's length scale against a's (NaN: the
-    motions cannot tell)."""
-    from simcalib.estimation.units import check_translation_units
+    """DataError for fewer than 2 motions; returns b's length scale against a's by the
+    pitch invariant (:func:`simcalib.estimation.units.pitch_scale`; NaN: the motions
+    cannot tell)."""
+    from simcalib.estimation.units import pitch_scale
     if ms.n < 2:
         from simcalib.errors import DataError
         raise DataError(f"only {ms.n} motion(s) from {sp.n} synchronised poses ({ms.reason};"
                         f" {ms.counts}); at least 2 rotating motions are needed")
-    return check_translation_units(ms.C, ms.H)
+    return pitch_scale(ms.C, ms.H)[0]
+
+
+#: how the refusal of streams in different units is answered (``scale_b``, docs/calibrate.md)
+UNITS_HINT = ("write both in metres, or give scale_b=estimate (b's translations divided by "
+              "their estimated scale, its uncertainty in X's sigma) or scale_b=<b's unit in "
+              "a's: 0.001 for b in mm against a in m>")
 
 
 def _summary(sa, sb, conv, off, ms, rob, ms0, plain, alpha, length_scale) -> tuple:
@@ -533,7 +548,6 @@ def _per_pass(prior, passes: int):
     cost, and the prior keeps its weight against the poses (not against the motions)."""
     if prior is None or passes <= 1:
         return prior
-    import dataclasses
     return dataclasses.replace(prior, a=prior.a * passes, b=prior.b * passes)
 
 

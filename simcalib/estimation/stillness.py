@@ -1,7 +1,7 @@
 """Does a stream move, and how: rotation, translation only, or not at all.
 
 What the estimation path correlates, scores and keeps depends on it
-(:func:`simcalib.estimation.path.check_streams_move` decides it once per calibration):
+(:func:`check_streams_move` decides it once per calibration):
 
 * ``rotation`` - either stream turns (90 % of its poses beyond :data:`STILL_DEG` of its
   first pose): the clock offset is read from the angular speeds, motions that do not turn
@@ -29,7 +29,7 @@ import numpy as np
 
 from simcalib.geometry import rotation_angle_rad
 
-__all__ = ["STILL_DEG", "STILL_M", "rotation_extent_deg", "translation_extent_m",
+__all__ = ["check_streams_move", "STILL_DEG", "STILL_M", "rotation_extent_deg", "translation_extent_m",
            "motion_signal", "translates", "TRANSLATES_SHARE", "white_positions", "WHITE_RATIO",
            "DENSE_PERIOD_S", "MIN_WHITE_POSES"]
 
@@ -95,7 +95,7 @@ def white_positions(stream) -> str | None:
 def motion_signal(stream_a, stream_b) -> str:
     """``"rotation"`` when either stream turns by :data:`STILL_DEG` or more, else
     ``"translation"`` (whether they move at all is checked by
-    :func:`simcalib.estimation.path.check_streams_move`)."""
+    :func:`check_streams_move`)."""
     turns = max(rotation_extent_deg(stream_a), rotation_extent_deg(stream_b))
     return "rotation" if turns >= STILL_DEG else "translation"
 
@@ -105,3 +105,57 @@ def translates(d) -> np.ndarray:
     of at least :data:`TRANSLATES_SHARE` of their median (the rest is standing still)."""
     d = np.asarray(d, dtype=np.float64)
     return d > TRANSLATES_SHARE * float(np.median(d)) if d.size else d > 0
+
+
+def check_streams_move(sa, sb) -> str:
+    """How the rig moves (:mod:`simcalib.estimation.stillness`): ``"rotation"`` or
+    ``"translation"`` (neither stream turns, both translate: a degenerate motion that
+    determines X's rotation, not its translation; every stage then works on the
+    translations). Bad input is a clear DataError: a stream that does not rotate while the
+    other does, one that does not move while the other translates, or nothing moving at
+    all (a wrong topic or file, a frozen tracker)."""
+    from simcalib.errors import DataError
+    ext = {"a": rotation_extent_deg(sa), "b": rotation_extent_deg(sb)}
+    streams = {"a": sa, "b": sb}
+    for name, other in _still_beside_moving(ext, STILL_DEG):
+        raise DataError(
+            f"stream {name} ({streams[name].source}) does not rotate: 90 % of its poses "
+            f"lie within {ext[name]:.2g} deg of its first pose, while stream {other} "
+            f"turns by {ext[other]:.3g} deg; both sensors of a rigid rig turn alike (a "
+            "wrong file or topic, or a frozen tracker?)")
+    if max(ext.values()) >= STILL_DEG:
+        return "rotation"
+    move, why = _translation_extents(streams)
+    if max(move.values()) < STILL_M:
+        raise DataError(
+            f"nothing moves: neither stream rotates (90 % of the poses within "
+            f"{ext['a']:.2g} deg (a) and {ext['b']:.2g} deg (b) of the first) nor translates "
+            f"(a: {why['a']}; b: {why['b']}); a calibration needs the rig to move (a wrong "
+            "file or topic, or a frozen tracker?)")
+    for name, other in _still_beside_moving(move, STILL_M):
+        raise DataError(
+            f"stream {name} ({streams[name].source}) does not move: it neither rotates "
+            f"nor translates ({why[name]}), while stream {other} translates by "
+            f"{1e3 * move[other]:.3g} mm; both sensors of a rigid rig that does not turn "
+            "translate alike (a wrong file or topic, or a frozen tracker?)")
+    return "translation"
+
+
+def _translation_extents(streams: dict) -> tuple[dict, dict]:
+    """``({name: extent (m)}, {name: why it is still})``: how far each stream translates,
+    0 where its positions are white noise around one place whatever the length unit
+    (:func:`simcalib.estimation.stillness.white_positions`: a still rig's file in mm)."""
+    move, why = {}, {}
+    for k, s in streams.items():
+        extent, white = translation_extent_m(s), white_positions(s)
+        move[k] = 0.0 if white else extent
+        why[k] = white or (f"90 % of its positions within {1e3 * extent:.2g} mm of their "
+                           f"median, < {1e3 * STILL_M:g} mm")
+    return move, why
+
+
+def _still_beside_moving(extent: dict, still: float) -> list[tuple[str, str]]:
+    """``[(name, other)]`` where stream ``name`` stays within ``still`` while ``other``
+    moves 5x as far (and beyond a fifth of ``still``): bad input, not a degenerate motion."""
+    return [(n, o) for n, o in (("a", "b"), ("b", "a"))
+            if extent[n] < still and extent[o] > 5.0 * max(extent[n], 0.2 * still)]

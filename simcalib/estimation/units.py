@@ -75,10 +75,10 @@ def pitch_scale(C, H) -> tuple[float, float, float, int]:
             int(d_c.size))
 
 
-def check_translation_units(C, H) -> float:
+def check_translation_units(C, H, hint: str = "write both in metres") -> float:
     """Raise :class:`simcalib.errors.DataError` when the motions ``C`` (stream a) and ``H``
-    (stream b), ``(N, 4, 4)``, measure translation in different units (module doc).
-    Returns the scale ``s`` (NaN when the motions cannot tell)."""
+    (stream b), ``(N, 4, 4)``, measure translation in different units (module doc; ``hint``:
+    what the message offers). Returns the scale ``s`` (NaN when the motions cannot tell)."""
     s, r1, rs, n = pitch_scale(C, H)
     if n < MIN_MOTIONS or not math.isfinite(s) or s == 0.0:
         return s
@@ -90,5 +90,5 @@ def check_translation_units(C, H) -> float:
             f"rotation axis stream b moves {s:.3g} times as far as stream a (median over "
             f"{n} motions; equal units give 1: the residual is {r1:.3g} with 1 and {rs:.3g} "
             f"with {s:.3g}); the files' units differ (mm, cm, m, inches?) or one stream has "
-            "no metric scale (monocular SLAM): write both in metres")
+            f"no metric scale (monocular SLAM): {hint}")
     return s

@@ -58,6 +58,13 @@ class CalibrateOptions:
             "refused (docs/calibrate.md, Bad input)"))
     stamps_unit_b: Literal["auto", "s", "ms", "us", "ns"] = field(
         default="auto", metadata=key_help("the same for file b"))
+    scale_b: float | Literal["auto", "estimate"] = field(default="auto", metadata=key_help(
+        "scale of b's translations against a's (b in a's unit times this: a monocular SLAM "
+        "track, a wrong target size, other units); auto: estimated from the motions and "
+        "used only where it differs from 1 clearly (beyond 3 % and 5 sigma; beyond 3x at "
+        "a ratio of length units, e.g. mm against m, refused as a unit mismatch); "
+        "estimate: always estimated and used; a number: b's translations divided by it "
+        "(docs/calibrate.md, Streams of unknown scale)"))
     time_offset: float | Literal["estimate"] = field(default="estimate", metadata=key_help(
         "clock offset t_b - t_a in seconds, or 'estimate'"))
     drift: bool = field(default=False, metadata=key_help("also estimate a linear clock drift"))
@@ -147,6 +154,13 @@ class CalibrateOptions:
                                   i.name for i in registry.infos() if i.supports_prior) + ")")
         if self.time_offset != "estimate":
             set_fields(self, time_offset=check_range("time_offset", self.time_offset))
+        if self.scale_b not in ("auto", "estimate"):
+            try:
+                set_fields(self, scale_b=check_range("scale_b", self.scale_b, lo=0.0,
+                                                     lo_open=True))
+            except ConfigError:
+                raise ConfigError(key="scale_b", value=self.scale_b, allowed=(
+                    "auto, estimate or a finite number > 0 (b's unit in a's)")) from None
         check_that(not (self.drift and self.time_offset != "estimate"), "drift", self.drift,
                    "false when time_offset is given")
         set_fields(self,
@@ -416,7 +430,8 @@ def calibrate(opts: CalibrateOptions):
                               scalar_first_b=opts.scalar_first_b, drift=opts.drift,
                               robust_options=robust_options, method=opts.method,
                               prior=prior, seed=opts.seed, common_error=opts.common_error,
-                              stamps_unit_a=opts.stamps_unit_a, stamps_unit_b=opts.stamps_unit_b)
+                              stamps_unit_a=opts.stamps_unit_a, stamps_unit_b=opts.stamps_unit_b,
+                              scale_b=opts.scale_b)
     except (DataError, SolverError):
         raise
     except ValueError as exc:                   # too few motions, no overlap ...
@@ -480,6 +495,9 @@ def warnings(r, reading: str | None = None) -> list[str]:
     (``reading``: the sentence of :func:`reading_ambiguity`, which then replaces the
     general one about the reading)."""
     out = [reading] if reading else []
+    scale = getattr(r, "scale", None)
+    if scale is not None and scale.decision == "rescaled" and scale.mode == "auto":
+        out.append(f"stream b's translations are not in a's scale: {scale.message}")
     if not r.conventions.clear and not reading:
         out.append(f"the reading of the files did not clearly win (ratio "
                    f"{r.conventions.ratio:.2f} <= 3): check the files or force invert_a/_b, "

@@ -83,6 +83,7 @@ def report_dict(opts, r, a, solver_kernels: str = "compiled") -> dict:
         "uncertainty": _uncertainty(a, getattr(r, "common_error", None)),
         "verdict": _verdict(a),
         "time_offset": _time_offset(r.time_offset),
+        "scale_b": None if getattr(r, "scale", None) is None else r.scale.to_dict(),
         "sampling": r.sampling.to_dict(),
         "motions": {"policy": r.motions.policy, "reason": r.motions.reason,
                     "counts": dict(r.motions.counts)},
@@ -165,6 +166,20 @@ def verdict_line(v: dict, bold: bool = False) -> str:
     return (f"**{head}**" if bold else head) + (f" - {v['message']}" if v["message"] else "")
 
 
+def _scale_lines(sc: dict | None) -> list[str]:
+    """The console's line on the scale of b's translations (calibration.json ``scale_b``)."""
+    if sc is None:
+        return []
+    head = {"rescaled": "RESCALED", "given": "given", "kept": "1 (kept)",
+            "not_told": "1 (not told)"}[sc["decision"]]
+    line = f"scale of b's translations: {head} - {sc['message']}"
+    chk = sc.get("check_after_rescale")
+    if chk and chk.get("scale") is not None:
+        line += (f" (the data as rescaled read {chk['scale']:.4g}"
+                 + (f" +- {chk['sigma']:.2g})" if chk.get("sigma") is not None else ")"))
+    return [line]
+
+
 def _vec(v, scale=1.0, digits=3):
     if v is None:
         return "n/a"
@@ -189,6 +204,7 @@ def format_report(rep: dict) -> str:
            + ")"] if u.get("common_error_included") else []),
         f"  not in sigma: {u['not_included']}",
         verdict_line(v),
+        *_scale_lines(rep.get("scale_b")),
         f"sampling: {rep['sampling']['reason']}",
         f"motions: {rep['motions']['policy']} ({rep['motions']['reason']})",
         f"time offset t_b - t_a: {1e3 * off['offset_s']:.2f}"

@@ -1,6 +1,7 @@
 """The kinds of generated recording (:data:`KINDS`: stations, short, bursts, stop-and-go,
 continuous, a low-rate camera, offsets and drift, outliers, gaps, robot error, planar,
-SCARA, pure translation, inverted, scalar-first, stamps in ms / us / ns, no motion) and
+SCARA, pure translation, inverted, scalar-first, stamps in ms / us / ns, b in another
+scale, no motion) and
 :func:`generate` (a kind and a seed -> a :class:`Recording`), the true streams, and the TUM
 files a recording is written as (``a.txt``, ``b.txt``, ``truth.json``).
 """
@@ -389,6 +390,29 @@ def _kind_stamp_units(rngs, s):
                    + " (relative to the first pose)")
 
 
+def _with_scale(rngs, d):
+    """``d`` with b's translations times a scale drawn log-uniformly in [1.1, 3] (odd seeds)
+    or [0.3, 1 / 1.1] (even seeds): clearly off 1, on both sides (a scale within a few %
+    of 1 is what ``scale_b=auto`` keeps, docs/calibrate.md)."""
+    r = rngs["events"]
+    hi = math.log(3.0) if rngs["seed"] % 2 else math.log(1.0 / 0.3)
+    sign = 1.0 if rngs["seed"] % 2 else -1.0
+    scale = math.exp(sign * r.uniform(math.log(1.1), hi))
+    B = d.B.copy()
+    B[:, :3, 3] *= scale
+    return replace(d, B=B, scale_b=scale, description=d.description
+                   + f", b's translations x {scale:.4g} (unknown scale)")
+
+
+def _kind_scale(rngs, s):
+    return _with_scale(rngs, _continuous(rngs, s, offset_s=_small_offset(rngs, s),
+                                         label="scale"))
+
+
+def _kind_scale_stations(rngs, s):
+    return _with_scale(rngs, _stations_draft(rngs, s, (10, 40), "scale_stations"))
+
+
 def _kind_no_motion_b(rngs, s):
     d = _continuous(rngs, s, label="no_motion_b")
     B = np.broadcast_to(d.B[0], d.B.shape).copy()
@@ -450,6 +474,11 @@ KINDS: dict[str, Kind] = {
                         "odd seeds), one or both files stamped from their first pose in ms, us "
                         "or ns (by seed: a ms, b ms, both ms, a us, b ns, both us)", True,
                         extra=("offset_s", "drift_ppm")),
+    "scale": Kind(_kind_scale, "continuous, b's translations in another scale (x 0.3..0.91 "
+                  "in even seeds, x 1.1..3 in odd ones, log-uniform: a monocular SLAM track, a "
+                  "wrong target size), offset +-50 ms", True, extra=("offset_s",)),
+    "scale_stations": Kind(_kind_scale_stations, "stations (10..40) with b's translations in "
+                           "another scale (as scale)", False),
     "no_motion_b": Kind(_kind_no_motion_b, "bad input: b does not move", True, "data_error"),
 }
 
@@ -510,7 +539,8 @@ def generate(kind: str, seed: int, **overrides) -> Recording:
         undetermined_a=None if d.undetermined_a is None else _frozen(_unit_rows(
             d.undetermined_a)),
         X_workspace=None if d.X_workspace is None else _frozen(d.X_workspace),
-        accuracy_a=d.accuracy_a, stamps_unit_a=d.stamps_unit_a, stamps_unit_b=d.stamps_unit_b)
+        accuracy_a=d.accuracy_a, stamps_unit_a=d.stamps_unit_a, stamps_unit_b=d.stamps_unit_b,
+        scale_b=float(d.scale_b))
 
 
 def _unit_rows(u) -> np.ndarray:
@@ -521,8 +551,8 @@ def _unit_rows(u) -> np.ndarray:
 
 def true_streams(rec: Recording) -> tuple[PoseStreamData, PoseStreamData]:
     """Both streams read the TRUE way (``T_world_sensor``, quaternion order fixed, stamps in
-    seconds), in the order simcalib.estimation.readings applies a reading (swap, then
-    invert)."""
+    seconds, b's translations in a's scale), in the order simcalib.estimation.readings
+    applies a reading (swap, then invert)."""
     out = []
     for s, inv, sf, unit in ((rec.stream_a, rec.invert_a, rec.scalar_first_a, rec.stamps_unit_a),
                              (rec.stream_b, rec.invert_b, rec.scalar_first_b, rec.stamps_unit_b)):
@@ -533,6 +563,10 @@ def true_streams(rec: Recording) -> tuple[PoseStreamData, PoseStreamData]:
         if inv:
             s = s.with_inverse()
         out.append(s)
+    if rec.scale_b != 1.0:
+        T = np.array(out[1].T_world_sensor)
+        T[:, :3, 3] /= rec.scale_b
+        out[1] = replace(out[1], T_world_sensor=T)
     return out[0], out[1]
 
 

@@ -77,6 +77,9 @@ class Recording:
     #: (offset, ``t_ref_s``) is in seconds of those stamps read in their unit
     stamps_unit_a: str = "s"
     stamps_unit_b: str = "s"
+    #: b's FILE holds its translations times this (a monocular SLAM track, a wrong target
+    #: size); X_true is in a's unit (metres)
+    scale_b: float = 1.0
 
     def offset_at(self, t_a) -> np.ndarray:
         """The true offset ``t_b - t_a`` at clock-a times ``t_a``."""
@@ -97,7 +100,8 @@ class Recording:
                 else self.undetermined_a.tolist(),
                 "X_workspace": None if self.X_workspace is None else self.X_workspace.tolist(),
                 "accuracy_a": None if self.accuracy_a is None else list(self.accuracy_a),
-                "stamps_unit_a": self.stamps_unit_a, "stamps_unit_b": self.stamps_unit_b}
+                "stamps_unit_a": self.stamps_unit_a, "stamps_unit_b": self.stamps_unit_b,
+                "scale_b": self.scale_b}
 
 
 @dataclass(frozen=True)
@@ -175,6 +179,7 @@ class _Draft:
     accuracy_a: tuple | None = None
     stamps_unit_a: str = "s"    # the unit the file writes the stamps in (t_a, t_b: seconds)
     stamps_unit_b: str = "s"
+    scale_b: float = 1.0        # b's file holds its translations times this
 
 
 @dataclass(frozen=True)
