@@ -138,6 +138,14 @@ def test_bad_scale_b_is_a_one_line_config_error(value, tmp_path):
     assert "auto" in msg and "estimate" in msg
 
 
+@pytest.mark.parametrize("value", [-1, 0, float("nan"), True, "x", None])
+def test_bad_scale_b_is_refused_by_the_library_too(value):
+    """calibrate_streams checks the key where it enters, as the command does."""
+    from simcalib.estimation.path import calibrate_streams
+    with pytest.raises(ConfigError, match="scale_b must be auto, estimate or a finite"):
+        calibrate_streams("never-read-a.txt", "never-read-b.txt", scale_b=value)
+
+
 def test_good_scale_b_values_parse(tmp_path):
     from simcalib.pipeline.calibrate import parse_options
     base = [f"a={tmp_path}/a.txt", f"b={tmp_path}/b.txt", f"output={tmp_path}/o"]

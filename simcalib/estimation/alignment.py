@@ -77,6 +77,8 @@ class TimeOffset:
     #: the speeds whose correlation gave the candidates and whose moving motions the cost
     #: used: ``rotation`` (angular) or ``translation``
     signal: str = "rotation"
+    #: why the cost could not be built, where it could not (0 used with no sigma)
+    why_zero: str = ""
 
     def offset_at(self, t_a) -> np.ndarray:
         """Offset ``t_b - t_a`` at clock-a times ``t_a``."""
@@ -466,7 +468,7 @@ def _unrefined(coarse, grid_dt, peak, lags, corr, msg, still, base) -> TimeOffse
     if still:
         return TimeOffset(0.0, float("nan"), coarse, peak, lags, corr, refined=False,
                           decision="zero", message=msg + f"; but {still[0]}: 0 is used",
-                          **base)
+                          why_zero=still[0], **base)
     msg += "; the overlap is too short to refine it"
     if not base["peak_z"] >= PEAK_Z_MIN:
         return TimeOffset(0.0, math.hypot(grid_dt, coarse), coarse, peak, lags, corr,

@@ -309,7 +309,9 @@ def clearer(first, second):
     other = second if best is first else first
     speeds = {"rotation": "angular", "translation": "translation"}
     told = (f"{other.offset_s * 1e3:.2f} ms used" if other.decision != "zero" else
-            "0 used") + f", sigma {other.uncertainty_s * 1e3:.2f} ms"
+            "0 used") + (f", sigma {other.uncertainty_s * 1e3:.2f} ms"
+                         if math.isfinite(other.uncertainty_s) else
+                         f": {other.why_zero or 'no sigma'}")
     note = (f" [from the {speeds[best.signal]} speeds: "
             + ("the more precise of the two that tell it" if ok else "neither tells it")
             + f"; the {speeds[other.signal]} speeds: {told}]")

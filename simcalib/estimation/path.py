@@ -9,8 +9,8 @@
     -> (the verdict: estimation.verdict); and, for comparison, a plain solve (offset 0, no
     rejection).
 
-A rig that only translates (neither stream turns: :func:`~simcalib.estimation.stillness.check_streams_move` returns
-``translation``, :mod:`simcalib.estimation.stillness`) goes through the same stages on its
+A rig that only translates (neither stream turns:
+:func:`~simcalib.estimation.stillness.check_streams_move` returns ``translation``) goes through the same stages on its
 translations: the offset from the translation speeds, the readings scored on motions that
 translate, no rotation filter, RANSAC sets by translation direction; X's rotation follows
 from ``t_C = R_X t_H`` and its translation is reported undetermined on every axis (exit 6).
@@ -357,7 +357,8 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     streams that cannot calibrate raise :class:`simcalib.errors.DataError`.
     """
     from simcalib.estimation.sampling import classify_sampling
-    from simcalib.estimation.scale import MODES, decide_for, estimate_for
+    from simcalib.estimation.scale import MODES, check_scale_b
+    scale_b = check_scale_b(scale_b)
     sa0, sb0 = read_pair(a, b, format_a, format_b, stamps_unit_a, stamps_unit_b)
     if scale_b not in MODES:                # a scale given: b's translations divided by it
         sb0 = _scaled_stream(sb0, 1.0 / float(scale_b))
@@ -370,12 +371,8 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
               motions=motions, step_s=step_s, min_rotation_deg=min_rotation_deg,
               max_rotation_deg=max_rotation_deg, robust=robust, method=method,
               robust_options=robust_options)
-    p = _fit_pass(sa0, sb0, sampling, **kw)
-    scale = decide_for(p.ms, p.sp, p.rob.inlier_mask, scale_b, alpha, UNITS_HINT)
-    if scale.rescaled and scale.decision == "rescaled":     # once more, b rescaled
-        p = _fit_pass(sa0, _scaled_stream(sb0, 1.0 / scale.used), sampling, **kw)
-        scale = dataclasses.replace(scale, check=estimate_for(p.ms, p.sp, p.rob.inlier_mask,
-                                                             alpha))
+    p, scale = _scale_pass(_fit_pass(sa0, sb0, sampling, **kw), sa0, sb0, sampling, scale_b,
+                           kw)
     sa, sb, conv, off, sp, ms, length_scale, rob, why, sampling = p
     prior = _per_pass(prior, ms.passes)
     rob = _final_solve(ms, rob, method=method, alpha=alpha, prior=prior, seed=seed,
@@ -396,6 +393,21 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
                              consistency=check, covariance=cov, covariance_determined=cov_det,
                              robust_choice=why, weighting=weighting,
                              common_error=common_error, signal=signal, scale=scale)
+
+
+def _scale_pass(p, sa0, sb0, sampling, scale_b, kw):
+    """``(pass, ScaleDecision)``: the scale of b's translations decided on the first pass
+    ``p`` (:func:`simcalib.estimation.scale.decide_for`); where it rescales, the path runs
+    once more with b's translations divided by it, and the scale is estimated again on it
+    (the check, ~1)."""
+    from simcalib.estimation.scale import decide_for, estimate_for
+    alpha = kw["alpha"]
+    scale = decide_for(p.ms, p.sp, p.rob.inlier_mask, scale_b, alpha, UNITS_HINT)
+    if scale.rescaled and scale.decision == "rescaled":
+        p = _fit_pass(sa0, _scaled_stream(sb0, 1.0 / scale.used), sampling, **kw)
+        scale = dataclasses.replace(scale, check=estimate_for(p.ms, p.sp, p.rob.inlier_mask,
+                                                             alpha))
+    return p, scale
 
 
 def _fit_pass(sa0, sb0, sampling, *, time_offset, drift, alpha, seed, signal, forced,

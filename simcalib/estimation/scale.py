@@ -25,8 +25,8 @@ translation (e.g. a vehicle on arcs of one circle); the estimate then says so
 
 :func:`decide` turns an estimate and the ``scale_b`` key into the scale used: ``auto``
 keeps 1 unless ``s`` differs from 1 both by more than :data:`TOLERANCE` and by more than
-:data:`CLEAR_SIGMAS` sigmas, and explains the translation misfit (:data:`FIT_GAIN`); ``estimate`` always uses the estimate; a number is used as
-given. :func:`scale_covariance` gives X's covariance from the scale's 1-sigma (the
+:data:`CLEAR_SIGMAS` sigmas, and explains the translation misfit (:data:`FIT_GAIN`);
+``estimate`` always uses the estimate; a number is used as given. :func:`scale_covariance` gives X's covariance from the scale's 1-sigma (the
 Jacobian of X with respect to the scale, by re-solving at ``s (1 +- delta)``).
 """
 
@@ -38,9 +38,9 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 __all__ = ["ScaleEstimate", "ScaleDecision", "estimate_scale", "decide", "scaled_motions",
-           "scaled_poses", "scale_covariance", "TOLERANCE", "CLEAR_SIGMAS", "FIT_GAIN", "MAX_REL_SIGMA",
-           "MIN_MOTIONS", "MIN_POSES", "MODES", "estimate_for", "decide_for",
-           "check_unit_mismatch", "UNIT_RATIOS"]
+           "scaled_poses", "scale_covariance", "TOLERANCE", "CLEAR_SIGMAS", "FIT_GAIN",
+           "MAX_REL_SIGMA", "MIN_MOTIONS", "MIN_POSES", "MODES", "estimate_for", "decide_for",
+           "check_unit_mismatch", "UNIT_RATIOS", "check_scale_b"]
 
 #: the ``scale_b`` values that are not a number
 MODES = ("auto", "estimate")
@@ -118,6 +118,21 @@ class ScaleDecision:
                 "check_after_rescale": None if self.check is None else self.check.to_dict(),
                 "convention": "b's translations are `used` times a metric b's; X is solved "
                               "with them divided by `used` (X in a's unit)"}
+
+
+def check_scale_b(value):
+    """The ``scale_b`` key checked where it enters: ``auto``, ``estimate`` (returned as
+    given) or a finite number > 0 (returned as float); else a ConfigError naming what was
+    received and what is allowed."""
+    from simcalib.config.checks import check_range
+    from simcalib.errors import ConfigError
+    if isinstance(value, str) and value in MODES:
+        return value
+    try:
+        return check_range("scale_b", value, lo=0.0, lo_open=True)
+    except ConfigError:
+        raise ConfigError(key="scale_b", value=value, allowed=(
+            "auto, estimate or a finite number > 0 (b's unit in a's)")) from None
 
 
 # ------------------------------------------------------------------------- the model

@@ -29,9 +29,9 @@ import numpy as np
 
 from simcalib.geometry import rotation_angle_rad
 
-__all__ = ["check_streams_move", "STILL_DEG", "STILL_M", "rotation_extent_deg", "translation_extent_m",
-           "motion_signal", "translates", "TRANSLATES_SHARE", "white_positions", "WHITE_RATIO",
-           "DENSE_PERIOD_S", "MIN_WHITE_POSES"]
+__all__ = ["check_streams_move", "STILL_DEG", "STILL_M", "rotation_extent_deg",
+           "translation_extent_m", "motion_signal", "translates", "TRANSLATES_SHARE",
+           "white_positions", "WHITE_RATIO", "DENSE_PERIOD_S", "MIN_WHITE_POSES"]
 
 #: a stream whose poses (90 %) lie within this angle of its first pose does not rotate
 STILL_DEG = 1.0

@@ -27,6 +27,7 @@ import numpy as np
 from simcalib.config.checks import check_positive, check_range, check_that, set_fields
 from simcalib.config.engine import key_help
 from simcalib.estimation.common_error import CommonError
+from simcalib.estimation.scale import check_scale_b
 from simcalib.estimation.verdict import Tolerances
 from simcalib.errors import (EXIT_DEGENERATE, EXIT_OK, EXIT_SOLVER, ConfigError, DataError,
                              SolverError, UsageError, unknown_choice)
@@ -154,13 +155,7 @@ class CalibrateOptions:
                                   i.name for i in registry.infos() if i.supports_prior) + ")")
         if self.time_offset != "estimate":
             set_fields(self, time_offset=check_range("time_offset", self.time_offset))
-        if self.scale_b not in ("auto", "estimate"):
-            try:
-                set_fields(self, scale_b=check_range("scale_b", self.scale_b, lo=0.0,
-                                                     lo_open=True))
-            except ConfigError:
-                raise ConfigError(key="scale_b", value=self.scale_b, allowed=(
-                    "auto, estimate or a finite number > 0 (b's unit in a's)")) from None
+        set_fields(self, scale_b=check_scale_b(self.scale_b))
         check_that(not (self.drift and self.time_offset != "estimate"), "drift", self.drift,
                    "false when time_offset is given")
         set_fields(self,
@@ -504,7 +499,8 @@ def warnings(r, reading: str | None = None) -> list[str]:
                    "scalar_first_a/_b")
     peak = r.time_offset.peak_correlation
     if math.isfinite(peak) and peak < 0.5:
-        out.append(f"weak angular-speed correlation (peak r = {peak:.2f})" + (
+        speeds = "angular" if r.time_offset.signal == "rotation" else "translation"
+        out.append(f"weak {speeds}-speed correlation (peak r = {peak:.2f})" + (
             " and the data do not tell the offset, so 0 is used: if the clocks differ, give "
             "time_offset=<seconds>" if r.time_offset.decision == "zero"
             else ": the offset may be wrong"))
