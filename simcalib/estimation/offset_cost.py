@@ -272,7 +272,6 @@ def _decide(tried, half):
     return chosen, ("estimated" if evidence > EVIDENCE_MIN else "zero"), evidence, j_zero
 
 
-
 #: an offset told from the angular speeds with a sigma above this (s) is in doubt: the
 #: translation speeds are consulted as well (a third of the 3 ms the path aims at)
 CLEAR_SIGMA_S = 1e-3

@@ -1,0 +1,67 @@
+"""Known perturbations of the real recordings (simcalib.studies.experiments.real_perturbations)."""
+
+import numpy as np
+import pytest
+
+from simcalib.studies.experiments import EXPERIMENTS
+from simcalib.studies.experiments.real_perturbations import (PERTURBATIONS, _judge, perturb,
+                                                             run_sets)
+from simcalib.studies.experiments.real_sets import real_dir
+
+
+def _rows(n=20, seed=0):
+    from simcalib.geometry import quat_from_matrix, random_rotation_matrices
+    rng = np.random.default_rng(seed)
+    q = quat_from_matrix(random_rotation_matrices(rng, (n,)))
+    return np.column_stack([np.arange(n, dtype=float), rng.normal(size=(n, 3)), q])
+
+
+def test_perturbations_do_what_they_say():
+    a, b = _rows(), _rows(seed=1)
+    rng = np.random.default_rng(0)
+    _, bi = perturb("invert_b", a, b, rng)
+    _, bii = perturb("invert_b", a, bi, rng)
+    np.testing.assert_allclose(bii[:, 1:4], b[:, 1:4], atol=1e-12)
+    assert np.allclose(np.abs(np.sum(bii[:, 4:8] * b[:, 4:8], axis=1)), 1.0)
+    _, bw = perturb("wxyz_b", a, b, rng)
+    assert np.array_equal(bw[:, 4], b[:, 7]) and np.array_equal(bw[:, 5:8], b[:, 4:7])
+    _, bm = perturb("mm_b", a, b, rng)
+    assert np.allclose(bm[:, 1:4], 1000 * b[:, 1:4])
+    _, bs = perturb("offset-30s", a, b, rng)
+    assert np.allclose(bs[:, 0], b[:, 0] - 30.0)
+    assert np.array_equal(b, _rows(seed=1))                       # inputs untouched
+    with pytest.raises(ValueError, match="unknown perturbation 'flip'; valid: base"):
+        perturb("flip", a, b, rng)
+
+
+def _cal(X, clear=True, offset=0.0, sr=0.01, st=0.001):
+    return {"X": {"T_a_b": X.tolist()}, "time_offset": {"offset_s": offset},
+            "conventions": {"clear": clear},
+            "uncertainty": {"std_rotation_deg": [sr] * 3, "std_translation_m": [st] * 3}}
+
+
+def test_judge_tells_ok_flagged_and_failed():
+    X0 = np.eye(4)
+    X1 = np.eye(4)
+    X1[:3, 3] = [0.05, 0, 0]                                     # 50 mm away
+    base = _cal(X0)
+    assert _judge("invert_b", base, 0, _cal(X0), "")[0] == "ok"
+    assert _judge("invert_b", base, 6, _cal(X1), "")[0] == "FAIL"
+    assert _judge("invert_b", base, 6, _cal(X1, clear=False), "")[0] == "flagged"
+    assert _judge("offset+0.25s", base, 0, _cal(X0, offset=0.1), "")[0] == "FAIL"
+    assert _judge("offset+0.25s", base, 0, _cal(X0, offset=0.2505), "")[0] == "ok"
+    assert _judge("mm_b", base, 3, None, "simcalib: error: ... different units ...")[0] == "ok"
+    assert _judge("mm_b", base, 3, None, "simcalib: error: something else")[0] == "FAIL"
+
+
+def test_registered_as_an_experiment():
+    assert "real_perturbations" in EXPERIMENTS
+    assert set(PERTURBATIONS) >= {"invert_b", "mm_b", "offset-30s"}
+
+
+@pytest.mark.skipif(not (real_dir() / "rwhecalib_kuka_1" / "a.txt").exists(),
+                    reason="../shared/data/real is absent")
+def test_a_station_set_sees_through_its_perturbations():
+    out = run_sets(["rwhecalib_kuka_1"], ["invert_b", "wxyz_b", "mm_b", "shuffled_rows_b"])
+    assert [o.perturbation for o in out] == ["invert_b", "wxyz_b", "mm_b", "shuffled_rows_b"]
+    assert all(o.verdict == "ok" for o in out), out
