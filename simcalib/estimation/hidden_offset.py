@@ -179,7 +179,7 @@ def _counter_lag(sa, sb, sampling, off, *, alpha, drift, signal):
                 + f"; best {est.coarse_offset_s:.4g} samples), so 0 is used")
         return rep(sampling, reason=note), rep(off, message=note)
     note = (f"sample-number stamps, {stride}; their counters lag: t_b - t_a = "
-            f"{est.offset_s:.2f} +- {est.uncertainty_s:.2f} samples (evidence "
+            f"{est.offset_s:.3f} +- {est.uncertainty_s:.2g} samples (evidence "
             f"{est.evidence:.3g} over lag 0), so the faster stream is interpolated at the "
             "other's shifted sample numbers")
     return (rep(sampling, kind="continuous", paired_by_stamp=False, reason=note),
