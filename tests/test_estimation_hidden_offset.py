@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from simcalib.estimation.alignment import TimeOffset
-from simcalib.estimation.hidden_offset import continuous, stamps_hide_offset
+from simcalib.estimation.hidden_offset import continuous, motion_stride, stamps_hide_offset
 from simcalib.estimation.path import calibrate_streams
 from simcalib.estimation.sampling import classify_sampling
 from simcalib.geometry import random_rotation_matrices, rotation_error_rad
@@ -75,3 +75,49 @@ def test_station_and_index_stamps_are_not_checked():
     sampling = classify_sampling(a, b)
     off0 = _shared_offset(sampling)
     assert stamps_hide_offset(a, b, sampling, off0) == (sampling, off0)
+
+
+def _counters(rate_hz: float, lag: int, seed: int = 0, duration_s: float = 12.0):
+    """Two streams of one continuous motion stamped with sample numbers, each counted from
+    its own first pose: b's first pose is a's pose ``lag`` (plus the simulated phase of
+    0.37 of a sample), so ``t_b - t_a = -(lag + 0.37)`` samples."""
+    rs = rig_streams(duration_s=duration_s, rate_a_hz=rate_hz, rate_b_hz=rate_hz,
+                     rng=np.random.default_rng(seed))
+    ta = np.round((rs.t_a - rs.t_a[0]) * rate_hz)
+    tb = np.round((rs.t_b - rs.t_b[0]) * rate_hz)
+    Tb = rs.T_b[lag:]
+    a = stream_from_arrays(ta, rs.T_a, name="a")
+    b = stream_from_arrays(tb[:tb.size - lag], Tb, name="b")
+    return rs, a, b, -(lag + 0.37)
+
+
+def test_motion_stride_turns_beyond_the_noise():
+    rs = rig_streams(duration_s=12.0, rate_a_hz=1000.0, rate_b_hz=30.0,
+                     rng=np.random.default_rng(0))
+    k, reached = motion_stride(rs.T_a)           # ~30 deg/s: 8 deg over 64 ms
+    assert reached and k == 64
+    k, reached = motion_stride(rs.T_b)
+    assert reached and k in (2, 4)
+    rng = np.random.default_rng(1)               # stations: never turns beyond its noise
+    T = np.tile(np.eye(4), (200, 1, 1))
+    T[:, :3, :3] = random_rotation_matrices(rng, (200,))
+    assert not motion_stride(T)[1]
+
+
+@pytest.mark.parametrize("rate_hz, lag, duration_s", [
+    (30.0, 0, 12.0), (30.0, 37, 12.0),
+    pytest.param(1000.0, 0, 4.0, marks=pytest.mark.slow),
+    pytest.param(1000.0, 37, 4.0, marks=pytest.mark.slow)])
+def test_sample_number_counters_of_a_continuous_motion(rate_hz, lag, duration_s):
+    """Frame counters (30 Hz) and a 1 kHz stream in whole ms beside another (two counters:
+    sample numbers): the motions' stride is chosen from the motion, the lag between the
+    counters found in samples (lag 0 is 0.37 of a sample: the simulated phase)."""
+    rs, a, b, true_lag = _counters(rate_hz, lag, duration_s=duration_s)
+    assert classify_sampling(a, b).kind == "index_stamps"
+    cal = calibrate_streams(a, b)
+    assert cal.sampling.motion_step >= (64 if rate_hz > 100 else 4)
+    assert cal.time_offset.decision == "estimated"
+    assert abs(cal.time_offset.offset_s - true_lag) < 0.1       # samples
+    assert "samples" in cal.sampling.reason
+    assert np.degrees(rotation_error_rad(cal.X, rs.X)) < 0.1
+    assert 1e3 * np.linalg.norm(cal.X[:3, 3] - rs.X[:3, 3]) < 2.0

@@ -27,8 +27,9 @@ import numpy as np
 
 from simcalib.geometry import rotation_angle_rad
 
-__all__ = ["continuous", "stamps_hide_offset", "REGULAR_SHARE", "SMOOTH_STEPS",
-           "SMOOTH_GAIN"]
+__all__ = ["continuous", "stamps_hide_offset", "motion_stride", "REGULAR_SHARE",
+           "SMOOTH_STEPS", "SMOOTH_GAIN", "STRIDE_TURN_DEG", "STRIDE_NOISE_GAIN",
+           "STRIDES_MIN"]
 
 #: a stream is regularly sampled when this share of its stamp steps is within 25 % of the
 #: median step (station data: seconds between stops, bursts of frames at each)
@@ -37,6 +38,17 @@ REGULAR_SHARE = 0.8
 #: least SMOOTH_GAIN times further apart (median) than consecutive ones (stations: ~1)
 SMOOTH_STEPS = 4
 SMOOTH_GAIN = 2.0
+
+
+#: sample-number stamps of a continuous motion: the motions' base stride is the smallest
+#: power of 2 samples over which the median motion turns by this much (deg) ...
+STRIDE_TURN_DEG = 5.0
+#: ... and by this many times its turn (or distance, a rig that does not turn) between
+#: consecutive samples (beyond the pose noise) ...
+STRIDE_NOISE_GAIN = 4.0
+#: ... within a stream of at least this many strides: the offset cost's split check needs
+#: 4 parts of 4 strides (16) in the overlap, which a lag of up to half the stream halves
+STRIDES_MIN = 32
 
 
 def continuous(t: np.ndarray, T: np.ndarray, signal: str = "rotation") -> bool:
@@ -70,11 +82,14 @@ def stamps_hide_offset(sa, sb, sampling, off, *, alpha: float = 1.0, drift: bool
     the shared stamps' offset): unpaired, with the estimated offset, when both sample a
     continuous motion and their motions line up at an offset that beats 0 (module doc);
     paired as before, with the check's outcome in their messages, when it does not; as given
-    for station data, sample numbers and stamps shared after a shift (whose shift is the
-    offset). ``sa``, ``sb``: the streams in their decided reading."""
+    for station data and stamps shared after a shift (whose shift is the offset). Sample
+    numbers of a continuous motion: :func:`_counter_lag`. ``sa``, ``sb``: the streams in
+    their decided reading."""
     from simcalib.estimation.alignment import estimate_time_offset
     from simcalib.estimation.speeds import as_time_poses
     from simcalib.estimation.offset_cost import EVIDENCE_MIN
+    if sampling.kind == "index_stamps":
+        return _counter_lag(sa, sb, sampling, off, alpha=alpha, drift=drift, signal=signal)
     if sampling.kind != "shared_stamps" or sampling.shift_s != 0.0:
         return sampling, off
     ta, Ta = as_time_poses(sa, "stream_a")
@@ -96,3 +111,76 @@ def stamps_hide_offset(sa, sb, sampling, off, *, alpha: float = 1.0, drift: bool
               "offset 0): one stream's stamps carry a latency, so the faster stream is "
               "interpolated at the slower one's shifted stamps")
     return replace(sampling, kind="continuous", paired_by_stamp=False, reason=reason), est
+
+
+def motion_stride(T: np.ndarray, signal: str = "rotation") -> tuple[int, bool]:
+    """``(stride, reached)``: the smallest power of 2 samples over which the median motion
+    of poses ``T`` turns by :data:`STRIDE_TURN_DEG` (``signal`` ``rotation``) and by
+    :data:`STRIDE_NOISE_GAIN` times its motion over one sample; at most the largest power
+    of 2 that fits :data:`STRIDES_MIN` times into the stream (``reached`` False: capped
+    there)."""
+    T = np.asarray(T, dtype=np.float64)
+    cap = max(1, 2 ** int(np.floor(np.log2(max(T.shape[0] // STRIDES_MIN, 1)))))
+    one = float(np.median(_apart(T, 1, signal)))
+    k = 1
+    while k <= cap:
+        m = float(np.median(_apart(T, k, signal)))
+        turns = signal != "rotation" or m >= np.radians(STRIDE_TURN_DEG)
+        if turns and m >= STRIDE_NOISE_GAIN * one:
+            return k, True
+        k *= 2
+    return cap, False
+
+
+def _in_samples(est, k: int):
+    """The :class:`~simcalib.estimation.alignment.TimeOffset` ``est`` of stamps counted in
+    units of ``k`` samples, in samples."""
+    return replace(est, offset_s=est.offset_s * k, uncertainty_s=est.uncertainty_s * k,
+                   coarse_offset_s=est.coarse_offset_s * k, lags_s=est.lags_s * k,
+                   cost_offsets_s=est.cost_offsets_s * k, drift=est.drift,
+                   t_ref_s=est.t_ref_s * k,
+                   window_s=(est.window_s[0] * k, est.window_s[1] * k))
+
+
+def _counter_lag(sa, sb, sampling, off, *, alpha, drift, signal):
+    """``(Sampling, TimeOffset)`` for sample-number stamps: as given unless both streams
+    sample one continuous motion (:func:`continuous`). Then the motions' base stride is
+    chosen from the motion (:func:`motion_stride`, ``Sampling.motion_step``), and the lag
+    between the two counters is estimated as for two clocks on stamps counted in units of
+    that stride (the offset cost's 1-unit motions then turn, its 2-unit brackets span
+    strides, not single samples), in samples; used, unpairing the streams, only where it
+    beats lag 0 by the evidence rule. Streams whose motion does not reach the stride's
+    turn within :data:`STRIDES_MIN` strides of their length (noisy stations in a row, too
+    few samples to tell a lag) stay as given."""
+    from dataclasses import replace as rep
+    from simcalib.estimation.alignment import estimate_time_offset
+    from simcalib.estimation.offset_cost import EVIDENCE_MIN
+    from simcalib.estimation.speeds import as_time_poses
+    ta, Ta = as_time_poses(sa, "stream_a")
+    tb, Tb = as_time_poses(sb, "stream_b")
+    if not (continuous(ta, Ta, signal) and continuous(tb, Tb, signal)):
+        return sampling, off
+    (ka, ra), (kb, rb) = motion_stride(Ta, signal), motion_stride(Tb, signal)
+    if not (ra and rb):             # noisy stations in a row (a sweep of stops), too short
+        return sampling, off
+    k = max(ka, kb)
+    stride = (f"both streams sample a continuous motion: motions over {k} samples and "
+              "multiples (the smallest power of 2 over which the median motion turns by "
+              f">= {STRIDE_TURN_DEG:g} deg and {STRIDE_NOISE_GAIN:g}x its turn over one)")
+    by = "auto" if signal == "rotation" else signal
+    est = estimate_time_offset((ta / k, Ta), (tb / k, Tb), drift=drift, alpha=alpha,
+                               signal=by)
+    est = _in_samples(est, k)
+    sampling = rep(sampling, motion_step=int(k))
+    if est.decision != "estimated":
+        note = (f"{sampling.reason}; {stride}; no lag between the two counters beats 0 ("
+                + (f"evidence {est.evidence:.3g} <= {EVIDENCE_MIN:g}"
+                   if est.evidence == est.evidence else "the data do not tell one")
+                + f"; best {est.coarse_offset_s:.4g} samples), so 0 is used")
+        return rep(sampling, reason=note), rep(off, message=note)
+    note = (f"sample-number stamps, {stride}; their counters lag: t_b - t_a = "
+            f"{est.offset_s:.3f} +- {est.uncertainty_s:.2g} samples (evidence "
+            f"{est.evidence:.3g} over lag 0), so the faster stream is interpolated at the "
+            "other's shifted sample numbers")
+    return (rep(sampling, kind="continuous", paired_by_stamp=False, reason=note),
+            rep(est, message=note))

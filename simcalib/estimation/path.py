@@ -423,13 +423,25 @@ def _fit_pass(sa0, sb0, sampling, *, time_offset, drift, alpha, seed, signal, fo
         sa0, sb0, sampling, time_offset=time_offset, drift=drift, alpha=alpha, seed=seed,
         forced=forced, signal=signal)
     sp = synchronised(sa, sb, sampling, off)
+    step_s = _step(sampling, step_s)
     ms = form_motions(sp, motions, paired_by_stamp=sampling.paired_by_stamp,
-                      index_stamps=sampling.kind == "index_stamps", step_s=step_s,
+                      index_stamps=_stations_by_index(sampling), step_s=step_s,
                       min_rotation_deg=min_rotation_deg, max_rotation_deg=max_rotation_deg)
     length_scale = _check_motions(ms, sp)
     rob, why = robust_fit(ms.C, ms.H, robust, alpha=alpha, method=method, seed=seed,
                           options=robust_options)
     return _Pass(sa, sb, conv, off, sp, ms, length_scale, rob, why, sampling)
+
+
+def _step(sampling, step_s: float) -> float:
+    """The motions' base step: ``step_s``, or for sample-number stamps of a continuous
+    motion the step in samples chosen from the motion (``Sampling.motion_step``)."""
+    return float(sampling.motion_step) if getattr(sampling, "motion_step", 0) else step_s
+
+
+def _stations_by_index(sampling) -> bool:
+    """Sample-number stamps whose poses are stations (not a continuous motion)."""
+    return sampling.kind == "index_stamps" and not getattr(sampling, "motion_step", 0)
 
 
 class _Pass(NamedTuple):
@@ -545,7 +557,7 @@ def _plain(sa, sb, sampling, off, sp, ms, *, step_s, alpha, min_rotation_deg,
         sp0 = synchronised(sa, sb, sampling, _zero()) if off.offset_s != 0 else sp
         ms0 = ms if sp0 is sp else form_motions(
             sp0, ms.policy, paired_by_stamp=sampling.paired_by_stamp,
-            index_stamps=sampling.kind == "index_stamps", step_s=step_s,
+            index_stamps=_stations_by_index(sampling), step_s=_step(sampling, step_s),
             min_rotation_deg=min_rotation_deg, max_rotation_deg=max_rotation_deg)
         if ms0.n < 2:
             return None, None

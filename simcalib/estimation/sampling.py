@@ -64,6 +64,10 @@ class Sampling:
     reason: str
     shift_s: float = 0.0
     resolution_s: float = 0.0
+    #: sample-number stamps of a continuous motion: the motions' base step in samples,
+    #: chosen from the motion (:func:`simcalib.estimation.hidden_offset.motion_stride`;
+    #: replaces ``step_s``, whose seconds such stamps do not have); 0: ``step_s``
+    motion_step: int = 0
 
     def to_dict(self) -> dict:
         return {"kind": self.kind, "paired_by_stamp": self.paired_by_stamp,
@@ -71,7 +75,7 @@ class Sampling:
                 "poses_a": self.n_a, "poses_b": self.n_b,
                 "period_a_s": self.period_a_s, "period_b_s": self.period_b_s,
                 "shift_s": self.shift_s, "resolution_s": self.resolution_s,
-                "reason": self.reason}
+                "motion_step": self.motion_step, "reason": self.reason}
 
 
 def median_period(t: np.ndarray) -> float:

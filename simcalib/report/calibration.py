@@ -186,6 +186,16 @@ def _vec(v, scale=1.0, digits=3):
     return "[" + ", ".join("inf" if x is None else f"{scale * x:.{digits}f}" for x in v) + "]"
 
 
+def _offset_line(off: dict, sig, sampling: dict) -> str:
+    """``time offset t_b - t_a: ...`` in ms, or in samples for sample-number stamps of a
+    continuous motion (``motion_step``: their unit is not known)."""
+    if sampling.get("motion_step"):
+        return (f"time offset t_b - t_a: {off['offset_s']:.3f}"
+                + (f" +- {sig:.2g} samples" if sig and off["estimated"] else " samples"))
+    return (f"time offset t_b - t_a: {1e3 * off['offset_s']:.2f}"
+            + (f" +- {1e3 * sig:.2f} ms" if sig and off["estimated"] else " ms"))
+
+
 def format_report(rep: dict) -> str:
     """The console report of one calibration (from the calibration.json content)."""
     X = np.asarray(rep["X"]["T_a_b"])
@@ -207,8 +217,7 @@ def format_report(rep: dict) -> str:
         *_scale_lines(rep.get("scale_b")),
         f"sampling: {rep['sampling']['reason']}",
         f"motions: {rep['motions']['policy']} ({rep['motions']['reason']})",
-        f"time offset t_b - t_a: {1e3 * off['offset_s']:.2f}"
-        + (f" +- {1e3 * sig:.2f} ms" if sig and off["estimated"] else " ms")
+        _offset_line(off, sig, rep["sampling"])
         + {"estimated": " (estimated)", "zero": " (not told by the data: 0 used)",
            "given": " (given)", "shared_stamps": " (paired by stamp)"}[off["decision"]]
         + (f", drift {off['drift'] * 1e6:.1f} ppm" if off["drift"] else ""),
