@@ -348,14 +348,11 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     ``step_s``; rotation below ``min_rotation_deg`` (unless nothing turns) / above
     ``max_rotation_deg`` dropped) -> outliers (``robust``: ``auto``, ``ransac``, ``irls``,
     ``none``) -> ``method`` on the inliers (``prior``: a :class:`simcalib.Prior`) ->
-    uncertainty and its consistency check (:mod:`simcalib.estimation.consistency`);
-    ``tolerances``: a :class:`simcalib.estimation.verdict.Tolerances` (default 1 deg / 1
-    cm); ``common_error``: a stated :class:`~simcalib.estimation.common_error.CommonError`,
-    added to the covariance; ``stamps_unit_a`` / ``_b``: :func:`read_pair`; ``scale_b``:
-    ``auto``, ``estimate`` or a number, the scale of b's translations against a's
-    (:mod:`simcalib.estimation.scale`; a rescale runs the path once more). Bad files and
-    streams that cannot calibrate raise :class:`simcalib.errors.DataError`.
-    """
+    uncertainty and its check (:mod:`simcalib.estimation.consistency`); ``tolerances``:
+    :class:`simcalib.estimation.verdict.Tolerances` (1 deg / 1 cm); ``common_error``: a
+    stated :class:`~simcalib.estimation.common_error.CommonError`, added to the covariance;
+    ``stamps_unit_a`` / ``_b``: :func:`read_pair`; ``scale_b``: ``auto``, ``estimate`` or
+    a number (:mod:`simcalib.estimation.scale`). Bad input raises a DataError."""
     from simcalib.estimation.sampling import classify_sampling
     from simcalib.estimation.scale import MODES, check_scale_b
     scale_b = check_scale_b(scale_b)

@@ -209,7 +209,7 @@ def format_report(rep: dict) -> str:
         f"  quaternion (x,y,z,w):   {_vec(rep['X']['quaternion_xyzw'], digits=6)}",
         f"  rotation vector (deg):  {_vec(rep['X']['rotvec_deg'], digits=3)}",
         f"{sigma_line(u)}  [{u['source']}]",
-        *([f"  in sigma: the stated common error ("
+        *(["  in sigma: the stated common error ("
            + ", ".join(f"{k} {v:g}" for k, v in u["common_error_included"].items() if v)
            + ")"] if u.get("common_error_included") else []),
         f"  not in sigma: {u['not_included']}",
