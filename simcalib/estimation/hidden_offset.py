@@ -16,11 +16,14 @@ estimated as for two clocks (:func:`simcalib.estimation.alignment.estimate_time_
 used only when it beats offset 0 on the calibration cost by the evidence rule). When it
 does, the streams are no longer paired by stamp: the faster one is interpolated at the
 slower one's shifted stamps, and the run says why. Otherwise nothing changes (0, paired by
-stamp), so stamps that agree with the motion cost only the check.
+stamp), so stamps that agree with the motion cost only the check. Sample numbers of two
+streams that sample one continuous motion (frame counters, a file without a time column)
+are checked alike for a lag between the counters, in samples (:func:`_counter_lag`).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import numpy as np
@@ -152,7 +155,6 @@ def _counter_lag(sa, sb, sampling, off, *, alpha, drift, signal):
     beats lag 0 by the evidence rule. Streams whose motion does not reach the stride's
     turn within :data:`STRIDES_MIN` strides of their length (noisy stations in a row, too
     few samples to tell a lag) stay as given."""
-    from dataclasses import replace as rep
     from simcalib.estimation.alignment import estimate_time_offset
     from simcalib.estimation.offset_cost import EVIDENCE_MIN
     from simcalib.estimation.speeds import as_time_poses
@@ -171,16 +173,16 @@ def _counter_lag(sa, sb, sampling, off, *, alpha, drift, signal):
     est = estimate_time_offset((ta / k, Ta), (tb / k, Tb), drift=drift, alpha=alpha,
                                signal=by)
     est = _in_samples(est, k)
-    sampling = rep(sampling, motion_step=int(k))
+    sampling = replace(sampling, motion_step=int(k))
     if est.decision != "estimated":
         note = (f"{sampling.reason}; {stride}; no lag between the two counters beats 0 ("
                 + (f"evidence {est.evidence:.3g} <= {EVIDENCE_MIN:g}"
-                   if est.evidence == est.evidence else "the data do not tell one")
+                   if math.isfinite(est.evidence) else "the data do not tell one")
                 + f"; best {est.coarse_offset_s:.4g} samples), so 0 is used")
-        return rep(sampling, reason=note), rep(off, message=note)
+        return replace(sampling, reason=note), replace(off, message=note)
     note = (f"sample-number stamps, {stride}; their counters lag: t_b - t_a = "
             f"{est.offset_s:.3f} +- {est.uncertainty_s:.2g} samples (evidence "
             f"{est.evidence:.3g} over lag 0), so the faster stream is interpolated at the "
             "other's shifted sample numbers")
-    return (rep(sampling, kind="continuous", paired_by_stamp=False, reason=note),
-            rep(est, message=note))
+    return (replace(sampling, kind="continuous", paired_by_stamp=False, reason=note),
+            replace(est, message=note))
