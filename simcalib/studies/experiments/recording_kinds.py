@@ -1,9 +1,9 @@
 """The kinds of generated recording (:data:`KINDS`: stations, short, bursts, stop-and-go,
 continuous, a low-rate camera, offsets and drift, outliers, gaps, robot error, planar,
-SCARA, pure translation, inverted, scalar-first, stamps in ms / us / ns, b in another
-scale, no motion) and
-:func:`generate` (a kind and a seed -> a :class:`Recording`), the true streams, and the TUM
-files a recording is written as (``a.txt``, ``b.txt``, ``truth.json``).
+SCARA, pure and nearly pure translation, inverted, scalar-first, stamps in ms / us / ns, b
+in another scale, no motion) and :func:`generate` (a kind and a seed -> a
+:class:`Recording`), the true streams, and the TUM files a recording is written as
+(``a.txt``, ``b.txt``, ``truth.json``).
 """
 
 from __future__ import annotations
