@@ -62,8 +62,9 @@ class CalibrateOptions:
     scale_b: float | Literal["auto", "estimate"] = field(default="auto", metadata=key_help(
         "scale of b's translations against a's (b in a's unit times this: a monocular SLAM "
         "track, a wrong target size, other units); auto: estimated from the motions and "
-        "used only where it differs from 1 clearly (beyond 3 % and 5 sigma; beyond 3x at "
-        "a ratio of length units, e.g. mm against m, refused as a unit mismatch); "
+        "used only where it differs from 1 clearly (beyond 3 % and 5 sigma) and explains "
+        "the translation misfit (3x); beyond 3x at a ratio of length units, e.g. mm "
+        "against m, refused as a unit mismatch; "
         "estimate: always estimated and used; a number: b's translations divided by it "
         "(docs/calibrate.md, Streams of unknown scale)"))
     time_offset: float | Literal["estimate"] = field(default="estimate", metadata=key_help(
