@@ -343,3 +343,15 @@ def test_the_clearer_of_two_signals_is_the_one_that_beats_zero_with_the_smaller_
     still = off(0.0, float("nan"), "zero", "rotation")       # the cost could not be built
     assert clearer(still, zero).offset_s == 0.0 and clearer(still, zero).signal == "translation"
     assert clearer(zero, off(0.0, 0.05, "zero", "rotation")).uncertainty_s == 0.02
+
+
+def test_a_camera_seen_only_while_still_tells_no_offset_from_either_speed():
+    """stop_and_go seed 117: b is seen only while the arm stands still, so neither its
+    angular nor its translation speeds move within a stop. The translation cost's motions
+    were kept by a share of their median (all noise here), and an offset of 28.3 s beat 0
+    (true: 2 ms), leaving X undetermined; motions within the noise are now not counted."""
+    from simcalib.studies.experiments.recording_kinds import generate, true_streams
+    a, b = true_streams(generate("stop_and_go", 117))
+    off = estimate_time_offset(a, b)
+    assert off.decision == "zero" and off.offset_s == 0.0, off.message
+    assert "cannot tell an offset" in off.message

@@ -29,12 +29,16 @@ from simcalib.geometry import invert_transform, quat_from_matrix, rotation_angle
 
 __all__ = ["OffsetCost", "StillReference", "split_check", "SplitCheck", "EVIDENCE_MIN",
            "RESIDUALS_PER_MOTION", "OFFSET_STEP_S", "SPLIT_PARTS", "SPLIT_LEVEL", "MIN_TURNING",
-           "MAX_SLIDES", "CLEAR_SIGMA_S", "in_doubt", "both_translate", "clearer"]
+           "MAX_SLIDES", "CLEAR_SIGMA_S", "NOISE_GAIN", "in_doubt", "both_translate",
+           "clearer"]
 
 #: ``n_eff ln(cost at 0 / cost at the estimate)`` above which an estimated offset is used
 #: instead of 0 (the log-likelihood-ratio statistic of Gaussian residuals, ~chi2(1) when
 #: there is no offset: 9 is a 3-sigma decision)
 EVIDENCE_MIN = 9.0
+#: a motion of the translation speeds' cost moves when it is this many times the reference
+#: stream's median pose-to-pose step (:meth:`OffsetCost._moving`)
+NOISE_GAIN = 3.0
 #: independent residual components per motion in the cost (the screw residual of one
 #: motion: 3 of rotation, 3 of translation): the cost's degrees of freedom are this many
 #: per independent motion
@@ -126,17 +130,23 @@ class OffsetCost:
 
     def _moving(self, turning: bool) -> tuple[np.ndarray, str]:
         """``(mask, words)``: the motions that move in the reference stream: turn by >= 1
-        deg (``turning``), or, for a rig that only translates, translate by at least a
-        tenth of the recording's typical motion (its median; the offset shows through the
-        change of velocity, which a standing stream does not have)."""
+        deg (``turning``), or, for the translation speeds, translate by at least a tenth of
+        the recording's typical motion (its median; the offset shows through the change of
+        velocity, which a standing stream does not have) and by :data:`NOISE_GAIN` times
+        the stream's median step from one pose to the next (its noise where it stands
+        still: a camera seen only while the rig stands still moves by its noise alone
+        over any span within a stop)."""
         T, i, j = self.T_ref, self.i, self.j
         if turning:
             R = T[:, :3, :3]
             turn = rotation_angle_rad(np.swapaxes(R[i], 1, 2) @ R[j])
             return turn >= math.radians(1.0), "turns by >= 1 deg"
         from simcalib.estimation.stillness import translates
-        return (translates(np.linalg.norm(T[j, :3, 3] - T[i, :3, 3], axis=1)),
-                "translates by a tenth of its median motion or more")
+        d = np.linalg.norm(T[j, :3, 3] - T[i, :3, 3], axis=1)
+        step = float(np.median(np.linalg.norm(np.diff(T[:, :3, 3], axis=0), axis=1)))
+        return (translates(d) & (d > NOISE_GAIN * step),
+                f"translates by a tenth of its median motion and {NOISE_GAIN:g}x its median "
+                "pose-to-pose step or more")
 
     def _query(self, offset):
         return self.t_ref + offset if self.reference == "a" else self.t_ref - offset
