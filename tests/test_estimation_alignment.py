@@ -336,6 +336,8 @@ def test_the_clearer_of_two_signals_is_the_one_that_beats_zero_with_the_smaller_
     tra = off(0.012, 0.0005, "estimated", "translation")
     assert in_doubt(rot) and not in_doubt(tra)
     assert not in_doubt(off(0.01, CLEAR_SIGMA_S, "estimated", "rotation"))
+    assert not in_doubt(off(0.0, 0.0002, "zero", "rotation"))     # 0 bounded to 0.2 ms
+    assert in_doubt(off(0.0, float("nan"), "zero", "rotation"))   # no cost: no bound
     assert clearer(rot, tra).signal == "translation"
     assert clearer(tra, rot).signal == "translation"
     zero = off(0.0, 0.02, "zero", "translation")

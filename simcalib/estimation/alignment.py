@@ -381,9 +381,9 @@ def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = Non
     rig that does not turn: their norms agree in every sensor, whatever the reading; the
     cost's motions are the ones that translate); ``auto``: rotation unless neither stream
     turns (:func:`simcalib.estimation.stillness.motion_signal`); with ``auto``, where the
-    rotation signal leaves the offset in doubt (not told from 0, or its sigma above
-    :data:`~simcalib.estimation.offset_cost.CLEAR_SIGMA_S`: a rig that turns only a
-    little) and both streams translate, the translation signal is estimated too and the
+    rotation signal leaves the offset in doubt (its sigma above
+    :data:`~simcalib.estimation.offset_cost.CLEAR_SIGMA_S` or unknown: a rig that turns
+    only a little) and both streams translate, the translation signal is estimated too and the
     one that tells the offset more precisely is used (:func:`~simcalib.estimation.
     offset_cost.clearer`; ``TimeOffset.signal`` says which).
     """
