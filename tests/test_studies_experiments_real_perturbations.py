@@ -65,3 +65,10 @@ def test_a_station_set_sees_through_its_perturbations():
     out = run_sets(["rwhecalib_kuka_1"], ["invert_b", "wxyz_b", "mm_b", "shuffled_rows_b"])
     assert [o.perturbation for o in out] == ["invert_b", "wxyz_b", "mm_b", "shuffled_rows_b"]
     assert all(o.verdict == "ok" for o in out), out
+
+
+def test_the_offset_may_move_by_the_shift_within_either_runs_sigma():
+    base, shifted = _cal(np.eye(4)), _cal(np.eye(4), offset=0.2549)
+    assert _judge("offset+0.25s", base, 6, shifted, "")[0] == "FAIL"     # 4.9 ms > 3 ms
+    base["time_offset"]["uncertainty_s"] = 0.0053                        # not told: +-5.3
+    assert _judge("offset+0.25s", base, 6, shifted, "")[0] == "ok"
