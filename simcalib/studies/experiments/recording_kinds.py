@@ -300,18 +300,8 @@ def _kind_translation_bursts(rngs, s):
     R0 = R_DOWN @ matrix_from_rotvec(_rotvecs(rngs["motion"], 1, 10, 40)[0])
     p = WORKSPACE_CENTRE + rngs["motion"].uniform(-0.25, 0.25, (k, 3))
     P = transform_from_rotation_translation(np.broadcast_to(R0, (k, 3, 3)), p)
-    t = (1000.0 + np.cumsum(rngs["clock"].uniform(3.0, 8.0, k))[:, None]
-         + np.arange(m)[None] / 30.0).ravel()
-    B = _noisy(_camera_poses(P, X, Y), s.sigma_rot_b_deg, s.sigma_trans_b_m, rngs["noise_b"],
-               s.noise)
-    B = _noisy(np.repeat(B, m, axis=0), 0.2 * s.sigma_rot_b_deg, 0.2 * s.sigma_trans_b_m,
-               rngs["noise_b"], s.noise)
-    A = _noisy(np.repeat(P, m, axis=0), s.sigma_rot_a_deg, s.sigma_trans_a_m,
-               rngs["noise_a"], s.noise)
-    return _Draft(t, A, t.copy(), B, X, f"translation_bursts: a gantry stopping at {k} "
-                  f"stations x {m} frames at 30 Hz without turning, stamps 3..8 s apart, "
-                  "camera error mostly common to a burst", 0.0, 0.0, float(t[0]), Y=Y,
-                  undetermined_a=np.eye(3))
+    return _burst_draft(rngs, s, P, m, X, Y, f"translation_bursts: a gantry stopping at {k} "
+                        "stations", " without turning", undetermined_a=np.eye(3))
 
 
 def _kind_inverted(rngs, s):
@@ -336,6 +326,14 @@ def _kind_bursts(rngs, s):
     m = int(rig.integers(3, 8, endpoint=True))
     X, Y = _hand_camera_rig(rig)
     P = _station_poses(rngs["motion"], k)
+    return _burst_draft(rngs, s, P, m, X, Y, f"bursts: {k} stations", "")
+
+
+def _burst_draft(rngs, s, P, m, X, Y, head: str, how: str, **extra) -> "_Draft":
+    """Stations ``P`` (k, 4, 4) of the hand, a burst of ``m`` frames at 30 Hz at each, 3..8 s
+    apart (both streams logged per frame); the camera's error mostly common to a burst (the
+    station's error, plus a fifth of it per frame)."""
+    k = P.shape[0]
     t = (1000.0 + np.cumsum(rngs["clock"].uniform(3.0, 8.0, k))[:, None]
          + np.arange(m)[None] / 30.0).ravel()
     B = _noisy(_camera_poses(P, X, Y), s.sigma_rot_b_deg, s.sigma_trans_b_m, rngs["noise_b"],
@@ -344,9 +342,9 @@ def _kind_bursts(rngs, s):
                rngs["noise_b"], s.noise)
     A = _noisy(np.repeat(P, m, axis=0), s.sigma_rot_a_deg, s.sigma_trans_a_m,
                rngs["noise_a"], s.noise)
-    return _Draft(t, A, t.copy(), B, X, f"bursts: {k} stations x {m} frames at 30 Hz, "
-                  "stamps 3..8 s apart, camera error mostly common to a burst", 0.0, 0.0,
-                  float(t[0]), Y=Y)
+    return _Draft(t, A, t.copy(), B, X, f"{head} x {m} frames at 30 Hz{how}, stamps 3..8 s "
+                  "apart, camera error mostly common to a burst", 0.0, 0.0, float(t[0]), Y=Y,
+                  **extra)
 
 
 def _kind_stop_and_go(rngs, s):
