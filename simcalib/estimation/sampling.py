@@ -8,8 +8,9 @@ Three kinds of recording need different handling, and none of them needs a key t
   by stamp; a clock offset cannot be told from such stamps, so none is estimated from them
   (0, or the value given; two continuous streams are checked for an offset their motions
   show, :mod:`simcalib.estimation.hidden_offset`). Shared must beat chance (coarsely
-  written stamps coincide by chance), and stamps shared up to a constant shift (one file relative, the other unix time) are paired
-  after that shift, which is the offset used (``Sampling.shift_s``).
+  written stamps coincide by chance), and stamps shared up to a constant shift (one file
+  relative, the other unix time) are paired after that shift, which is the offset used
+  (``Sampling.shift_s``).
 * ``index_stamps`` — the stamps are sample numbers, not times (0, 1, 2, ... with gaps, or a
   file without a time column). Paired by stamp as well, never shifted.
 * ``continuous`` — two clocks sampling a moving rig at their own rates. The faster stream is

@@ -26,8 +26,9 @@ translation (e.g. a vehicle on arcs of one circle); the estimate then says so
 :func:`decide` turns an estimate and the ``scale_b`` key into the scale used: ``auto``
 keeps 1 unless ``s`` differs from 1 both by more than :data:`TOLERANCE` and by more than
 :data:`CLEAR_SIGMAS` sigmas, and explains the translation misfit (:data:`FIT_GAIN`);
-``estimate`` always uses the estimate; a number is used as given. :func:`scale_covariance` gives X's covariance from the scale's 1-sigma (the
-Jacobian of X with respect to the scale, by re-solving at ``s (1 +- delta)``).
+``estimate`` always uses the estimate; a number is used as given.
+:func:`scale_covariance` gives X's covariance from the scale's 1-sigma (the Jacobian of X
+with respect to the scale, by re-solving at ``s (1 +- delta)``).
 """
 
 from __future__ import annotations
