@@ -11,9 +11,10 @@
 
 A rig that only translates (neither stream turns:
 :func:`~simcalib.estimation.stillness.check_streams_move` returns ``translation``) goes
-through the same stages on its translations: the offset from the translation speeds, the readings scored on motions that
-translate, no rotation filter, RANSAC sets by translation direction; X's rotation follows
-from ``t_C = R_X t_H`` and its translation is reported undetermined on every axis (exit 6).
+through the same stages on its translations: the offset from the translation speeds, the
+readings scored on motions that translate, no rotation filter, RANSAC sets by translation
+direction; X's rotation follows from ``t_C = R_X t_H`` and its translation is reported
+undetermined on every axis (exit 6).
 
 Measured on public recordings by ``python -m simcalib.studies.experiments.real_data``, on generated
 ones by ``python -m simcalib.studies.experiments.recordings``, in simulation by ``python -m simcalib
