@@ -11,7 +11,8 @@ import pytest
 
 from simcalib.errors import ConfigError, DataError
 from simcalib.estimation.scale import (CLEAR_SIGMAS, TOLERANCE, ScaleEstimate, decide,
-                                       estimate_scale, scale_covariance, scaled_motions)
+                                       check_scale_b, estimate_scale, scale_covariance,
+                                       scaled_motions)
 from simcalib.geometry import (invert_transform, matrix_from_rotvec,
                                random_rotation_matrices, transform_from_rotation_translation)
 from simcalib.solvers.diagnostics.inputs import pose_error
@@ -213,3 +214,12 @@ def test_units_far_apart_refused_in_auto_and_estimated_on_request():
     given = _calibrate(rec, scale_b=1000.0)
     assert given.scale.decision == "given" and abs(given.scale.check.scale - 1.0) < 0.01
     assert math.isfinite(given.scale.check.sigma)
+
+
+def test_the_messages_give_the_number_that_divides_b_the_right_way():
+    """scale_b divides b's translations: b in mm against a in m is 1000 (the messages once
+    said 0.001, which would have multiplied the error by 1e6)."""
+    from simcalib.estimation.path import UNITS_HINT
+    assert "1000 for b in mm against a in m" in UNITS_HINT and "0.001" not in UNITS_HINT
+    with pytest.raises(ConfigError, match="1000 for b in mm against a in m"):
+        check_scale_b(-1)

@@ -509,8 +509,8 @@ def _check_motions(ms, sp) -> float:
 
 #: how the refusal of streams in different units is answered (``scale_b``, docs/calibrate.md)
 UNITS_HINT = ("write both in metres, or give scale_b=estimate (b's translations divided by "
-              "their estimated scale, its uncertainty in X's sigma) or scale_b=<b's unit in "
-              "a's: 0.001 for b in mm against a in m>")
+              "their estimated scale, its uncertainty in X's sigma) or scale_b=<b's "
+              "translations over a metric b's: 1000 for b in mm against a in m>")
 
 
 def _summary(sa, sb, conv, off, ms, rob, ms0, plain, alpha, length_scale) -> tuple:

@@ -133,7 +133,8 @@ def check_scale_b(value):
         return check_range("scale_b", value, lo=0.0, lo_open=True)
     except ConfigError:
         raise ConfigError(key="scale_b", value=value, allowed=(
-            "auto, estimate or a finite number > 0 (b's unit in a's)")) from None
+            "auto, estimate or a finite number > 0 (b's translations over a metric b's: "
+            "1000 for b in mm against a in m)")) from None
 
 
 # ------------------------------------------------------------------------- the model
@@ -302,8 +303,8 @@ def decide(mode, estimate: ScaleEstimate | None) -> ScaleDecision:
         if mode == "estimate":
             from simcalib.errors import DataError
             raise DataError(f"scale_b=estimate: the data cannot tell the scale of stream b's "
-                            f"translations ({why}); give scale_b=<number> (b's unit in a's "
-                            "unit) or scale_b=auto (1 unless the data tell otherwise)")
+                            f"translations ({why}); give scale_b=<number> (b's translations over "
+                            "a metric b's: 1000 for b in mm against a in m) or scale_b=auto (1 unless the data tell otherwise)")
         return ScaleDecision(mode, 1.0, "not_told", f"b's scale not told by the data ({why}):"
                              " 1 used", 0.0, e)
     dev = abs(e.scale - 1.0)
