@@ -28,7 +28,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from simcalib.geometry import rotation_angle_rad
+from simcalib.estimation.speeds import apart
 
 __all__ = ["continuous", "stamps_hide_offset", "motion_stride", "REGULAR_SHARE",
            "SMOOTH_STEPS", "SMOOTH_GAIN", "STRIDE_TURN_DEG", "STRIDE_NOISE_GAIN",
@@ -68,15 +68,8 @@ def continuous(t: np.ndarray, T: np.ndarray, signal: str = "rotation") -> bool:
     med = float(np.median(dt))
     if not med > 0 or np.mean(np.abs(dt - med) <= 0.25 * med) < REGULAR_SHARE:
         return False
-    return bool(np.median(_apart(T, k, signal)) >= SMOOTH_GAIN * np.median(
-        _apart(T, 1, signal)))
-
-
-def _apart(T: np.ndarray, k: int, signal: str) -> np.ndarray:
-    """The rotation angle (or distance) between poses ``k`` samples apart."""
-    if signal == "translation":
-        return np.linalg.norm(T[k:, :3, 3] - T[:-k, :3, 3], axis=1)
-    return rotation_angle_rad(np.swapaxes(T[:-k, :3, :3], 1, 2) @ T[k:, :3, :3])
+    return bool(np.median(apart(T, k, signal)) >= SMOOTH_GAIN * np.median(
+        apart(T, 1, signal)))
 
 
 def stamps_hide_offset(sa, sb, sampling, off, *, alpha: float = 1.0, drift: bool = False,
@@ -124,10 +117,10 @@ def motion_stride(T: np.ndarray, signal: str = "rotation") -> tuple[int, bool]:
     there)."""
     T = np.asarray(T, dtype=np.float64)
     cap = max(1, 2 ** int(np.floor(np.log2(max(T.shape[0] // STRIDES_MIN, 1)))))
-    one = float(np.median(_apart(T, 1, signal)))
+    one = float(np.median(apart(T, 1, signal)))
     k = 1
     while k <= cap:
-        m = float(np.median(_apart(T, k, signal)))
+        m = float(np.median(apart(T, k, signal)))
         turns = signal != "rotation" or m >= np.radians(STRIDE_TURN_DEG)
         if turns and m >= STRIDE_NOISE_GAIN * one:
             return k, True

@@ -13,8 +13,8 @@ import numpy as np
 
 from simcalib.geometry import rotation_angle_rad
 
-__all__ = ["as_time_poses", "angular_speed", "translation_speed", "speed_steps", "SPEEDS",
-           "checked_signal"]
+__all__ = ["as_time_poses", "apart", "angular_speed", "translation_speed", "speed_steps",
+           "SPEEDS", "checked_signal"]
 
 
 def as_time_poses(stream, name: str = "stream") -> tuple[np.ndarray, np.ndarray]:
@@ -50,17 +50,21 @@ def _step(step, n: int) -> int:
     return int(min(step, max(1, n - 1)))
 
 
+def apart(T: np.ndarray, k: int, signal: str = "rotation") -> np.ndarray:
+    """The rotation angle (rad; ``signal`` ``rotation``) or the distance (``translation``)
+    between poses ``T`` (n, 4, 4) ``k`` samples apart, ``(n - k,)``."""
+    if signal == "translation":
+        return np.linalg.norm(T[k:, :3, 3] - T[:-k, :3, 3], axis=1)
+    return rotation_angle_rad(np.swapaxes(T[:-k, :3, :3], 1, 2) @ T[k:, :3, :3])
+
+
 def angular_speed(stream, step: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """``(t_mid, speed_rad_s)``: rotation angle between poses ``step`` samples apart over
     their time difference, at the midpoints. The same for a stream and its inverse
     (T_world_sensor or T_sensor_world), so it needs no convention. A fast stream's pose
     noise over one short step can swamp the motion (0.1 deg at 300 Hz reads as 40 deg/s);
     over ``step`` samples it is ``step`` times smaller (:func:`speed_steps`)."""
-    t, T = as_time_poses(stream)
-    k = _step(step, t.size)
-    R = T[:, :3, :3]
-    ang = rotation_angle_rad(np.swapaxes(R[:-k], 1, 2) @ R[k:])
-    return 0.5 * (t[:-k] + t[k:]), ang / (t[k:] - t[:-k])
+    return _speed(stream, step, "rotation")
 
 
 def translation_speed(stream, step: int = 1) -> tuple[np.ndarray, np.ndarray]:
@@ -68,10 +72,13 @@ def translation_speed(stream, step: int = 1) -> tuple[np.ndarray, np.ndarray]:
     time difference, at the midpoints. Without rotation it is the same in every sensor of a
     rigid rig (``|t_C| = |t_H|``) and for a stream and its inverse, so it needs no
     convention there; the clock offset of a rig that only translates is read from it."""
+    return _speed(stream, step, "translation")
+
+
+def _speed(stream, step, signal: str) -> tuple[np.ndarray, np.ndarray]:
     t, T = as_time_poses(stream)
     k = _step(step, t.size)
-    d = np.linalg.norm(T[k:, :3, 3] - T[:-k, :3, 3], axis=1)
-    return 0.5 * (t[:-k] + t[k:]), d / (t[k:] - t[:-k])
+    return 0.5 * (t[:-k] + t[k:]), apart(T, k, signal) / (t[k:] - t[:-k])
 
 
 def speed_steps(t_a: np.ndarray, t_b: np.ndarray) -> tuple[int, int]:
