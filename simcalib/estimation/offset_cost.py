@@ -141,9 +141,10 @@ class OffsetCost:
             R = T[:, :3, :3]
             turn = rotation_angle_rad(np.swapaxes(R[i], 1, 2) @ R[j])
             return turn >= math.radians(1.0), "turns by >= 1 deg"
+        from simcalib.estimation.speeds import apart
         from simcalib.estimation.stillness import translates
         d = np.linalg.norm(T[j, :3, 3] - T[i, :3, 3], axis=1)
-        step = float(np.median(np.linalg.norm(np.diff(T[:, :3, 3], axis=0), axis=1)))
+        step = float(np.median(apart(T, 1, "translation")))
         return (translates(d) & (d > NOISE_GAIN * step),
                 f"translates by a tenth of its median motion and {NOISE_GAIN:g}x its median "
                 "pose-to-pose step or more")
