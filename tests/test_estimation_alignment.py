@@ -61,6 +61,20 @@ def test_large_offset_and_drift():
     assert abs(est.drift - 100e-6) < 50e-6
 
 
+@pytest.mark.parametrize("epoch_a, epoch_b", [(0.0, 1.765e9), (1.765e9, 0.0)])
+def test_offset_of_a_unix_clock_against_a_recording_clock(epoch_a, epoch_b):
+    """One stream stamped in Unix time (~1.8e9 s), the other counted from the recording's
+    start: the offset is as precise as between two recording clocks (the refinement once
+    stopped anywhere within a grid step there: 3.4 ms off at a sigma of 0.25 ms)."""
+    rs = rig_streams(offset_s=0.037, rng=np.random.default_rng(7))
+    est0 = estimate_time_offset(rs.a, rs.b)
+    est = estimate_time_offset((rs.t_a + epoch_a, rs.T_a), (rs.t_b + epoch_b, rs.T_b))
+    assert est.decision == est0.decision == "estimated", est.message
+    shift = epoch_b - epoch_a
+    assert abs((est.offset_s - shift) - est0.offset_s) < 0.05 * est0.uncertainty_s, est.message
+    assert est.uncertainty_s < 1.5 * est0.uncertainty_s
+
+
 def test_interpolation_hits_samples_and_refuses_gaps():
     rs = rig_streams(rng=np.random.default_rng(0))
     T, ok = interpolate_poses(rs.t_a, rs.T_a, rs.t_a[5:9])

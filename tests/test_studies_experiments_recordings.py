@@ -446,3 +446,14 @@ def test_stamp_units_kind_writes_each_file_in_its_unit_and_keeps_the_truth_in_se
         assert np.median(np.diff(sb.timestamps_s)) == pytest.approx(1 / 30, rel=0.05)
         assert abs(rec.drift) > 0 if seed % 2 else rec.drift == 0.0
     assert {("ms", "s"), ("s", "ms"), ("ms", "ms"), ("us", "s"), ("s", "ns")} <= seen
+
+
+def test_stamp_units_kind_stamps_one_file_in_unix_time():
+    """Seeds 6 and 7: one file in seconds since the Unix epoch, the other on the recording's
+    clock; the true offset carries the epoch."""
+    for seed, unix in ((6, "a"), (7, "b")):
+        rec = RK.generate("stamp_units", seed)
+        ta, tb = rec.stream_a.timestamps_s, rec.stream_b.timestamps_s
+        assert (rec.stamps_unit_a, rec.stamps_unit_b) == ("s", "s")
+        assert (ta[0] > 1e9) == (unix == "a") and (tb[0] > 1e9) == (unix == "b")
+        assert abs(abs(rec.offset_s) - RK.UNIX_EPOCH_S) < 1.0

@@ -182,7 +182,12 @@ class OffsetCost:
 
 def _refine(cost: OffsetCost, centre: float, half: float, n_grid: int = 13):
     """``(best, cost at best, curvature, grid offsets, grid costs)``: ``cost`` on a grid over
-    ``centre +- half``, then bounded Brent between the grid neighbours of the minimum."""
+    ``centre +- half``, then bounded Brent between the grid neighbours of the minimum.
+
+    Brent runs on the distance from the grid minimum, not on the offset itself: its
+    tolerance has a part relative to its variable (1.5e-8 of it), which for an offset of
+    a clock in Unix time against one counted from the recording's start (~1.8e9 s) is
+    ~26 s, so that the search would stop at once, anywhere between the grid neighbours."""
     from scipy.optimize import minimize_scalar
     offs = np.linspace(centre - half, centre + half, n_grid)
     costs = np.array([cost(o) for o in offs])
@@ -192,9 +197,9 @@ def _refine(cost: OffsetCost, centre: float, half: float, n_grid: int = 13):
     k = int(np.nanargmin(costs))
     h = offs[1] - offs[0]
     lo, hi = offs[max(k - 1, 0)], offs[min(k + 1, n_grid - 1)]
-    res = minimize_scalar(cost, bounds=(lo, hi), method="bounded",
-                          options={"xatol": 1e-6 * max(1.0, h / 1e-3)})
-    best = float(res.x)
+    res = minimize_scalar(lambda u: cost(offs[k] + u), bounds=(lo - offs[k], hi - offs[k]),
+                          method="bounded", options={"xatol": 1e-6 * max(1.0, h / 1e-3)})
+    best = float(offs[k] + res.x)
     j0 = cost(best)
     d = max(h / 4, 1e-4)
     curv = (cost(best + d) - 2 * j0 + cost(best - d)) / (d * d)

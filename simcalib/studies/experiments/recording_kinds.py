@@ -365,14 +365,17 @@ def _kind_low_rate_camera(rngs, s):
     return _continuous(rngs, s, offset_s=_small_offset(rngs, s), label="low_rate_camera")
 
 
-#: which file writes its stamps in which unit, relative to its first stamp, by seed % 6
+#: which file writes its stamps in which unit, relative to its first stamp ("unix ...":
+#: since the Unix epoch, :data:`UNIX_EPOCH_S` before the recording's clock), by seed % 8
 _STAMP_UNIT_CYCLE = (("ms", "s"), ("s", "ms"), ("ms", "ms"), ("us", "s"), ("s", "ns"),
-                     ("us", "us"))
+                     ("us", "us"), ("unix s", "s"), ("s", "unix s"))
+UNIX_EPOCH_S = 1.765e9
 
 
 def _kind_stamp_units(rngs, s):
     """continuous, an offset of +-0.2 s (30..100 ppm drift in odd seeds), one or both files
-    stamped relative to their first pose in ms, us or ns (:data:`_STAMP_UNIT_CYCLE`)."""
+    stamped relative to their first pose in ms, us or ns, or one since the Unix epoch
+    (:data:`_STAMP_UNIT_CYCLE`)."""
     r = rngs["events"]
     off = float(r.uniform(-0.2, 0.2)) if s.offset_s is None else float(s.offset_s)
     drift_ppm = float(r.choice([-1.0, 1.0]) * r.uniform(30.0, 100.0))
@@ -380,12 +383,13 @@ def _kind_stamp_units(rngs, s):
         else float(s.drift_ppm)
     d = _continuous(rngs, s, offset_s=off, drift=1e-6 * drift_ppm, label="stamp_units")
     ua, ub = _STAMP_UNIT_CYCLE[rngs["seed"] % len(_STAMP_UNIT_CYCLE)]
-    sa = float(d.t_a[0]) if ua != "s" else 0.0         # relative to the file's first pose
-    sb = float(d.t_b[0]) if ub != "s" else 0.0
+    # the origin subtracted: the file's first pose, 0 (seconds as they are) or the epoch
+    sa, sb = (-UNIX_EPOCH_S if u.startswith("unix") else float(t[0]) if u != "s" else 0.0
+              for u, t in ((ua, d.t_a), (ub, d.t_b)))
+    how = f"stamps of a in {ua}, of b in {ub}"
     return replace(d, t_a=d.t_a - sa, t_b=d.t_b - sb, offset_s=d.offset_s - sb + sa,
-                   t_ref_s=d.t_ref_s - sa, stamps_unit_a=ua, stamps_unit_b=ub,
-                   description=d.description + f", stamps of a in {ua}, of b in {ub}"
-                   + " (relative to the first pose)")
+                   t_ref_s=d.t_ref_s - sa, stamps_unit_a=ua.split()[-1],
+                   stamps_unit_b=ub.split()[-1], description=d.description + f", {how}")
 
 
 def _with_scale(rngs, d):
@@ -470,7 +474,8 @@ KINDS: dict[str, Kind] = {
                                       "drop_fraction": 0.2}, offset_tol_ms=20.0),
     "stamp_units": Kind(_kind_stamp_units, "continuous, offset +-0.2 s (30..100 ppm drift in "
                         "odd seeds), one or both files stamped from their first pose in ms, us "
-                        "or ns (by seed: a ms, b ms, both ms, a us, b ns, both us)", True,
+                        "or ns, or one since the Unix epoch (by seed: a ms, b ms, both ms, a "
+                        "us, b ns, both us, a Unix s, b Unix s)", True,
                         extra=("offset_s", "drift_ppm")),
     "scale": Kind(_kind_scale, "continuous, b's translations in another scale (x 0.3..0.91 "
                   "in even seeds, x 1.1..3 in odd ones, log-uniform: a monocular SLAM track, a "
