@@ -4,8 +4,9 @@ import numpy as np
 import pytest
 
 from simcalib.studies.experiments import EXPERIMENTS
-from simcalib.studies.experiments.real_perturbations import (PERTURBATIONS, _judge, perturb,
-                                                             run_sets)
+from simcalib.studies.experiments.real_perturbations import (PERTURBATIONS, UNIX_EPOCH_S,
+                                                             _judge, perturb, run_sets,
+                                                             shift_s)
 from simcalib.studies.experiments.real_sets import real_dir
 
 
@@ -29,6 +30,11 @@ def test_perturbations_do_what_they_say():
     assert np.allclose(bm[:, 1:4], 1000 * b[:, 1:4])
     _, bs = perturb("offset-30s", a, b, rng)
     assert np.allclose(bs[:, 0], b[:, 0] - 30.0)
+    _, be = perturb("epoch_b", a, b, rng)                         # to Unix time and back
+    assert np.allclose(be[:, 0], b[:, 0] + UNIX_EPOCH_S) and shift_s("epoch_b", b) > 1e9
+    _, bz = perturb("epoch_b", a, be, rng)
+    assert bz[0, 0] == 0.0 and np.allclose(bz[:, 0], b[:, 0] - b[0, 0])
+    assert shift_s("epoch_b", be) == -be[0, 0] and shift_s("drop20%b", b) is None
     assert np.array_equal(b, _rows(seed=1))                       # inputs untouched
     with pytest.raises(ValueError, match="unknown perturbation 'flip'; valid: base"):
         perturb("flip", a, b, rng)

@@ -6,6 +6,8 @@ then with one perturbation at a time whose effect on the answer is known:
 * ``offset+0.25s`` / ``offset-30s`` (continuous sets): b's stamps shifted; the offset must
   move by the shift (within 3 ms, or 3 of the larger offset sigma of the two runs: a base
   offset not told from 0 is known only to its sigma) and X stay;
+* ``epoch_b`` (continuous sets): b's clock made the other kind: stamps in Unix time
+  counted from b's first pose, others moved to Unix time (+1.765e9 s); judged as a shift;
 * ``drop20%b``, ``gap3s_a``, ``jitter2ms_b`` (continuous sets): rows dropped, a 3 s hole,
   +-2 ms stamp jitter: X must stay;
 * ``invert_b`` (b written as ``T_sensor_world``), ``wxyz_b`` (b's quaternions scalar
@@ -39,16 +41,25 @@ import numpy as np
 from simcalib.geometry import invert_transform, rotation_error_rad
 from simcalib.studies.experiments import experiment
 
-__all__ = ["PERTURBATIONS", "perturb", "run_set", "markdown", "main", "run",
-           "RealPerturbationsConfig"]
+__all__ = ["PERTURBATIONS", "UNIX_EPOCH_S", "shift_s", "perturb", "run_set", "markdown",
+           "main", "run", "RealPerturbationsConfig"]
 
 #: name -> (applies to continuous sets, applies to station sets)
 PERTURBATIONS = {
     "offset+0.25s": (True, False), "offset-30s": (True, False), "drop20%b": (True, False),
     "gap3s_a": (True, False), "jitter2ms_b": (True, False), "invert_b": (True, True),
     "wxyz_b": (True, True), "neg_quat_half_b": (True, True), "mm_b": (True, True),
-    "shuffled_rows_b": (False, True)}
+    "shuffled_rows_b": (False, True), "epoch_b": (True, False)}
 SHIFTS_S = {"offset+0.25s": 0.25, "offset-30s": -30.0}
+#: ``epoch_b`` moves stamps on a recording's clock by this much (a Unix time, 2025-12)
+UNIX_EPOCH_S = 1.765e9
+
+
+def shift_s(name: str, b: np.ndarray) -> float | None:
+    """How far perturbation ``name`` moves b's stamps (None: it does not shift them)."""
+    if name == "epoch_b":
+        return -float(b[0, 0]) if b[0, 0] > 1e6 else UNIX_EPOCH_S
+    return SHIFTS_S.get(name)
 
 
 def _inverse_rows(rows: np.ndarray) -> np.ndarray:
@@ -63,8 +74,8 @@ def _inverse_rows(rows: np.ndarray) -> np.ndarray:
 def perturb(name: str, a: np.ndarray, b: np.ndarray, rng: np.random.Generator):
     """The TUM rows ``(a, b)`` (``t x y z qx qy qz qw``) under perturbation ``name``."""
     b = b.copy()
-    if name in SHIFTS_S:
-        b[:, 0] += SHIFTS_S[name]
+    if shift_s(name, b) is not None:
+        b[:, 0] += shift_s(name, b)
     elif name == "drop20%b":
         b = b[rng.random(len(b)) > 0.2]
     elif name == "gap3s_a":
@@ -131,7 +142,7 @@ def _offset_bound(base: dict, cal: dict) -> float:
     return max(3e-3, 3.0 * max(s for s in sig if math.isfinite(s)))
 
 
-def _judge(name, base, code, cal, err) -> tuple[str, str]:
+def _judge(name, base, code, cal, err, shift=None) -> tuple[str, str]:
     if name == "mm_b" and code == 3 and "different units" in err:
         return "ok", "refused: different units"
     if cal is None:
@@ -142,8 +153,9 @@ def _judge(name, base, code, cal, err) -> tuple[str, str]:
     r_max, t_max = _bounds(base)
     moved = f"X moved {math.degrees(dr):.3f} deg / {dt * 1e3:.1f} mm"
     off = cal["time_offset"]["offset_s"] - base["time_offset"]["offset_s"]
-    if name in SHIFTS_S and abs(off - SHIFTS_S[name]) > _offset_bound(base, cal):
-        return "FAIL", (f"offset moved {off * 1e3:.1f} ms, not {SHIFTS_S[name] * 1e3:g} "
+    shift = SHIFTS_S.get(name) if shift is None else shift
+    if shift is not None and abs(off - shift) > _offset_bound(base, cal):
+        return "FAIL", (f"offset moved {off * 1e3:.1f} ms, not {shift * 1e3:.1f} "
                         f"(+- {_offset_bound(base, cal) * 1e3:.1f}); {moved}")
     if dr <= r_max and (t_max is None or dt <= t_max):
         return "ok", moved
@@ -173,7 +185,7 @@ def run_set(name: str, folder: Path, work: Path, seed: int, names=None) -> list[
             continue
         pa, pb = perturb(p, a, b, rng)
         code, cal, err = _calibrate(pa, pb, work / name / p)
-        verdict, detail = _judge(p, base, code, cal, err)
+        verdict, detail = _judge(p, base, code, cal, err, shift_s(p, b))
         out.append(Outcome(name, p, code, verdict, detail))
     return out
 
