@@ -10,8 +10,8 @@ import pytest
 
 from simcalib.cli import main
 from simcalib.errors import EXIT_CONFIG, EXIT_DEGENERATE, EXIT_INPUT, EXIT_OK
-from simcalib.geometry import (invert_transform, quat_from_matrix, rotation_error_rad,
-                               translation_error_m)
+from simcalib.geometry import (invert_transform, matrix_from_rotvec, quat_from_matrix,
+                               rotation_error_rad, translation_error_m)
 from simcalib.report.results import write_tum
 from simcalib.world.stream_sim import rig_streams
 
@@ -334,6 +334,21 @@ def test_the_same_file_twice_is_warned_about(tmp_path, capsys):
     code, text, err = _calibrate(capsys, f"a={pa}", f"b={pa}", f"output={tmp_path / 'o'}",
                                  "recording=false")
     assert code in (0, 6) and "hold the same poses" in text + err, (code, text, err)
+
+
+def test_a_world_frame_that_jumps_is_warned_about(tmp_path, capsys):
+    """A SLAM map reset half-way: the longest stretch is used, and the run says so."""
+    rs = rig_streams(duration_s=15.0, rng=np.random.default_rng(1))
+    G = np.eye(4)
+    G[:3, :3], G[:3, 3] = matrix_from_rotvec([0.6, -0.5, 0.6]), [0.5, -0.4, 0.5]
+    T_b = rs.T_b.copy()
+    T_b[120:] = G @ T_b[120:]
+    pa = write_tum(tmp_path / "a.tum", rs.t_a, rs.T_a)
+    pb = write_tum(tmp_path / "b.tum", rs.t_b, T_b)
+    code, text, err = _calibrate(capsys, f"a={pa}", f"b={pb}", f"output={tmp_path / 'o'}",
+                                 "recording=false")
+    assert code == 0 and "WARNING: stream" in text and "world frame jumps at" in text, text
+    assert "poses_beyond_a_world_jump_dropped: 120" in text
 
 
 @pytest.mark.slow

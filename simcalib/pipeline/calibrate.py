@@ -491,6 +491,7 @@ def warnings(r, reading: str | None = None) -> list[str]:
     (``reading``: the sentence of :func:`reading_ambiguity`, which then replaces the
     general one about the reading)."""
     out = [reading] if reading else []
+    out += list(r.summary.get("world_jumps", []))
     scale = getattr(r, "scale", None)
     if scale is not None and scale.decision == "rescaled" and scale.mode == "auto":
         out.append(f"stream b's translations are not in a's scale: {scale.message}")

@@ -6,6 +6,8 @@ then with one perturbation at a time whose effect on the answer is known:
 * ``offset+0.25s`` / ``offset-30s`` (continuous sets): b's stamps shifted; the offset must
   move by the shift (within 3 ms, or 3 of the larger offset sigma of the two runs: a base
   offset not told from 0 is known only to its sigma) and X stay;
+* ``reset_b``: b's poses from the middle of the recording on in another world frame (a
+  SLAM map reset, a bumped target: 0.8 m and 50 deg away): X must stay;
 * ``epoch_b`` (continuous sets): b's clock made the other kind: stamps in Unix time
   counted from b's first pose, others moved to Unix time (+1.765e9 s); judged as a shift;
 * ``drop20%b``, ``gap3s_a``, ``jitter2ms_b`` (continuous sets): rows dropped, a 3 s hole,
@@ -49,7 +51,7 @@ PERTURBATIONS = {
     "offset+0.25s": (True, False), "offset-30s": (True, False), "drop20%b": (True, False),
     "gap3s_a": (True, False), "jitter2ms_b": (True, False), "invert_b": (True, True),
     "wxyz_b": (True, True), "neg_quat_half_b": (True, True), "mm_b": (True, True),
-    "shuffled_rows_b": (False, True), "epoch_b": (True, False)}
+    "shuffled_rows_b": (False, True), "epoch_b": (True, False), "reset_b": (True, True)}
 SHIFTS_S = {"offset+0.25s": 0.25, "offset-30s": -30.0}
 #: ``epoch_b`` moves stamps on a recording's clock by this much (a Unix time, 2025-12)
 UNIX_EPOCH_S = 1.765e9
@@ -69,6 +71,21 @@ def _inverse_rows(rows: np.ndarray) -> np.ndarray:
     T[:, :3, 3] = rows[:, 1:4]
     Ti = invert_transform(T)
     return np.column_stack([rows[:, 0], Ti[:, :3, 3], quat_from_matrix(Ti[:, :3, :3])])
+
+
+def _world_reset(rows: np.ndarray, k: int) -> np.ndarray:
+    """TUM rows whose poses from row ``k`` on are moved into another world frame."""
+    from simcalib.geometry import matrix_from_quat, matrix_from_rotvec, quat_from_matrix
+    G = np.eye(4)
+    G[:3, :3] = matrix_from_rotvec(np.radians(50.0) * np.array([0.6, -0.48, 0.64]))
+    G[:3, 3] = [0.5, -0.4, 0.5]
+    T = np.tile(np.eye(4), (len(rows) - k, 1, 1))
+    T[:, :3, :3] = matrix_from_quat(rows[k:, 4:8])
+    T[:, :3, 3] = rows[k:, 1:4]
+    T = G @ T
+    out = rows.copy()
+    out[k:, 1:4], out[k:, 4:8] = T[:, :3, 3], quat_from_matrix(T[:, :3, :3])
+    return out
 
 
 def perturb(name: str, a: np.ndarray, b: np.ndarray, rng: np.random.Generator):
@@ -91,6 +108,8 @@ def perturb(name: str, a: np.ndarray, b: np.ndarray, rng: np.random.Generator):
         b[:, 4:8] *= np.where(rng.random(len(b)) < 0.5, -1.0, 1.0)[:, None]
     elif name == "mm_b":
         b[:, 1:4] *= 1000.0
+    elif name == "reset_b":
+        b = _world_reset(b, len(b) // 2)
     elif name == "shuffled_rows_b":
         b = b[rng.permutation(len(b))]
     elif name != "base":

@@ -1,0 +1,65 @@
+"""Jumps of a stream's world frame (simcalib.estimation.world_jumps)."""
+
+import numpy as np
+
+from simcalib.estimation.path import calibrate_streams
+from simcalib.estimation.world_jumps import JUMP_PERSIST, find_jumps, longest_stretches
+from simcalib.geometry import (matrix_from_rotvec, rotation_error_rad,
+                               transform_from_rotation_translation, translation_error_m)
+from simcalib.importers import stream_from_arrays
+from simcalib.world.stream_sim import rig_streams
+
+#: a SLAM map reset: b's world moved by 0.8 m and 50 deg
+G = transform_from_rotation_translation(matrix_from_rotvec(np.radians(50.0) * np.array(
+    [0.6, -0.48, 0.64])), np.array([0.5, -0.4, 0.5]))
+
+
+def _streams(seed=3, **kw):
+    return rig_streams(offset_s=0.04, rng=np.random.default_rng(seed), **kw)
+
+
+def _reset(T, k):
+    T = T.copy()
+    T[k:] = G @ T[k:]
+    return T
+
+
+def test_a_reset_world_is_a_jump_and_a_smooth_stream_has_none():
+    rs = _streams()
+    k = 250
+    assert find_jumps(rs.t_b, rs.T_b, rs.t_a, rs.T_a).size == 0
+    assert find_jumps(rs.t_a, rs.T_a, rs.t_b, rs.T_b).size == 0
+    assert find_jumps(rs.t_b, _reset(rs.T_b, k), rs.t_a, rs.T_a).tolist() == [k]
+
+
+def test_bad_poses_that_come_back_are_not_jumps():
+    rs = _streams()
+    for run in (1, JUMP_PERSIST - 1):          # one bad pose, a short run of them
+        T = rs.T_b.copy()
+        T[300:300 + run] = G @ T[300:300 + run]
+        assert find_jumps(rs.t_b, T, rs.t_a, rs.T_a).size == 0, run
+
+
+def test_a_step_the_other_stream_makes_as_fast_is_taken_for_a_motion():
+    """Both sensors of a rigid rig move alike: a step is a jump only where the other stream
+    never comes near its speed (here a's is faster still, in both angle and distance)."""
+    rs = _streams()
+    T_a = rs.T_a.copy()
+    T_a[400:] = (G @ G) @ T_a[400:]
+    assert find_jumps(rs.t_b, _reset(rs.T_b, 250), rs.t_a, T_a).size == 0
+
+
+def test_the_path_keeps_the_longest_stretch_and_says_so():
+    rs = _streams()
+    k = 380                                    # of 600 poses of b: the first stretch is longer
+    a = stream_from_arrays(rs.t_a, rs.T_a, source="<a>", name="a")
+    b = stream_from_arrays(rs.t_b, _reset(rs.T_b, k), source="<b>", name="b")
+    sa, sb, notes = longest_stretches(a, b)
+    assert sa is a and sb.n == k and sb.repairs["world_jumps"] == 1
+    assert sb.repairs["poses_beyond_a_world_jump_dropped"] == rs.t_b.size - k
+    assert len(notes) == 1 and "world frame jumps" in notes[0] and "63%" in notes[0]
+    r = calibrate_streams(a, b)
+    assert r.summary["world_jumps"] == notes
+    assert np.degrees(rotation_error_rad(r.X, rs.X)) < 0.1
+    assert translation_error_m(r.X, rs.X) < 0.002
+    assert abs(r.time_offset.offset_s - 0.04) < 3e-3
