@@ -1,9 +1,12 @@
 """Jumps of a stream's world frame (simcalib.estimation.world_jumps)."""
 
+from dataclasses import replace
+
 import numpy as np
 
 from simcalib.estimation.path import calibrate_streams
-from simcalib.estimation.world_jumps import JUMP_PERSIST, find_jumps, longest_stretches
+from simcalib.estimation.world_jumps import (JUMP_PERSIST, find_jumps, longest_stretches,
+                                             station_split)
 from simcalib.geometry import (matrix_from_rotvec, rotation_error_rad,
                                transform_from_rotation_translation, translation_error_m)
 from simcalib.importers import stream_from_arrays
@@ -63,3 +66,36 @@ def test_the_path_keeps_the_longest_stretch_and_says_so():
     assert np.degrees(rotation_error_rad(r.X, rs.X)) < 0.1
     assert translation_error_m(r.X, rs.X) < 0.002
     assert abs(r.time_offset.offset_s - 0.04) < 3e-3
+
+
+def _station_streams(seed=4):
+    from simcalib.estimation.stamp_units import stamps_to_seconds
+    from simcalib.studies.experiments.recording_kinds import generate
+    rec = generate("stations", seed)
+    return rec, *stamps_to_seconds(rec.stream_a, rec.stream_b, "auto", "auto")
+
+
+def test_a_bumped_target_splits_station_data_and_one_bad_station_does_not():
+    _, sa, sb = _station_streams()
+    T_a, T_b = np.asarray(sa.T_world_sensor), np.asarray(sb.T_world_sensor)
+    n = T_a.shape[0]
+    assert station_split(T_a, T_b) is None
+    k = n // 2 + 1
+    split = station_split(T_a, _reset(T_b, k))
+    assert split is not None and split[0] == k and split[1] > 10
+    T_bad = T_b.copy()
+    T_bad[k] = G @ T_bad[k]                    # one station's pose wrong: an outlier
+    assert station_split(T_a, T_bad) is None
+
+
+def test_the_path_keeps_the_larger_group_of_stations_and_says_so():
+    rec, sa, sb = _station_streams()
+    n = sa.n
+    k = n // 3                                 # the larger group is after the jump
+    b = replace(sb, T_world_sensor=_reset(np.asarray(sb.T_world_sensor), k))
+    r = calibrate_streams(sa, b)
+    assert r.stream_a.repairs["poses_beyond_a_world_jump_dropped"] == k
+    assert r.stream_b.n == n - k and len(r.summary["world_jumps"]) == 1
+    assert "bumped target" in r.summary["world_jumps"][0]
+    assert np.degrees(rotation_error_rad(r.X, rec.X_true)) < 0.3
+    assert translation_error_m(r.X, rec.X_true) < 0.005

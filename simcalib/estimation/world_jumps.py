@@ -24,6 +24,16 @@ difference)
 The path then keeps each stream's longest stretch without a jump (by duration) and says
 so (the repairs ``world_jumps`` and ``poses_beyond_a_world_jump_dropped``, and a warning);
 calibrating each stretch on its own is the user's choice (split the file).
+
+Station data (poses paired by stamp, far apart: a robot that stops for each image) have
+no smooth path to jump from, and a bumped target is their common accident. There the two
+streams' relative rotation angles tell: both sensors of a rigid rig turn by the same angle
+between any two poses (whatever the files' reading, X, the worlds or the scale), as long
+as both worlds stay. A split of the poses (in stamp order) into two groups is a jump when
+the pairs across it break that rule :data:`SPLIT_GAIN` times more (median) than the pairs
+within the groups, and by :data:`SPLIT_MIN_DEG` or more; the larger group is kept
+(:func:`station_groups`). A jump that moves a world without turning it is not seen this
+way (the translations' screw pitch depends on the unknown scale).
 """
 
 from __future__ import annotations
@@ -33,8 +43,10 @@ from dataclasses import replace
 import numpy as np
 
 from simcalib.estimation.speeds import apart
+from simcalib.geometry import rotation_angle_rad
 
-__all__ = ["find_jumps", "longest_stretches", "JUMP_GAIN", "OTHER_GAIN", "JUMP_PERSIST"]
+__all__ = ["find_jumps", "longest_stretches", "station_split", "station_groups", "JUMP_GAIN",
+           "OTHER_GAIN", "JUMP_PERSIST", "SPLIT_GAIN", "SPLIT_MIN_DEG"]
 
 #: a step this many times the stream's 90th-percentile speed may be a jump ...
 JUMP_GAIN = 10.0
@@ -43,6 +55,14 @@ OTHER_GAIN = 3.0
 #: ... and the poses up to this many samples on either side stay half as far apart
 JUMP_PERSIST = 5
 _SIGNALS = ("rotation", "translation")
+#: station data: a split whose pairs across break the equal-angle rule this many times more
+#: (median) than the pairs within its groups ...
+SPLIT_GAIN = 10.0
+#: ... and by this much (median, deg) is a jump of a world frame
+SPLIT_MIN_DEG = 0.5
+#: poses of each group of a split (and the most poses the split search looks at: an even
+#: subsample beyond)
+_MIN_GROUP, _MAX_POSES = 3, 400
 
 
 def _ratios(t: np.ndarray, T: np.ndarray, signal: str) -> np.ndarray:
@@ -117,3 +137,82 @@ def longest_stretches(sa, sb):
                      f"(t = {t0:.3f} to {t1:.3f} s, {share:.0%} of its poses)")
         out.append(kept)
     return out[0], out[1], notes
+
+
+def _angle_misfit(T_a: np.ndarray, T_b: np.ndarray) -> np.ndarray:
+    """``(n, n)``: |angle of a's motion - angle of b's motion| between every two poses."""
+    def angles(T):
+        R = T[:, :3, :3]
+        return rotation_angle_rad(np.swapaxes(R, 1, 2)[:, None] @ R[None])
+    return np.abs(angles(T_a) - angles(T_b))
+
+
+def station_split(T_a: np.ndarray, T_b: np.ndarray) -> tuple[int, float] | None:
+    """``(k, ratio)``: poses ``k..`` of the paired poses ``T_a``, ``T_b`` (n, 4, 4) (stamp
+    order) are in other worlds than poses ``..k-1`` (module doc; ``ratio``: the median
+    misfit across over within); None when no split is one. The splits tried are the five
+    largest misfits of consecutive poses."""
+    n = T_a.shape[0]
+    if n < 2 * _MIN_GROUP:
+        return None
+    E = _angle_misfit(T_a, T_b)
+    steps = np.diagonal(E, 1)[_MIN_GROUP - 1:n - _MIN_GROUP]
+    best = None
+    for k in np.argsort(steps)[::-1][:5] + _MIN_GROUP:
+        within = np.concatenate([E[:k, :k][np.triu_indices(k, 1)],
+                                 E[k:, k:][np.triu_indices(n - k, 1)]])
+        across = float(np.median(E[:k, k:]))
+        ratio = across / max(float(np.median(within)), 1e-12)
+        if (ratio >= SPLIT_GAIN and across >= np.radians(SPLIT_MIN_DEG)
+                and (best is None or ratio > best[1])):
+            best = (int(k), ratio)
+    return best
+
+
+def station_groups(sa, sb, synced, shift_s: float = 0.0):
+    """Both streams cut to the larger group of a :func:`station_split` of their poses
+    paired by stamp (``synced``: :class:`~simcalib.estimation.alignment.SyncedPoses`, on
+    a's stamps; b's are ``shift_s`` later), and ``notes`` (empty: no split; the streams
+    returned as they are)."""
+    n = synced.n
+    pick = np.unique(np.linspace(0, n - 1, min(n, _MAX_POSES)).round().astype(np.int64))
+    split = station_split(np.asarray(synced.T_a)[pick], np.asarray(synced.T_b)[pick])
+    if split is None:
+        return sa, sb, []
+    t = np.asarray(synced.time_s)
+    k = int(pick[split[0]])
+    lo, hi = (t[0], t[k - 1]) if k >= n - k else (t[k], t[-1])
+    out = []
+    for s, shift in ((sa, 0.0), (sb, shift_s)):
+        ts = np.asarray(s.timestamps_s)
+        keep = (ts >= lo + shift - 1e-9) & (ts <= hi + shift + 1e-9)
+        out.append(replace(s, timestamps_s=ts[keep],
+                           T_world_sensor=np.asarray(s.T_world_sensor)[keep],
+                           repairs=dict(s.repairs, world_jumps=1,
+                                        poses_beyond_a_world_jump_dropped=int(
+                                            (~keep).sum()))))
+    kept = k if k >= n - k else n - k
+    note = (f"the two streams' worlds move apart between the poses at t = {t[k - 1]:.3f} and "
+            f"{t[k]:.3f} s (the rotation angles of the motions across break the rule both "
+            f"sensors turn alike {split[1]:.0f}x more than within: a bumped target, a moved "
+            f"base or camera?); only the larger group ({kept} of {n} poses) is used")
+    return out[0], out[1], [note]
+
+
+
+def split_stations(sa, sb, sampling):
+    """``(stream_a, stream_b, sampling, notes)``: station data (paired by stamp, and the
+    motions' ``auto`` policy takes them as stations or bursts:
+    :func:`simcalib.estimation.motions.auto_policy`) cut by :func:`station_groups`, their
+    sampling classified again; other data, and stations with no split, as they are
+    (``notes`` empty)."""
+    from simcalib.estimation.motions import auto_policy
+    from simcalib.estimation.sampling import classify_sampling, pair_by_stamp
+    if not sampling.paired_by_stamp:
+        return sa, sb, sampling, []
+    synced = pair_by_stamp(sa, sb, sampling, sampling.shift_s)
+    policy = auto_policy(synced, True, sampling.kind == "index_stamps")[0]
+    if policy not in ("stations", "bursts"):
+        return sa, sb, sampling, []
+    sa2, sb2, notes = station_groups(sa, sb, synced, sampling.shift_s)
+    return (sa2, sb2, classify_sampling(sa2, sb2), notes) if notes else (sa, sb, sampling, [])
