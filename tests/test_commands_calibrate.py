@@ -351,6 +351,20 @@ def test_a_world_frame_that_jumps_is_warned_about(tmp_path, capsys):
     assert "poses_beyond_a_world_jump_dropped: 120" in text
 
 
+def test_two_recordings_in_one_file_are_warned_about(tmp_path, capsys):
+    rs = rig_streams(duration_s=15.0, rng=np.random.default_rng(1))
+    t_b = rs.t_b.copy()
+    t_b[100:] -= 4.0 + 0.013                      # the logger restarted 4 s back
+    pa = write_tum(tmp_path / "a.tum", rs.t_a, rs.T_a)
+    pb = tmp_path / "b.tum"
+    rows = np.column_stack([t_b, rs.T_b[:, :3, 3], quat_from_matrix(rs.T_b[:, :3, :3])])
+    np.savetxt(pb, rows, fmt="%.9f")
+    code, text, err = _calibrate(capsys, f"a={pa}", f"b={pb}", f"output={tmp_path / 'o'}",
+                                 "recording=false")
+    assert code == 0 and "stamps go back 1 time(s)" in text, text + err
+    assert "rows_of_other_recordings_dropped: 100" in text
+
+
 @pytest.mark.slow
 def test_camera_seen_only_while_still_uses_offset_zero_and_says_why(tmp_path, capsys):
     """stop_and_go: b sees the target only while the arm stands still, so no offset shows;

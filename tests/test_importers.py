@@ -466,6 +466,22 @@ def test_repeated_stamps_keep_the_row_consistent_with_the_neighbours(rig):
     assert s.repairs["duplicate_rows_dropped"] == k.size
 
 
+def test_two_recordings_in_one_file_keep_the_longest(rig):
+    """A logger restarted: the second recording's stamps go back into the first's time.
+    Sorting would interleave two recordings; the longest is kept and the rest counted."""
+    t, T = rig.t_a[:300], rig.T_a[:300]
+    t2 = np.concatenate([t[:120], t[120:] - 3.0 + 0.013])     # back 3 s, off the first's grid
+    s = stream_from_arrays(t2, T)
+    assert s.repairs == {"stamps_restarted": 1, "rows_of_other_recordings_dropped": 120}
+    _same(s, t2[120:], T[120:])
+    # shuffled rows, or rows re-published at their own stamps, are sorted as before
+    order = np.random.default_rng(0).permutation(300)
+    assert "stamps_restarted" not in stream_from_arrays(t[order], T[order]).repairs
+    k = np.arange(5, 75, 7)
+    s = stream_from_arrays(np.concatenate([t[k], t]), np.concatenate([T[k], T]))
+    assert "stamps_restarted" not in s.repairs and s.n == 300
+
+
 def test_stamps_that_all_repeat_cannot_be_told_and_are_dropped(rig):
     t, T = np.floor(rig.t_a[:90]), rig.T_a[:90]          # 1 s stamps for 30 Hz poses
     with pytest.raises(DataError, match="0 usable poses .*dropped_ambiguous: 90.*too coarsely"):

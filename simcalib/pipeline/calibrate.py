@@ -492,6 +492,10 @@ def warnings(r, reading: str | None = None) -> list[str]:
     general one about the reading)."""
     out = [reading] if reading else []
     out += list(r.summary.get("world_jumps", []))
+    out += [f"stream {s.name or s.source}'s stamps go back {s.repairs['stamps_restarted']} "
+            "time(s) (two recordings in one file?): only the longest recording in it is used "
+            f"({s.repairs['rows_of_other_recordings_dropped']} rows of the others dropped)"
+            for s in (r.stream_a, r.stream_b) if s.repairs.get("stamps_restarted")]
     scale = getattr(r, "scale", None)
     if scale is not None and scale.decision == "rescaled" and scale.mode == "auto":
         out.append(f"stream b's translations are not in a's scale: {scale.message}")
