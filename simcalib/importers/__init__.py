@@ -288,9 +288,7 @@ QUAT_NORM_TOL = 1e-3      # beyond this deviation from 1 a quaternion is renorma
 #: 1e9 m from its origin: 2.6x the Moon's distance)
 MAX_POSITION_M = 1e9
 QUAT_NORM_MAX_DEV = 0.2   # beyond this it is not a unit quaternion at all: error
-#: stamps that go back, in file order, by more than this many median periods at no more
-#: than RESTART_MAX rows (the rest in order) into the time of RESTART_MIN_ROWS rows or
-#: more, mostly at other stamps, start another recording in the same file
+#: another recording in the same file: stamps that go back (:func:`_longest_recording`)
 RESTART_PERIODS, RESTART_MAX, RESTART_MIN_ROWS = 10.0, 3, 10
 
 
