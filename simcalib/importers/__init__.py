@@ -398,10 +398,10 @@ def _longest_recording(t: np.ndarray, T: np.ndarray, repairs: dict) -> tuple:
     """``(t, T)`` of the longest recording (by duration) in a file whose stamps, in file
     order, go back by more than RESTART_PERIODS median periods at 1..RESTART_MAX rows, are
     in order elsewhere, and whose runs (RESTART_MIN_ROWS rows or more each) overlap in
-    time, the shorter mostly at stamps the other does not have: two recordings (a logger restarted, two sessions)
-    appended in one file, which sorting would interleave. The others are dropped and
-    counted (``stamps_restarted``, ``rows_of_other_recordings_dropped``). Rows shuffled, a
-    few out of order, or re-published at their stamps are left to the sort."""
+    time, the shorter mostly at stamps the other does not have: two recordings (a logger
+    restarted) appended in one file, which sorting would interleave. The others are
+    dropped and counted (``stamps_restarted``, ``rows_of_other_recordings_dropped``). Rows
+    shuffled, a few out of order, or re-published at their stamps are left to the sort."""
     d = np.diff(t)
     if t.size < 2 * RESTART_MIN_ROWS or not np.any(d < 0) or not np.any(d > 0):
         return t, T
