@@ -48,7 +48,8 @@ from simcalib.geometry import rotation_angle_rad
 __all__ = ["find_jumps", "longest_stretches", "station_split", "station_groups", "JUMP_GAIN",
            "OTHER_GAIN", "JUMP_PERSIST", "SPLIT_GAIN", "SPLIT_MIN_DEG"]
 
-#: a step this many times the stream's 90th-percentile speed may be a jump ...
+#: a step this many times the stream's 90th percentiles of step length and speed may be a
+#: jump ...
 JUMP_GAIN = 10.0
 #: ... when its ratio is also this many times the other stream's largest ratio ...
 OTHER_GAIN = 3.0
@@ -197,7 +198,6 @@ def station_groups(sa, sb, synced, shift_s: float = 0.0):
             f"sensors turn alike {split[1]:.0f}x more than within: a bumped target, a moved "
             f"base or camera?); only the larger group ({kept} of {n} poses) is used")
     return out[0], out[1], [note]
-
 
 
 def split_stations(sa, sb, sampling):
