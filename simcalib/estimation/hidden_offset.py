@@ -28,7 +28,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from simcalib.estimation.speeds import apart
+from simcalib.estimation.speeds import above_noise, apart
 
 __all__ = ["continuous", "stamps_hide_offset", "motion_stride", "REGULAR_SHARE",
            "SMOOTH_STEPS", "SMOOTH_GAIN", "STRIDE_TURN_DEG", "STRIDE_NOISE_GAIN",
@@ -117,12 +117,11 @@ def motion_stride(T: np.ndarray, signal: str = "rotation") -> tuple[int, bool]:
     there)."""
     T = np.asarray(T, dtype=np.float64)
     cap = max(1, 2 ** int(np.floor(np.log2(max(T.shape[0] // STRIDES_MIN, 1)))))
-    one = float(np.median(apart(T, 1, signal)))
     k = 1
     while k <= cap:
         m = float(np.median(apart(T, k, signal)))
         turns = signal != "rotation" or m >= np.radians(STRIDE_TURN_DEG)
-        if turns and m >= STRIDE_NOISE_GAIN * one:
+        if turns and above_noise(m, T, signal, STRIDE_NOISE_GAIN):
             return k, True
         k *= 2
     return cap, False
