@@ -121,3 +121,30 @@ def test_sample_number_counters_of_a_continuous_motion(rate_hz, lag, duration_s)
     assert "samples" in cal.sampling.reason
     assert np.degrees(rotation_error_rad(cal.X, rs.X)) < 0.1
     assert 1e3 * np.linalg.norm(cal.X[:3, 3] - rs.X[:3, 3]) < 2.0
+
+
+def test_an_offset_the_check_keeps_at_zero_keeps_its_sigma_in_x():
+    """Shared stamps whose motions do not tell an offset from 0 stay paired at 0, but the
+    stamps do not prove 0: the offset keeps the check's 1-sigma (its sigma and its
+    estimate's distance from 0, as for any offset not told from 0), and X's covariance
+    carries it through b's velocities (it was 0: reported, and added, as exactly 0)."""
+    from simcalib.estimation.alignment import estimate_time_offset
+    from simcalib.estimation.path import _consistency
+    _, a, b = _grid_streams(0.0)
+    sampling = classify_sampling(a, b)
+    smp, off = stamps_hide_offset(a, b, sampling, _shared_offset(sampling))
+    est = estimate_time_offset(a, b)                    # the check's own estimate
+    assert smp.paired_by_stamp and off.decision == "shared_stamps" and off.offset_s == 0.0
+    assert est.decision == "zero" and np.isfinite(est.best_s)
+    assert off.uncertainty_s == est.uncertainty_s > abs(est.best_s) > 0
+    assert off.best_s == est.best_s and off.evidence == est.evidence
+    assert "carried into X's sigma" in off.message
+    cal = calibrate_streams(a, b)
+    given = calibrate_streams(a, b, time_offset=0.0)     # the same pairs, offset given
+    assert cal.sampling.paired_by_stamp and given.sampling.paired_by_stamp
+    assert cal.time_offset.uncertainty_s == off.uncertainty_s
+    np.testing.assert_array_equal(cal.X, given.X)
+    _, _, cov, _ = _consistency(given.motions, given.robust, given.synced, method="dqopt",
+                                alpha=1.0, prior=None, offset_sigma_s=off.uncertainty_s)
+    np.testing.assert_allclose(cal.covariance, cov, rtol=1e-9, atol=0)
+    assert not np.allclose(cal.covariance, given.covariance, rtol=1e-6, atol=0)

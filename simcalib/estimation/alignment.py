@@ -79,6 +79,9 @@ class TimeOffset:
     signal: str = "rotation"
     #: why the cost could not be built, where it could not (0 used with no sigma)
     why_zero: str = ""
+    #: the refined offset the cost put lowest, also where 0 is used instead (``zero``: its
+    #: distance from 0 is in ``uncertainty_s``); NaN where none was refined
+    best_s: float = float("nan")
 
     def offset_at(self, t_a) -> np.ndarray:
         """Offset ``t_b - t_a`` at clock-a times ``t_a``."""
@@ -523,6 +526,7 @@ def _refined(streams, tried, half, kw, drift, msg, fields) -> TimeOffset:
         msg += note
     msg += (f"; refined to {best * 1e3:.2f} +- {sigma * 1e3:.2f} ms by the dqopt cost over "
             f"{chosen.cost.n} motions of {kw['step_s']:.2f} s")
+    told = best
     if decision == "zero":
         # 0 is used where the data put the offset at ``best``: its error is up to that far
         sigma = math.hypot(sigma, best)
@@ -534,4 +538,5 @@ def _refined(streams, tried, half, kw, drift, msg, fields) -> TimeOffset:
         msg += f"; it beats offset 0 with evidence {evidence:.1f} (> {oc.EVIDENCE_MIN:g})"
     return TimeOffset(best, sigma, chosen.centre, drift=d, t_ref_s=t_ref, refined=True,
                       cost_offsets_s=chosen.offsets, cost=chosen.costs, message=msg,
-                      decision=decision, evidence=evidence, split=split, **fields)
+                      decision=decision, evidence=evidence, split=split, best_s=told,
+                      **fields)

@@ -15,8 +15,10 @@ that move a little from each to the next, not station data), the offset is there
 estimated as for two clocks (:func:`simcalib.estimation.alignment.estimate_time_offset`:
 used only when it beats offset 0 on the calibration cost by the evidence rule). When it
 does, the streams are no longer paired by stamp: the faster one is interpolated at the
-slower one's shifted stamps, and the run says why. Otherwise nothing changes (0, paired by
-stamp), so stamps that agree with the motion cost only the check. Sample numbers of two
+slower one's shifted stamps, and the run says why. Otherwise the streams stay paired by
+stamp at offset 0, but the offset keeps the 1-sigma the check found (:func:`kept_at_zero`:
+the estimate's sigma and its distance from 0), which X's covariance carries: the stamps
+do not prove 0, and the motions bound it only that well. Sample numbers of two
 streams that sample one continuous motion (frame counters, a file without a time column)
 are checked alike for a lag between the counters, in samples (:func:`_counter_lag`).
 """
@@ -28,10 +30,10 @@ from dataclasses import replace
 
 import numpy as np
 
-from simcalib.estimation.speeds import apart
+from simcalib.estimation.speeds import above_noise, apart
 
-__all__ = ["continuous", "stamps_hide_offset", "motion_stride", "REGULAR_SHARE",
-           "SMOOTH_STEPS", "SMOOTH_GAIN", "STRIDE_TURN_DEG", "STRIDE_NOISE_GAIN",
+__all__ = ["continuous", "stamps_hide_offset", "kept_at_zero", "motion_stride",
+           "REGULAR_SHARE", "SMOOTH_STEPS", "SMOOTH_GAIN", "STRIDE_TURN_DEG", "STRIDE_NOISE_GAIN",
            "STRIDES_MIN"]
 
 #: a stream is regularly sampled when this share of its stamp steps is within 25 % of the
@@ -77,7 +79,8 @@ def stamps_hide_offset(sa, sb, sampling, off, *, alpha: float = 1.0, drift: bool
     """``(Sampling, TimeOffset)`` to use for streams paired by stamp (``sampling``, ``off``:
     the shared stamps' offset): unpaired, with the estimated offset, when both sample a
     continuous motion and their motions line up at an offset that beats 0 (module doc);
-    paired as before, with the check's outcome in their messages, when it does not; as given
+    paired as before, at offset 0 with the check's 1-sigma (:func:`kept_at_zero`) and its
+    outcome in their messages, when it does not; as given
     for station data and stamps shared after a shift (whose shift is the offset). Sample
     numbers of a continuous motion: :func:`_counter_lag`. ``sa``, ``sb``: the streams in
     their decided reading."""
@@ -99,14 +102,46 @@ def stamps_hide_offset(sa, sb, sampling, off, *, alpha: float = 1.0, drift: bool
     if est.decision != "estimated":
         note = (f"{shared}: poses paired by stamp; both streams sample a continuous motion, "
                 "and no offset of their motions beats 0 (" + (
-                    f"evidence {est.evidence:.3g} <= {EVIDENCE_MIN:g}" if est.evidence is not None
-                    else "the data do not tell one") + "), so 0 is used")
-        return replace(sampling, reason=note), replace(off, message=note)
+                    f"evidence {est.evidence:.3g} <= {EVIDENCE_MIN:g}"
+                    if math.isfinite(est.evidence) else "the data do not tell one")
+                + "), so 0 is used" + _bound_words(est, 1e3, "ms"))
+        return replace(sampling, reason=note), kept_at_zero(off, est, note)
     reason = (f"{shared}, but their motions line up at t_b - t_a = {est.offset_s * 1e3:.2f} "
               f"+- {est.uncertainty_s * 1e3:.2f} ms (evidence {est.evidence:.3g} over "
               "offset 0): one stream's stamps carry a latency, so the faster stream is "
               "interpolated at the slower one's shifted stamps")
     return replace(sampling, kind="continuous", paired_by_stamp=False, reason=reason), est
+
+
+def kept_at_zero(off, est, note: str):
+    """The shared stamps' offset ``off`` (0: the streams stay paired by stamp) carrying
+    what the check ``est`` (a :class:`~simcalib.estimation.alignment.TimeOffset` not told
+    from 0) found: its 1-sigma, ``evidence`` and best offset, and ``note`` as its message.
+
+    Which 1-sigma: the check's ``uncertainty_s``, which for an offset not told from 0 is
+    the root sum of squares of the estimate's sigma and its distance from 0
+    (:func:`~simcalib.estimation.alignment.estimate_time_offset`, decision ``zero``), not
+    the estimate's sigma alone. Offset 0 is used where the motions put the offset at ``e
+    +- s``: the error of using 0 is the true offset, whose spread about 0 given the data
+    is ``sqrt(e^2 + s^2)``. The sigma alone would describe the error of using ``e``, not
+    0 (KITTI: 1.8 ms against 4.2 ms from 0), ``|e|`` alone would ignore that ``e`` is
+    itself uncertain; and as the evidence rule leaves ``|e|`` within ~3 ``s``, the bound
+    is at most ~3.2 ``s``. It is the rule of every offset not told from 0, so a recording
+    gets the same sigma whether its streams share their stamps or not. NaN where the
+    check could not bound an offset (its cost could not be built or kept falling): the
+    sigma is unknown, and nothing is added to X's covariance."""
+    return replace(off, uncertainty_s=float(est.uncertainty_s), evidence=est.evidence,
+                   best_s=est.best_s, message=note)
+
+
+def _bound_words(est, scale: float, unit: str) -> str:
+    """The check's bound on the offset kept at 0, in words (``scale``: to ``unit``)."""
+    if not math.isfinite(est.uncertainty_s):
+        return "; the motions do not bound an offset: its sigma is unknown"
+    best = (f"the motions put it at {est.best_s * scale:.3g} {unit}, "
+            if math.isfinite(est.best_s) else "")
+    return (f"; {best}1-sigma {est.uncertainty_s * scale:.3g} {unit} (the check's sigma "
+            "and its estimate's distance from 0), carried into X's sigma")
 
 
 def motion_stride(T: np.ndarray, signal: str = "rotation") -> tuple[int, bool]:
@@ -117,12 +152,11 @@ def motion_stride(T: np.ndarray, signal: str = "rotation") -> tuple[int, bool]:
     there)."""
     T = np.asarray(T, dtype=np.float64)
     cap = max(1, 2 ** int(np.floor(np.log2(max(T.shape[0] // STRIDES_MIN, 1)))))
-    one = float(np.median(apart(T, 1, signal)))
     k = 1
     while k <= cap:
         m = float(np.median(apart(T, k, signal)))
         turns = signal != "rotation" or m >= np.radians(STRIDE_TURN_DEG)
-        if turns and m >= STRIDE_NOISE_GAIN * one:
+        if turns and above_noise(m, T, signal, STRIDE_NOISE_GAIN):
             return k, True
         k *= 2
     return cap, False
@@ -132,6 +166,7 @@ def _in_samples(est, k: int):
     """The :class:`~simcalib.estimation.alignment.TimeOffset` ``est`` of stamps counted in
     units of ``k`` samples, in samples."""
     return replace(est, offset_s=est.offset_s * k, uncertainty_s=est.uncertainty_s * k,
+                   best_s=est.best_s * k,
                    coarse_offset_s=est.coarse_offset_s * k, lags_s=est.lags_s * k,
                    cost_offsets_s=est.cost_offsets_s * k, drift=est.drift,
                    t_ref_s=est.t_ref_s * k,
@@ -171,8 +206,9 @@ def _counter_lag(sa, sb, sampling, off, *, alpha, drift, signal):
         note = (f"{sampling.reason}; {stride}; no lag between the two counters beats 0 ("
                 + (f"evidence {est.evidence:.3g} <= {EVIDENCE_MIN:g}"
                    if math.isfinite(est.evidence) else "the data do not tell one")
-                + f"; best {est.coarse_offset_s:.4g} samples), so 0 is used")
-        return replace(sampling, reason=note), replace(off, message=note)
+                + f"; best {est.coarse_offset_s:.4g} samples), so 0 is used"
+                + _bound_words(est, 1.0, "samples"))
+        return replace(sampling, reason=note), kept_at_zero(off, est, note)
     note = (f"sample-number stamps, {stride}; their counters lag: t_b - t_a = "
             f"{est.offset_s:.3f} +- {est.uncertainty_s:.2g} samples (evidence "
             f"{est.evidence:.3g} over lag 0), so the faster stream is interpolated at the "

@@ -25,6 +25,7 @@ import numpy as np
 
 from simcalib.errors import DataError
 from simcalib.estimation.interpolation import interpolation_valid, max_hole_s, smooth_poses
+from simcalib.estimation.speeds import NOISE_GAIN, above_noise
 from simcalib.geometry import invert_transform, quat_from_matrix, rotation_angle_rad
 
 __all__ = ["OffsetCost", "StillReference", "split_check", "SplitCheck", "EVIDENCE_MIN",
@@ -36,9 +37,6 @@ __all__ = ["OffsetCost", "StillReference", "split_check", "SplitCheck", "EVIDENC
 #: instead of 0 (the log-likelihood-ratio statistic of Gaussian residuals, ~chi2(1) when
 #: there is no offset: 9 is a 3-sigma decision)
 EVIDENCE_MIN = 9.0
-#: a motion of the translation speeds' cost moves when it is this many times the reference
-#: stream's median pose-to-pose step (:meth:`OffsetCost._moving`)
-NOISE_GAIN = 3.0
 #: independent residual components per motion in the cost (the screw residual of one
 #: motion: 3 of rotation, 3 of translation): the cost's degrees of freedom are this many
 #: per independent motion
@@ -109,14 +107,11 @@ class OffsetCost:
         for o in grid:
             valid &= interpolation_valid(self.t_other, self._query(o), gap)
         ok = valid[self.i] & valid[self.j]
-        moves, what = self._moving(turning)
+        moves, what, moved = self._moving(turning)
         self.mask = ok & moves
-        if self.mask.sum() < MIN_TURNING and part is None:
-            raise StillReference(
-                f"stream {self.reference} {what} over {step_s:g} s in only "
-                f"{int(self.mask.sum())} motion(s) (< {MIN_TURNING}): it moves too little, or "
-                "only across its gaps (stop-and-go, seen only while still), so the cost "
-                "cannot tell an offset")
+        if part is None:
+            self._refuse_still(moved, what, step_s, "rotation" if turning else "translation",
+                               0.5 * (lo_o + hi_o))
         if self.mask.sum() < MIN_TURNING:
             self.mask = ok
         if robust and self.mask.sum() >= 8:
@@ -128,26 +123,56 @@ class OffsetCost:
         self.thin = 2.0
 
 
-    def _moving(self, turning: bool) -> tuple[np.ndarray, str]:
-        """``(mask, words)``: the motions that move in the reference stream: turn by >= 1
-        deg (``turning``), or, for the translation speeds, translate by at least a tenth of
-        the recording's typical motion (its median; the offset shows through the change of
-        velocity, which a standing stream does not have) and by :data:`NOISE_GAIN` times
-        the stream's median step from one pose to the next (its noise where it stands
-        still: a camera seen only while the rig stands still moves by its noise alone
-        over any span within a stop)."""
+    def _moving(self, turning: bool) -> tuple[np.ndarray, str, np.ndarray]:
+        """``(mask, words, moved)``: the motions that move in the reference stream: turn by
+        >= 1 deg (``turning``), or, for the translation speeds, translate by at least a
+        tenth of the recording's typical motion (its median; the offset shows through the
+        change of velocity, which a standing stream does not have) and rise above the
+        stream's pose-to-pose noise (:func:`~simcalib.estimation.speeds.above_noise`: a
+        camera seen only while the rig stands still moves by its noise alone over any
+        span within a stop); ``moved``: every motion's angle (rad) or distance."""
         T, i, j = self.T_ref, self.i, self.j
         if turning:
             R = T[:, :3, :3]
             turn = rotation_angle_rad(np.swapaxes(R[i], 1, 2) @ R[j])
-            return turn >= math.radians(1.0), "turns by >= 1 deg"
-        from simcalib.estimation.speeds import apart
+            return turn >= math.radians(1.0), "turns by >= 1 deg", turn
         from simcalib.estimation.stillness import translates
         d = np.linalg.norm(T[j, :3, 3] - T[i, :3, 3], axis=1)
-        step = float(np.median(apart(T, 1, "translation")))
-        return (translates(d) & (d > NOISE_GAIN * step),
+        return (translates(d) & above_noise(d, T, "translation"),
                 f"translates by a tenth of its median motion and {NOISE_GAIN:g}x its median "
-                "pose-to-pose step or more")
+                "pose-to-pose step or more", d)
+
+    def _refuse_still(self, moved, what: str, step_s: float, signal: str, centre: float):
+        """:class:`StillReference` where the cost cannot tell an offset: fewer than
+        :data:`MIN_TURNING` of its motions move (``what``), or most of them (the median
+        angle or distance, ``moved`` in the reference stream, the other stream's at the
+        bracket's ``centre``) do not rise above either stream's pose-to-pose noise
+        (:func:`~simcalib.estimation.speeds.above_noise`). The evidence rule tests an
+        offset against chance, not against bias: where the motions are mostly noise, the
+        cost's minimum follows the noise sampled at each offset (a barely moving rig with
+        1 deg pose noise: offsets of seconds beat 0 with evidence 20-45), not the clocks."""
+        n = int(self.mask.sum())
+        if n < MIN_TURNING:
+            raise StillReference(
+                f"stream {self.reference} {what} over {step_s:g} s in only {n} motion(s) "
+                f"(< {MIN_TURNING}): it moves too little, or only across its gaps "
+                "(stop-and-go, seen only while still), so the cost cannot tell an offset")
+        C, H = self.motions(centre)
+        other = H if self.reference == "a" else C
+        moved_other = (rotation_angle_rad(other[:, :3, :3]) if signal == "rotation"
+                       else np.linalg.norm(other[:, :3, 3], axis=1))
+        for name, m, T in ((self.reference, moved[self.mask], self.T_ref),
+                           ("b" if self.reference == "a" else "a", moved_other,
+                            self.T_other)):
+            med = float(np.median(m))
+            if not above_noise(med, T, signal):
+                unit, f = (("deg", math.degrees(med)) if signal == "rotation"
+                           else ("mm", 1e3 * med))
+                raise StillReference(
+                    f"the cost's {n} moving motions over {step_s:g} s move stream {name} by "
+                    f"{f:.3g} {unit} (median), within {NOISE_GAIN:g}x its median pose-to-pose "
+                    "motion: mostly pose noise, whose cost would pick an offset by chance, "
+                    "so the cost cannot tell an offset")
 
     def _query(self, offset):
         return self.t_ref + offset if self.reference == "a" else self.t_ref - offset

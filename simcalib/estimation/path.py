@@ -295,10 +295,13 @@ def _consistency(motions, rob, synced, *, method, alpha, prior, offset_sigma_s=0
     return check, weighting, cov, cov_det
 
 
-def _offset_sigma(off, sampling) -> float:
-    """The 1-sigma of the clock offset used (0 for stamp-paired streams and a given
-    offset: nothing estimated)."""
-    if sampling.paired_by_stamp or off.decision in ("given", "shared_stamps"):
+def _offset_sigma(off) -> float:
+    """The 1-sigma of the clock offset used, for X's covariance: 0 for a given offset and
+    for stamps shared as they are (stations) or after a constant shift; for stamps shared
+    by two continuous streams whose motions did not tell an offset from 0, the check's
+    bound (:func:`simcalib.estimation.hidden_offset.kept_at_zero`); 0 where it is unknown
+    (NaN: nothing to add)."""
+    if off.decision == "given":
         return 0.0
     s = float(off.uncertainty_s)
     return s if math.isfinite(s) and s > 0 else 0.0
@@ -380,7 +383,7 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
                        tolerances=tolerances)
     check, weighting, cov, cov_det = _consistency(
         ms, rob, sp, method=method, alpha=alpha, prior=prior,
-        offset_sigma_s=_offset_sigma(off, sampling))
+        offset_sigma_s=_offset_sigma(off))
     cov, cov_det, common_error = _with_common_error(cov, cov_det, rob, check, common_error)
     cov, cov_det = _with_scale(cov, cov_det, rob, check, ms, scale, alpha)
     ms0, plain = _plain(sa, sb, sampling, off, sp, ms, step_s=step_s, alpha=alpha,

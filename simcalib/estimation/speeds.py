@@ -13,8 +13,12 @@ import numpy as np
 
 from simcalib.geometry import rotation_angle_rad
 
-__all__ = ["as_time_poses", "apart", "angular_speed", "translation_speed", "speed_steps",
-           "SPEEDS", "checked_signal"]
+__all__ = ["as_time_poses", "apart", "above_noise", "NOISE_GAIN", "angular_speed",
+           "translation_speed", "speed_steps", "SPEEDS", "checked_signal"]
+
+#: a motion rises above a stream's pose noise when it moves this many times the stream's
+#: median motion from one pose to the next (:func:`above_noise`)
+NOISE_GAIN = 3.0
 
 
 def as_time_poses(stream, name: str = "stream") -> tuple[np.ndarray, np.ndarray]:
@@ -56,6 +60,20 @@ def apart(T: np.ndarray, k: int, signal: str = "rotation") -> np.ndarray:
     if signal == "translation":
         return np.linalg.norm(T[k:, :3, 3] - T[:-k, :3, 3], axis=1)
     return rotation_angle_rad(np.swapaxes(T[:-k, :3, :3], 1, 2) @ T[k:, :3, :3])
+
+
+def above_noise(moved, T: np.ndarray, signal: str = "rotation",
+                gain: float = NOISE_GAIN) -> np.ndarray:
+    """Which of the motions ``moved`` (rotation angles, rad, or distances: ``signal``) of
+    the stream of poses ``T`` (n, 4, 4) rise above its pose-to-pose noise: more than
+    ``gain`` times the median angle (distance) between consecutive poses of ``T``. That
+    median is the noise where the stream stands still (or moves less per sample than its
+    noise), and at most the motion over one sample where it moves: a motion of many
+    samples is ~``k`` times it, while noise alone stays ~1x whatever the span. The one
+    rule for "the motion is more than noise" of the clock offset's cost
+    (:class:`~simcalib.estimation.offset_cost.OffsetCost`) and of the base stride of
+    sample-number stamps (:func:`~simcalib.estimation.hidden_offset.motion_stride`)."""
+    return np.asarray(moved, dtype=np.float64) > gain * float(np.median(apart(T, 1, signal)))
 
 
 def angular_speed(stream, step: int = 1) -> tuple[np.ndarray, np.ndarray]:

@@ -188,12 +188,14 @@ def _vec(v, scale=1.0, digits=3):
 
 def _offset_line(off: dict, sig, sampling: dict) -> str:
     """``time offset t_b - t_a: ...`` in ms, or in samples for sample-number stamps of a
-    continuous motion (``motion_step``: their unit is not known)."""
+    continuous motion (``motion_step``: their unit is not known); ``+- sig`` wherever the
+    offset used has a 1-sigma (estimated, or 0 used where the data do not tell one: the
+    sigma X's covariance carries)."""
     if sampling.get("motion_step"):
         return (f"time offset t_b - t_a: {off['offset_s']:.3f}"
-                + (f" +- {sig:.2g} samples" if sig and off["estimated"] else " samples"))
+                + (f" +- {sig:.2g} samples" if sig else " samples"))
     return (f"time offset t_b - t_a: {1e3 * off['offset_s']:.2f}"
-            + (f" +- {1e3 * sig:.2f} ms" if sig and off["estimated"] else " ms"))
+            + (f" +- {1e3 * sig:.2f} ms" if sig else " ms"))
 
 
 def format_report(rep: dict) -> str:
