@@ -358,12 +358,12 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     ``stamps_unit_a`` / ``_b``: :func:`read_pair`; ``scale_b``: ``auto``, ``estimate`` or
     a number (:mod:`simcalib.estimation.scale`). Bad input raises a DataError."""
     from simcalib.estimation.sampling import classify_sampling
-    from simcalib.estimation.scale import MODES, check_scale_b
+    from simcalib.estimation.scale import MODES, check_scale_b, scaled_stream
     from simcalib.estimation.world_jumps import longest_stretches, split_stations
     scale_b = check_scale_b(scale_b)
     sa0, sb0 = read_pair(a, b, format_a, format_b, stamps_unit_a, stamps_unit_b)
     if scale_b not in MODES:                # a scale given: b's translations divided by it
-        sb0 = _scaled_stream(sb0, 1.0 / float(scale_b))
+        sb0 = scaled_stream(sb0, 1.0 / float(scale_b))
     sa0, sb0, jumps = longest_stretches(sa0, sb0)
     signal = check_streams_move(sa0, sb0)   # translation: no rotation filter (all noise)
     min_rotation_deg = min_rotation_deg if signal == "rotation" else None
@@ -404,11 +404,11 @@ def _scale_pass(p, sa0, sb0, sampling, scale_b, kw):
     ``p`` (:func:`simcalib.estimation.scale.decide_for`); where it rescales, the path runs
     once more with b's translations divided by it, and the scale is estimated again on it
     (the check, ~1)."""
-    from simcalib.estimation.scale import decide_for, estimate_for
+    from simcalib.estimation.scale import decide_for, estimate_for, scaled_stream
     alpha = kw["alpha"]
     scale = decide_for(p.ms, p.sp, p.rob.inlier_mask, scale_b, alpha, UNITS_HINT)
     if scale.rescaled and scale.decision == "rescaled":
-        p = _fit_pass(sa0, _scaled_stream(sb0, 1.0 / scale.used), sampling, **kw)
+        p = _fit_pass(sa0, scaled_stream(sb0, 1.0 / scale.used), sampling, **kw)
         scale = dataclasses.replace(scale, check=estimate_for(p.ms, p.sp, p.rob.inlier_mask,
                                                              alpha))
     return p, scale
@@ -459,12 +459,6 @@ class _Pass(NamedTuple):
     rob: object
     why: str
     sampling: object
-
-
-def _scaled_stream(s, factor: float):
-    """The stream with its translations times ``factor``."""
-    from simcalib.estimation.scale import scaled_poses
-    return dataclasses.replace(s, T_world_sensor=scaled_poses(s.T_world_sensor, factor))
 
 
 def _with_scale(cov, cov_det, rob, check, ms, scale, alpha):

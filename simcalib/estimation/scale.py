@@ -41,7 +41,7 @@ import numpy as np
 __all__ = ["ScaleEstimate", "ScaleDecision", "estimate_scale", "decide", "scaled_motions",
            "scaled_poses", "scale_covariance", "TOLERANCE", "CLEAR_SIGMAS", "FIT_GAIN",
            "MAX_REL_SIGMA", "MIN_MOTIONS", "MIN_POSES", "MODES", "estimate_for", "decide_for",
-           "check_unit_mismatch", "UNIT_RATIOS", "check_scale_b"]
+           "check_unit_mismatch", "UNIT_RATIOS", "check_scale_b", "scaled_stream"]
 
 #: the ``scale_b`` values that are not a number
 MODES = ("auto", "estimate")
@@ -146,6 +146,12 @@ def scaled_motions(H: np.ndarray, factor: float) -> np.ndarray:
 
 
 scaled_poses = scaled_motions       # a pose's translation scales alike
+
+
+def scaled_stream(s, factor: float):
+    """The pose stream (PoseStreamData) with its translations times ``factor``."""
+    from dataclasses import replace
+    return replace(s, T_world_sensor=scaled_poses(s.T_world_sensor, factor))
 
 
 def _solve_X(C, H, w, alpha) -> np.ndarray:
