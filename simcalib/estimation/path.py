@@ -345,18 +345,18 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
                       tolerances=None, common_error=None, stamps_unit_a: str = "auto",
                       stamps_unit_b: str = "auto", scale_b="auto") -> StreamCalibration:
     """Calibrate ``X = T_a_b`` from two pose streams (paths or PoseStreamData), the one path:
-    how the rig moves (:func:`check_streams_move`) -> sampling (:func:`~simcalib.estimation.
-    sampling.classify_sampling`) -> reading and clock offset (:func:`align_and_read`;
-    ``time_offset``: ``"estimate"`` or seconds ``t_b - t_a``) -> synchronised poses ->
-    motions (``motions``: ``auto`` or a policy of :mod:`simcalib.estimation.motions`;
-    ``step_s``; rotation below ``min_rotation_deg`` (unless nothing turns) / above
-    ``max_rotation_deg`` dropped) -> outliers (``robust``: ``auto``, ``ransac``, ``irls``,
-    ``none``) -> ``method`` on the inliers (``prior``: a :class:`simcalib.Prior`) ->
-    uncertainty and its check (:mod:`simcalib.estimation.consistency`); ``tolerances``:
-    :class:`simcalib.estimation.verdict.Tolerances` (1 deg / 1 cm); ``common_error``: a
-    stated :class:`~simcalib.estimation.common_error.CommonError`, added to the covariance;
-    ``stamps_unit_a`` / ``_b``: :func:`read_pair`; ``scale_b``: ``auto``, ``estimate`` or
-    a number (:mod:`simcalib.estimation.scale`). Bad input raises a DataError."""
+    jumps of a world frame (:mod:`~simcalib.estimation.world_jumps`) -> how the rig moves
+    (:func:`check_streams_move`) -> sampling (:mod:`~simcalib.estimation.sampling`) ->
+    reading and clock offset (:func:`align_and_read`; ``time_offset``: ``"estimate"`` or
+    seconds ``t_b - t_a``) -> synchronised poses -> motions (``motions``: ``auto`` or a
+    policy of :mod:`simcalib.estimation.motions`; ``step_s``; rotation below
+    ``min_rotation_deg`` (unless nothing turns) / above ``max_rotation_deg`` dropped) ->
+    outliers (``robust``: ``auto``, ``ransac``, ``irls``, ``none``) -> ``method`` on the
+    inliers (``prior``: a :class:`simcalib.Prior`) -> uncertainty and its check;
+    ``tolerances``: :class:`simcalib.estimation.verdict.Tolerances` (1 deg / 1 cm);
+    ``common_error``: a stated :class:`~simcalib.estimation.common_error.CommonError`;
+    ``stamps_unit_a`` / ``_b``: :func:`read_pair`; ``scale_b``: ``auto``, ``estimate`` or a
+    number (:mod:`simcalib.estimation.scale`). Bad input raises a DataError."""
     from simcalib.estimation.sampling import classify_sampling
     from simcalib.estimation.scale import MODES, check_scale_b, scaled_stream
     from simcalib.estimation.world_jumps import longest_stretches, split_stations
@@ -367,23 +367,20 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     sa0, sb0, jumps = longest_stretches(sa0, sb0)
     signal = check_streams_move(sa0, sb0)   # translation: no rotation filter (all noise)
     min_rotation_deg = min_rotation_deg if signal == "rotation" else None
-    sampling = classify_sampling(sa0, sb0)
-    sa0, sb0, sampling, split = split_stations(sa0, sb0, sampling)
+    sa0, sb0, sampling, split = split_stations(sa0, sb0, classify_sampling(sa0, sb0))
     kw = dict(time_offset=time_offset, drift=drift, alpha=alpha, seed=seed, signal=signal,
               forced={"invert_a": invert_a, "invert_b": invert_b,
                       "scalar_first_a": scalar_first_a, "scalar_first_b": scalar_first_b},
               motions=motions, step_s=step_s, min_rotation_deg=min_rotation_deg,
               max_rotation_deg=max_rotation_deg, robust=robust, method=method,
               robust_options=robust_options)
-    p, scale = _scale_pass(_fit_pass(sa0, sb0, sampling, **kw), sa0, sb0, sampling, scale_b,
-                           kw)
+    p, scale = _scale_pass(_fit_pass(sa0, sb0, sampling, **kw), sa0, sb0, sampling, scale_b, kw)
     sa, sb, conv, off, sp, ms, length_scale, rob, why, sampling = p
     prior = _per_pass(prior, ms.passes)
     rob = _final_solve(ms, rob, method=method, alpha=alpha, prior=prior, seed=seed,
                        tolerances=tolerances)
     check, weighting, cov, cov_det = _consistency(
-        ms, rob, sp, method=method, alpha=alpha, prior=prior,
-        offset_sigma_s=_offset_sigma(off))
+        ms, rob, sp, method=method, alpha=alpha, prior=prior, offset_sigma_s=_offset_sigma(off))
     cov, cov_det, common_error = _with_common_error(cov, cov_det, rob, check, common_error)
     cov, cov_det = _with_scale(cov, cov_det, rob, check, ms, scale, alpha)
     ms0, plain = _plain(sa, sb, sampling, off, sp, ms, step_s=step_s, alpha=alpha,
