@@ -149,7 +149,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(usage(), end="")
             return EXIT_OK if argv else EXIT_USAGE
     cmd, rest = argv[0], argv[1:]
-    _RAN.clear()
+    if not _RUNNING:
+        _RAN.clear()
     try:
         return _run_command(cmd, rest)
     except BrokenPipeError:  # stdout closed early (e.g. piped into `head`): not an error
@@ -188,8 +189,10 @@ def _debug_traceback(debug: bool) -> None:
         traceback.print_exc(file=sys.stderr)
 
 
-#: the command :func:`main` ran last (for :func:`run`)
+#: the command the outermost :func:`main` ran (for :func:`run`: a command may call
+#: ``main`` for another, e.g. ``experiment streams`` runs ``calibrate``)
 _RAN: list[Command] = []
+_RUNNING: list[Command] = []      # the commands running now, outermost first
 
 
 def run(argv: Sequence[str] | None = None):
@@ -216,7 +219,16 @@ def run(argv: Sequence[str] | None = None):
 def _run_command(cmd: str, rest: list[str]) -> int:
     COMMANDS.get(cmd)                 # an unknown name: did you mean ..., available: ...
     command = COMMANDS.info(cmd)
-    _RAN.append(command)
+    if not _RUNNING:
+        _RAN.append(command)
+    _RUNNING.append(command)
+    try:
+        return _load_and_call(cmd, command, rest)
+    finally:
+        _RUNNING.pop()
+
+
+def _load_and_call(cmd: str, command: Command, rest: list[str]) -> int:
     module = command.module
     try:
         fn = command.load()
