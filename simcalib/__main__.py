@@ -1,3 +1,3 @@
-from simcalib.cli import main
+from simcalib.cli import run
 
-raise SystemExit(main())
+run()

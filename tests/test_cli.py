@@ -292,3 +292,61 @@ def test_run_refuses_an_earlier_run_unless_overwrite(tmp_path, capsys):
     assert (out / "results.json").read_text() == first     # untouched
     assert main(["run", *RANDOM_SMALL, "seed=1", "overwrite=true", f"output={out}"]) == 0
     assert (out / "results.json").read_text() != first
+
+
+_QUICK_EXIT_CODE = """
+import atexit, sys, threading, time
+from pathlib import Path
+from simcalib.cli import command, main, run
+out, mode = Path(sys.argv[1]), sys.argv[2]
+
+class Teardown:                       # freed by the interpreter's teardown only
+    def __del__(self):
+        (out / "teardown").write_text("ran")
+
+keep = Teardown()
+
+@command("quick-test", summary="test", quick_exit=mode != "normal")
+def quick(args):
+    atexit.register(lambda: (out / "atexit").write_text("ran"))
+    def late():
+        time.sleep(0.3)
+        (out / "thread").write_text("joined")
+    threading.Thread(target=late).start()        # not a daemon: joined at exit
+    print("no newline", end="")
+    sys.stderr.write("stderr, no newline")
+    return 6
+
+@command("outer-test", summary="test")           # runs quick-test in-process
+def outer(args):
+    return main(["quick-test"])
+
+run(["outer-test" if mode == "nested" else "quick-test"])
+"""
+
+
+@pytest.mark.parametrize("mode", ["quick", "normal", "nested"])
+def test_run_ends_the_process_as_a_normal_exit_does(tmp_path, mode):
+    """``cli.run`` (the process's entry) ends with the command's status, its output
+    flushed, its non-daemon threads joined and the exit handlers run; after a command
+    registered with ``quick_exit`` without the interpreter's teardown, and only when that
+    command is the outermost (not one that another command ran in-process)."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+    root = Path(__file__).resolve().parent.parent
+    env = dict(os.environ, PYTHONPATH=str(root))
+    p = subprocess.run([sys.executable, "-c", _QUICK_EXIT_CODE, str(tmp_path), mode],
+                       capture_output=True, text=True, timeout=120, env=env, cwd=tmp_path)
+    assert p.returncode == 6, p.stderr
+    assert p.stdout == "no newline" and p.stderr == "stderr, no newline"
+    assert (tmp_path / "atexit").read_text() == "ran"
+    assert (tmp_path / "thread").read_text() == "joined"
+    assert (tmp_path / "teardown").exists() is (mode != "quick")
+
+
+def test_calibrate_is_registered_for_a_quick_exit():
+    from simcalib.cli import COMMANDS
+    assert COMMANDS.info("calibrate").quick_exit
+    assert not COMMANDS.info("run").quick_exit

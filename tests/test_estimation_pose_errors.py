@@ -153,12 +153,17 @@ def test_model_covariance_of_a_long_recording_uses_blocks_within_a_few_percent()
     assert np.allclose(np.diag(got), np.diag(dense), rtol=0.05)
 
 
-def test_nearest_poses_by_the_tree_equal_the_brute_force():
-    """The k-d tree with the chord bound finds exactly the k nearest poses of the pose
-    metric (random poses, and a pose recorded twice: its twin is its nearest)."""
+@pytest.mark.parametrize("tree", [True, False])
+def test_nearest_poses_by_the_tree_equal_the_brute_force(tree, monkeypatch):
+    """The k-d tree with the chord bound (and the search over all distances, row by row)
+    finds exactly the k nearest poses of the pose metric (random poses, and a pose
+    recorded twice: its twin is its nearest)."""
     from simcalib import geometry as geo
+    from simcalib.estimation import pose_errors
     from simcalib.estimation.pose_errors import (_nearest_poses, pose_coordinates,
                                                  pose_distances)
+    if tree:
+        monkeypatch.setattr(pose_errors, "ALL_DISTANCES_POSES", 0)
     rng = np.random.default_rng(8)
     T = geo.transform_from_rotation_translation(geo.matrix_from_rotvec(rng.normal(size=(300, 3))),
                                                 rng.normal(scale=0.3, size=(300, 3)))
@@ -171,3 +176,42 @@ def test_nearest_poses_by_the_tree_equal_the_brute_force():
     # the same distances (which of two poses at one distance is taken is a tie)
     np.testing.assert_array_equal(np.sort(np.take_along_axis(D, nb, 1), axis=1), brute)
     assert nb[17][0] == 230 and nb[230][0] == 17
+
+
+@pytest.mark.parametrize("n", [2, 5, 40, 300])
+def test_nearest_poses_from_all_distances_equal_the_tree_s(n, monkeypatch):
+    """Up to ALL_DISTANCES_POSES poses the nearest come from all distances, row by row:
+    the very positions the k-d tree gives (ties, e.g. a pose recorded three times, go to
+    the lower position in both)."""
+    from simcalib import geometry as geo
+    from simcalib.estimation import pose_errors as pe
+    rng = np.random.default_rng(n)
+    T = geo.transform_from_rotation_translation(geo.matrix_from_rotvec(rng.normal(size=(n, 3))),
+                                                rng.normal(scale=0.3, size=(n, 3)))
+    T[n // 2] = T[-1] = T[0]
+    q, p = pe.pose_coordinates(T)
+    k = min(3, n - 1)
+    assert n <= pe.ALL_DISTANCES_POSES
+    every = pe._nearest_poses(q, p, k)
+    monkeypatch.setattr(pe, "ALL_DISTANCES_POSES", 0)
+    np.testing.assert_array_equal(every, pe._nearest_poses(q, p, k))
+    if n > 2:
+        assert every[0][:2].tolist() == [n // 2, n - 1]
+
+
+def test_neighbours_of_a_small_recording_do_not_import_scipy_spatial():
+    import subprocess
+    import sys
+    from pathlib import Path
+    code = ("import sys, numpy as np; from simcalib import geometry as geo; "
+            "from simcalib.estimation.pose_errors import neighbour_pairs; "
+            "rng = np.random.default_rng(0); "
+            "T = geo.transform_from_rotation_translation(geo.matrix_from_rotvec("
+            "rng.normal(size=(200, 3))), rng.normal(size=(200, 3))); "
+            "assert neighbour_pairs(T)['pose'][0].size > 0; "
+            "print('spatial' if 'scipy.spatial' in sys.modules else 'no spatial')")
+    root = Path(__file__).resolve().parent.parent
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=120, cwd=root)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "no spatial"

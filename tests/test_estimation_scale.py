@@ -223,3 +223,38 @@ def test_the_messages_give_the_number_that_divides_b_the_right_way():
     assert "1000 for b in mm against a in m" in UNITS_HINT and "0.001" not in UNITS_HINT
     with pytest.raises(ConfigError, match="1000 for b in mm against a in m"):
         check_scale_b(-1)
+
+
+@pytest.mark.parametrize("batch_motions", [None, 1])
+def test_jackknife_blocks_solved_together_give_each_block_s_own_numbers(batch_motions,
+                                                                       monkeypatch):
+    """The jackknife's blocks go through one batch of solves per iteration (or several
+    batches when the motions exceed BATCH_MOTIONS): each block's scale is bit for bit
+    what its own alternation gives, a block without a positive scale is NaN and the
+    1-sigma is the one of the block-by-block estimates."""
+    import simcalib.estimation.scale as sc
+    if batch_motions is not None:
+        monkeypatch.setattr(sc, "BATCH_MOTIONS", batch_motions)
+    rng = np.random.default_rng(11)
+    A, B, _ = _rig(rng, n=25)
+    B = B.copy()
+    B[:, :3, 3] += rng.normal(0.0, 2e-3, (B.shape[0], 3))    # noise: the blocks differ
+    C, H, i, j = _pairs(A, scaled_motions(B, 1.3))
+    H[:3, :3, 3] *= -1.0     # a block of these alone has no positive scale
+    w = rng.uniform(0.5, 1.0, C.shape[0])
+    s0 = sc._alternate(C, H, w, 1.0, 1.0)[0]
+    blocks = [np.where(keep, w, 0.0) for keep in sc._blocks(25, i, j)]
+    one_by_one = np.array([sc._alternate(C, H, wk, s0, 1.0, robust=False, iterations=20)[0]
+                           for wk in blocks])
+    assert np.isfinite(one_by_one).all() and np.unique(one_by_one).size == len(blocks)
+    g = one_by_one.size
+    sigma = math.sqrt((g - 1) / g * np.sum((one_by_one - one_by_one.mean()) ** 2))
+    assert sc._jackknife_sigma(C, H, w, s0, 1.0, i, j, 25) == sigma
+    few = np.zeros_like(w)
+    few[:3] = 1.0            # the flipped motions: NaN, as one by one
+    W = np.stack(blocks + [few])
+    got = np.concatenate([sc._alternate_blocks(C, H, W[b:b + 4], s0, 1.0, 20)
+                          for b in range(0, W.shape[0], 4)])
+    assert np.array_equal(got[:-1], one_by_one)
+    assert math.isnan(got[-1]) and math.isnan(
+        sc._alternate(C, H, few, s0, 1.0, robust=False, iterations=20)[0])

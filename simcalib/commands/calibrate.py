@@ -54,7 +54,8 @@ def _recording_off(args) -> bool:
 
 
 @command('calibrate', summary='calibrate X from two recorded pose files (offset, outliers)',
-         usage='calibrate a=PATH b=PATH output=DIR [key=value ...]')
+         usage='calibrate a=PATH b=PATH output=DIR [key=value ...]',
+         quick_exit=True)      # every output is closed when main returns
 def main(args: list[str]) -> int:
     if any(a in ("-h", "--help") for a in args):
         print(help_text(), end="")

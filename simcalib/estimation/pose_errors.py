@@ -47,7 +47,8 @@ from simcalib.geometry import (chordal_mean_rotation, dual_quat_from_transform,
 
 __all__ = ["fit_world", "pose_residuals", "pose_sensitivity", "body_velocities", "noise_determined", "pose_coordinates",
            "pose_distances", "PairDesign", "pair_design", "ErrorModel", "fit_error_model",
-           "model_covariance", "psd", "neighbour_pairs", "neighbour_correlation", "MAX_PAIRS_POSES", "TIME_LAGS", "KERNEL_BLOCKS"]
+           "model_covariance", "psd", "neighbour_pairs", "neighbour_correlation", "MAX_PAIRS_POSES", "TIME_LAGS", "KERNEL_BLOCKS",
+           "ALL_DISTANCES_POSES"]
 
 #: poses whose every pair enters the variogram fit (beyond: an even subsample of them)
 MAX_PAIRS_POSES = 150
@@ -238,18 +239,28 @@ def neighbour_pairs(T_a, k_pose: int = 3, k_time: int = 2) -> dict:
     return {"pose": (P[:, 0], P[:, 1]), "time": T}
 
 
+#: up to this many poses the nearest are found among all distances, row by row (no k-d
+#: tree: importing scipy's spatial package costs ~0.05-0.1 s, and below ~1000 poses the
+#: search over all is no slower than the tree's)
+ALL_DISTANCES_POSES = 1000
+
+
 def _nearest_poses(q, p, k: int) -> np.ndarray:
     """``(n, k)`` indices of each pose's ``k`` nearest other poses in the metric of
-    :func:`pose_distances`, exactly, in O(n log n): ``angle >= 2 chord`` (``chord = |q -
-    q'|`` for the nearer sign) makes the Euclidean distance in the embedding ``(2q, p)``
-    (both signs of q) a lower bound of the pose distance. A k-d tree gives each pose's
-    ``k`` nearest by that bound; their exact distances bound the k-th nearest, ``t``;
-    every pose whose bound is at most ``t`` is a candidate, and the exact distances of the
-    candidates give the answer."""
-    from scipy.spatial import cKDTree
+    :func:`pose_distances`, exactly (ties: the lower index), in O(n log n): ``angle >= 2
+    chord`` (``chord = |q - q'|`` for the nearer sign) makes the Euclidean distance in the
+    embedding ``(2q, p)`` (both signs of q) a lower bound of the pose distance. A k-d tree
+    gives each pose's ``k`` nearest by that bound; their exact distances bound the k-th
+    nearest, ``t``; every pose whose bound is at most ``t`` is a candidate, and the exact
+    distances of the candidates give the answer. Up to :data:`ALL_DISTANCES_POSES` poses:
+    from all distances, row by row (the same answer)."""
     n = q.shape[0]
     if k <= 0:
         return np.zeros((n, 0), dtype=np.int64)
+    if n <= ALL_DISTANCES_POSES:
+        every = np.arange(n)
+        return np.stack([_k_nearest(q, p, i, every, k) for i in range(n)])
+    from scipy.spatial import cKDTree
     emb = np.concatenate([np.hstack([2.0 * q, p]), np.hstack([-2.0 * q, p])])
     tree = cKDTree(emb)
     m = min(2 * n, 2 * (k + 1))      # both signs of each pose: 2 (k + 1) cover k others
@@ -272,7 +283,13 @@ def _exact_k(q, p, i: int, first: np.ndarray, k: int, tree) -> np.ndarray:
     r = t * (1.0 + 1e-9) + 1e-6
     ball = np.unique(np.asarray(tree.query_ball_point(np.hstack([2.0 * q[i], p[i]]), r),
                                 dtype=np.int64) % n) if np.isfinite(t) else np.arange(n)
-    ball = ball[ball != i]
+    return _k_nearest(q, p, i, ball, k)
+
+
+def _k_nearest(q, p, i: int, candidates: np.ndarray, k: int) -> np.ndarray:
+    """The ``k`` nearest poses to pose ``i`` among ``candidates`` (ascending positions;
+    ``i`` itself left out) by the exact distance, the lower position first on a tie."""
+    ball = candidates[candidates != i]
     d = pose_distances(q[i:i + 1], p[i:i + 1], q[ball], p[ball])[0]
     return ball[np.argsort(d, kind="stable")[:k]]
 

@@ -62,6 +62,9 @@ MIN_MOTIONS = 6
 MIN_POSES = 4
 #: blocks of the delete-a-group jackknife
 BLOCKS = 10
+#: the jackknife solves its blocks together, as many a batch as keep the batch's motions
+#: (blocks x motions) within this (a long recording's blocks go a few at a time)
+BATCH_MOTIONS = 200_000
 _ITERATIONS = 60
 
 
@@ -207,6 +210,31 @@ def _alternate(C, H, w, s0, alpha, robust=True, iterations=_ITERATIONS):
     return s, X, wk, k
 
 
+def _alternate_blocks(C, H, W, s0, alpha, iterations) -> np.ndarray:
+    """``_alternate(C, H, W[g], s0, alpha, robust=False, iterations)[0]`` for every row
+    ``g`` of the weights ``W`` (G, N), the same numbers, with one batch of solves per
+    iteration over the rows still moving."""
+    from simcalib.solvers.batch_solve import solve_batch
+    s = np.full(W.shape[0], float(s0))
+    moving = np.ones(W.shape[0], dtype=bool)
+    for _ in range(iterations):
+        rows = np.flatnonzero(moving)
+        if rows.size == 0:
+            break
+        Hs = np.stack([scaled_motions(H, 1.0 / s[g]) for g in rows])
+        X = solve_batch(np.broadcast_to(C, Hs.shape), Hs, method="dqopt", alpha=alpha,
+                        weights=W[rows]).X
+        for Hg, Xg, g in zip(Hs, X, rows):
+            u = _linear(C, Hg, Xg[:3, :3], W[g])[0]
+            if not (math.isfinite(u) and u > 0.0):
+                s[g], moving[g] = math.nan, False
+                continue
+            s_new = s[g] / u
+            moving[g] = abs(s_new - s[g]) > 1e-13 * s[g]
+            s[g] = s_new
+    return s
+
+
 # ---------------------------------------------------------------------- the estimate
 def _blocks(n_poses: int, i: np.ndarray, j: np.ndarray) -> list[np.ndarray]:
     """Per block of contiguous synchronised poses: the motions that use none of its poses."""
@@ -220,13 +248,11 @@ def _blocks(n_poses: int, i: np.ndarray, j: np.ndarray) -> list[np.ndarray]:
 def _jackknife_sigma(C, H, w, s, alpha, i, j, n_poses) -> float:
     """The delete-a-group jackknife's 1-sigma of the scale (weights kept from the full
     fit: the blocks move the estimate, not the outlier decisions)."""
-    est = []
-    for keep in _blocks(n_poses, i, j):
-        wk = np.where(keep, w, 0.0)
-        if int((wk > 0).sum()) < MIN_MOTIONS:
-            continue
-        est.append(_alternate(C, H, wk, s, alpha, robust=False, iterations=20)[0])
-    est = np.asarray(est)
+    W = [wk for wk in (np.where(keep, w, 0.0) for keep in _blocks(n_poses, i, j))
+         if int((wk > 0).sum()) >= MIN_MOTIONS]
+    per = max(1, BATCH_MOTIONS // max(C.shape[0], 1))
+    est = np.concatenate([_alternate_blocks(C, H, np.asarray(W[b:b + per]), s, alpha, 20)
+                          for b in range(0, len(W), per)]) if W else np.zeros(0)
     if est.size < 3 or not np.isfinite(est).all():
         return math.inf
     g = est.size
