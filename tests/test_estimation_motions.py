@@ -43,3 +43,21 @@ def test_translation_stations_need_stillness_and_several_poses_each():
     assert station_runs(_gantry(step_m=0.5 * STATION_STEP_M, frames=4)) is None
     # a track that moves far between every pose (a car at 10 Hz): one pose a "station"
     assert station_runs(_gantry(stations=40, frames=1)) is None
+
+
+def test_span_pairs_end_does_not_depend_on_the_stamps_jitter():
+    """Motions over a step of exactly k periods end k samples later whatever the stamps'
+    jitter (below half a period). Joined to the first stamp a hair short of the step
+    later, a motion ended k samples later only when that stamp ran late enough, else one
+    sample further: the chosen ends ran late on average, and the clock offset read from
+    such motions was biased (~0.1 ms with 1 ms of jitter at 30 Hz)."""
+    from simcalib.estimation.motions import span_pairs
+    rng = np.random.default_rng(3)
+    t = 1000.0 + np.arange(600) / 30.0 + rng.normal(0.0, 0.001, 600)
+    i, j = span_pairs(t, 1.0)
+    assert i.size == 570 and np.array_equal(j, i + 30)
+    # a dropped frame: the motions that would end on it end one sample later
+    t_drop = np.delete(t, 300)
+    i, j = span_pairs(t_drop, 1.0)
+    assert set(np.unique(j - i)) == {29, 30}
+    assert np.all(t_drop[j] - t_drop[i] >= 1.0 - 0.5 / 30.0)

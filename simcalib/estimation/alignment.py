@@ -39,8 +39,9 @@ class TimeOffset:
     """Estimated clock offset ``offset_s = t_b - t_a`` (at ``t_ref_s`` in clock a when a
     ``drift`` (s/s) is estimated).
 
-    ``uncertainty_s``: 1-sigma from the curvature of the calibration cost (it treats the
-    motion residuals as independent after thinning by the motion step), raised to the
+    ``uncertainty_s``: 1-sigma from the curvature of the calibration cost (its residuals
+    white, times the motions' sharing of poses: :meth:`~simcalib.estimation.offset_cost.
+    OffsetCost.thin_at`), raised to the
     spread of the offsets of contiguous parts of the overlap where that spread is beyond
     chance (``split``: :class:`simcalib.estimation.offset_cost.SplitCheck`); when 0 is used
     because the data do not tell the offset apart from it (``decision`` "zero"), the root

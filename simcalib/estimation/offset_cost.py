@@ -30,8 +30,8 @@ from simcalib.geometry import invert_transform, quat_from_matrix, rotation_angle
 
 __all__ = ["OffsetCost", "StillReference", "split_check", "SplitCheck", "EVIDENCE_MIN",
            "RESIDUALS_PER_MOTION", "OFFSET_STEP_S", "SPLIT_PARTS", "SPLIT_LEVEL", "MIN_TURNING",
-           "MAX_SLIDES", "CLEAR_SIGMA_S", "NOISE_GAIN", "in_doubt", "both_translate",
-           "clearer"]
+           "MAX_SLIDES", "CLEAR_SIGMA_S", "NOISE_GAIN", "THIN_MIN", "THIN_MAX", "in_doubt",
+           "both_translate", "clearer"]
 
 #: ``n_eff ln(cost at 0 / cost at the estimate)`` above which an estimated offset is used
 #: instead of 0 (the log-likelihood-ratio statistic of Gaussian residuals, ~chi2(1) when
@@ -51,6 +51,14 @@ SPLIT_LEVEL = 0.95
 
 #: the offset cost needs this many motions that turn (>= 1 deg) in the reference stream
 MIN_TURNING = 8
+#: bounds of :meth:`OffsetCost.thin_at`: the shared poses' noise at most doubles the
+#: offset's variance (two motions a pose, fully adding up); the offset is not claimed
+#: better known than from independent motions (the cancellation a smooth path gives the
+#: pose noise is real, but stamp jitter and stretches that barely move do not cancel)
+THIN_MIN = 1.0
+THIN_MAX = 2.0
+#: the step of the offset (s) over which the residuals' derivative is taken
+SLOPE_STEP_S = 1e-4
 
 
 class StillReference(DataError):
@@ -117,10 +125,7 @@ class OffsetCost:
         if robust and self.mask.sum() >= 8:
             self._keep_inliers(0.5 * (lo_o + hi_o))
         self.n = int(self.mask.sum())
-        # each reference pose ends one motion and starts another: pairs of motions share
-        # it, so the residuals count as half as many independent ones (the kernel smoothing
-        # spans less than a reference period)
-        self.thin = 2.0
+        self._thin: dict = {}
 
 
     def _moving(self, turning: bool) -> tuple[np.ndarray, str, np.ndarray]:
@@ -173,6 +178,43 @@ class OffsetCost:
                     f"{f:.3g} {unit} (median), within {NOISE_GAIN:g}x its median pose-to-pose "
                     "motion: mostly pose noise, whose cost would pick an offset by chance, "
                     "so the cost cannot tell an offset")
+
+    def thin_at(self, offset) -> float:
+        """The offset's variance over the white-noise one of the cost's curvature (which
+        treats the motions' residuals as independent), at ``offset``. Motions share poses:
+        each reference pose ends one motion and starts the next (after a gap or a dropped
+        frame several end on one), and its noise, and the other stream's at the same
+        query, enters both. With ``s_i`` the slope of motion i's squared residual along the
+        offset (its residual times the residual's derivative, X held at its optimum), the
+        slope of the cost varies as ``sum_p (sum_{i touches p} s_i)^2 - sum_i s_i^2`` over
+        the reference poses p, against ``sum_i s_i^2`` for independent motions: their ratio.
+        Along a smooth path a shared pose's noise enters its two motions with opposite
+        signs and nearly cancels (ratio below 1, held to :data:`THIN_MIN`); where the path
+        reverses within a step it adds up (up to :data:`THIN_MAX`, the factor once used
+        for every recording). Cached per offset."""
+        key = float(offset)
+        if key not in self._thin:
+            self._thin[key] = self._chain_ratio(key)
+        return self._thin[key]
+
+    def _chain_ratio(self, offset) -> float:
+        from simcalib.solvers.api import solve
+        from simcalib.solvers.diagnostics.observability import _residuals
+        if self.n < 3:
+            return THIN_MAX
+        C, H = self.motions(offset)
+        X = solve(C, H, method="dqopt", alpha=self.alpha).X
+        d = SLOPE_STEP_S
+        g = (_residuals(*self.motions(offset + d), X, self.alpha)
+             - _residuals(*self.motions(offset - d), X, self.alpha)) / (2.0 * d)
+        s = np.sum(g * _residuals(C, H, X, self.alpha), axis=1)
+        white = float(np.sum(s * s))
+        if not (math.isfinite(white) and white > 0.0):
+            return THIN_MAX
+        m = self.t_ref.size
+        per_pose = (np.bincount(self.i[self.mask], s, minlength=m)
+                    + np.bincount(self.j[self.mask], s, minlength=m))
+        return float(np.clip(float(np.sum(per_pose ** 2)) / white - 1.0, THIN_MIN, THIN_MAX))
 
     def _query(self, offset):
         return self.t_ref + offset if self.reference == "a" else self.t_ref - offset
@@ -306,7 +348,7 @@ def _decide(tried, half):
         return chosen, "estimated", float("nan"), float("nan")
     z = zero[0]
     j_zero = (z.origin or z.cost)(0.0)
-    n_eff = RESIDUALS_PER_MOTION * chosen.cost.n / chosen.cost.thin
+    n_eff = RESIDUALS_PER_MOTION * chosen.cost.n / chosen.cost.thin_at(chosen.best)
     if not (math.isfinite(j_zero) and chosen.cost_best > 0):
         return chosen, "estimated", float("nan"), j_zero
     evidence = n_eff * math.log(j_zero / chosen.cost_best)
@@ -359,12 +401,14 @@ def clearer(first, second):
     return dataclasses.replace(best, message=best.message + note)
 
 
-def _offset_and_sigma(r: _Refined) -> tuple[float, float]:
+def _offset_and_sigma(r: _Refined, worst_case: bool = False) -> tuple[float, float]:
     """The refined offset and its 1-sigma from the cost's curvature: ``2 J / (m J'')`` for
-    ``m`` independent residual components (:data:`RESIDUALS_PER_MOTION` per motion, the
-    motions counted once per pose they share)."""
+    ``m`` independent residual components (:data:`RESIDUALS_PER_MOTION` per motion), times
+    the motions' sharing of poses (:meth:`OffsetCost.thin_at`; ``worst_case``: the most it
+    can be, :data:`THIN_MAX`)."""
     if r.curvature > 0 and r.cost.n > 0 and not r.unbounded:
-        return r.best, math.sqrt(2.0 * r.cost_best * r.cost.thin
+        thin = THIN_MAX if worst_case else r.cost.thin_at(r.best)
+        return r.best, math.sqrt(2.0 * r.cost_best * thin
                                  / (RESIDUALS_PER_MOTION * r.cost.n * r.curvature))
     return r.best, float("nan")
 
@@ -411,7 +455,10 @@ def split_check(ta, Ta, tb, Tb, best, half, kw, window) -> SplitCheck:
     stretches of the recording, so errors that are not white (a tracker's drift, a
     target's systematic error, interpolation) move their estimates apart beyond what
     their curvatures predict: that dispersion then scales the sigma of their combination
-    (quasi-likelihood), and the reported sigma is at least that."""
+    (quasi-likelihood), and the reported sigma is at least that. Each part's sigma takes
+    the most the motions' sharing of poses can give (:data:`THIN_MAX`): the check is for
+    errors that are not white, and a part's own estimate of the sharing (a quarter of the
+    motions, some parts barely moving) is not one to test the others against."""
     from scipy.special import chdtri
     parts = int(min(SPLIT_PARTS, (window[1] - window[0]) // (4 * kw["step_s"])))
     offs, sigs = [], []
@@ -422,7 +469,8 @@ def split_check(ta, Ta, tb, Tb, best, half, kw, window) -> SplitCheck:
             continue
         if c.n < 8:
             continue
-        o, sg = _offset_and_sigma(_Refined(best, *_refine(c, best, half), c))
+        o, sg = _offset_and_sigma(_Refined(best, *_refine(c, best, half), c),
+                                  worst_case=True)
         if math.isfinite(sg) and sg > 0:
             offs.append(o)
             sigs.append(sg)
