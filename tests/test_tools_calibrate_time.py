@@ -3,7 +3,7 @@
 import pytest
 
 from simcalib.studies.experiments.real_sets import real_dir
-from simcalib.tools.calibrate_time import main
+from simcalib.tools.calibrate_time import main, run_env
 
 
 @pytest.mark.slow
@@ -24,3 +24,13 @@ def test_says_what_it_did_not_find(tmp_path, capsys):
     (tmp_path / "one").mkdir()
     assert main(["--data", str(tmp_path), "--sets", "nothing_here"]) == 2
     assert "nothing_here" in capsys.readouterr().err
+
+
+def test_runs_use_the_bytecode_cache_as_an_installation_does(monkeypatch):
+    monkeypatch.setenv("PYTHONDONTWRITEBYTECODE", "1")
+    monkeypatch.delenv("MUJOCO_GL", raising=False)
+    env = run_env()
+    assert "PYTHONDONTWRITEBYTECODE" not in env and env["MUJOCO_GL"] == "egl"
+    assert "NUMBA_CACHE_DIR" not in env or env["NUMBA_CACHE_DIR"] == __import__(
+        "os").environ.get("NUMBA_CACHE_DIR")
+    assert run_env("/tmp/empty-cache")["NUMBA_CACHE_DIR"] == "/tmp/empty-cache"
