@@ -78,7 +78,7 @@ def test_cache_fill_child_runs_idle_once_and_writes_the_stamp(tmp_path, monkeypa
     assert proc is not None
     assert jit.stamp_path("filling").read_text() == str(proc.pid)
     assert jit.start_cache_fill() is None          # one child at a time
-    assert proc.wait(timeout=60) == 0
+    assert proc.wait(timeout=240) == 0      # a full compile at idle priority: slow under load
     assert jit.kernels_cached()
     assert not jit.stamp_path("filling").exists()
     policy, own_group = map(int, (tmp_path / "policy").read_text().split())
