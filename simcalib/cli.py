@@ -202,18 +202,8 @@ def run(argv: Sequence[str] | None = None):
     status = main(argv)
     if not (_RAN and _RAN[-1].quick_exit):
         sys.exit(status)
-    import atexit
-    import threading
-    try:
-        threading._shutdown()     # what the interpreter's exit does first ...
-        atexit._run_exitfuncs()   # ... then
-    finally:
-        for stream in (sys.stdout, sys.stderr):
-            try:
-                stream.flush()
-            except (OSError, ValueError, AttributeError):
-                pass
-        os._exit(status)
+    from simcalib.parallel import exit_now
+    exit_now(status, join_threads=True)
 
 
 def _run_command(cmd: str, rest: list[str]) -> int:

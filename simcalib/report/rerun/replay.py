@@ -19,9 +19,9 @@ a method call on a decoded object. SIGINT is ignored (a Ctrl-C of the run closes
 recording through the run loop, which sends ``close``); when the run's process is gone
 without sending it, the worker closes the recording with what it received.
 STATUS_JSON gets ``{"import_s", "log_s", "calls", "errors"}``; errors also go to stderr.
-The worker then ends at once (:func:`_exit_now`: rerun's exit handler runs, the
-interpreter's teardown of rerun, pyarrow and numpy, 0.1-0.3 s that the run would wait for,
-does not).
+The worker then ends at once (:func:`simcalib.parallel.exit_now`: rerun's exit handler
+runs, the interpreter's teardown of rerun, pyarrow and numpy, 0.1-0.3 s that the run would
+wait for, does not).
 """
 
 from __future__ import annotations
@@ -139,23 +139,6 @@ def main(argv) -> int:
     return 1 if errors else 0
 
 
-def _exit_now(code: int) -> None:
-    """End the process with ``code`` once the recording is closed and the status written:
-    the exit handlers (rerun's shutdown) run and the standard streams are flushed, but not
-    the interpreter's teardown (freeing rerun, pyarrow and numpy: 0.1-0.3 s, which the run
-    waits for)."""
-    import atexit
-    import os
-    try:
-        atexit._run_exitfuncs()
-    finally:
-        for stream in (sys.stdout, sys.stderr):
-            try:
-                stream.flush()
-            except (OSError, ValueError, AttributeError):
-                pass
-        os._exit(code)
-
-
 if __name__ == "__main__":
-    _exit_now(main(sys.argv))
+    from simcalib.parallel import exit_now
+    exit_now(main(sys.argv))
