@@ -45,9 +45,10 @@ from simcalib.geometry import (chordal_mean_rotation, dual_quat_from_transform,
                                invert_transform, quat_conjugate, quat_from_matrix,
                                rotvec_from_matrix)
 
-__all__ = ["fit_world", "pose_residuals", "pose_sensitivity", "body_velocities", "noise_determined", "pose_coordinates",
-           "pose_distances", "PairDesign", "pair_design", "ErrorModel", "fit_error_model",
-           "model_covariance", "psd", "neighbour_pairs", "neighbour_correlation", "MAX_PAIRS_POSES", "TIME_LAGS", "KERNEL_BLOCKS",
+__all__ = ["fit_world", "pose_residuals", "pose_sensitivity", "body_velocities",
+           "noise_determined", "pose_coordinates", "pose_distances", "PairDesign", "pair_design",
+           "ErrorModel", "fit_error_model", "model_covariance", "psd", "neighbour_pairs",
+           "neighbour_correlation", "MAX_PAIRS_POSES", "TIME_LAGS", "KERNEL_BLOCKS",
            "ALL_DISTANCES_POSES"]
 
 #: poses whose every pair enters the variogram fit (beyond: an even subsample of them)
