@@ -117,16 +117,16 @@ class OffsetCost:
         ok = valid[self.i] & valid[self.j]
         moves, what, moved = self._moving(turning)
         self.mask = ok & moves
+        centre, at_centre = 0.5 * (lo_o + hi_o), None
         if part is None:
-            self._refuse_still(moved, what, step_s, "rotation" if turning else "translation",
-                               0.5 * (lo_o + hi_o))
+            at_centre = self._refuse_still(moved, what, step_s,
+                                           "rotation" if turning else "translation", centre)
         if self.mask.sum() < MIN_TURNING:
-            self.mask = ok
+            self.mask, at_centre = ok, None
         if robust and self.mask.sum() >= 8:
-            self._keep_inliers(0.5 * (lo_o + hi_o))
+            self._keep_inliers(centre, at_centre)
         self.n = int(self.mask.sum())
         self._thin: dict = {}
-
 
     def _moving(self, turning: bool) -> tuple[np.ndarray, str, np.ndarray]:
         """``(mask, words, moved)``: the motions that move in the reference stream: turn by
@@ -155,7 +155,8 @@ class OffsetCost:
         (:func:`~simcalib.estimation.speeds.above_noise`). The evidence rule tests an
         offset against chance, not against bias: where the motions are mostly noise, the
         cost's minimum follows the noise sampled at each offset (a barely moving rig with
-        1 deg pose noise: offsets of seconds beat 0 with evidence 20-45), not the clocks."""
+        1 deg pose noise: offsets of seconds beat 0 with evidence 20-45), not the clocks.
+        Returns the motions ``(C, H)`` at ``centre`` it formed."""
         n = int(self.mask.sum())
         if n < MIN_TURNING:
             raise StillReference(
@@ -178,6 +179,7 @@ class OffsetCost:
                     f"{f:.3g} {unit} (median), within {NOISE_GAIN:g}x its median pose-to-pose "
                     "motion: mostly pose noise, whose cost would pick an offset by chance, "
                     "so the cost cannot tell an offset")
+        return C, H
 
     def thin_at(self, offset) -> float:
         """The offset's variance over the white-noise one of the cost's curvature (which
@@ -227,10 +229,12 @@ class OffsetCost:
         i, j = self.i[self.mask], self.j[self.mask]
         return invert_transform(T_a[i]) @ T_a[j], invert_transform(T_b[i]) @ T_b[j]
 
-    def _keep_inliers(self, offset):
+    def _keep_inliers(self, offset, motions=None):
+        """Drop the motions RANSAC rejects at ``offset`` (``motions``: their ``(C, H)``
+        there, when already formed with the current mask)."""
         from simcalib.solvers.robust import ransac
         self.n = int(self.mask.sum())
-        C, H = self.motions(offset)
+        C, H = self.motions(offset) if motions is None else motions
         try:
             inl = ransac(C, H, alpha=self.alpha, rng=np.random.default_rng(0),
                          max_iterations=256).inlier_mask

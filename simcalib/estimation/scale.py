@@ -188,6 +188,17 @@ def _cauchy(r, mask) -> np.ndarray:
     return np.where(mask, 1.0 / (1.0 + (r / c) ** 2), 0.0)
 
 
+def _scale_step(C, Hs, X, w, s) -> tuple[float, np.ndarray, bool]:
+    """One alternation step after X (``Hs``: b's motions at the scale ``s``): ``(s_new,
+    residual norms, converged)``; ``s_new`` NaN (converged) where the linear fit gives no
+    positive ``u``."""
+    u, _, r = _linear(C, Hs, X[:3, :3], w)
+    if not (math.isfinite(u) and u > 0.0):
+        return math.nan, r, True
+    s_new = s / u
+    return s_new, r, abs(s_new - s) <= 1e-13 * s
+
+
 def _alternate(C, H, w, s0, alpha, robust=True, iterations=_ITERATIONS):
     """``(s, X, weights, iterations)``: X by dqopt at the current scale, then ``(t_X, u)``
     by weighted least squares with X's rotation, until the scale stops moving; Cauchy
@@ -197,16 +208,14 @@ def _alternate(C, H, w, s0, alpha, robust=True, iterations=_ITERATIONS):
     for k in range(1, iterations + 1):
         Hs = scaled_motions(H, 1.0 / s)
         X = _solve_X(C, Hs, wk, alpha)
-        u, _, r = _linear(C, Hs, X[:3, :3], wk)
-        if not (math.isfinite(u) and u > 0.0):
+        s_new, r, done = _scale_step(C, Hs, X, wk, s)
+        if not math.isfinite(s_new):
             return math.nan, X, wk, k
-        s_new = s / u
         if robust:
             wk = w * _cauchy(r, mask)
-        if abs(s_new - s) <= 1e-13 * s:
-            s = s_new
-            break
         s = s_new
+        if done:
+            break
     return s, X, wk, k
 
 
@@ -225,13 +234,8 @@ def _alternate_blocks(C, H, W, s0, alpha, iterations) -> np.ndarray:
         X = solve_batch(np.broadcast_to(C, Hs.shape), Hs, method="dqopt", alpha=alpha,
                         weights=W[rows]).X
         for Hg, Xg, g in zip(Hs, X, rows):
-            u = _linear(C, Hg, Xg[:3, :3], W[g])[0]
-            if not (math.isfinite(u) and u > 0.0):
-                s[g], moving[g] = math.nan, False
-                continue
-            s_new = s[g] / u
-            moving[g] = abs(s_new - s[g]) > 1e-13 * s[g]
-            s[g] = s_new
+            s_new, _, done = _scale_step(C, Hg, Xg, W[g], s[g])
+            s[g], moving[g] = s_new, not done
     return s
 
 
@@ -336,7 +340,8 @@ def decide(mode, estimate: ScaleEstimate | None) -> ScaleDecision:
             from simcalib.errors import DataError
             raise DataError(f"scale_b=estimate: the data cannot tell the scale of stream b's "
                             f"translations ({why}); give scale_b=<number> (b's translations over "
-                            "a metric b's: 1000 for b in mm against a in m) or scale_b=auto (1 unless the data tell otherwise)")
+                            "a metric b's: 1000 for b in mm against a in m) or scale_b=auto "
+                            "(1 unless the data tell otherwise)")
         return ScaleDecision(mode, 1.0, "not_told", f"b's scale not told by the data ({why}):"
                              " 1 used", 0.0, e)
     dev = abs(e.scale - 1.0)
