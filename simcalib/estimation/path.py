@@ -124,7 +124,7 @@ def read_pair(a, b, format_a=None, format_b=None, unit_a="auto", unit_b="auto"):
                              unit_a, unit_b)
 
 
-def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift=False, alpha=1.0,
+def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift="auto", alpha=1.0,
                    seed=0, forced=None, signal="rotation"):
     """The streams' reading and their clock offset, decided in that order and checked
     again: the reading at the correlation's (reading-free) offset, the offset refined with
@@ -339,7 +339,7 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
                       step_s: float = 1.0, min_rotation_deg: float = 2.0,
                       max_rotation_deg: float | None = None, invert_a: bool | None = None,
                       invert_b: bool | None = None, scalar_first_a: bool | None = None,
-                      scalar_first_b: bool | None = None, drift: bool = False,
+                      scalar_first_b: bool | None = None, drift="auto",
                       robust_options: dict | None = None, method: str = "dqopt",
                       prior=None, seed: int = 0, motions: str = "auto",
                       tolerances=None, common_error=None, stamps_unit_a: str = "auto",

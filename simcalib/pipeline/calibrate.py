@@ -69,7 +69,10 @@ class CalibrateOptions:
         "(docs/calibrate.md, Streams of unknown scale)"))
     time_offset: float | Literal["estimate"] = field(default="estimate", metadata=key_help(
         "clock offset t_b - t_a in seconds, or 'estimate'"))
-    drift: bool = field(default=False, metadata=key_help("also estimate a linear clock drift"))
+    drift: bool | Literal["auto"] = field(default="auto", metadata=key_help(
+        "a linear clock drift between the files' clocks: auto: fitted where the offsets of "
+        "contiguous parts of the recording lie on a line that explains their spread "
+        "(docs/calibrate.md, Time alignment); true: always fitted; false: one offset"))
     robust: Literal["auto", "ransac", "irls", "none"] = field(default="auto", metadata=key_help(
         "outlier rejection over motions (auto: RANSAC where the motions give minimal sets, "
         "IRLS where they do not, none below 8 motions)"))
@@ -157,8 +160,8 @@ class CalibrateOptions:
         if self.time_offset != "estimate":
             set_fields(self, time_offset=check_range("time_offset", self.time_offset))
         set_fields(self, scale_b=check_scale_b(self.scale_b))
-        check_that(not (self.drift and self.time_offset != "estimate"), "drift", self.drift,
-                   "false when time_offset is given")
+        check_that(not (self.drift is True and self.time_offset != "estimate"), "drift",
+                   self.drift, "auto or false when time_offset is given")
         set_fields(self,
                    alpha=check_positive("alpha", self.alpha),
                    step_s=check_positive("step_s", self.step_s),
