@@ -359,6 +359,7 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     number (:mod:`simcalib.estimation.scale`). Bad input raises a DataError."""
     from simcalib.estimation.sampling import classify_sampling
     from simcalib.estimation.scale import MODES, check_scale_b, scaled_stream
+    from simcalib.estimation.station_rows import realign_rows
     from simcalib.estimation.world_jumps import longest_stretches, split_stations
     scale_b = check_scale_b(scale_b)
     sa0, sb0 = read_pair(a, b, format_a, format_b, stamps_unit_a, stamps_unit_b)
@@ -367,7 +368,8 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     sa0, sb0, jumps = longest_stretches(sa0, sb0)
     signal = check_streams_move(sa0, sb0)   # translation: no rotation filter (all noise)
     min_rotation_deg = min_rotation_deg if signal == "rotation" else None
-    sa0, sb0, sampling, split = split_stations(sa0, sb0, classify_sampling(sa0, sb0))
+    sa0, sb0, sampling, rows = realign_rows(sa0, sb0, classify_sampling(sa0, sb0))
+    sa0, sb0, sampling, split = split_stations(sa0, sb0, sampling)
     kw = dict(time_offset=time_offset, drift=drift, alpha=alpha, seed=seed, signal=signal,
               forced={"invert_a": invert_a, "invert_b": invert_b,
                       "scalar_first_a": scalar_first_a, "scalar_first_b": scalar_first_b},
@@ -388,7 +390,8 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     aligned, summary = _summary(sa, sb, conv, off, ms, rob, ms0, plain, alpha, length_scale)
     return StreamCalibration(rob.X, None if plain is None else plain.X, off, conv, rob, plain,
                              sa, sb, ms.C, ms.H, sp.time_s[ms.i], summary | {
-                                 "scale_b": scale.to_dict(), "world_jumps": jumps + split},
+                                 "scale_b": scale.to_dict(), "world_jumps": jumps + split,
+                                 "station_rows": rows},
                              synced=sp, motion_index=(ms.i, ms.j),
                              X_aligned=aligned.X, sampling=sampling, motions=ms,
                              consistency=check, covariance=cov, covariance_determined=cov_det,

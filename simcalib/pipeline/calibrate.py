@@ -494,7 +494,7 @@ def warnings(r, reading: str | None = None) -> list[str]:
     (``reading``: the sentence of :func:`reading_ambiguity`, which then replaces the
     general one about the reading)."""
     out = [reading] if reading else []
-    out += list(r.summary.get("world_jumps", []))
+    out += list(r.summary.get("world_jumps", [])) + list(r.summary.get("station_rows", []))
     out += [f"stream {s.name or s.source}'s stamps go back {s.repairs['stamps_restarted']} "
             "time(s) (two recordings in one file?): only the longest recording in it is used "
             f"({s.repairs['rows_of_other_recordings_dropped']} rows of the others dropped)"
