@@ -58,3 +58,29 @@ def test_paired_streams_and_streams_stamped_in_time_are_left_as_they_are():
     sb1 = _lost_row(odd.stream_b, 3)
     smp1 = classify_sampling(odd.stream_a, sb1)
     assert realign_rows(odd.stream_a, sb1, smp1)[3] == []
+
+
+@pytest.mark.parametrize("kind, seed, shift_s", [("stations", 1, 1.7), ("stations", 3, -7.3),
+                                                 ("stations_short", 1, 2.1)])
+def test_stations_on_two_clocks_are_paired_at_their_shift(kind, seed, shift_s):
+    """The robot's and the camera's computers stamp each stop on their own clocks (b
+    ``shift_s`` late, 50 ms of trigger jitter): no stamp is shared, and the streams were
+    taken for continuous ones, interpolated between stops seconds apart (X 6-17 deg off,
+    offset 0, no warning)."""
+    rec = generate(kind, seed)
+    tb = np.asarray(rec.stream_b.timestamps_s)
+    jitter = np.random.default_rng(seed).uniform(-0.05, 0.05, tb.size)
+    sb = replace(rec.stream_b, timestamps_s=tb + shift_s + jitter)
+    r = calibrate_streams(rec.stream_a, sb)
+    assert r.sampling.paired_by_stamp and abs(r.time_offset.offset_s - shift_s) < 0.05
+    assert len(r.summary["station_rows"]) == 1 and "carry two clocks" in r.summary[
+        "station_rows"][0]
+    assert np.degrees(rotation_error_rad(r.X, rec.X_true)) < 0.3
+    assert np.linalg.norm(r.X[:3, 3] - rec.X_true[:3, 3]) < 0.01
+
+
+@pytest.mark.parametrize("kind", ["continuous", "low_rate_camera", "stop_and_go"])
+def test_streams_that_sample_a_motion_are_not_paired_by_lag(kind):
+    rec = generate(kind, 0)
+    smp = classify_sampling(rec.stream_a, rec.stream_b)
+    assert realign_rows(rec.stream_a, rec.stream_b, smp)[3] == []
