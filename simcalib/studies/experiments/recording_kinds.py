@@ -42,6 +42,18 @@ def _kind_stations_short(rngs, s):
     return _stations_draft(rngs, s, (3, 5), "stations_short")
 
 
+def _kind_stations_two_clocks(rngs, s):
+    d = _stations_draft(rngs, s, (10, 40), "stations_two_clocks")
+    r = rngs["events"]
+    off = float(r.choice([-1.0, 1.0]) * r.uniform(0.5, 10.0))
+    off = off if s.offset_s is None else float(s.offset_s)
+    t_a = 1000.0 + np.cumsum(r.uniform(2.0, 6.0, d.t_a.size))
+    t_b = t_a + off + r.uniform(-0.05, 0.05, t_a.size)
+    return replace(d, t_a=t_a, t_b=t_b, offset_s=off, t_ref_s=float(t_a[0]),
+                   description=d.description.split(",")[0] + f", 2..6 s apart, b's clock "
+                   f"{off:+.3f} s (+-50 ms trigger jitter), eye-in-hand (b = T_target_cam)")
+
+
 def _kind_continuous(rngs, s):
     return _continuous(rngs, s)
 
@@ -434,6 +446,9 @@ KINDS: dict[str, Kind] = {
                      "station per stream (eye-in-hand); stamps: the station index in even "
                      "seeds, seconds apart in odd ones", False),
     "stations_short": Kind(_kind_stations_short, "the same with only 3..5 stations", False),
+    "stations_two_clocks": Kind(_kind_stations_two_clocks, "stations (10..40) stamped by two "
+                                "computers' clocks: b 0.5..10 s early or late, +-50 ms of "
+                                "trigger jitter, no stamp shared", False, extra=("offset_s",)),
     "continuous": Kind(_kind_continuous, "smooth 6-DoF motion, a 100 Hz, b 30 Hz, stamp "
                        "jitter, dropped frames, offset exactly 0", True),
     "offset": Kind(_kind_offset, "continuous with a clock offset: +-0.2 s, tens of seconds "
