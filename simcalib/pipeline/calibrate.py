@@ -407,8 +407,10 @@ def calibrate(opts: CalibrateOptions):
         ua, ub = opts.stamps_unit_a, opts.stamps_unit_b
         streams = read_pose_streams(opts.a, fa, stamps_unit=ua if ua == ub != "auto" else "pair")
         if len(streams) != 2:
+            from simcalib.importers import FORMATS
+            both = [n for n in FORMATS.names() if FORMATS.info(n)["two_streams"]]
             raise DataError(f"{str(opts.a)!r} holds {len(streams)} stream(s); give b=PATH "
-                            "(only easy_handeye / moveit sample files hold both)")
+                            f"(files of the formats {', '.join(sorted(both))} hold both)")
         a, b = streams
     else:
         a, b = (read_pose_stream(p, f, stamps_unit="pair" if u == "auto" else u) for p, f, u in
