@@ -30,7 +30,10 @@ difference at each lag of the rows (-16..16), partners within a quarter of the s
 sparser stream and whose pairs break the equal-angle rule :data:`LAG_GAIN` times less
 than every other lag that pairs half as many (streams that do not turn: the only lag that
 does). b's rows then take their partners' stamps plus that shift, which is the offset
-reported. Streams that do not turn (a gantry) carry no angle to pair by, and are
+reported. Counters of one continuous motion a lag apart (a pairing that only shifts the
+rows, both streams sampling a motion: :func:`simcalib.estimation.hidden_offset.continuous`)
+are left to :mod:`~simcalib.estimation.hidden_offset`, which tells the lag to a fraction of
+a sample. Streams that do not turn (a gantry) carry no angle to pair by, and are
 left paired by number; so are files whose quaternion order is misread (their angles are
 wrong until the reading is decided).
 """
@@ -122,6 +125,7 @@ def realign_rows(sa, sb, sampling):
     by that rule (b's rows take their partners' stamps; rows without one dropped and
     counted; the sampling classified again); other streams as they are (``notes``
     empty)."""
+    from simcalib.estimation.hidden_offset import continuous
     from simcalib.estimation.sampling import classify_sampling, is_sample_numbers, pair_by_stamp
     ta, tb = np.asarray(sa.timestamps_s), np.asarray(sb.timestamps_s)
     if not sampling.paired_by_stamp:
@@ -131,6 +135,8 @@ def realign_rows(sa, sb, sampling):
         return sa, sb, sampling, []
     Ta, Tb = np.asarray(sa.T_world_sensor), np.asarray(sb.T_world_sensor)
     ia, ib = align_rows(Ta, Tb)
+    if np.all(ia - ib == ia[0] - ib[0]) and continuous(ta, Ta) and continuous(tb, Tb):
+        return sa, sb, sampling, []     # counters of one motion a lag apart: hidden_offset's
     by_number = pair_by_stamp(sa, sb, sampling, sampling.shift_s)
     if by_number.n < 3 or ia.size < 3:
         return sa, sb, sampling, []
