@@ -43,10 +43,22 @@ _FIT_DOT = 0.9
 
 @njit(cache=True, error_model="numpy")
 def _cost_soa(Q, wts, weighted, n, q, qd, a2):
-    """Cost (8) motion by motion from the SoA quaternions Q (16, N) (accurate near 0)."""
+    """Cost (8) motion by motion from the SoA quaternions Q (16, N) (accurate near 0): the
+    motions' terms in one loop without a running sum (LLVM vectorises it), then their sum
+    in motion order (the same additions as one loop, ~4x less time)."""
+    per = np.empty(n)
+    _cost_terms(Q, wts, weighted, n, q, qd, a2, per)
+    tot = 0.0
+    for i in range(n):
+        tot += per[i]
+    return tot
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _cost_terms(Q, wts, weighted, n, q, qd, a2, per):
+    """per[i] = motion i's (weighted) term of the cost (8)."""
     x, y, z, w = q[0], q[1], q[2], q[3]
     dx, dy, dz, dw = qd[0], qd[1], qd[2], qd[3]
-    tot = 0.0
     for i in range(n):
         p = _qmul(Q[0, i], Q[1, i], Q[2, i], Q[3, i], x, y, z, w)
         r = _qmul(x, y, z, w, Q[4, i], Q[5, i], Q[6, i], Q[7, i])
@@ -57,8 +69,7 @@ def _cost_soa(Q, wts, weighted, n, q, qd, a2):
         ti = 0.0
         for k in range(4):
             ti += (p[k] - r[k]) ** 2 + a2 * (p1[k] - p2[k] + p3[k] - p4[k]) ** 2
-        tot += wts[i] * ti if weighted else ti
-    return tot
+        per[i] = wts[i] * ti if weighted else ti
 
 
 @twin_of(_cost_soa, when=lambda Q, wts, weighted, n, q, qd, a2: n >= 4)   # crossover
