@@ -210,20 +210,16 @@ def _propagate_signs(Q, n, amb, sgn):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _align(opt, T, Q, wts, weighted, n, a2, q, qd, info, AtA, BtB, BtA):
+def _align(opt, T, Q, wts, weighted, n, a2, q, qd, info, AtA, BtB, BtA, work):
     """Choose the motion pair signs (module doc); q, qd, info hold the dqopt solution (no
     prior) and AtA, BtB, BtA the Gram blocks of the final alignment. Returns the number of
-    pairs whose sign differs from the scalar-part rule."""
-    P = np.empty((6, 4, 4))
-    nrm = np.empty(2)
-    S = np.empty((4, 4))
-    W = np.empty((4, 4))
-    M = np.empty((4, 4))
-    Z0 = np.zeros((4, 4))
-    amb = np.zeros(n)   # 1.0: ambiguous motion
-    dots = np.empty(n)
+    pairs whose sign differs from the scalar-part rule. ``work``: the arrays of
+    :func:`_work_arrays` (overwritten)."""
+    P, nrm, S, W, M, Z0, amb, dots, par = work
+    for i in range(n):
+        amb[i] = 0.0   # 1.0: ambiguous motion
+        par[i] = 1.0   # -1: pair flipped relative to the scalar-part rule
     namb = _mark_ambiguous(Q, n, amb)
-    par = np.ones(n)   # -1: pair flipped relative to the scalar-part rule
     best_par = par
     sgn = par
     best = np.empty(1)
@@ -304,8 +300,18 @@ def _restore_state(best, q, qd, info, AtA, BtB, BtA):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def _work_arrays(n):
+    """The per-problem work arrays, made once per :func:`_one` call (each problem
+    overwrites them): P, nrm, S, W, M, Z0 (zeros, read only), amb, dots, par (N each),
+    AtA, BtB, BtA, q, qd."""
+    return (np.empty((6, 4, 4)), np.empty(2), np.empty((4, 4)), np.empty((4, 4)),
+            np.empty((4, 4)), np.zeros((4, 4)), np.empty(n), np.empty(n), np.empty(n),
+            np.empty((4, 4)), np.empty((4, 4)), np.empty((4, 4)), np.empty(4), np.empty(4))
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def _solve_problem(method, opt, T, Cb, Hb, Qin, use_q, align, alpha, wts, weighted, tol,
-                   has_prior, S_add, W_add, M_add, X, info, Q):
+                   has_prior, S_add, W_add, M_add, X, info, Q, work):
     """One problem: fill Q (16, N) (from C, H, or Qin when use_q), align (unless the motions
     come aligned), solve, write X and info. Returns (index of the first non-rigid motion or -1, sign flips, data cost)."""
     n = Q.shape[1]
@@ -315,24 +321,17 @@ def _solve_problem(method, opt, T, Cb, Hb, Qin, use_q, align, alpha, wts, weight
         bad = _quats_soa(Cb, Hb, tol, Q)
         if bad >= 0:
             return bad, 0, np.inf
-    AtA = np.empty((4, 4))
-    BtB = np.empty((4, 4))
-    BtA = np.empty((4, 4))
-    q = np.empty(4)
-    qd = np.empty(4)
+    P, nrm, S, W, M = work[0], work[1], work[2], work[3], work[4]
+    AtA, BtB, BtA, q, qd = work[9], work[10], work[11], work[12], work[13]
     a2 = alpha * alpha
     if align:
-        nflip = _align(opt, T, Q, wts, weighted, n, a2, q, qd, info, AtA, BtB, BtA)
+        nflip = _align(opt, T, Q, wts, weighted, n, a2, q, qd, info, AtA, BtB, BtA,
+                       work[:9])
     else:
         nflip = 0
-        P = np.empty((6, 4, 4))
-        nrm = np.empty(2)
         _outer_from_soa(Q, wts, weighted, n, P, nrm)
         _grams_from_outer(T, P, nrm, AtA, BtB, BtA)
     if method != opt or has_prior or not align:
-        S = np.empty((4, 4))
-        W = np.empty((4, 4))
-        M = np.empty((4, 4))
         _assemble(AtA, BtB, BtA, a2, S_add, W_add, M_add, S, W, M)
         _solve_core(method, S, W, M, q, qd, info)
     if info[I_STATUS] == ST_NONFINITE:
@@ -365,11 +364,12 @@ def _one(b0, b1, method, opt, T, C, H, Qin, use_q, align, alphas, wts, weighted,
     re-optimised the whole solver once more, ~1/3 of the cold start)."""
     n = Qin.shape[2] if use_q else C.shape[1]
     Q = np.empty((16, n))
+    work = _work_arrays(n)
     for b in range(b0, b1):
         r = _solve_problem(method, opt, T, C[b] if not use_q else C[0],
                            H[b] if not use_q else H[0], Qin[b] if use_q else Qin[0], use_q,
                            align, alphas[b], wts[b] if weighted else wts[0], weighted, tol,
-                           has_prior, S_add, W_add, M_add, X[b], info[b], Q)
+                           has_prior, S_add, W_add, M_add, X[b], info[b], Q, work)
         bad[b] = r[0]
         nflip[b] = r[1]
         cost[b] = r[2]
