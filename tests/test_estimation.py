@@ -364,3 +364,18 @@ def test_recorded_scenario_scores_each_choice_against_the_truth(seed, tmp_path):
     import json
     saved = json.loads((tmp_path / "results.json").read_text())["estimation"]
     assert saved["reading"]["correct"] and saved["time_offset"]["decision"] == "estimated"
+
+
+@pytest.mark.slow
+def test_recorded_scenario_scores_the_offset_of_drifting_clocks_where_it_was_told(tmp_path):
+    """cam_b's clock 150 ppm fast: the true offset moves 9 ms over the run; it is scored at
+    the estimate's reference time (it was scored against the offset at t = 0)."""
+    import simcalib
+    from simcalib.pipeline.scenario import load_config
+    cfg = load_config("recorded", ["seed=0", "recording.enabled=false", "progress=false",
+                                   "world.duration_s=60", "world.cam_b.clock_drift_ppm=150",
+                                   f"output={tmp_path}"])
+    t = simcalib.run(cfg, echo=False).sensing["estimation"]["time_offset"]
+    assert t["true_drift_ppm"] == pytest.approx(150.0, abs=1e-6)
+    assert t["true_offset_s"] == pytest.approx(0.037 + 150e-6 * t["t_ref_s"], abs=1e-9)
+    assert abs(t["error_ms"]) < max(3.0, 3e3 * t["uncertainty_s"]), t

@@ -42,11 +42,17 @@ def file_form(stream, form: str):
     return dataclasses.replace(s, detection=f"the run's {stream.camera} stream, {form}")
 
 
-def _true_offset(sensing) -> float | None:
+def _true_clocks(sensing, t_ref_a: float) -> tuple[float | None, float | None]:
+    """``(offset t_b - t_a at a's stamp t_ref_a, drift (s/s))`` of the run's clocks (each
+    stamps ``t (1 + drift_ppm 1e-6) + clock_offset_s``); None without them."""
     clocks = sensing.get("clocks") or {}
     if "cam_a" not in clocks or "cam_b" not in clocks:
-        return None
-    return float(clocks["cam_b"]["clock_offset_s"] - clocks["cam_a"]["clock_offset_s"])
+        return None, None
+    ca, cb = clocks["cam_a"], clocks["cam_b"]
+    da, db = (1e-6 * float(c.get("clock_drift_ppm", 0.0)) for c in (ca, cb))
+    t = (t_ref_a - ca["clock_offset_s"]) / (1.0 + da)       # the instant a stamps t_ref_a
+    return (float(cb["clock_offset_s"] - ca["clock_offset_s"] + (db - da) * t),
+            (1.0 + db) / (1.0 + da) - 1.0)
 
 
 def _bracket(t_stream, t_query):
@@ -161,7 +167,7 @@ def motions_from_streams(streams: dict, cfg, rng, sensing: dict):
                               seed=cfg.seed, options=None)
         keep = np.asarray(rob.inlier_mask, dtype=bool)
     pairs = _pairs(ms, keep, synced, streams, off)
-    true_off = _true_offset(sensing)
+    true_off, true_drift = _true_clocks(sensing, off.t_ref_s)
     report = {
         "path": "recorded-data path of simcalib calibrate",
         "sampling": sampling.to_dict(),
@@ -169,7 +175,9 @@ def motions_from_streams(streams: dict, cfg, rng, sensing: dict):
                         if math.isfinite(off.uncertainty_s) else None,
                         "decision": off.decision, "true_offset_s": true_off,
                         "error_ms": None if true_off is None
-                        else 1e3 * (off.offset_s - true_off), "message": off.message},
+                        else 1e3 * (off.offset_s - true_off), "t_ref_s": off.t_ref_s,
+                        "drift_ppm": 1e6 * off.drift, "true_drift_ppm": None
+                        if true_drift is None else 1e6 * true_drift, "message": off.message},
         "reading": _reading_scores(conv, est.b_file),
         "motions": {"policy": ms.policy, "reason": ms.reason, "counts": dict(ms.counts)},
         "robust": {"choice": why, "n_motions": int(ms.n), "n_inliers": int(keep.sum()),
