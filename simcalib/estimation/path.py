@@ -32,7 +32,7 @@ import numpy as np
 
 from simcalib.estimation.stillness import check_streams_move
 
-__all__ = ["StreamCalibration", "calibrate_streams", "align_worlds"]
+__all__ = ["StreamCalibration", "calibrate_streams", "align_worlds", "largest_world"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -360,16 +360,16 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     from simcalib.estimation.sampling import classify_sampling
     from simcalib.estimation.scale import MODES, check_scale_b, scaled_stream
     from simcalib.estimation.station_rows import realign_rows
-    from simcalib.estimation.world_jumps import longest_stretches, split_stations
+    from simcalib.estimation.world_jumps import mark_stretches, split_stations
     scale_b = check_scale_b(scale_b)
     sa0, sb0 = read_pair(a, b, format_a, format_b, stamps_unit_a, stamps_unit_b)
     if scale_b not in MODES:                # a scale given: b's translations divided by it
         sb0 = scaled_stream(sb0, 1.0 / float(scale_b))
-    sa0, sb0, jumps = longest_stretches(sa0, sb0)
+    sa0, sb0, jumps = mark_stretches(sa0, sb0)
     signal = check_streams_move(sa0, sb0)   # translation: no rotation filter (all noise)
     min_rotation_deg = min_rotation_deg if signal == "rotation" else None
     sa0, sb0, sampling, rows = realign_rows(sa0, sb0, classify_sampling(sa0, sb0))
-    sa0, sb0, sampling, split = split_stations(sa0, sb0, sampling)
+    sa0, sb0, split = split_stations(sa0, sb0, sampling)
     kw = dict(time_offset=time_offset, drift=drift, alpha=alpha, seed=seed, signal=signal,
               forced={"invert_a": invert_a, "invert_b": invert_b,
                       "scalar_first_a": scalar_first_a, "scalar_first_b": scalar_first_b},
@@ -578,17 +578,39 @@ def _zero():
     return _as_offset(0.0)
 
 
-def align_worlds(T_a: np.ndarray, T_b: np.ndarray, X: np.ndarray) -> np.ndarray:
+def align_worlds(T_a: np.ndarray, T_b: np.ndarray, X: np.ndarray, world=None,
+                 world_fit=None) -> np.ndarray:
     """``T_wa_wb``: the fixed transform between the two streams' world frames implied by
     ``X`` (``T_wa_a X = T_wa_wb T_wb_b`` at every synchronised instant), as the chordal
     mean rotation (SVD projection of the mean) and the median translation of the per-instant
-    estimates ``T_wa_a X T_wb_b^-1``. Used to draw both trajectories in one frame."""
+    estimates ``T_wa_a X T_wb_b^-1``. Used to draw both trajectories in one frame. With
+    ``world`` (the stretch of the worlds of each instant of ``T_a``, ``T_b``: a world frame
+    jumps) one transform per stretch, returned per instant ``(n, 4, 4)``; ``world_fit``:
+    the stretches of the instants the fit uses where they are a subset (default all)."""
     from simcalib.geometry import chordal_mean_rotation, invert_transform
+    if world is not None:
+        fit = np.ones(world.shape, dtype=bool) if world_fit is None else world_fit
+        out = np.tile(np.eye(4), (world.size, 1, 1))
+        for w in np.unique(world):
+            m = (world == w) & fit
+            out[world == w] = align_worlds(T_a[m], T_b[m], X) if m.any() else np.eye(4)
+        return out
     Y = T_a @ X @ invert_transform(T_b)
     out = np.eye(4)
     out[:3, :3] = chordal_mean_rotation(Y[:, :3, :3])
     out[:3, 3] = np.median(Y[:, :3, 3], axis=0)
     return out
+
+
+def largest_world(synced) -> np.ndarray:
+    """``(n,)`` bool: the synchronised instants of the stretch of the worlds with the most
+    instants (all where there is one world): for a check that needs one world-to-world
+    transform."""
+    world = getattr(synced, "world", None)
+    if world is None:
+        return np.ones(synced.n, dtype=bool)
+    values, counts = np.unique(world, return_counts=True)
+    return world == values[int(np.argmax(counts))]
 
 
 def _rot_angle(X1, X2):
