@@ -9,6 +9,11 @@
     -> (the verdict: estimation.verdict); and, for comparison, a plain solve (offset 0, no
     rejection).
 
+A stream whose world frame jumps (a SLAM map reset, a bumped target:
+:mod:`simcalib.estimation.world_jumps`) is used whole: each stretch between jumps is its own
+world, every motion lies within one, and every stage after uses the motions of all
+stretches.
+
 A rig that only translates (neither stream turns:
 :func:`~simcalib.estimation.stillness.check_streams_move` returns ``translation``) goes
 through the same stages on its translations: the offset from the translation speeds, the
@@ -32,7 +37,7 @@ import numpy as np
 
 from simcalib.estimation.stillness import check_streams_move
 
-__all__ = ["StreamCalibration", "calibrate_streams", "align_worlds", "largest_world"]
+__all__ = ["StreamCalibration", "calibrate_streams"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -576,41 +581,6 @@ def _per_pass(prior, passes: int):
 def _zero():
     from simcalib.estimation.alignment import _as_offset
     return _as_offset(0.0)
-
-
-def align_worlds(T_a: np.ndarray, T_b: np.ndarray, X: np.ndarray, world=None,
-                 world_fit=None) -> np.ndarray:
-    """``T_wa_wb``: the fixed transform between the two streams' world frames implied by
-    ``X`` (``T_wa_a X = T_wa_wb T_wb_b`` at every synchronised instant), as the chordal
-    mean rotation (SVD projection of the mean) and the median translation of the per-instant
-    estimates ``T_wa_a X T_wb_b^-1``. Used to draw both trajectories in one frame. With
-    ``world`` (the stretch of the worlds of each instant of ``T_a``, ``T_b``: a world frame
-    jumps) one transform per stretch, returned per instant ``(n, 4, 4)``; ``world_fit``:
-    the stretches of the instants the fit uses where they are a subset (default all)."""
-    from simcalib.geometry import chordal_mean_rotation, invert_transform
-    if world is not None:
-        fit = np.ones(world.shape, dtype=bool) if world_fit is None else world_fit
-        out = np.tile(np.eye(4), (world.size, 1, 1))
-        for w in np.unique(world):
-            m = (world == w) & fit
-            out[world == w] = align_worlds(T_a[m], T_b[m], X) if m.any() else np.eye(4)
-        return out
-    Y = T_a @ X @ invert_transform(T_b)
-    out = np.eye(4)
-    out[:3, :3] = chordal_mean_rotation(Y[:, :3, :3])
-    out[:3, 3] = np.median(Y[:, :3, 3], axis=0)
-    return out
-
-
-def largest_world(synced) -> np.ndarray:
-    """``(n,)`` bool: the synchronised instants of the stretch of the worlds with the most
-    instants (all where there is one world): for a check that needs one world-to-world
-    transform."""
-    world = getattr(synced, "world", None)
-    if world is None:
-        return np.ones(synced.n, dtype=bool)
-    values, counts = np.unique(world, return_counts=True)
-    return world == values[int(np.argmax(counts))]
 
 
 def _rot_angle(X1, X2):

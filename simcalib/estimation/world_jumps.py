@@ -21,9 +21,24 @@ difference)
 * stays: the poses :data:`JUMP_PERSIST` samples around it are still half that far
   apart (a bad pose, or a short run of them, comes back; outlier handling takes those).
 
-The path then keeps each stream's longest stretch without a jump (by duration) and says
-so (the repairs ``world_jumps`` and ``poses_beyond_a_world_jump_dropped``, and a warning);
-calibrating each stretch on its own is the user's choice (split the file).
+Every stretch between jumps is then used, each as its own world (:func:`mark_stretches`:
+the stream keeps all its poses and carries the jumps' stamps, ``world_jumps_s``). The
+synchronised instants carry the stretch of both worlds they lie in
+(``SyncedPoses.world``, :func:`instant_worlds`; an instant interpolated across a jump mixes
+two worlds and is dropped, counted ``across_a_world_jump``), and every step that uses
+motions forms them only within a stretch: the reading's random pairs, the offset cost's
+spans (also kept clear of a jump by the smoothing's reach), the motions of the fit
+(``dropped_across_world_jump`` counted), hence outlier handling, the solve, the
+covariance and the verdict; the pose residuals fit one world-to-world transform per
+stretch (:func:`simcalib.estimation.pose_errors.world_transforms`), the velocities are
+one-sided at a stretch's ends, the drawing aligns each stretch on its own, and the checks
+that need one world-to-world transform (the reading's twin, OpenCV's all-pairs
+comparison) use the stretch with the most instants. A stretch of one pose gives no
+motion: its pose is dropped and counted (``poses_in_short_stretches_dropped``). The
+repairs ``world_jumps`` and ``world_stretches`` and a warning say what was done. Not
+world-aware: the angular-speed correlation of the coarse offset (a jump is one step's
+spike in it, which its despiking takes) and the counter-lag search of sample-number
+stamps (:mod:`simcalib.estimation.hidden_offset`).
 
 Station data (poses paired by stamp, far apart: a robot that stops for each image) have
 no smooth path to jump from, and a bumped target is their common accident. There the two
@@ -31,9 +46,10 @@ streams' relative rotation angles tell: both sensors of a rigid rig turn by the 
 between any two poses (whatever the files' reading, X, the worlds or the scale), as long
 as both worlds stay. A split of the poses (in stamp order) into two groups is a jump when
 the pairs across it break that rule :data:`SPLIT_GAIN` times more (median) than the pairs
-within the groups, and by :data:`SPLIT_MIN_DEG` or more; the larger group is kept
-(:func:`station_groups`). A jump that moves a world without turning it is not seen this
-way (the translations' screw pitch depends on the unknown scale).
+within the groups, and by :data:`SPLIT_MIN_DEG` or more; both groups are used, each as
+its own world, pairs only within a group (:func:`station_groups`). A jump that moves a
+world without turning it is not seen this way (the translations' screw pitch depends on
+the unknown scale).
 """
 
 from __future__ import annotations
@@ -46,8 +62,8 @@ from simcalib.estimation.speeds import apart
 from simcalib.geometry import rotation_angle_rad
 
 __all__ = ["find_jumps", "mark_stretches", "instant_worlds", "station_split", "station_groups",
-           "split_stations", "JUMP_GAIN", "OTHER_GAIN", "JUMP_PERSIST", "SPLIT_GAIN",
-           "SPLIT_MIN_DEG"]
+           "split_stations", "align_worlds", "largest_world", "JUMP_GAIN", "OTHER_GAIN",
+           "JUMP_PERSIST", "SPLIT_GAIN", "SPLIT_MIN_DEG"]
 
 #: a step this many times the stream's 90th percentiles of step length and speed may be a
 #: jump ...
@@ -258,3 +274,38 @@ def split_stations(sa, sb, sampling):
     if policy not in ("stations", "bursts"):
         return sa, sb, []
     return station_groups(sa, sb, synced, sampling.shift_s)
+
+
+def align_worlds(T_a: np.ndarray, T_b: np.ndarray, X: np.ndarray, world=None,
+                 world_fit=None) -> np.ndarray:
+    """``T_wa_wb``: the fixed transform between the two streams' world frames implied by
+    ``X`` (``T_wa_a X = T_wa_wb T_wb_b`` at every synchronised instant), as the chordal
+    mean rotation (SVD projection of the mean) and the median translation of the per-instant
+    estimates ``T_wa_a X T_wb_b^-1``. Used to draw both trajectories in one frame. With
+    ``world`` (the stretch of the worlds of each instant of ``T_a``, ``T_b``: a world frame
+    jumps) one transform per stretch, returned per instant ``(n, 4, 4)``; ``world_fit``:
+    the stretches of the instants the fit uses where they are a subset (default all)."""
+    from simcalib.geometry import chordal_mean_rotation, invert_transform
+    if world is not None:
+        fit = np.ones(world.shape, dtype=bool) if world_fit is None else world_fit
+        out = np.tile(np.eye(4), (world.size, 1, 1))
+        for w in np.unique(world):
+            m = (world == w) & fit
+            out[world == w] = align_worlds(T_a[m], T_b[m], X) if m.any() else np.eye(4)
+        return out
+    Y = T_a @ X @ invert_transform(T_b)
+    out = np.eye(4)
+    out[:3, :3] = chordal_mean_rotation(Y[:, :3, :3])
+    out[:3, 3] = np.median(Y[:, :3, 3], axis=0)
+    return out
+
+
+def largest_world(synced) -> np.ndarray:
+    """``(n,)`` bool: the synchronised instants of the stretch of the worlds with the most
+    instants (all where there is one world): for a check that needs one world-to-world
+    transform."""
+    world = getattr(synced, "world", None)
+    if world is None:
+        return np.ones(synced.n, dtype=bool)
+    values, counts = np.unique(world, return_counts=True)
+    return world == values[int(np.argmax(counts))]

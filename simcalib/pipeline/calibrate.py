@@ -323,7 +323,7 @@ def assess(r, eye: str | None = None) -> Assessment:
     reported covariance (the model's, raised to the data's own consistency), and the
     plausibility of X for the caller's ``eye`` (``in_hand``, ``on_base`` or None). A failed
     solve, or one whose uncertainty cannot be computed, is FAILED."""
-    from simcalib.estimation.path import largest_world
+    from simcalib.estimation.world_jumps import largest_world
     from simcalib.estimation.plausibility import check_plausibility
     from simcalib.estimation.verdict import judge
     solution = r.robust.solution
@@ -463,7 +463,7 @@ def write_outputs(opts: CalibrateOptions, r, a: Assessment,
         index_start=i, index_end=j, inlier=r.robust.inlier_mask, weight=r.robust.weights,
         screw_residual=r.robust.residuals, rotation_error_deg=np.degrees(rot),
         translation_error_m=trans, X=r.X, synced_time_s=sp.time_s, synced_T_world_a=sp.T_a,
-        synced_T_world_b=sp.T_b)
+        synced_T_world_b=sp.T_b, **({} if sp.world is None else {"synced_world": sp.world}))
     if opts.recording:
         from simcalib.report.rerun.calibration import record_calibration
         record_calibration(out / "recording.rrd", r, report, console=format_report(report))

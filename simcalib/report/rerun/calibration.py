@@ -88,7 +88,7 @@ def calibration_scene(r) -> CalibrationScene:
     the synchronised poses (at the estimated offset) through X and through the world-to-world
     transform X implies; the eye frames the kept poses' 2..98 % box (rejected poses, which
     may lie far off, do not zoom it out)."""
-    from simcalib.estimation.path import align_worlds
+    from simcalib.estimation.world_jumps import align_worlds
     sp, ms = r.synced, r.motions
     T_a, T_b = np.asarray(sp.T_a, np.float64), np.asarray(sp.T_b, np.float64)
     X = np.asarray(r.X, dtype=np.float64)
