@@ -365,7 +365,7 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     from simcalib.estimation.sampling import classify_sampling
     from simcalib.estimation.scale import MODES, check_scale_b, scaled_stream
     from simcalib.estimation.station_rows import realign_rows
-    from simcalib.estimation.world_jumps import mark_stretches, split_stations
+    from simcalib.estimation.world_jumps import mark_stretches, split_stations, stretches_used
     scale_b = check_scale_b(scale_b)
     sa0, sb0 = read_pair(a, b, format_a, format_b, stamps_unit_a, stamps_unit_b)
     if scale_b not in MODES:                # a scale given: b's translations divided by it
@@ -395,7 +395,8 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     aligned, summary = _summary(sa, sb, conv, off, ms, rob, ms0, plain, alpha, length_scale)
     return StreamCalibration(rob.X, None if plain is None else plain.X, off, conv, rob, plain,
                              sa, sb, ms.C, ms.H, sp.time_s[ms.i], summary | {
-                                 "scale_b": scale.to_dict(), "world_jumps": jumps + split,
+                                 "scale_b": scale.to_dict(),
+                                 "world_jumps": jumps + split + stretches_used(sp, ms, rob),
                                  "station_rows": rows},
                              synced=sp, motion_index=(ms.i, ms.j),
                              X_aligned=aligned.X, sampling=sampling, motions=ms,

@@ -62,8 +62,8 @@ from simcalib.estimation.speeds import apart
 from simcalib.geometry import rotation_angle_rad
 
 __all__ = ["find_jumps", "mark_stretches", "instant_worlds", "station_split", "station_groups",
-           "split_stations", "align_worlds", "largest_world", "JUMP_GAIN", "OTHER_GAIN",
-           "JUMP_PERSIST", "SPLIT_GAIN", "SPLIT_MIN_DEG"]
+           "split_stations", "stretches_used", "align_worlds", "largest_world", "JUMP_GAIN",
+           "OTHER_GAIN", "JUMP_PERSIST", "SPLIT_GAIN", "SPLIT_MIN_DEG"]
 
 #: a step this many times the stream's 90th percentiles of step length and speed may be a
 #: jump ...
@@ -200,6 +200,23 @@ def mark_stretches(sa, sb):
                      f"used as its own world (motions only within a stretch){short}")
         out.append(marked)
     return out[0], out[1], notes
+
+
+def stretches_used(synced, motions, robust) -> list[str]:
+    """One sentence on the stretches of the worlds the fit used (``synced``:
+    SyncedPoses, ``motions``: MotionSet, ``robust``: RobustSolution); empty with one
+    world."""
+    world = getattr(synced, "world", None)
+    if world is None:
+        return []
+    w = world[motions.i]
+    inl = np.asarray(robust.inlier_mask, dtype=bool)
+    per = [int(((w == v) & inl).sum()) for v in np.unique(world)]
+    return [f"{sum(k > 0 for k in per)} of {len(per)} stretches of the two streams' worlds "
+            f"give the fit's motions (inliers per stretch: {', '.join(map(str, per))}); "
+            f"{motions.counts.get('dropped_across_world_jump', 0)} motions across a jump "
+            f"were not formed, {synced.counts.get('across_a_world_jump', 0)} instants "
+            "interpolated across one dropped"]
 
 
 def _angle_misfit(T_a: np.ndarray, T_b: np.ndarray) -> np.ndarray:
