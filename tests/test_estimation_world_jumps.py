@@ -155,3 +155,56 @@ def test_the_path_uses_both_groups_of_stations_and_says_so():
     assert np.all(w[i] == w[j]) and np.unique(w[i]).size == 2  # pairs within each group
     assert np.degrees(rotation_error_rad(r.X, rec.X_true)) < 0.3
     assert translation_error_m(r.X, rec.X_true) < 0.005
+
+
+def test_instants_interpolated_across_a_jump_are_dropped_and_labelled():
+    """b (faster) interpolated at a's stamps: an instant of a between b's last pose before
+    the jump and its first after mixes two worlds."""
+    from simcalib.estimation.alignment import synchronise
+    t_b = np.arange(0.0, 10.0, 0.01)
+    t_a = 0.045 + 0.05 * np.arange(199)           # 4.995 lies in b's step across
+    T_b = np.tile(np.eye(4), (t_b.size, 1, 1))
+    T_a = np.tile(np.eye(4), (t_a.size, 1, 1))
+    a = stream_from_arrays(t_a, T_a, source="<a>", name="a")
+    b = replace(stream_from_arrays(t_b, T_b, source="<b>", name="b"),
+                world_jumps_s=(float(t_b[500]),))
+    sp = synchronise(a, b, 0.0)
+    assert sp.counts["across_a_world_jump"] == 1
+    assert np.all((sp.time_s <= t_b[499]) | (sp.time_s >= t_b[500]))
+    assert np.array_equal(sp.world, (sp.time_s >= t_b[500]).astype(int))
+    assert synchronise(a, replace(b, world_jumps_s=()), 0.0).world is None
+
+
+def test_pose_residuals_fit_one_world_transform_per_stretch():
+    from simcalib.estimation import pose_errors as pe
+    rs = _streams()
+    n = rs.t_a.size
+    T_a = rs.T_a[:n]
+    X = rs.X
+    Y = transform_from_rotation_translation(matrix_from_rotvec([0.1, 0.2, 0.3]),
+                                            np.array([0.3, 0.1, -0.2]))
+    T_b = np.linalg.inv(Y)[None] @ T_a @ X[None]
+    T_b = _reset(T_b, n // 2)
+    world = (np.arange(n) >= n // 2).astype(int)
+    r, Ys = pe.pose_residuals(T_a, T_b, X, world=world)
+    assert np.abs(r).max() < 1e-9 and Ys.shape == (n, 4, 4)
+    assert np.abs(pe.pose_residuals(T_a, T_b, X)[0]).max() > 0.1     # one world: wrong
+    v = pe.body_velocities(T_b, rs.t_a[:n], world)
+    assert np.abs(v).max() < 10 * np.median(np.abs(v)) + 5.0          # no jump's spike
+    assert np.abs(pe.body_velocities(T_b, rs.t_a[:n])).max() > 10.0
+
+
+def test_motions_are_never_formed_across_a_jump():
+    from simcalib.estimation.alignment import SyncedPoses
+    from simcalib.estimation.motions import form_motions
+    rs = _streams()
+    n = 200
+    world = (np.arange(n) >= 120).astype(np.int64)
+    sp = SyncedPoses(rs.t_a[:n], rs.T_a[:n], rs.T_a[:n] @ rs.X, "a", {}, world)
+    ms = form_motions(sp, "spans", step_s=1.0, min_rotation_deg=None)
+    assert ms.n > 0 and np.all(world[ms.i] == world[ms.j])
+    assert ms.counts["dropped_across_world_jump"] > 0
+    plain = form_motions(SyncedPoses(sp.time_s, sp.T_a, sp.T_b, "a", {}), "spans",
+                         step_s=1.0, min_rotation_deg=None)
+    assert plain.counts["formed"] == ms.counts["formed"]
+    assert plain.n == ms.n + ms.counts["dropped_across_world_jump"]
