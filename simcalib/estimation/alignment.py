@@ -29,6 +29,7 @@ from simcalib.errors import DataError
 from simcalib.estimation.drift import check_drift, drift_from_halves, drift_line
 from simcalib.estimation.interpolation import interpolate_poses, max_hole_s, smooth_poses
 from simcalib.estimation.speeds import SPEEDS, as_time_poses, checked_signal, speed_steps
+from simcalib.estimation.world_jumps import instant_worlds
 from simcalib.geometry import invert_transform, rotation_angle_rad
 
 __all__ = ["TimeOffset", "SyncedPoses", "estimate_time_offset", "synchronise", "make_motions",
@@ -117,12 +118,16 @@ def _as_offset(offset) -> TimeOffset:
 class SyncedPoses:
     """Poses of both streams at common instants: ``time_s`` in clock a, ``T_a``, ``T_b``
     (N, 4, 4). ``reference``: the stream whose stamps were used (the slower one); the other
-    was interpolated. ``counts``: reference stamps, outside the overlap, in gaps, kept."""
+    was interpolated. ``counts``: reference stamps, outside the overlap, in gaps, kept.
+    ``world``: per instant, the stretch of both streams' worlds it lies in (an int; instants
+    of one value share both worlds: :mod:`simcalib.estimation.world_jumps`); None: one world
+    each."""
     time_s: np.ndarray
     T_a: np.ndarray
     T_b: np.ndarray
     reference: str
     counts: dict
+    world: np.ndarray | None = None
 
     @property
     def n(self) -> int:
@@ -170,7 +175,14 @@ def synchronise(stream_a, stream_b, offset=0.0, *, reference: str | None = None,
         keep &= (own >= window_s[0]) & (own <= window_s[1])
     counts = {"reference_stamps": int(t_ref.size), "outside_overlap": int((~inside).sum()),
               "in_gaps": int((inside & ~valid).sum()), "kept": int(keep.sum())}
-    return SyncedPoses(t_ref[keep], T_a_all[keep], T_b_all[keep], reference, counts)
+    qa, qb = (ta, tq) if reference == "a" else (tq, tb)
+    world, ok = instant_worlds(stream_a, stream_b, qa, qb, reference, smooth_s)
+    if world is not None:
+        counts |= {"across_a_world_jump": int((keep & ~ok).sum()),
+                   "kept": int((keep & ok).sum())}
+        keep &= ok
+        world = world[keep]
+    return SyncedPoses(t_ref[keep], T_a_all[keep], T_b_all[keep], reference, counts, world)
 
 
 def make_motions(synced: SyncedPoses, *, step_s: float | None = None, step: int = 1,
@@ -405,6 +417,9 @@ def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = Non
     drift = check_drift(drift)
     kw = dict(max_offset_s=max_offset_s, refine=refine, drift=drift, step_s=step_s,
               alpha=alpha, min_overlap_frac=min_overlap_frac, robust=robust)
+    jumps = tuple(tuple(getattr(st, "world_jumps_s", ())) for st in (stream_a, stream_b))
+    if any(jumps):                  # the cost's motions only within a stretch of the worlds
+        kw["jumps"] = jumps
     first = _estimate(ta, Ta, tb, Tb, signal, **kw)
     if not (auto and refine and signal == "rotation" and oc.in_doubt(first)
             and oc.both_translate(Ta, Tb)):
@@ -417,7 +432,7 @@ def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = Non
 
 
 def _estimate(ta, Ta, tb, Tb, signal, *, max_offset_s, refine, drift, step_s, alpha,
-              min_overlap_frac, robust) -> TimeOffset:
+              min_overlap_frac, robust, jumps=None) -> TimeOffset:
     """:func:`estimate_time_offset` on one ``signal``: its correlation's candidates refined
     on the cost of the motions that move that way."""
     from simcalib.estimation import offset_cost as oc
@@ -435,6 +450,8 @@ def _estimate(ta, Ta, tb, Tb, signal, *, max_offset_s, refine, drift, step_s, al
     step_s = _offset_step_s(ta, tb, coarse, slow_dt, half) if step_s is None else step_s
     kw = dict(step_s=step_s, alpha=alpha, robust=robust, turning=signal == "rotation",
               smooth_s=min(float(np.median(np.diff(ta))), float(np.median(np.diff(tb)))))
+    if jumps is not None:
+        kw["jumps"] = jumps
     cands = [coarse] + _other_peaks(lags, corr, peak, coarse, 4 * slow_dt)
     if window[0] <= 0.0 <= window[1] and all(abs(c) > half for c in cands):
         cands.append(0.0)

@@ -488,7 +488,9 @@ def pose_consistency(motions, synced, X, alpha: float, basis, solve_fn,
             f"{n} poses are too few for their residuals to estimate their own errors "
             f"(>= {MIN_POSES} needed): sigma is the solver's model alone"))
     T_a = np.asarray(synced.T_a)[idx]
-    r, _ = pe.pose_residuals(T_a, np.asarray(synced.T_b)[idx], X)
+    world = getattr(synced, "world", None)
+    r, _ = pe.pose_residuals(T_a, np.asarray(synced.T_b)[idx], X,
+                             world=None if world is None else world[idx])
     runs = getattr(motions, "stations", None)
     runs = runs if runs is not None and stations_share_errors(runs[idx], r) else None
     units = n if runs is None else int(np.unique(runs[idx]).size)
@@ -501,7 +503,7 @@ def pose_consistency(motions, synced, X, alpha: float, basis, solve_fn,
     halves = None if few else _halves(motions, synced.n, idx, alpha, solve_fn)
     Gs = G if halves is None else np.concatenate([G, halves[1]], axis=1)
     s_off = offset_sigma_s if math.isfinite(offset_sigma_s) else 0.0
-    V = pe.body_velocities(synced.T_b, synced.time_s)[idx]
+    V = pe.body_velocities(synced.T_b, synced.time_s, world)[idx]
     if s_off > 0:
         r = _without_offset(r, V)
     offset_g = np.einsum("nij,nj->i", Gs, V) * s_off

@@ -343,11 +343,15 @@ def form_motions(synced, policy: str = "auto", *, paired_by_stamp: bool = False,
     ang = 0.5 * (rotation_angle_rad(C[:, :3, :3]) + rotation_angle_rad(H[:, :3, :3]))
     keep = np.ones(ang.shape, dtype=bool)
     counts = {"formed": int(i.size)}
+    world = getattr(synced, "world", None)
+    if world is not None:               # never across a jump of a world frame
+        keep = world[i] == world[j]
+        counts["dropped_across_world_jump"] = int((~keep).sum())
     if min_rotation_deg and policy != "keyframes":
         small = ang < math.radians(min_rotation_deg)
-        enough = (~small).sum() >= 3          # else keep them: better than no motions
+        enough = (~small & keep).sum() >= 3   # else keep them: better than no motions
+        counts["dropped_small_rotation"] = int((small & keep).sum()) if enough else 0
         keep &= ~small if enough else keep
-        counts["dropped_small_rotation"] = int(small.sum()) if enough else 0
     if max_rotation_deg is not None:
         big = ang > math.radians(max_rotation_deg)
         counts["dropped_large_rotation"] = int((big & keep).sum())

@@ -81,7 +81,7 @@ class OffsetCost:
     """
 
     def __init__(self, ta, Ta, tb, Tb, bracket, *, step_s, alpha, smooth_s, robust=True,
-                 part=None, n_grid=13, turning=True):
+                 part=None, n_grid=13, turning=True, jumps=None):
         self.alpha, self.step_s, self.smooth_s = alpha, step_s, smooth_s
         pa, pb = float(np.median(np.diff(ta))), float(np.median(np.diff(tb)))
         self.reference = "a" if pa >= pb else "b"
@@ -115,6 +115,8 @@ class OffsetCost:
         for o in grid:
             valid &= interpolation_valid(self.t_other, self._query(o), gap)
         ok = valid[self.i] & valid[self.j]
+        if jumps is not None:
+            ok &= self._one_world(jumps, grid)
         moves, what, moved = self._moving(turning)
         self.mask = ok & moves
         centre, at_centre = 0.5 * (lo_o + hi_o), None
@@ -217,6 +219,23 @@ class OffsetCost:
         per_pose = (np.bincount(self.i[self.mask], s, minlength=m)
                     + np.bincount(self.j[self.mask], s, minlength=m))
         return float(np.clip(float(np.sum(per_pose ** 2)) / white - 1.0, THIN_MIN, THIN_MAX))
+
+    def _one_world(self, jumps, grid) -> np.ndarray:
+        """The motions whose two ends lie in one stretch of each stream's world at every
+        offset of ``grid``, away from a jump by more than the smoothing's reach (``jumps``:
+        a's and b's ``world_jumps_s``, :mod:`simcalib.estimation.world_jumps`)."""
+        j_own, j_other = (jumps if self.reference == "a" else jumps[::-1])
+        reach = 5.0 * self.smooth_s
+        ok = np.ones(self.i.shape, dtype=bool)
+        for J, times in ((j_own, [self.t_ref]), (j_other, [self._query(o) for o in grid])):
+            J = np.asarray(J, dtype=np.float64)
+            if J.size == 0:
+                continue
+            for t in times:
+                w = np.searchsorted(J, t, side="right")
+                near = np.min(np.abs(t[:, None] - J[None]), axis=1) <= reach
+                ok &= (w[self.i] == w[self.j]) & ~near[self.i] & ~near[self.j]
+        return ok
 
     def _query(self, offset):
         return self.t_ref + offset if self.reference == "a" else self.t_ref - offset

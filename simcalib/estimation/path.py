@@ -9,6 +9,11 @@
     -> (the verdict: estimation.verdict); and, for comparison, a plain solve (offset 0, no
     rejection).
 
+A stream whose world frame jumps (a SLAM map reset, a bumped target:
+:mod:`simcalib.estimation.world_jumps`) is used whole: each stretch between jumps is its own
+world, every motion lies within one, and every stage after uses the motions of all
+stretches.
+
 A rig that only translates (neither stream turns:
 :func:`~simcalib.estimation.stillness.check_streams_move` returns ``translation``) goes
 through the same stages on its translations: the offset from the translation speeds, the
@@ -32,7 +37,7 @@ import numpy as np
 
 from simcalib.estimation.stillness import check_streams_move
 
-__all__ = ["StreamCalibration", "calibrate_streams", "align_worlds"]
+__all__ = ["StreamCalibration", "calibrate_streams"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -360,16 +365,16 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     from simcalib.estimation.sampling import classify_sampling
     from simcalib.estimation.scale import MODES, check_scale_b, scaled_stream
     from simcalib.estimation.station_rows import realign_rows
-    from simcalib.estimation.world_jumps import longest_stretches, split_stations
+    from simcalib.estimation.world_jumps import mark_stretches, split_stations, stretches_used
     scale_b = check_scale_b(scale_b)
     sa0, sb0 = read_pair(a, b, format_a, format_b, stamps_unit_a, stamps_unit_b)
     if scale_b not in MODES:                # a scale given: b's translations divided by it
         sb0 = scaled_stream(sb0, 1.0 / float(scale_b))
-    sa0, sb0, jumps = longest_stretches(sa0, sb0)
+    sa0, sb0, jumps = mark_stretches(sa0, sb0)
     signal = check_streams_move(sa0, sb0)   # translation: no rotation filter (all noise)
     min_rotation_deg = min_rotation_deg if signal == "rotation" else None
     sa0, sb0, sampling, rows = realign_rows(sa0, sb0, classify_sampling(sa0, sb0))
-    sa0, sb0, sampling, split = split_stations(sa0, sb0, sampling)
+    sa0, sb0, split = split_stations(sa0, sb0, sampling)
     kw = dict(time_offset=time_offset, drift=drift, alpha=alpha, seed=seed, signal=signal,
               forced={"invert_a": invert_a, "invert_b": invert_b,
                       "scalar_first_a": scalar_first_a, "scalar_first_b": scalar_first_b},
@@ -390,7 +395,8 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     aligned, summary = _summary(sa, sb, conv, off, ms, rob, ms0, plain, alpha, length_scale)
     return StreamCalibration(rob.X, None if plain is None else plain.X, off, conv, rob, plain,
                              sa, sb, ms.C, ms.H, sp.time_s[ms.i], summary | {
-                                 "scale_b": scale.to_dict(), "world_jumps": jumps + split,
+                                 "scale_b": scale.to_dict(),
+                                 "world_jumps": jumps + split + stretches_used(sp, ms, rob),
                                  "station_rows": rows},
                              synced=sp, motion_index=(ms.i, ms.j),
                              X_aligned=aligned.X, sampling=sampling, motions=ms,
@@ -576,19 +582,6 @@ def _per_pass(prior, passes: int):
 def _zero():
     from simcalib.estimation.alignment import _as_offset
     return _as_offset(0.0)
-
-
-def align_worlds(T_a: np.ndarray, T_b: np.ndarray, X: np.ndarray) -> np.ndarray:
-    """``T_wa_wb``: the fixed transform between the two streams' world frames implied by
-    ``X`` (``T_wa_a X = T_wa_wb T_wb_b`` at every synchronised instant), as the chordal
-    mean rotation (SVD projection of the mean) and the median translation of the per-instant
-    estimates ``T_wa_a X T_wb_b^-1``. Used to draw both trajectories in one frame."""
-    from simcalib.geometry import chordal_mean_rotation, invert_transform
-    Y = T_a @ X @ invert_transform(T_b)
-    out = np.eye(4)
-    out[:3, :3] = chordal_mean_rotation(Y[:, :3, :3])
-    out[:3, 3] = np.median(Y[:, :3, 3], axis=0)
-    return out
 
 
 def _rot_angle(X1, X2):

@@ -8,7 +8,8 @@ target's calibration error vary smoothly over the workspace, SLAM drifts, interp
 correlates neighbours. Here the error model lives where the errors arise, on the poses.
 
 Residuals. With X and the fixed transform between the two worlds ``Y = T_wa_wb``
-(:func:`fit_world`), pose ``i`` of b predicted from a is ``Y^-1 T_a[i] X``; the residual is
+(:func:`fit_world`; one per stretch of the worlds where a world frame jumps:
+:func:`world_transforms`, :mod:`simcalib.estimation.world_jumps`), pose ``i`` of b predicted from a is ``Y^-1 T_a[i] X``; the residual is
 the right-multiplied error of b that explains the measurement,
 ``r_i = (rotvec, t)`` of ``(Y^-1 T_a[i] X)^-1 T_b[i]`` (b's frame). Errors of a enter the
 motions only through the same combination, so ``r`` carries both streams' errors.
@@ -45,8 +46,9 @@ from simcalib.geometry import (chordal_mean_rotation, dual_quat_from_transform,
                                invert_transform, quat_conjugate, quat_from_matrix,
                                rotvec_from_matrix)
 
-__all__ = ["fit_world", "pose_residuals", "pose_sensitivity", "body_velocities",
-           "noise_determined", "pose_coordinates", "pose_distances", "PairDesign", "pair_design",
+__all__ = ["fit_world", "world_transforms", "pose_residuals", "pose_sensitivity",
+           "body_velocities", "noise_determined", "pose_coordinates", "pose_distances",
+           "PairDesign", "pair_design",
            "ErrorModel", "fit_error_model", "model_covariance", "psd", "neighbour_pairs",
            "neighbour_correlation", "MAX_PAIRS_POSES", "TIME_LAGS", "KERNEL_BLOCKS",
            "ALL_DISTANCES_POSES"]
@@ -72,14 +74,30 @@ def fit_world(T_a, T_b, X) -> np.ndarray:
     return Y
 
 
-def pose_residuals(T_a, T_b, X, Y=None) -> tuple[np.ndarray, np.ndarray]:
+def pose_residuals(T_a, T_b, X, Y=None, world=None) -> tuple[np.ndarray, np.ndarray]:
     """``(r, Y)``: the per-pose residuals ``(n, 6)`` (rotvec rad, translation m; b's frame;
-    module doc) and the world-to-world transform used (fitted when ``Y`` is None)."""
+    module doc) and the world-to-world transform used (fitted when ``Y`` is None).
+    ``world`` (n,): the stretch of the streams' worlds of each pose
+    (:mod:`simcalib.estimation.world_jumps`): ``Y`` is fitted per stretch and returned per
+    pose ``(n, 4, 4)``; None: one world."""
     T_a, T_b = np.asarray(T_a, np.float64), np.asarray(T_b, np.float64)
+    if world is not None and Y is None:
+        Y = world_transforms(T_a, T_b, X, world)
     if Y is None:
         Y = fit_world(T_a, T_b, X)
-    predicted = invert_transform(Y)[None] @ T_a @ X[None]
+    predicted = invert_transform(Y) @ T_a @ X[None] if Y.ndim == 3 else \
+        invert_transform(Y)[None] @ T_a @ X[None]
     return _log6(invert_transform(predicted) @ T_b), Y
+
+
+def world_transforms(T_a, T_b, X, world) -> np.ndarray:
+    """``(n, 4, 4)``: each pose's ``T_wa_wb`` (:func:`fit_world`), fitted on the poses of
+    its stretch of the worlds (``world`` (n,): one int per pose)."""
+    Y = np.empty((np.asarray(T_a).shape[0], 4, 4))
+    for w in np.unique(world):
+        m = world == w
+        Y[m] = fit_world(T_a[m], T_b[m], X)
+    return Y
 
 
 def _signed_dq(C, H, X):
@@ -129,10 +147,11 @@ def pose_sensitivity(C, H, X, alpha: float, pose_pairs, n_poses: int,
     return G
 
 
-def body_velocities(T, time_s) -> np.ndarray:
+def body_velocities(T, time_s, world=None) -> np.ndarray:
     """``(n, 6)`` body-frame twists ``(omega, v)`` (rad/s, m/s; the right-multiplied
     convention of :func:`pose_residuals`) of poses ``T`` at ``time_s`` by central
-    differences (one-sided at the ends); 0 where two stamps coincide."""
+    differences (one-sided at the ends, and at the ends of a stretch of the worlds:
+    ``world`` (n,), None: one world); 0 where two stamps coincide."""
     T = np.asarray(T, np.float64)
     t = np.asarray(time_s, np.float64)
     n = T.shape[0]
@@ -140,6 +159,9 @@ def body_velocities(T, time_s) -> np.ndarray:
         return np.zeros((n, 6))
     lo = np.maximum(np.arange(n) - 1, 0)
     hi = np.minimum(np.arange(n) + 1, n - 1)
+    if world is not None:
+        lo = np.where(world[lo] == world, lo, np.arange(n))
+        hi = np.where(world[hi] == world, hi, np.arange(n))
     dt = t[hi] - t[lo]
     d = _log6(invert_transform(T[lo]) @ T[hi])
     return np.where(dt[:, None] > 0, d / np.where(dt > 0, dt, 1.0)[:, None], 0.0)

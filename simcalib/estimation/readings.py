@@ -100,6 +100,8 @@ def _motions(sa, sb, offset, n_pairs, rng, sampling=None, signal="rotation"):
     i = rng.integers(0, n, size=n_pairs)
     j = rng.integers(0, n, size=n_pairs)
     keep = i != j
+    if sp.world is not None:            # never across a jump of a world frame
+        keep &= sp.world[i] == sp.world[j]
     i, j = i[keep], j[keep]
     C = invert_transform(sp.T_a[i]) @ sp.T_a[j]
     H = invert_transform(sp.T_b[i]) @ sp.T_b[j]

@@ -256,10 +256,12 @@ def pair_by_stamp(stream_a, stream_b, sampling: Sampling, offset_s: float = 0.0)
     """:class:`simcalib.estimation.alignment.SyncedPoses` of the poses whose stamps (b shifted by
     ``-offset_s``) agree within the sampling's tolerance, one-to-one."""
     from simcalib.estimation.alignment import SyncedPoses
+    from simcalib.estimation.world_jumps import instant_worlds
     t_a = np.asarray(stream_a.timestamps_s, dtype=np.float64)
     t_b = np.asarray(stream_b.timestamps_s, dtype=np.float64) - offset_s
     ia, ib = _partners(t_a, t_b, sampling.tolerance_s)
     counts = {"reference_stamps": int(t_a.size), "outside_overlap": int(t_a.size - ia.size),
               "in_gaps": 0, "kept": int(ia.size), "paired_by_stamp": True}
+    world, _ = instant_worlds(stream_a, stream_b, t_a[ia], t_b[ib] + offset_s, "both")
     return SyncedPoses(t_a[ia], np.asarray(stream_a.T_world_sensor)[ia],
-                       np.asarray(stream_b.T_world_sensor)[ib], "a", counts)
+                       np.asarray(stream_b.T_world_sensor)[ib], "a", counts, world)

@@ -21,9 +21,24 @@ difference)
 * stays: the poses :data:`JUMP_PERSIST` samples around it are still half that far
   apart (a bad pose, or a short run of them, comes back; outlier handling takes those).
 
-The path then keeps each stream's longest stretch without a jump (by duration) and says
-so (the repairs ``world_jumps`` and ``poses_beyond_a_world_jump_dropped``, and a warning);
-calibrating each stretch on its own is the user's choice (split the file).
+Every stretch between jumps is then used, each as its own world (:func:`mark_stretches`:
+the stream keeps all its poses and carries the jumps' stamps, ``world_jumps_s``). The
+synchronised instants carry the stretch of both worlds they lie in
+(``SyncedPoses.world``, :func:`instant_worlds`; an instant interpolated across a jump mixes
+two worlds and is dropped, counted ``across_a_world_jump``), and every step that uses
+motions forms them only within a stretch: the reading's random pairs, the offset cost's
+spans (also kept clear of a jump by the smoothing's reach), the motions of the fit
+(``dropped_across_world_jump`` counted), hence outlier handling, the solve, the
+covariance and the verdict; the pose residuals fit one world-to-world transform per
+stretch (:func:`simcalib.estimation.pose_errors.world_transforms`), the velocities are
+one-sided at a stretch's ends, the drawing aligns each stretch on its own, and the checks
+that need one world-to-world transform (the reading's twin, OpenCV's all-pairs
+comparison) use the stretch with the most instants. A stretch of one pose gives no
+motion: its pose is dropped and counted (``poses_in_short_stretches_dropped``). The
+repairs ``world_jumps`` and ``world_stretches`` and a warning say what was done. Not
+world-aware: the angular-speed correlation of the coarse offset (a jump is one step's
+spike in it, which its despiking takes) and the counter-lag search of sample-number
+stamps (:mod:`simcalib.estimation.hidden_offset`).
 
 Station data (poses paired by stamp, far apart: a robot that stops for each image) have
 no smooth path to jump from, and a bumped target is their common accident. There the two
@@ -31,9 +46,10 @@ streams' relative rotation angles tell: both sensors of a rigid rig turn by the 
 between any two poses (whatever the files' reading, X, the worlds or the scale), as long
 as both worlds stay. A split of the poses (in stamp order) into two groups is a jump when
 the pairs across it break that rule :data:`SPLIT_GAIN` times more (median) than the pairs
-within the groups, and by :data:`SPLIT_MIN_DEG` or more; the larger group is kept
-(:func:`station_groups`). A jump that moves a world without turning it is not seen this
-way (the translations' screw pitch depends on the unknown scale).
+within the groups, and by :data:`SPLIT_MIN_DEG` or more; both groups are used, each as
+its own world, pairs only within a group (:func:`station_groups`). A jump that moves a
+world without turning it is not seen this way (the translations' screw pitch depends on
+the unknown scale).
 """
 
 from __future__ import annotations
@@ -45,7 +61,8 @@ import numpy as np
 from simcalib.estimation.speeds import apart
 from simcalib.geometry import rotation_angle_rad
 
-__all__ = ["find_jumps", "longest_stretches", "station_split", "station_groups", "JUMP_GAIN",
+__all__ = ["find_jumps", "mark_stretches", "instant_worlds", "station_split", "station_groups",
+           "split_stations", "stretches_used", "align_worlds", "largest_world", "JUMP_GAIN",
            "OTHER_GAIN", "JUMP_PERSIST", "SPLIT_GAIN", "SPLIT_MIN_DEG"]
 
 #: a step this many times the stream's 90th percentiles of step length and speed may be a
@@ -106,23 +123,66 @@ def find_jumps(t: np.ndarray, T: np.ndarray, t_other: np.ndarray,
     return np.unique(np.asarray(ks, dtype=np.int64))
 
 
-def _longest(stream, jumps: np.ndarray):
-    """``stream`` cut to its longest stretch (by duration) between ``jumps``, with the
-    repairs counted; ``(stream, (t_start, t_end, share of poses kept))``."""
+def _stream_worlds(stream, t: np.ndarray, interpolated: bool, smooth_s) -> tuple:
+    """``(stretch of each instant t, usable)``: an instant whose pose of ``stream`` is
+    interpolated between two samples a jump separates (or smoothed within 3 bandwidths of
+    one) mixes two worlds: not usable."""
+    jumps = np.asarray(getattr(stream, "world_jumps_s", ()), dtype=np.float64)
+    label = np.searchsorted(jumps, t, side="right")
+    ok = np.ones(t.shape, dtype=bool)
+    if not interpolated and smooth_s is None:
+        return label, ok
+    ts = np.asarray(stream.timestamps_s, dtype=np.float64)
+    for J in jumps:
+        k = int(np.searchsorted(ts, J, side="left"))
+        lo, hi = ts[max(k - 1, 0)], ts[min(k, ts.size - 1)]
+        if interpolated:
+            ok &= ~((t > lo) & (t < hi))
+        if smooth_s is not None:
+            ok &= np.abs(t - J) > 3.0 * float(smooth_s)
+    return label, ok
+
+
+def instant_worlds(sa, sb, t_a: np.ndarray, t_b: np.ndarray, reference: str,
+                   smooth_s=None) -> tuple:
+    """``(world, usable)`` of synchronised instants at a's stamps ``t_a`` and b's ``t_b``
+    (each stream's own clock; ``reference``: the stream not interpolated, ``"a"``, ``"b"``
+    or ``"both"`` (paired by stamp)): ``world`` numbers the pair of stretches (one per
+    stream, between its ``world_jumps_s``) an instant lies in; ``(None, None)`` when
+    neither stream has a jump."""
+    na = len(getattr(sa, "world_jumps_s", ()))
+    nb = len(getattr(sb, "world_jumps_s", ()))
+    if na == 0 and nb == 0:
+        return None, None
+    la, oa = _stream_worlds(sa, np.asarray(t_a, np.float64), reference == "b", smooth_s)
+    lb, ob = _stream_worlds(sb, np.asarray(t_b, np.float64), reference == "a", smooth_s)
+    return (la * (nb + 1) + lb).astype(np.int64), oa & ob
+
+
+def _stretches(stream, jumps: np.ndarray):
+    """``stream`` with its world jumps marked (``world_jumps_s``) and the poses of
+    stretches too short to give a motion (one pose) dropped; ``(stream, stretches used,
+    poses dropped)``."""
     t = np.asarray(stream.timestamps_s)
     edges = np.concatenate([[0], jumps, [t.shape[0]]])
-    spans = [(t[e1 - 1] - t[e0], e0, e1) for e0, e1 in zip(edges[:-1], edges[1:])]
-    _, e0, e1 = max(spans)
-    repairs = dict(stream.repairs, world_jumps=int(jumps.size),
-                   poses_beyond_a_world_jump_dropped=int(t.shape[0] - (e1 - e0)))
-    kept = replace(stream, timestamps_s=t[e0:e1],
-                   T_world_sensor=np.asarray(stream.T_world_sensor)[e0:e1], repairs=repairs)
-    return kept, (float(t[e0]), float(t[e1 - 1]), (e1 - e0) / t.shape[0])
+    spans = [(e0, e1) for e0, e1 in zip(edges[:-1], edges[1:]) if e1 - e0 >= 2]
+    keep = np.zeros(t.shape[0], dtype=bool)
+    for e0, e1 in spans:
+        keep[e0:e1] = True
+    marks = tuple(float(t[e0]) for e0, _ in spans[1:])
+    repairs = dict(stream.repairs, world_jumps=int(jumps.size), world_stretches=len(spans),
+                   poses_in_short_stretches_dropped=int((~keep).sum()))
+    out = replace(stream, timestamps_s=t[keep],
+                  T_world_sensor=np.asarray(stream.T_world_sensor)[keep], repairs=repairs,
+                  world_jumps_s=marks)
+    return out, len(spans), int((~keep).sum())
 
 
-def longest_stretches(sa, sb):
-    """Both streams (PoseStreamData) cut to their longest stretch without a jump of their
-    world frame, and ``notes``: one sentence per stream that had one (empty: no jump)."""
+def mark_stretches(sa, sb):
+    """Both streams (PoseStreamData) with the jumps of their world frames marked
+    (``world_jumps_s``: every stretch between jumps is used as its own world; stretches of
+    one pose dropped), and ``notes``: one sentence per stream that had a jump (empty: no
+    jump)."""
     out, notes = [], []
     for s, other in ((sa, sb), (sb, sa)):
         jumps = find_jumps(np.asarray(s.timestamps_s), np.asarray(s.T_world_sensor),
@@ -130,14 +190,33 @@ def longest_stretches(sa, sb):
         if jumps.size == 0:
             out.append(s)
             continue
-        kept, (t0, t1, share) = _longest(s, jumps)
+        marked, used, dropped = _stretches(s, jumps)
         at = ", ".join(f"{x:.3f}" for x in np.asarray(s.timestamps_s)[jumps][:5])
-        notes.append(f"stream {s.name or s.source}'s world frame jumps at t = {at} s (a step "
-                     "no motion of the rig makes, which stays: a SLAM map reset, a tracker "
-                     f"re-initialised?); only its longest stretch without a jump is used "
-                     f"(t = {t0:.3f} to {t1:.3f} s, {share:.0%} of its poses)")
-        out.append(kept)
+        short = (f"; {dropped} pose(s) in stretches too short for a motion dropped"
+                 if dropped else "")
+        notes.append(f"stream {s.name or s.source}'s world frame jumps {jumps.size} time(s), "
+                     f"at t = {at} s (a step no motion of the rig makes, which stays: a SLAM "
+                     f"map reset, a tracker re-initialised?); each of its {used} stretches is "
+                     f"used as its own world (motions only within a stretch){short}")
+        out.append(marked)
     return out[0], out[1], notes
+
+
+def stretches_used(synced, motions, robust) -> list[str]:
+    """One sentence on the stretches of the worlds the fit used (``synced``:
+    SyncedPoses, ``motions``: MotionSet, ``robust``: RobustSolution); empty with one
+    world."""
+    world = getattr(synced, "world", None)
+    if world is None:
+        return []
+    w = world[motions.i]
+    inl = np.asarray(robust.inlier_mask, dtype=bool)
+    per = [int(((w == v) & inl).sum()) for v in np.unique(world)]
+    return [f"{sum(k > 0 for k in per)} of {len(per)} stretches of the two streams' worlds "
+            f"give the fit's motions (inliers per stretch: {', '.join(map(str, per))}); "
+            f"{motions.counts.get('dropped_across_world_jump', 0)} motions across a jump "
+            f"were not formed, {synced.counts.get('across_a_world_jump', 0)} instants "
+            "interpolated across one dropped"]
 
 
 def _angle_misfit(T_a: np.ndarray, T_b: np.ndarray) -> np.ndarray:
@@ -171,10 +250,11 @@ def station_split(T_a: np.ndarray, T_b: np.ndarray) -> tuple[int, float] | None:
 
 
 def station_groups(sa, sb, synced, shift_s: float = 0.0):
-    """Both streams cut to the larger group of a :func:`station_split` of their poses
-    paired by stamp (``synced``: :class:`~simcalib.estimation.alignment.SyncedPoses`, on
-    a's stamps; b's are ``shift_s`` later), and ``notes`` (empty: no split; the streams
-    returned as they are)."""
+    """Both streams with the jump of a :func:`station_split` of their poses paired by
+    stamp marked (``synced``: :class:`~simcalib.estimation.alignment.SyncedPoses`, on a's
+    stamps; b's are ``shift_s`` later): both groups are used, each as its own world (pairs
+    only within a group); and ``notes`` (empty: no split; the streams returned as they
+    are)."""
     n = synced.n
     pick = np.unique(np.linspace(0, n - 1, min(n, _MAX_POSES)).round().astype(np.int64))
     split = station_split(np.asarray(synced.T_a)[pick], np.asarray(synced.T_b)[pick])
@@ -182,37 +262,67 @@ def station_groups(sa, sb, synced, shift_s: float = 0.0):
         return sa, sb, []
     t = np.asarray(synced.time_s)
     k = int(pick[split[0]])
-    lo, hi = (t[0], t[k - 1]) if k >= n - k else (t[k], t[-1])
+    cut = 0.5 * (t[k - 1] + t[k])           # between the two groups' poses
     out = []
     for s, shift in ((sa, 0.0), (sb, shift_s)):
-        ts = np.asarray(s.timestamps_s)
-        keep = (ts >= lo + shift - 1e-9) & (ts <= hi + shift + 1e-9)
-        out.append(replace(s, timestamps_s=ts[keep],
-                           T_world_sensor=np.asarray(s.T_world_sensor)[keep],
-                           repairs=dict(s.repairs, world_jumps=1,
-                                        poses_beyond_a_world_jump_dropped=int(
-                                            (~keep).sum()))))
-    kept = k if k >= n - k else n - k
+        marks = tuple(sorted(set(s.world_jumps_s) | {float(cut + shift)}))
+        out.append(replace(s, world_jumps_s=marks, repairs=dict(
+            s.repairs, world_jumps=len(marks), world_stretches=len(marks) + 1)))
     note = (f"the two streams' worlds move apart between the poses at t = {t[k - 1]:.3f} and "
             f"{t[k]:.3f} s (the rotation angles of the motions across break the rule both "
             f"sensors turn alike {split[1]:.0f}x more than within: a bumped target, a moved "
-            f"base or camera?); only the larger group ({kept} of {n} poses) is used")
+            f"base or camera?); both groups ({k} and {n - k} of {n} poses) are used, each as "
+            "its own world (pairs only within a group)")
     return out[0], out[1], [note]
 
 
 def split_stations(sa, sb, sampling):
-    """``(stream_a, stream_b, sampling, notes)``: station data (paired by stamp, and the
-    motions' ``auto`` policy takes them as stations or bursts:
-    :func:`simcalib.estimation.motions.auto_policy`) cut by :func:`station_groups`, their
-    sampling classified again; other data, and stations with no split, as they are
+    """``(stream_a, stream_b, notes)``: station data (paired by stamp, and the motions'
+    ``auto`` policy takes them as stations or bursts:
+    :func:`simcalib.estimation.motions.auto_policy`) with the jump of
+    :func:`station_groups` marked; other data, and stations with no split, as they are
     (``notes`` empty)."""
     from simcalib.estimation.motions import auto_policy
-    from simcalib.estimation.sampling import classify_sampling, pair_by_stamp
+    from simcalib.estimation.sampling import pair_by_stamp
     if not sampling.paired_by_stamp:
-        return sa, sb, sampling, []
+        return sa, sb, []
     synced = pair_by_stamp(sa, sb, sampling, sampling.shift_s)
     policy = auto_policy(synced, True, sampling.kind == "index_stamps")[0]
     if policy not in ("stations", "bursts"):
-        return sa, sb, sampling, []
-    sa2, sb2, notes = station_groups(sa, sb, synced, sampling.shift_s)
-    return (sa2, sb2, classify_sampling(sa2, sb2), notes) if notes else (sa, sb, sampling, [])
+        return sa, sb, []
+    return station_groups(sa, sb, synced, sampling.shift_s)
+
+
+def align_worlds(T_a: np.ndarray, T_b: np.ndarray, X: np.ndarray, world=None,
+                 world_fit=None) -> np.ndarray:
+    """``T_wa_wb``: the fixed transform between the two streams' world frames implied by
+    ``X`` (``T_wa_a X = T_wa_wb T_wb_b`` at every synchronised instant), as the chordal
+    mean rotation (SVD projection of the mean) and the median translation of the per-instant
+    estimates ``T_wa_a X T_wb_b^-1``. Used to draw both trajectories in one frame. With
+    ``world`` (the stretch of the worlds of each instant of ``T_a``, ``T_b``: a world frame
+    jumps) one transform per stretch, returned per instant ``(n, 4, 4)``; ``world_fit``:
+    the stretches of the instants the fit uses where they are a subset (default all)."""
+    from simcalib.geometry import chordal_mean_rotation, invert_transform
+    if world is not None:
+        fit = np.ones(world.shape, dtype=bool) if world_fit is None else world_fit
+        out = np.tile(np.eye(4), (world.size, 1, 1))
+        for w in np.unique(world):
+            m = (world == w) & fit
+            out[world == w] = align_worlds(T_a[m], T_b[m], X) if m.any() else np.eye(4)
+        return out
+    Y = T_a @ X @ invert_transform(T_b)
+    out = np.eye(4)
+    out[:3, :3] = chordal_mean_rotation(Y[:, :3, :3])
+    out[:3, 3] = np.median(Y[:, :3, 3], axis=0)
+    return out
+
+
+def largest_world(synced) -> np.ndarray:
+    """``(n,)`` bool: the synchronised instants of the stretch of the worlds with the most
+    instants (all where there is one world): for a check that needs one world-to-world
+    transform."""
+    world = getattr(synced, "world", None)
+    if world is None:
+        return np.ones(synced.n, dtype=bool)
+    values, counts = np.unique(world, return_counts=True)
+    return world == values[int(np.argmax(counts))]

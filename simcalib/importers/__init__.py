@@ -92,7 +92,10 @@ class PoseStreamData:
     reading; ``synthetic_time``: the file had no timestamps (sample index used as time);
     ``stamps_unit``: the unit the file's stamps were told to be in (``s``, ``ms``, ``us``,
     ``ns``: given, unix time, or told with the other stream by
-    :mod:`simcalib.estimation.stamp_units`), ``""`` while read as seconds untold.
+    :mod:`simcalib.estimation.stamp_units`), ``""`` while read as seconds untold;
+    ``world_jumps_s``: the stamps (own clock) where the stream's world frame jumps
+    (:mod:`simcalib.estimation.world_jumps`): each stretch between them is its own world;
+    empty: one world.
     """
     timestamps_s: np.ndarray
     T_world_sensor: np.ndarray
@@ -106,6 +109,7 @@ class PoseStreamData:
     scalar_first_reinterpreted: bool = False
     synthetic_time: bool = False
     stamps_unit: str = ""
+    world_jumps_s: tuple = ()
 
     def __len__(self) -> int:
         return int(self.timestamps_s.shape[0])

@@ -323,6 +323,7 @@ def assess(r, eye: str | None = None) -> Assessment:
     reported covariance (the model's, raised to the data's own consistency), and the
     plausibility of X for the caller's ``eye`` (``in_hand``, ``on_base`` or None). A failed
     solve, or one whose uncertainty cannot be computed, is FAILED."""
+    from simcalib.estimation.world_jumps import largest_world
     from simcalib.estimation.plausibility import check_plausibility
     from simcalib.estimation.verdict import judge
     solution = r.robust.solution
@@ -338,7 +339,8 @@ def assess(r, eye: str | None = None) -> Assessment:
     words = tuple(direction_words(None, d) for d in records)
     fin = lambda vals: tuple(float(x) if math.isfinite(x) else None for x in vals)  # noqa
     source = _source(r.consistency)
-    plaus = check_plausibility(r.X, r.synced.T_a, r.synced.T_b, r.conventions, eye,
+    one = largest_world(r.synced)           # the twin needs one world-to-world transform
+    plaus = check_plausibility(r.X, r.synced.T_a[one], r.synced.T_b[one], r.conventions, eye,
                                translation_undetermined=not any(
                                    math.isfinite(s) for s in v.std_m))
     reading = reading_ambiguity(r, v.std_deg, v.std_m)
@@ -461,7 +463,7 @@ def write_outputs(opts: CalibrateOptions, r, a: Assessment,
         index_start=i, index_end=j, inlier=r.robust.inlier_mask, weight=r.robust.weights,
         screw_residual=r.robust.residuals, rotation_error_deg=np.degrees(rot),
         translation_error_m=trans, X=r.X, synced_time_s=sp.time_s, synced_T_world_a=sp.T_a,
-        synced_T_world_b=sp.T_b)
+        synced_T_world_b=sp.T_b, **({} if sp.world is None else {"synced_world": sp.world}))
     if opts.recording:
         from simcalib.report.rerun.calibration import record_calibration
         record_calibration(out / "recording.rrd", r, report, console=format_report(report))

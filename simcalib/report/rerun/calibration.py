@@ -88,12 +88,13 @@ def calibration_scene(r) -> CalibrationScene:
     the synchronised poses (at the estimated offset) through X and through the world-to-world
     transform X implies; the eye frames the kept poses' 2..98 % box (rejected poses, which
     may lie far off, do not zoom it out)."""
-    from simcalib.estimation.path import align_worlds
+    from simcalib.estimation.world_jumps import align_worlds
     sp, ms = r.synced, r.motions
     T_a, T_b = np.asarray(sp.T_a, np.float64), np.asarray(sp.T_b, np.float64)
     X = np.asarray(r.X, dtype=np.float64)
     rej = rejected_instants(sp.n, ms.i, ms.j, r.robust.inlier_mask)
-    b_from_a, b_meas = T_a @ X, align_worlds(T_a[~rej], T_b[~rej], X) @ T_b
+    b_from_a, b_meas = T_a @ X, align_worlds(T_a, T_b, X, sp.world, ~rej) @ T_b \
+        if sp.world is not None else align_worlds(T_a[~rej], T_b[~rej], X) @ T_b
     P = np.concatenate([b_from_a[~rej, :3, 3], b_meas[~rej, :3, 3], T_a[~rej, :3, 3]])
     lo, hi = np.percentile(P, 2, axis=0), np.percentile(P, 98, axis=0)
     ext = max(float(np.linalg.norm(hi - lo)), 0.05)

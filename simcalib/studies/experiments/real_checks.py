@@ -263,6 +263,7 @@ def reference_accuracy(entry: RealSet, ref: Reference | None) -> np.ndarray | No
 
 
 def _evaluate(entry, r, a, rep, ref, wall) -> SetResult:
+    from simcalib.estimation.world_jumps import largest_world
     X = np.asarray(rep["X"]["T_a_b"], dtype=np.float64)
     cov = None if a.covariance is None else _as_covariance(a.covariance)
     e = rot = trans = n0 = n1 = None
@@ -272,8 +273,9 @@ def _evaluate(entry, r, a, rep, ref, wall) -> SetResult:
         acc = reference_accuracy(entry, ref)
         if acc is not None:
             n1 = nees(e, cov, entry.nees_axes, extra_covariance=acc)
-    park, tsai = opencv_estimates(np.asarray(r.synced.T_a), np.asarray(r.synced.T_b), ref,
-                                  entry, X)
+    one = largest_world(r.synced)           # OpenCV pairs all poses: one world's
+    park, tsai = opencv_estimates(np.asarray(r.synced.T_a)[one], np.asarray(r.synced.T_b)[one],
+                                  ref, entry, X)
     off, inl = rep["time_offset"], rep["inliers"]
     sc = getattr(r.consistency, "split", None)
     split = None if sc is None else Nees(sc.nees, sc.dof, sc.bound, ())
