@@ -84,3 +84,19 @@ def test_streams_that_sample_a_motion_are_not_paired_by_lag(kind):
     rec = generate(kind, 0)
     smp = classify_sampling(rec.stream_a, rec.stream_b)
     assert realign_rows(rec.stream_a, rec.stream_b, smp)[3] == []
+
+
+def test_world_jump_marks_move_with_the_rows_new_stamps():
+    """Re-paired rows take new stamps; a stream's world-jump marks (the first pose of each
+    later stretch) follow the rows they mark."""
+    from simcalib.estimation.station_rows import moved_marks
+    rec = generate("stations", 0)
+    sb = replace(rec.stream_b, world_jumps_s=(4.0, 9.0, 99.0))
+    old = np.array([0.0, 1.0, 2.0, 3.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0])   # row 4 lost
+    new = np.arange(old.size, dtype=float) + 0.5
+    assert moved_marks(sb, old, new) == (4.5, 8.5)
+    k = rec.stream_b.timestamps_s.size // 3
+    lost = _lost_row(replace(rec.stream_b, world_jumps_s=(float(k + 2),)), k)
+    out_b = realign_rows(rec.stream_a, lost, classify_sampling(rec.stream_a, lost))[1]
+    j = int(np.searchsorted(lost.timestamps_s, k + 2))      # the marked row, renumbered
+    assert out_b.world_jumps_s == (float(out_b.timestamps_s[j]),)

@@ -48,7 +48,8 @@ import numpy as np
 from simcalib.geometry import rotation_angle_rad
 
 __all__ = ["align_rows", "realign_rows", "pair_by_lag", "PAIRED_SHARE", "MAX_LAG", "CAP_DEG",
-           "SKIP_DEG", "MAX_SKIP", "GAIN", "MIN_DEG", "MAX_ROWS", "MIN_PERIOD_S", "LAG_GAIN"]
+           "SKIP_DEG", "MAX_SKIP", "GAIN", "MIN_DEG", "MAX_ROWS", "MIN_PERIOD_S", "LAG_GAIN",
+           "moved_marks"]
 
 #: a step's misfit counts at most this much (deg): a wrong pair costs about this
 CAP_DEG = 10.0
@@ -113,6 +114,15 @@ def align_rows(T_a: np.ndarray, T_b: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return ia, ib
 
 
+def moved_marks(stream, old_t: np.ndarray, new_t: np.ndarray) -> tuple:
+    """``stream``'s world-jump marks (``world_jumps_s``: the stamp of the first pose of
+    each later stretch, :mod:`simcalib.estimation.world_jumps`) on its rows' new stamps:
+    each moves to the new stamp of the first kept row (old stamps ``old_t``) at or after
+    it; a mark after the last kept row is dropped."""
+    k = np.searchsorted(old_t, np.asarray(getattr(stream, "world_jumps_s", ()), float))
+    return tuple(sorted({float(new_t[i]) for i in k if i < new_t.size}))
+
+
 def _misfit_deg(T_a: np.ndarray, T_b: np.ndarray) -> float:
     """Median |angle of a's motion - angle of b's| over every two paired poses (deg)."""
     n = T_a.shape[0]
@@ -148,7 +158,8 @@ def realign_rows(sa, sb, sampling):
         sa.repairs, rows_without_a_partner=int(lost_a.size)))
     out_b = replace(sb, timestamps_s=ta[ia] + sampling.shift_s, T_world_sensor=Tb[ib],
                     repairs=dict(sb.repairs, rows_without_a_partner=int(lost_b.size),
-                                 rows_paired_by_motion=int(ib.size)))
+                                 rows_paired_by_motion=int(ib.size)),
+                    world_jumps_s=moved_marks(sb, tb[ib], ta[ia] + sampling.shift_s))
     rows = lambda lost, t: ", ".join(f"{x:g}" for x in t[lost][:8]) or "none"  # noqa: E731
     note = (f"the rows numbered {ta[0]:g}..{ta[-1]:g} in a ({ta.size}) and {tb[0]:g}..{tb[-1]:g} "
             f"in b ({tb.size}) do not pair by number: the rotation angles of the motions "
@@ -201,7 +212,8 @@ def pair_by_lag(sa, sb, sampling):
         sa.repairs, rows_without_a_partner=int(ta.size - ia.size)))
     out_b = replace(sb, timestamps_s=ta[ia] + shift, T_world_sensor=Tb[ib], repairs=dict(
         sb.repairs, rows_without_a_partner=int(tb.size - ib.size),
-        rows_paired_by_motion=int(ib.size)))
+        rows_paired_by_motion=int(ib.size)),
+        world_jumps_s=moved_marks(sb, tb[ib], ta[ia] + shift))
     spread = float(np.max(np.abs(tb[ib] - ta[ia] - shift)))
     note = (f"the stations of a ({ta.size}) and b ({tb.size}) carry two clocks: paired one to "
             f"one with b {shift:.6g} s later (the offset used; stamps within {spread:.3g} s "
