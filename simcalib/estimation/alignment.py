@@ -26,7 +26,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from simcalib.errors import DataError
-from simcalib.estimation.drift import check_drift, drift_from_halves, drift_line
+from simcalib.estimation.drift import (check_drift, drift_applied, drift_from_halves,
+                                       fitted_line)
 from simcalib.estimation.interpolation import interpolate_poses, max_hole_s, smooth_poses
 from simcalib.estimation.speeds import SPEEDS, as_time_poses, checked_signal, speed_steps
 from simcalib.estimation.world_jumps import instant_worlds
@@ -538,7 +539,7 @@ def _refined(streams, tried, half, kw, drift, msg, fields) -> TimeOffset:
     best, sigma = oc._offset_and_sigma(chosen)
     split = oc.split_check(*streams, best, half, kw, chosen.cost.window)
     t_ref = 0.5 * (chosen.cost.window[0] + chosen.cost.window[1])
-    line, d, d_sigma = _drift_line(split, t_ref, drift), 0.0, 0.0
+    line, d, d_sigma = fitted_line(split, t_ref, drift), 0.0, 0.0
     model_sigma, note = (line.sigma_s, line.note()) if line else _split_sigma(split, sigma)
     msg += note
     if model_sigma > sigma and math.isfinite(evidence):  # dispersion beyond the model's
@@ -548,8 +549,8 @@ def _refined(streams, tried, half, kw, drift, msg, fields) -> TimeOffset:
     if chosen.cost.reference == "b":
         t_ref -= line.offset_s if line else best        # the window is in b's clock
     if decision == "estimated" and line:
-        best, sigma, d, d_sigma, more = _drift_applied(streams, line, t_ref, sigma, half, kw,
-                                                       fields["window_s"])
+        best, sigma, d, d_sigma, more = drift_applied(streams, line, t_ref, sigma, half, kw,
+                                                      fields["window_s"])
         msg += more
     elif drift is True and decision == "estimated":     # too short for the parts' line
         d, best, more = drift_from_halves(*streams, best, half, kw)
@@ -570,42 +571,6 @@ def _refined(streams, tried, half, kw, drift, msg, fields) -> TimeOffset:
                       cost_offsets_s=chosen.offsets, cost=chosen.costs, message=msg,
                       decision=decision, evidence=evidence, split=split, best_s=told,
                       drift_sigma=d_sigma, **fields)
-
-
-def _drift_line(split, t_ref, drift):
-    """The parts' line where a drift is to be fitted: always for ``drift=True`` (None on
-    an overlap too short for 3 parts), for ``"auto"`` where it tells a drift."""
-    line = drift_line(split, t_ref) if drift else None
-    return line if line is not None and (drift is True or line.tells) else None
-
-
-def _drift_applied(streams, line, t_ref, sigma, half, kw, window) -> tuple:
-    """``(offset, sigma, drift, drift_sigma, note)`` with the parts' ``line``: the offset
-    refined again on b's stamps mapped onto a's clock by its drift (the parts' offsets
-    are their motions' averages, not the line's value at their middles). Its sigma, for
-    the recording as a whole (X's covariance carries one): that refinement's (raised to
-    its split check's where beyond chance) and the drift's sigma over the overlap (the rms
-    of ``drift_sigma (t - t_ref)``, ``span / sqrt(12)``); the line's ``sigma`` where
-    the refinement fails."""
-    from simcalib.estimation import offset_cost as oc
-    ta, Ta, tb, Tb = streams
-    model = TimeOffset(line.offset_s, sigma, line.offset_s, float("nan"), np.zeros(0),
-                       np.zeros(0), drift=line.drift, t_ref_s=t_ref)
-    tb_a = model.a_from_b(tb) + line.offset_s       # b's stamps: only the offset left
-    again = oc._refine_candidates(ta, Ta, tb_a, Tb, [line.offset_s], half / 2, kw,
-                                  window=window)
-    if not again or again[0].unbounded:
-        return line.offset_s, sigma, line.drift, line.drift_sigma, ""
-    best, own = oc._offset_and_sigma(again[0])
-    split = oc.split_check(ta, Ta, tb_a, Tb, best, half, kw, again[0].cost.window)
-    own = max(own, split.sigma_s if split.raised else own)
-    span = again[0].cost.window[1] - again[0].cost.window[0]
-    sigma = math.hypot(own, line.drift_sigma * span / math.sqrt(12.0))
-    return best, sigma, line.drift, line.drift_sigma, (
-        f"; refined again with b's stamps corrected for the drift: {best * 1e3:.2f} +- "
-        f"{own * 1e3:.2f} ms (its parts disperse {split.ratio:.3g}x"
-        + (", beyond chance" if split.raised else "") + "), with the drift's sigma over "
-        f"the {span:.0f} s: +- {sigma * 1e3:.2f} ms")
 
 
 def _split_sigma(split, sigma) -> tuple[float, str]:

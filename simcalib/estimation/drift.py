@@ -32,8 +32,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["DriftLine", "drift_line", "drift_from_halves", "check_drift", "DRIFT_GAIN",
-           "DRIFT_Z", "DRIFT_MIN_PARTS", "DRIFT_MODES"]
+__all__ = ["DriftLine", "drift_line", "fitted_line", "drift_applied", "drift_from_halves",
+           "check_drift", "DRIFT_GAIN", "DRIFT_Z", "DRIFT_MIN_PARTS", "DRIFT_MODES"]
 
 #: the line through the parts leaves at most this fraction's inverse of their dispersion
 #: about one offset
@@ -119,3 +119,40 @@ def drift_from_halves(ta, Ta, tb, Tb, best, half, kw) -> tuple[float, float, str
     span = 0.5 * (w2[0] + w2[1]) - 0.5 * (w1[0] + w1[1])
     d = (o2 - o1) / span if span > 0 else 0.0
     return d, 0.5 * (o1 + o2), f"; drift {d * 1e6:.1f} ppm from two windows"
+
+
+def fitted_line(split, t_ref: float, drift) -> DriftLine | None:
+    """The parts' line where a drift is to be fitted: always for ``drift=True`` (None on
+    an overlap too short for 3 parts), for ``"auto"`` where it tells a drift."""
+    line = drift_line(split, t_ref) if drift else None
+    return line if line is not None and (drift is True or line.tells) else None
+
+
+def drift_applied(streams, line, t_ref, sigma, half, kw, window) -> tuple:
+    """``(offset, sigma, drift, drift_sigma, note)`` with the parts' ``line``: the offset
+    refined again on b's stamps mapped onto a's clock by its drift (the parts' offsets
+    are their motions' averages, not the line's value at their middles). Its sigma, for
+    the recording as a whole (X's covariance carries one): that refinement's (raised to
+    its split check's where beyond chance) and the drift's sigma over the overlap (the rms
+    of ``drift_sigma (t - t_ref)``, ``span / sqrt(12)``); the line's ``sigma`` where
+    the refinement fails."""
+    from simcalib.estimation import offset_cost as oc
+    from simcalib.estimation.alignment import TimeOffset
+    ta, Ta, tb, Tb = streams
+    model = TimeOffset(line.offset_s, sigma, line.offset_s, float("nan"), np.zeros(0),
+                       np.zeros(0), drift=line.drift, t_ref_s=t_ref)
+    tb_a = model.a_from_b(tb) + line.offset_s       # b's stamps: only the offset left
+    again = oc._refine_candidates(ta, Ta, tb_a, Tb, [line.offset_s], half / 2, kw,
+                                  window=window)
+    if not again or again[0].unbounded:
+        return line.offset_s, sigma, line.drift, line.drift_sigma, ""
+    best, own = oc._offset_and_sigma(again[0])
+    split = oc.split_check(ta, Ta, tb_a, Tb, best, half, kw, again[0].cost.window)
+    own = max(own, split.sigma_s if split.raised else own)
+    span = again[0].cost.window[1] - again[0].cost.window[0]
+    sigma = math.hypot(own, line.drift_sigma * span / math.sqrt(12.0))
+    return best, sigma, line.drift, line.drift_sigma, (
+        f"; refined again with b's stamps corrected for the drift: {best * 1e3:.2f} +- "
+        f"{own * 1e3:.2f} ms (its parts disperse {split.ratio:.3g}x"
+        + (", beyond chance" if split.raised else "") + "), with the drift's sigma over "
+        f"the {span:.0f} s: +- {sigma * 1e3:.2f} ms")

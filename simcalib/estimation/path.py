@@ -362,19 +362,12 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     ``common_error``: a stated :class:`~simcalib.estimation.common_error.CommonError`;
     ``stamps_unit_a`` / ``_b``: :func:`read_pair`; ``scale_b``: ``auto``, ``estimate`` or a
     number (:mod:`simcalib.estimation.scale`). Bad input raises a DataError."""
-    from simcalib.estimation.sampling import classify_sampling
-    from simcalib.estimation.scale import MODES, check_scale_b, scaled_stream
-    from simcalib.estimation.station_rows import realign_rows
-    from simcalib.estimation.world_jumps import mark_stretches, split_stations, stretches_used
+    from simcalib.estimation.scale import check_scale_b
+    from simcalib.estimation.world_jumps import stretches_used
     scale_b = check_scale_b(scale_b)
-    sa0, sb0 = read_pair(a, b, format_a, format_b, stamps_unit_a, stamps_unit_b)
-    if scale_b not in MODES:                # a scale given: b's translations divided by it
-        sb0 = scaled_stream(sb0, 1.0 / float(scale_b))
-    sa0, sb0, jumps = mark_stretches(sa0, sb0)
-    signal = check_streams_move(sa0, sb0)   # translation: no rotation filter (all noise)
+    sa0, sb0, sampling, signal, notes = _prepared(a, b, (format_a, format_b),
+                                                  (stamps_unit_a, stamps_unit_b), scale_b)
     min_rotation_deg = min_rotation_deg if signal == "rotation" else None
-    sa0, sb0, sampling, rows = realign_rows(sa0, sb0, classify_sampling(sa0, sb0))
-    sa0, sb0, split = split_stations(sa0, sb0, sampling)
     kw = dict(time_offset=time_offset, drift=drift, alpha=alpha, seed=seed, signal=signal,
               forced={"invert_a": invert_a, "invert_b": invert_b,
                       "scalar_first_a": scalar_first_a, "scalar_first_b": scalar_first_b},
@@ -395,14 +388,31 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     aligned, summary = _summary(sa, sb, conv, off, ms, rob, ms0, plain, alpha, length_scale)
     return StreamCalibration(rob.X, None if plain is None else plain.X, off, conv, rob, plain,
                              sa, sb, ms.C, ms.H, sp.time_s[ms.i], summary | {
-                                 "scale_b": scale.to_dict(),
-                                 "world_jumps": jumps + split + stretches_used(sp, ms, rob),
-                                 "station_rows": rows},
+                                 "scale_b": scale.to_dict(), "station_rows": notes[1],
+                                 "world_jumps": notes[0] + stretches_used(sp, ms, rob)},
                              synced=sp, motion_index=(ms.i, ms.j),
                              X_aligned=aligned.X, sampling=sampling, motions=ms,
                              consistency=check, covariance=cov, covariance_determined=cov_det,
                              robust_choice=why, weighting=weighting,
                              common_error=common_error, signal=signal, scale=scale)
+
+
+def _prepared(a, b, formats, units, scale_b) -> tuple:
+    """The streams as the fit takes them (read, b's given scale applied, world jumps
+    marked, station rows re-paired, station groups split): ``(stream_a, stream_b,
+    sampling, signal (:func:`check_streams_move`), (world-jump notes, row notes))``."""
+    from simcalib.estimation.sampling import classify_sampling
+    from simcalib.estimation.scale import MODES, scaled_stream
+    from simcalib.estimation.station_rows import realign_rows
+    from simcalib.estimation.world_jumps import mark_stretches, split_stations
+    sa0, sb0 = read_pair(a, b, *formats, *units)
+    if scale_b not in MODES:                # a scale given: b's translations divided by it
+        sb0 = scaled_stream(sb0, 1.0 / float(scale_b))
+    sa0, sb0, jumps = mark_stretches(sa0, sb0)
+    signal = check_streams_move(sa0, sb0)
+    sa0, sb0, sampling, rows = realign_rows(sa0, sb0, classify_sampling(sa0, sb0))
+    sa0, sb0, split = split_stations(sa0, sb0, sampling)
+    return sa0, sb0, sampling, signal, (jumps + split, rows)
 
 
 def _scale_pass(p, sa0, sb0, sampling, scale_b, kw):

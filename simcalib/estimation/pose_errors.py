@@ -9,8 +9,9 @@ correlates neighbours. Here the error model lives where the errors arise, on the
 
 Residuals. With X and the fixed transform between the two worlds ``Y = T_wa_wb``
 (:func:`fit_world`; one per stretch of the worlds where a world frame jumps:
-:func:`world_transforms`, :mod:`simcalib.estimation.world_jumps`), pose ``i`` of b predicted from a is ``Y^-1 T_a[i] X``; the residual is
-the right-multiplied error of b that explains the measurement,
+:func:`world_transforms`, :mod:`simcalib.estimation.world_jumps`), pose ``i`` of b
+predicted from a is ``Y^-1 T_a[i] X``; the residual is the right-multiplied error of b
+that explains the measurement,
 ``r_i = (rotvec, t)`` of ``(Y^-1 T_a[i] X)^-1 T_b[i]`` (b's frame). Errors of a enter the
 motions only through the same combination, so ``r`` carries both streams' errors.
 

@@ -32,6 +32,7 @@ from simcalib.errors import DataError, unknown_choice
 from simcalib.geometry import (invert_transform, matrix_from_quat, quat_from_matrix,
                                transform_from_rotation_translation)
 from simcalib.registry import Registry
+from simcalib.importers._stamps import longest_recording as _longest_recording
 from simcalib.importers._stamps import stamps_in_seconds as _stamps_in_seconds
 
 __all__ = ["PoseStreamData", "RawStream", "data_error", "available", "read_pose_stream",
@@ -292,8 +293,6 @@ QUAT_NORM_TOL = 1e-3      # beyond this deviation from 1 a quaternion is renorma
 #: 1e9 m from its origin: 2.6x the Moon's distance)
 MAX_POSITION_M = 1e9
 QUAT_NORM_MAX_DEV = 0.2   # beyond this it is not a unit quaternion at all: error
-#: another recording in the same file: stamps that go back (:func:`_longest_recording`)
-RESTART_PERIODS, RESTART_MAX, RESTART_MIN_ROWS = 10.0, 3, 10
 
 
 def _finalise(raw: RawStream, source: str, fmt: str, detection: str,
@@ -377,7 +376,8 @@ def _ordered_unique(t: np.ndarray, T: np.ndarray, repairs: dict) -> tuple:
     keep the one consistent with the neighbouring stamps (:func:`_consistent_rows`;
     ``duplicate_timestamps_kept_consistent``), or none of them when that cannot be told
     (``duplicate_timestamps_dropped_ambiguous``): a re-published stale pose may come first
-    or last. Stamps that restart (:func:`_longest_recording`) are not sorted together."""
+    or last. Stamps that restart (:func:`~simcalib.importers._stamps.longest_recording`) are
+    not sorted together."""
     t, T = _longest_recording(t, T, repairs)
     if t.size >= 2 and np.any(np.diff(t) < 0):
         order = np.argsort(t, kind="stable")
@@ -396,33 +396,6 @@ def _ordered_unique(t: np.ndarray, T: np.ndarray, repairs: dict) -> tuple:
     if n_dropped:
         repairs["duplicate_timestamps_dropped_ambiguous"] = n_dropped
     return t[keep], T[keep]
-
-
-def _longest_recording(t: np.ndarray, T: np.ndarray, repairs: dict) -> tuple:
-    """``(t, T)`` of the longest recording (by duration) in a file whose stamps, in file
-    order, go back by more than RESTART_PERIODS median periods at 1..RESTART_MAX rows, are
-    in order elsewhere, and whose runs (RESTART_MIN_ROWS rows or more each) overlap in
-    time, the shorter mostly at stamps the other does not have: two recordings (a logger
-    restarted) appended in one file, which sorting would interleave. The others are
-    dropped and counted (``stamps_restarted``, ``rows_of_other_recordings_dropped``). Rows
-    shuffled, a few out of order, or re-published at their stamps are left to the sort."""
-    d = np.diff(t)
-    if t.size < 2 * RESTART_MIN_ROWS or not np.any(d < 0) or not np.any(d > 0):
-        return t, T
-    back = np.flatnonzero(d < -RESTART_PERIODS * np.median(d[d > 0]))
-    if back.size == 0 or np.count_nonzero(d < 0) > RESTART_MAX:
-        return t, T
-    edges = np.concatenate([[0], back + 1, [t.size]])
-    runs = [t[e0:e1] for e0, e1 in zip(edges[:-1], edges[1:])]
-    if min(r.size for r in runs) < RESTART_MIN_ROWS or not any(
-            min(r[-1], q[-1]) > max(r[0], q[0])
-            and np.isin(*((r, q) if r.size <= q.size else (q, r))).mean() < 0.5
-            for i, r in enumerate(runs) for q in runs[i + 1:]):
-        return t, T
-    _, e0, e1 = max((t[e1 - 1] - t[e0], e0, e1) for e0, e1 in zip(edges[:-1], edges[1:]))
-    repairs["stamps_restarted"] = int(back.size)
-    repairs["rows_of_other_recordings_dropped"] = int(t.size - (e1 - e0))
-    return t[e0:e1], T[e0:e1]
 
 
 def _consistent_rows(t: np.ndarray, T: np.ndarray) -> tuple[np.ndarray, int, int]:

@@ -17,7 +17,8 @@ import numpy as np
 from simcalib.errors import DataError
 
 __all__ = ["UNIX_TIME_S", "STAMP_UNITS", "UNIT_FACTORS", "MAX_PERIOD_S", "STAMPS_UNIT_CHOICES",
-           "stamps_in_seconds", "unix_unit"]
+           "stamps_in_seconds", "unix_unit", "longest_recording", "RESTART_PERIODS",
+           "RESTART_MAX", "RESTART_MIN_ROWS"]
 
 #: unix time in seconds of a plausible recording (1990-01-01 .. 2100-01-01): stamps of that
 #: magnitude in another unit are rescaled (:func:`stamps_in_seconds`)
@@ -75,3 +76,34 @@ def stamps_in_seconds(t: np.ndarray, label: str, repairs: dict,
         f"(ms, us and ns would give {period / 1e3:.3g}, {period / 1e6:.3g} and "
         f"{period / 1e9:.3g} s); allowed: stamps in seconds, or unix time in s, ms, us or "
         "ns (told by its magnitude)")
+
+
+#: another recording in the same file: stamps that go back (:func:`longest_recording`)
+RESTART_PERIODS, RESTART_MAX, RESTART_MIN_ROWS = 10.0, 3, 10
+
+
+def longest_recording(t: np.ndarray, T: np.ndarray, repairs: dict) -> tuple:
+    """``(t, T)`` of the longest recording (by duration) in a file whose stamps, in file
+    order, go back by more than RESTART_PERIODS median periods at 1..RESTART_MAX rows, are
+    in order elsewhere, and whose runs (RESTART_MIN_ROWS rows or more each) overlap in
+    time, the shorter mostly at stamps the other does not have: two recordings (a logger
+    restarted) appended in one file, which sorting would interleave. The others are
+    dropped and counted (``stamps_restarted``, ``rows_of_other_recordings_dropped``). Rows
+    shuffled, a few out of order, or re-published at their stamps are left to the sort."""
+    d = np.diff(t)
+    if t.size < 2 * RESTART_MIN_ROWS or not np.any(d < 0) or not np.any(d > 0):
+        return t, T
+    back = np.flatnonzero(d < -RESTART_PERIODS * np.median(d[d > 0]))
+    if back.size == 0 or np.count_nonzero(d < 0) > RESTART_MAX:
+        return t, T
+    edges = np.concatenate([[0], back + 1, [t.size]])
+    runs = [t[e0:e1] for e0, e1 in zip(edges[:-1], edges[1:])]
+    if min(r.size for r in runs) < RESTART_MIN_ROWS or not any(
+            min(r[-1], q[-1]) > max(r[0], q[0])
+            and np.isin(*((r, q) if r.size <= q.size else (q, r))).mean() < 0.5
+            for i, r in enumerate(runs) for q in runs[i + 1:]):
+        return t, T
+    _, e0, e1 = max((t[e1 - 1] - t[e0], e0, e1) for e0, e1 in zip(edges[:-1], edges[1:]))
+    repairs["stamps_restarted"] = int(back.size)
+    repairs["rows_of_other_recordings_dropped"] = int(t.size - (e1 - e0))
+    return t[e0:e1], T[e0:e1]

@@ -186,16 +186,24 @@ def _vec(v, scale=1.0, digits=3):
     return "[" + ", ".join("inf" if x is None else f"{scale * x:.{digits}f}" for x in v) + "]"
 
 
-def _offset_line(off: dict, sig, sampling: dict) -> str:
+def _offset_line(off: dict, sampling: dict) -> str:
     """``time offset t_b - t_a: ...`` in ms, or in samples for sample-number stamps of a
-    continuous motion (``motion_step``: their unit is not known); ``+- sig`` wherever the
+    continuous motion (``motion_step``: their unit is not known); ``+- sigma`` wherever the
     offset used has a 1-sigma (estimated, or 0 used where the data do not tell one: the
-    sigma X's covariance carries)."""
+    sigma X's covariance carries); how it was decided; the drift where one was fitted."""
+    sig = off["uncertainty_s"]
     if sampling.get("motion_step"):
-        return (f"time offset t_b - t_a: {off['offset_s']:.3f}"
+        head = (f"time offset t_b - t_a: {off['offset_s']:.3f}"
                 + (f" +- {sig:.2g} samples" if sig else " samples"))
-    return (f"time offset t_b - t_a: {1e3 * off['offset_s']:.2f}"
-            + (f" +- {1e3 * sig:.2f} ms" if sig else " ms"))
+    else:
+        head = (f"time offset t_b - t_a: {1e3 * off['offset_s']:.2f}"
+                + (f" +- {1e3 * sig:.2f} ms" if sig else " ms"))
+    drift = (f", drift {off['drift'] * 1e6:.1f}" + (
+        f" +- {off['drift_sigma'] * 1e6:.1f}" if off.get("drift_sigma") else "") + " ppm"
+             if off["drift"] else "")
+    return head + {"estimated": " (estimated)", "zero": " (not told by the data: 0 used)",
+                   "given": " (given)", "shared_stamps": " (paired by stamp)"}[
+                       off["decision"]] + drift
 
 
 def format_report(rep: dict) -> str:
@@ -204,7 +212,6 @@ def format_report(rep: dict) -> str:
     u, v, off, inl = rep["uncertainty"], rep["verdict"], rep["time_offset"], rep["inliers"]
     res, conv = rep["residuals"]["inliers"], rep["conventions"]
     rows = "\n".join("    " + " ".join(f"{x:+.6f}" for x in row) for row in X)
-    sig = off["uncertainty_s"]
     lines = [
         f"X = T_a_b (pose of b in a):\n{rows}",
         f"  translation (m):        {_vec(rep['X']['translation_m'], digits=5)}",
@@ -219,12 +226,7 @@ def format_report(rep: dict) -> str:
         *_scale_lines(rep.get("scale_b")),
         f"sampling: {rep['sampling']['reason']}",
         f"motions: {rep['motions']['policy']} ({rep['motions']['reason']})",
-        _offset_line(off, sig, rep["sampling"])
-        + {"estimated": " (estimated)", "zero": " (not told by the data: 0 used)",
-           "given": " (given)", "shared_stamps": " (paired by stamp)"}[off["decision"]]
-        + (f", drift {off['drift'] * 1e6:.1f}" + (f" +- {off['drift_sigma'] * 1e6:.1f}"
-                                                 if off.get("drift_sigma") else "") + " ppm"
-           if off["drift"] else ""),
+        _offset_line(off, rep["sampling"]),
         f"  {off['message']}",
         f"inliers: {inl['n_inliers']} of {inl['n_motions']} motions ({inl['choice']}): "
         f"{inl['message']}",
