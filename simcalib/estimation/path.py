@@ -126,6 +126,35 @@ def read_pair(a, b, format_a=None, format_b=None, unit_a="auto", unit_b="auto"):
 
 def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift=False, alpha=1.0,
                    seed=0, forced=None, signal="rotation"):
+    """:func:`_align_and_read` (the reading and the clock offset), then whether b is
+    mirrored (a left-handed file: :func:`simcalib.estimation.readings.mirror_ratio`), decided
+    apart and only where it wins by more than ``MIRROR_RATIO``: then the streams are read
+    and aligned again with b mirrored, and the reading's message says so. ``forced``
+    ``mirror_b`` (True / False) skips the check. Returns ``(stream_a, stream_b,
+    ConventionReport, TimeOffset, Sampling)``."""
+    from dataclasses import replace
+    from simcalib.estimation.readings import MIRROR_RATIO, mirror_ratio, mirror_sentence
+    forced = dict(forced or {})
+    given = forced.pop("mirror_b", None)
+    kw = dict(time_offset=time_offset, drift=drift, alpha=alpha, seed=seed, signal=signal)
+    *out, (first, first_off) = _align_and_read(sa, sb, sampling,
+                                               forced=forced | {"mirror_b": bool(given)}, **kw)
+    if given is not None:
+        return tuple(out)
+    # at the first decision's offset: one the reading does not move (a mirrored b read
+    # as written can pull a refined offset off, where neither reading fits)
+    ratio = mirror_ratio(sa, sb, first, offset=first_off, alpha=alpha, seed=seed,
+                         sampling=sampling, signal=signal, **forced)
+    if not ratio > MIRROR_RATIO:
+        return (*out[:2], replace(out[2], mirror_ratio=ratio), *out[3:])
+    *out, _ = _align_and_read(sa, sb, sampling, forced=forced | {"mirror_b": True}, **kw)
+    conv = out[2]
+    return (*out[:2], replace(conv, mirror_ratio=ratio,
+                              message=f"{conv.message}; {mirror_sentence(ratio)}"), *out[3:])
+
+
+def _align_and_read(sa, sb, sampling, *, time_offset="estimate", drift=False, alpha=1.0,
+                    seed=0, forced=None, signal="rotation"):
     """The streams' reading and their clock offset, decided in that order and checked
     again: the reading at the correlation's (reading-free) offset, the offset refined with
     that reading, then the reading decided again at the final offset (it is what the run
@@ -134,7 +163,9 @@ def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift=False, alp
     readings on motions that translate. Streams paired by equal stamps that both sample a
     continuous motion are checked for an offset the stamps hide
     (:mod:`simcalib.estimation.hidden_offset`), which unpairs them. Returns ``(stream_a,
-    stream_b, ConventionReport, TimeOffset, Sampling)``."""
+    stream_b, ConventionReport, TimeOffset, Sampling, first)``, ``first`` the report and the
+    offset of the first decision (at the given, the stamps' or the correlation's offset:
+    one that does not depend on the reading)."""
     from simcalib.estimation.readings import apply_conventions, detect_conventions
     from simcalib.estimation.alignment import _as_offset, estimate_time_offset
     forced = forced or {}
@@ -143,7 +174,7 @@ def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift=False, alp
     if time_offset != "estimate":
         off = _as_offset(time_offset)
         conv = detect(off)
-        return (*apply_conventions(sa, sb, conv), conv, off, sampling)
+        return (*apply_conventions(sa, sb, conv), conv, off, sampling, (conv, off))
     if sampling.paired_by_stamp:            # equal stamps, or equal after a constant shift
         return _paired_by_stamp(sa, sb, sampling, detect, drift=drift, alpha=alpha,
                                 signal=signal)
@@ -159,7 +190,7 @@ def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift=False, alp
         a1, b1 = apply_conventions(sa, sb, final)       # the reading changed: once more
         off = estimate_time_offset(a1, b1, drift=drift, alpha=alpha, signal=by)
         final = detect(off)
-    return (*apply_conventions(sa, sb, final), final, off, sampling)
+    return (*apply_conventions(sa, sb, final), final, off, sampling, (conv, conv.offset_s))
 
 
 def _paired_by_stamp(sa, sb, sampling, detect, *, drift, alpha, signal):
@@ -175,10 +206,11 @@ def _paired_by_stamp(sa, sb, sampling, detect, *, drift, alpha, signal):
     a1, b1 = apply_conventions(sa, sb, conv)
     sampling, off = stamps_hide_offset(a1, b1, sampling, off, alpha=alpha, drift=drift,
                                        signal=signal)
+    first = (conv, off)
     if sampling.paired_by_stamp:
-        return a1, b1, conv, off, sampling
+        return a1, b1, conv, off, sampling, first
     final = detect(off, sampling)
-    return (*apply_conventions(sa, sb, final), final, off, sampling)
+    return (*apply_conventions(sa, sb, final), final, off, sampling, first)
 
 
 def _best_score(conv) -> float:
@@ -343,7 +375,8 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
                       robust_options: dict | None = None, method: str = "dqopt",
                       prior=None, seed: int = 0, motions: str = "auto",
                       tolerances=None, common_error=None, stamps_unit_a: str = "auto",
-                      stamps_unit_b: str = "auto", scale_b="auto") -> StreamCalibration:
+                      stamps_unit_b: str = "auto", scale_b="auto",
+                      mirror_b: bool | None = None) -> StreamCalibration:
     """Calibrate ``X = T_a_b`` from two pose streams (paths or PoseStreamData), the one path:
     jumps of a world frame (:mod:`~simcalib.estimation.world_jumps`) -> how the rig moves
     (:func:`check_streams_move`) -> sampling (:mod:`~simcalib.estimation.sampling`) ->
@@ -356,7 +389,9 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     ``tolerances``: :class:`simcalib.estimation.verdict.Tolerances` (1 deg / 1 cm);
     ``common_error``: a stated :class:`~simcalib.estimation.common_error.CommonError`;
     ``stamps_unit_a`` / ``_b``: :func:`read_pair`; ``scale_b``: ``auto``, ``estimate`` or a
-    number (:mod:`simcalib.estimation.scale`). Bad input raises a DataError."""
+    number (:mod:`simcalib.estimation.scale`); ``mirror_b``: None (told by the data:
+    :func:`align_and_read`), or b forced mirrored (True) or as written (False). Bad input
+    raises a DataError."""
     from simcalib.estimation.sampling import classify_sampling
     from simcalib.estimation.scale import MODES, check_scale_b, scaled_stream
     from simcalib.estimation.world_jumps import longest_stretches, split_stations
@@ -370,7 +405,8 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     sa0, sb0, sampling, split = split_stations(sa0, sb0, classify_sampling(sa0, sb0))
     kw = dict(time_offset=time_offset, drift=drift, alpha=alpha, seed=seed, signal=signal,
               forced={"invert_a": invert_a, "invert_b": invert_b,
-                      "scalar_first_a": scalar_first_a, "scalar_first_b": scalar_first_b},
+                      "scalar_first_a": scalar_first_a, "scalar_first_b": scalar_first_b,
+                      "mirror_b": mirror_b},
               motions=motions, step_s=step_s, min_rotation_deg=min_rotation_deg,
               max_rotation_deg=max_rotation_deg, robust=robust, method=method,
               robust_options=robust_options)
