@@ -14,7 +14,9 @@ then with one perturbation at a time whose effect on the answer is known:
   +-2 ms stamp jitter: X must stay;
 * ``invert_b`` (b written as ``T_sensor_world``), ``wxyz_b`` (b's quaternions scalar
   first), ``neg_quat_half_b`` (half of b's quaternions negated), ``shuffled_rows_b``
-  (station sets: b's rows in random order): X must stay;
+  (station sets: b's rows in random order), ``mirror_b`` (b written in a left-handed
+  frame: ``z -> -z``, quaternions ``(-qx, -qy, qz, qw)``; read mirrored, b's poses are the
+  set's own): X must stay;
 * ``mm_b``: b's translations in millimetres: refused as a unit mismatch (exit 3) or
   calibrated with b rescaled (``scale_b``), X staying.
 
@@ -51,7 +53,8 @@ PERTURBATIONS = {
     "offset+0.25s": (True, False), "offset-30s": (True, False), "drop20%b": (True, False),
     "gap3s_a": (True, False), "jitter2ms_b": (True, False), "invert_b": (True, True),
     "wxyz_b": (True, True), "neg_quat_half_b": (True, True), "mm_b": (True, True),
-    "shuffled_rows_b": (False, True), "epoch_b": (True, False), "reset_b": (True, True)}
+    "shuffled_rows_b": (False, True), "epoch_b": (True, False), "reset_b": (True, True),
+    "mirror_b": (True, True)}
 SHIFTS_S = {"offset+0.25s": 0.25, "offset-30s": -30.0}
 #: ``epoch_b`` moves stamps on a recording's clock by this much (a Unix time, 2025-12)
 UNIX_EPOCH_S = 1.765e9
@@ -112,6 +115,8 @@ def perturb(name: str, a: np.ndarray, b: np.ndarray, rng: np.random.Generator):
         b = _world_reset(b, len(b) // 2)
     elif name == "shuffled_rows_b":
         b = b[rng.permutation(len(b))]
+    elif name == "mirror_b":                    # a left-handed file: z -> -z, (-x, -y, z, w)
+        b[:, [3, 4, 5]] *= -1.0
     elif name != "base":
         raise ValueError(f"unknown perturbation {name!r}; valid: base, "
                          + ", ".join(PERTURBATIONS))
