@@ -48,8 +48,8 @@ def _align_and_read(sa, sb, sampling, *, time_offset="estimate", drift=False, al
     that reading, then the reading decided again at the final offset (it is what the run
     reports). ``signal`` (:func:`~simcalib.estimation.stillness.check_streams_move`):
     ``rotation`` correlates angular speeds, ``translation`` (a rig that does not turn)
-    translation speeds, and scores the readings on motions that translate. Streams paired by equal stamps that both sample a
-    continuous motion are checked for an offset the stamps hide
+    translation speeds, and scores the readings on motions that translate. Streams paired
+    by equal stamps that both sample a continuous motion are checked for an offset the stamps hide
     (:mod:`simcalib.estimation.hidden_offset`), which unpairs them. Returns ``(stream_a,
     stream_b, ConventionReport, TimeOffset, Sampling, first)``, ``first`` the report and the
     offset of :func:`first_reading`."""

@@ -257,11 +257,13 @@ def mirror_ratio(stream_a, stream_b, report: ConventionReport, *, offset,
 
 def mirror_sentence(ratio: float) -> str:
     """What a mirrored b means for the user (the reading's message and the warnings)."""
-    return (f"stream b is MIRRORED: its poses fit {ratio:.3g}x better with z negated "
-            "(positions z -> -z, quaternions (-qx, -qy, qz, qw)) than as written, and no "
-            "rotation relates them to a's as written: a left-handed file (Unity, Unreal, "
-            "DirectX-based trackers); calibrated so, X = T_a_b' with b' = b's frame with its "
-            "z axis negated; pass mirror_b=false to take b as written")
+    return (f"stream b is MIRRORED against a: its poses fit {ratio:.3g}x better with z "
+            "negated (positions z -> -z, quaternions (-qx, -qy, qz, qw)) than as written, "
+            "where no rotation relates them: one file is left-handed (Unity, Unreal, "
+            "DirectX-based trackers); calibrated with b read so, X = T_a_b' with b' = b's "
+            "frame with its z axis negated (if a is the left-handed one, M X M with "
+            "M = diag(1, 1, -1) is T_a'_b between a's frame mirrored so and b's); pass "
+            "mirror_b=false to take b as written")
 
 
 def _score_readings(stream_a, stream_b, off, parities, swaps, *, n_pairs, alpha, seed,
