@@ -50,25 +50,21 @@ def test_the_quaternion_order_is_not_told_without_rotation():
 # ------------------------------------------------------------- a mirrored (left-handed) b
 def _mirrored_file(stream):
     """``stream`` as a left-handed tool writes it: z negated, quaternions (-x, -y, z, w)."""
-    import numpy as np
-    from simcalib.geometry import quat_from_matrix, matrix_from_quat
-    from simcalib.importers import stream_from_arrays
-    T = np.array(stream.T_world_sensor)
-    q = quat_from_matrix(T[:, :3, :3]) * np.array([-1.0, -1.0, 1.0, 1.0])
-    p = T[:, :3, 3] * np.array([1.0, 1.0, -1.0])
-    M = np.tile(np.eye(4), (len(T), 1, 1))
-    M[:, :3, :3], M[:, :3, 3] = matrix_from_quat(q), p
-    return stream_from_arrays(stream.timestamps_s, M, source="<mirrored>", name=stream.name,
-                              quat_order=stream.quat_order)
+    from simcalib.tools.mirror_margin import mirrored_file
+    return mirrored_file(stream)
 
 
 def test_mirrored_negates_z_and_the_quaternions_x_and_y_and_is_its_own_inverse():
     import numpy as np
     from simcalib.estimation.readings import mirrored
+    from simcalib.geometry import matrix_from_quat, quat_from_matrix
     rec = generate("continuous", 0)
     b = rec.stream_b
     m = mirrored(b)
     assert np.allclose(m.T_world_sensor, _mirrored_file(b).T_world_sensor, atol=1e-12)
+    q = quat_from_matrix(b.T_world_sensor[:, :3, :3]) * np.array([-1.0, -1.0, 1.0, 1.0])
+    assert np.allclose(m.T_world_sensor[:, :3, :3], matrix_from_quat(q), atol=1e-12)
+    assert np.array_equal(m.T_world_sensor[:, 2, 3], -b.T_world_sensor[:, 2, 3])
     assert np.allclose(np.linalg.det(m.T_world_sensor[:, :3, :3]), 1.0)
     assert np.array_equal(mirrored(m).T_world_sensor, b.T_world_sensor)
 
@@ -147,3 +143,16 @@ def test_a_mirrored_a_is_told_as_b_mirrored_against_it_and_m_x_m_is_x():
     assert r.conventions.mirror_b and "M X M" in r.conventions.message
     assert math.degrees(float(rotation_error_rad(Y, rec.X_true))) < 0.5
     assert np.linalg.norm(Y[:3, 3] - rec.X_true[:3, 3]) < 5e-3
+
+
+@pytest.mark.slow
+def test_a_mirrored_scalar_first_b_is_told_with_its_quaternion_order():
+    """A left-handed tool writing scalar-first quaternions: the mirror is of the poses,
+    after the quaternion order (read in the other order, then z negated)."""
+    from simcalib.tools.mirror_margin import mirrored_file
+    rec = generate("scalar_first", 0)              # even seeds: b scalar-first
+    assert rec.scalar_first_b
+    r, rot_deg, trans_mm = _calibrated_error(rec, mirrored_file(rec.stream_b, True))
+    conv = r.conventions
+    assert conv.mirror_b and conv.swap_scalar_b and not conv.swap_scalar_a, conv.message
+    assert rot_deg < 0.5 and trans_mm < 5.0, (rot_deg, trans_mm)

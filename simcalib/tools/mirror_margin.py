@@ -19,19 +19,37 @@ import json
 import math
 import sys
 
-__all__ = ["mirror_ratios", "main"]
+__all__ = ["mirrored_file", "mirror_ratios", "main"]
 
 
-def mirror_ratios(a, b) -> dict:
+def mirrored_file(stream, scalar_first: bool = False):
+    """``stream`` (as read from a file) as a left-handed tool writes it: position ``z``
+    and the quaternion's ``x``, ``y`` negated in the file's own numbers (``scalar_first``:
+    the file writes ``w, x, y, z``, which the reader took for ``x, y, z, w``)."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    from simcalib.geometry import (matrix_from_quat, quat_from_matrix,
+                                   transform_from_rotation_translation)
+    T = np.asarray(stream.T_world_sensor)
+    sign = np.array([1.0, -1.0, -1.0, 1.0] if scalar_first else [-1.0, -1.0, 1.0, 1.0])
+    R = matrix_from_quat(quat_from_matrix(T[:, :3, :3]) * sign)
+    return replace(stream, T_world_sensor=transform_from_rotation_translation(
+        R, T[:, :3, 3] * np.array([1.0, 1.0, -1.0])))
+
+
+def mirror_ratios(a, b, scalar_first_b: bool = False) -> dict:
     """``{"as_written": ratio, "mirrored": ratio}`` of streams ``a``, ``b``
-    (PoseStreamData), read as ``calibrate`` reads them up to the first reading."""
+    (PoseStreamData; ``scalar_first_b``: b's file is scalar-first) with b as written and
+    as :func:`mirrored_file`, read as ``calibrate`` reads them up to the first reading."""
     from simcalib.estimation.path import first_reading, read_pair
-    from simcalib.estimation.readings import mirror_ratio, mirrored
+    from simcalib.estimation.readings import mirror_ratio
     from simcalib.estimation.sampling import classify_sampling
     from simcalib.estimation.stillness import check_streams_move
     from simcalib.estimation.world_jumps import longest_stretches, split_stations
     out = {}
-    for tag, bb in (("as_written", b), ("mirrored", mirrored(b))):
+    for tag, bb in (("as_written", b), ("mirrored", mirrored_file(b, scalar_first_b))):
         sa, sb = read_pair(a, bb)
         sa, sb, _ = longest_stretches(sa, sb)
         signal = check_streams_move(sa, sb)
@@ -46,7 +64,7 @@ def _cases(kinds, seeds, real, first=0):
     for seed in range(first, seeds):
         for k in kinds or [k for k, v in KINDS.items() if v.expect != "data_error"]:
             rec = generate(k, seed)
-            yield k, f"{k} {seed}", rec.stream_a, rec.stream_b
+            yield k, f"{k} {seed}", rec.stream_a, rec.stream_b, rec.scalar_first_b
     if real != "none":
         from simcalib.importers import read_pose_stream
         from simcalib.studies.experiments.real_sets import SETS, set_available, set_paths
@@ -54,7 +72,7 @@ def _cases(kinds, seeds, real, first=0):
             if s.source == "real" and set_available(s):
                 a, b = set_paths(s)
                 yield s.name, s.name, *(read_pose_stream(p, None, stamps_unit="pair")
-                                        for p in (a, b))
+                                        for p in (a, b)), False
 
 
 def main(argv=None) -> int:
@@ -69,9 +87,9 @@ def main(argv=None) -> int:
     ap.add_argument("--lines", action="store_true", help="one JSON line per recording")
     args = ap.parse_args(argv)
     table: dict = {}
-    for group, label, a, b in _cases(args.kinds, args.seeds, args.real, args.first_seed):
+    for group, label, a, b, sf in _cases(args.kinds, args.seeds, args.real, args.first_seed):
         try:
-            r = mirror_ratios(a, b)
+            r = mirror_ratios(a, b, sf)
         except (DataError, ValueError) as exc:
             r = {"error": str(exc).splitlines()[0][:120]}
         if args.lines:
