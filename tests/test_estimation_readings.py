@@ -98,13 +98,26 @@ def test_a_mirrored_b_forced_as_written_is_not_checked():
     assert rot_deg > 90.0           # no proper X fits the mirrored file as written
 
 
-def test_files_as_written_fit_far_better_than_b_mirrored():
-    from simcalib.estimation.readings import MIRROR_RATIO
+def test_files_as_written_fit_far_better_than_b_mirrored_and_skip_the_check():
+    """b's pitches follow a's (the cheap look): the scoring of the mirrored readings is
+    skipped (``mirror_ratio`` NaN); it would have found b mirrored far worse."""
+    import math
+    from simcalib.estimation.path import first_reading
+    from simcalib.estimation.readings import MIRROR_RATIO, mirror_ratio, pitch_agreement
+    from simcalib.estimation.sampling import classify_sampling
     rec = generate("stations", 0)
     r, rot_deg, _ = _calibrated_error(rec, rec.stream_b)
     conv = r.conventions
-    assert not conv.mirror_b and conv.mirror_ratio < 1.0 / MIRROR_RATIO, conv.mirror_ratio
-    assert "MIRRORED" not in conv.message and rot_deg < 0.5
+    assert not conv.mirror_b and math.isnan(conv.mirror_ratio) and rot_deg < 0.5
+    assert "MIRRORED" not in conv.message
+    smp = classify_sampling(rec.stream_a, rec.stream_b)
+    first, off = first_reading(rec.stream_a, rec.stream_b, smp)
+    at = dict(offset=off, sampling=smp)
+    assert pitch_agreement(rec.stream_a, rec.stream_b, first, **at) > MIRROR_RATIO
+    assert mirror_ratio(rec.stream_a, rec.stream_b, first, **at) < 1.0 / MIRROR_RATIO
+    b = _mirrored_file(rec.stream_b)
+    first, off = first_reading(rec.stream_a, b, smp)
+    assert pitch_agreement(rec.stream_a, b, first, offset=off, sampling=smp) < 1.0
 
 
 @pytest.mark.slow

@@ -31,7 +31,7 @@ import numpy as np
 from simcalib.geometry import rotation_angle_rad
 
 __all__ = ["ConventionReport", "detect_conventions", "apply_conventions", "CLEAR_RATIO",
-           "MIRROR_RATIO", "mirror_ratio", "mirror_sentence", "mirrored"]
+           "MIRROR_RATIO", "mirror_ratio", "mirror_sentence", "mirrored", "pitch_agreement"]
 
 CLEAR_RATIO = 3.0   # runner-up score / winner score above this: "clear"
 #: the reading's score as read / mirrored above this: b is taken as mirrored (a left-handed
@@ -69,8 +69,8 @@ class ConventionReport:
     runner_up_X: np.ndarray | None = field(default=None, repr=False)
     #: b read mirrored (:func:`mirrored`: a left-handed file, z negated) in every candidate
     mirror_b: bool = False
-    #: the chosen reading's score as read over its score with b mirrored
-    #: (:func:`mirror_ratio`); NaN: not checked (forced, or before the check)
+    #: the best score with b as read over the best with b mirrored (:func:`mirror_ratio`);
+    #: NaN: not checked (forced; or the pitches already follow a's: :func:`pitch_agreement`)
     mirror_ratio: float = math.nan
 
 
@@ -253,6 +253,23 @@ def mirror_ratio(stream_a, stream_b, report: ConventionReport, *, offset,
     if not scores or not report.scores:
         return math.nan
     return min(report.scores.values()) / max(min(scores.values()), 1e-15)
+
+
+def pitch_agreement(stream_a, stream_b, report: ConventionReport, *, offset,
+                    n_pairs: int = 400, seed: int = 0, sampling=None,
+                    signal: str = "rotation") -> float:
+    """``median |d_C + d_H| / median |d_C - d_H|`` over the pitches (translation along the
+    rotation axis, :mod:`simcalib.estimation.units`) of the motions ``report``'s reading
+    gives: a cheap first look at the handedness (a mirrored b negates every pitch, the
+    reading's other choices keep it). Far above 1: b's pitches follow a's, b is not
+    mirrored; about 1 or below: :func:`mirror_ratio` decides. NaN: too few motions."""
+    from simcalib.estimation.units import _pitches
+    sa, sb = apply_conventions(stream_a, stream_b, report)
+    C, H = _motions(sa, sb, offset, n_pairs, np.random.default_rng(seed), sampling, signal)
+    d_c, d_h = _pitches(C, H) if C.shape[0] >= 3 else (np.zeros(0), np.zeros(0))
+    if d_c.size < 3:
+        return math.nan
+    return float(np.median(np.abs(d_c + d_h)) / max(np.median(np.abs(d_c - d_h)), 1e-15))
 
 
 def mirror_sentence(ratio: float) -> str:

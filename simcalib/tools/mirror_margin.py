@@ -40,11 +40,14 @@ def mirrored_file(stream, scalar_first: bool = False):
 
 
 def mirror_ratios(a, b, scalar_first_b: bool = False) -> dict:
-    """``{"as_written": ratio, "mirrored": ratio}`` of streams ``a``, ``b``
-    (PoseStreamData; ``scalar_first_b``: b's file is scalar-first) with b as written and
-    as :func:`mirrored_file`, read as ``calibrate`` reads them up to the first reading."""
+    """``{"as_written": ratio, "mirrored": ratio, "pitch_as_written": agreement,
+    "pitch_mirrored": agreement}`` of streams ``a``, ``b`` (PoseStreamData;
+    ``scalar_first_b``: b's file is scalar-first) with b as written and as
+    :func:`mirrored_file`, read as ``calibrate`` reads them up to the first reading
+    (:func:`~simcalib.estimation.readings.mirror_ratio`,
+    :func:`~simcalib.estimation.readings.pitch_agreement`)."""
     from simcalib.estimation.path import first_reading, read_pair
-    from simcalib.estimation.readings import mirror_ratio
+    from simcalib.estimation.readings import mirror_ratio, pitch_agreement
     from simcalib.estimation.sampling import classify_sampling
     from simcalib.estimation.stillness import check_streams_move
     from simcalib.estimation.world_jumps import longest_stretches, split_stations
@@ -55,7 +58,9 @@ def mirror_ratios(a, b, scalar_first_b: bool = False) -> dict:
         signal = check_streams_move(sa, sb)
         sa, sb, smp, _ = split_stations(sa, sb, classify_sampling(sa, sb))
         conv, off = first_reading(sa, sb, smp, signal=signal)
-        out[tag] = mirror_ratio(sa, sb, conv, offset=off, sampling=smp, signal=signal)
+        at = dict(offset=off, sampling=smp, signal=signal)
+        out[tag] = mirror_ratio(sa, sb, conv, **at)
+        out[f"pitch_{tag}"] = pitch_agreement(sa, sb, conv, **at)
     return out
 
 
@@ -102,18 +107,22 @@ def main(argv=None) -> int:
 def _print_table(table: dict, threshold: float) -> None:
     fmt = lambda v: "-" if v is None or not math.isfinite(v) else f"{v:.3g}"  # noqa: E731
     print(f"{'kind / set':<22} {'n':>3} {'as written: max':>16} {'mirrored: min':>14} "
-          f"{'median':>8} {'told':>5}")
-    worst_w, told, n_m = 0.0, 0, 0
+          f"{'median':>8} {'told':>5} {'pitch: min as written':>22} {'max mirrored':>13}")
+    worst_w, worst_p, told, n_m = 0.0, 0.0, 0, 0
     for g, rows in table.items():
         w = [r["as_written"] for r in rows if "as_written" in r]
         m = sorted(r["mirrored"] for r in rows if "mirrored" in r)
+        pw = [r["pitch_as_written"] for r in rows if "pitch_as_written" in r]
+        pm = [r["pitch_mirrored"] for r in rows if "pitch_mirrored" in r]
         t = sum(x > threshold for x in m)
         worst_w, told, n_m = max([worst_w] + w), told + t, n_m + len(m)
+        worst_p = max([worst_p] + [x for x in pm if math.isfinite(x)])
         print(f"{g:<22} {len(rows):>3} {fmt(max(w) if w else None):>16} "
               f"{fmt(m[0] if m else None):>14} {fmt(m[len(m) // 2] if m else None):>8} "
-              f"{t:>5}")
+              f"{t:>5} {fmt(min(pw) if pw else None):>22} {fmt(max(pm) if pm else None):>13}")
     print(f"threshold {threshold:g}: as written at most {worst_w:.3g} ({threshold / worst_w:.3g}x "
-          f"below it); {told} of {n_m} mirrored told")
+          f"below it); {told} of {n_m} mirrored told; the pitches of a mirrored b agree at "
+          f"most {worst_p:.3g} (the check is skipped above {threshold:g})")
 
 
 if __name__ == "__main__":
