@@ -103,7 +103,8 @@ def test_files_as_written_fit_far_better_than_b_mirrored_and_skip_the_check():
     skipped (``mirror_ratio`` NaN); it would have found b mirrored far worse."""
     import math
     from simcalib.estimation.path import first_reading
-    from simcalib.estimation.readings import MIRROR_RATIO, mirror_ratio, pitch_agreement
+    from simcalib.estimation.readings import (MIRROR_RATIO, PITCH_AGREEMENT, mirror_ratio,
+                                              pitch_agreement)
     from simcalib.estimation.sampling import classify_sampling
     rec = generate("stations", 0)
     r, rot_deg, _ = _calibrated_error(rec, rec.stream_b)
@@ -113,7 +114,7 @@ def test_files_as_written_fit_far_better_than_b_mirrored_and_skip_the_check():
     smp = classify_sampling(rec.stream_a, rec.stream_b)
     first, off = first_reading(rec.stream_a, rec.stream_b, smp)
     at = dict(offset=off, sampling=smp)
-    assert pitch_agreement(rec.stream_a, rec.stream_b, first, **at) > MIRROR_RATIO
+    assert pitch_agreement(rec.stream_a, rec.stream_b, first, **at) > PITCH_AGREEMENT
     assert mirror_ratio(rec.stream_a, rec.stream_b, first, **at) < 1.0 / MIRROR_RATIO
     b = _mirrored_file(rec.stream_b)
     first, off = first_reading(rec.stream_a, b, smp)

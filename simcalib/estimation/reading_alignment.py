@@ -21,8 +21,8 @@ def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift=False, alp
     ``mirror_b`` (True / False) skips the check. Returns ``(stream_a, stream_b,
     ConventionReport, TimeOffset, Sampling)``."""
     from dataclasses import replace
-    from simcalib.estimation.readings import (MIRROR_RATIO, mirror_ratio, mirror_sentence,
-                                              pitch_agreement)
+    from simcalib.estimation.readings import (MIRROR_RATIO, PITCH_AGREEMENT, mirror_ratio,
+                                              mirror_sentence, pitch_agreement)
     forced = dict(forced or {})
     given = forced.pop("mirror_b", None)
     kw = dict(time_offset=time_offset, drift=drift, alpha=alpha, seed=seed, signal=signal)
@@ -33,7 +33,7 @@ def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift=False, alp
     # at the first decision's offset: one the reading does not move (a mirrored b read
     # as written can pull a refined offset off, where neither reading fits)
     at = dict(offset=first_off, seed=seed, sampling=sampling, signal=signal)
-    if pitch_agreement(sa, sb, first, **at) > MIRROR_RATIO:     # b's pitches follow a's
+    if pitch_agreement(sa, sb, first, **at) > PITCH_AGREEMENT:  # b's pitches follow a's
         return tuple(out)
     ratio = mirror_ratio(sa, sb, first, alpha=alpha, **at, **forced)
     if not ratio > MIRROR_RATIO:

@@ -31,13 +31,20 @@ import numpy as np
 from simcalib.geometry import rotation_angle_rad
 
 __all__ = ["ConventionReport", "detect_conventions", "apply_conventions", "CLEAR_RATIO",
-           "MIRROR_RATIO", "mirror_ratio", "mirror_sentence", "mirrored", "pitch_agreement"]
+           "MIRROR_RATIO", "PITCH_AGREEMENT", "mirror_ratio", "mirror_sentence", "mirrored",
+           "pitch_agreement"]
 
 CLEAR_RATIO = 3.0   # runner-up score / winner score above this: "clear"
-#: the reading's score as read / mirrored above this: b is taken as mirrored (a left-handed
-#: file). Measured (docs/readings-mirror.md): at most ~2 on unmirrored files, at least ~20
-#: on mirrored files whose motion can tell.
-MIRROR_RATIO = 8.0
+#: the best score with b as read / mirrored (:func:`mirror_ratio`) above this: b is taken as
+#: mirrored (a left-handed file). ``python -m simcalib.tools.mirror_margin`` (20 seeds of 20
+#: generated kinds, 18 real sets): files as written at most 1.04 (planar: cannot tell),
+#: 0.83 where the motion tells; mirrored files 5.1 and more on the 6-DoF kinds, 1.4-6.7 on
+#: the noisy tag sets (docs/calibrate.md).
+MIRROR_RATIO = 4.0
+#: :func:`pitch_agreement` above this: b's pitches follow a's, the mirrored readings are not
+#: scored. Measured alike: mirrored files at most 3.6 (a wrong quaternion order chosen),
+#: files as written 1.8 and more (most 20 and more)
+PITCH_AGREEMENT = 10.0
 
 
 @dataclass(frozen=True)
@@ -70,7 +77,7 @@ class ConventionReport:
     #: b read mirrored (:func:`mirrored`: a left-handed file, z negated) in every candidate
     mirror_b: bool = False
     #: the best score with b as read over the best with b mirrored (:func:`mirror_ratio`);
-    #: NaN: not checked (forced; or the pitches already follow a's: :func:`pitch_agreement`)
+    #: NaN: not checked (forced; or b's pitches follow a's: :func:`pitch_agreement`)
     mirror_ratio: float = math.nan
 
 
@@ -261,8 +268,8 @@ def pitch_agreement(stream_a, stream_b, report: ConventionReport, *, offset,
     """``median |d_C + d_H| / median |d_C - d_H|`` over the pitches (translation along the
     rotation axis, :mod:`simcalib.estimation.units`) of the motions ``report``'s reading
     gives: a cheap first look at the handedness (a mirrored b negates every pitch, the
-    reading's other choices keep it). Far above 1: b's pitches follow a's, b is not
-    mirrored; about 1 or below: :func:`mirror_ratio` decides. NaN: too few motions."""
+    reading's other choices keep it). Above :data:`PITCH_AGREEMENT`: b's pitches follow
+    a's, b is not mirrored; else :func:`mirror_ratio` decides. NaN: too few motions."""
     from simcalib.estimation.units import _pitches
     sa, sb = apply_conventions(stream_a, stream_b, report)
     C, H = _motions(sa, sb, offset, n_pairs, np.random.default_rng(seed), sampling, signal)

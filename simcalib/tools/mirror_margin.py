@@ -82,7 +82,7 @@ def _cases(kinds, seeds, real, first=0):
 
 def main(argv=None) -> int:
     from simcalib.errors import DataError
-    from simcalib.estimation.readings import MIRROR_RATIO
+    from simcalib.estimation.readings import MIRROR_RATIO, PITCH_AGREEMENT
     ap = argparse.ArgumentParser(prog="python -m simcalib.tools.mirror_margin",
                                  description=__doc__.split("\n\n")[0])
     ap.add_argument("--kinds", nargs="*", default=None, help="default: every kind")
@@ -100,11 +100,11 @@ def main(argv=None) -> int:
         if args.lines:
             print(json.dumps({"case": label} | r), flush=True)
         table.setdefault(group, []).append(r)
-    _print_table(table, MIRROR_RATIO)
+    _print_table(table, MIRROR_RATIO, PITCH_AGREEMENT)
     return 0
 
 
-def _print_table(table: dict, threshold: float) -> None:
+def _print_table(table: dict, threshold: float, pitch_skip: float) -> None:
     fmt = lambda v: "-" if v is None or not math.isfinite(v) else f"{v:.3g}"  # noqa: E731
     print(f"{'kind / set':<22} {'n':>3} {'as written: max':>16} {'mirrored: min':>14} "
           f"{'median':>8} {'told':>5} {'pitch: min as written':>22} {'max mirrored':>13}")
@@ -122,7 +122,7 @@ def _print_table(table: dict, threshold: float) -> None:
               f"{t:>5} {fmt(min(pw) if pw else None):>22} {fmt(max(pm) if pm else None):>13}")
     print(f"threshold {threshold:g}: as written at most {worst_w:.3g} ({threshold / worst_w:.3g}x "
           f"below it); {told} of {n_m} mirrored told; the pitches of a mirrored b agree at "
-          f"most {worst_p:.3g} (the check is skipped above {threshold:g})")
+          f"most {worst_p:.3g} (the scoring is skipped above {pitch_skip:g})")
 
 
 if __name__ == "__main__":
