@@ -39,7 +39,7 @@ CLEAR_RATIO = 3.0   # runner-up score / winner score above this: "clear"
 #: mirrored (a left-handed file). ``python -m simcalib.tools.mirror_margin`` (20 seeds of 20
 #: generated kinds, 18 real sets): files as written at most 1.04 (planar: cannot tell),
 #: 0.83 where the motion tells; mirrored files 5.1 and more on the 6-DoF kinds, 1.4-6.7 on
-#: the noisy tag sets (docs/calibrate.md).
+#: the noisy tag sets (docs/mirror-margin.md).
 MIRROR_RATIO = 4.0
 #: :func:`pitch_agreement` above this: b's pitches follow a's, the mirrored readings are not
 #: scored. Measured alike: mirrored files at most 3.6 (a wrong quaternion order chosen),
