@@ -61,6 +61,35 @@ def test_large_offset_and_drift():
     assert abs(est.drift - 100e-6) < 50e-6
 
 
+def test_a_clock_drift_is_fitted_by_default_where_the_parts_lie_on_a_line():
+    """100 ppm over 40 s (4 ms): the parts' offsets climb on a line; ``drift="auto"`` fits
+    it (one offset raised its sigma to the parts' spread and left the ends misaligned), the
+    offset is right all along the recording and its sigma covers it."""
+    rs = rig_streams(offset_s=0.1, drift=100e-6, duration_s=40.0, rng=np.random.default_rng(3))
+    one = estimate_time_offset(rs.a, rs.b, drift=False)
+    est = estimate_time_offset(rs.a, rs.b)
+    t = np.array([2.0, 20.0, 38.0])
+    true = rs.offset_s + rs.drift * t
+    assert one.drift == 0.0 and one.split.raised and "sigma raised" in one.message
+    assert np.abs(one.offset_at(t) - true).max() > 1e-3
+    assert abs(est.drift - 100e-6) < 5 * est.drift_sigma and est.drift_sigma < 5e-6
+    assert np.abs(est.offset_at(t) - true).max() < 3 * est.uncertainty_s < 1e-4, est.message
+    assert "the parts lie on a line" in est.message
+
+
+@pytest.mark.parametrize("seed", [3, 4, 5])
+def test_no_drift_is_fitted_on_one_clock(seed):
+    rs = rig_streams(offset_s=0.1, duration_s=60.0, rng=np.random.default_rng(seed))
+    est = estimate_time_offset(rs.a, rs.b)
+    assert est.drift == 0.0 and est.drift_sigma == 0.0 and abs(est.offset_s - 0.1) < 1e-4
+
+
+def test_drift_must_be_auto_true_or_false():
+    rs = rig_streams(rng=np.random.default_rng(0))
+    with pytest.raises(ValueError, match="drift must be 'auto', true or false; received 'yes'"):
+        estimate_time_offset(rs.a, rs.b, drift="yes")
+
+
 @pytest.mark.parametrize("epoch_a, epoch_b", [(0.0, 1.765e9), (1.765e9, 0.0)])
 def test_offset_of_a_unix_clock_against_a_recording_clock(epoch_a, epoch_b):
     """One stream stamped in Unix time (~1.8e9 s), the other counted from the recording's

@@ -1,5 +1,6 @@
 """Pose-file formats (simcalib.importers) and convention detection (simcalib.estimation.readings)."""
 
+import json
 import os
 import re
 import sys
@@ -562,3 +563,33 @@ def test_ros_stamps_in_two_columns_secs_and_nsecs_are_added(tmp_path, rig, names
     s = read_pose_stream(tmp_path / "ros.csv")
     assert not s.synthetic_time and "ROS secs + nsecs" in s.detection
     np.testing.assert_allclose(s.timestamps_s, t, atol=2e-6)
+
+
+def test_csv_pair_holds_both_streams_under_their_prefixes(tmp_path, rig):
+    """A script's log of the robot and the camera side by side: one time column, each
+    stream under its prefix, the camera's columns empty where it did not see the target;
+    ``calibrate`` takes the file alone."""
+    from simcalib.cli import main
+    n = 300
+    G = np.linalg.inv(rig.T_a[7])                           # the camera's own world
+    Tb = G @ rig.T_a[:n] @ rig.X
+    ra, rb = _rows(rig.t_a[:n], rig.T_a[:n]), _rows(rig.t_a[:n], Tb)
+    cells = [[f"{v:.12f}" for v in row] for row in np.column_stack([ra, rb[:, 1:]])]
+    for k in (5, 17):
+        cells[k][8:] = [""] * 7                              # the camera saw nothing
+    head = ("time,robot_x,robot_y,robot_z,robot_qx,robot_qy,robot_qz,robot_qw,"
+            "cam.position.x,cam.position.y,cam.position.z,cam.orientation.w,"
+            "cam.orientation.x,cam.orientation.y,cam.orientation.z")
+    order = [0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 14, 11, 12, 13]   # the camera's w first
+    p = tmp_path / "log.csv"
+    p.write_text(head + "\n" + "\n".join(",".join(c[i] for i in order) for c in cells) + "\n")
+    assert detect_format(p)[0] == "csv_pair"
+    a, b = read_pose_streams(p)
+    assert (a.name, b.name, a.n, b.n) == ("robot", "cam", n, n - 2)
+    assert b.repairs["rows_without_this_stream_dropped"] == 2 and b.quat_order == "wxyz"
+    keep = np.setdiff1d(np.arange(n), [5, 17])
+    _same(a, rig.t_a[:n], rig.T_a[:n])
+    _same(b, rig.t_a[:n][keep], Tb[keep])
+    assert main(["calibrate", f"a={p}", f"output={tmp_path / 'out'}", "recording=false"]) == 0
+    X = np.asarray(json.loads((tmp_path / "out" / "calibration.json").read_text())["X"]["T_a_b"])
+    assert np.allclose(X, rig.X, atol=1e-6)

@@ -38,6 +38,12 @@ def test_perturbations_do_what_they_say():
     _, bz = perturb("epoch_b", a, be, rng)
     assert bz[0, 0] == 0.0 and np.allclose(bz[:, 0], b[:, 0] - b[0, 0])
     assert shift_s("epoch_b", be) == -be[0, 0] and shift_s("drop20%b", b) is None
+    _, bl = perturb("lost_row_b", a, b, rng)                      # row n // 3 lost, renumbered
+    k = len(b) // 3
+    assert len(bl) == len(b) - 1 and np.array_equal(bl[:, 0], a[:len(b) - 1, 0])
+    assert np.array_equal(bl[k:, 1:], b[k + 1:, 1:]) and np.array_equal(bl[:k], b[:k])
+    _, bc = perturb("two_clocks_b", a, b, rng)                    # 2.3 s late, +-50 ms
+    assert np.all(np.abs(bc[:, 0] - b[:, 0] - 2.3) <= 0.05) and np.array_equal(bc[:, 1:], b[:, 1:])
     assert np.array_equal(b, _rows(seed=1))                       # inputs untouched
     with pytest.raises(ValueError, match="unknown perturbation 'flip'; valid: base"):
         perturb("flip", a, b, rng)
@@ -71,7 +77,8 @@ def test_registered_as_an_experiment():
 @pytest.mark.skipif(not (real_dir() / "rwhecalib_kuka_1" / "a.txt").exists(),
                     reason="../shared/data/real is absent")
 def test_a_station_set_sees_through_its_perturbations():
-    names = ["invert_b", "wxyz_b", "mm_b", "shuffled_rows_b", "mirror_b"]
+    names = ["invert_b", "wxyz_b", "mm_b", "shuffled_rows_b", "lost_row_b", "two_clocks_b",
+             "mirror_b"]
     out = run_sets(["rwhecalib_kuka_1"], names)
     assert [o.perturbation for o in out] == names
     assert all(o.verdict == "ok" for o in out), out

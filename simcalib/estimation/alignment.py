@@ -7,7 +7,8 @@ Convention: ``offset_s = t_b - t_a`` for the same physical instant (stream b's c
   two streams on a common grid (normalised cross-correlation, every lag via FFT), refined to
   sub-frame precision by minimising the calibration cost (dqopt, per motion) over the offset,
   with the poses of the faster stream interpolated (linear translation, SLERP rotation).
-  Optional linear clock drift (two windows). Returns a :class:`TimeOffset`.
+  A linear clock drift where the data tell it (:mod:`simcalib.estimation.drift`). Returns a
+  :class:`TimeOffset`.
 * :func:`synchronise` — pair the streams with an offset: the faster stream interpolated at
   the slower one's (shifted) stamps -> :class:`SyncedPoses`.
 * :func:`make_motions` — relative motions ``C``, ``H`` over a time step, or between keyframes
@@ -25,6 +26,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from simcalib.errors import DataError
+from simcalib.estimation.drift import check_drift, drift_from_halves, drift_line
 from simcalib.estimation.interpolation import interpolate_poses, max_hole_s, smooth_poses
 from simcalib.estimation.speeds import SPEEDS, as_time_poses, checked_signal, speed_steps
 from simcalib.geometry import invert_transform, rotation_angle_rad
@@ -83,6 +85,8 @@ class TimeOffset:
     #: the refined offset the cost put lowest, also where 0 is used instead (``zero``: its
     #: distance from 0 is in ``uncertainty_s``); NaN where none was refined
     best_s: float = float("nan")
+    #: the 1-sigma of ``drift`` (0 where none is fitted, or drift from two halves)
+    drift_sigma: float = 0.0
 
     def offset_at(self, t_a) -> np.ndarray:
         """Offset ``t_b - t_a`` at clock-a times ``t_a``."""
@@ -357,7 +361,8 @@ def _other_peaks(offsets, r, peak, best, min_sep_s, rel: float = 0.9, max_n: int
 
 
 def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = None,
-                         refine: bool = True, drift: bool = False, step_s: float | None = None,
+                         refine: bool = True, drift: bool | str = "auto",
+                         step_s: float | None = None,
                          alpha: float = 1.0, min_overlap_frac: float = 0.3,
                          robust: bool = True, signal: str = "auto") -> TimeOffset:
     """Estimate ``offset_s = t_b - t_a`` between two pose streams, where the data tell it.
@@ -377,8 +382,10 @@ def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = Non
     where that is beyond chance. The estimate is used only when it beats offset 0 by the
     evidence ``n_eff ln(J(0) / J)`` (divided by the split's variance ratio where raised)
     > ``EVIDENCE_MIN`` (``decision`` "estimated"); otherwise the data do not tell an
-    offset and 0 is used ("zero"). ``drift=True``: the offset refined on both halves of
-    the overlap, a linear drift fitted. Needs the streams' readings resolved for the
+    offset and 0 is used ("zero"). ``drift``: a linear clock drift fitted through the
+    split check's parts (:mod:`simcalib.estimation.drift`): ``"auto"`` where they tell it,
+    ``True`` always (on an overlap too short for the parts, from its two halves),
+    ``False`` never. Needs the streams' readings resolved for the
     refinement (:mod:`simcalib.estimation.readings`); the coarse step does not.
 
     ``signal``: ``rotation`` (angular speeds) or ``translation`` (translation speeds, for a
@@ -395,6 +402,7 @@ def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = Non
     ta, Ta = as_time_poses(stream_a, "stream_a")
     tb, Tb = as_time_poses(stream_b, "stream_b")
     auto, signal = signal == "auto", checked_signal(signal, (ta, Ta), (tb, Tb))
+    drift = check_drift(drift)
     kw = dict(max_offset_s=max_offset_s, refine=refine, drift=drift, step_s=step_s,
               alpha=alpha, min_overlap_frac=min_overlap_frac, robust=robust)
     first = _estimate(ta, Ta, tb, Tb, signal, **kw)
@@ -499,7 +507,9 @@ def _unbounded(chosen, msg, fields) -> TimeOffset:
 
 def _refined(streams, tried, half, kw, drift, msg, fields) -> TimeOffset:
     """The :class:`TimeOffset` of the refined candidates ``tried``: the best one refined
-    again around its estimate, its sigma split-checked, compared with 0, drift fitted."""
+    again around its estimate, its sigma split-checked, compared with 0, drift fitted
+    (``drift``: True, or ``"auto"`` where the parts tell it: :mod:`simcalib.estimation.
+    drift`)."""
     from simcalib.estimation import offset_cost as oc
     chosen, decision, evidence, _ = oc._decide(tried, half)
     again = oc._refine_candidates(*streams, [chosen.best], half / 2, kw,
@@ -510,21 +520,23 @@ def _refined(streams, tried, half, kw, drift, msg, fields) -> TimeOffset:
         return _unbounded(chosen, msg, fields)
     best, sigma = oc._offset_and_sigma(chosen)
     split = oc.split_check(*streams, best, half, kw, chosen.cost.window)
-    if split.raised and split.sigma_s > sigma:
-        msg += (f"; the offsets of {len(split.offsets_s)} parts of the overlap ("
-                + ", ".join(f"{o * 1e3:.1f}" for o in split.offsets_s)
-                + f" ms) disperse {split.ratio:.3g}x beyond their curvatures' sigmas: "
-                f"sigma raised from {sigma * 1e3:.2f} ms")
-        if math.isfinite(evidence):     # the cost's dispersion, beyond the model's
-            evidence *= (sigma / split.sigma_s) ** 2
-            decision = "estimated" if evidence > oc.EVIDENCE_MIN else "zero"
-        sigma = split.sigma_s
-    d, t_ref = 0.0, 0.5 * (chosen.cost.window[0] + chosen.cost.window[1])
+    t_ref = 0.5 * (chosen.cost.window[0] + chosen.cost.window[1])
+    line, d, d_sigma = _drift_line(split, t_ref, drift), 0.0, 0.0
+    model_sigma, note = (line.sigma_s, line.note()) if line else _split_sigma(split, sigma)
+    msg += note
+    if model_sigma > sigma and math.isfinite(evidence):  # dispersion beyond the model's
+        evidence *= (sigma / model_sigma) ** 2
+        decision = "estimated" if evidence > oc.EVIDENCE_MIN else "zero"
+    sigma = max(sigma, model_sigma)
     if chosen.cost.reference == "b":
-        t_ref -= best                   # the window is in b's clock
-    if drift and decision == "estimated":
-        d, best, note = oc._drift(*streams, best, half, kw, chosen)
-        msg += note
+        t_ref -= line.offset_s if line else best        # the window is in b's clock
+    if decision == "estimated" and line:
+        best, sigma, d, d_sigma, more = _drift_applied(streams, line, t_ref, sigma, half, kw,
+                                                       fields["window_s"])
+        msg += more
+    elif drift is True and decision == "estimated":     # too short for the parts' line
+        d, best, more = drift_from_halves(*streams, best, half, kw)
+        msg += more
     msg += (f"; refined to {best * 1e3:.2f} +- {sigma * 1e3:.2f} ms by the dqopt cost over "
             f"{chosen.cost.n} motions of {kw['step_s']:.2f} s")
     told = best
@@ -534,10 +546,58 @@ def _refined(streams, tried, half, kw, drift, msg, fields) -> TimeOffset:
         msg += (f"; but the cost at 0 is not worse beyond chance (evidence {evidence:.1f} <= "
                 f"{oc.EVIDENCE_MIN:g}): the data do not tell an offset, 0 is used (sigma "
                 f"{sigma * 1e3:.2f} ms: the estimate's and its distance from 0)")
-        best, d = 0.0, 0.0
+        best, d, d_sigma = 0.0, 0.0, 0.0
     elif math.isfinite(evidence):
         msg += f"; it beats offset 0 with evidence {evidence:.1f} (> {oc.EVIDENCE_MIN:g})"
     return TimeOffset(best, sigma, chosen.centre, drift=d, t_ref_s=t_ref, refined=True,
                       cost_offsets_s=chosen.offsets, cost=chosen.costs, message=msg,
                       decision=decision, evidence=evidence, split=split, best_s=told,
-                      **fields)
+                      drift_sigma=d_sigma, **fields)
+
+
+def _drift_line(split, t_ref, drift):
+    """The parts' line where a drift is to be fitted: always for ``drift=True`` (None on
+    an overlap too short for 3 parts), for ``"auto"`` where it tells a drift."""
+    line = drift_line(split, t_ref) if drift else None
+    return line if line is not None and (drift is True or line.tells) else None
+
+
+def _drift_applied(streams, line, t_ref, sigma, half, kw, window) -> tuple:
+    """``(offset, sigma, drift, drift_sigma, note)`` with the parts' ``line``: the offset
+    refined again on b's stamps mapped onto a's clock by its drift (the parts' offsets
+    are their motions' averages, not the line's value at their middles). Its sigma, for
+    the recording as a whole (X's covariance carries one): that refinement's (raised to
+    its split check's where beyond chance) and the drift's sigma over the overlap (the rms
+    of ``drift_sigma (t - t_ref)``, ``span / sqrt(12)``); the line's ``sigma`` where
+    the refinement fails."""
+    from simcalib.estimation import offset_cost as oc
+    ta, Ta, tb, Tb = streams
+    model = TimeOffset(line.offset_s, sigma, line.offset_s, float("nan"), np.zeros(0),
+                       np.zeros(0), drift=line.drift, t_ref_s=t_ref)
+    tb_a = model.a_from_b(tb) + line.offset_s       # b's stamps: only the offset left
+    again = oc._refine_candidates(ta, Ta, tb_a, Tb, [line.offset_s], half / 2, kw,
+                                  window=window)
+    if not again or again[0].unbounded:
+        return line.offset_s, sigma, line.drift, line.drift_sigma, ""
+    best, own = oc._offset_and_sigma(again[0])
+    split = oc.split_check(ta, Ta, tb_a, Tb, best, half, kw, again[0].cost.window)
+    own = max(own, split.sigma_s if split.raised else own)
+    span = again[0].cost.window[1] - again[0].cost.window[0]
+    sigma = math.hypot(own, line.drift_sigma * span / math.sqrt(12.0))
+    return best, sigma, line.drift, line.drift_sigma, (
+        f"; refined again with b's stamps corrected for the drift: {best * 1e3:.2f} +- "
+        f"{own * 1e3:.2f} ms (its parts disperse {split.ratio:.3g}x"
+        + (", beyond chance" if split.raised else "") + "), with the drift's sigma over "
+        f"the {span:.0f} s: +- {sigma * 1e3:.2f} ms")
+
+
+def _split_sigma(split, sigma) -> tuple[float, str]:
+    """The sigma one offset's parts give where they disperse beyond chance (else
+    ``sigma``), and the note that says so."""
+    if not (split.raised and split.sigma_s > sigma):
+        return sigma, ""
+    return split.sigma_s, (
+        f"; the offsets of {len(split.offsets_s)} parts of the overlap ("
+        + ", ".join(f"{o * 1e3:.1f}" for o in split.offsets_s)
+        + f" ms) disperse {split.ratio:.3g}x beyond their curvatures' sigmas: "
+        f"sigma raised from {sigma * 1e3:.2f} ms")

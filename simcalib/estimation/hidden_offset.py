@@ -74,7 +74,7 @@ def continuous(t: np.ndarray, T: np.ndarray, signal: str = "rotation") -> bool:
         apart(T, 1, signal)))
 
 
-def stamps_hide_offset(sa, sb, sampling, off, *, alpha: float = 1.0, drift: bool = False,
+def stamps_hide_offset(sa, sb, sampling, off, *, alpha: float = 1.0, drift="auto",
                        signal: str = "rotation"):
     """``(Sampling, TimeOffset)`` to use for streams paired by stamp (``sampling``, ``off``:
     the shared stamps' offset): unpaired, with the estimated offset, when both sample a

@@ -417,18 +417,6 @@ def _offset_and_sigma(r: _Refined, worst_case: bool = False) -> tuple[float, flo
     return r.best, float("nan")
 
 
-def _drift(ta, Ta, tb, Tb, best, half, kw, chosen):
-    halves = []
-    for part in (0, 1):
-        cost = OffsetCost(ta, Ta, tb, Tb, (best - half, best + half), part=part, **kw)
-        halves.append((_refine(cost, best, half)[0], cost.window))
-    (o1, w1), (o2, w2) = halves
-    span = 0.5 * (w2[0] + w2[1]) - 0.5 * (w1[0] + w1[1])
-    d = (o2 - o1) / span if span > 0 else 0.0
-    return d, 0.5 * (o1 + o2), f"; drift {d * 1e6:.1f} ppm from two windows"
-
-
-
 @dataclass(frozen=True)
 class SplitCheck:
     """The offset re-estimated on ``parts`` contiguous parts of the overlap:
@@ -438,18 +426,20 @@ class SplitCheck:
     check), ``sigma_s`` the sigma of that weighted mean scaled by the dispersion
     (``sqrt(ratio / sum sigma_k^-2)``), ``raised``: ``Q`` beyond the :data:`SPLIT_LEVEL`
     quantile of chi-square on ``n - 1`` dof, so the reported sigma is at least
-    ``sigma_s``."""
+    ``sigma_s`` (unless a clock drift explains it: :mod:`simcalib.estimation.drift`);
+    ``times_s``: the middle of each part's reference stamps."""
     offsets_s: tuple
     sigmas_s: tuple
     ratio: float
     sigma_s: float
     raised: bool
+    times_s: tuple = ()
 
     def to_dict(self) -> dict:
         fin = lambda x: x if math.isfinite(x) else None  # noqa: E731
         return {"offsets_s": list(self.offsets_s), "sigmas_s": list(self.sigmas_s),
                 "dispersion": fin(self.ratio), "sigma_s": fin(self.sigma_s),
-                "raised": self.raised}
+                "raised": self.raised, "times_s": list(self.times_s)}
 
 
 def split_check(ta, Ta, tb, Tb, best, half, kw, window) -> SplitCheck:
@@ -465,7 +455,7 @@ def split_check(ta, Ta, tb, Tb, best, half, kw, window) -> SplitCheck:
     motions, some parts barely moving) is not one to test the others against."""
     from scipy.special import chdtri
     parts = int(min(SPLIT_PARTS, (window[1] - window[0]) // (4 * kw["step_s"])))
-    offs, sigs = [], []
+    offs, sigs, times = [], [], []
     for k in range(parts if parts >= 2 else 0):
         try:
             c = OffsetCost(ta, Ta, tb, Tb, (best - half, best + half), part=(k, parts), **kw)
@@ -478,12 +468,14 @@ def split_check(ta, Ta, tb, Tb, best, half, kw, window) -> SplitCheck:
         if math.isfinite(sg) and sg > 0:
             offs.append(o)
             sigs.append(sg)
+            times.append(0.5 * (c.window[0] + c.window[1]))
     n = len(offs)
     if n < 2:
-        return SplitCheck(tuple(offs), tuple(sigs), float("nan"), float("nan"), False)
+        return SplitCheck(tuple(offs), tuple(sigs), float("nan"), float("nan"), False,
+                          tuple(times))
     o, w = np.asarray(offs), 1.0 / np.asarray(sigs) ** 2
     q = float(np.sum(w * (o - np.sum(w * o) / np.sum(w)) ** 2))
     bound = float(chdtri(n - 1, 1.0 - SPLIT_LEVEL))
     ratio = q / (n - 1)
     return SplitCheck(tuple(map(float, offs)), tuple(map(float, sigs)), ratio,
-                      math.sqrt(ratio / float(np.sum(w))), bool(q > bound))
+                      math.sqrt(ratio / float(np.sum(w))), bool(q > bound), tuple(times))

@@ -262,7 +262,7 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
                       step_s: float = 1.0, min_rotation_deg: float = 2.0,
                       max_rotation_deg: float | None = None, invert_a: bool | None = None,
                       invert_b: bool | None = None, scalar_first_a: bool | None = None,
-                      scalar_first_b: bool | None = None, drift: bool = False,
+                      scalar_first_b: bool | None = None, drift="auto",
                       robust_options: dict | None = None, method: str = "dqopt",
                       prior=None, seed: int = 0, motions: str = "auto",
                       tolerances=None, common_error=None, stamps_unit_a: str = "auto",
@@ -285,6 +285,7 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     raises a DataError."""
     from simcalib.estimation.sampling import classify_sampling
     from simcalib.estimation.scale import MODES, check_scale_b, scaled_stream
+    from simcalib.estimation.station_rows import realign_rows
     from simcalib.estimation.world_jumps import longest_stretches, split_stations
     scale_b = check_scale_b(scale_b)
     sa0, sb0 = read_pair(a, b, format_a, format_b, stamps_unit_a, stamps_unit_b)
@@ -293,7 +294,8 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     sa0, sb0, jumps = longest_stretches(sa0, sb0)
     signal = check_streams_move(sa0, sb0)   # translation: no rotation filter (all noise)
     min_rotation_deg = min_rotation_deg if signal == "rotation" else None
-    sa0, sb0, sampling, split = split_stations(sa0, sb0, classify_sampling(sa0, sb0))
+    sa0, sb0, sampling, rows = realign_rows(sa0, sb0, classify_sampling(sa0, sb0))
+    sa0, sb0, sampling, split = split_stations(sa0, sb0, sampling)
     kw = dict(time_offset=time_offset, drift=drift, alpha=alpha, seed=seed, signal=signal,
               forced={"invert_a": invert_a, "invert_b": invert_b,
                       "scalar_first_a": scalar_first_a, "scalar_first_b": scalar_first_b,
@@ -315,7 +317,8 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     aligned, summary = _summary(sa, sb, conv, off, ms, rob, ms0, plain, alpha, length_scale)
     return StreamCalibration(rob.X, None if plain is None else plain.X, off, conv, rob, plain,
                              sa, sb, ms.C, ms.H, sp.time_s[ms.i], summary | {
-                                 "scale_b": scale.to_dict(), "world_jumps": jumps + split},
+                                 "scale_b": scale.to_dict(), "world_jumps": jumps + split,
+                                 "station_rows": rows},
                              synced=sp, motion_index=(ms.i, ms.j),
                              X_aligned=aligned.X, sampling=sampling, motions=ms,
                              consistency=check, covariance=cov, covariance_determined=cov_det,

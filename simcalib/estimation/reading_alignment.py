@@ -12,7 +12,7 @@ import numpy as np
 __all__ = ["align_and_read", "first_reading"]
 
 
-def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift=False, alpha=1.0,
+def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift="auto", alpha=1.0,
                    seed=0, forced=None, signal="rotation"):
     """:func:`_align_and_read` (the reading and the clock offset), then whether b is
     mirrored (a left-handed file: :func:`simcalib.estimation.readings.mirror_ratio`), decided
@@ -44,7 +44,7 @@ def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift=False, alp
                               message=f"{conv.message}; {mirror_sentence(ratio)}"), *out[3:])
 
 
-def _align_and_read(sa, sb, sampling, *, time_offset="estimate", drift=False, alpha=1.0,
+def _align_and_read(sa, sb, sampling, *, time_offset="estimate", drift="auto", alpha=1.0,
                     seed=0, forced=None, signal="rotation"):
     """The streams' reading and their clock offset, decided in that order and checked
     again: the reading at the correlation's (reading-free) offset, the offset refined with

@@ -171,6 +171,14 @@ def read(path, text: str, **options) -> list[RawStream]:
     A, truncated = _rows(path, text, lineno, len(names))
     repairs = {"truncated_last_row_dropped": 1} if truncated else {}
     t, synthetic, notes = _times(A, time)
+    return [raw_stream(path, A, t, (pos, quat, qidx, mat), notes, synthetic, repairs)]
+
+
+def raw_stream(path, A, t, layout, notes, synthetic, repairs, name="") -> RawStream:
+    """The :class:`RawStream` of the rows ``A`` whose pose columns are ``layout`` (``(pos,
+    quat, qidx, mat)``: role -> column, :func:`_layout`), stamped ``t``."""
+    pos, quat, qidx, mat = layout
+    notes = list(notes)
     if len(mat) >= 12:
         M = np.zeros((A.shape[0], 4, 4))
         M[:, 3, 3] = 1.0
@@ -180,8 +188,8 @@ def read(path, text: str, **options) -> list[RawStream]:
         if missing:
             raise data_error(f"{path}: matrix columns missing for entries {missing}")
         notes.append("4x4 row-major matrix columns")
-        return [RawStream(t, matrices=M, quat_order="matrix", note="; ".join(notes),
-                          synthetic_time=synthetic, repairs=repairs)]
+        return RawStream(t, matrices=M, quat_order="matrix", note="; ".join(notes),
+                         synthetic_time=synthetic, repairs=repairs, name=name)
     P = A[:, [pos["x"], pos["y"], pos["z"]]]
     if set("xyzw") <= set(quat):
         Q = A[:, [quat["x"], quat["y"], quat["z"], quat["w"]]]
@@ -192,8 +200,8 @@ def read(path, text: str, **options) -> list[RawStream]:
         order = "wxyz"
         notes.append("columns q0..q3 read scalar-first (q0 = w); the convention check "
                      "tests the other order")
-    return [RawStream(t, position_m=P, quat_xyzw=Q, quat_order=order, note="; ".join(notes),
-                      synthetic_time=synthetic, repairs=repairs)]
+    return RawStream(t, position_m=P, quat_xyzw=Q, quat_order=order, note="; ".join(notes),
+                     synthetic_time=synthetic, repairs=repairs, name=name)
 
 
 def write(path, streams):

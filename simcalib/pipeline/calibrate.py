@@ -69,7 +69,10 @@ class CalibrateOptions:
         "(docs/calibrate.md, Streams of unknown scale)"))
     time_offset: float | Literal["estimate"] = field(default="estimate", metadata=key_help(
         "clock offset t_b - t_a in seconds, or 'estimate'"))
-    drift: bool = field(default=False, metadata=key_help("also estimate a linear clock drift"))
+    drift: bool | Literal["auto"] = field(default="auto", metadata=key_help(
+        "a linear clock drift between the files' clocks: auto: fitted where the offsets of "
+        "contiguous parts of the recording lie on a line that explains their spread "
+        "(docs/calibrate.md, Time alignment); true: always fitted; false: one offset"))
     robust: Literal["auto", "ransac", "irls", "none"] = field(default="auto", metadata=key_help(
         "outlier rejection over motions (auto: RANSAC where the motions give minimal sets, "
         "IRLS where they do not, none below 8 motions)"))
@@ -160,8 +163,8 @@ class CalibrateOptions:
         if self.time_offset != "estimate":
             set_fields(self, time_offset=check_range("time_offset", self.time_offset))
         set_fields(self, scale_b=check_scale_b(self.scale_b))
-        check_that(not (self.drift and self.time_offset != "estimate"), "drift", self.drift,
-                   "false when time_offset is given")
+        check_that(not (self.drift is True and self.time_offset != "estimate"), "drift",
+                   self.drift, "auto or false when time_offset is given")
         set_fields(self,
                    alpha=check_positive("alpha", self.alpha),
                    step_s=check_positive("step_s", self.step_s),
@@ -407,8 +410,10 @@ def calibrate(opts: CalibrateOptions):
         ua, ub = opts.stamps_unit_a, opts.stamps_unit_b
         streams = read_pose_streams(opts.a, fa, stamps_unit=ua if ua == ub != "auto" else "pair")
         if len(streams) != 2:
+            from simcalib.importers import FORMATS
+            both = [n for n in FORMATS.names() if FORMATS.info(n)["two_streams"]]
             raise DataError(f"{str(opts.a)!r} holds {len(streams)} stream(s); give b=PATH "
-                            "(only easy_handeye / moveit sample files hold both)")
+                            f"(files of the formats {', '.join(sorted(both))} hold both)")
         a, b = streams
     else:
         a, b = (read_pose_stream(p, f, stamps_unit="pair" if u == "auto" else u) for p, f, u in
@@ -495,7 +500,7 @@ def warnings(r, reading: str | None = None) -> list[str]:
     (``reading``: the sentence of :func:`reading_ambiguity`, which then replaces the
     general one about the reading)."""
     out = [reading] if reading else []
-    out += list(r.summary.get("world_jumps", []))
+    out += list(r.summary.get("world_jumps", [])) + list(r.summary.get("station_rows", []))
     out += [f"stream {s.name or s.source}'s stamps go back {s.repairs['stamps_restarted']} "
             "time(s) (two recordings in one file?): only the longest recording in it is used "
             f"({s.repairs['rows_of_other_recordings_dropped']} rows of the others dropped)"

@@ -124,7 +124,7 @@ def _time_offset(off) -> dict:
             "window_s": [_fin(x) for x in off.window_s],
             "coarse_offset_s": off.coarse_offset_s,
             "peak_correlation": _fin(off.peak_correlation),
-            "drift": off.drift, "t_ref_s": off.t_ref_s,
+            "drift": off.drift, "drift_sigma": off.drift_sigma, "t_ref_s": off.t_ref_s,
             "signal": off.signal if off.decision not in ("given", "shared_stamps") else None,
             "convention": "offset_s = t_b - t_a for the same instant",
             "message": off.message}
@@ -223,7 +223,9 @@ def format_report(rep: dict) -> str:
         _offset_line(off, sig, rep["sampling"])
         + {"estimated": " (estimated)", "zero": " (not told by the data: 0 used)",
            "given": " (given)", "shared_stamps": " (paired by stamp)"}[off["decision"]]
-        + (f", drift {off['drift'] * 1e6:.1f} ppm" if off["drift"] else ""),
+        + (f", drift {off['drift'] * 1e6:.1f}" + (f" +- {off['drift_sigma'] * 1e6:.1f}"
+                                                 if off.get("drift_sigma") else "") + " ppm"
+           if off["drift"] else ""),
         f"  {off['message']}",
         f"inliers: {inl['n_inliers']} of {inl['n_motions']} motions ({inl['choice']}): "
         f"{inl['message']}",

@@ -17,6 +17,11 @@ then with one perturbation at a time whose effect on the answer is known:
   (station sets: b's rows in random order), ``mirror_b`` (b written in a left-handed
   frame: ``z -> -z``, quaternions ``(-qx, -qy, qz, qw)``; read mirrored, b's poses are the
   set's own): X must stay;
+* ``lost_row_b`` (station sets): b's row a third of the way in lost (a failed detection)
+  and the later rows renumbered, so that b's rows take the stamps of a's first ones: X
+  must stay;
+* ``two_clocks_b`` (station sets): b stamped by another computer's clock, 2.3 s late with
+  +-50 ms of trigger jitter (no stamp shared): X must stay;
 * ``mm_b``: b's translations in millimetres: refused as a unit mismatch (exit 3) or
   calibrated with b rescaled (``scale_b``), X staying.
 
@@ -54,6 +59,7 @@ PERTURBATIONS = {
     "gap3s_a": (True, False), "jitter2ms_b": (True, False), "invert_b": (True, True),
     "wxyz_b": (True, True), "neg_quat_half_b": (True, True), "mm_b": (True, True),
     "shuffled_rows_b": (False, True), "epoch_b": (True, False), "reset_b": (True, True),
+    "lost_row_b": (False, True), "two_clocks_b": (False, True),
     "mirror_b": (True, True)}
 SHIFTS_S = {"offset+0.25s": 0.25, "offset-30s": -30.0}
 #: ``epoch_b`` moves stamps on a recording's clock by this much (a Unix time, 2025-12)
@@ -115,6 +121,11 @@ def perturb(name: str, a: np.ndarray, b: np.ndarray, rng: np.random.Generator):
         b = _world_reset(b, len(b) // 2)
     elif name == "shuffled_rows_b":
         b = b[rng.permutation(len(b))]
+    elif name == "two_clocks_b":
+        b[:, 0] += 2.3 + rng.uniform(-0.05, 0.05, len(b))
+    elif name == "lost_row_b":
+        b = np.delete(b, len(b) // 3, axis=0)
+        b[:, 0] = a[:len(b), 0]
     elif name == "mirror_b":                    # a left-handed file: z -> -z, (-x, -y, z, w)
         b[:, [3, 4, 5]] *= -1.0
     elif name != "base":

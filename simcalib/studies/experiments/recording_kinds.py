@@ -8,10 +8,8 @@ in another scale, no motion) and :func:`generate` (a kind and a seed -> a
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import fields, replace
-from pathlib import Path
 from typing import Callable
 
 import numpy as np
@@ -21,6 +19,7 @@ from simcalib.geometry import (invert_transform, matrix_from_quat, matrix_from_r
                                transform_from_rotation_translation)
 from simcalib.importers import PoseStreamData, stream_from_arrays
 from simcalib.importers._stamps import UNIT_FACTORS
+from simcalib.studies.experiments.recording_files import read_truth, write_tum
 from simcalib.studies.experiments.recording_models import (Kind, R_DOWN, R_FORWARD, Recording,
                                                            Settings, WORKSPACE_CENTRE, _continuous,
                                                            _camera_poses, _Draft,
@@ -43,6 +42,18 @@ def _kind_stations_short(rngs, s):
     return _stations_draft(rngs, s, (3, 5), "stations_short")
 
 
+def _kind_stations_two_clocks(rngs, s):
+    d = _stations_draft(rngs, s, (10, 40), "stations_two_clocks")
+    r = rngs["events"]
+    off = float(r.choice([-1.0, 1.0]) * r.uniform(0.5, 10.0))
+    off = off if s.offset_s is None else float(s.offset_s)
+    t_a = 1000.0 + np.cumsum(r.uniform(2.0, 6.0, d.t_a.size))
+    t_b = t_a + off + r.uniform(-0.05, 0.05, t_a.size)
+    return replace(d, t_a=t_a, t_b=t_b, offset_s=off, t_ref_s=float(t_a[0]),
+                   description=d.description.split(",")[0] + f", 2..6 s apart, b's clock "
+                   f"{off:+.3f} s (+-50 ms trigger jitter), eye-in-hand (b = T_target_cam)")
+
+
 def _kind_continuous(rngs, s):
     return _continuous(rngs, s)
 
@@ -63,6 +74,14 @@ def _kind_offset(rngs, s):
     off = s.offset_s if s.offset_s is not None else float(off)
     drift_ppm = s.drift_ppm if s.drift_ppm is not None else float(drift_ppm)
     return _continuous(rngs, s, offset_s=off, drift=1e-6 * drift_ppm, label="offset")
+
+
+def _kind_clock_drift(rngs, s):
+    r = rngs["events"]
+    off = float(r.uniform(-0.2, 0.2)) if s.offset_s is None else float(s.offset_s)
+    drift_ppm = float(r.choice([-1.0, 1.0]) * r.uniform(50.0, 150.0))
+    drift_ppm = drift_ppm if s.drift_ppm is None else float(s.drift_ppm)
+    return _continuous(rngs, s, offset_s=off, drift=1e-6 * drift_ppm, label="clock_drift")
 
 
 def _kind_outliers(rngs, s):
@@ -427,11 +446,17 @@ KINDS: dict[str, Kind] = {
                      "station per stream (eye-in-hand); stamps: the station index in even "
                      "seeds, seconds apart in odd ones", False),
     "stations_short": Kind(_kind_stations_short, "the same with only 3..5 stations", False),
+    "stations_two_clocks": Kind(_kind_stations_two_clocks, "stations (10..40) stamped by two "
+                                "computers' clocks: b 0.5..10 s early or late, +-50 ms of "
+                                "trigger jitter, no stamp shared", False, extra=("offset_s",)),
     "continuous": Kind(_kind_continuous, "smooth 6-DoF motion, a 100 Hz, b 30 Hz, stamp "
                        "jitter, dropped frames, offset exactly 0", True),
     "offset": Kind(_kind_offset, "continuous with a clock offset: +-0.2 s, tens of seconds "
                    "in seeds 2, 5, ...; 30..100 ppm drift in seeds 1, 4, ...", True,
                    extra=("offset_s", "drift_ppm")),
+    "clock_drift": Kind(_kind_clock_drift, "continuous for 120 s, two free-running clocks "
+                        "50..150 ppm apart (6..18 ms over the recording), offset +-0.2 s",
+                        True, extra=("offset_s", "drift_ppm"), defaults={"duration_s": 120.0}),
     "outliers": Kind(_kind_outliers, "continuous with 5..20 % outlier poses in b and a 37 ms "
                      "offset", True, extra=("offset_s", "outlier_fraction")),
     "gaps": Kind(_kind_gaps, "continuous with one or two gaps of 1..3 s in one stream (b in "
@@ -571,29 +596,3 @@ def true_streams(rec: Recording) -> tuple[PoseStreamData, PoseStreamData]:
         T[:, :3, 3] /= rec.scale_b
         out[1] = replace(out[1], T_world_sensor=T)
     return out[0], out[1]
-
-
-# ------------------------------------------------------------------------- TUM files
-def _tum_rows(s: PoseStreamData) -> np.ndarray:
-    T = s.T_world_sensor
-    return np.column_stack([s.timestamps_s, T[:, :3, 3], quat_from_matrix(T[:, :3, :3])])
-
-
-def write_tum(rec: Recording, folder) -> dict:
-    """Write ``a.txt``, ``b.txt`` (TUM rows ``t x y z qx qy qz qw`` of the FILE form: an
-    inverted or scalar-first file is written that way) and ``truth.json`` into ``folder``.
-    Returns ``{"a": path, "b": path, "truth": path}``."""
-    out = Path(folder)
-    out.mkdir(parents=True, exist_ok=True)
-    paths = {"a": out / "a.txt", "b": out / "b.txt", "truth": out / "truth.json"}
-    for key, s in (("a", rec.stream_a), ("b", rec.stream_b)):
-        np.savetxt(paths[key], _tum_rows(s), fmt="%.17g",
-                   header=f"simcalib benchmark recording {rec.kind} seed {rec.seed}, "
-                          f"stream {key}")
-    paths["truth"].write_text(json.dumps(rec.truth_dict(), indent=2) + "\n")
-    return paths
-
-
-def read_truth(folder) -> dict:
-    """The ``truth.json`` written by :func:`write_tum`."""
-    return json.loads((Path(folder) / "truth.json").read_text())

@@ -76,13 +76,13 @@ MIN_RECALL = 0.5
 # -------------------------------------------------------------------------- baseline
 def synchronised_truth(rec: Recording) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """True-reading poses ``(T_a, T_b, clean)`` of a and b at common instants: station
-    kinds pair by stamp; continuous kinds interpolate b at a's stamps shifted by the TRUE
+    kinds pair row by row (the same stations, also on two clocks); continuous kinds interpolate b at a's stamps shifted by the TRUE
     offset (:func:`simcalib.estimation.interpolation.interpolate_poses`, not across gaps). ``clean``: the
     instant uses no outlier pose."""
     from simcalib.estimation.interpolation import interpolate_poses
     sa, sb = true_streams(rec)
     ta, Ta, tb, Tb = sa.timestamps_s, sa.T_world_sensor, sb.timestamps_s, sb.T_world_sensor
-    if ta.shape == tb.shape and np.array_equal(ta, tb):
+    if ta.shape == tb.shape and (np.array_equal(ta, tb) or not rec.offset_determined):
         return Ta, Tb, ~(rec.outliers_a | rec.outliers_b)
     gap = 2.5 * float(np.median(np.diff(tb)))
     tq = ta + rec.offset_at(ta)

@@ -1,0 +1,208 @@
+"""Rows of two station files numbered by sample, where a file lost rows.
+
+Station data are often written with the pose's number for a stamp (0, 1, 2, ...): the
+robot's poses in one file, the camera's target poses in the other. When a detection fails,
+the camera's file lacks that row, and a tool that numbers the rows it writes shifts every
+later pose by one: pairing by number then pairs each later camera pose with the wrong robot
+pose. On three public station sets with one camera row taken out and the rest renumbered,
+every direction of X came out "undetermined", with the reading of the files named as the
+doubt, and nothing said about the rows.
+
+Both sensors of a rigid rig turn by the same angle between any two poses (whatever the
+files' reading, X, the worlds or the scale). :func:`align_rows` pairs the rows by that rule:
+a dynamic programme over the two files in order, each step from one pair of rows to the
+next costing the misfit of their rotation angles (capped at :data:`CAP_DEG`), each row left
+without a partner :data:`SKIP_DEG`, at most :data:`MAX_SKIP` rows skipped at once. The
+pairing found replaces the pairing by number only where the pairs by number break the rule
+:data:`GAIN` times more (median over every two pairs) and by :data:`MIN_DEG` or more;
+the rows left without a partner are dropped, counted (``rows_without_a_partner``) and
+named in a warning.
+
+Station data stamped by two clocks (the robot controller's and the camera computer's)
+share no stamps: they were taken for continuous streams, interpolated between stations
+seconds apart, and X came out 6-17 deg off with offset 0 and no warning (generated
+stations, b's clock 1.7 s late with 50 ms of trigger jitter). :func:`pair_by_lag` pairs
+such streams - both step by :data:`MIN_PERIOD_S` or more (a raster of stations a
+second apart looks like a path sampled at 1 Hz: the poses cannot tell a stop; pose
+sensors that sample a motion run at 5 Hz and more) - one-to-one after a constant shift: the median stamp
+difference at each lag of the rows (-16..16), partners within a quarter of the smaller
+10th-percentile spacing; the lag is the one that pairs :data:`PAIRED_SHARE` of the
+sparser stream and whose pairs break the equal-angle rule :data:`LAG_GAIN` times less
+than every other lag that pairs half as many (streams that do not turn: the only lag that
+does). b's rows then take their partners' stamps plus that shift, which is the offset
+reported. Streams that do not turn (a gantry) carry no angle to pair by, and are
+left paired by number; so are files whose quaternion order is misread (their angles are
+wrong until the reading is decided).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+
+from simcalib.geometry import rotation_angle_rad
+
+__all__ = ["align_rows", "realign_rows", "pair_by_lag", "PAIRED_SHARE", "MAX_LAG", "CAP_DEG", "SKIP_DEG", "MAX_SKIP", "GAIN", "MIN_DEG",
+           "MAX_ROWS", "MIN_PERIOD_S", "LAG_GAIN"]
+
+#: a step's misfit counts at most this much (deg): a wrong pair costs about this
+CAP_DEG = 10.0
+#: a row without a partner costs this much (deg): more than a noisy pair's misfit
+SKIP_DEG = 3.0
+#: at most this many rows of a file skipped between two pairs
+MAX_SKIP = 3
+#: the pairing by number is replaced where it breaks the equal-angle rule this many times
+#: more (median over every two pairs) than the pairing found ...
+GAIN = 10.0
+#: ... and by this much (median, deg)
+MIN_DEG = 0.5
+#: files with more rows than this are not re-paired (the angles of every two rows)
+MAX_ROWS = 1000
+#: a lag's shift must pair this share of the sparser stream's rows
+PAIRED_SHARE = 0.8
+#: lags of the rows tried (the same stations, some missing at either end)
+MAX_LAG = 16
+#: the lag whose pairs break the equal-angle rule this many times less than any other's
+#: is the one (the public station sets on two clocks, ``two_clocks_b`` in
+#: docs/real-perturbations.md: the right lag 5x (tabb: a grid of repeated orientations)
+#: to 150x better than the next; a SCARA, turning about one axis, 1.1x and the crwhe sets,
+#: 0.4 deg a step, 1.2-1.6x cannot tell it and stay two clocks; a wrong lag cannot beat
+#: the right one's noise-level misfit, so a lower bar than :data:`GAIN` risks little)
+LAG_GAIN = 3.0
+#: streams on two clocks are taken for stations only where both step by this much or more
+#: (median, s): a robot's moves between stops take a second or more
+MIN_PERIOD_S = 0.5
+
+
+def _angles(T: np.ndarray) -> np.ndarray:
+    """``(n, n)`` rotation angles (deg) between every two poses."""
+    R = T[:, :3, :3]
+    return np.degrees(rotation_angle_rad(np.swapaxes(R, 1, 2)[:, None] @ R[None]))
+
+
+def align_rows(T_a: np.ndarray, T_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Indices ``(ia, ib)`` of the rows of ``T_a`` and ``T_b`` (file order) paired by the
+    equal-angle rule (module doc), increasing."""
+    Aa, Ab = _angles(T_a), _angles(T_b)
+    na, nb = Aa.shape[0], Ab.shape[0]
+    ii, jj = np.meshgrid(np.arange(na), np.arange(nb), indexing="ij")
+    cost = SKIP_DEG * (ii + jj).astype(np.float64)          # rows skipped before the first
+    back = np.full((na, nb, 2), -1, dtype=np.int64)
+    for i in range(1, na):
+        for di in range(1, min(MAX_SKIP + 1, i) + 1):
+            for dj in range(1, MAX_SKIP + 2):
+                j = np.arange(dj, nb)
+                step = np.minimum(np.abs(Aa[i - di, i] - Ab[j - dj, j]), CAP_DEG)
+                c = cost[i - di, j - dj] + step + SKIP_DEG * (di + dj - 2)
+                better = c < cost[i, j]
+                cost[i, j[better]] = c[better]
+                back[i, j[better]] = (i - di, 0)
+                back[i, j[better], 1] = j[better] - dj
+    end = cost + SKIP_DEG * ((na - 1 - ii) + (nb - 1 - jj))  # rows skipped after the last
+    i, j = np.unravel_index(int(np.argmin(end)), end.shape)
+    pairs = [(int(i), int(j))]
+    while back[i, j, 0] >= 0:
+        i, j = back[i, j]
+        pairs.append((int(i), int(j)))
+    ia, ib = np.asarray(pairs[::-1], dtype=np.int64).T
+    return ia, ib
+
+
+def _misfit_deg(T_a: np.ndarray, T_b: np.ndarray) -> float:
+    """Median |angle of a's motion - angle of b's| over every two paired poses (deg)."""
+    n = T_a.shape[0]
+    return float(np.median(np.abs(_angles(T_a) - _angles(T_b))[np.triu_indices(n, 1)]))
+
+
+def realign_rows(sa, sb, sampling):
+    """``(stream_a, stream_b, sampling, notes)``: streams paired by sample-number stamps whose pairing
+    by number breaks the equal-angle rule, re-stamped so that pairing by stamp pairs them
+    by that rule (b's rows take their partners' stamps; rows without one dropped and
+    counted; the sampling classified again); other streams as they are (``notes``
+    empty)."""
+    from simcalib.estimation.sampling import classify_sampling, is_sample_numbers, pair_by_stamp
+    ta, tb = np.asarray(sa.timestamps_s), np.asarray(sb.timestamps_s)
+    if not sampling.paired_by_stamp:
+        return pair_by_lag(sa, sb, sampling)
+    if not (sampling.paired_by_stamp and is_sample_numbers(ta) and is_sample_numbers(tb)
+            and 6 <= min(ta.size, tb.size) and max(ta.size, tb.size) <= MAX_ROWS):
+        return sa, sb, sampling, []
+    Ta, Tb = np.asarray(sa.T_world_sensor), np.asarray(sb.T_world_sensor)
+    ia, ib = align_rows(Ta, Tb)
+    by_number = pair_by_stamp(sa, sb, sampling, sampling.shift_s)
+    if by_number.n < 3 or ia.size < 3:
+        return sa, sb, sampling, []
+    before, after = _misfit_deg(by_number.T_a, by_number.T_b), _misfit_deg(Ta[ia], Tb[ib])
+    if not (before >= GAIN * after and before >= MIN_DEG):
+        return sa, sb, sampling, []
+    lost_a, lost_b = np.setdiff1d(np.arange(ta.size), ia), np.setdiff1d(np.arange(tb.size), ib)
+    out_a = replace(sa, timestamps_s=ta[ia], T_world_sensor=Ta[ia], repairs=dict(
+        sa.repairs, rows_without_a_partner=int(lost_a.size)))
+    out_b = replace(sb, timestamps_s=ta[ia] + sampling.shift_s, T_world_sensor=Tb[ib],
+                    repairs=dict(sb.repairs, rows_without_a_partner=int(lost_b.size),
+                                 rows_paired_by_motion=int(ib.size)))
+    rows = lambda lost, t: ", ".join(f"{x:g}" for x in t[lost][:8]) or "none"  # noqa: E731
+    note = (f"the rows numbered {ta[0]:g}..{ta[-1]:g} in a ({ta.size}) and {tb[0]:g}..{tb[-1]:g} "
+            f"in b ({tb.size}) do not pair by number: the rotation angles of the motions "
+            f"between them break the rule both sensors turn alike by {before:.2g} deg "
+            f"(median), {after:.2g} deg paired by that rule; rows of a without a partner: "
+            f"{rows(lost_a, ta)}; of b: {rows(lost_b, tb)} (a failed detection, with the later "
+            "rows renumbered? where poses in a row do not turn, the angles cannot tell which "
+            "of them lost its partner); the rows are paired by the rule")
+    return out_a, out_b, classify_sampling(out_a, out_b), [note]
+
+
+def _lag_pairs(ta, tb, tol):
+    """``[(paired, shift, ia, ib)]`` per lag of the rows: the median stamp difference of
+    the rows ``lag`` apart, and the rows paired within ``tol`` after it."""
+    from simcalib.estimation.sampling import _partners
+    out = []
+    for lag in range(-MAX_LAG, MAX_LAG + 1):
+        i0, j0 = max(0, -lag), max(0, lag)
+        m = min(ta.size - i0, tb.size - j0)
+        if m >= 3:
+            shift = float(np.median(tb[j0:j0 + m] - ta[i0:i0 + m]))
+            ia, ib = _partners(ta + shift, tb, tol)
+            out.append((int(ia.size), shift, ia, ib))
+    return out
+
+
+def pair_by_lag(sa, sb, sampling):
+    """:func:`realign_rows` for station streams on two clocks (module doc): b's rows take
+    their partners' stamps plus the shift, and the sampling is stamps shared after that
+    shift (decided by the motions: stations a regular second apart pair at any shift of a
+    second by their stamps alone)."""
+    from simcalib.estimation.sampling import Sampling, median_period
+    ta, tb = np.asarray(sa.timestamps_s), np.asarray(sb.timestamps_s)
+    Ta, Tb = np.asarray(sa.T_world_sensor), np.asarray(sb.T_world_sensor)
+    n = min(ta.size, tb.size)
+    if (n < 3 or max(ta.size, tb.size) > MAX_ROWS
+            or min(sampling.period_a_s, sampling.period_b_s) < MIN_PERIOD_S):
+        return sa, sb, sampling, []
+    tol = 0.25 * min(float(np.quantile(np.diff(ta), 0.1)), float(np.quantile(np.diff(tb), 0.1)))
+    lags = [x for x in _lag_pairs(ta, tb, tol) if x[0] >= 0.5 * n]
+    fits = sorted((_misfit_deg(Ta[ia], Tb[ib]), k, shift, ia, ib)
+                  for k, (_, shift, ia, ib) in enumerate(lags))
+    if not fits or lags[fits[0][1]][0] < PAIRED_SHARE * n:
+        return sa, sb, sampling, []
+    best, _, shift, ia, ib = fits[0]
+    runner = fits[1][0] if len(fits) > 1 else math.inf
+    if not (runner > 0 and runner >= LAG_GAIN * best):       # none turns: every lag fits
+        return sa, sb, sampling, []
+    out_a = replace(sa, timestamps_s=ta[ia], T_world_sensor=Ta[ia], repairs=dict(
+        sa.repairs, rows_without_a_partner=int(ta.size - ia.size)))
+    out_b = replace(sb, timestamps_s=ta[ia] + shift, T_world_sensor=Tb[ib], repairs=dict(
+        sb.repairs, rows_without_a_partner=int(tb.size - ib.size),
+        rows_paired_by_motion=int(ib.size)))
+    spread = float(np.max(np.abs(tb[ib] - ta[ia] - shift)))
+    note = (f"the stations of a ({ta.size}) and b ({tb.size}) carry two clocks: paired one to "
+            f"one with b {shift:.6g} s later (the offset used; stamps within {spread:.3g} s "
+            f"of it), the shift whose pairs break the rule both sensors turn alike least "
+            f"({best:.2g} deg, median; the next {runner:.2g} deg)")
+    period = median_period(ta[ia])
+    paired = Sampling("shared_stamps", True, 1e-3 * period + 1e-9, int(ia.size), int(ia.size),
+                      int(ib.size), period, period, reason=note + ": poses paired by station",
+                      shift_s=shift, resolution_s=sampling.resolution_s)
+    return out_a, out_b, paired, [note]
