@@ -345,6 +345,23 @@ def test_threaded_batch_equals_serial_and_single_solves(monkeypatch):
         np.testing.assert_array_equal(s.X, out[3].X[b])
 
 
+def test_chunk_starts_cover_the_batch_and_shrink_at_the_end():
+    """The threads' chunks cover problems 0..B-1 once, in order; full chunks while many
+    problems remain, then smaller ones down to _MIN_CHUNK (only the very last may be
+    smaller), never growing again."""
+    from simcalib.solvers.kernels import batch as kb
+    for nb in (65, 200, 1000, 1001, 20000):
+        for threads in (2, 3, 8):
+            starts = kb._chunk_starts(nb, threads)
+            assert starts[0] == 0 and starts[-1] == nb
+            sizes = np.diff(starts)
+            assert (sizes[:-1] >= kb._MIN_CHUNK).all() and (sizes >= 1).all()
+            assert (sizes <= kb._CHUNK).all()
+            assert (np.diff(sizes) <= 0).all()   # non-increasing
+            if nb >= 8 * threads * kb._CHUNK:
+                assert sizes[0] == kb._CHUNK
+
+
 def _batch_in_child(C, H, X_parent, conn):
     conn.send(bool(np.array_equal(simcalib.solve_batch(C, H).X, X_parent)))
 

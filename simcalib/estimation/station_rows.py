@@ -24,13 +24,16 @@ seconds apart, and X came out 6-17 deg off with offset 0 and no warning (generat
 stations, b's clock 1.7 s late with 50 ms of trigger jitter). :func:`pair_by_lag` pairs
 such streams - both step by :data:`MIN_PERIOD_S` or more (a raster of stations a
 second apart looks like a path sampled at 1 Hz: the poses cannot tell a stop; pose
-sensors that sample a motion run at 5 Hz and more) - one-to-one after a constant shift: the median stamp
-difference at each lag of the rows (-16..16), partners within a quarter of the smaller
-10th-percentile spacing; the lag is the one that pairs :data:`PAIRED_SHARE` of the
+sensors that sample a motion run at 5 Hz and more) - one-to-one after a constant shift:
+the median stamp difference at each lag of the rows (-16..16), partners within a quarter
+of the smaller 10th-percentile spacing; the lag is the one that pairs :data:`PAIRED_SHARE` of the
 sparser stream and whose pairs break the equal-angle rule :data:`LAG_GAIN` times less
 than every other lag that pairs half as many (streams that do not turn: the only lag that
 does). b's rows then take their partners' stamps plus that shift, which is the offset
-reported. Streams that do not turn (a gantry) carry no angle to pair by, and are
+reported. Counters of one continuous motion a lag apart (a pairing that only shifts the
+rows, both streams sampling a motion: :func:`simcalib.estimation.hidden_offset.continuous`)
+are left to :mod:`~simcalib.estimation.hidden_offset`, which tells the lag to a fraction of
+a sample. Streams that do not turn (a gantry) carry no angle to pair by, and are
 left paired by number; so are files whose quaternion order is misread (their angles are
 wrong until the reading is decided).
 """
@@ -44,8 +47,8 @@ import numpy as np
 
 from simcalib.geometry import rotation_angle_rad
 
-__all__ = ["align_rows", "realign_rows", "pair_by_lag", "PAIRED_SHARE", "MAX_LAG", "CAP_DEG", "SKIP_DEG", "MAX_SKIP", "GAIN", "MIN_DEG",
-           "MAX_ROWS", "MIN_PERIOD_S", "LAG_GAIN"]
+__all__ = ["align_rows", "realign_rows", "pair_by_lag", "PAIRED_SHARE", "MAX_LAG", "CAP_DEG",
+           "SKIP_DEG", "MAX_SKIP", "GAIN", "MIN_DEG", "MAX_ROWS", "MIN_PERIOD_S", "LAG_GAIN"]
 
 #: a step's misfit counts at most this much (deg): a wrong pair costs about this
 CAP_DEG = 10.0
@@ -117,11 +120,12 @@ def _misfit_deg(T_a: np.ndarray, T_b: np.ndarray) -> float:
 
 
 def realign_rows(sa, sb, sampling):
-    """``(stream_a, stream_b, sampling, notes)``: streams paired by sample-number stamps whose pairing
-    by number breaks the equal-angle rule, re-stamped so that pairing by stamp pairs them
-    by that rule (b's rows take their partners' stamps; rows without one dropped and
-    counted; the sampling classified again); other streams as they are (``notes``
-    empty)."""
+    """``(stream_a, stream_b, sampling, notes)``: streams paired by sample-number stamps
+    whose pairing by number breaks the equal-angle rule, re-stamped so that pairing by
+    stamp pairs them by that rule (b's rows take their partners' stamps; rows without one
+    dropped and counted; the sampling classified again); streams on two clocks by
+    :func:`pair_by_lag`; other streams as they are (``notes`` empty)."""
+    from simcalib.estimation.hidden_offset import continuous
     from simcalib.estimation.sampling import classify_sampling, is_sample_numbers, pair_by_stamp
     ta, tb = np.asarray(sa.timestamps_s), np.asarray(sb.timestamps_s)
     if not sampling.paired_by_stamp:
@@ -131,6 +135,8 @@ def realign_rows(sa, sb, sampling):
         return sa, sb, sampling, []
     Ta, Tb = np.asarray(sa.T_world_sensor), np.asarray(sb.T_world_sensor)
     ia, ib = align_rows(Ta, Tb)
+    if np.all(ia - ib == ia[0] - ib[0]) and continuous(ta, Ta) and continuous(tb, Tb):
+        return sa, sb, sampling, []     # counters of one motion a lag apart: hidden_offset's
     by_number = pair_by_stamp(sa, sb, sampling, sampling.shift_s)
     if by_number.n < 3 or ia.size < 3:
         return sa, sb, sampling, []

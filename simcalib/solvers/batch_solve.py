@@ -41,7 +41,8 @@ def solve_batch(C, H, method: str = "dqopt", alpha=1.0, prior: Prior | None = No
     prior = _check_prior(prior)
     _check_prior_supported(info, prior)
     _check_weights_supported(info, weights)
-    rng = _check_rng(rng)
+    if rng is not None:   # None: default_rng(0), made only for the methods that draw
+        rng = _check_rng(rng)
     C, H = _checked_batch_arrays(C, H)
     B, N = C.shape[:2]
     alphas = _check_alphas(alpha, B)
@@ -110,7 +111,7 @@ def _run_method(info, C, H, alphas, prior, rng, w) -> dict:
     check_transforms(C, "C")
     check_transforms(H, "H")
     if info.batch_fn is None:
-        return _loop(info, C, H, alphas, prior, rng, w)
+        return _loop(info, C, H, alphas, prior, _check_rng(rng), w)
     out = info.batch_fn(C, H, alphas, prior)
     return {"X": out} if isinstance(out, np.ndarray) else out
 
@@ -151,6 +152,8 @@ def _prior_penalty_batch(X, prior: Prior) -> np.ndarray:
 
 def _check_alphas(alpha, B: int) -> np.ndarray:
     """alpha as (B,): a real scalar or (B,) array, every value in [ALPHA_MIN, ALPHA_MAX]."""
+    if type(alpha) is float and ALPHA_MIN <= alpha <= ALPHA_MAX:   # the common call
+        return np.full(B, alpha)
     raw = None if isinstance(alpha, (bool, str, bytes)) else np.asarray(alpha)
     if raw is None or raw.dtype.kind not in "iuf":
         kind = "complex" if raw is not None and raw.dtype.kind == "c" else type(alpha).__name__
