@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import dataclasses
 
+import pytest
+
 from simcalib.estimation.readings import detect_conventions
 from simcalib.studies.experiments.recording_kinds import generate, true_streams
 
@@ -43,3 +45,128 @@ def test_the_quaternion_order_is_not_told_without_rotation():
     a = dataclasses.replace(a, quat_order="xyzw")
     rep = detect_conventions(a, b, offset=rec.offset_s)
     assert not rep.clear and not rep.swap_scalar_a, rep.message
+
+
+# ------------------------------------------------------------- a mirrored (left-handed) b
+def _mirrored_file(stream):
+    """``stream`` as a left-handed tool writes it: z negated, quaternions (-x, -y, z, w)."""
+    from simcalib.tools.mirror_margin import mirrored_file
+    return mirrored_file(stream)
+
+
+def test_mirrored_negates_z_and_the_quaternions_x_and_y_and_is_its_own_inverse():
+    import numpy as np
+    from simcalib.estimation.readings import mirrored
+    from simcalib.geometry import matrix_from_quat, quat_from_matrix
+    rec = generate("continuous", 0)
+    b = rec.stream_b
+    m = mirrored(b)
+    assert np.allclose(m.T_world_sensor, _mirrored_file(b).T_world_sensor, atol=1e-12)
+    q = quat_from_matrix(b.T_world_sensor[:, :3, :3]) * np.array([-1.0, -1.0, 1.0, 1.0])
+    assert np.allclose(m.T_world_sensor[:, :3, :3], matrix_from_quat(q), atol=1e-12)
+    assert np.array_equal(m.T_world_sensor[:, 2, 3], -b.T_world_sensor[:, 2, 3])
+    assert np.allclose(np.linalg.det(m.T_world_sensor[:, :3, :3]), 1.0)
+    assert np.array_equal(mirrored(m).T_world_sensor, b.T_world_sensor)
+
+
+def _calibrated_error(rec, b, **kw):
+    import math
+    from simcalib.estimation.path import calibrate_streams
+    from simcalib.geometry import rotation_error_rad
+    import numpy as np
+    r = calibrate_streams(rec.stream_a, b, **kw)
+    return (r, math.degrees(float(rotation_error_rad(r.X, rec.X_true))),
+            1e3 * float(np.linalg.norm(r.X[:3, 3] - rec.X_true[:3, 3])))
+
+
+def test_a_mirrored_b_is_told_and_read_mirrored_so_x_is_right():
+    """Stations (6-DoF): b written left-handed fits no proper X as written (X ~180 deg off
+    before); read mirrored, X is the true one, and the reading says so."""
+    from simcalib.estimation.readings import MIRROR_RATIO
+    rec = generate("stations", 0)
+    r, rot_deg, trans_mm = _calibrated_error(rec, _mirrored_file(rec.stream_b))
+    conv = r.conventions
+    assert conv.mirror_b and conv.mirror_ratio > MIRROR_RATIO, conv.message
+    assert "MIRRORED" in conv.message and "mirror_b=false" in conv.message
+    assert rot_deg < 0.5 and trans_mm < 5.0, (rot_deg, trans_mm)
+
+
+def test_a_mirrored_b_forced_as_written_is_not_checked():
+    rec = generate("stations", 0)
+    r, rot_deg, _ = _calibrated_error(rec, _mirrored_file(rec.stream_b), mirror_b=False)
+    assert not r.conventions.mirror_b and "MIRRORED" not in r.conventions.message
+    assert rot_deg > 90.0           # no proper X fits the mirrored file as written
+
+
+def test_files_as_written_fit_far_better_than_b_mirrored_and_skip_the_check():
+    """b's pitches follow a's (the cheap look): the scoring of the mirrored readings is
+    skipped (``mirror_ratio`` NaN); it would have found b mirrored far worse."""
+    import math
+    from simcalib.estimation.path import first_reading
+    from simcalib.estimation.readings import (MIRROR_RATIO, PITCH_AGREEMENT, mirror_ratio,
+                                              pitch_agreement)
+    from simcalib.estimation.sampling import classify_sampling
+    rec = generate("stations", 0)
+    r, rot_deg, _ = _calibrated_error(rec, rec.stream_b)
+    conv = r.conventions
+    assert not conv.mirror_b and math.isnan(conv.mirror_ratio) and rot_deg < 0.5
+    assert "MIRRORED" not in conv.message
+    smp = classify_sampling(rec.stream_a, rec.stream_b)
+    first, off = first_reading(rec.stream_a, rec.stream_b, smp)
+    at = dict(offset=off, sampling=smp)
+    assert pitch_agreement(rec.stream_a, rec.stream_b, first, **at) > PITCH_AGREEMENT
+    assert mirror_ratio(rec.stream_a, rec.stream_b, first, **at) < 1.0 / MIRROR_RATIO
+    b = _mirrored_file(rec.stream_b)
+    first, off = first_reading(rec.stream_a, b, smp)
+    assert pitch_agreement(rec.stream_a, b, first, offset=off, sampling=smp) < 1.0
+
+
+@pytest.mark.slow
+def test_planar_motion_cannot_tell_a_mirrored_b_and_says_nothing_new():
+    """Rotations about one axis with no translation along it: mirroring leaves them
+    unchanged, so both readings fit alike; b stays as written, the reading (its clarity,
+    its message) the one without the check."""
+    import math
+    from simcalib.estimation.path import align_and_read
+    from simcalib.estimation.readings import MIRROR_RATIO
+    from simcalib.estimation.sampling import classify_sampling
+    rec = generate("planar", 0)
+    a, b = rec.stream_a, _mirrored_file(rec.stream_b)
+    smp = classify_sampling(a, b)
+    kw = dict(time_offset=rec.offset_s, seed=0)
+    *_, conv, _, _ = align_and_read(a, b, smp, **kw)
+    *_, forced, _, _ = align_and_read(a, b, smp, forced={"mirror_b": False}, **kw)
+    assert not conv.mirror_b and 1.0 / MIRROR_RATIO < conv.mirror_ratio < MIRROR_RATIO
+    assert math.isnan(forced.mirror_ratio)
+    assert (conv.ratio, conv.clear, conv.message, conv.scores) == (
+        forced.ratio, forced.clear, forced.message, forced.scores)
+
+
+def test_a_mirrored_a_is_told_as_b_mirrored_against_it_and_m_x_m_is_x():
+    """Only the relative handedness shows: with a's file left-handed, b is read mirrored
+    and ``M X M`` (``M = diag(1, 1, -1)``) is the true X, as the message says."""
+    import math
+    import numpy as np
+    from simcalib.estimation.path import calibrate_streams
+    from simcalib.estimation.readings import mirrored
+    from simcalib.geometry import rotation_error_rad
+    rec = generate("stations", 1)
+    r = calibrate_streams(mirrored(rec.stream_a), rec.stream_b)
+    M = np.diag([1.0, 1.0, -1.0, 1.0])
+    Y = M @ r.X @ M
+    assert r.conventions.mirror_b and "M X M" in r.conventions.message
+    assert math.degrees(float(rotation_error_rad(Y, rec.X_true))) < 0.5
+    assert np.linalg.norm(Y[:3, 3] - rec.X_true[:3, 3]) < 5e-3
+
+
+@pytest.mark.slow
+def test_a_mirrored_scalar_first_b_is_told_with_its_quaternion_order():
+    """A left-handed tool writing scalar-first quaternions: the mirror is of the poses,
+    after the quaternion order (read in the other order, then z negated)."""
+    from simcalib.tools.mirror_margin import mirrored_file
+    rec = generate("scalar_first", 0)              # even seeds: b scalar-first
+    assert rec.scalar_first_b
+    r, rot_deg, trans_mm = _calibrated_error(rec, mirrored_file(rec.stream_b, True))
+    conv = r.conventions
+    assert conv.mirror_b and conv.swap_scalar_b and not conv.swap_scalar_a, conv.message
+    assert rot_deg < 0.5 and trans_mm < 5.0, (rot_deg, trans_mm)

@@ -26,6 +26,9 @@ def test_perturbations_do_what_they_say():
     assert np.allclose(np.abs(np.sum(bii[:, 4:8] * b[:, 4:8], axis=1)), 1.0)
     _, bw = perturb("wxyz_b", a, b, rng)
     assert np.array_equal(bw[:, 4], b[:, 7]) and np.array_equal(bw[:, 5:8], b[:, 4:7])
+    _, bl = perturb("mirror_b", a, b, rng)                        # left-handed b
+    assert np.array_equal(bl[:, [3, 4, 5]], -b[:, [3, 4, 5]])
+    assert np.array_equal(bl[:, [0, 1, 2, 6, 7]], b[:, [0, 1, 2, 6, 7]])
     _, bm = perturb("mm_b", a, b, rng)
     assert np.allclose(bm[:, 1:4], 1000 * b[:, 1:4])
     _, bs = perturb("offset-30s", a, b, rng)
@@ -74,7 +77,8 @@ def test_registered_as_an_experiment():
 @pytest.mark.skipif(not (real_dir() / "rwhecalib_kuka_1" / "a.txt").exists(),
                     reason="../shared/data/real is absent")
 def test_a_station_set_sees_through_its_perturbations():
-    names = ["invert_b", "wxyz_b", "mm_b", "shuffled_rows_b", "lost_row_b", "two_clocks_b"]
+    names = ["invert_b", "wxyz_b", "mm_b", "shuffled_rows_b", "lost_row_b", "two_clocks_b",
+             "mirror_b"]
     out = run_sets(["rwhecalib_kuka_1"], names)
     assert [o.perturbation for o in out] == names
     assert all(o.verdict == "ok" for o in out), out

@@ -3,7 +3,7 @@
 ``estimation.*``):
 
     read (simcalib.importers) -> sampling (estimation.sampling) -> reading and clock offset
-    (:func:`align_and_read`: estimation.readings, estimation.alignment) -> synchronised poses
+    (:func:`align_and_read`: estimation.reading_alignment) -> synchronised poses
     -> motions (estimation.motions) -> outliers (:func:`robust_fit`) -> the final solve with
     the motions' shared poses -> the covariance checked by the data (estimation.consistency)
     -> (the verdict: estimation.verdict); and, for comparison, a plain solve (offset 0, no
@@ -35,9 +35,10 @@ from typing import NamedTuple
 
 import numpy as np
 
+from simcalib.estimation.reading_alignment import align_and_read, first_reading  # noqa: F401
 from simcalib.estimation.stillness import check_streams_move
 
-__all__ = ["StreamCalibration", "calibrate_streams"]
+__all__ = ["StreamCalibration", "calibrate_streams", "align_and_read", "first_reading"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -127,85 +128,6 @@ def read_pair(a, b, format_a=None, format_b=None, unit_a="auto", unit_b="auto"):
     from simcalib.estimation.stamp_units import stamps_to_seconds
     return stamps_to_seconds(_read(a, format_a, unit_a), _read(b, format_b, unit_b),
                              unit_a, unit_b)
-
-
-def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift="auto", alpha=1.0,
-                   seed=0, forced=None, signal="rotation"):
-    """The streams' reading and their clock offset, decided in that order and checked
-    again: the reading at the correlation's (reading-free) offset, the offset refined with
-    that reading, then the reading decided again at the final offset (it is what the run
-    reports). ``signal`` (:func:`check_streams_move`): ``rotation`` correlates angular
-    speeds, ``translation`` (a rig that does not turn) translation speeds, and scores the
-    readings on motions that translate. Streams paired by equal stamps that both sample a
-    continuous motion are checked for an offset the stamps hide
-    (:mod:`simcalib.estimation.hidden_offset`), which unpairs them. Returns ``(stream_a,
-    stream_b, ConventionReport, TimeOffset, Sampling)``."""
-    from simcalib.estimation.readings import apply_conventions, detect_conventions
-    from simcalib.estimation.alignment import _as_offset, estimate_time_offset
-    forced = forced or {}
-    detect = lambda off, smp=sampling: detect_conventions(  # noqa: E731
-        sa, sb, offset=off, alpha=alpha, seed=seed, sampling=smp, signal=signal, **forced)
-    if time_offset != "estimate":
-        off = _as_offset(time_offset)
-        conv = detect(off)
-        return (*apply_conventions(sa, sb, conv), conv, off, sampling)
-    if sampling.paired_by_stamp:            # equal stamps, or equal after a constant shift
-        return _paired_by_stamp(sa, sb, sampling, detect, drift=drift, alpha=alpha,
-                                signal=signal)
-    conv = min((detect(c) for c in _offset_candidates(sa, sb, signal)), key=_best_score)
-    a1, b1 = apply_conventions(sa, sb, conv)
-    # a rotating rig: "auto" (the same rule as check_streams_move) consults the
-    # translation speeds too where the angular ones leave the offset in doubt
-    by = "auto" if signal == "rotation" else signal
-    off = estimate_time_offset(a1, b1, drift=drift, alpha=alpha, signal=by)
-    final = detect(off)
-    if (final.invert_a, final.invert_b, final.swap_scalar_a, final.swap_scalar_b) != (
-            conv.invert_a, conv.invert_b, conv.swap_scalar_a, conv.swap_scalar_b):
-        a1, b1 = apply_conventions(sa, sb, final)       # the reading changed: once more
-        off = estimate_time_offset(a1, b1, drift=drift, alpha=alpha, signal=by)
-        final = detect(off)
-    return (*apply_conventions(sa, sb, final), final, off, sampling)
-
-
-def _paired_by_stamp(sa, sb, sampling, detect, *, drift, alpha, signal):
-    """:func:`align_and_read` for stamp-paired streams: the shift (0 for equal stamps) is
-    the offset, unless the motions show one the stamps hide."""
-    from simcalib.estimation.readings import apply_conventions
-    from simcalib.estimation.alignment import TimeOffset
-    from simcalib.estimation.hidden_offset import stamps_hide_offset
-    shift = float(getattr(sampling, "shift_s", 0.0))
-    off = TimeOffset(shift, 0.0, shift, float("nan"), np.zeros(0), np.zeros(0),
-                     refined=False, decision="shared_stamps", message=sampling.reason)
-    conv = detect(off)
-    a1, b1 = apply_conventions(sa, sb, conv)
-    sampling, off = stamps_hide_offset(a1, b1, sampling, off, alpha=alpha, drift=drift,
-                                       signal=signal)
-    if sampling.paired_by_stamp:
-        return a1, b1, conv, off, sampling
-    final = detect(off, sampling)
-    return (*apply_conventions(sa, sb, final), final, off, sampling)
-
-
-def _best_score(conv) -> float:
-    return min(conv.scores.values()) if conv.scores else float("inf")
-
-
-def _offset_candidates(sa, sb, signal="rotation") -> list[float]:
-    """Offsets at which to decide the reading: the angular- (or translation-) speed
-    correlation's peak (it does not depend on the reading), its other peaks of similar
-    height (a periodic motion) and 0."""
-    from simcalib.estimation.alignment import _other_peaks, estimate_time_offset
-    from simcalib.estimation.speeds import as_time_poses
-    coarse = estimate_time_offset(sa, sb, refine=False, signal=signal)
-    ta, tb = as_time_poses(sa)[0], as_time_poses(sb)[0]
-    slow = max(float(np.median(np.diff(ta))), float(np.median(np.diff(tb))))
-    cands = [coarse.offset_s] + _other_peaks(coarse.lags_s, coarse.correlation,
-                                             coarse.peak_correlation, coarse.offset_s,
-                                             4 * slow)
-    lo, hi = coarse.window_s
-    if lo <= 0.0 <= hi and all(abs(c) > 2 * slow for c in cands):
-        cands.append(0.0)
-    return cands
 
 
 def synchronised(sa, sb, sampling, off):
@@ -348,7 +270,8 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
                       robust_options: dict | None = None, method: str = "dqopt",
                       prior=None, seed: int = 0, motions: str = "auto",
                       tolerances=None, common_error=None, stamps_unit_a: str = "auto",
-                      stamps_unit_b: str = "auto", scale_b="auto") -> StreamCalibration:
+                      stamps_unit_b: str = "auto", scale_b="auto",
+                      mirror_b: bool | None = None) -> StreamCalibration:
     """Calibrate ``X = T_a_b`` from two pose streams (paths or PoseStreamData), the one path:
     jumps of a world frame (:mod:`~simcalib.estimation.world_jumps`) -> how the rig moves
     (:func:`check_streams_move`) -> sampling (:mod:`~simcalib.estimation.sampling`) ->
@@ -361,7 +284,9 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     ``tolerances``: :class:`simcalib.estimation.verdict.Tolerances` (1 deg / 1 cm);
     ``common_error``: a stated :class:`~simcalib.estimation.common_error.CommonError`;
     ``stamps_unit_a`` / ``_b``: :func:`read_pair`; ``scale_b``: ``auto``, ``estimate`` or a
-    number (:mod:`simcalib.estimation.scale`). Bad input raises a DataError."""
+    number (:mod:`simcalib.estimation.scale`); ``mirror_b``: None (told by the data:
+    :func:`align_and_read`), or b forced mirrored (True) or as written (False). Bad input
+    raises a DataError."""
     from simcalib.estimation.scale import check_scale_b
     from simcalib.estimation.world_jumps import stretches_used
     scale_b = check_scale_b(scale_b)
@@ -370,7 +295,8 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     min_rotation_deg = min_rotation_deg if signal == "rotation" else None
     kw = dict(time_offset=time_offset, drift=drift, alpha=alpha, seed=seed, signal=signal,
               forced={"invert_a": invert_a, "invert_b": invert_b,
-                      "scalar_first_a": scalar_first_a, "scalar_first_b": scalar_first_b},
+                      "scalar_first_a": scalar_first_a, "scalar_first_b": scalar_first_b,
+                      "mirror_b": mirror_b},
               motions=motions, step_s=step_s, min_rotation_deg=min_rotation_deg,
               max_rotation_deg=max_rotation_deg, robust=robust, method=method,
               robust_options=robust_options)

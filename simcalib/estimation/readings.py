@@ -30,9 +30,21 @@ import numpy as np
 
 from simcalib.geometry import rotation_angle_rad
 
-__all__ = ["ConventionReport", "detect_conventions", "apply_conventions", "CLEAR_RATIO"]
+__all__ = ["ConventionReport", "detect_conventions", "apply_conventions", "CLEAR_RATIO",
+           "MIRROR_RATIO", "PITCH_AGREEMENT", "mirror_ratio", "mirror_sentence", "mirrored",
+           "pitch_agreement"]
 
 CLEAR_RATIO = 3.0   # runner-up score / winner score above this: "clear"
+#: the best score with b as read / mirrored (:func:`mirror_ratio`) above this: b is taken as
+#: mirrored (a left-handed file). ``python -m simcalib.tools.mirror_margin`` (20 seeds of 20
+#: generated kinds, 18 real sets): files as written at most 1.04 (planar: cannot tell),
+#: 0.83 where the motion tells; mirrored files 5.1 and more on the 6-DoF kinds, 1.4-6.7 on
+#: the noisy tag sets (docs/mirror-margin.md).
+MIRROR_RATIO = 4.0
+#: :func:`pitch_agreement` above this: b's pitches follow a's, the mirrored readings are not
+#: scored. Measured alike: mirrored files at most 3.6 (a wrong quaternion order chosen),
+#: files as written 1.8 and more (most 20 and more)
+PITCH_AGREEMENT = 10.0
 
 
 @dataclass(frozen=True)
@@ -62,6 +74,11 @@ class ConventionReport:
     message: str = ""
     #: the runner-up reading's X (RANSAC + dqopt on the scored motions; None: no runner-up)
     runner_up_X: np.ndarray | None = field(default=None, repr=False)
+    #: b read mirrored (:func:`mirrored`: a left-handed file, z negated) in every candidate
+    mirror_b: bool = False
+    #: the best score with b as read over the best with b mirrored (:func:`mirror_ratio`);
+    #: NaN: not checked (forced; or b's pitches follow a's: :func:`pitch_agreement`)
+    mirror_ratio: float = math.nan
 
 
 def _swap_options(stream, forced):
@@ -72,13 +89,27 @@ def _swap_options(stream, forced):
     return [False, True]
 
 
-def _apply(stream, swap, invert):
+def _apply(stream, swap, invert, mirror=False):
     s = stream
     if swap:
         s = s.with_swapped_scalar()
     if invert:
         s = s.with_inverse()
+    if mirror:          # last: the mirror is of the poses (after the quaternion order)
+        s = mirrored(s)
     return s
+
+
+def mirrored(stream):
+    """The stream read in the mirror image of its frames (a LEFT-HANDED file, e.g. Unity,
+    Unreal, DirectX trackers): ``T -> M T M`` with ``M = diag(1, 1, -1, 1)``, i.e.
+    positions ``z -> -z`` and quaternions ``(x, y, z, w) -> (-x, -y, z, w)``. A mirror
+    about x or y differs from it by a proper rotation (which X absorbs): one is enough."""
+    from dataclasses import replace
+    T = np.array(stream.T_world_sensor, dtype=np.float64)
+    T[:, 2, :] *= -1.0
+    T[:, :, 2] *= -1.0
+    return replace(stream, T_world_sensor=T)
 
 
 def _motions(sa, sb, offset, n_pairs, rng, sampling=None, signal="rotation"):
@@ -119,10 +150,12 @@ def _fmt_ratio(r):
     return "inf" if not math.isfinite(r) else f"{r:.1f}x"
 
 
-def _label(sw, inv, name, has_order):
+def _label(sw, inv, name, has_order, mirror=False):
     s = f"{name}: " + ("inverted (file holds T_sensor_world)" if inv else "as written")
     if has_order:
         s += ", quaternion order " + ("swapped" if sw else "as read")
+    if mirror:
+        s += ", MIRRORED (left-handed file: z negated)"
     return s
 
 
@@ -147,7 +180,7 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
                        invert_b: bool | None = None, scalar_first_a: bool | None = None,
                        scalar_first_b: bool | None = None, alpha: float = 1.0,
                        n_pairs: int = 400, seed: int = 0, sampling=None,
-                       signal: str = "auto") -> ConventionReport:
+                       signal: str = "auto", mirror_b: bool = False) -> ConventionReport:
     """Decide the reading of two :class:`simcalib.importers.PoseStreamData` from the data.
 
     Every candidate reading (quaternion order of each quaternion-format stream x inversion
@@ -168,6 +201,8 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
     never (a constant misread orientation only rotates every ``t_C`` alike, which X's
     rotation absorbs), an inverted stream only when the translations span 3-D (in a plane
     ``-t`` is ``t`` turned by 180 deg about its normal); the ratio says so (about 1).
+    ``mirror_b``: every candidate reads b mirrored (:func:`mirrored`; whether it is, is
+    decided apart: :func:`mirror_ratio`).
     """
     from simcalib.estimation.speeds import checked_signal
     signal = checked_signal(signal, stream_a, stream_b)
@@ -182,7 +217,7 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
                                     (_swap_options(stream_a, scalar_first_a),
                                      _swap_options(stream_b, scalar_first_b)),
                                     n_pairs=n_pairs, alpha=alpha, seed=seed, sampling=sampling,
-                                    signal=signal)
+                                    signal=signal, mirror_b=mirror_b)
     if not scores:
         raise _no_overlap(stream_a, stream_b, off)
     ranked, ratio, clear, fallback = _ranked(scores, (False, False) + parities[0])
@@ -191,7 +226,7 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
 
     def desc(k):
         return (_label(k[0], k[2], "a", has_order[0]) + "; "
-                + _label(k[1], k[3], "b", has_order[1]))
+                + _label(k[1], k[3], "b", has_order[1], mirror_b))
     lines = _reading_lines(desc, scores, ranked, ratio, clear, fallback, invert_a, invert_b,
                            forced)
     return ConventionReport(inv_a, inv_b, sw_a, sw_b,
@@ -200,18 +235,72 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
                             clear=clear, forced=forced,
                             offset_s=float(getattr(off, "offset_s", off)), n_motions=n_mot,
                             message="; ".join(lines),
-                            runner_up_X=xs[ranked[1]] if len(ranked) > 1 else None)
+                            runner_up_X=xs[ranked[1]] if len(ranked) > 1 else None,
+                            mirror_b=bool(mirror_b))
+
+
+def mirror_ratio(stream_a, stream_b, report: ConventionReport, *, offset,
+                 invert_a: bool | None = None, invert_b: bool | None = None,
+                 scalar_first_a: bool | None = None, scalar_first_b: bool | None = None,
+                 alpha: float = 1.0, n_pairs: int = 400, seed: int = 0, sampling=None,
+                 signal: str = "rotation") -> float:
+    """How much better b fits mirrored (:func:`mirrored`, a left-handed file): the best
+    score of ``report`` (b as read; every candidate reading) over the best score of the
+    same candidates with b mirrored, on the same random pairs of instants at ``offset``
+    (the forcing keys as :func:`detect_conventions`'s). Decided apart from the other
+    choices of the reading, but over all of them (a mirrored b read as written can make a
+    wrong quaternion order fit best). The mirror shows only in the translations along the
+    rotation axes (it negates each motion's pitch; the rotations are the old ones turned
+    by 180 deg, which X absorbs), so a motion whose rotations share one axis with no
+    translation along it (planar) cannot tell: the ratio is ~1 there. NaN: too few
+    motions."""
+    scores, _, _ = _score_readings(stream_a, stream_b, offset, _parities(invert_a, invert_b),
+                                   (_swap_options(stream_a, scalar_first_a),
+                                    _swap_options(stream_b, scalar_first_b)),
+                                   n_pairs=n_pairs, alpha=alpha, seed=seed, sampling=sampling,
+                                   signal=signal, mirror_b=True)
+    if not scores or not report.scores:
+        return math.nan
+    return min(report.scores.values()) / max(min(scores.values()), 1e-15)
+
+
+def pitch_agreement(stream_a, stream_b, report: ConventionReport, *, offset,
+                    n_pairs: int = 400, seed: int = 0, sampling=None,
+                    signal: str = "rotation") -> float:
+    """``median |d_C + d_H| / median |d_C - d_H|`` over the pitches (translation along the
+    rotation axis, :mod:`simcalib.estimation.units`) of the motions ``report``'s reading
+    gives: a cheap first look at the handedness (a mirrored b negates every pitch, the
+    reading's other choices keep it). Above :data:`PITCH_AGREEMENT`: b's pitches follow
+    a's, b is not mirrored; else :func:`mirror_ratio` decides. NaN: too few motions."""
+    from simcalib.estimation.units import _pitches
+    sa, sb = apply_conventions(stream_a, stream_b, report)
+    C, H = _motions(sa, sb, offset, n_pairs, np.random.default_rng(seed), sampling, signal)
+    d_c, d_h = _pitches(C, H) if C.shape[0] >= 3 else (np.zeros(0), np.zeros(0))
+    if d_c.size < 3:
+        return math.nan
+    return float(np.median(np.abs(d_c + d_h)) / max(np.median(np.abs(d_c - d_h)), 1e-15))
+
+
+def mirror_sentence(ratio: float) -> str:
+    """What a mirrored b means for the user (the reading's message and the warnings)."""
+    return (f"stream b is MIRRORED against a: its poses fit {ratio:.3g}x better with z "
+            "negated (positions z -> -z, quaternions (-qx, -qy, qz, qw)) than as written, "
+            "where no rotation relates them: one file is left-handed (Unity, Unreal, "
+            "DirectX-based trackers); calibrated with b read so, X = T_a_b' with b' = b's "
+            "frame with its z axis negated (if a is the left-handed one, M X M with "
+            "M = diag(1, 1, -1) is T_a'_b between a's frame mirrored so and b's); pass "
+            "mirror_b=false to take b as written")
 
 
 def _score_readings(stream_a, stream_b, off, parities, swaps, *, n_pairs, alpha, seed,
-                    sampling, signal="rotation") -> tuple[dict, int, dict]:
+                    sampling, signal="rotation", mirror_b=False) -> tuple[dict, int, dict]:
     """``({(swap_a, swap_b, invert_a, invert_b): score}, motions scored, {reading: X})``:
     every reading's :func:`_reading_score` on the same random pairs of instants (readings
-    with fewer than 3 motions left out)."""
+    with fewer than 3 motions left out; ``mirror_b``: b read mirrored)."""
     scores, n_mot, xs = {}, 0, {}
     for sw_a, sw_b in itertools.product(*swaps):
         for inv_a, inv_b in parities:
-            sa, sb = _apply(stream_a, sw_a, inv_a), _apply(stream_b, sw_b, inv_b)
+            sa, sb = _apply(stream_a, sw_a, inv_a), _apply(stream_b, sw_b, inv_b, mirror_b)
             C, H = _motions(sa, sb, off, n_pairs, np.random.default_rng(seed), sampling,
                             signal)
             if C.shape[0] < 3:
@@ -315,4 +404,4 @@ def _reading_lines(desc, scores, ranked, ratio, clear, fallback, invert_a, inver
 def apply_conventions(stream_a, stream_b, report: ConventionReport):
     """The two streams read as ``report`` decided."""
     return (_apply(stream_a, report.swap_scalar_a, report.invert_a),
-            _apply(stream_b, report.swap_scalar_b, report.invert_b))
+            _apply(stream_b, report.swap_scalar_b, report.invert_b, report.mirror_b))

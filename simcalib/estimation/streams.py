@@ -151,7 +151,8 @@ def motions_from_streams(streams: dict, cfg, rng, sensing: dict):
     sampling = classify_sampling(a, b)
     forced = ({} if est.reading == "detect" else
               {"invert_a": False, "invert_b": est.b_file.startswith("inverted"),
-               "scalar_first_a": False, "scalar_first_b": "scalar_first" in est.b_file})
+               "scalar_first_a": False, "scalar_first_b": "scalar_first" in est.b_file,
+               "mirror_b": False})
     offset = 0.0 if est.time_offset == "stamps" else est.time_offset
     a, b, conv, off, sampling = align_and_read(a, b, sampling, time_offset=offset,
                                                seed=cfg.seed, forced=forced)

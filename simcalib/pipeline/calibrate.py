@@ -99,6 +99,9 @@ class CalibrateOptions:
     scalar_first_a: bool | None = field(default=None, metadata=key_help(
         "force reading a's quaternion numbers in the other order; default: detected"))
     scalar_first_b: bool | None = field(default=None, metadata=key_help("the same for file b"))
+    mirror_b: bool | None = field(default=None, metadata=key_help(
+        "force reading file b as mirrored (a left-handed frame: z -> -z, quaternions "
+        "(-qx, -qy, qz, qw)) or not; default: detected where the motion tells"))
     step_s: float = field(default=1.0, metadata=key_help(
         "consecutive motions span this time step, s"))
     min_rotation_deg: float = field(default=2.0, metadata=key_help(
@@ -430,7 +433,8 @@ def calibrate(opts: CalibrateOptions):
                               max_rotation_deg=opts.max_rotation_deg,
                               invert_a=opts.invert_a, invert_b=opts.invert_b,
                               scalar_first_a=opts.scalar_first_a,
-                              scalar_first_b=opts.scalar_first_b, drift=opts.drift,
+                              scalar_first_b=opts.scalar_first_b, mirror_b=opts.mirror_b,
+                              drift=opts.drift,
                               robust_options=robust_options, method=opts.method,
                               prior=prior, seed=opts.seed, common_error=opts.common_error,
                               stamps_unit_a=opts.stamps_unit_a, stamps_unit_b=opts.stamps_unit_b,
@@ -506,6 +510,9 @@ def warnings(r, reading: str | None = None) -> list[str]:
     scale = getattr(r, "scale", None)
     if scale is not None and scale.decision == "rescaled" and scale.mode == "auto":
         out.append(f"stream b's translations are not in a's scale: {scale.message}")
+    if r.conventions.mirror_b and math.isfinite(r.conventions.mirror_ratio):
+        from simcalib.estimation.readings import mirror_sentence
+        out.append(mirror_sentence(r.conventions.mirror_ratio))
     if not r.conventions.clear and not reading:
         out.append(f"the reading of the files did not clearly win (ratio "
                    f"{r.conventions.ratio:.2f} <= 3): check the files or force invert_a/_b, "

@@ -137,6 +137,7 @@ def _conventions(conv) -> dict:
             "swap_scalar_b": conv.swap_scalar_b, "ratio": _fin(conv.ratio),
             "clear": conv.clear, "runner_up": conv.runner_up,
             "scores": conv.scores, "forced": list(conv.forced),
+            "mirror_b": conv.mirror_b, "mirror_ratio": _fin(conv.mirror_ratio),
             "message": conv.message}
 
 

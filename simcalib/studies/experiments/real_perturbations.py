@@ -14,7 +14,9 @@ then with one perturbation at a time whose effect on the answer is known:
   +-2 ms stamp jitter: X must stay;
 * ``invert_b`` (b written as ``T_sensor_world``), ``wxyz_b`` (b's quaternions scalar
   first), ``neg_quat_half_b`` (half of b's quaternions negated), ``shuffled_rows_b``
-  (station sets: b's rows in random order): X must stay;
+  (station sets: b's rows in random order), ``mirror_b`` (b written in a left-handed
+  frame: ``z -> -z``, quaternions ``(-qx, -qy, qz, qw)``; read mirrored, b's poses are the
+  set's own): X must stay;
 * ``lost_row_b`` (station sets): b's row a third of the way in lost (a failed detection)
   and the later rows renumbered, so that b's rows take the stamps of a's first ones: X
   must stay;
@@ -57,7 +59,8 @@ PERTURBATIONS = {
     "gap3s_a": (True, False), "jitter2ms_b": (True, False), "invert_b": (True, True),
     "wxyz_b": (True, True), "neg_quat_half_b": (True, True), "mm_b": (True, True),
     "shuffled_rows_b": (False, True), "epoch_b": (True, False), "reset_b": (True, True),
-    "lost_row_b": (False, True), "two_clocks_b": (False, True)}
+    "lost_row_b": (False, True), "two_clocks_b": (False, True),
+    "mirror_b": (True, True)}
 SHIFTS_S = {"offset+0.25s": 0.25, "offset-30s": -30.0}
 #: ``epoch_b`` moves stamps on a recording's clock by this much (a Unix time, 2025-12)
 UNIX_EPOCH_S = 1.765e9
@@ -123,6 +126,8 @@ def perturb(name: str, a: np.ndarray, b: np.ndarray, rng: np.random.Generator):
     elif name == "lost_row_b":
         b = np.delete(b, len(b) // 3, axis=0)
         b[:, 0] = a[:len(b), 0]
+    elif name == "mirror_b":                    # a left-handed file: z -> -z, (-x, -y, z, w)
+        b[:, [3, 4, 5]] *= -1.0
     elif name != "base":
         raise ValueError(f"unknown perturbation {name!r}; valid: base, "
                          + ", ".join(PERTURBATIONS))

@@ -1,0 +1,147 @@
+"""The reading of two streams and their clock offset, decided together
+(:func:`align_and_read`, a stage of :mod:`simcalib.estimation.path`): the reading at an
+offset the reading does not move (:func:`first_reading`), the offset refined with that
+reading, the reading decided again at the final offset; then, apart, whether b is mirrored
+(a left-handed file: :func:`simcalib.estimation.readings.mirror_ratio`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["align_and_read", "first_reading"]
+
+
+def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift="auto", alpha=1.0,
+                   seed=0, forced=None, signal="rotation"):
+    """:func:`_align_and_read` (the reading and the clock offset), then whether b is
+    mirrored (a left-handed file: :func:`simcalib.estimation.readings.mirror_ratio`), decided
+    apart and only where it wins by more than ``MIRROR_RATIO``: then the streams are read
+    and aligned again with b mirrored, and the reading's message says so. ``forced``
+    ``mirror_b`` (True / False) skips the check. Returns ``(stream_a, stream_b,
+    ConventionReport, TimeOffset, Sampling)``."""
+    from dataclasses import replace
+    from simcalib.estimation.readings import (MIRROR_RATIO, PITCH_AGREEMENT, mirror_ratio,
+                                              mirror_sentence, pitch_agreement)
+    forced = dict(forced or {})
+    given = forced.pop("mirror_b", None)
+    kw = dict(time_offset=time_offset, drift=drift, alpha=alpha, seed=seed, signal=signal)
+    *out, (first, first_off) = _align_and_read(sa, sb, sampling,
+                                               forced=forced | {"mirror_b": bool(given)}, **kw)
+    if given is not None:
+        return tuple(out)
+    # at the first decision's offset: one the reading does not move (a mirrored b read
+    # as written can pull a refined offset off, where neither reading fits)
+    at = dict(offset=first_off, seed=seed, sampling=sampling, signal=signal)
+    if pitch_agreement(sa, sb, first, **at) > PITCH_AGREEMENT:  # b's pitches follow a's
+        return tuple(out)
+    ratio = mirror_ratio(sa, sb, first, alpha=alpha, **at, **forced)
+    if not ratio > MIRROR_RATIO:
+        return (*out[:2], replace(out[2], mirror_ratio=ratio), *out[3:])
+    *out, _ = _align_and_read(sa, sb, sampling, forced=forced | {"mirror_b": True}, **kw)
+    conv = out[2]
+    return (*out[:2], replace(conv, mirror_ratio=ratio,
+                              message=f"{conv.message}; {mirror_sentence(ratio)}"), *out[3:])
+
+
+def _align_and_read(sa, sb, sampling, *, time_offset="estimate", drift="auto", alpha=1.0,
+                    seed=0, forced=None, signal="rotation"):
+    """The streams' reading and their clock offset, decided in that order and checked
+    again: the reading at the correlation's (reading-free) offset, the offset refined with
+    that reading, then the reading decided again at the final offset (it is what the run
+    reports). ``signal`` (:func:`~simcalib.estimation.stillness.check_streams_move`):
+    ``rotation`` correlates angular speeds, ``translation`` (a rig that does not turn)
+    translation speeds, and scores the readings on motions that translate. Streams paired
+    by equal stamps that both sample a continuous motion are checked for an offset the stamps hide
+    (:mod:`simcalib.estimation.hidden_offset`), which unpairs them. Returns ``(stream_a,
+    stream_b, ConventionReport, TimeOffset, Sampling, first)``, ``first`` the report and the
+    offset of :func:`first_reading`."""
+    from simcalib.estimation.readings import apply_conventions
+    from simcalib.estimation.alignment import estimate_time_offset
+    detect = _detector(sa, sb, sampling, alpha=alpha, seed=seed, forced=forced, signal=signal)
+    conv, off = first = _first(sa, sb, sampling, detect, time_offset, signal)
+    if time_offset != "estimate":
+        return (*apply_conventions(sa, sb, conv), conv, off, sampling, first)
+    if sampling.paired_by_stamp:            # equal stamps, or equal after a constant shift
+        return (*_paired_by_stamp(sa, sb, sampling, detect, conv, off, drift=drift,
+                                  alpha=alpha, signal=signal), first)
+    a1, b1 = apply_conventions(sa, sb, conv)
+    # a rotating rig: "auto" (the same rule as check_streams_move) consults the
+    # translation speeds too where the angular ones leave the offset in doubt
+    by = "auto" if signal == "rotation" else signal
+    off = estimate_time_offset(a1, b1, drift=drift, alpha=alpha, signal=by)
+    final = detect(off)
+    if (final.invert_a, final.invert_b, final.swap_scalar_a, final.swap_scalar_b) != (
+            conv.invert_a, conv.invert_b, conv.swap_scalar_a, conv.swap_scalar_b):
+        a1, b1 = apply_conventions(sa, sb, final)       # the reading changed: once more
+        off = estimate_time_offset(a1, b1, drift=drift, alpha=alpha, signal=by)
+        final = detect(off)
+    return (*apply_conventions(sa, sb, final), final, off, sampling, first)
+
+
+def _detector(sa, sb, sampling, *, alpha, seed, forced, signal):
+    """``detect(offset, sampling=sampling)``: the reading of ``sa``, ``sb`` at an offset."""
+    from simcalib.estimation.readings import detect_conventions
+    forced = forced or {}
+    return lambda off, smp=sampling: detect_conventions(
+        sa, sb, offset=off, alpha=alpha, seed=seed, sampling=smp, signal=signal, **forced)
+
+
+def first_reading(sa, sb, sampling, *, time_offset="estimate", alpha=1.0, seed=0,
+                  forced=None, signal="rotation"):
+    """``(ConventionReport, offset)``: the reading decided at an offset the reading does
+    not move: the given one, the stamps' (stamp-paired streams), else the best of the
+    speed correlation's candidate offsets (:func:`_offset_candidates`)."""
+    detect = _detector(sa, sb, sampling, alpha=alpha, seed=seed, forced=forced, signal=signal)
+    return _first(sa, sb, sampling, detect, time_offset, signal)
+
+
+def _first(sa, sb, sampling, detect, time_offset, signal):
+    from simcalib.estimation.alignment import TimeOffset, _as_offset
+    if time_offset != "estimate":
+        off = _as_offset(time_offset)
+        return detect(off), off
+    if sampling.paired_by_stamp:
+        shift = float(getattr(sampling, "shift_s", 0.0))
+        off = TimeOffset(shift, 0.0, shift, float("nan"), np.zeros(0), np.zeros(0),
+                         refined=False, decision="shared_stamps", message=sampling.reason)
+        return detect(off), off
+    conv = min((detect(c) for c in _offset_candidates(sa, sb, signal)), key=_best_score)
+    return conv, conv.offset_s
+
+
+def _paired_by_stamp(sa, sb, sampling, detect, conv, off, *, drift, alpha, signal):
+    """:func:`align_and_read` for stamp-paired streams read ``conv`` at the stamps' offset
+    ``off`` (the shift, 0 for equal stamps): that offset, unless the motions show one the
+    stamps hide."""
+    from simcalib.estimation.readings import apply_conventions
+    from simcalib.estimation.hidden_offset import stamps_hide_offset
+    a1, b1 = apply_conventions(sa, sb, conv)
+    sampling, off = stamps_hide_offset(a1, b1, sampling, off, alpha=alpha, drift=drift,
+                                       signal=signal)
+    if sampling.paired_by_stamp:
+        return a1, b1, conv, off, sampling
+    final = detect(off, sampling)
+    return (*apply_conventions(sa, sb, final), final, off, sampling)
+
+
+def _best_score(conv) -> float:
+    return min(conv.scores.values()) if conv.scores else float("inf")
+
+
+def _offset_candidates(sa, sb, signal="rotation") -> list[float]:
+    """Offsets at which to decide the reading: the angular- (or translation-) speed
+    correlation's peak (it does not depend on the reading), its other peaks of similar
+    height (a periodic motion) and 0."""
+    from simcalib.estimation.alignment import _other_peaks, estimate_time_offset
+    from simcalib.estimation.speeds import as_time_poses
+    coarse = estimate_time_offset(sa, sb, refine=False, signal=signal)
+    ta, tb = as_time_poses(sa)[0], as_time_poses(sb)[0]
+    slow = max(float(np.median(np.diff(ta))), float(np.median(np.diff(tb))))
+    cands = [coarse.offset_s] + _other_peaks(coarse.lags_s, coarse.correlation,
+                                             coarse.peak_correlation, coarse.offset_s,
+                                             4 * slow)
+    lo, hi = coarse.window_s
+    if lo <= 0.0 <= hi and all(abs(c) > 2 * slow for c in cands):
+        cands.append(0.0)
+    return cands
