@@ -221,8 +221,7 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
     if not scores:
         raise _no_overlap(stream_a, stream_b, off)
     ranked, ratio, clear, fallback = _ranked(scores, (False, False) + parities[0])
-    best = ranked[0]
-    sw_a, sw_b, inv_a, inv_b = best
+    sw_a, sw_b, inv_a, inv_b = ranked[0]
 
     def desc(k):
         return (_label(k[0], k[2], "a", has_order[0]) + "; "
