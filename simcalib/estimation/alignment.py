@@ -30,7 +30,7 @@ from simcalib.estimation.drift import (check_drift, drift_applied, drift_from_ha
                                        fitted_line)
 from simcalib.estimation.interpolation import interpolate_poses, max_hole_s, smooth_poses
 from simcalib.estimation.speeds import SPEEDS, as_time_poses, checked_signal, speed_steps
-from simcalib.estimation.world_jumps import instant_worlds
+from simcalib.estimation.worlds import instant_worlds
 from simcalib.geometry import invert_transform, rotation_angle_rad
 
 __all__ = ["TimeOffset", "SyncedPoses", "estimate_time_offset", "synchronise", "make_motions",

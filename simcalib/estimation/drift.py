@@ -137,11 +137,11 @@ def drift_applied(streams, line, t_ref, sigma, half, kw, window) -> tuple:
     of ``drift_sigma (t - t_ref)``, ``span / sqrt(12)``); the line's ``sigma`` where
     the refinement fails."""
     from simcalib.estimation import offset_cost as oc
-    from simcalib.estimation.alignment import TimeOffset
     ta, Ta, tb, Tb = streams
-    model = TimeOffset(line.offset_s, sigma, line.offset_s, float("nan"), np.zeros(0),
-                       np.zeros(0), drift=line.drift, t_ref_s=t_ref)
-    tb_a = model.a_from_b(tb) + line.offset_s       # b's stamps: only the offset left
+    # b's stamps on a's clock by the line (TimeOffset.a_from_b), plus its offset: only
+    # the offset is left to refine
+    tb_a = (np.asarray(tb, np.float64) - line.offset_s + line.drift * t_ref) / (
+        1.0 + line.drift) + line.offset_s
     again = oc._refine_candidates(ta, Ta, tb_a, Tb, [line.offset_s], half / 2, kw,
                                   window=window)
     if not again or again[0].unbounded:

@@ -256,7 +256,7 @@ def pair_by_stamp(stream_a, stream_b, sampling: Sampling, offset_s: float = 0.0)
     """:class:`simcalib.estimation.alignment.SyncedPoses` of the poses whose stamps (b shifted by
     ``-offset_s``) agree within the sampling's tolerance, one-to-one."""
     from simcalib.estimation.alignment import SyncedPoses
-    from simcalib.estimation.world_jumps import instant_worlds
+    from simcalib.estimation.worlds import instant_worlds
     t_a = np.asarray(stream_a.timestamps_s, dtype=np.float64)
     t_b = np.asarray(stream_b.timestamps_s, dtype=np.float64) - offset_s
     ia, ib = _partners(t_a, t_b, sampling.tolerance_s)

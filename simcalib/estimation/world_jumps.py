@@ -24,7 +24,7 @@ difference)
 Every stretch between jumps is then used, each as its own world (:func:`mark_stretches`:
 the stream keeps all its poses and carries the jumps' stamps, ``world_jumps_s``). The
 synchronised instants carry the stretch of both worlds they lie in
-(``SyncedPoses.world``, :func:`instant_worlds`; an instant interpolated across a jump mixes
+(``SyncedPoses.world``, :func:`simcalib.estimation.worlds.instant_worlds`; an instant interpolated across a jump mixes
 two worlds and is dropped, counted ``across_a_world_jump``), and every step that uses
 motions forms them only within a stretch: the reading's random pairs, the offset cost's
 spans (also kept clear of a jump by the smoothing's reach), the motions of the fit
@@ -61,7 +61,7 @@ import numpy as np
 from simcalib.estimation.speeds import apart
 from simcalib.geometry import rotation_angle_rad
 
-__all__ = ["find_jumps", "mark_stretches", "instant_worlds", "station_split", "station_groups",
+__all__ = ["find_jumps", "mark_stretches", "station_split", "station_groups",
            "split_stations", "stretches_used", "align_worlds", "largest_world", "JUMP_GAIN",
            "OTHER_GAIN", "JUMP_PERSIST", "SPLIT_GAIN", "SPLIT_MIN_DEG"]
 
@@ -121,42 +121,6 @@ def find_jumps(t: np.ndarray, T: np.ndarray, t_other: np.ndarray,
         bar = max(JUMP_GAIN, OTHER_GAIN * float(np.max(_ratios(t_other, T_other, signal))))
         ks += [int(k) + 1 for k in np.flatnonzero(r >= bar) if _persists(T, int(k) + 1, signal)]
     return np.unique(np.asarray(ks, dtype=np.int64))
-
-
-def _stream_worlds(stream, t: np.ndarray, interpolated: bool, smooth_s) -> tuple:
-    """``(stretch of each instant t, usable)``: an instant whose pose of ``stream`` is
-    interpolated between two samples a jump separates (or smoothed within 3 bandwidths of
-    one) mixes two worlds: not usable."""
-    jumps = np.asarray(getattr(stream, "world_jumps_s", ()), dtype=np.float64)
-    label = np.searchsorted(jumps, t, side="right")
-    ok = np.ones(t.shape, dtype=bool)
-    if not interpolated and smooth_s is None:
-        return label, ok
-    ts = np.asarray(stream.timestamps_s, dtype=np.float64)
-    for J in jumps:
-        k = int(np.searchsorted(ts, J, side="left"))
-        lo, hi = ts[max(k - 1, 0)], ts[min(k, ts.size - 1)]
-        if interpolated:
-            ok &= ~((t > lo) & (t < hi))
-        if smooth_s is not None:
-            ok &= np.abs(t - J) > 3.0 * float(smooth_s)
-    return label, ok
-
-
-def instant_worlds(sa, sb, t_a: np.ndarray, t_b: np.ndarray, reference: str,
-                   smooth_s=None) -> tuple:
-    """``(world, usable)`` of synchronised instants at a's stamps ``t_a`` and b's ``t_b``
-    (each stream's own clock; ``reference``: the stream not interpolated, ``"a"``, ``"b"``
-    or ``"both"`` (paired by stamp)): ``world`` numbers the pair of stretches (one per
-    stream, between its ``world_jumps_s``) an instant lies in; ``(None, None)`` when
-    neither stream has a jump."""
-    na = len(getattr(sa, "world_jumps_s", ()))
-    nb = len(getattr(sb, "world_jumps_s", ()))
-    if na == 0 and nb == 0:
-        return None, None
-    la, oa = _stream_worlds(sa, np.asarray(t_a, np.float64), reference == "b", smooth_s)
-    lb, ob = _stream_worlds(sb, np.asarray(t_b, np.float64), reference == "a", smooth_s)
-    return (la * (nb + 1) + lb).astype(np.int64), oa & ob
 
 
 def _stretches(stream, jumps: np.ndarray):
