@@ -16,7 +16,8 @@ without a partner :data:`SKIP_DEG`, at most :data:`MAX_SKIP` rows skipped at onc
 pairing found replaces the pairing by number only where the pairs by number break the rule
 :data:`GAIN` times more (median over every two pairs) and by :data:`MIN_DEG` or more;
 the rows left without a partner are dropped, counted (``rows_without_a_partner``) and
-named in a warning.
+named in a warning. Files whose rows all pair by number are left as they are (a row lost
+in each, at different places, is not looked for).
 
 Station data stamped by two clocks (the robot controller's and the camera computer's)
 share no stamps: they were taken for continuous streams, interpolated between stations
@@ -94,16 +95,17 @@ def align_rows(T_a: np.ndarray, T_b: np.ndarray) -> tuple[np.ndarray, np.ndarray
     ii, jj = np.meshgrid(np.arange(na), np.arange(nb), indexing="ij")
     cost = SKIP_DEG * (ii + jj).astype(np.float64)          # rows skipped before the first
     back = np.full((na, nb, 2), -1, dtype=np.int64)
+    diag = [np.diagonal(Ab, dj) for dj in range(min(MAX_SKIP + 2, nb))]   # Ab[j - dj, j]
+    at = np.arange(nb)
     for i in range(1, na):
         for di in range(1, min(MAX_SKIP + 1, i) + 1):
-            for dj in range(1, MAX_SKIP + 2):
-                j = np.arange(dj, nb)
-                step = np.minimum(np.abs(Aa[i - di, i] - Ab[j - dj, j]), CAP_DEG)
-                c = cost[i - di, j - dj] + step + SKIP_DEG * (di + dj - 2)
-                better = c < cost[i, j]
-                cost[i, j[better]] = c[better]
-                back[i, j[better]] = (i - di, 0)
-                back[i, j[better], 1] = j[better] - dj
+            for dj in range(1, len(diag)):
+                step = np.minimum(np.abs(Aa[i - di, i] - diag[dj]), CAP_DEG)
+                c = cost[i - di, :nb - dj] + step + SKIP_DEG * (di + dj - 2)
+                better = c < cost[i, dj:]                 # slices: views of row i
+                cost[i, dj:][better] = c[better]
+                back[i, dj:, 0][better] = i - di
+                back[i, dj:, 1][better] = at[:nb - dj][better]
     end = cost + SKIP_DEG * ((na - 1 - ii) + (nb - 1 - jj))  # rows skipped after the last
     i, j = np.unravel_index(int(np.argmin(end)), end.shape)
     pairs = [(int(i), int(j))]
@@ -141,7 +143,8 @@ def realign_rows(sa, sb, sampling):
     if not sampling.paired_by_stamp:
         return pair_by_lag(sa, sb, sampling)
     if not (sampling.paired_by_stamp and is_sample_numbers(ta) and is_sample_numbers(tb)
-            and 6 <= min(ta.size, tb.size) and max(ta.size, tb.size) <= MAX_ROWS):
+            and 6 <= min(ta.size, tb.size) and max(ta.size, tb.size) <= MAX_ROWS
+            and sampling.shared < max(ta.size, tb.size)):   # every row paired: none lost
         return sa, sb, sampling, []
     Ta, Tb = np.asarray(sa.T_world_sensor), np.asarray(sb.T_world_sensor)
     ia, ib = align_rows(Ta, Tb)
