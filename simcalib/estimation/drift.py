@@ -134,8 +134,8 @@ def drift_applied(streams, line, t_ref, sigma, half, kw, window) -> tuple:
     are their motions' averages, not the line's value at their middles). Its sigma, for
     the recording as a whole (X's covariance carries one): that refinement's (raised to
     its split check's where beyond chance) and the drift's sigma over the overlap (the rms
-    of ``drift_sigma (t - t_ref)``, ``span / sqrt(12)``); the line's ``sigma`` where
-    the refinement fails."""
+    of ``drift_sigma (t - t_ref)``, ``span / sqrt(12)``); the line's offset and ``sigma``
+    where the refinement fails or has no curvature."""
     from simcalib.estimation import offset_cost as oc
     ta, Ta, tb, Tb = streams
     # b's stamps on a's clock by the line (TimeOffset.a_from_b), plus its offset: only
@@ -147,6 +147,8 @@ def drift_applied(streams, line, t_ref, sigma, half, kw, window) -> tuple:
     if not again or again[0].unbounded:
         return line.offset_s, sigma, line.drift, line.drift_sigma, ""
     best, own = oc._offset_and_sigma(again[0])
+    if not math.isfinite(own):                      # no curvature: the line's values
+        return line.offset_s, sigma, line.drift, line.drift_sigma, ""
     split = oc.split_check(ta, Ta, tb_a, Tb, best, half, kw, again[0].cost.window)
     own = max(own, split.sigma_s if split.raised else own)
     span = again[0].cost.window[1] - again[0].cost.window[0]
