@@ -28,8 +28,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Sampling", "classify_sampling", "pair_by_stamp", "resolution", "median_period",
-           "is_sample_numbers", "SHARED_FRACTION"]
+__all__ = ["Sampling", "classify_sampling", "pair_by_stamp", "lag_shifts", "resolution",
+           "median_period", "is_sample_numbers", "SHARED_FRACTION"]
 
 #: share of the sparser stream's stamps that must have a partner for "shared stamps"
 SHARED_FRACTION = 0.8
@@ -158,6 +158,21 @@ def _beats_chance(shared: int, n: int, chance: float) -> bool:
     return bool(shared > 0 and bdtrc(shared - 1, n, chance) < CHANCE_P)
 
 
+def lag_shifts(t_a: np.ndarray, t_b: np.ndarray, tol: float) -> list[tuple]:
+    """``[(shift, ia, ib)]`` per lag of the rows (-:data:`MAX_SHIFT_LAGS` ..
+    :data:`MAX_SHIFT_LAGS`, the same poses, some missing at either end): the median
+    difference ``t_b - t_a`` of the rows ``lag`` apart, and the rows whose stamps pair
+    within ``tol`` after it (:func:`_partners`)."""
+    out = []
+    for lag in range(-MAX_SHIFT_LAGS, MAX_SHIFT_LAGS + 1):
+        i0, j0 = max(0, -lag), max(0, lag)
+        m = min(t_a.size - i0, t_b.size - j0)
+        if m >= 3:
+            shift = float(np.median(t_b[j0:j0 + m] - t_a[i0:i0 + m]))
+            out.append((shift, *_partners(t_a + shift, t_b, tol)))
+    return out
+
+
 def _shift(sparse, dense, tol: float):
     """``(shift, paired, runner_up)``: the constant shift ``dense - sparse`` after which the
     most sparse stamps have a partner within ``tol``, found among the median stamp
@@ -165,14 +180,7 @@ def _shift(sparse, dense, tol: float):
     second best lag's count; ``None`` for fewer than 3 stamps."""
     if sparse.size < 3:
         return None
-    best = []
-    for lag in range(-MAX_SHIFT_LAGS, MAX_SHIFT_LAGS + 1):
-        i0, j0 = max(0, -lag), max(0, lag)
-        m = min(sparse.size - i0, dense.size - j0)
-        if m < 3:
-            continue
-        shift = float(np.median(dense[j0:j0 + m] - sparse[i0:i0 + m]))
-        best.append((_partners(sparse + shift, dense, tol)[0].size, shift))
+    best = [(ia.size, shift) for shift, ia, _ in lag_shifts(sparse, dense, tol)]
     if not best:
         return None
     best.sort(key=lambda x: -x[0])

@@ -26,7 +26,8 @@ stations, b's clock 1.7 s late with 50 ms of trigger jitter). :func:`pair_by_lag
 such streams - both step by :data:`MIN_PERIOD_S` or more (a raster of stations a
 second apart looks like a path sampled at 1 Hz: the poses cannot tell a stop; pose
 sensors that sample a motion run at 5 Hz and more) - one-to-one after a constant shift:
-the median stamp difference at each lag of the rows (-16..16), partners within a quarter
+the median stamp difference at each lag of the rows (:func:`simcalib.estimation.
+sampling.lag_shifts`), partners within a quarter
 of the smaller 10th-percentile spacing; the lag is the one that pairs :data:`PAIRED_SHARE` of the
 sparser stream and whose pairs break the equal-angle rule :data:`LAG_GAIN` times less
 than every other lag that pairs half as many (streams that do not turn: the only lag that
@@ -48,8 +49,8 @@ import numpy as np
 
 from simcalib.geometry import rotation_angle_rad
 
-__all__ = ["align_rows", "realign_rows", "pair_by_lag", "PAIRED_SHARE", "MAX_LAG", "CAP_DEG",
-           "SKIP_DEG", "MAX_SKIP", "GAIN", "MIN_DEG", "MAX_ROWS", "MIN_PERIOD_S", "LAG_GAIN",
+__all__ = ["align_rows", "realign_rows", "pair_by_lag", "pair_angles_rad", "PAIRED_SHARE",
+           "CAP_DEG", "SKIP_DEG", "MAX_SKIP", "GAIN", "MIN_DEG", "MAX_ROWS", "MIN_PERIOD_S", "LAG_GAIN",
            "moved_marks"]
 
 #: a step's misfit counts at most this much (deg): a wrong pair costs about this
@@ -67,8 +68,6 @@ MIN_DEG = 0.5
 MAX_ROWS = 1000
 #: a lag's shift must pair this share of the sparser stream's rows
 PAIRED_SHARE = 0.8
-#: lags of the rows tried (the same stations, some missing at either end)
-MAX_LAG = 16
 #: the lag whose pairs break the equal-angle rule this many times less than any other's
 #: is the one (the public station sets on two clocks, ``two_clocks_b`` in
 #: docs/real-perturbations.md: the right lag 5x (tabb: a grid of repeated orientations)
@@ -81,10 +80,16 @@ LAG_GAIN = 3.0
 MIN_PERIOD_S = 0.5
 
 
-def _angles(T: np.ndarray) -> np.ndarray:
-    """``(n, n)`` rotation angles (deg) between every two poses."""
+def pair_angles_rad(T: np.ndarray) -> np.ndarray:
+    """``(n, n)`` rotation angles (rad) between every two poses ``T`` (n, 4, 4): the
+    motions' angles, which both sensors of a rigid rig share."""
     R = T[:, :3, :3]
-    return np.degrees(rotation_angle_rad(np.swapaxes(R, 1, 2)[:, None] @ R[None]))
+    return rotation_angle_rad(np.swapaxes(R, 1, 2)[:, None] @ R[None])
+
+
+def _angles(T: np.ndarray) -> np.ndarray:
+    """:func:`pair_angles_rad` in degrees."""
+    return np.degrees(pair_angles_rad(T))
 
 
 def align_rows(T_a: np.ndarray, T_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -174,27 +179,12 @@ def realign_rows(sa, sb, sampling):
     return out_a, out_b, classify_sampling(out_a, out_b), [note]
 
 
-def _lag_pairs(ta, tb, tol):
-    """``[(paired, shift, ia, ib)]`` per lag of the rows: the median stamp difference of
-    the rows ``lag`` apart, and the rows paired within ``tol`` after it."""
-    from simcalib.estimation.sampling import _partners
-    out = []
-    for lag in range(-MAX_LAG, MAX_LAG + 1):
-        i0, j0 = max(0, -lag), max(0, lag)
-        m = min(ta.size - i0, tb.size - j0)
-        if m >= 3:
-            shift = float(np.median(tb[j0:j0 + m] - ta[i0:i0 + m]))
-            ia, ib = _partners(ta + shift, tb, tol)
-            out.append((int(ia.size), shift, ia, ib))
-    return out
-
-
 def pair_by_lag(sa, sb, sampling):
     """:func:`realign_rows` for station streams on two clocks (module doc): b's rows take
     their partners' stamps plus the shift, and the sampling is stamps shared after that
     shift (decided by the motions: stations a regular second apart pair at any shift of a
     second by their stamps alone)."""
-    from simcalib.estimation.sampling import Sampling, median_period
+    from simcalib.estimation.sampling import Sampling, lag_shifts, median_period
     ta, tb = np.asarray(sa.timestamps_s), np.asarray(sb.timestamps_s)
     Ta, Tb = np.asarray(sa.T_world_sensor), np.asarray(sb.T_world_sensor)
     n = min(ta.size, tb.size)
@@ -202,10 +192,10 @@ def pair_by_lag(sa, sb, sampling):
             or min(sampling.period_a_s, sampling.period_b_s) < MIN_PERIOD_S):
         return sa, sb, sampling, []
     tol = 0.25 * min(float(np.quantile(np.diff(ta), 0.1)), float(np.quantile(np.diff(tb), 0.1)))
-    lags = [x for x in _lag_pairs(ta, tb, tol) if x[0] >= 0.5 * n]
+    lags = [x for x in lag_shifts(ta, tb, tol) if x[1].size >= 0.5 * n]
     fits = sorted((_misfit_deg(Ta[ia], Tb[ib]), k, shift, ia, ib)
-                  for k, (_, shift, ia, ib) in enumerate(lags))
-    if not fits or lags[fits[0][1]][0] < PAIRED_SHARE * n:
+                  for k, (shift, ia, ib) in enumerate(lags))
+    if not fits or fits[0][3].size < PAIRED_SHARE * n:
         return sa, sb, sampling, []
     best, _, shift, ia, ib = fits[0]
     runner = fits[1][0] if len(fits) > 1 else math.inf

@@ -59,7 +59,6 @@ from dataclasses import replace
 import numpy as np
 
 from simcalib.estimation.speeds import apart
-from simcalib.geometry import rotation_angle_rad
 
 __all__ = ["find_jumps", "mark_stretches", "station_split", "station_groups",
            "split_stations", "stretches_used", "align_worlds", "largest_world", "JUMP_GAIN",
@@ -185,10 +184,8 @@ def stretches_used(synced, motions, robust) -> list[str]:
 
 def _angle_misfit(T_a: np.ndarray, T_b: np.ndarray) -> np.ndarray:
     """``(n, n)``: |angle of a's motion - angle of b's motion| between every two poses."""
-    def angles(T):
-        R = T[:, :3, :3]
-        return rotation_angle_rad(np.swapaxes(R, 1, 2)[:, None] @ R[None])
-    return np.abs(angles(T_a) - angles(T_b))
+    from simcalib.estimation.station_rows import pair_angles_rad
+    return np.abs(pair_angles_rad(T_a) - pair_angles_rad(T_b))
 
 
 def station_split(T_a: np.ndarray, T_b: np.ndarray) -> tuple[int, float] | None:
