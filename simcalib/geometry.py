@@ -29,6 +29,7 @@ __all__ = [
     "check_transforms",
     "check_rotation_matrices",
     "invert_transform",
+    "matrix_from_euler_zyx",
     "skew_matrix",
     "transform_from_rotation_translation",
     "quat_from_matrix",
@@ -290,6 +291,20 @@ def matrix_from_rotvec(rotvec: np.ndarray) -> np.ndarray:
     k = np.where(small, 0.5 - theta**2 / 48.0, np.sin(half) / safe)
     q = np.concatenate([v * k[..., None], np.cos(half)[..., None]], axis=-1)
     return matrix_from_quat(q)
+
+
+def matrix_from_euler_zyx(angles_rad: np.ndarray) -> np.ndarray:
+    """``R = Rz(a) Ry(b) Rx(c)`` of angles ``(..., 3)`` = ``(a, b, c)`` (radians): turn by
+    ``a`` about z, then ``b`` about the new y, then ``c`` about the newest x (intrinsic
+    z-y'-x''; the same matrix as fixed-axis x-y-z turns by c, b, a). KUKA's A, B, C, Fanuc's
+    R, P, W and ROS's yaw, pitch, roll (REP 103) are this ``(a, b, c)``."""
+    a, b, c = np.moveaxis(np.asarray(angles_rad, dtype=np.float64), -1, 0)
+    ca, sa, cb, sb, cc, sc = np.cos(a), np.sin(a), np.cos(b), np.sin(b), np.cos(c), np.sin(c)
+    rows = [[ca * cb, ca * sb * sc - sa * cc, ca * sb * cc + sa * sc],
+            [sa * cb, sa * sb * sc + ca * cc, sa * sb * cc - ca * sc],
+            [-sb, cb * sc, cb * cc]]
+    R = np.stack([np.stack(r, axis=-1) for r in rows], axis=-2)
+    return R
 
 
 def rotvec_from_matrix(R: np.ndarray) -> np.ndarray:

@@ -59,3 +59,16 @@ def test_a_translating_rig_in_mm_still_calibrates_its_rotation():
     still = _still(np.random.default_rng(4), unit=1e3, name="b")
     with pytest.raises(DataError, match="stream b .* does not move.*white noise"):
         check_streams_move(rec.stream_a, still)
+
+
+def test_the_same_poses_given_twice_are_bad_input():
+    from simcalib.estimation.path import calibrate_streams
+    rec = generate("stations", 1)
+    with pytest.raises(DataError, match="hold the same .* poses at the same stamps"):
+        calibrate_streams(rec.stream_a, rec.stream_a)
+    # the same poses a sample later are not the same input (a different stamp)
+    a = rec.stream_a
+    late = stream_from_arrays(a.timestamps_s + 0.5, a.T_world_sensor, source="<late>",
+                              name="b")
+    from simcalib.estimation.stillness import check_distinct
+    assert check_distinct(a, late) is None

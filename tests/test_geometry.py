@@ -125,3 +125,13 @@ def test_distort_pixels_is_opencvs_lens_model_and_undistort_inverts_it():
     np.testing.assert_allclose(g.distort_pixels(uv, K, (0, 0, 0, 0, 0))[0], uv)
     with pytest.raises(ValueError, match="5 finite numbers"):
         g.distort_pixels(uv, K, (0.1, 0.2))
+
+
+def test_matrix_from_euler_zyx_is_z_then_new_y_then_newest_x():
+    from scipy.spatial.transform import Rotation
+    from simcalib.geometry import matrix_from_euler_zyx
+    angles = np.random.default_rng(0).uniform(-3.0, 3.0, (2, 5, 3))
+    want = Rotation.from_euler("ZYX", angles.reshape(-1, 3)).as_matrix().reshape(2, 5, 3, 3)
+    assert np.allclose(matrix_from_euler_zyx(angles), want, atol=1e-14)
+    assert np.allclose(matrix_from_euler_zyx([0.3, 0.0, 0.0]),
+                       Rotation.from_rotvec([0, 0, 0.3]).as_matrix(), atol=1e-15)

@@ -229,6 +229,11 @@ def test_csv_matrix_and_q_index(tmp_path, rig):
     s = read_pose_stream(p)
     assert "scalar-first" in s.detection
     _same(s, rig.t_a, rig.T_a)
+    p = tmp_path / "abb.csv"                # ABB's robtarget order: q1 = w, q2..q4 = x..z
+    np.savetxt(p, R, fmt="%.10f", delimiter=",", header="t,x,y,z,q1,q2,q3,q4", comments="")
+    s = read_pose_stream(p)
+    assert "q1..q4 read scalar-first (q1 = w)" in s.detection
+    _same(s, rig.t_a, rig.T_a)
 
 
 def test_repairs_are_counted(tmp_path, rig):

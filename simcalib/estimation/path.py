@@ -36,7 +36,7 @@ from typing import NamedTuple
 import numpy as np
 
 from simcalib.estimation.reading_alignment import align_and_read, first_reading  # noqa: F401
-from simcalib.estimation.stillness import check_streams_move
+from simcalib.estimation.stillness import check_distinct, check_streams_move
 
 __all__ = ["StreamCalibration", "calibrate_streams", "align_and_read", "first_reading"]
 
@@ -332,6 +332,7 @@ def _prepared(a, b, formats, units, scale_b) -> tuple:
     from simcalib.estimation.station_rows import realign_rows
     from simcalib.estimation.world_jumps import mark_stretches, split_stations
     sa0, sb0 = read_pair(a, b, *formats, *units)
+    check_distinct(sa0, sb0)
     if scale_b not in MODES:                # a scale given: b's translations divided by it
         sb0 = scaled_stream(sb0, 1.0 / float(scale_b))
     sa0, sb0, jumps = mark_stretches(sa0, sb0)

@@ -29,7 +29,7 @@ import numpy as np
 
 from simcalib.geometry import rotation_angle_rad
 
-__all__ = ["check_streams_move", "STILL_DEG", "STILL_M", "rotation_extent_deg",
+__all__ = ["check_distinct", "check_streams_move", "STILL_DEG", "STILL_M", "rotation_extent_deg",
            "translation_extent_m", "motion_signal", "translates", "TRANSLATES_SHARE",
            "white_positions", "WHITE_RATIO", "DENSE_PERIOD_S", "MIN_WHITE_POSES"]
 
@@ -105,6 +105,21 @@ def translates(d) -> np.ndarray:
     of at least :data:`TRANSLATES_SHARE` of their median (the rest is standing still)."""
     d = np.asarray(d, dtype=np.float64)
     return d > TRANSLATES_SHARE * float(np.median(d)) if d.size else d > 0
+
+
+def check_distinct(sa, sb) -> None:
+    """Bad input: a DataError where a and b hold the same poses at the same stamps (one
+    file or topic given twice). Two sensors of a rig sit apart; the same poses would give
+    X = identity, a number about the input, not the rig."""
+    from simcalib.errors import DataError
+    Ta, Tb = sa.T_world_sensor, sb.T_world_sensor
+    if Ta.shape != Tb.shape or not np.array_equal(sa.timestamps_s, sb.timestamps_s):
+        return
+    if np.allclose(Ta, Tb, rtol=0.0, atol=1e-12):
+        raise DataError(
+            f"a ({sa.source}) and b ({sb.source}) hold the same {len(sa)} poses at the same "
+            "stamps: the same file or topic given twice? a and b must be the two sensors' "
+            "own poses (e.g. the robot's T_base_ee and the camera's T_cam_target)")
 
 
 def check_streams_move(sa, sb) -> str:

@@ -5,8 +5,9 @@ Recognised column names (case-insensitive; prefixes such as ``field.pose.`` are 
 time ``t``/``time``/``timestamp``/``stamp``/``%time`` (nanoseconds if named ``*_ns``/
 ``nsec``); position ``x y z``/``tx ty tz``/``px``.../``position.x``...; quaternion
 ``qx qy qz qw``/``quat_x``.../``orientation.x``.../``rotation_w``... (order given by the names,
-so scalar-first and scalar-last files both read right), or ``q0 q1 q2 q3`` (read
-scalar-first, the usual meaning, and said so); or a 4x4 row-major matrix ``m00 .. m33``
+so scalar-first and scalar-last files both read right), or ``q0 q1 q2 q3`` / ABB's
+``q1 q2 q3 q4`` (read scalar-first, the usual meaning, and said so); or a 4x4 row-major
+matrix ``m00 .. m33``
 (also ``T_0_0``, ``r00``...; the bottom row may be omitted: 12 columns). Without a time
 column the row index is used as time (said so in the detection message).
 """
@@ -60,7 +61,7 @@ def classify(name: str):
     m = _MAT.fullmatch(flat.replace("_", "")) or _MAT.fullmatch(flat)
     if m:
         return ("mat", (int(m.group(1)), int(m.group(2))))
-    m = re.fullmatch(r"q_?([0-3])", flat)
+    m = re.fullmatch(r"q_?([0-4])", flat)
     if m:
         return ("q_index", int(m.group(1)))
     m = re.fullmatch(r"(.*?)_?([xyzw])", flat)
@@ -196,10 +197,11 @@ def raw_stream(path, A, t, layout, notes, synthetic, repairs, name="") -> RawStr
         order = "wxyz" if quat["w"] < quat["x"] else "xyzw"
         notes.append(f"quaternion columns named, file order {order}")
     else:
-        Q = A[:, [qidx[1], qidx[2], qidx[3], qidx[0]]]
+        k = min(qidx)                       # q0..q3, or ABB's q1..q4
+        Q = A[:, [qidx[k + 1], qidx[k + 2], qidx[k + 3], qidx[k]]]
         order = "wxyz"
-        notes.append("columns q0..q3 read scalar-first (q0 = w); the convention check "
-                     "tests the other order")
+        notes.append(f"columns q{k}..q{k + 3} read scalar-first (q{k} = w); the convention "
+                     "check tests the other order")
     return RawStream(t, position_m=P, quat_xyzw=Q, quat_order=order, note="; ".join(notes),
                      synthetic_time=synthetic, repairs=repairs, name=name)
 
