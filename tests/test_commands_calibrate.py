@@ -329,11 +329,11 @@ def test_verdict_tolerances_are_keys_of_calibrate(tmp_path, capsys):
     assert rl["options"]["verdict"] == {"tolerance_deg": 10.0, "tolerance_m": 1.0}
 
 
-def test_the_same_file_twice_is_warned_about(tmp_path, capsys):
+def test_the_same_file_twice_is_bad_input(tmp_path, capsys):
     _, pa, _ = _rig_files(tmp_path)
     code, text, err = _calibrate(capsys, f"a={pa}", f"b={pa}", f"output={tmp_path / 'o'}",
                                  "recording=false")
-    assert code in (0, 6) and "hold the same poses" in text + err, (code, text, err)
+    assert code == 3 and "hold the same" in err and "given twice" in err, (code, text, err)
 
 
 def test_a_world_frame_that_jumps_is_warned_about(tmp_path, capsys):
@@ -368,6 +368,26 @@ def test_two_recordings_in_one_file_are_warned_about(tmp_path, capsys):
     assert code == 0 and "stamps go back 1 time(s)" in text, text + err
     assert "rows_of_other_recordings_dropped: 100" in text
 
+
+
+def test_two_files_each_of_two_recordings_pair_the_same_recording(tmp_path, capsys):
+    """Both loggers restarted (two sessions appended to each file, stamps from 0 again):
+    each file's longest recording may be another session; the pair keeps the same one."""
+    rs = rig_streams(duration_s=20.0, rng=np.random.default_rng(2))
+    rows = {}
+    for k, (t, T, cut) in {"a": (rs.t_a, rs.T_a, 9.8), "b": (rs.t_b, rs.T_b, 10.3)}.items():
+        t = t - t[0]
+        later = t >= cut                      # session 2 re-stamped from 0 (+ 13 ms)
+        t = np.where(later, t - cut + 0.013, t)
+        rows[k] = tmp_path / f"{k}.tum"
+        np.savetxt(rows[k], np.column_stack([t, T[:, :3, 3], quat_from_matrix(T[:, :3, :3])]),
+                   fmt="%.9f")
+    code, text, err = _calibrate(capsys, f"a={rows['a']}", f"b={rows['b']}",
+                                 f"output={tmp_path / 'o'}", "recording=false")
+    cal = json.loads((tmp_path / "o" / "calibration.json").read_text())
+    X = np.asarray(cal["X"]["T_a_b"])
+    assert code == 0 and np.degrees(rotation_error_rad(X, rs.X)) < 0.1, (code, err)
+    assert "stamps go back 1 time(s)" in text
 
 @pytest.mark.slow
 def test_camera_seen_only_while_still_uses_offset_zero_and_says_why(tmp_path, capsys):

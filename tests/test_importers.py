@@ -472,14 +472,29 @@ def test_repeated_stamps_keep_the_row_consistent_with_the_neighbours(rig):
     assert s.repairs["duplicate_rows_dropped"] == k.size
 
 
-def test_two_recordings_in_one_file_keep_the_longest(rig):
+def _tum(t, T, path):
+    np.savetxt(path, _rows(t, T), fmt="%.9f")
+    return path
+
+
+def test_two_recordings_in_one_file_keep_the_longest(rig, tmp_path):
     """A logger restarted: the second recording's stamps go back into the first's time.
     Sorting would interleave two recordings; the longest is kept and the rest counted."""
     t, T = rig.t_a[:300], rig.T_a[:300]
     t2 = np.concatenate([t[:120], t[120:] - 3.0 + 0.013])     # back 3 s, off the first's grid
     s = stream_from_arrays(t2, T)
-    assert s.repairs == {"stamps_restarted": 1, "rows_of_other_recordings_dropped": 120}
+    assert s.repairs == {"stamps_restarted": 1, "rows_of_other_recordings_dropped": 120,
+                         "recordings_in_file": 2, "recording_kept": 2}
     _same(s, t2[120:], T[120:])
+    f = _tum(t2, T, tmp_path / "two.txt")
+    _same(read_pose_stream(f, recording=1), t2[:120], T[:120])    # the one asked for
+    with pytest.raises(DataError, match="recording 3 asked of a file holding 2 recordings"):
+        read_pose_stream(f, recording=3)
+    # a station logger numbering its rows from 0 again: the same stamps, other poses
+    idx = np.concatenate([np.arange(12.0), np.arange(15.0)])
+    s = stream_from_arrays(idx, T[:27])
+    assert s.repairs["recordings_in_file"] == 2 and s.n == 15
+    _same(s, np.arange(15.0), T[12:27])
     # shuffled rows, or rows re-published at their own stamps, are sorted as before
     order = np.random.default_rng(0).permutation(300)
     assert "stamps_restarted" not in stream_from_arrays(t[order], T[order]).repairs

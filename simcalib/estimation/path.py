@@ -32,6 +32,7 @@ import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import NamedTuple
+from pathlib import Path
 
 import numpy as np
 
@@ -112,22 +113,43 @@ def _pose_summary(X):
             "rotvec_deg": np.degrees(rotvec_from_matrix(X[:3, :3])).tolist()}
 
 
-def _read(s, fmt, unit="auto"):
-    """A stream of a path (its stamps' unit: given, or left for the pair to tell) or as
-    given."""
+def _read(s, fmt, unit="auto", recording=None):
+    """A stream of a path (its stamps' unit: given, or left for the pair to tell;
+    ``recording``: of a file holding several, that one) or as given."""
     from simcalib.importers import PoseStreamData, read_pose_stream
     if isinstance(s, PoseStreamData):
         return s
-    return read_pose_stream(s, fmt, stamps_unit="pair" if unit in (None, "auto") else unit)
+    return read_pose_stream(s, fmt, stamps_unit="pair" if unit in (None, "auto") else unit,
+                            recording=recording)
+
+
+def _same_recording(a, b, sa, sb, read_a, read_b):
+    """``(sa, sb)`` of the same recording of two files that each hold as many (a logger
+    restarted in both, each file keeping its longest): the number whose shorter stream is
+    longest, so that the robot's first session is not paired with the camera's second."""
+    n = [s.repairs.get("recordings_in_file") for s in (sa, sb)]
+    if n[0] is None or n[0] != n[1] or not all(isinstance(x, (str, Path)) for x in (a, b)) \
+            or sa.repairs["recording_kept"] == sb.repairs["recording_kept"]:
+        return sa, sb
+    pairs = [(read_a(k), read_b(k)) for k in range(1, n[0] + 1)]
+    return max(pairs, key=lambda p: min(p[0].duration_s, p[1].duration_s))
+
+
+def read_files(a, b, format_a=None, format_b=None, unit_a="auto", unit_b="auto"):
+    """Both streams (paths or PoseStreamData) as read (stamps as :func:`_read`), of the
+    same recording where both files hold several (:func:`_same_recording`)."""
+    return _same_recording(a, b, _read(a, format_a, unit_a), _read(b, format_b, unit_b),
+                           lambda k: _read(a, format_a, unit_a, k),
+                           lambda k: _read(b, format_b, unit_b, k))
 
 
 def read_pair(a, b, format_a=None, format_b=None, unit_a="auto", unit_b="auto"):
-    """Both streams (paths or PoseStreamData) with their stamps in seconds where the data
+    """Both streams of :func:`read_files` with their stamps in seconds where the data
     tell the unit (:func:`simcalib.estimation.stamp_units.stamps_to_seconds`; ``unit_a`` /
     ``unit_b``: ``auto`` or the unit given)."""
     from simcalib.estimation.stamp_units import stamps_to_seconds
-    return stamps_to_seconds(_read(a, format_a, unit_a), _read(b, format_b, unit_b),
-                             unit_a, unit_b)
+    sa, sb = read_files(a, b, format_a, format_b, unit_a, unit_b)
+    return stamps_to_seconds(sa, sb, unit_a, unit_b)
 
 
 def synchronised(sa, sb, sampling, off):

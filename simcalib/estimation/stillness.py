@@ -108,18 +108,18 @@ def translates(d) -> np.ndarray:
 
 
 def check_distinct(sa, sb) -> None:
-    """Bad input: a DataError where a and b hold the same poses at the same stamps (one
-    file or topic given twice). Two sensors of a rig sit apart; the same poses would give
-    X = identity, a number about the input, not the rig."""
+    """Bad input: a DataError where a and b hold the same poses, row for row (one file or
+    topic given twice, or a copy of it stamped anew). Two sensors of a rig sit apart; the
+    same poses would give X = identity, a number about the input, not the rig."""
     from simcalib.errors import DataError
     Ta, Tb = sa.T_world_sensor, sb.T_world_sensor
-    if Ta.shape != Tb.shape or not np.array_equal(sa.timestamps_s, sb.timestamps_s):
-        return
-    if np.allclose(Ta, Tb, rtol=0.0, atol=1e-12):
+    if Ta.shape == Tb.shape and np.allclose(Ta, Tb, rtol=0.0, atol=1e-9):
+        same = np.array_equal(sa.timestamps_s, sb.timestamps_s)
         raise DataError(
-            f"a ({sa.source}) and b ({sb.source}) hold the same {len(sa)} poses at the same "
-            "stamps: the same file or topic given twice? a and b must be the two sensors' "
-            "own poses (e.g. the robot's T_base_ee and the camera's T_cam_target)")
+            f"a ({sa.source}) and b ({sb.source}) hold the same {len(sa)} poses, row for row"
+            + (" at the same stamps" if same else "") + ": the same file or topic given "
+            "twice? a and b must be the two sensors' own poses (e.g. the robot's T_base_ee "
+            "and the camera's T_cam_target)")
 
 
 def check_streams_move(sa, sb) -> str:

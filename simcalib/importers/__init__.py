@@ -233,12 +233,13 @@ def write_pose_streams(path, streams, format: str) -> list[Path]:
 
 
 def read_pose_streams(path, format: str | None = None, *, stamps_unit: str = "auto",
-                      **options) -> list[PoseStreamData]:
+                      recording: int | None = None, **options) -> list[PoseStreamData]:
     """All streams of a file (one for single-stream formats, two for easy_handeye / moveit).
 
     ``format``: a name from :func:`available`, or None to detect it. ``stamps_unit``: how
     the stamps' unit is read (:mod:`simcalib.importers._stamps`: ``auto``, ``pair``, or the
-    unit). ``options`` go to the format reader (e.g. ``columns=`` for csv). Raises the
+    unit). ``recording``: of a file holding several recordings (stamps that restart), the
+    one of that number (from 1), else the longest. ``options`` go to the format reader (e.g. ``columns=`` for csv). Raises the
     project's DataError (ValueError) on bad input that cannot be repaired.
     """
     p, text = _read_text(path)
@@ -248,14 +249,16 @@ def read_pose_streams(path, format: str | None = None, *, stamps_unit: str = "au
         _module(format)
         detection = f"format {format!r} named explicitly"
     raws = _module(format).read(p, text, **options)
-    return [_finalise(r, str(p), format, detection, stamps_unit) for r in raws]
+    return [_finalise(r, str(p), format, detection, stamps_unit, recording) for r in raws]
 
 
 def read_pose_stream(path, format: str | None = None, stream: str | int | None = None,
-                     *, stamps_unit: str = "auto", **options) -> PoseStreamData:
+                     *, stamps_unit: str = "auto", recording: int | None = None,
+                     **options) -> PoseStreamData:
     """One stream of a file. For two-stream formats ``stream`` picks it by name or index
-    (required there); ``stamps_unit`` as for :func:`read_pose_streams`."""
-    streams = read_pose_streams(path, format, stamps_unit=stamps_unit, **options)
+    (required there); ``stamps_unit`` and ``recording`` as for :func:`read_pose_streams`."""
+    streams = read_pose_streams(path, format, stamps_unit=stamps_unit, recording=recording,
+                                **options)
     if len(streams) == 1 and stream in (None, 0, streams[0].name):
         return streams[0]
     names = [s.name for s in streams]
@@ -296,14 +299,14 @@ QUAT_NORM_MAX_DEV = 0.2   # beyond this it is not a unit quaternion at all: erro
 
 
 def _finalise(raw: RawStream, source: str, fmt: str, detection: str,
-              stamps_unit: str = "auto") -> PoseStreamData:
+              stamps_unit: str = "auto", recording: int | None = None) -> PoseStreamData:
     """The validated :class:`PoseStreamData` of ``raw``: rows with NaN/inf dropped,
     quaternions renormalised or rotation blocks re-orthonormalised when slightly off,
     sorted by time, duplicates dropped — each repair counted in ``repairs``."""
     label = f"{source}" + (f" [{raw.name}]" if raw.name else "")
     repairs: dict[str, int] = dict(raw.repairs)
     t, T = _finite_poses(raw, label, repairs)
-    t, T = _ordered_unique(t, T, repairs)
+    t, T = _ordered_unique(t, T, repairs, recording)
     if t.size < MIN_POSES:
         hint = ("; rows sharing a stamp hold different poses that no neighbouring stamp "
                 "tells apart: are the stamps written too coarsely?"
@@ -370,15 +373,16 @@ def _finite_poses(raw: RawStream, label: str, repairs: dict) -> tuple[np.ndarray
     return t, transform_from_rotation_translation(matrix_from_quat(q), pos)
 
 
-def _ordered_unique(t: np.ndarray, T: np.ndarray, repairs: dict) -> tuple:
+def _ordered_unique(t: np.ndarray, T: np.ndarray, repairs: dict,
+                    recording: int | None = None) -> tuple:
     """``(t, T)`` sorted by time (stable) and without repeated timestamps. Repeated rows of
     one pose keep one (``duplicate_rows_dropped``); rows of one stamp with different poses
     keep the one consistent with the neighbouring stamps (:func:`_consistent_rows`;
     ``duplicate_timestamps_kept_consistent``), or none of them when that cannot be told
     (``duplicate_timestamps_dropped_ambiguous``): a re-published stale pose may come first
     or last. Stamps that restart (:func:`~simcalib.importers._stamps.longest_recording`) are
-    not sorted together."""
-    t, T = _longest_recording(t, T, repairs)
+    not sorted together (``recording``: which one is kept)."""
+    t, T = _longest_recording(t, T, repairs, recording)
     if t.size >= 2 and np.any(np.diff(t) < 0):
         order = np.argsort(t, kind="stable")
         repairs["out_of_order_rows_sorted"] = int(np.sum(order != np.arange(t.size)))

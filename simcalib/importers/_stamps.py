@@ -17,8 +17,8 @@ import numpy as np
 from simcalib.errors import DataError
 
 __all__ = ["UNIX_TIME_S", "STAMP_UNITS", "UNIT_FACTORS", "MAX_PERIOD_S", "STAMPS_UNIT_CHOICES",
-           "stamps_in_seconds", "unix_unit", "longest_recording", "RESTART_PERIODS",
-           "RESTART_MAX", "RESTART_MIN_ROWS"]
+           "stamps_in_seconds", "unix_unit", "longest_recording", "recording_runs",
+           "RESTART_PERIODS", "RESTART_MAX", "RESTART_MIN_ROWS"]
 
 #: unix time in seconds of a plausible recording (1990-01-01 .. 2100-01-01): stamps of that
 #: magnitude in another unit are rescaled (:func:`stamps_in_seconds`)
@@ -82,28 +82,64 @@ def stamps_in_seconds(t: np.ndarray, label: str, repairs: dict,
 RESTART_PERIODS, RESTART_MAX, RESTART_MIN_ROWS = 10.0, 3, 10
 
 
-def longest_recording(t: np.ndarray, T: np.ndarray, repairs: dict) -> tuple:
-    """``(t, T)`` of the longest recording (by duration) in a file whose stamps, in file
-    order, go back by more than RESTART_PERIODS median periods at 1..RESTART_MAX rows, are
-    in order elsewhere, and whose runs (RESTART_MIN_ROWS rows or more each) overlap in
-    time, the shorter mostly at stamps the other does not have: two recordings (a logger
-    restarted) appended in one file, which sorting would interleave. The others are
-    dropped and counted (``stamps_restarted``, ``rows_of_other_recordings_dropped``). Rows
-    shuffled, a few out of order, or re-published at their stamps are left to the sort."""
+def recording_runs(t: np.ndarray, T: np.ndarray) -> list[tuple[int, int]] | None:
+    """``[(first row, end row)]`` of each recording in a file whose stamps, in file order,
+    go back by more than RESTART_PERIODS median periods at 1..RESTART_MAX rows, are in
+    order elsewhere, and whose runs (RESTART_MIN_ROWS rows or more each) overlap in time,
+    the shorter mostly at stamps the other does not have or holding other poses at the
+    stamps they share, in one block (a logger restarted, numbering its rows from 0 again);
+    None for one recording. Rows shuffled, a few out of order, or re-published at their stamps are not
+    recordings."""
     d = np.diff(t)
     if t.size < 2 * RESTART_MIN_ROWS or not np.any(d < 0) or not np.any(d > 0):
-        return t, T
+        return None
     back = np.flatnonzero(d < -RESTART_PERIODS * np.median(d[d > 0]))
     if back.size == 0 or np.count_nonzero(d < 0) > RESTART_MAX:
-        return t, T
+        return None
     edges = np.concatenate([[0], back + 1, [t.size]])
-    runs = [t[e0:e1] for e0, e1 in zip(edges[:-1], edges[1:])]
-    if min(r.size for r in runs) < RESTART_MIN_ROWS or not any(
-            min(r[-1], q[-1]) > max(r[0], q[0])
-            and np.isin(*((r, q) if r.size <= q.size else (q, r))).mean() < 0.5
-            for i, r in enumerate(runs) for q in runs[i + 1:]):
+    runs = list(zip(edges[:-1].tolist(), edges[1:].tolist()))
+    if min(e1 - e0 for e0, e1 in runs) < RESTART_MIN_ROWS or not any(
+            _other_recording(t, T, r, q) for i, r in enumerate(runs) for q in runs[i + 1:]):
+        return None
+    return runs
+
+
+def _other_recording(t, T, r, q) -> bool:
+    """Runs ``r`` and ``q`` (row ranges) overlap in time, and the shorter lies mostly at
+    stamps the other does not have, or shares a block of the other's consecutive stamps
+    and holds other poses at half of them."""
+    (s0, s1), (l0, l1) = sorted((r, q), key=lambda e: e[1] - e[0])
+    ts, tl = t[s0:s1], t[l0:l1]
+    if min(ts[-1], tl[-1]) <= max(ts[0], tl[0]):
+        return False
+    shared = np.isin(ts, tl)
+    if shared.mean() < 0.5:
+        return True
+    order = np.argsort(tl, kind="stable")
+    k = order[np.searchsorted(tl[order], ts[shared])]
+    if not np.all(np.diff(k) == 1):         # rows re-published here and there: not a run
+        return False
+    return bool((np.abs(T[s0:s1][shared] - T[l0 + k]).max(axis=(1, 2)) > 1e-9).mean() >= 0.5)
+
+
+def longest_recording(t: np.ndarray, T: np.ndarray, repairs: dict,
+                      recording: int | None = None) -> tuple:
+    """``(t, T)`` of the longest recording (by duration; ``recording``: the one of that
+    number, from 1 in file order) of a file that holds several (:func:`recording_runs`),
+    which sorting would interleave. The others are dropped and counted
+    (``stamps_restarted``, ``rows_of_other_recordings_dropped``; ``recordings_in_file``,
+    ``recording_kept``)."""
+    runs = recording_runs(t, T)
+    if runs is None:
         return t, T
-    _, e0, e1 = max((t[e1 - 1] - t[e0], e0, e1) for e0, e1 in zip(edges[:-1], edges[1:]))
-    repairs["stamps_restarted"] = int(back.size)
+    if recording is None:
+        recording = 1 + max(range(len(runs)), key=lambda k: (t[runs[k][1] - 1]
+                                                              - t[runs[k][0]], k))
+    elif not 1 <= recording <= len(runs):
+        raise DataError(f"recording {recording} asked of a file holding {len(runs)} "
+                        f"recordings; allowed: 1..{len(runs)}")
+    e0, e1 = runs[recording - 1]
+    repairs["stamps_restarted"] = len(runs) - 1
     repairs["rows_of_other_recordings_dropped"] = int(t.size - (e1 - e0))
+    repairs["recordings_in_file"], repairs["recording_kept"] = len(runs), int(recording)
     return t[e0:e1], T[e0:e1]

@@ -403,7 +403,7 @@ def calibrate(opts: CalibrateOptions):
     Raises DataError (bad files) or SolverError (no estimate)."""
     from simcalib.solvers.api import Prior
     from simcalib.estimation.path import calibrate_streams
-    from simcalib.importers import read_pose_stream, read_pose_streams
+    from simcalib.importers import read_pose_streams
     fa, fb = opts.formats
     if opts.bag is not None:
         from simcalib.ros.bag import read_bag_streams
@@ -418,8 +418,8 @@ def calibrate(opts: CalibrateOptions):
                             f"(files of the formats {', '.join(sorted(both))} hold both)")
         a, b = streams
     else:
-        a, b = (read_pose_stream(p, f, stamps_unit="pair" if u == "auto" else u) for p, f, u in
-                ((opts.a, fa, opts.stamps_unit_a), (opts.b, fb, opts.stamps_unit_b)))
+        from simcalib.estimation.path import read_files
+        a, b = read_files(opts.a, opts.b, fa, fb, opts.stamps_unit_a, opts.stamps_unit_b)
     prior = None
     if opts.prior is not None:
         prior = Prior(load_prior(opts.prior), opts.prior_weight_rotation,
@@ -529,8 +529,4 @@ def warnings(r, reading: str | None = None) -> list[str]:
                    "differ, give time_offset=<seconds>")
     if r.robust.inlier_fraction < 0.5:
         out.append(f"only {r.robust.inlier_fraction:.0%} of the motions are inliers")
-    Ta, Tb = np.asarray(r.synced.T_a), np.asarray(r.synced.T_b)
-    if Ta.shape == Tb.shape and np.allclose(Ta, Tb, rtol=0.0, atol=1e-9):
-        out.append("streams a and b hold the same poses, so X is the identity: the same "
-                   "file or topic given twice?")
     return out
