@@ -239,8 +239,9 @@ def read_pose_streams(path, format: str | None = None, *, stamps_unit: str = "au
     ``format``: a name from :func:`available`, or None to detect it. ``stamps_unit``: how
     the stamps' unit is read (:mod:`simcalib.importers._stamps`: ``auto``, ``pair``, or the
     unit). ``recording``: of a file holding several recordings (stamps that restart), the
-    one of that number (from 1), else the longest. ``options`` go to the format reader (e.g. ``columns=`` for csv). Raises the
-    project's DataError (ValueError) on bad input that cannot be repaired.
+    one of that number (from 1), else the longest. ``options`` go to the format reader
+    (e.g. ``columns=`` for csv). Raises the project's DataError (ValueError) on bad input
+    that cannot be repaired.
     """
     p, text = _read_text(path)
     if format is None:

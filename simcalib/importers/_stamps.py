@@ -88,8 +88,8 @@ def recording_runs(t: np.ndarray, T: np.ndarray) -> list[tuple[int, int]] | None
     order elsewhere, and whose runs (RESTART_MIN_ROWS rows or more each) overlap in time,
     the shorter mostly at stamps the other does not have or holding other poses at the
     stamps they share, in one block (a logger restarted, numbering its rows from 0 again);
-    None for one recording. Rows shuffled, a few out of order, or re-published at their stamps are not
-    recordings."""
+    None for one recording. Rows shuffled, a few out of order, or re-published at their
+    stamps are not recordings."""
     d = np.diff(t)
     if t.size < 2 * RESTART_MIN_ROWS or not np.any(d < 0) or not np.any(d > 0):
         return None
