@@ -7,25 +7,44 @@ reading, the reading decided again at the final offset; then, apart, whether b i
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 __all__ = ["align_and_read", "first_reading"]
 
 
 def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift="auto", alpha=1.0,
-                   seed=0, forced=None, signal="rotation"):
+                   seed=0, forced=None, signal="rotation", candidates=None):
     """:func:`_align_and_read` (the reading and the clock offset), then whether b is
     mirrored (a left-handed file: :func:`simcalib.estimation.readings.mirror_ratio`), decided
     apart and only where it wins by more than ``MIRROR_RATIO``: then the streams are read
     and aligned again with b mirrored, and the reading's message says so. ``forced``
-    ``mirror_b`` (True / False) skips the check. Returns ``(stream_a, stream_b,
-    ConventionReport, TimeOffset, Sampling)``."""
-    from dataclasses import replace
+    ``mirror_b`` (True / False) skips the check. Streams in other length units (b's
+    pitches :data:`UNIT_SCALE` times a's or more: mm against m) are aligned and read with
+    b's translations at a's scale, which the messages say; b is returned as given, its
+    scale judged later. ``candidates``: the speeds' candidate offsets, where known
+    (:func:`_offset_candidates`). Returns ``(stream_a, stream_b, ConventionReport,
+    TimeOffset, Sampling)``."""
     from simcalib.estimation.readings import (MIRROR_RATIO, PITCH_AGREEMENT, mirror_ratio,
                                               mirror_sentence, pitch_agreement)
+    if candidates is None and time_offset == "estimate" and not sampling.paired_by_stamp:
+        candidates = _offset_candidates(sa, sb, signal)
+    unit = _unit_scale(sa, sb, sampling, seed, signal, candidates) if candidates else 1.0
+    if unit != 1.0:         # b in other length units: aligned and read at a's scale
+        from simcalib.estimation.scale import scaled_stream
+        sa, sb1, conv, off, sampling = align_and_read(
+            sa, scaled_stream(sb, 1.0 / unit), sampling, time_offset=time_offset,
+            drift=drift, alpha=alpha, seed=seed, forced=forced, signal=signal,
+            candidates=candidates)
+        note = (f"; aligned and read with b's translations divided by {unit:.4g} (b's "
+                "pitches against a's: other length units)")
+        return (sa, scaled_stream(sb1, unit), replace(conv, message=conv.message + note),
+                replace(off, message=off.message + note), sampling)
     forced = dict(forced or {})
     given = forced.pop("mirror_b", None)
-    kw = dict(time_offset=time_offset, drift=drift, alpha=alpha, seed=seed, signal=signal)
+    kw = dict(time_offset=time_offset, drift=drift, alpha=alpha, seed=seed, signal=signal,
+              candidates=candidates)
     *out, (first, first_off) = _align_and_read(sa, sb, sampling,
                                                forced=forced | {"mirror_b": bool(given)}, **kw)
     if given is not None:
@@ -44,8 +63,30 @@ def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift="auto", al
                               message=f"{conv.message}; {mirror_sentence(ratio)}"), *out[3:])
 
 
+#: b's pitches this many times a's, or a's b's: streams in other length units (mm against
+#: m: 1000), which the speeds' correlation does not see but the readings' scores and the
+#: offset's cost do (they add both streams' translations); the scale itself is judged after
+#: the offset (:mod:`simcalib.estimation.scale`)
+UNIT_SCALE = 10.0
+
+
+def _unit_scale(sa, sb, sampling, seed, signal, candidates) -> float:
+    """b's length scale against a's (:func:`~simcalib.estimation.readings.
+    pitch_magnitudes_scale`) at the ``candidates`` offset (:func:`_offset_candidates`)
+    where the pitches agree best, where it lies beyond :data:`UNIT_SCALE` either way;
+    else 1."""
+    from simcalib.estimation.readings import pitch_magnitudes_scale
+    fits = [pitch_magnitudes_scale(sa, sb, offset=c, seed=seed, sampling=sampling,
+                                   signal=signal) for c in candidates]
+    fits = [f for f in fits if np.isfinite(f[1])]
+    if not fits:
+        return 1.0
+    s = min(fits, key=lambda f: f[1])[0]
+    return float(s) if s > 0.0 and abs(np.log(s)) > np.log(UNIT_SCALE) else 1.0
+
+
 def _align_and_read(sa, sb, sampling, *, time_offset="estimate", drift="auto", alpha=1.0,
-                    seed=0, forced=None, signal="rotation"):
+                    seed=0, forced=None, signal="rotation", candidates=None):
     """The streams' reading and their clock offset, decided in that order and checked
     again: the reading at the correlation's (reading-free) offset, the offset refined with
     that reading, then the reading decided again at the final offset (it is what the run
@@ -59,7 +100,7 @@ def _align_and_read(sa, sb, sampling, *, time_offset="estimate", drift="auto", a
     from simcalib.estimation.readings import apply_conventions
     from simcalib.estimation.alignment import estimate_time_offset
     detect = _detector(sa, sb, sampling, alpha=alpha, seed=seed, forced=forced, signal=signal)
-    conv, off = first = _first(sa, sb, sampling, detect, time_offset, signal)
+    conv, off = first = _first(sa, sb, sampling, detect, time_offset, signal, candidates)
     if time_offset != "estimate":
         return (*apply_conventions(sa, sb, conv), conv, off, sampling, first)
     if sampling.paired_by_stamp:            # equal stamps, or equal after a constant shift
@@ -96,7 +137,7 @@ def first_reading(sa, sb, sampling, *, time_offset="estimate", alpha=1.0, seed=0
     return _first(sa, sb, sampling, detect, time_offset, signal)
 
 
-def _first(sa, sb, sampling, detect, time_offset, signal):
+def _first(sa, sb, sampling, detect, time_offset, signal, candidates=None):
     from simcalib.estimation.alignment import TimeOffset, _as_offset
     if time_offset != "estimate":
         off = _as_offset(time_offset)
@@ -106,7 +147,8 @@ def _first(sa, sb, sampling, detect, time_offset, signal):
         off = TimeOffset(shift, 0.0, shift, float("nan"), np.zeros(0), np.zeros(0),
                          refined=False, decision="shared_stamps", message=sampling.reason)
         return detect(off), off
-    conv = min((detect(c) for c in _offset_candidates(sa, sb, signal)), key=_best_score)
+    candidates = candidates or _offset_candidates(sa, sb, signal)
+    conv = min((detect(c) for c in candidates), key=_best_score)
     return conv, conv.offset_s
 
 

@@ -280,6 +280,26 @@ def pitch_agreement(stream_a, stream_b, report: ConventionReport, *, offset,
     return float(np.median(np.abs(d_c + d_h)) / max(np.median(np.abs(d_c - d_h)), 1e-15))
 
 
+def pitch_magnitudes_scale(stream_a, stream_b, *, offset, n_pairs: int = 400, seed: int = 0,
+                           sampling=None, signal: str = "rotation") -> tuple[float, float]:
+    """``(s, spread)``: b's length scale against a's from the magnitudes of the motions'
+    pitches at ``offset`` (:mod:`simcalib.estimation.units`; the magnitude is the same for
+    a motion and its inverse or conjugate, so any reading of the files but the quaternion
+    order gives it), the weighted median of ``|d_H| / |d_C|``, and ``spread`` the median
+    ``|log(|d_H| / (s |d_C|))|`` (small where the offset pairs the motions right). NaN for
+    fewer than 5 motions with pitch."""
+    from simcalib.estimation.units import _pitches, _weighted_median
+    C, H = _motions(stream_a, stream_b, offset, n_pairs, np.random.default_rng(seed),
+                    sampling, signal)
+    d_c, d_h = (np.abs(d) for d in _pitches(C, H)) if C.shape[0] >= 3 else ((), ())
+    use = (np.asarray(d_c) > 0.0) & (np.asarray(d_h) > 0.0)
+    if np.count_nonzero(use) < 5:
+        return math.nan, math.nan
+    ratio = d_h[use] / d_c[use]
+    s = _weighted_median(ratio, d_c[use] ** 2)
+    return float(s), float(np.median(np.abs(np.log(ratio / s))))
+
+
 def mirror_sentence(ratio: float) -> str:
     """What a mirrored b means for the user (the reading's message and the warnings)."""
     return (f"stream b is MIRRORED against a: its poses fit {ratio:.3g}x better with z "
