@@ -100,3 +100,49 @@ def test_world_jump_marks_move_with_the_rows_new_stamps():
     out_b = realign_rows(rec.stream_a, lost, classify_sampling(rec.stream_a, lost))[1]
     j = int(np.searchsorted(lost.timestamps_s, k + 2))      # the marked row, renumbered
     assert out_b.world_jumps_s == (float(out_b.timestamps_s[j]),)
+
+
+def _lost_rows_ab(sa, sb, k_a, k_b):
+    """Row ``k_a`` lost from a and ``k_b`` from b, each file renumbered: every row still
+    pairs by number, the rows between ``k_b`` and ``k_a`` one off."""
+    return _lost_row(sa, k_a), _lost_row(sb, k_b)
+
+
+@pytest.mark.parametrize("kind, seed, stations", [("stations", 0, None), ("scara", 2, None),
+                                                  ("stations", 2, 120)])
+def test_a_row_lost_in_each_file_at_different_places_is_paired_by_motion(kind, seed, stations):
+    """Both files hold 0..n-2 and pair by number, but the rows between the two lost ones
+    are paired one off (120 stations: past FEW_ROWS, found by the neighbours' test)."""
+    rec = generate(kind, seed, **({} if stations is None else {"stations": stations}))
+    n = rec.stream_a.timestamps_s.size
+    sa, sb = _lost_rows_ab(rec.stream_a, rec.stream_b, 2 * n // 3, n // 3)
+    smp = classify_sampling(sa, sb)
+    assert smp.shared == n - 1                          # every row pairs by number
+    out_a, out_b, _, notes = realign_rows(sa, sb, smp)
+    assert len(notes) == 1 and "pair by number, but rows numbered" in notes[0]
+    assert out_a.repairs["rows_without_a_partner"] == 1
+    assert out_b.repairs["rows_without_a_partner"] == 1
+    assert out_b.T_world_sensor.shape[0] == n - 2
+    r = calibrate_streams(sa, sb)
+    assert len(r.summary["station_rows"]) == 1
+    assert np.degrees(rotation_error_rad(r.X, rec.X_true)) < 0.3
+    up = 2 if kind == "scara" else 3                    # a SCARA's X: z undetermined
+    assert np.linalg.norm(r.X[:up, 3] - rec.X_true[:up, 3]) < 5e-3
+
+
+@pytest.mark.parametrize("kind", ["stations", "stations_short", "scara", "robot_error",
+                                  "bursts", "scale_stations"])
+def test_files_whose_rows_are_right_are_not_re_paired(kind):
+    for seed in range(0, 8, 2):                 # index-stamped in even seeds
+        rec = generate(kind, seed)
+        sa, sb = rec.stream_a, rec.stream_b
+        smp = classify_sampling(sa, sb)
+        assert realign_rows(sa, sb, smp) == (sa, sb, smp, [])
+
+
+def test_the_neighbours_test_sees_a_stretch_paired_one_off_and_not_right_rows():
+    from simcalib.estimation.station_rows import _shifted_rows_fit
+    rec = generate("stations", 0, stations=120)
+    T_a, T_b = np.asarray(rec.stream_a.T_world_sensor), np.asarray(rec.stream_b.T_world_sensor)
+    assert not _shifted_rows_fit(T_a, T_b)
+    assert _shifted_rows_fit(np.delete(T_a, 80, axis=0), np.delete(T_b, 40, axis=0))

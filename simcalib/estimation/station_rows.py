@@ -16,8 +16,14 @@ without a partner :data:`SKIP_DEG`, at most :data:`MAX_SKIP` rows skipped at onc
 pairing found replaces the pairing by number only where the pairs by number break the rule
 :data:`GAIN` times more (median over every two pairs) and by :data:`MIN_DEG` or more;
 the rows left without a partner are dropped, counted (``rows_without_a_partner``) and
-named in a warning. Files whose rows all pair by number are left as they are (a row lost
-in each, at different places, is not looked for).
+named in a warning. Files whose rows all pair by number may have lost a row each, at
+different places, each renumbered: the rows between are paired one off. They are searched
+the same way (files of more than :data:`FEW_ROWS` rows only where some row breaks the rule
+with its :data:`NEAR` neighbours either side :data:`GAIN` times more than paired a row off,
+or than the median row: O(n)), and re-paired only where the rows given another partner
+(those whose motions turn, breaking the rule by :data:`MIN_DEG` or more by number) break it
+:data:`GAIN` times more by number than by the pairing found (median of each row's median
+over every other pair).
 
 Station data stamped by two clocks (the robot controller's and the camera computer's)
 share no stamps: they were taken for continuous streams, interpolated between stations
@@ -51,7 +57,7 @@ from simcalib.geometry import rotation_angle_rad
 
 __all__ = ["align_rows", "realign_rows", "pair_by_lag", "pair_angles_rad", "PAIRED_SHARE",
            "CAP_DEG", "SKIP_DEG", "MAX_SKIP", "GAIN", "MIN_DEG", "MAX_ROWS", "MIN_PERIOD_S", "LAG_GAIN",
-           "moved_marks"]
+           "moved_marks", "NEAR", "FEW_ROWS"]
 
 #: a step's misfit counts at most this much (deg): a wrong pair costs about this
 CAP_DEG = 10.0
@@ -64,6 +70,12 @@ MAX_SKIP = 3
 GAIN = 10.0
 #: ... and by this much (median, deg)
 MIN_DEG = 0.5
+#: rows either side whose motions tell a row's partner in files whose rows all pair by
+#: number (a row lost in each at different places)
+NEAR = 2
+#: ... searched for such stretches in full (:func:`align_rows`) up to this many rows, beyond
+#: only where a row's neighbours tell it (:func:`_shifted_rows_fit`; ~3 ms at 250 rows)
+FEW_ROWS = 50
 #: files with more rows than this are not re-paired (the angles of every two rows)
 MAX_ROWS = 1000
 #: a lag's shift must pair this share of the sparser stream's rows
@@ -136,6 +148,61 @@ def _misfit_deg(T_a: np.ndarray, T_b: np.ndarray) -> float:
     return float(np.median(np.abs(_angles(T_a) - _angles(T_b))[np.triu_indices(n, 1)]))
 
 
+def _near_angles_deg(T: np.ndarray) -> np.ndarray:
+    """``(n, 2 * NEAR)`` rotation angles (deg) from each pose to the poses ``1..NEAR`` rows
+    before and after it (NaN past the ends)."""
+    n, R = T.shape[0], T[:, :3, :3]
+    out = np.full((n, 2 * NEAR), np.nan)
+    for d in range(1, min(NEAR, n - 1) + 1):
+        ang = np.degrees(rotation_angle_rad(np.swapaxes(R[:-d], 1, 2) @ R[d:]))
+        out[:-d, NEAR + d - 1], out[d:, NEAR - d] = ang, ang
+    return out
+
+
+def _shifted_rows_fit(T_a: np.ndarray, T_b: np.ndarray) -> bool:
+    """Whether some row of ``T_a`` breaks the equal-angle rule with its neighbours
+    (:data:`NEAR` rows either side, median) paired by number by :data:`MIN_DEG` or more and
+    :data:`GAIN` times more than paired with the rows of b one before or after, or than the
+    median row (a row lost in each file at different places: the rows between are paired
+    one off). O(n): files
+    whose rows all pair by number are searched for such stretches only where this holds."""
+    Na, Nb = _near_angles_deg(T_a), _near_angles_deg(T_b)
+    n = Na.shape[0]
+    with np.errstate(all="ignore"):
+        by_number = np.nanmedian(np.abs(Na - Nb), axis=1)
+        off = [np.nanmedian(np.abs(Na[max(s, 0):n + min(s, 0)] - Nb[max(-s, 0):n + min(-s, 0)]),
+                            axis=1) for s in (1, -1)]                # a's row i, b's i -+ 1
+        best = np.full(n, np.inf)
+        best[1:] = np.fmin(best[1:], off[0])
+        best[:-1] = np.fmin(best[:-1], off[1])
+        best = np.fmin(best, np.nanmedian(by_number))          # short stretches
+    return bool(np.any((by_number >= MIN_DEG) & (by_number >= GAIN * best)))
+
+
+def _stretch_misfits_deg(T_a, T_b, ia, ib) -> tuple[float, float]:
+    """``(by number, by the pairs)``: over the rows of a that the pairs ``(ia, ib)`` give
+    another partner and that break the equal-angle rule by :data:`MIN_DEG` or more paired by
+    number, the median of each row's median |angle of a's motion - angle of b's| (deg) to
+    every other pair of the same pairing (0, inf: no such row; rows whose motions do not
+    turn cannot tell their partner and are left out)."""
+    Ra, Rb = T_a[:, :3, :3], T_b[:, :3, :3]
+
+    def row_misfits(ka, kb, pa, pb):
+        ang_a = rotation_angle_rad(np.swapaxes(Ra[ka], 1, 2)[:, None] @ Ra[pa][None])
+        ang_b = rotation_angle_rad(np.swapaxes(Rb[kb], 1, 2)[:, None] @ Rb[pb][None])
+        m = np.where(ka[:, None] != pa[None], np.abs(ang_a - ang_b), np.nan)
+        return np.degrees(np.nanmedian(m, axis=1))
+
+    moved = ia != ib
+    n = np.arange(T_a.shape[0])
+    before = row_misfits(ia[moved], ia[moved], n, n)
+    breaks = before >= MIN_DEG
+    if not breaks.any():
+        return 0.0, math.inf
+    after = row_misfits(ia[moved][breaks], ib[moved][breaks], ia, ib)
+    return float(np.median(before[breaks])), float(np.median(after))
+
+
 def realign_rows(sa, sb, sampling):
     """``(stream_a, stream_b, sampling, notes)``: streams paired by sample-number stamps
     whose pairing by number breaks the equal-angle rule, re-stamped so that pairing by
@@ -143,24 +210,39 @@ def realign_rows(sa, sb, sampling):
     dropped and counted; the sampling classified again); streams on two clocks by
     :func:`pair_by_lag`; other streams as they are (``notes`` empty)."""
     from simcalib.estimation.hidden_offset import continuous
-    from simcalib.estimation.sampling import classify_sampling, is_sample_numbers, pair_by_stamp
+    from simcalib.estimation.sampling import is_sample_numbers, pair_by_stamp
     ta, tb = np.asarray(sa.timestamps_s), np.asarray(sb.timestamps_s)
     if not sampling.paired_by_stamp:
         return pair_by_lag(sa, sb, sampling)
     if not (sampling.paired_by_stamp and is_sample_numbers(ta) and is_sample_numbers(tb)
-            and 6 <= min(ta.size, tb.size) and max(ta.size, tb.size) <= MAX_ROWS
-            and sampling.shared < max(ta.size, tb.size)):   # every row paired: none lost
+            and 6 <= min(ta.size, tb.size) and max(ta.size, tb.size) <= MAX_ROWS):
         return sa, sb, sampling, []
     Ta, Tb = np.asarray(sa.T_world_sensor), np.asarray(sb.T_world_sensor)
+    crossed = sampling.shared == ta.size == tb.size     # every row paired by number
+    if crossed and ta.size > FEW_ROWS and not _shifted_rows_fit(Ta, Tb):
+        return sa, sb, sampling, []     # no row fits a neighbour's partner better
     ia, ib = align_rows(Ta, Tb)
     if np.all(ia - ib == ia[0] - ib[0]) and continuous(ta, Ta) and continuous(tb, Tb):
         return sa, sb, sampling, []     # counters of one motion a lag apart: hidden_offset's
-    by_number = pair_by_stamp(sa, sb, sampling, sampling.shift_s)
-    if by_number.n < 3 or ia.size < 3:
-        return sa, sb, sampling, []
-    before, after = _misfit_deg(by_number.T_a, by_number.T_b), _misfit_deg(Ta[ia], Tb[ib])
+    if crossed:
+        before, after = _stretch_misfits_deg(Ta, Tb, ia, ib)
+    else:
+        by_number = pair_by_stamp(sa, sb, sampling, sampling.shift_s)
+        if by_number.n < 3 or ia.size < 3:
+            return sa, sb, sampling, []
+        before, after = _misfit_deg(by_number.T_a, by_number.T_b), _misfit_deg(Ta[ia], Tb[ib])
     if not (before >= GAIN * after and before >= MIN_DEG):
         return sa, sb, sampling, []
+    return _repaired(sa, sb, sampling, (ia, ib), (before, after), crossed)
+
+
+def _repaired(sa, sb, sampling, pairs, misfits, crossed: bool):
+    """:func:`realign_rows`'s streams re-stamped by the pairs ``(ia, ib)`` found, its note
+    (``misfits``: the rule's misfit by number and by the pairs, deg)."""
+    from simcalib.estimation.sampling import classify_sampling
+    ta, tb = np.asarray(sa.timestamps_s), np.asarray(sb.timestamps_s)
+    Ta, Tb = np.asarray(sa.T_world_sensor), np.asarray(sb.T_world_sensor)
+    (ia, ib), (before, after) = pairs, misfits
     lost_a, lost_b = np.setdiff1d(np.arange(ta.size), ia), np.setdiff1d(np.arange(tb.size), ib)
     out_a = replace(sa, timestamps_s=ta[ia], T_world_sensor=Ta[ia], repairs=dict(
         sa.repairs, rows_without_a_partner=int(lost_a.size)))
@@ -169,9 +251,14 @@ def realign_rows(sa, sb, sampling):
                                  rows_paired_by_motion=int(ib.size)),
                     world_jumps_s=moved_marks(sb, tb[ib], ta[ia] + sampling.shift_s))
     rows = lambda lost, t: ", ".join(f"{x:g}" for x in t[lost][:8]) or "none"  # noqa: E731
+    how = ("pair by number, but rows numbered "
+           + ", ".join(f"{x:g}" for x in ta[np.setdiff1d(np.arange(ta.size), ia[ia == ib])][:8])
+           + " of a break the rule both sensors turn alike: the rotation angles of their "
+           "motions to the other rows" if crossed else
+           "do not pair by number: the rotation angles of the motions between them break the "
+           "rule both sensors turn alike")
     note = (f"the rows numbered {ta[0]:g}..{ta[-1]:g} in a ({ta.size}) and {tb[0]:g}..{tb[-1]:g} "
-            f"in b ({tb.size}) do not pair by number: the rotation angles of the motions "
-            f"between them break the rule both sensors turn alike by {before:.2g} deg "
+            f"in b ({tb.size}) {how} by {before:.2g} deg "
             f"(median), {after:.2g} deg paired by that rule; rows of a without a partner: "
             f"{rows(lost_a, ta)}; of b: {rows(lost_b, tb)} (a failed detection, with the later "
             "rows renumbered? where poses in a row do not turn, the angles cannot tell which "
