@@ -146,3 +146,28 @@ def test_the_neighbours_test_sees_a_stretch_paired_one_off_and_not_right_rows():
     T_a, T_b = np.asarray(rec.stream_a.T_world_sensor), np.asarray(rec.stream_b.T_world_sensor)
     assert not _shifted_rows_fit(T_a, T_b)
     assert _shifted_rows_fit(np.delete(T_a, 80, axis=0), np.delete(T_b, 40, axis=0))
+
+
+def test_angles_from_quaternions_equal_the_angles_of_every_two_poses():
+    """pair_by_lag's angles (from the quaternions, 10x cheaper at 1000 rows) are
+    pair_angles_rad's, near 0 and near 180 deg too."""
+    from simcalib.estimation.station_rows import _quat_angles_deg, pair_angles_rad
+    from simcalib.geometry import matrix_from_rotvec
+    rng = np.random.default_rng(1)
+    R = random_rotation_matrices(rng, (60,))
+    R[10] = R[9] @ matrix_from_rotvec(np.array([1e-7, 0.0, 0.0]))
+    R[11] = R[9] @ matrix_from_rotvec(np.array([0.0, np.pi - 1e-6, 0.0]))
+    R[12] = R[9]
+    T = transform_from_rotation_translation(R, rng.normal(size=(60, 3)))
+    got, want = _quat_angles_deg(T), np.degrees(pair_angles_rad(T))
+    assert np.allclose(got, want, rtol=1e-9, atol=1e-10)
+    assert abs(got[9, 10] - np.degrees(1e-7)) < 1e-12 and got[9, 12] == 0.0
+
+
+def test_pair_by_lag_pairs_1000_stations_at_their_shift():
+    from simcalib.estimation.station_rows import pair_by_lag
+    rec = generate("stations_two_clocks", 0, stations=1000)
+    smp = classify_sampling(rec.stream_a, rec.stream_b)
+    out_a, out_b, paired, notes = pair_by_lag(rec.stream_a, rec.stream_b, smp)
+    assert len(notes) == 1 and abs(paired.shift_s - rec.truth_dict()["offset_s"]) < 0.06
+    assert out_b.T_world_sensor.shape[0] == 1000
