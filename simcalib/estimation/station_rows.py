@@ -58,7 +58,7 @@ from simcalib.geometry import quat_from_matrix, rotation_angle_rad
 
 __all__ = ["align_rows", "realign_rows", "pair_by_lag", "pair_angles_rad", "PAIRED_SHARE",
            "CAP_DEG", "SKIP_DEG", "MAX_SKIP", "GAIN", "MIN_DEG", "MAX_ROWS", "MIN_PERIOD_S", "LAG_GAIN",
-           "moved_marks", "NEAR", "FEW_ROWS"]
+           "moved_marks", "NEAR", "NEAR_GAIN", "FEW_ROWS"]
 
 #: a step's misfit counts at most this much (deg): a wrong pair costs about this
 CAP_DEG = 10.0
@@ -74,6 +74,9 @@ MIN_DEG = 0.5
 #: rows either side whose motions tell a row's partner in files whose rows all pair by
 #: number (a row lost in each at different places)
 NEAR = 2
+#: ... where one row breaks the rule this many times more paired by number than a row off
+#: (and :data:`GAIN` times more than the median row; noisy rows fit a row off ~2x better)
+NEAR_GAIN = 3.0
 #: ... searched for such stretches in full (:func:`align_rows`) up to this many rows, beyond
 #: only where a row's neighbours tell it (:func:`_shifted_rows_fit`; ~3 ms at 250 rows)
 FEW_ROWS = 50
@@ -161,12 +164,14 @@ def _near_angles_deg(T: np.ndarray) -> np.ndarray:
 
 
 def _shifted_rows_fit(T_a: np.ndarray, T_b: np.ndarray) -> bool:
-    """Whether some row of ``T_a`` breaks the equal-angle rule with its neighbours
-    (:data:`NEAR` rows either side, median) paired by number by :data:`MIN_DEG` or more and
-    :data:`GAIN` times more than paired with the rows of b one before or after, or than the
-    median row (a row lost in each file at different places: the rows between are paired
-    one off). O(n): files
-    whose rows all pair by number are searched for such stretches only where this holds."""
+    """Whether rows of ``T_a`` break the equal-angle rule with their neighbours (:data:`NEAR`
+    rows either side, median) paired by number by :data:`MIN_DEG` or more, and either two
+    rows in a row :data:`GAIN` times more than paired with the rows of b one before or
+    after, or one row :data:`GAIN` times more than the median row and :data:`NEAR_GAIN`
+    times more than paired a row off (a row lost in each file at different places: the
+    rows between are paired one off; in a raster of stations only the rows at its turns
+    show it). O(n): files whose rows all pair by number are searched for such stretches
+    only where this holds."""
     Na, Nb = _near_angles_deg(T_a), _near_angles_deg(T_b)
     n = Na.shape[0]
     with np.errstate(all="ignore"):
@@ -176,8 +181,10 @@ def _shifted_rows_fit(T_a: np.ndarray, T_b: np.ndarray) -> bool:
         best = np.full(n, np.inf)
         best[1:] = np.fmin(best[1:], off[0])
         best[:-1] = np.fmin(best[:-1], off[1])
-        best = np.fmin(best, np.nanmedian(by_number))          # short stretches
-    return bool(np.any((by_number >= MIN_DEG) & (by_number >= GAIN * best)))
+        typical = np.nanmedian(by_number)
+    breaks = (by_number >= MIN_DEG) & (by_number >= GAIN * best)
+    odd = (by_number >= MIN_DEG) & (by_number >= GAIN * typical) & (by_number >= NEAR_GAIN * best)
+    return bool(np.any(breaks[1:] & breaks[:-1]) or np.any(odd))
 
 
 def _stretch_misfits_deg(T_a, T_b, ia, ib) -> tuple[float, float]:
