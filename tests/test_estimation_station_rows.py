@@ -171,3 +171,40 @@ def test_pair_by_lag_pairs_1000_stations_at_their_shift():
     out_a, out_b, paired, notes = pair_by_lag(rec.stream_a, rec.stream_b, smp)
     assert len(notes) == 1 and abs(paired.shift_s - rec.truth_dict()["offset_s"]) < 0.06
     assert out_b.T_world_sensor.shape[0] == 1000
+
+
+def _scara_raster(seed, n_yaw=8, n_z=4, reps=3):
+    """A SCARA's stations on a raster (15 deg yaw steps, 5 cm heights, repeated), a camera
+    looking down (b in mm, 0.1 deg / 1 mm noise): ``(T_a, T_b)``."""
+    from simcalib.geometry import invert_transform, matrix_from_rotvec
+    rng = np.random.default_rng(seed)
+    yaw = np.radians(-35.0 + 15.0 * np.arange(n_yaw))
+    A = np.array([transform_from_rotation_translation(
+        matrix_from_rotvec(np.array([0.0, 0.0, y])),
+        np.array([0.4 * np.cos(y / 2), 0.4 * np.sin(y / 2), 0.2 + 0.05 * k]))
+        for _ in range(reps) for k in range(n_z) for y in yaw])
+    X = transform_from_rotation_translation(matrix_from_rotvec(
+        np.array([np.pi, 0.0, 0.0]) + rng.normal(0, 0.1, 3)), rng.normal(0, 0.1, 3))
+    Y = transform_from_rotation_translation(matrix_from_rotvec(rng.normal(0, 0.3, 3)),
+                                            np.array([0.5, 0.0, 0.0]))
+    B = invert_transform(Y) @ A @ X
+    R = np.array([matrix_from_rotvec(v) for v in np.radians(rng.normal(0, 0.1, (len(A), 3)))])
+    t_mm = 1000.0 * (B[:, :3, 3] + rng.normal(0, 1e-3, (len(A), 3)))
+    B = transform_from_rotation_translation(B[:, :3, :3] @ R, t_mm)
+    return A, B
+
+
+def test_a_raster_of_stations_on_two_clocks_is_paired_by_the_screws_pitch():
+    """A raster repeats its turns: lags of a row of it keep most angles (the angles alone
+    cannot tell the lag); the heights moved along the turns' axes tell it, b in mm."""
+    from simcalib.estimation.station_rows import pair_by_lag
+    from simcalib.importers import stream_from_arrays
+    T_a, T_b = _scara_raster(0)
+    t_a = np.arange(len(T_a), dtype=float)
+    t_b = t_a + 2.3 + np.random.default_rng(0).uniform(-0.05, 0.05, t_a.size)
+    sa = stream_from_arrays(t_a, T_a, source="a", name="a", quat_order="xyzw")
+    sb = stream_from_arrays(t_b, T_b, source="b", name="b", quat_order="xyzw")
+    out_a, out_b, paired, notes = pair_by_lag(sa, sb, classify_sampling(sa, sb))
+    assert len(notes) == 1 and "the screws' pitch" in notes[0]
+    assert abs(paired.shift_s - 2.3) < 0.06 and out_b.T_world_sensor.shape[0] == len(T_a)
+    assert np.array_equal(out_b.T_world_sensor, T_b)             # each row with its own

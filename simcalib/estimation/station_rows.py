@@ -38,7 +38,11 @@ of the smaller 10th-percentile spacing; the lag is the one that pairs :data:`PAI
 sparser stream and whose pairs break the equal-angle rule :data:`LAG_GAIN` times less
 than every other lag that pairs half as many (streams that do not turn: the only lag that
 does; the angles of every two rows of each file are taken once, from their quaternions,
-for every lag: 0.2 s at 1000 rows). b's rows then take their partners' stamps plus that shift, which is the offset
+for every lag: 0.2 s at 1000 rows). Where the angles cannot tell the lag (a raster of
+stations repeats its turns: a lag of a row of it keeps most angles), the other invariant of
+AX = XB may: both sensors move alike along the turn's axis (the screw's pitch;
+:func:`_pitch_lag`, b's scale fitted per lag). b's rows then take their partners' stamps
+plus that shift, which is the offset
 reported. Counters of one continuous motion a lag apart (a pairing that only shifts the
 rows, both streams sampling a motion: :func:`simcalib.estimation.hidden_offset.continuous`)
 are left to :mod:`~simcalib.estimation.hidden_offset`, which tells the lag to a fraction of
@@ -58,7 +62,8 @@ from simcalib.geometry import quat_from_matrix, rotation_angle_rad
 
 __all__ = ["align_rows", "realign_rows", "pair_by_lag", "pair_angles_rad", "PAIRED_SHARE",
            "CAP_DEG", "SKIP_DEG", "MAX_SKIP", "GAIN", "MIN_DEG", "MAX_ROWS", "MIN_PERIOD_S", "LAG_GAIN",
-           "moved_marks", "NEAR", "NEAR_GAIN", "FEW_ROWS"]
+           "moved_marks", "NEAR", "NEAR_GAIN", "FEW_ROWS", "PITCH_MIN_DEG",
+           "PITCH_QUANTILE"]
 
 #: a step's misfit counts at most this much (deg): a wrong pair costs about this
 CAP_DEG = 10.0
@@ -87,10 +92,19 @@ PAIRED_SHARE = 0.8
 #: the lag whose pairs break the equal-angle rule this many times less than any other's
 #: is the one (the public station sets on two clocks, ``two_clocks_b`` in
 #: docs/real-perturbations.md: the right lag 5x (tabb: a grid of repeated orientations)
-#: to 150x better than the next; a SCARA, turning about one axis, 1.1x and the crwhe sets,
-#: 0.4 deg a step, 1.2-1.6x cannot tell it and stay two clocks; a wrong lag cannot beat
+#: to 150x better than the next; a SCARA, turning about one axis, 1.1x (told by the pitch:
+#: :data:`PITCH_QUANTILE`) and the crwhe sets, 0.4 deg a step, 1.2-1.6x cannot tell it and
+#: stay two clocks; a wrong lag cannot beat
 #: the right one's noise-level misfit, so a lower bar than :data:`GAIN` risks little)
 LAG_GAIN = 3.0
+#: where the angles cannot tell the lag, the screws' pitches are compared over the pairs
+#: that turn this much (deg) in both files (the axis of a smaller turn is noise) ...
+PITCH_MIN_DEG = 5.0
+#: ... at this quantile of their misfit (a lag of a row or a column of a raster of stations
+#: keeps most pairs' heights: the median cannot tell it; scara_handeye4dof under
+#: ``two_clocks_b``: the right lag 5.5x less than the next; the crwhe sets 1.0-1.8x: stay
+#: two clocks)
+PITCH_QUANTILE = 0.9
 #: streams on two clocks are taken for stations only where both step by this much or more
 #: (median, s): a robot's moves between stops take a second or more
 MIN_PERIOD_S = 0.5
@@ -296,6 +310,54 @@ def _repaired(sa, sb, sampling, pairs, misfits, crossed: bool):
     return out_a, out_b, classify_sampling(out_a, out_b), [note]
 
 
+def _pitch_matrix(T: np.ndarray) -> np.ndarray:
+    """``(n, n)`` |translation along the rotation axis| of the motion from each pose to each
+    other (the screw's pitch times its angle; NaN where a pose does not turn)."""
+    x, y, z, w = quat_from_matrix(T[:, :3, :3]).T
+    axis = [M - M.T for M in (np.outer(w, x) + np.outer(z, y), np.outer(w, y) + np.outer(x, z),
+                              np.outer(w, z) + np.outer(y, x))]      # conj(q_i) q_j, frame i
+    R, t = T[:, :3, :3], T[:, :3, 3]
+    move = [R[:, :, k] @ t.T - np.sum(R[:, :, k] * t, axis=1)[:, None] for k in range(3)]
+    with np.errstate(all="ignore"):
+        return np.abs(sum(u * m for u, m in zip(axis, move))) / np.sqrt(
+            sum(u * u for u in axis))
+
+
+def _pitch_lag(T_a, T_b, angles, fits, n: int):
+    """``((shift, ia, ib), why)`` of the lag told by the screws' pitches where the angles do
+    not tell it (``fits``: pair_by_lag's, best first), or None. The other invariant of
+    AX = XB: both sensors move alike along the turn's axis. Over the pairs that turn
+    :data:`PITCH_MIN_DEG` or more in both files, b's scale fitted per lag (least squares:
+    the files' units need not agree), the :data:`PITCH_QUANTILE` quantile of the pitches'
+    misfit over b's median pitch; the lag whose misfit is :data:`LAG_GAIN` times less than
+    every other's, pairing :data:`PAIRED_SHARE` of the rows, and not ruled out by the angles
+    (within :data:`LAG_GAIN` of the best) is the one (a raster of stations repeats its
+    turns: a lag of a row or a column of it keeps most angles, not the heights)."""
+    D_a, D_b = _pitch_matrix(T_a), _pitch_matrix(T_b)
+    out = []
+    for misfit, _, shift, ia, ib in fits:
+        r, c = np.triu_indices(ia.size, 1)
+        turn = (angles[0][ia[r], ia[c]] >= PITCH_MIN_DEG) & (angles[1][ib[r], ib[c]]
+                                                            >= PITCH_MIN_DEG)
+        da, db = D_a[ia[r], ia[c]][turn], D_b[ib[r], ib[c]][turn]
+        if da.size < 10 or not np.dot(da, da) > 0 or not np.median(db) > 0:
+            continue
+        scale = np.dot(da, db) / np.dot(da, da)
+        out.append((float(np.quantile(np.abs(scale * da - db), PITCH_QUANTILE)
+                          / np.median(db)), misfit, shift, ia, ib))
+    out.sort(key=lambda f: f[0])
+    if len(out) < 2 or not out[1][0] >= LAG_GAIN * out[0][0]:
+        return None
+    pitch, misfit, shift, ia, ib = out[0]
+    if ia.size < PAIRED_SHARE * n or misfit >= LAG_GAIN * fits[0][0]:
+        return None
+    return (shift, ia, ib), (
+        f"the shift whose pairs move alike along their turns' axes best (the screws' pitch, "
+        f"b's scale fitted: misfit {pitch:.2g} of b's median, the next {out[1][0]:.2g}; the "
+        f"rotation angles could not tell it: {misfit:.2g} deg, median, the least "
+        f"{fits[0][0]:.2g} deg)")
+
+
 def pair_by_lag(sa, sb, sampling):
     """:func:`realign_rows` for station streams on two clocks (module doc): b's rows take
     their partners' stamps plus the shift, and the sampling is stamps shared after that
@@ -317,8 +379,13 @@ def pair_by_lag(sa, sb, sampling):
         return sa, sb, sampling, []
     best, _, shift, ia, ib = fits[0]
     runner = fits[1][0] if len(fits) > 1 else math.inf
+    why = (f"the shift whose pairs break the rule both sensors turn alike least ({best:.2g} "
+           f"deg, median; the next {runner:.2g} deg)")
     if not (runner > 0 and runner >= LAG_GAIN * best):       # none turns: every lag fits
-        return sa, sb, sampling, []
+        pick = _pitch_lag(Ta, Tb, (Aa, Ab), fits, n)
+        if pick is None:
+            return sa, sb, sampling, []
+        (shift, ia, ib), why = pick
     out_a = replace(sa, timestamps_s=ta[ia], T_world_sensor=Ta[ia], repairs=dict(
         sa.repairs, rows_without_a_partner=int(ta.size - ia.size)))
     out_b = replace(sb, timestamps_s=ta[ia] + shift, T_world_sensor=Tb[ib], repairs=dict(
@@ -328,8 +395,7 @@ def pair_by_lag(sa, sb, sampling):
     spread = float(np.max(np.abs(tb[ib] - ta[ia] - shift)))
     note = (f"the stations of a ({ta.size}) and b ({tb.size}) carry two clocks: paired one to "
             f"one with b {shift:.6g} s later (the offset used; stamps within {spread:.3g} s "
-            f"of it), the shift whose pairs break the rule both sensors turn alike least "
-            f"({best:.2g} deg, median; the next {runner:.2g} deg)")
+            f"of it), {why}")
     period = median_period(ta[ia])
     paired = Sampling("shared_stamps", True, 1e-3 * period + 1e-9, int(ia.size), int(ia.size),
                       int(ib.size), period, period, reason=note + ": poses paired by station",
