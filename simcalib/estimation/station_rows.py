@@ -80,8 +80,9 @@ MIN_DEG = 0.5
 #: number (a row lost in each at different places)
 NEAR = 2
 #: ... where one row breaks the rule this many times more paired by number than a row off
-#: (and :data:`GAIN` times more than the median row; noisy rows fit a row off ~2x better)
-NEAR_GAIN = 3.0
+#: (and :data:`GAIN` times more than the median row; noisy rows fit a row off up to ~4x
+#: better: crwhe_tag0_cam1 row 177)
+NEAR_GAIN = 5.0
 #: ... searched for such stretches in full (:func:`align_rows`) up to this many rows, beyond
 #: only where a row's neighbours tell it (:func:`_shifted_rows_fit`; ~3 ms at 250 rows)
 FEW_ROWS = 50
