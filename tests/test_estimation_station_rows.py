@@ -100,3 +100,111 @@ def test_world_jump_marks_move_with_the_rows_new_stamps():
     out_b = realign_rows(rec.stream_a, lost, classify_sampling(rec.stream_a, lost))[1]
     j = int(np.searchsorted(lost.timestamps_s, k + 2))      # the marked row, renumbered
     assert out_b.world_jumps_s == (float(out_b.timestamps_s[j]),)
+
+
+def _lost_rows_ab(sa, sb, k_a, k_b):
+    """Row ``k_a`` lost from a and ``k_b`` from b, each file renumbered: every row still
+    pairs by number, the rows between ``k_b`` and ``k_a`` one off."""
+    return _lost_row(sa, k_a), _lost_row(sb, k_b)
+
+
+@pytest.mark.parametrize("kind, seed, stations", [("stations", 0, None), ("scara", 2, None),
+                                                  ("stations", 2, 120)])
+def test_a_row_lost_in_each_file_at_different_places_is_paired_by_motion(kind, seed, stations):
+    """Both files hold 0..n-2 and pair by number, but the rows between the two lost ones
+    are paired one off (120 stations: past FEW_ROWS, found by the neighbours' test)."""
+    rec = generate(kind, seed, **({} if stations is None else {"stations": stations}))
+    n = rec.stream_a.timestamps_s.size
+    sa, sb = _lost_rows_ab(rec.stream_a, rec.stream_b, 2 * n // 3, n // 3)
+    smp = classify_sampling(sa, sb)
+    assert smp.shared == n - 1                          # every row pairs by number
+    out_a, out_b, _, notes = realign_rows(sa, sb, smp)
+    assert len(notes) == 1 and "pair by number, but rows numbered" in notes[0]
+    assert out_a.repairs["rows_without_a_partner"] == 1
+    assert out_b.repairs["rows_without_a_partner"] == 1
+    assert out_b.T_world_sensor.shape[0] == n - 2
+    r = calibrate_streams(sa, sb)
+    assert len(r.summary["station_rows"]) == 1
+    assert np.degrees(rotation_error_rad(r.X, rec.X_true)) < 0.3
+    up = 2 if kind == "scara" else 3                    # a SCARA's X: z undetermined
+    assert np.linalg.norm(r.X[:up, 3] - rec.X_true[:up, 3]) < 5e-3
+
+
+@pytest.mark.parametrize("kind", ["stations", "stations_short", "scara", "robot_error",
+                                  "bursts", "scale_stations"])
+def test_files_whose_rows_are_right_are_not_re_paired(kind):
+    for seed in range(0, 8, 2):                 # index-stamped in even seeds
+        rec = generate(kind, seed)
+        sa, sb = rec.stream_a, rec.stream_b
+        smp = classify_sampling(sa, sb)
+        assert realign_rows(sa, sb, smp) == (sa, sb, smp, [])
+
+
+def test_the_neighbours_test_sees_a_stretch_paired_one_off_and_not_right_rows():
+    from simcalib.estimation.station_rows import _shifted_rows_fit
+    rec = generate("stations", 0, stations=120)
+    T_a, T_b = np.asarray(rec.stream_a.T_world_sensor), np.asarray(rec.stream_b.T_world_sensor)
+    assert not _shifted_rows_fit(T_a, T_b)
+    assert _shifted_rows_fit(np.delete(T_a, 80, axis=0), np.delete(T_b, 40, axis=0))
+
+
+def test_angles_from_quaternions_equal_the_angles_of_every_two_poses():
+    """pair_by_lag's angles (from the quaternions, 10x cheaper at 1000 rows) are
+    pair_angles_rad's, near 0 and near 180 deg too."""
+    from simcalib.estimation.station_rows import _quat_angles_deg, pair_angles_rad
+    from simcalib.geometry import matrix_from_rotvec
+    rng = np.random.default_rng(1)
+    R = random_rotation_matrices(rng, (60,))
+    R[10] = R[9] @ matrix_from_rotvec(np.array([1e-7, 0.0, 0.0]))
+    R[11] = R[9] @ matrix_from_rotvec(np.array([0.0, np.pi - 1e-6, 0.0]))
+    R[12] = R[9]
+    T = transform_from_rotation_translation(R, rng.normal(size=(60, 3)))
+    got, want = _quat_angles_deg(T), np.degrees(pair_angles_rad(T))
+    assert np.allclose(got, want, rtol=1e-9, atol=1e-10)
+    assert abs(got[9, 10] - np.degrees(1e-7)) < 1e-12 and got[9, 12] == 0.0
+
+
+def test_pair_by_lag_pairs_1000_stations_at_their_shift():
+    from simcalib.estimation.station_rows import pair_by_lag
+    rec = generate("stations_two_clocks", 0, stations=1000)
+    smp = classify_sampling(rec.stream_a, rec.stream_b)
+    out_a, out_b, paired, notes = pair_by_lag(rec.stream_a, rec.stream_b, smp)
+    assert len(notes) == 1 and abs(paired.shift_s - rec.truth_dict()["offset_s"]) < 0.06
+    assert out_b.T_world_sensor.shape[0] == 1000
+
+
+def _scara_raster(seed, n_yaw=8, n_z=4, reps=3):
+    """A SCARA's stations on a raster (15 deg yaw steps, 5 cm heights, repeated), a camera
+    looking down (b in mm, 0.1 deg / 1 mm noise): ``(T_a, T_b)``."""
+    from simcalib.geometry import invert_transform, matrix_from_rotvec
+    rng = np.random.default_rng(seed)
+    yaw = np.radians(-35.0 + 15.0 * np.arange(n_yaw))
+    A = np.array([transform_from_rotation_translation(
+        matrix_from_rotvec(np.array([0.0, 0.0, y])),
+        np.array([0.4 * np.cos(y / 2), 0.4 * np.sin(y / 2), 0.2 + 0.05 * k]))
+        for _ in range(reps) for k in range(n_z) for y in yaw])
+    X = transform_from_rotation_translation(matrix_from_rotvec(
+        np.array([np.pi, 0.0, 0.0]) + rng.normal(0, 0.1, 3)), rng.normal(0, 0.1, 3))
+    Y = transform_from_rotation_translation(matrix_from_rotvec(rng.normal(0, 0.3, 3)),
+                                            np.array([0.5, 0.0, 0.0]))
+    B = invert_transform(Y) @ A @ X
+    R = np.array([matrix_from_rotvec(v) for v in np.radians(rng.normal(0, 0.1, (len(A), 3)))])
+    t_mm = 1000.0 * (B[:, :3, 3] + rng.normal(0, 1e-3, (len(A), 3)))
+    B = transform_from_rotation_translation(B[:, :3, :3] @ R, t_mm)
+    return A, B
+
+
+def test_a_raster_of_stations_on_two_clocks_is_paired_by_the_screws_pitch():
+    """A raster repeats its turns: lags of a row of it keep most angles (the angles alone
+    cannot tell the lag); the heights moved along the turns' axes tell it, b in mm."""
+    from simcalib.estimation.station_rows import pair_by_lag
+    from simcalib.importers import stream_from_arrays
+    T_a, T_b = _scara_raster(0)
+    t_a = np.arange(len(T_a), dtype=float)
+    t_b = t_a + 2.3 + np.random.default_rng(0).uniform(-0.05, 0.05, t_a.size)
+    sa = stream_from_arrays(t_a, T_a, source="a", name="a", quat_order="xyzw")
+    sb = stream_from_arrays(t_b, T_b, source="b", name="b", quat_order="xyzw")
+    out_a, out_b, paired, notes = pair_by_lag(sa, sb, classify_sampling(sa, sb))
+    assert len(notes) == 1 and "the screws' pitch" in notes[0]
+    assert abs(paired.shift_s - 2.3) < 0.06 and out_b.T_world_sensor.shape[0] == len(T_a)
+    assert np.array_equal(out_b.T_world_sensor, T_b)             # each row with its own

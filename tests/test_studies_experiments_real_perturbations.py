@@ -49,6 +49,17 @@ def test_perturbations_do_what_they_say():
         perturb("flip", a, b, rng)
 
 
+def test_lost_rows_ab_loses_a_row_of_each_file_at_different_places():
+    a, b = _rows(), _rows(seed=1)
+    n = len(a)
+    pa, pb = perturb("lost_rows_ab", a, b, np.random.default_rng(0))
+    assert len(pa) == len(pb) == n - 1                            # every row pairs by number
+    assert np.array_equal(pa[:, 0], a[:n - 1, 0]) and np.array_equal(pb[:, 0], a[:n - 1, 0])
+    assert np.array_equal(pa[:, 1:], np.delete(a, 2 * n // 3, axis=0)[:, 1:])
+    assert np.array_equal(pb[:, 1:], np.delete(b, n // 3, axis=0)[:, 1:])
+    assert np.array_equal(a, _rows()) and np.array_equal(b, _rows(seed=1))
+
+
 def _cal(X, clear=True, offset=0.0, sr=0.01, st=0.001):
     return {"X": {"T_a_b": X.tolist()}, "time_offset": {"offset_s": offset},
             "conventions": {"clear": clear},
@@ -78,7 +89,7 @@ def test_registered_as_an_experiment():
                     reason="../shared/data/real is absent")
 def test_a_station_set_sees_through_its_perturbations():
     names = ["invert_b", "wxyz_b", "mm_b", "shuffled_rows_b", "lost_row_b", "two_clocks_b",
-             "mirror_b"]
+             "mirror_b", "lost_rows_ab"]
     out = run_sets(["rwhecalib_kuka_1"], names)
     assert [o.perturbation for o in out] == names
     assert all(o.verdict == "ok" for o in out), out

@@ -20,6 +20,9 @@ then with one perturbation at a time whose effect on the answer is known:
 * ``lost_row_b`` (station sets): b's row a third of the way in lost (a failed detection)
   and the later rows renumbered, so that b's rows take the stamps of a's first ones: X
   must stay;
+* ``lost_rows_ab`` (station sets): a row lost in each file at different places (b's a
+  third of the way in, a's two thirds), each file renumbered: every row still pairs by
+  number, the rows between paired one off: X must stay;
 * ``two_clocks_b`` (station sets): b stamped by another computer's clock, 2.3 s late with
   +-50 ms of trigger jitter (no stamp shared): X must stay;
 * ``mm_b``: b's translations in millimetres: refused as a unit mismatch (exit 3) or
@@ -60,7 +63,7 @@ PERTURBATIONS = {
     "wxyz_b": (True, True), "neg_quat_half_b": (True, True), "mm_b": (True, True),
     "shuffled_rows_b": (False, True), "epoch_b": (True, False), "reset_b": (True, True),
     "lost_row_b": (False, True), "two_clocks_b": (False, True),
-    "mirror_b": (True, True)}
+    "mirror_b": (True, True), "lost_rows_ab": (False, True)}
 SHIFTS_S = {"offset+0.25s": 0.25, "offset-30s": -30.0}
 #: ``epoch_b`` moves stamps on a recording's clock by this much (a Unix time, 2025-12)
 UNIX_EPOCH_S = 1.765e9
@@ -126,6 +129,10 @@ def perturb(name: str, a: np.ndarray, b: np.ndarray, rng: np.random.Generator):
     elif name == "lost_row_b":
         b = np.delete(b, len(b) // 3, axis=0)
         b[:, 0] = a[:len(b), 0]
+    elif name == "lost_rows_ab":                # a lost row 2n/3, b row n/3; both renumbered
+        t = a[:, 0].copy()
+        a, b = np.delete(a, 2 * len(a) // 3, axis=0), np.delete(b, len(b) // 3, axis=0)
+        a[:, 0], b[:, 0] = t[:len(a)], t[:len(b)]
     elif name == "mirror_b":                    # a left-handed file: z -> -z, (-x, -y, z, w)
         b[:, [3, 4, 5]] *= -1.0
     elif name != "base":
