@@ -55,14 +55,16 @@ def correlation_lags_full(x_size: int, y_size: int) -> np.ndarray:
     return np.arange(-int(y_size) + 1, int(x_size))
 
 
-def running_median(w: np.ndarray, size: int) -> np.ndarray:
+def running_median(w: np.ndarray, size: int, mode: str = "edge") -> np.ndarray:
     """``scipy.ndimage.median_filter(w, size=size, mode="nearest")`` of a 1-D array: the
-    median over ``size`` (odd) samples centred on each (the ends repeated outward)."""
+    median over ``size`` (odd) samples centred on each (the ends repeated outward;
+    ``mode="symmetric"``: the samples next to an end mirrored outward, ``np.pad``'s
+    modes)."""
     if int(size) != size or size < 1 or size % 2 == 0:
         raise ValueError(f"running_median needs an odd window size >= 1; received {size!r}")
     w = np.asarray(w, np.float64)
     if w.size == 0 or size == 1:
         return w.copy()
     half = int(size) // 2
-    padded = np.pad(w, (half, half), mode="edge")
+    padded = np.pad(w, (half, half), mode=mode)
     return np.median(np.lib.stride_tricks.sliding_window_view(padded, int(size)), axis=1)
