@@ -100,3 +100,23 @@ def test_world_jump_marks_move_with_the_rows_new_stamps():
     out_b = realign_rows(rec.stream_a, lost, classify_sampling(rec.stream_a, lost))[1]
     j = int(np.searchsorted(lost.timestamps_s, k + 2))      # the marked row, renumbered
     assert out_b.world_jumps_s == (float(out_b.timestamps_s[j]),)
+
+
+def test_pair_angles_are_computed_once_per_pair(monkeypatch):
+    from simcalib.estimation import station_rows
+    from simcalib.geometry import random_rotation_matrices, rotation_angle_rad
+    rng = np.random.default_rng(3)
+    T = np.tile(np.eye(4), (40, 1, 1))
+    T[:, :3, :3] = random_rotation_matrices(rng, (40,))
+    T[20:, :3, :3] += 1e-6 * rng.standard_normal((20, 3, 3))   # not quite orthonormal
+    R = T[:, :3, :3]
+    every = rotation_angle_rad(np.swapaxes(R, 1, 2)[:, None] @ R[None])
+    seen = []
+
+    def counted(M):
+        seen.append(M.shape[0])
+        return rotation_angle_rad(M)
+    monkeypatch.setattr(station_rows, "rotation_angle_rad", counted)
+    got = station_rows.pair_angles_rad(T)
+    assert seen == [40 * 41 // 2]
+    assert got.shape == (40, 40) and got.tobytes() == every.tobytes()
