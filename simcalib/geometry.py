@@ -219,7 +219,7 @@ def quat_from_matrix(R: np.ndarray) -> np.ndarray:
     numerators (the same operations on the same numbers as computing all four branches
     and picking one, a few times faster).
     """
-    R = np.asarray(R, dtype=np.float64)
+    R = np.asarray(R, dtype=np.float64)[..., :3, :3]          # (a 4x4 transform's block)
     shape = R.shape[:-2]
     r = np.ascontiguousarray(np.reshape(R, (-1, 9)).T)          # (9, n): one row an entry
     m00, m01, m02, m10, m11, m12, m20, m21, m22 = r

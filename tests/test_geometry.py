@@ -154,7 +154,7 @@ def test_quat_from_matrix_is_the_all_branches_formula_to_the_bit(rng):
              Rotation.from_rotvec(np.pi * g.random_rotation_matrices(rng, 50)[:, 0]).as_matrix(),
              np.eye(3), np.zeros((3, 3)), np.diag([1.0, -1, -1]), np.diag([-1.0, -1, 1]),
              R[:0], R[:600].reshape(20, 30, 3, 3)[:, ::2], np.swapaxes(R[:300], -1, -2),
-             np.full((2, 3, 3), np.nan)]
+             np.full((2, 3, 3), np.nan), _random_T(rng, 30)]         # 4x4: the 3x3 block
     with np.errstate(invalid="ignore", divide="ignore"):
         for M in cases:
             got, want = g.quat_from_matrix(M), _quat_all_branches(np.asarray(M, float))
