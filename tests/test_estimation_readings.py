@@ -170,3 +170,21 @@ def test_a_mirrored_scalar_first_b_is_told_with_its_quaternion_order():
     conv = r.conventions
     assert conv.mirror_b and conv.swap_scalar_b and not conv.swap_scalar_a, conv.message
     assert rot_deg < 0.5 and trans_mm < 5.0, (rot_deg, trans_mm)
+
+
+def test_a_readings_score_takes_ransacs_residuals_to_the_bit(monkeypatch):
+    import numpy as np
+
+    from simcalib.estimation import readings
+    from simcalib.solvers import robust
+    from simcalib.world.synthetic import synthetic_problem
+    p = synthetic_problem("random", 60, np.random.default_rng(2))
+    C, H = p.C, p.H
+    rob = robust.ransac(C, H, alpha=1.0, rng=np.random.default_rng(0), max_iterations=256)
+    want = float(np.median(robust.screw_residuals(C, H, rob.X, alpha=1.0)))
+
+    def refused(*a, **k):
+        raise AssertionError("the residuals of RANSAC's X computed again")
+    monkeypatch.setattr(robust, "screw_residuals", refused)
+    score, X = readings._reading_score(C, H, 1.0, 0)
+    assert score == want and X.tobytes() == rob.X.tobytes()

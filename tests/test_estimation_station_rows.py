@@ -208,3 +208,23 @@ def test_a_raster_of_stations_on_two_clocks_is_paired_by_the_screws_pitch():
     assert len(notes) == 1 and "the screws' pitch" in notes[0]
     assert abs(paired.shift_s - 2.3) < 0.06 and out_b.T_world_sensor.shape[0] == len(T_a)
     assert np.array_equal(out_b.T_world_sensor, T_b)             # each row with its own
+
+
+def test_pair_angles_are_computed_once_per_pair(monkeypatch):
+    from simcalib.estimation import station_rows
+    from simcalib.geometry import random_rotation_matrices, rotation_angle_rad
+    rng = np.random.default_rng(3)
+    T = np.tile(np.eye(4), (40, 1, 1))
+    T[:, :3, :3] = random_rotation_matrices(rng, (40,))
+    T[20:, :3, :3] += 1e-6 * rng.standard_normal((20, 3, 3))   # not quite orthonormal
+    R = T[:, :3, :3]
+    every = rotation_angle_rad(np.swapaxes(R, 1, 2)[:, None] @ R[None])
+    seen = []
+
+    def counted(M):
+        seen.append(M.shape[0])
+        return rotation_angle_rad(M)
+    monkeypatch.setattr(station_rows, "rotation_angle_rad", counted)
+    got = station_rows.pair_angles_rad(T)
+    assert seen == [40 * 41 // 2]
+    assert got.shape == (40, 40) and got.tobytes() == every.tobytes()

@@ -135,3 +135,39 @@ def test_matrix_from_euler_zyx_is_z_then_new_y_then_newest_x():
     assert np.allclose(matrix_from_euler_zyx(angles), want, atol=1e-14)
     assert np.allclose(matrix_from_euler_zyx([0.3, 0.0, 0.0]),
                        Rotation.from_rotvec([0, 0, 0.3]).as_matrix(), atol=1e-15)
+
+
+def _quat_all_branches(R):
+    """The formula quat_from_matrix had: all four branches for every element, one picked."""
+    m00, m11, m22 = R[..., 0, 0], R[..., 1, 1], R[..., 2, 2]
+    diag = np.stack([1 + m00 - m11 - m22, 1 - m00 + m11 - m22,
+                     1 - m00 - m11 + m22, 1 + m00 + m11 + m22], axis=-1)
+    k = np.argmax(diag, axis=-1)
+    s = 2.0 * np.sqrt(np.maximum(np.take_along_axis(diag, k[..., None], -1)[..., 0], 1e-300))
+    d21, d02, d10 = R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], \
+        R[..., 1, 0] - R[..., 0, 1]
+    s01, s02, s12 = R[..., 0, 1] + R[..., 1, 0], R[..., 0, 2] + R[..., 2, 0], \
+        R[..., 1, 2] + R[..., 2, 1]
+    cand = np.stack([np.stack([0.25 * s, s01 / s, s02 / s, d21 / s], -1),
+                     np.stack([s01 / s, 0.25 * s, s12 / s, d02 / s], -1),
+                     np.stack([s02 / s, s12 / s, 0.25 * s, d10 / s], -1),
+                     np.stack([d21 / s, d02 / s, d10 / s, 0.25 * s], -1)], axis=-2)
+    q = np.take_along_axis(cand, k[..., None, None], axis=-2)[..., 0, :]
+    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    return np.where(q[..., 3:4] < 0, -q, q)
+
+
+def test_quat_from_matrix_is_the_all_branches_formula_to_the_bit(rng):
+    R = g.random_rotation_matrices(rng, 20000)
+    cases = [R, R + 1e-3 * rng.standard_normal(R.shape), rng.standard_normal((2000, 3, 3)),
+             np.rint(rng.standard_normal((2000, 3, 3)) * 2) / 2,      # ties of the branches
+             Rotation.from_rotvec(np.pi * g.random_rotation_matrices(rng, 50)[:, 0]).as_matrix(),
+             np.eye(3), np.zeros((3, 3)), np.diag([1.0, -1, -1]), np.diag([-1.0, -1, 1]),
+             R[:0], R[:600].reshape(20, 30, 3, 3)[:, ::2], np.swapaxes(R[:300], -1, -2),
+             np.full((2, 3, 3), np.nan), _random_T(rng, 30)]         # 4x4: the 3x3 block
+    with np.errstate(invalid="ignore", divide="ignore"):
+        for M in cases:
+            got, want = g.quat_from_matrix(M), _quat_all_branches(np.asarray(M, float))
+            assert got.shape == want.shape and got.dtype == want.dtype
+            assert got.tobytes() == want.tobytes()
+

@@ -208,3 +208,26 @@ def test_ransac_on_pure_translation_draws_sets_by_translation_direction():
     assert "pure translation" in r.message
     assert np.array_equal(r.inlier_mask, ~bad)
     assert np.degrees(rotation_error_rad(r.X, X)) < 0.1
+
+
+def test_minimal_pairs_are_argpartitions_pairs_without_argpartition(monkeypatch):
+    from simcalib.solvers import robust
+    axes = random_rotation_matrices(np.random.default_rng(5), (300,))[:, 0]
+    want = [robust._draw_minimal_sets(np.random.default_rng(s), axes, 64, 2, 0.2)
+            for s in range(5)]
+
+    def refused(*a, **k):
+        raise AssertionError("argpartition called for pairs")
+    monkeypatch.setattr(robust.np, "argpartition", refused)
+    for s in range(5):
+        keys = np.random.default_rng(s).random((64, 300))
+        got = robust._two_smallest(keys)
+        monkeypatch.undo()
+        assert np.array_equal(got, np.argpartition(keys, 1, axis=1)[:, :2])
+        monkeypatch.setattr(robust.np, "argpartition", refused)
+        assert np.array_equal(
+            robust._draw_minimal_sets(np.random.default_rng(s), axes, 64, 2, 0.2), want[s])
+    # a tie among a row's two smallest keys: argpartition's own order (None here)
+    assert robust._two_smallest(np.array([[0.5, 0.1, 0.1, 0.9]])) is None
+    assert robust._two_smallest(np.array([[0.5, 0.1, 0.2, 0.2]])) is None
+    assert robust._two_smallest(np.array([[0.5, 0.1, 0.2, 0.3]])).tolist() == [[1, 2]]

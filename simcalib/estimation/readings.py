@@ -376,10 +376,13 @@ def _reading_score(C, H, alpha: float, seed: int) -> tuple[float, np.ndarray]:
     from simcalib.solvers.api import solve
     from simcalib.solvers.robust import ransac, screw_residuals
     try:
-        X = ransac(C, H, alpha=alpha, rng=np.random.default_rng(seed), max_iterations=256).X
+        rob = ransac(C, H, alpha=alpha, rng=np.random.default_rng(seed), max_iterations=256)
     except (ValueError, RuntimeError):   # RANSAC: too few motions / no consensus
         X = solve(C, H, method="dqopt", alpha=alpha).X
-    return float(np.median(screw_residuals(C, H, X, alpha=alpha))), X
+        return float(np.median(screw_residuals(C, H, X, alpha=alpha))), X
+    # RANSAC's residuals are screw_residuals(C, H, X, alpha) of its X, to the bit (the same
+    # motion matrices and X): not computed again
+    return float(np.median(rob.residuals)), rob.X
 
 
 def _closest_to_written(ranked, scores, written):

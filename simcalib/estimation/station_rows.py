@@ -115,7 +115,13 @@ def pair_angles_rad(T: np.ndarray) -> np.ndarray:
     """``(n, n)`` rotation angles (rad) between every two poses ``T`` (n, 4, 4): the
     motions' angles, which both sensors of a rigid rig share."""
     R = T[:, :3, :3]
-    return rotation_angle_rad(np.swapaxes(R, 1, 2)[:, None] @ R[None])
+    M = np.swapaxes(R, 1, 2)[:, None] @ R[None]
+    # M[j, i] is M[i, j] transposed to the bit (the same products summed in the same
+    # order), whose quaternion differs only in signs: one angle per pair, mirrored
+    i, j = np.triu_indices(R.shape[0])
+    A = np.empty(M.shape[:2])
+    A[i, j] = A[j, i] = rotation_angle_rad(M[i, j])
+    return A
 
 
 def _angles(T: np.ndarray) -> np.ndarray:
