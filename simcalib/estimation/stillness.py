@@ -57,19 +57,33 @@ def _poses(stream) -> np.ndarray:
     return np.asarray(T, dtype=np.float64)
 
 
+def _stretches(stream, n: int) -> list[slice]:
+    """The rows of each stretch of a stream's world (between its ``world_jumps_s``: a
+    jump of the world frame is no motion of the rig)."""
+    jumps = np.asarray(getattr(stream, "world_jumps_s", ()), dtype=np.float64)
+    if not jumps.size:
+        return [slice(0, n)]
+    cuts = np.searchsorted(np.asarray(stream.timestamps_s, dtype=np.float64), jumps)
+    edges = [0, *cuts.tolist(), n]
+    return [slice(a, b) for a, b in zip(edges[:-1], edges[1:]) if b > a]
+
+
 def rotation_extent_deg(stream) -> float:
     """How far a stream turns: the 90th percentile of its poses' angles from the first
-    pose (outlier poses do not count)."""
+    pose of their world's stretch (outlier poses do not count)."""
     R = _poses(stream)[:, :3, :3]
-    return float(np.degrees(np.percentile(rotation_angle_rad(R[0].T[None] @ R), 90)))
+    angles = [rotation_angle_rad(R[k][0].T[None] @ R[k]) for k in _stretches(stream, len(R))]
+    return float(np.degrees(np.percentile(np.concatenate(angles), 90)))
 
 
 def translation_extent_m(stream) -> float:
     """How far a stream translates: the 90th percentile of its positions' distances from
-    their median (outlier poses do not count). The same for the file's inverse poses when
-    the stream does not rotate (``p' = -R^T p`` with one ``R``)."""
+    their world stretch's median (outlier poses do not count). The same for the file's
+    inverse poses when the stream does not rotate (``p' = -R^T p`` with one ``R``)."""
     p = _poses(stream)[:, :3, 3]
-    return float(np.percentile(np.linalg.norm(p - np.median(p, axis=0), axis=1), 90))
+    d = [np.linalg.norm(p[k] - np.median(p[k], axis=0), axis=1)
+         for k in _stretches(stream, len(p))]
+    return float(np.percentile(np.concatenate(d), 90))
 
 
 def white_positions(stream) -> str | None:
