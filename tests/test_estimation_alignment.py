@@ -451,22 +451,6 @@ def test_a_noisy_faster_stream_tells_no_offset_either():
     assert "move stream a by" in off.message and "cannot tell an offset" in off.message
 
 
-def test_despiking_takes_an_outlier_pose_at_an_end_and_a_cluster_of_them():
-    from simcalib.estimation.alignment import _despike
-    t = np.arange(600) / 30.0
-    clean = 0.3 + 0.1 * np.sin(t)
-    w = clean.copy()
-    w[-2:] = [5.5, 5.9]                     # an outlier pose next to the end: two spikes
-    w[100:105] = 16.0                        # outlier poses close together
-    w[101] = 0.3
-    out = _despike(w)
-    assert out.max() < 0.5 and np.abs(out - clean)[20:-20].max() < 0.05
-    assert np.array_equal(_despike(clean), _despike(clean))
-    smooth = 0.3 + 0.2 * np.sin(t)          # a motion keeps the first filter
-    from simcalib.estimation.alignment import DESPIKE_FILTERS, _medians
-    assert np.array_equal(_despike(smooth), _medians(smooth, *DESPIKE_FILTERS[0]))
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", [0, 1])
 def test_a_large_offset_with_outlier_poses_is_found(seed):

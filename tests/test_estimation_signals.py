@@ -5,8 +5,8 @@ import pytest
 from scipy.ndimage import median_filter
 from scipy.signal import correlate, correlation_lags, fftconvolve
 
-from simcalib.estimation.signals import (correlate_full, correlation_lags_full, fft_convolve,
-                                         running_median)
+from simcalib.estimation.signals import (_medians, correlate_full, correlation_lags_full,
+                                        despike, DESPIKE_FILTERS, fft_convolve, running_median)
 
 
 @pytest.mark.parametrize("nx, ny", [(1, 1), (7, 3), (100, 173), (1000, 999), (2, 50)])
@@ -40,3 +40,18 @@ def test_running_median_matches_scipy(n, size):
 def test_running_median_refuses_an_even_or_broken_window(size):
     with pytest.raises(ValueError, match="odd window size"):
         running_median(np.arange(5.0), size)
+
+
+def test_despiking_takes_an_outlier_pose_at_an_end_and_a_cluster_of_them():
+    t = np.arange(600) / 30.0
+    clean = 0.3 + 0.1 * np.sin(t)
+    w = clean.copy()
+    w[-2:] = [5.5, 5.9]                     # an outlier pose next to the end: two spikes
+    w[100:105] = 16.0                        # outlier poses close together
+    w[101] = 0.3
+    out = despike(w)
+    assert out.max() < 0.5 and np.abs(out - clean)[20:-20].max() < 0.05
+    assert np.array_equal(despike(clean), despike(clean))
+    smooth = 0.3 + 0.2 * np.sin(t)          # a motion keeps the first filter
+    assert np.array_equal(despike(smooth), _medians(smooth, *DESPIKE_FILTERS[0]))
+

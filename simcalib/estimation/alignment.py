@@ -31,6 +31,7 @@ from simcalib.estimation.drift import (check_drift, drift_applied, drift_from_ha
 from simcalib.estimation.interpolation import interpolate_poses, max_hole_s, smooth_poses
 from simcalib.estimation.speeds import SPEEDS, as_time_poses, checked_signal, speed_steps
 from simcalib.estimation.worlds import instant_worlds
+from simcalib.estimation.signals import despike
 from simcalib.geometry import invert_transform, rotation_angle_rad
 
 __all__ = ["TimeOffset", "SyncedPoses", "estimate_time_offset", "synchronise", "make_motions",
@@ -279,40 +280,6 @@ def _normalised_xcorr(x: np.ndarray, y: np.ndarray, min_overlap: int):
     return lags, r
 
 
-#: running-median windows (samples) and their padding at the ends, tried in turn to
-#: despike a speed signal (:func:`_despike`)
-DESPIKE_FILTERS = ((9, "edge"), (9, "symmetric"), (15, "symmetric"), (21, "symmetric"),
-                   (27, "symmetric"))
-
-
-def _despike(w: np.ndarray) -> np.ndarray:
-    """Speeds with outlier poses' spikes removed: a running median over 9 samples (two
-    passes), which ignores spikes below half of a window (an outlier pose makes two
-    adjacent spikes), then a short median over 3. Where spikes survive, the next filter of
-    :data:`DESPIKE_FILTERS` whose peak is at most twice every later filter's is taken (a
-    motion keeps its peak through a wider median, spikes do not): an
-    outlier pose next to an end (the end's value repeated outward kept its two spikes: 6
-    rad/s on a motion of 0.3), or outlier poses close enough together to fill half a window
-    (10 % of a 30 Hz camera's poses, some in pairs: spikes of 17 rad/s survived and the
-    correlation with the clean speeds fell to 0.18)."""
-    first = _medians(w, *DESPIKE_FILTERS[0])
-    if not first.size:
-        return first
-    outs = [first] + [_medians(w, size, mode) for size, mode in DESPIKE_FILTERS[1:]]
-    peaks = np.array([np.max(o) for o in outs])
-    for k, out in enumerate(outs[:-1]):
-        if not peaks[k] > 2.0 * np.min(peaks[k + 1:]):
-            return out
-    return outs[-1]
-
-
-def _medians(w: np.ndarray, size: int, mode: str) -> np.ndarray:
-    from simcalib.estimation.signals import running_median
-    for _ in range(2):
-        w = running_median(w, size, mode)
-    return running_median(w, 3, mode)
-
-
 def _raise_if_unmeasurable(ta, tb, x, y, min_overlap, signal="rotation"):
     """The stamps overlap but the offset cannot be measured: too few poses, or a stream
     that does not move (its speed is flat, so nothing correlates)."""
@@ -338,7 +305,7 @@ def _coarse_offset(ta, Ta, tb, Tb, max_offset_s, min_overlap_frac, robust=True,
     tma, wa = speed((ta, Ta), step_a)
     tmb, wb = speed((tb, Tb), step_b)
     if robust:      # outlier poses make spikes: running medians
-        wa, wb = _despike(wa), _despike(wb)
+        wa, wb = despike(wa), despike(wb)
     dt_a, dt_b = float(np.median(np.diff(ta))), float(np.median(np.diff(tb)))
     # half the faster stream's period, but never more than MAX_GRID samples per stream
     # (streams stamped in different units, ns and s, would ask for 1e10)
