@@ -261,11 +261,11 @@ def realign_rows(sa, sb, sampling):
     dropped and counted; the sampling classified again); streams on two clocks by
     :func:`pair_by_lag`; other streams as they are (``notes`` empty)."""
     from simcalib.estimation.hidden_offset import continuous
-    from simcalib.estimation.sampling import is_sample_numbers, pair_by_stamp
+    from simcalib.estimation.sampling import pair_by_stamp
     ta, tb = np.asarray(sa.timestamps_s), np.asarray(sb.timestamps_s)
     if not sampling.paired_by_stamp:
         return pair_by_lag(sa, sb, sampling)
-    if not (sampling.paired_by_stamp and is_sample_numbers(ta) and is_sample_numbers(tb)
+    if not (sampling.paired_by_stamp and _numbered(ta) and _numbered(tb)
             and 6 <= min(ta.size, tb.size) and max(ta.size, tb.size) <= MAX_ROWS):
         return sa, sb, sampling, []
     Ta, Tb = np.asarray(sa.T_world_sensor), np.asarray(sb.T_world_sensor)
@@ -285,6 +285,14 @@ def realign_rows(sa, sb, sampling):
     if not (before >= GAIN * after and before >= MIN_DEG):
         return sa, sb, sampling, []
     return _repaired(sa, sb, sampling, (ia, ib), (before, after), crossed)
+
+
+def _numbered(t: np.ndarray) -> bool:
+    """Rows a file may number wrong: stamps that are sample numbers, or stations seconds
+    apart (every step :data:`MIN_PERIOD_S` or more: a script that writes the camera's
+    rows with the robot's stamps, one list zipped with the other, shifts them alike)."""
+    from simcalib.estimation.sampling import is_sample_numbers
+    return is_sample_numbers(t) or (t.size >= 2 and float(np.min(np.diff(t))) >= MIN_PERIOD_S)
 
 
 def _repaired(sa, sb, sampling, pairs, misfits, crossed: bool):
@@ -308,7 +316,7 @@ def _repaired(sa, sb, sampling, pairs, misfits, crossed: bool):
            "motions to the other rows" if crossed else
            "do not pair by number: the rotation angles of the motions between them break the "
            "rule both sensors turn alike")
-    note = (f"the rows numbered {ta[0]:g}..{ta[-1]:g} in a ({ta.size}) and {tb[0]:g}..{tb[-1]:g} "
+    note = (f"the rows stamped {ta[0]:g}..{ta[-1]:g} in a ({ta.size}) and {tb[0]:g}..{tb[-1]:g} "
             f"in b ({tb.size}) {how} by {before:.2g} deg "
             f"(median), {after:.2g} deg paired by that rule; rows of a without a partner: "
             f"{rows(lost_a, ta)}; of b: {rows(lost_b, tb)} (a failed detection, with the later "
