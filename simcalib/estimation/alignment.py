@@ -31,6 +31,7 @@ from simcalib.estimation.drift import (check_drift, drift_applied, drift_from_ha
 from simcalib.estimation.interpolation import interpolate_poses, max_hole_s, smooth_poses
 from simcalib.estimation.speeds import SPEEDS, as_time_poses, checked_signal, speed_steps
 from simcalib.estimation.worlds import instant_worlds
+from simcalib.estimation import presence
 from simcalib.estimation.signals import despike
 from simcalib.geometry import invert_transform, rotation_angle_rad
 
@@ -415,12 +416,12 @@ def estimate_time_offset(stream_a, stream_b, *, max_offset_s: float | None = Non
     first = _estimate(ta, Ta, tb, Tb, signal, **kw)
     if not (auto and refine and signal == "rotation" and oc.in_doubt(first)
             and oc.both_translate(Ta, Tb)):
-        return first
+        return presence.checked(first, ta, Ta, tb) if refine else first
     try:
         second = _estimate(ta, Ta, tb, Tb, "translation", **kw)
     except DataError:
-        return first
-    return oc.clearer(first, second)
+        return presence.checked(first, ta, Ta, tb)
+    return presence.checked(oc.clearer(first, second), ta, Ta, tb)
 
 
 def _estimate(ta, Ta, tb, Tb, signal, *, max_offset_s, refine, drift, step_s, alpha,

@@ -1,0 +1,138 @@
+"""Where a camera sees: the clock offset of a stop-and-go recording from its times alone.
+
+In a stop-and-go recording the camera (b) sees the target only while the rig stands still:
+its poses come in clusters, one per stop, with gaps where the rig moved. Within a cluster b
+does not move, so neither the speeds' correlation nor the calibration cost tells an
+offset, and none is needed while the clocks agree (b's poses at a stop pair with a's at
+that stop, whatever the offset within it). With the clocks tens of seconds apart (two
+computers) they do not: generated stop-and-go recordings with b 30 s late were aligned at
+-20.2 s (a weak translation-speed peak, r = 0.34) and X came out 150 deg off.
+
+b's clusters must fall on a's stops. :func:`presence_offset` slides b's stamps over the
+offsets allowed and keeps those that put at least :data:`FIT_SHARE` of b's samples where
+a stands still (a's angular and translation speeds both below :data:`STILL_SHARE` of their
+90th percentiles); one run of such offsets (not two apart: stops at a regular pace) gives
+the offset, its centre, and its sigma, the run's width over sqrt(12). It is used
+(:func:`checked`) only where the offset decided otherwise puts fewer than
+:data:`USED_SHARE` of b's samples where a stands still, so recordings whose clocks agree
+keep their offset.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+
+from simcalib.geometry import rotation_angle_rad
+
+__all__ = ["clustered", "still_share", "presence_offset", "checked", "FIT_SHARE",
+           "STILL_SHARE", "USED_SHARE", "MIN_GAPS", "BASELINE_S"]
+
+#: an offset fits where this share of b's samples falls where a stands still
+FIT_SHARE = 0.95
+#: a stands still where its speeds are below this share of their 90th percentiles
+STILL_SHARE = 0.1
+#: the offset decided otherwise is kept where this share of b's samples or more falls
+#: where a stands still (at the right offset 0.99 on generated stop-and-go recordings; at
+#: a wrong one about the share of a's time it stands still, 0.55-0.6 there)
+USED_SHARE = 0.8
+#: b comes in clusters: at least this many gaps of 10 median steps and 0.5 s or more
+MIN_GAPS = 3
+
+
+def clustered(tb: np.ndarray) -> bool:
+    """b's stamps come in clusters (stops) apart by gaps (:data:`MIN_GAPS` or more)."""
+    d = np.diff(np.asarray(tb, dtype=np.float64))
+    if d.size < 2 * MIN_GAPS:
+        return False
+    gaps = d > max(10.0 * float(np.median(d)), 0.5)
+    return int(gaps.sum()) >= MIN_GAPS
+
+
+#: a's speeds are taken over this baseline (s), longer than its pose noise's reach
+BASELINE_S = 0.25
+
+
+def _still(ta: np.ndarray, Ta: np.ndarray) -> np.ndarray:
+    """Per a's sample: the rig stands still there (its speeds between the samples
+    :data:`BASELINE_S` before and after, below :data:`STILL_SHARE` of their 90th
+    percentiles: pose noise over one short step would read as motion)."""
+    n = ta.size
+    k = max(1, int(round(BASELINE_S / max(float(np.median(np.diff(ta))), 1e-9))))
+    i0, i1 = np.clip(np.arange(n) - k, 0, n - 1), np.clip(np.arange(n) + k, 0, n - 1)
+    dt = np.maximum(ta[i1] - ta[i0], 1e-9)
+    turn = rotation_angle_rad(np.swapaxes(Ta[i0, :3, :3], -1, -2) @ Ta[i1, :3, :3]) / dt
+    move = np.linalg.norm(Ta[i1, :3, 3] - Ta[i0, :3, 3], axis=1) / dt
+    return (turn <= STILL_SHARE * np.percentile(turn, 90)) & (
+        move <= STILL_SHARE * np.percentile(move, 90))
+
+
+def still_share(ta, Ta, tb, offsets) -> np.ndarray:
+    """For each offset (``t_b - t_a``), the share of b's samples inside a's span whose
+    nearest sample of a stands still (NaN where fewer than half of b's samples are
+    inside)."""
+    ta, tb = np.asarray(ta, np.float64), np.asarray(tb, np.float64)
+    still = _still(ta, np.asarray(Ta, np.float64))
+    offsets = np.asarray(offsets, np.float64)
+    chunk = max(1, 2_000_000 // max(tb.size, 1))            # bounded memory per chunk
+    out = [_shares(ta, still, tb, offsets[k:k + chunk]) for k in range(0, offsets.size, chunk)]
+    return np.concatenate(out) if out else np.zeros(0)
+
+
+def _shares(ta, still, tb, offsets) -> np.ndarray:
+    t = tb[None, :] - offsets[:, None]                      # b's samples on a's clock
+    inside = (t >= ta[0]) & (t < ta[-1])
+    k = np.clip(np.searchsorted(ta, t), 1, ta.size - 1)
+    k = np.where(t - ta[k - 1] < ta[k] - t, k - 1, k)        # the nearest sample of a
+    n = inside.sum(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        share = (still[k] & inside).sum(axis=1) / n
+    return np.where(n >= 0.5 * tb.size, share, np.nan)
+
+
+def presence_offset(ta, Ta, tb, window) -> tuple[float, float] | None:
+    """``(offset, sigma)``: the one run of offsets in ``window`` (s, a's and b's clocks'
+    difference) at which b's samples fall where a stands still (:data:`FIT_SHARE`), or
+    None where no offset, or two runs apart, fit."""
+    step = min(float(np.median(np.diff(tb))), 0.05)
+    lo, hi = window
+    if not (math.isfinite(lo) and math.isfinite(hi)) or hi <= lo:
+        return None
+    offsets = np.arange(lo, hi + step, step)
+    fit = still_share(ta, Ta, tb, offsets) >= FIT_SHARE
+    if not fit.any():
+        return None
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], fit.astype(np.int8), [0]])))
+    runs = list(zip(edges[::2], edges[1::2]))
+    if len(runs) > 1:
+        return None
+    (i0, i1), = runs
+    width = (i1 - i0) * step
+    return float(0.5 * (offsets[i0] + offsets[i1 - 1])), width / math.sqrt(12.0)
+
+
+def checked(off, ta, Ta, tb):
+    """The :class:`~simcalib.estimation.alignment.TimeOffset` ``off``, or where b comes in
+    clusters and ``off`` puts fewer than :data:`USED_SHARE` of its samples where a stands
+    still, the offset of :func:`presence_offset` (module doc); ``off`` as it is, its
+    message saying so, where none fits."""
+    if not clustered(tb) or off.drift != 0.0:
+        return off
+    used = float(still_share(ta, Ta, tb, [off.offset_s])[0])
+    if used >= USED_SHARE:                  # NaN: most of b's samples outside a's span
+        return off
+    found = presence_offset(ta, Ta, tb, off.window_s)
+    where = ("most of b's samples fall outside a's span" if math.isnan(used) else
+             f"only {used:.0%} of b's samples fall where a stands still")
+    head = (f"; at {off.offset_s * 1e3:.1f} ms {where}, though b comes in clusters (a "
+            "camera that sees while the rig stops?)")
+    if found is None:
+        return replace(off, message=off.message + head + ": no offset puts them there, the "
+                       "offset may be wrong")
+    offset, sigma = found
+    return replace(off, offset_s=offset, uncertainty_s=sigma, drift=0.0, refined=False,
+                   decision="estimated", split=None, evidence=float("nan"), why_zero="",
+                   message=off.message + head + f": {offset * 1e3:.1f} +- {sigma * 1e3:.1f}"
+                   f" ms puts {FIT_SHARE:.0%} or more of them there, and is used")
