@@ -55,3 +55,23 @@ def test_despiking_takes_an_outlier_pose_at_an_end_and_a_cluster_of_them():
     smooth = 0.3 + 0.2 * np.sin(t)          # a motion keeps the first filter
     assert np.array_equal(despike(smooth), _medians(smooth, *DESPIKE_FILTERS[0]))
 
+
+
+def test_despike_takes_the_first_filter_early_only_where_the_full_rule_would():
+    """The shortcut (the first filter's peak within twice the floor under every later
+    filter's peak) picks what comparing every filter picks, on smooth and spiky speeds."""
+    def every_filter(w):
+        outs = [_medians(w, size, mode) for size, mode in DESPIKE_FILTERS]
+        peaks = np.array([np.max(o) for o in outs])
+        for k, out in enumerate(outs[:-1]):
+            if not peaks[k] > 2.0 * np.min(peaks[k + 1:]):
+                return out
+        return outs[-1]
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        n = int(rng.integers(5, 800))
+        w = np.abs(rng.standard_normal(n)) * rng.uniform(0.1, 1) + np.sin(
+            np.arange(n) / rng.uniform(3, 80))
+        spikes = rng.random(n) < rng.uniform(0, 0.4)
+        w[spikes] += rng.uniform(0, 30, spikes.sum())
+        assert np.array_equal(despike(w), every_filter(w))
