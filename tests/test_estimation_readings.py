@@ -122,14 +122,17 @@ def test_files_as_written_fit_far_better_than_b_mirrored_and_skip_the_check():
 
 
 @pytest.mark.slow
-def test_planar_motion_cannot_tell_a_mirrored_b_and_says_nothing_new():
+def test_planar_motion_cannot_tell_a_mirrored_b_and_says_so():
     """Rotations about one axis with no translation along it: mirroring leaves them
     unchanged, so both readings fit alike; b stays as written, the reading (its clarity,
-    its message) the one without the check."""
+    its scores) the one without the check, and its message says the handedness is not
+    told, with the mirrored reading's X (here the true one: the file is left-handed)."""
     import math
     from simcalib.estimation.path import align_and_read
-    from simcalib.estimation.readings import MIRROR_RATIO
+    import numpy as np
+    from simcalib.estimation.readings import MIRROR_RATIO, mirror_untold_sentence
     from simcalib.estimation.sampling import classify_sampling
+    from simcalib.geometry import rotation_error_rad
     rec = generate("planar", 0)
     a, b = rec.stream_a, _mirrored_file(rec.stream_b)
     smp = classify_sampling(a, b)
@@ -137,9 +140,14 @@ def test_planar_motion_cannot_tell_a_mirrored_b_and_says_nothing_new():
     *_, conv, _, _ = align_and_read(a, b, smp, **kw)
     *_, forced, _, _ = align_and_read(a, b, smp, forced={"mirror_b": False}, **kw)
     assert not conv.mirror_b and 1.0 / MIRROR_RATIO < conv.mirror_ratio < MIRROR_RATIO
-    assert math.isnan(forced.mirror_ratio)
-    assert (conv.ratio, conv.clear, conv.message, conv.scores) == (
-        forced.ratio, forced.clear, forced.message, forced.scores)
+    assert math.isnan(forced.mirror_ratio) and forced.mirror_told and forced.mirror_X is None
+    assert (conv.ratio, conv.clear, conv.scores) == (forced.ratio, forced.clear, forced.scores)
+    assert not conv.mirror_told
+    assert conv.message == f"{forced.message}; {mirror_untold_sentence(conv.mirror_ratio)}"
+    # b's file is the left-handed one: read mirrored, it is the true b and X the true X
+    # (its translation along the vertical undetermined on planar motion)
+    assert math.degrees(float(rotation_error_rad(conv.mirror_X, rec.X_true))) < 0.5
+    assert np.linalg.norm(conv.mirror_X[:2, 3] - rec.X_true[:2, 3]) < 5e-3
 
 
 def test_a_mirrored_a_is_told_as_b_mirrored_against_it_and_m_x_m_is_x():

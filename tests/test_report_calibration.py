@@ -31,3 +31,14 @@ def test_offset_line_gives_the_sigma_of_an_offset_kept_at_zero():
 def test_offset_line_gives_a_fitted_drift_with_its_sigma():
     assert _offset_line(_off(-0.13433, 0.00026, drift=98.5e-6, drift_sigma=3.1e-6), {}) == (
         "time offset t_b - t_a: -134.33 +- 0.26 ms (estimated), drift 98.5 +- 3.1 ppm")
+
+
+def test_other_readings_lines_give_the_x_of_b_mirrored_where_the_handedness_is_not_told():
+    import numpy as np
+    from simcalib.report.calibration import other_readings_lines
+    X = np.eye(4)
+    X[:3, 3] = [0.1, -0.2, 0.3]
+    assert other_readings_lines({"conventions": {"mirror_T_a_b": None}}) == []
+    (line,) = other_readings_lines({"conventions": {"mirror_T_a_b": X.tolist()}})
+    assert line.startswith("  read with b mirrored (z negated), the same data give X: t = ")
+    assert "100.00, -200.00, 300.00" in line and "mirror_b=true" in line

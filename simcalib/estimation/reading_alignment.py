@@ -26,8 +26,9 @@ def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift="auto", al
     scale judged later. ``candidates``: the speeds' candidate offsets, where known
     (:func:`_offset_candidates`). Returns ``(stream_a, stream_b, ConventionReport,
     TimeOffset, Sampling)``."""
-    from simcalib.estimation.readings import (MIRROR_RATIO, PITCH_AGREEMENT, mirror_ratio,
-                                              mirror_sentence, pitch_agreement)
+    from simcalib.estimation.readings import (MIRROR_RATIO, PITCH_AGREEMENT, mirror_sentence,
+                                              mirror_untold_sentence, mirrored_fit,
+                                              pitch_agreement)
     if candidates is None and time_offset == "estimate" and not sampling.paired_by_stamp:
         candidates = _offset_candidates(sa, sb, signal)
     unit = _unit_scale(sa, sb, sampling, seed, signal, candidates) if candidates else 1.0
@@ -54,9 +55,13 @@ def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift="auto", al
     at = dict(offset=first_off, seed=seed, sampling=sampling, signal=signal)
     if pitch_agreement(sa, sb, first, **at) > PITCH_AGREEMENT:  # b's pitches follow a's
         return tuple(out)
-    ratio = mirror_ratio(sa, sb, first, alpha=alpha, **at, **forced)
+    ratio, X_mirrored = mirrored_fit(sa, sb, first, alpha=alpha, **at, **forced)
     if not ratio > MIRROR_RATIO:
-        return (*out[:2], replace(out[2], mirror_ratio=ratio), *out[3:])
+        conv = replace(out[2], mirror_ratio=ratio)
+        if not conv.mirror_told:    # the data cannot tell: the other handedness's X shown
+            conv = replace(conv, mirror_X=X_mirrored,
+                           message=f"{conv.message}; {mirror_untold_sentence(ratio)}")
+        return (*out[:2], conv, *out[3:])
     *out, _ = _align_and_read(sa, sb, sampling, forced=forced | {"mirror_b": True}, **kw)
     conv = out[2]
     return (*out[:2], replace(conv, mirror_ratio=ratio,

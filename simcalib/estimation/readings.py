@@ -31,8 +31,8 @@ import numpy as np
 from simcalib.geometry import rotation_angle_rad
 
 __all__ = ["ConventionReport", "detect_conventions", "apply_conventions", "CLEAR_RATIO",
-           "MIRROR_RATIO", "PITCH_AGREEMENT", "mirror_ratio", "mirror_sentence", "mirrored",
-           "pitch_agreement"]
+           "MIRROR_RATIO", "PITCH_AGREEMENT", "mirror_ratio", "mirrored_fit", "mirror_sentence",
+           "mirror_untold_sentence", "mirrored", "pitch_agreement"]
 
 CLEAR_RATIO = 3.0   # runner-up score / winner score above this: "clear"
 #: the best score with b as read / mirrored (:func:`mirror_ratio`) above this: b is taken as
@@ -79,6 +79,16 @@ class ConventionReport:
     #: the best score with b as read over the best with b mirrored (:func:`mirror_ratio`);
     #: NaN: not checked (forced; or b's pitches follow a's: :func:`pitch_agreement`)
     mirror_ratio: float = math.nan
+    #: the best mirrored reading's X where the data do not tell the handedness
+    #: (:attr:`mirror_told` false; None otherwise)
+    mirror_X: np.ndarray | None = field(default=None, repr=False)
+
+    @property
+    def mirror_told(self) -> bool:
+        """Whether the data tell b's handedness: not checked (b's pitches follow a's, or
+        forced), or one side won by more than :data:`MIRROR_RATIO`."""
+        r = self.mirror_ratio
+        return not (math.isfinite(r) and 1.0 / MIRROR_RATIO <= r <= MIRROR_RATIO)
 
 
 def _swap_options(stream, forced):
@@ -238,29 +248,36 @@ def detect_conventions(stream_a, stream_b, *, offset=None, invert_a: bool | None
                             mirror_b=bool(mirror_b))
 
 
-def mirror_ratio(stream_a, stream_b, report: ConventionReport, *, offset,
+def mirror_ratio(stream_a, stream_b, report: ConventionReport, **kw) -> float:
+    """:func:`mirrored_fit`'s ratio."""
+    return mirrored_fit(stream_a, stream_b, report, **kw)[0]
+
+
+def mirrored_fit(stream_a, stream_b, report: ConventionReport, *, offset,
                  invert_a: bool | None = None, invert_b: bool | None = None,
                  scalar_first_a: bool | None = None, scalar_first_b: bool | None = None,
                  alpha: float = 1.0, n_pairs: int = 400, seed: int = 0, sampling=None,
-                 signal: str = "rotation") -> float:
-    """How much better b fits mirrored (:func:`mirrored`, a left-handed file): the best
-    score of ``report`` (b as read; every candidate reading) over the best score of the
-    same candidates with b mirrored, on the same random pairs of instants at ``offset``
+                 signal: str = "rotation") -> tuple[float, np.ndarray | None]:
+    """``(ratio, X)``: how much better b fits mirrored (:func:`mirrored`, a left-handed
+    file): the best score of ``report`` (b as read; every candidate reading) over the best
+    score of the same candidates with b mirrored, on the same random pairs of instants at ``offset``
     (the forcing keys as :func:`detect_conventions`'s). Decided apart from the other
     choices of the reading, but over all of them (a mirrored b read as written can make a
     wrong quaternion order fit best). The mirror shows only in the translations along the
     rotation axes (it negates each motion's pitch; the rotations are the old ones turned
     by 180 deg, which X absorbs), so a motion whose rotations share one axis with no
-    translation along it (planar) cannot tell: the ratio is ~1 there. NaN: too few
+    translation along it (planar) cannot tell: the ratio is ~1 there. ``X``: the best
+    mirrored reading's (RANSAC + dqopt on the scored motions). NaN, None: too few
     motions."""
-    scores, _, _ = _score_readings(stream_a, stream_b, offset, _parities(invert_a, invert_b),
+    scores, _, xs = _score_readings(stream_a, stream_b, offset, _parities(invert_a, invert_b),
                                    (_swap_options(stream_a, scalar_first_a),
                                     _swap_options(stream_b, scalar_first_b)),
                                    n_pairs=n_pairs, alpha=alpha, seed=seed, sampling=sampling,
                                    signal=signal, mirror_b=True)
     if not scores or not report.scores:
-        return math.nan
-    return min(report.scores.values()) / max(min(scores.values()), 1e-15)
+        return math.nan, None
+    best = min(scores, key=scores.get)
+    return min(report.scores.values()) / max(scores[best], 1e-15), xs[best]
 
 
 def pitch_agreement(stream_a, stream_b, report: ConventionReport, *, offset,
@@ -309,6 +326,16 @@ def mirror_sentence(ratio: float) -> str:
             "frame with its z axis negated (if a is the left-handed one, M X M with "
             "M = diag(1, 1, -1) is T_a'_b between a's frame mirrored so and b's); pass "
             "mirror_b=false to take b as written")
+
+
+def mirror_untold_sentence(ratio: float) -> str:
+    """The reading's words where the data do not tell b's handedness."""
+    side = (f"b as written fits {1.0 / ratio:.3g}x better than mirrored" if ratio < 1.0
+            else f"b mirrored fits {ratio:.3g}x better than as written")
+    return (f"whether b is mirrored (a left-handed file) is not told by these data: {side} "
+            f"(a side is taken only beyond {MIRROR_RATIO:g}x; motions that turn about one "
+            "axis with no translation along it, as planar ones, cannot tell at all); b taken "
+            "as written, pass mirror_b=true if its file is left-handed")
 
 
 def _score_readings(stream_a, stream_b, off, parities, swaps, *, n_pairs, alpha, seed,

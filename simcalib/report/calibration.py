@@ -11,7 +11,8 @@ import numpy as np
 
 from simcalib.errors import EXIT_DEGENERATE, EXIT_OK
 
-__all__ = ["SCHEMA", "report_dict", "format_report", "sigma_line", "verdict_line"]
+__all__ = ["SCHEMA", "report_dict", "format_report", "other_readings_lines", "sigma_line",
+           "verdict_line"]
 
 SCHEMA = "simcalib.calibration/1"
 
@@ -138,6 +139,8 @@ def _conventions(conv) -> dict:
             "clear": conv.clear, "runner_up": conv.runner_up,
             "scores": conv.scores, "forced": list(conv.forced),
             "mirror_b": conv.mirror_b, "mirror_ratio": _fin(conv.mirror_ratio),
+            "mirror_told": conv.mirror_told,
+            "mirror_T_a_b": None if conv.mirror_X is None else np.asarray(conv.mirror_X).tolist(),
             "message": conv.message}
 
 
@@ -207,6 +210,30 @@ def _offset_line(off: dict, sampling: dict) -> str:
                        off["decision"]] + drift
 
 
+def other_readings_lines(rep: dict) -> list[str]:
+    """The console lines giving the X of readings the data fit as well: both streams
+    inverted (``plausibility.twin_T_a_b``) and b mirrored where the handedness is not told
+    (``conventions.mirror_T_a_b``)."""
+    lines = []
+    twin = (rep.get("plausibility") or {}).get("twin_T_a_b")
+    if twin is not None:
+        alt = _pose(twin)
+        lines.append(f"  read with both streams inverted, the same data give X: t = "
+                     f"{_vec(alt['translation_m'], 1e3, 2)} mm, rotvec "
+                     f"{_vec(alt['rotvec_deg'], digits=3)} deg (this X's T_world_a_world_b): "
+                     "that is X if both files hold the inverse of the poses as read ("
+                     f"{rep['plausibility']['twin_hint']})")
+    mirror = (rep.get("conventions") or {}).get("mirror_T_a_b")
+    if mirror is not None:
+        alt = _pose(mirror)
+        lines.append(f"  read with b mirrored (z negated), the same data give X: t = "
+                     f"{_vec(alt['translation_m'], 1e3, 2)} mm, rotvec "
+                     f"{_vec(alt['rotvec_deg'], digits=3)} deg (T_a_b' with b' = b's frame "
+                     "with its z axis negated): that is X if b's file is left-handed "
+                     "(mirror_b=true)")
+    return lines
+
+
 def format_report(rep: dict) -> str:
     """The console report of one calibration (from the calibration.json content)."""
     X = np.asarray(rep["X"]["T_a_b"])
@@ -236,14 +263,7 @@ def format_report(rep: dict) -> str:
         f"{res['trans_median_mm']:.2f} / rms {res['trans_rms_mm']:.2f} mm",
         f"conventions: {conv['message']}",
     ]
-    twin = (rep.get("plausibility") or {}).get("twin_T_a_b")
-    if twin is not None:
-        alt = _pose(twin)
-        lines.append(f"  read with both streams inverted, the same data give X: t = "
-                     f"{_vec(alt['translation_m'], 1e3, 2)} mm, rotvec "
-                     f"{_vec(alt['rotvec_deg'], digits=3)} deg (this X's T_world_a_world_b): "
-                     "that is X if both files hold the inverse of the poses as read ("
-                     f"{rep['plausibility']['twin_hint']})")
+    lines += other_readings_lines(rep)
     lines += [f"  note: {n}" for n in (rep.get("plausibility") or {}).get("notes") or ()]
     for k in ("a", "b"):
         s = rep["streams"][k]
