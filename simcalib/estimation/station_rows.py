@@ -61,8 +61,8 @@ import numpy as np
 from simcalib.geometry import quat_from_matrix, rotation_angle_rad
 
 __all__ = ["align_rows", "realign_rows", "pair_by_lag", "pair_angles_rad", "PAIRED_SHARE",
-           "CAP_DEG", "SKIP_DEG", "MAX_SKIP", "GAIN", "MIN_DEG", "MAX_ROWS", "MIN_PERIOD_S", "LAG_GAIN",
-           "moved_marks", "NEAR", "NEAR_GAIN", "FEW_ROWS", "PITCH_MIN_DEG",
+           "CAP_DEG", "SKIP_DEG", "MAX_SKIP", "GAIN", "MIN_DEG", "MAX_ROWS", "MIN_PERIOD_S",
+           "LAG_GAIN", "moved_marks", "NEAR", "NEAR_GAIN", "FEW_ROWS", "PITCH_MIN_DEG",
            "PITCH_QUANTILE"]
 
 #: a step's misfit counts at most this much (deg): a wrong pair costs about this
