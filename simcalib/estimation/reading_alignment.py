@@ -86,7 +86,7 @@ def _unit_scale(sa, sb, sampling, seed, signal, candidates) -> float:
 
 
 def _align_and_read(sa, sb, sampling, *, time_offset="estimate", drift="auto", alpha=1.0,
-                    seed=0, forced=None, signal="rotation", candidates=None):
+                    seed=0, forced=None, signal="rotation", candidates=None, steps=()):
     """The streams' reading and their clock offset, decided in that order and checked
     again: the reading at the correlation's (reading-free) offset, the offset refined with
     that reading, then the reading decided again at the final offset (it is what the run
@@ -110,14 +110,35 @@ def _align_and_read(sa, sb, sampling, *, time_offset="estimate", drift="auto", a
     # a rotating rig: "auto" (the same rule as check_streams_move) consults the
     # translation speeds too where the angular ones leave the offset in doubt
     by = "auto" if signal == "rotation" else signal
-    off = estimate_time_offset(a1, b1, drift=drift, alpha=alpha, signal=by)
+    off = replace(estimate_time_offset(a1, b1, drift=drift, alpha=alpha, signal=by),
+                  steps=steps)       # the steps removed from b's stamps before
     final = detect(off)
     if (final.invert_a, final.invert_b, final.swap_scalar_a, final.swap_scalar_b) != (
             conv.invert_a, conv.invert_b, conv.swap_scalar_a, conv.swap_scalar_b):
         a1, b1 = apply_conventions(sa, sb, final)       # the reading changed: once more
-        off = estimate_time_offset(a1, b1, drift=drift, alpha=alpha, signal=by)
+        off = replace(estimate_time_offset(a1, b1, drift=drift, alpha=alpha, signal=by),
+                      steps=steps)
         final = detect(off)
+    stepped = _without_step(sa, sb, sampling, a1, b1, off, dict(
+        time_offset=time_offset, drift=drift, alpha=alpha, seed=seed, forced=forced,
+        signal=signal), by)
+    if stepped is not None:
+        return stepped
     return (*apply_conventions(sa, sb, final), final, off, sampling, first)
+
+
+def _without_step(sa, sb, sampling, a1, b1, off, kw, by):
+    """Where the streams read ``a1``, ``b1`` at the one offset ``off`` show a clock step
+    (:func:`simcalib.estimation.clock_step.find_step`): :func:`_align_and_read` of b with
+    its stamps from the step on shifted back, the step in the offset's ``steps`` and
+    message; else None."""
+    from simcalib.estimation.clock_step import find_step, shifted
+    step = find_step(a1, b1, off, alpha=kw["alpha"], signal=by)
+    if step is None:
+        return None
+    *out, off2, sampling2, first = _align_and_read(sa, shifted(sb, step), sampling, **kw,
+                                                    steps=(*off.steps, step))
+    return (*out, replace(off2, message=f"{step.line()}; {off2.message}"), sampling2, first)
 
 
 def _detector(sa, sb, sampling, *, alpha, seed, forced, signal):

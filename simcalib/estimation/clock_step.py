@@ -1,0 +1,298 @@
+"""A clock that steps once mid-recording: the offset ``t_b - t_a`` constant on two stretches
+with a jump between them.
+
+An NTP correction, or a logger restarted on another machine's clock, moves b's stamps by a
+constant (+0.4 s, -2 s) from one instant on. Fitted as one offset, the split check's parts
+(:func:`simcalib.estimation.offset_cost.split_check`) of the stretch the offset does not
+fit land at the edge of their bracket, their spread raises the offset's sigma, and X's
+sigma grows with the misaligned motions ("poorly determined"); a linear drift
+(:mod:`simcalib.estimation.drift`) does not explain them.
+
+:func:`find_step` looks for one only where the split check raised and no drift was
+fitted (else it costs nothing): the parts must split into two contiguous groups, each
+about one offset, that explain their dispersion :data:`STEP_GAIN` times better than one
+offset and than a line (a part holding the step may be left out). Then
+
+* the offset is estimated again on b's stamps on either side of the parts' boundary
+  (each stretch alone, no drift) -> ``o1``, ``o2``;
+* the step's instant is the b stamp that best separates the motions fitting ``o1`` from
+  those fitting ``o2`` (both sensors of a rigid rig turn by the same angle, whatever X:
+  the misfit of the angles over 1 s motions, or of the translation lengths for a rig
+  that does not turn; a motion across the step fits neither);
+* the offset is estimated once more on each side of that stamp; the step is told when
+  ``o2 - o1`` stands :data:`STEP_Z` of its sigma from 0 and the parts of both stretches
+  (their own split checks, 2 or more each) lie about two constants :data:`STEP_GAIN`
+  times closer than about one line (a drift climbs through both).
+
+Where it is told, :func:`shifted` moves b's stamps from the step on by ``-(o2 - o1)`` and
+the path aligns the corrected streams as usual (:mod:`simcalib.estimation.
+reading_alignment`); :class:`ClockStep` says what was done. A clock that steps back
+(``o2 < o1``) leaves b's file with stamps out of order, which the reader sorts: the
+stretches interleave over the step's length, and such a step is told only where what is
+left on either side tells it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+__all__ = ["ClockStep", "find_step", "shifted", "two_levels", "STEP_GAIN", "STEP_Z",
+           "MAX_STEPS"]
+
+#: two constants leave at most this fraction's inverse of the parts' dispersion about one
+#: offset and about a line
+STEP_GAIN = 10.0
+#: the step stands this many of its sigmas from 0
+STEP_Z = 10.0
+#: at most this many steps are told in one recording
+MAX_STEPS = 3
+
+
+@dataclass(frozen=True)
+class ClockStep:
+    """b's clock jumps by ``size_s`` (``o2 - o1``, 1-sigma ``size_sigma_s``) at b's stamp
+    ``at_b_s`` (the first pose after the step, b's clock as written; ``at_a_s`` on a's):
+    the offset ``t_b - t_a`` is ``before_s`` before it and ``after_s`` from it on (their
+    1-sigmas, each stretch estimated alone); ``q_step``, ``q_line``, ``q_const``: the
+    stretches' parts' chi-square about two constants, a line, one offset; ``rows_shifted``:
+    b's poses moved by ``-size_s``."""
+    at_b_s: float
+    at_a_s: float
+    size_s: float
+    size_sigma_s: float
+    before_s: float
+    before_sigma_s: float
+    after_s: float
+    after_sigma_s: float
+    q_step: float
+    q_line: float
+    q_const: float
+    rows_shifted: int
+
+    def to_dict(self) -> dict:
+        return {"kind": "clock step", "at_b_s": self.at_b_s, "at_a_s": self.at_a_s,
+                "size_s": self.size_s, "size_sigma_s": self.size_sigma_s,
+                "offset_before_s": self.before_s, "sigma_before_s": self.before_sigma_s,
+                "offset_after_s": self.after_s, "sigma_after_s": self.after_sigma_s,
+                "parts_chi2": {"two_offsets": self.q_step, "line": self.q_line,
+                               "one_offset": self.q_const},
+                "b_rows_shifted": self.rows_shifted}
+
+    def line(self) -> str:
+        """The one line that names it (console, the offset's message)."""
+        return (f"clock step: b's clock jumps by {self.size_s * 1e3:+.1f} +- "
+                f"{self.size_sigma_s * 1e3:.1f} ms at b's t = {self.at_b_s:.3f} s (a's "
+                f"{self.at_a_s:.3f} s): offset {self.before_s * 1e3:.1f} +- "
+                f"{self.before_sigma_s * 1e3:.1f} ms before, {self.after_s * 1e3:.1f} +- "
+                f"{self.after_sigma_s * 1e3:.1f} ms after; b's {self.rows_shifted} stamps "
+                f"from it shifted by {-self.size_s * 1e3:+.1f} ms")
+
+
+def _chi2(o, w, groups) -> float:
+    """Weighted chi-square of offsets ``o`` about one constant per group label."""
+    q = 0.0
+    for g in np.unique(groups):
+        m = groups == g
+        q += float(np.sum(w[m] * (o[m] - np.sum(w[m] * o[m]) / np.sum(w[m])) ** 2))
+    return q
+
+
+def _q_line(t, o, w) -> float:
+    A = np.stack([np.ones_like(t), t - np.mean(t)], axis=1) * np.sqrt(w)[:, None]
+    coef = np.linalg.lstsq(A, o * np.sqrt(w), rcond=None)[0]
+    return float(np.sum(w * (o - coef[0] - coef[1] * (t - np.mean(t))) ** 2))
+
+
+def two_levels(times, offsets, sigmas) -> tuple | None:
+    """``(last part of the first group, first part of the second)``: the contiguous split
+    of the parts (one part between the groups may be left out) whose two constants leave
+    :data:`STEP_GAIN` times less dispersion than one offset and than a line; None where
+    none does (or fewer than 3 parts)."""
+    t, o = np.asarray(times, np.float64), np.asarray(offsets, np.float64)
+    w = 1.0 / np.asarray(sigmas, np.float64) ** 2
+    n = o.size
+    if n < 3 or t.size != n:
+        return None
+    best = None
+    for k in range(1, n):
+        for gap in (0, 1):
+            if k + gap >= n:
+                continue
+            keep = np.r_[np.arange(k), np.arange(k + gap, n)]
+            groups = (keep >= k).astype(int)
+            q = _chi2(o[keep], w[keep], groups)
+            ok = min(_chi2(o[keep], w[keep], np.zeros(keep.size)),
+                     _q_line(t[keep], o[keep], w[keep])) >= STEP_GAIN * max(q, 1e-300)
+            if ok and (best is None or q < best[0]):
+                best = (q, k - 1, k + gap)
+    return None if best is None else best[1:]
+
+
+def _may_step(off) -> bool:
+    split = getattr(off, "split", None)
+    return (off.refined and off.decision in ("estimated", "zero") and split is not None
+            and bool(split.raised) and off.drift == 0.0 and len(split.offsets_s) >= 3
+            and len(getattr(off, "steps", ())) < MAX_STEPS)
+
+
+def _reference_is_b(a, b) -> bool:
+    """The offset cost's reference (its parts' clock) is b: the slower stream."""
+    from simcalib.estimation.speeds import as_time_poses
+    ta, tb = as_time_poses(a)[0], as_time_poses(b)[0]
+    return float(np.median(np.diff(ta))) < float(np.median(np.diff(tb)))
+
+
+def _sub(stream, keep):
+    """``stream`` (PoseStreamData or ``(t, T)``) restricted to the rows ``keep``."""
+    if isinstance(stream, tuple):
+        return stream[0][keep], stream[1][keep]
+    return replace(stream, timestamps_s=stream.timestamps_s[keep],
+                   T_world_sensor=stream.T_world_sensor[keep])
+
+
+def _stretch(a, b, keep, kw):
+    """The offset of b's rows ``keep`` alone (no drift), or None where it is not told."""
+    from simcalib.errors import DataError
+    from simcalib.estimation.alignment import estimate_time_offset
+    if int(np.sum(keep)) < 20:
+        return None
+    try:
+        off = estimate_time_offset(a, _sub(b, keep), drift=False, **kw)
+    except (DataError, ValueError):
+        return None
+    ok = off.refined and math.isfinite(off.uncertainty_s) and off.uncertainty_s > 0
+    return off if ok else None
+
+
+def _angles_or_lengths(T, i, j, signal):
+    """The rotation angle (rad) of ``T[i]^-1 T[j]``, or its translation's length for a rig
+    that does not turn (``signal`` translation)."""
+    from simcalib.geometry import invert_transform, rotation_angle_rad
+    M = invert_transform(T[i]) @ T[j]
+    if signal == "translation":
+        return np.linalg.norm(M[:, :3, 3], axis=1)
+    return rotation_angle_rad(M[:, :3, :3])
+
+
+def _misfits(a, b, offsets, signal) -> tuple:
+    """``(i, j, misfit per offset)``: b's 1 s motions (``i`` -> ``j`` in b's rows) and, at
+    each offset, how far a's motion over the same instants turns (or moves) otherwise;
+    capped (a motion across the step or a gap fits no offset), NaN -> the cap."""
+    from simcalib.estimation.interpolation import interpolate_poses, max_hole_s
+    from simcalib.estimation.speeds import as_time_poses
+    ta, Ta = as_time_poses(a)
+    tb, Tb = as_time_poses(b)
+    m = max(1, int(round(1.0 / float(np.median(np.diff(tb))))))
+    i = np.arange(tb.size - m)
+    j = i + m
+    own = _angles_or_lengths(Tb, i, j, signal)
+    out = []
+    for o in offsets:
+        T, valid = interpolate_poses(ta, Ta, tb - o, max_hole_s(ta))
+        e = np.abs(_angles_or_lengths(T, i, j, signal) - own)
+        out.append(np.where(valid[i] & valid[j], e, np.nan))
+    e = np.stack(out)
+    cap = 10.0 * float(np.nanmedian(np.nanmin(e, axis=0)) + 1e-12)
+    return i, j, np.where(np.isfinite(e), np.minimum(e, cap), cap)
+
+
+def changepoint(a, b, o1, o2, signal="rotation") -> int | None:
+    """b's row from which the offset is ``o2`` (``o1`` before): the one that minimises the
+    squared misfits of the motions ending before it at ``o1`` plus those starting from it
+    at ``o2`` (a motion across it fits neither and counts in no term); None on fewer than
+    3 motions."""
+    i, j, e = _misfits(a, b, (o1, o2), signal)
+    if i.size < 3:
+        return None
+    n = int(j[-1]) + 1
+    before = np.bincount(j, e[0] ** 2, minlength=n + 1).cumsum()   # motions ending < k
+    after = np.bincount(i, e[1] ** 2, minlength=n + 1)[::-1].cumsum()[::-1]  # from k on
+    ks = np.arange(1, n)
+    cost = np.concatenate([[0.0], before])[ks] + after[ks]
+    return int(ks[int(np.argmin(cost))])
+
+
+def _on_a(off, ref_b) -> tuple:
+    """``(times on a's clock, offsets, sigmas)`` of ``off``'s split check's parts."""
+    s = off.split
+    t = np.asarray(s.times_s, np.float64) - (off.offset_s if ref_b else 0.0)
+    return t, np.asarray(s.offsets_s, np.float64), np.asarray(s.sigmas_s, np.float64)
+
+
+def _region(off, ref_b) -> tuple | None:
+    """The a-clock stretch ``(lo, hi)`` between the parts' two levels
+    (:func:`two_levels`), or None."""
+    t, o, s = _on_a(off, ref_b)
+    cut = two_levels(t, o, s)
+    return None if cut is None else (float(t[cut[0]]), float(t[cut[1]]))
+
+
+def find_step(a, b, off, **kw) -> ClockStep | None:
+    """The clock step of the streams ``a``, ``b`` (read as the path reads them) whose one
+    offset is ``off`` (:class:`~simcalib.estimation.alignment.TimeOffset`), where the
+    data tell one (the module's docstring); else None. ``kw``: passed to
+    :func:`~simcalib.estimation.alignment.estimate_time_offset` for each stretch
+    (``alpha``, ``signal``)."""
+    from simcalib.estimation.speeds import as_time_poses
+    if not _may_step(off):
+        return None
+    ref_b = _reference_is_b(a, b)
+    region = _region(off, ref_b)
+    if region is None:
+        return None
+    tb = as_time_poses(b)[0]
+    rough = [_stretch(a, b, tb - off.offset_s < region[0], kw),
+             _stretch(a, b, tb - off.offset_s > region[1], kw)]
+    if None in rough:
+        return None
+    k = changepoint(a, b, rough[0].offset_s, rough[1].offset_s, off.signal)
+    if k is None:
+        return None
+    rows = np.arange(tb.size)
+    parts = [_stretch(a, b, rows < k, kw), _stretch(a, b, rows >= k, kw)]
+    return None if None in parts else _told(parts, ref_b, float(tb[k]), tb.size - k)
+
+
+def _told(parts, ref_b, at_b_s, rows) -> ClockStep | None:
+    """The :class:`ClockStep` of the stretches' offsets ``parts`` (before, after the step
+    at b's ``at_b_s``), where it stands :data:`STEP_Z` sigmas from 0 and their split
+    checks' parts (2 or more each) lie about two constants :data:`STEP_GAIN` times closer
+    than about a line and about one offset; else None."""
+    one, two = parts
+    if any(p.split is None or len(p.split.offsets_s) < 2 for p in parts):
+        return None
+    size = two.offset_s - one.offset_s
+    sigma = math.hypot(one.uncertainty_s, two.uncertainty_s)
+    if not abs(size) >= STEP_Z * sigma:
+        return None
+    (t1, o1, s1), (t2, o2, s2) = _on_a(one, ref_b), _on_a(two, ref_b)
+    t, o = np.r_[t1, t2], np.r_[o1, o2]
+    w = 1.0 / np.r_[s1, s2] ** 2
+    groups = np.r_[np.zeros(t1.size), np.ones(t2.size)]
+    q_step = _chi2(o, w, groups)
+    q_line, q_const = _q_line(t, o, w), _chi2(o, w, np.zeros(o.size))
+    if not min(q_line, q_const) >= STEP_GAIN * q_step:
+        return None
+    return ClockStep(at_b_s, at_b_s - two.offset_s, size, sigma, one.offset_s,
+                     one.uncertainty_s, two.offset_s, two.uncertainty_s, q_step, q_line,
+                     q_const, rows)
+
+
+def shifted(stream, step: ClockStep):
+    """``stream`` (b, PoseStreamData) with its stamps from ``step.at_b_s`` on moved by
+    ``-step.size_s`` (its world jumps too), re-sorted, the count in its repairs
+    (``clock_step_rows_shifted``)."""
+    t = np.asarray(stream.timestamps_s, np.float64)
+    after = t >= step.at_b_s
+    t = np.where(after, t - step.size_s, t)
+    order = np.argsort(t, kind="stable")
+    jumps = tuple(float(j - step.size_s) if j >= step.at_b_s else float(j)
+                  for j in getattr(stream, "world_jumps_s", ()))
+    repairs = dict(stream.repairs)
+    repairs["clock_step_rows_shifted"] = repairs.get("clock_step_rows_shifted", 0) + int(
+        after.sum())
+    return replace(stream, timestamps_s=t[order], T_world_sensor=stream.T_world_sensor[order],
+                   repairs=repairs, world_jumps_s=jumps)
