@@ -77,7 +77,7 @@ class ClockStep:
                 "size_s": self.size_s, "size_sigma_s": self.size_sigma_s,
                 "offset_before_s": self.before_s, "sigma_before_s": self.before_sigma_s,
                 "offset_after_s": self.after_s, "sigma_after_s": self.after_sigma_s,
-                "parts_chi2": {"two_offsets": self.q_step, "line": self.q_line,
+                "parts_chi2": {"line_with_the_step": self.q_step, "line": self.q_line,
                                "one_offset": self.q_const},
                 "b_rows_shifted": self.rows_shifted}
 
@@ -108,27 +108,27 @@ def _q_line(t, o, w) -> float:
 
 def two_levels(times, offsets, sigmas) -> tuple | None:
     """``(last part of the first group, first part of the second)``: the contiguous split
-    of the parts (one part between the groups may be left out) whose two constants leave
-    :data:`STEP_GAIN` times less dispersion than one offset and than a line; None where
-    none does (or fewer than 3 parts)."""
+    of the parts whose two constants leave :data:`STEP_GAIN` times less dispersion than one
+    offset and than a line (the least of those that do); where none does, the same with
+    one part between the groups left out (the part that holds the step); None where
+    neither does (or fewer than 3 parts)."""
     t, o = np.asarray(times, np.float64), np.asarray(offsets, np.float64)
     w = 1.0 / np.asarray(sigmas, np.float64) ** 2
     n = o.size
     if n < 3 or t.size != n:
         return None
-    best = None
-    for k in range(1, n):
-        for gap in (0, 1):
-            if k + gap >= n:
-                continue
+    for gap in (0, 1):
+        best = None
+        for k in range(1, n - gap):
             keep = np.r_[np.arange(k), np.arange(k + gap, n)]
-            groups = (keep >= k).astype(int)
-            q = _chi2(o[keep], w[keep], groups)
+            q = _chi2(o[keep], w[keep], (keep >= k).astype(int))
             ok = min(_chi2(o[keep], w[keep], np.zeros(keep.size)),
                      _q_line(t[keep], o[keep], w[keep])) >= STEP_GAIN * max(q, 1e-300)
             if ok and (best is None or q < best[0]):
                 best = (q, k - 1, k + gap)
-    return None if best is None else best[1:]
+        if best is not None:
+            return best[1:]
+    return None
 
 
 def _may_step(off) -> bool:
@@ -154,33 +154,40 @@ def _sub(stream, keep):
 
 
 def _stretch(a, b, keep, kw):
-    """The offset of b's rows ``keep`` alone (no drift), or None where it is not told."""
+    """The offset of b's rows ``keep`` alone (its drift where it tells one), or None where
+    the cost cannot bound it."""
     from simcalib.errors import DataError
     from simcalib.estimation.alignment import estimate_time_offset
     if int(np.sum(keep)) < 20:
         return None
     try:
-        off = estimate_time_offset(a, _sub(b, keep), drift=False, **kw)
+        off = estimate_time_offset(a, _sub(b, keep), **kw)
     except (DataError, ValueError):
         return None
     ok = off.refined and math.isfinite(off.uncertainty_s) and off.uncertainty_s > 0
     return off if ok else None
 
 
-def _angles_or_lengths(T, i, j, signal):
-    """The rotation angle (rad) of ``T[i]^-1 T[j]``, or its translation's length for a rig
-    that does not turn (``signal`` translation)."""
-    from simcalib.geometry import invert_transform, rotation_angle_rad
+def _invariants(T, i, j, signal) -> np.ndarray:
+    """``(n, k)``: what X does not change of the motions ``T[i]^-1 T[j]``: the rotation
+    angle (rad) and the translation along the rotation axis (the screw's pitch, m), or the
+    translation's length for a rig that does not turn (``signal`` translation)."""
+    from simcalib.geometry import invert_transform, rotvec_from_matrix
     M = invert_transform(T[i]) @ T[j]
     if signal == "translation":
-        return np.linalg.norm(M[:, :3, 3], axis=1)
-    return rotation_angle_rad(M[:, :3, :3])
+        return np.linalg.norm(M[:, :3, 3], axis=1)[:, None]
+    r = rotvec_from_matrix(M[:, :3, :3])
+    angle = np.linalg.norm(r, axis=1)
+    pitch = np.sum(M[:, :3, 3] * r, axis=1) / np.maximum(angle, 1e-12)
+    return np.stack([angle, pitch], axis=1)
 
 
 def _misfits(a, b, offsets, signal) -> tuple:
     """``(i, j, misfit per offset)``: b's 1 s motions (``i`` -> ``j`` in b's rows) and, at
-    each offset, how far a's motion over the same instants turns (or moves) otherwise;
-    capped (a motion across the step or a gap fits no offset), NaN -> the cap."""
+    each offset, how far a's motion over the same instants differs in its invariants
+    (:func:`_invariants`), each in units of its median misfit at the better offset and
+    capped at 10 of them (a motion across the step or a gap fits no offset; NaN -> the
+    cap); summed over the invariants, squared."""
     from simcalib.estimation.interpolation import interpolate_poses, max_hole_s
     from simcalib.estimation.speeds import as_time_poses
     ta, Ta = as_time_poses(a)
@@ -188,15 +195,18 @@ def _misfits(a, b, offsets, signal) -> tuple:
     m = max(1, int(round(1.0 / float(np.median(np.diff(tb))))))
     i = np.arange(tb.size - m)
     j = i + m
-    own = _angles_or_lengths(Tb, i, j, signal)
+    own = _invariants(Tb, i, j, signal)
     out = []
     for o in offsets:
         T, valid = interpolate_poses(ta, Ta, tb - o, max_hole_s(ta))
-        e = np.abs(_angles_or_lengths(T, i, j, signal) - own)
-        out.append(np.where(valid[i] & valid[j], e, np.nan))
-    e = np.stack(out)
-    cap = 10.0 * float(np.nanmedian(np.nanmin(e, axis=0)) + 1e-12)
-    return i, j, np.where(np.isfinite(e), np.minimum(e, cap), cap)
+        e = np.abs(_invariants(T, i, j, signal) - own)
+        out.append(np.where((valid[i] & valid[j])[:, None], e, np.nan))
+    e = np.stack(out)                                        # (offsets, motions, k)
+    best = np.fmin(e[0], e[1])
+    scale = np.array([np.median(c[np.isfinite(c)]) if np.isfinite(c).any() else 1.0
+                      for c in best.T]) + 1e-15
+    z = np.where(np.isfinite(e), np.minimum(e / scale, 10.0), 10.0)
+    return i, j, np.sqrt(np.sum(z ** 2, axis=2))
 
 
 def changepoint(a, b, o1, o2, signal="rotation") -> int | None:
@@ -222,12 +232,12 @@ def _on_a(off, ref_b) -> tuple:
     return t, np.asarray(s.offsets_s, np.float64), np.asarray(s.sigmas_s, np.float64)
 
 
-def _region(off, ref_b) -> tuple | None:
-    """The a-clock stretch ``(lo, hi)`` between the parts' two levels
-    (:func:`two_levels`), or None."""
+def _boundary(off, ref_b) -> float | None:
+    """The a-clock instant between the parts' two levels (:func:`two_levels`): the middle
+    between the last part of the first and the first of the second; None: no two levels."""
     t, o, s = _on_a(off, ref_b)
     cut = two_levels(t, o, s)
-    return None if cut is None else (float(t[cut[0]]), float(t[cut[1]]))
+    return None if cut is None else 0.5 * float(t[cut[0]] + t[cut[1]])
 
 
 def find_step(a, b, off, **kw) -> ClockStep | None:
@@ -240,15 +250,17 @@ def find_step(a, b, off, **kw) -> ClockStep | None:
     if not _may_step(off):
         return None
     ref_b = _reference_is_b(a, b)
-    region = _region(off, ref_b)
-    if region is None:
+    mid = _boundary(off, ref_b)
+    if mid is None:
         return None
     tb = as_time_poses(b)[0]
-    rough = [_stretch(a, b, tb - off.offset_s < region[0], kw),
-             _stretch(a, b, tb - off.offset_s > region[1], kw)]
+    rough = [_stretch(a, b, tb - off.offset_s < mid, kw),
+             _stretch(a, b, tb - off.offset_s >= mid, kw)]
     if None in rough:
         return None
-    k = changepoint(a, b, rough[0].offset_s, rough[1].offset_s, off.signal)
+    # the screw's invariants of a rig that turns (whichever speeds told the offset)
+    k = changepoint(a, b, float(rough[0].offset_at(mid)), float(rough[1].offset_at(mid)),
+                    "translation" if kw.get("signal") == "translation" else "rotation")
     if k is None:
         return None
     rows = np.arange(tb.size)
@@ -256,29 +268,43 @@ def find_step(a, b, off, **kw) -> ClockStep | None:
     return None if None in parts else _told(parts, ref_b, float(tb[k]), tb.size - k)
 
 
+def _points(off, ref_b) -> tuple:
+    """``(a-clock times, offsets, sigmas)`` of a stretch's offset: its split check's parts,
+    or its own offset at its reference time where it is too short for 2 parts."""
+    if off.split is not None and len(off.split.offsets_s) >= 2:
+        return _on_a(off, ref_b)
+    return np.array([off.t_ref_s]), np.array([off.offset_s]), np.array([off.uncertainty_s])
+
+
+def _q_fit(columns, o, w) -> float:
+    A = np.stack(columns, axis=1) * np.sqrt(w)[:, None]
+    coef = np.linalg.lstsq(A, o * np.sqrt(w), rcond=None)[0]
+    return float(np.sum((A @ coef - o * np.sqrt(w)) ** 2))
+
+
 def _told(parts, ref_b, at_b_s, rows) -> ClockStep | None:
     """The :class:`ClockStep` of the stretches' offsets ``parts`` (before, after the step
-    at b's ``at_b_s``), where it stands :data:`STEP_Z` sigmas from 0 and their split
-    checks' parts (2 or more each) lie about two constants :data:`STEP_GAIN` times closer
-    than about a line and about one offset; else None."""
+    at b's ``at_b_s``; each with its drift where it tells one), where it stands
+    :data:`STEP_Z` sigmas from 0 and the stretches' points (:func:`_points`, 4 or more in
+    all) lie about a line with a jump at the step :data:`STEP_GAIN` times closer than about
+    one line and about one offset; else None."""
     one, two = parts
-    if any(p.split is None or len(p.split.offsets_s) < 2 for p in parts):
-        return None
-    size = two.offset_s - one.offset_s
+    at_a = at_b_s - float(two.offset_at(at_b_s - two.offset_s))
+    before, after = float(one.offset_at(at_a)), float(two.offset_at(at_a))
     sigma = math.hypot(one.uncertainty_s, two.uncertainty_s)
-    if not abs(size) >= STEP_Z * sigma:
+    if not abs(after - before) >= STEP_Z * sigma:
         return None
-    (t1, o1, s1), (t2, o2, s2) = _on_a(one, ref_b), _on_a(two, ref_b)
-    t, o = np.r_[t1, t2], np.r_[o1, o2]
-    w = 1.0 / np.r_[s1, s2] ** 2
-    groups = np.r_[np.zeros(t1.size), np.ones(t2.size)]
-    q_step = _chi2(o, w, groups)
-    q_line, q_const = _q_line(t, o, w), _chi2(o, w, np.zeros(o.size))
+    (t1, o1, s1), (t2, o2, s2) = _points(one, ref_b), _points(two, ref_b)
+    t, o, w = np.r_[t1, t2] - at_a, np.r_[o1, o2], 1.0 / np.r_[s1, s2] ** 2
+    if t.size < 4 or not np.all(np.isfinite(w)):
+        return None
+    ones, later = np.ones_like(t), np.r_[np.zeros(t1.size), np.ones(t2.size)]
+    q_step = _q_fit([ones, t, later], o, w)
+    q_line, q_const = _q_fit([ones, t], o, w), _q_fit([ones], o, w)
     if not min(q_line, q_const) >= STEP_GAIN * q_step:
         return None
-    return ClockStep(at_b_s, at_b_s - two.offset_s, size, sigma, one.offset_s,
-                     one.uncertainty_s, two.offset_s, two.uncertainty_s, q_step, q_line,
-                     q_const, rows)
+    return ClockStep(at_b_s, at_a, after - before, sigma, before, one.uncertainty_s, after,
+                     two.uncertainty_s, q_step, q_line, q_const, rows)
 
 
 def shifted(stream, step: ClockStep):
