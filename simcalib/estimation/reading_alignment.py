@@ -99,13 +99,20 @@ def _align_and_read(sa, sb, sampling, *, time_offset="estimate", drift="auto", a
     offset of :func:`first_reading`."""
     from simcalib.estimation.readings import apply_conventions
     from simcalib.estimation.alignment import estimate_time_offset
+    from simcalib.estimation.clock_step import find_step
     detect = _detector(sa, sb, sampling, alpha=alpha, seed=seed, forced=forced, signal=signal)
     conv, off = first = _first(sa, sb, sampling, detect, time_offset, signal, candidates)
     if time_offset != "estimate":
         return (*apply_conventions(sa, sb, conv), conv, off, sampling, first)
+    again = dict(time_offset=time_offset, drift=drift, alpha=alpha, seed=seed, forced=forced,
+                 signal=signal)
     if sampling.paired_by_stamp:            # equal stamps, or equal after a constant shift
-        return (*_paired_by_stamp(sa, sb, sampling, detect, conv, off, drift=drift,
-                                  alpha=alpha, signal=signal), first)
+        a1, b1, conv, off, sampling = _paired_by_stamp(
+            sa, sb, sampling, detect, conv, replace(off, steps=steps), drift=drift,
+            alpha=alpha, signal=signal)
+        if len(off.steps) > len(steps):     # the stamps hid a clock step: shifted, again
+            return _shifted_again(sa, sb, off.steps[-1], again, steps, reclassify=True)
+        return a1, b1, conv, replace(off, steps=steps), sampling, first
     a1, b1 = apply_conventions(sa, sb, conv)
     # a rotating rig: "auto" (the same rule as check_streams_move) consults the
     # translation speeds too where the angular ones leave the offset in doubt
@@ -119,26 +126,25 @@ def _align_and_read(sa, sb, sampling, *, time_offset="estimate", drift="auto", a
         off = replace(estimate_time_offset(a1, b1, drift=drift, alpha=alpha, signal=by),
                       steps=steps)
         final = detect(off)
-    stepped = _without_step(sa, sb, sampling, a1, b1, off, dict(
-        time_offset=time_offset, drift=drift, alpha=alpha, seed=seed, forced=forced,
-        signal=signal), by)
-    if stepped is not None:
-        return stepped
+    step = find_step(a1, b1, off, alpha=alpha, signal=by)
+    if step is not None:                    # b's clock steps: shifted, aligned again
+        return _shifted_again(sa, sb, step, again, steps, sampling=sampling)
     return (*apply_conventions(sa, sb, final), final, off, sampling, first)
 
 
-def _without_step(sa, sb, sampling, a1, b1, off, kw, by):
-    """Where the streams read ``a1``, ``b1`` at the one offset ``off`` show a clock step
-    (:func:`simcalib.estimation.clock_step.find_step`): :func:`_align_and_read` of b with
-    its stamps from the step on shifted back, the step in the offset's ``steps`` and
-    message; else None."""
-    from simcalib.estimation.clock_step import find_step, shifted
-    step = find_step(a1, b1, off, alpha=kw["alpha"], signal=by)
-    if step is None:
-        return None
-    *out, off2, sampling2, first = _align_and_read(sa, shifted(sb, step), sampling, **kw,
-                                                    steps=(*off.steps, step))
-    return (*out, replace(off2, message=f"{step.line()}; {off2.message}"), sampling2, first)
+def _shifted_again(sa, sb, step, kw, steps, sampling=None, reclassify=False):
+    """:func:`_align_and_read` of b with its stamps from the clock ``step``
+    (:mod:`simcalib.estimation.clock_step`) on shifted back (``reclassify``: its sampling
+    decided again, for streams paired by stamp), the step added to the offset's
+    ``steps`` and named first in its message."""
+    from simcalib.estimation.clock_step import shifted
+    from simcalib.estimation.sampling import classify_sampling
+    sb = shifted(sb, step)
+    if reclassify:
+        sampling = classify_sampling(sa, sb)
+    *out, off, sampling, first = _align_and_read(sa, sb, sampling, **kw,
+                                                 steps=(*steps, step))
+    return (*out, replace(off, message=f"{step.line()}; {off.message}"), sampling, first)
 
 
 def _detector(sa, sb, sampling, *, alpha, seed, forced, signal):
