@@ -36,6 +36,10 @@ def test_two_levels_of_the_parts():
     assert two_levels(t, [0.0, 0.01, 0.02, 0.03], sig) is None        # a drift: a line
     assert two_levels(t, [0.0, 0.0005, -0.0005, 0.0], sig) is None    # one offset
     assert two_levels(t[:2], [0.0, 0.4], sig[:2]) is None              # too few parts
+    # a part left out between the groups only where it lies between them (a part that
+    # holds the step mixes the two offsets); tum_fr1_xyz's parts (ms) are no step
+    assert two_levels(t, [0.0, 0.25, 0.4, 0.4], sig) == (0, 2)
+    assert two_levels(t, [0.01195, 0.00083, 0.00727, 0.0071], sig) is None
 
 
 @pytest.mark.slow

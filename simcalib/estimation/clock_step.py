@@ -110,8 +110,9 @@ def two_levels(times, offsets, sigmas) -> tuple | None:
     """``(last part of the first group, first part of the second)``: the contiguous split
     of the parts whose two constants leave :data:`STEP_GAIN` times less dispersion than one
     offset and than a line (the least of those that do); where none does, the same with
-    one part between the groups left out (the part that holds the step); None where
-    neither does (or fewer than 3 parts)."""
+    one part between the groups left out (the part that holds the step: its offset lies
+    between the groups', :func:`_between`); None where neither does (or fewer than 3
+    parts)."""
     t, o = np.asarray(times, np.float64), np.asarray(offsets, np.float64)
     w = 1.0 / np.asarray(sigmas, np.float64) ** 2
     n = o.size
@@ -121,6 +122,8 @@ def two_levels(times, offsets, sigmas) -> tuple | None:
         best = None
         for k in range(1, n - gap):
             keep = np.r_[np.arange(k), np.arange(k + gap, n)]
+            if gap and not _between(o, w, k, n):
+                continue
             q = _chi2(o[keep], w[keep], (keep >= k).astype(int))
             ok = min(_chi2(o[keep], w[keep], np.zeros(keep.size)),
                      _q_line(t[keep], o[keep], w[keep])) >= STEP_GAIN * max(q, 1e-300)
@@ -129,6 +132,15 @@ def two_levels(times, offsets, sigmas) -> tuple | None:
         if best is not None:
             return best[1:]
     return None
+
+
+def _between(o, w, k, n) -> bool:
+    """Part ``k`` lies between the weighted means of parts ``0..k-1`` and ``k+1..n-1``: a
+    part that holds the step mixes the two offsets (or stops at its bracket's edge, on
+    the way from one to the other)."""
+    lo = np.sum(w[:k] * o[:k]) / np.sum(w[:k])
+    hi = np.sum(w[k + 1:n] * o[k + 1:n]) / np.sum(w[k + 1:n])
+    return bool(min(lo, hi) < o[k] < max(lo, hi))
 
 
 def _may_step(off) -> bool:
