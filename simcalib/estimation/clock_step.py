@@ -4,32 +4,34 @@ with a jump between them.
 An NTP correction, or a logger restarted on another machine's clock, moves b's stamps by a
 constant (+0.4 s, -2 s) from one instant on. Fitted as one offset, the split check's parts
 (:func:`simcalib.estimation.offset_cost.split_check`) of the stretch the offset does not
-fit land at the edge of their bracket, their spread raises the offset's sigma, and X's
+fit stop at the edge of their bracket, their spread raises the offset's sigma, and X's
 sigma grows with the misaligned motions ("poorly determined"); a linear drift
 (:mod:`simcalib.estimation.drift`) does not explain them.
 
 :func:`find_step` looks for one only where the split check raised and no drift was
 fitted (else it costs nothing): the parts must split into two contiguous groups, each
 about one offset, that explain their dispersion :data:`STEP_GAIN` times better than one
-offset and than a line (a part holding the step may be left out). Then
+offset and than a line (:func:`two_levels`; a part between the groups whose offset lies
+between theirs may be left out: it holds the step). Then
 
-* the offset is estimated again on b's stamps on either side of the parts' boundary
-  (each stretch alone, no drift) -> ``o1``, ``o2``;
+* the offset is estimated again on b's stamps on either side of the groups' boundary
+  (each stretch alone) -> ``o1``, ``o2``;
 * the step's instant is the b stamp that best separates the motions fitting ``o1`` from
-  those fitting ``o2`` (both sensors of a rigid rig turn by the same angle, whatever X:
-  the misfit of the angles over 1 s motions, or of the translation lengths for a rig
+  those fitting ``o2`` (:func:`changepoint`: the screw's invariants, rotation angle and
+  pitch, which X does not change, over 1 s motions; the translation's length for a rig
   that does not turn; a motion across the step fits neither);
-* the offset is estimated once more on each side of that stamp; the step is told when
-  ``o2 - o1`` stands :data:`STEP_Z` of its sigma from 0 and the parts of both stretches
-  (their own split checks, 2 or more each) lie about two constants :data:`STEP_GAIN`
-  times closer than about one line (a drift climbs through both).
+* the offset is estimated once more on each side of that stamp (with its drift where
+  the stretch tells one); the step is told when it stands :data:`STEP_Z` of its sigmas
+  from 0 and the stretches' points (their split checks' parts, or a short stretch's own
+  offset; 4 or more) lie about a line with a jump at the step :data:`STEP_GAIN` times
+  closer than about one line and about one offset (a drift climbs through both).
 
 Where it is told, :func:`shifted` moves b's stamps from the step on by ``-(o2 - o1)`` and
 the path aligns the corrected streams as usual (:mod:`simcalib.estimation.
-reading_alignment`); :class:`ClockStep` says what was done. A clock that steps back
-(``o2 < o1``) leaves b's file with stamps out of order, which the reader sorts: the
-stretches interleave over the step's length, and such a step is told only where what is
-left on either side tells it.
+reading_alignment`; streams paired by shared stamps, :mod:`simcalib.estimation.
+hidden_offset`, are classified again); :class:`ClockStep` says what was done. A clock
+that steps back (``o2 < o1``) leaves b's file with stamps out of order, which the reader
+sorts: the stretches interleave over the step's length; such a step is not handled.
 """
 
 from __future__ import annotations
