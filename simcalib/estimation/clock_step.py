@@ -4,12 +4,13 @@ with a jump between them.
 An NTP correction, or a logger restarted on another machine's clock, moves b's stamps by a
 constant (+0.4 s, -2 s) from one instant on. Fitted as one offset, the split check's parts
 (:func:`simcalib.estimation.offset_cost.split_check`) of the stretch the offset does not
-fit stop at the edge of their bracket, their spread raises the offset's sigma, and X's
-sigma grows with the misaligned motions ("poorly determined"); a linear drift
+fit stop at the edge of their bracket, their spread raises the offset's sigma (or, a
+stretch far off, whose cost barely curves at the edge, raises nothing and drags X off),
+and X's sigma grows with the misaligned motions ("poorly determined"); a linear drift
 (:mod:`simcalib.estimation.drift`) does not explain them.
 
-:func:`find_step` looks for one only where the split check raised and no drift was
-fitted (else it costs nothing): the parts must split into two contiguous groups, each
+:func:`find_step` looks for one only where the split check raised or has a part at its
+bracket's edge, and no drift was fitted (else it costs nothing): the parts must split into two contiguous groups, each
 about one offset, that explain their dispersion :data:`STEP_GAIN` times better than one
 offset and than a line (:func:`two_levels`; a part between the groups whose offset lies
 between theirs may be left out: it holds the step). Then
@@ -51,6 +52,9 @@ STEP_GAIN = 10.0
 STEP_Z = 10.0
 #: at most this many steps are told in one recording
 MAX_STEPS = 3
+#: a part of the split check this share of the bracket's half width from the offset
+#: stopped at its edge
+EDGE = 0.999
 
 
 @dataclass(frozen=True)
@@ -145,11 +149,25 @@ def _between(o, w, k, n) -> bool:
     return bool(min(lo, hi) < o[k] < max(lo, hi))
 
 
-def _may_step(off) -> bool:
+def _may_step(off, half_s: float = math.inf) -> bool:
+    """The search runs: one offset refined (no drift, fewer than :data:`MAX_STEPS` steps
+    removed) whose split check has 3 parts or more and raised, or has a part that stopped
+    at its bracket's edge (``half_s`` from the offset: a stretch the offset does not fit by
+    more than the bracket, whose cost barely curves there, may not raise it)."""
     split = getattr(off, "split", None)
-    return (off.refined and off.decision in ("estimated", "zero") and split is not None
-            and bool(split.raised) and off.drift == 0.0 and len(split.offsets_s) >= 3
-            and len(getattr(off, "steps", ())) < MAX_STEPS)
+    if not (off.refined and off.decision in ("estimated", "zero") and split is not None
+            and off.drift == 0.0 and len(split.offsets_s) >= 3
+            and len(getattr(off, "steps", ())) < MAX_STEPS):
+        return False
+    edge = np.abs(np.asarray(split.offsets_s) - off.best_s) >= EDGE * half_s
+    return bool(split.raised) or bool(edge.any())
+
+
+def _half_s(a, b) -> float:
+    """The half width of the offset cost's bracket: 2 periods of the slower stream."""
+    from simcalib.estimation.speeds import as_time_poses
+    ta, tb = as_time_poses(a)[0], as_time_poses(b)[0]
+    return 2.0 * max(float(np.median(np.diff(ta))), float(np.median(np.diff(tb))))
 
 
 def _reference_is_b(a, b) -> bool:
@@ -261,7 +279,7 @@ def find_step(a, b, off, **kw) -> ClockStep | None:
     :func:`~simcalib.estimation.alignment.estimate_time_offset` for each stretch
     (``alpha``, ``signal``)."""
     from simcalib.estimation.speeds import as_time_poses
-    if not _may_step(off):
+    if not _may_step(off, _half_s(a, b)):
         return None
     ref_b = _reference_is_b(a, b)
     mid = _boundary(off, ref_b)
