@@ -10,9 +10,9 @@ and X's sigma grows with the misaligned motions ("poorly determined"); a linear 
 (:mod:`simcalib.estimation.drift`) does not explain them.
 
 :func:`find_step` looks for one only where the split check raised or has a part at its
-bracket's edge, and no drift was fitted (else it costs nothing): the parts must split into two contiguous groups, each
-about one offset, that explain their dispersion :data:`STEP_GAIN` times better than one
-offset and than a line (:func:`two_levels`; a part between the groups whose offset lies
+bracket's edge, and no drift was fitted (else it costs nothing): the parts must split
+into two contiguous groups, each about one offset, that explain their dispersion
+:data:`STEP_GAIN` times better than one offset and than a line (:func:`two_levels`; a part between the groups whose offset lies
 between theirs may be left out: it holds the step). Then
 
 * the offset is estimated again on b's stamps on either side of the groups' boundary
