@@ -9,7 +9,7 @@ import pytest
 
 from simcalib.estimation import clock_step
 from simcalib.estimation.alignment import estimate_time_offset
-from simcalib.estimation.clock_step import find_step, two_levels
+from simcalib.estimation.clock_step import edge_run, find_step, two_levels
 from simcalib.estimation.path import calibrate_streams
 from simcalib.geometry import rotation_error_rad
 from simcalib.report.calibration import _step_line
@@ -40,6 +40,17 @@ def test_two_levels_of_the_parts():
     # holds the step mixes the two offsets); tum_fr1_xyz's parts (ms) are no step
     assert two_levels(t, [0.0, 0.25, 0.4, 0.4], sig) == (0, 2)
     assert two_levels(t, [0.01195, 0.00083, 0.00727, 0.0071], sig) is None
+
+
+def test_parts_at_their_brackets_edge_as_one_run_at_an_end():
+    """TUM fr2/desk with b +0.4 s half-way: parts 340.9, 340.9 (the bracket's edge, one
+    offset at 405 ms), 407.6, 403.0 ms; the two levels' test alone misses it (the fitted
+    half's parts 4.6 ms apart at 0.5 ms sigmas), the run of edge parts does not."""
+    assert edge_run([True, True, False, False]) == (1, 2)
+    assert edge_run([False, False, False, True]) == (2, 3)
+    assert edge_run([False, True, False, False]) is None     # not at an end
+    assert edge_run([True, False, False, True]) is None      # two runs
+    assert edge_run([False] * 4) is None and edge_run([True] * 4) is None
 
 
 @pytest.mark.slow

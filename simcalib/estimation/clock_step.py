@@ -10,10 +10,12 @@ and X's sigma grows with the misaligned motions ("poorly determined"); a linear 
 (:mod:`simcalib.estimation.drift`) does not explain them.
 
 :func:`find_step` looks for one only where the split check raised or has a part at its
-bracket's edge, and no drift was fitted (else it costs nothing): the parts must split
-into two contiguous groups, each about one offset, that explain their dispersion
-:data:`STEP_GAIN` times better than one offset and than a line (:func:`two_levels`; a part between the groups whose offset lies
-between theirs may be left out: it holds the step). Then
+bracket's edge, and no drift was fitted (else it costs nothing): the parts at their
+bracket's edge must be one run at an end of the recording (:func:`edge_run`: there the
+offset is off by more than the bracket), or the parts split into two contiguous groups,
+each about one offset, that explain their dispersion :data:`STEP_GAIN` times better than
+one offset and than a line (:func:`two_levels`; a part between the groups whose offset
+lies between theirs may be left out: it holds the step). Then
 
 * the offset is estimated again on b's stamps on either side of the groups' boundary
   (each stretch alone) -> ``o1``, ``o2``;
@@ -42,8 +44,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-__all__ = ["ClockStep", "find_step", "shifted", "two_levels", "STEP_GAIN", "STEP_Z",
-           "MAX_STEPS"]
+__all__ = ["ClockStep", "find_step", "shifted", "two_levels", "edge_run", "STEP_GAIN",
+           "STEP_Z", "MAX_STEPS", "EDGE"]
 
 #: two constants leave at most this fraction's inverse of the parts' dispersion about one
 #: offset and about a line
@@ -264,12 +266,32 @@ def _on_a(off, ref_b) -> tuple:
     return t, np.asarray(s.offsets_s, np.float64), np.asarray(s.sigmas_s, np.float64)
 
 
-def _boundary(off, ref_b) -> float | None:
-    """The a-clock instant between the parts' two levels (:func:`two_levels`): the middle
-    between the last part of the first and the first of the second; None: no two levels."""
+def _boundary(off, ref_b, half_s) -> float | None:
+    """The a-clock instant between the parts the offset fits and those it does not: the
+    middle between the last part of the first and the first of the second, where the parts
+    at their bracket's edge (``half_s`` from the offset) are a run at one end of the
+    recording (:func:`edge_run`), else the parts' two levels (:func:`two_levels`); None:
+    neither."""
     t, o, s = _on_a(off, ref_b)
-    cut = two_levels(t, o, s)
+    cut = edge_run(np.abs(o - off.best_s) >= EDGE * half_s)
+    cut = two_levels(t, o, s) if cut is None else cut
     return None if cut is None else 0.5 * float(t[cut[0]] + t[cut[1]])
+
+
+def edge_run(edge) -> tuple | None:
+    """``(last part of the first group, first of the second)`` where the parts at their
+    bracket's edge (``edge``, a bool per part) are one run at the start or the end of the
+    recording and some are not (a stretch the offset misses by more than the bracket);
+    else None."""
+    e = np.asarray(edge, dtype=bool)
+    k = int(e.sum())
+    if k == 0 or k == e.size:
+        return None
+    if e[:k].all():
+        return k - 1, k
+    if e[-k:].all():
+        return e.size - k - 1, e.size - k
+    return None
 
 
 def find_step(a, b, off, **kw) -> ClockStep | None:
@@ -282,7 +304,7 @@ def find_step(a, b, off, **kw) -> ClockStep | None:
     if not _may_step(off, _half_s(a, b)):
         return None
     ref_b = _reference_is_b(a, b)
-    mid = _boundary(off, ref_b)
+    mid = _boundary(off, ref_b, _half_s(a, b))
     if mid is None:
         return None
     tb = as_time_poses(b)[0]
