@@ -80,6 +80,28 @@ def test_judge_tells_ok_flagged_and_failed():
     assert _judge("mm_b", base, 3, None, "simcalib: error: something else")[0] == "FAIL"
 
 
+def test_clock_step_b_steps_b_half_way_and_is_judged_on_the_step_told():
+    """b's clock +0.4 s from its middle row on; ok only with one step of 0.4 s told (within
+    3 ms or 3 of its sigma) and X staying."""
+    a, b = _rows(), _rows(seed=1)
+    pa, pb = perturb("clock_step_b", a, b, np.random.default_rng(0))
+    n = len(b)
+    assert np.array_equal(pa, a) and np.array_equal(pb[:, 1:], b[:, 1:])
+    assert np.allclose(pb[:n // 2, 0], b[:n // 2, 0]) and np.allclose(pb[n // 2:, 0],
+                                                                      b[n // 2:, 0] + 0.4)
+    assert PERTURBATIONS["clock_step_b"] == (True, False)
+    base = _cal(np.eye(4))
+
+    def stepped(*steps):
+        cal = _cal(np.eye(4))
+        cal["time_offset"]["steps"] = [{"size_s": s, "size_sigma_s": g} for s, g in steps]
+        return cal
+    assert _judge("clock_step_b", base, 0, stepped((0.4012, 0.002)), "")[0] == "ok"
+    assert _judge("clock_step_b", base, 0, stepped((0.39, 0.001)), "")[0] == "FAIL"
+    assert _judge("clock_step_b", base, 6, stepped(), "")[0] == "FAIL"
+    assert _judge("clock_step_b", base, 6, stepped((0.4, 0.001), (0.1, 0.001)), "")[0] == "FAIL"
+
+
 def test_registered_as_an_experiment():
     assert "real_perturbations" in EXPERIMENTS
     assert set(PERTURBATIONS) >= {"invert_b", "mm_b", "offset-30s"}

@@ -91,6 +91,9 @@ class TimeOffset:
     best_s: float = float("nan")
     #: the 1-sigma of ``drift`` (0 where none is fitted, or drift from two halves)
     drift_sigma: float = 0.0
+    #: clock steps told and removed from b's stamps before this offset was estimated
+    #: (:class:`simcalib.estimation.clock_step.ClockStep`; the offset is the first stretch's)
+    steps: tuple = ()
 
     def offset_at(self, t_a) -> np.ndarray:
         """Offset ``t_b - t_a`` at clock-a times ``t_a``."""

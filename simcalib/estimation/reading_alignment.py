@@ -91,7 +91,7 @@ def _unit_scale(sa, sb, sampling, seed, signal, candidates) -> float:
 
 
 def _align_and_read(sa, sb, sampling, *, time_offset="estimate", drift="auto", alpha=1.0,
-                    seed=0, forced=None, signal="rotation", candidates=None):
+                    seed=0, forced=None, signal="rotation", candidates=None, steps=()):
     """The streams' reading and their clock offset, decided in that order and checked
     again: the reading at the correlation's (reading-free) offset, the offset refined with
     that reading, then the reading decided again at the final offset (it is what the run
@@ -104,25 +104,52 @@ def _align_and_read(sa, sb, sampling, *, time_offset="estimate", drift="auto", a
     offset of :func:`first_reading`."""
     from simcalib.estimation.readings import apply_conventions
     from simcalib.estimation.alignment import estimate_time_offset
+    from simcalib.estimation.clock_step import find_step
     detect = _detector(sa, sb, sampling, alpha=alpha, seed=seed, forced=forced, signal=signal)
     conv, off = first = _first(sa, sb, sampling, detect, time_offset, signal, candidates)
     if time_offset != "estimate":
         return (*apply_conventions(sa, sb, conv), conv, off, sampling, first)
+    again = dict(time_offset=time_offset, drift=drift, alpha=alpha, seed=seed, forced=forced,
+                 signal=signal)
     if sampling.paired_by_stamp:            # equal stamps, or equal after a constant shift
-        return (*_paired_by_stamp(sa, sb, sampling, detect, conv, off, drift=drift,
-                                  alpha=alpha, signal=signal), first)
+        a1, b1, conv, off, sampling = _paired_by_stamp(
+            sa, sb, sampling, detect, conv, replace(off, steps=steps), drift=drift,
+            alpha=alpha, signal=signal)
+        if len(off.steps) > len(steps):     # the stamps hid a clock step: shifted, again
+            return _shifted_again(sa, sb, off.steps[-1], again, steps, reclassify=True)
+        return a1, b1, conv, replace(off, steps=steps), sampling, first
     a1, b1 = apply_conventions(sa, sb, conv)
     # a rotating rig: "auto" (the same rule as check_streams_move) consults the
     # translation speeds too where the angular ones leave the offset in doubt
     by = "auto" if signal == "rotation" else signal
-    off = estimate_time_offset(a1, b1, drift=drift, alpha=alpha, signal=by)
+    off = replace(estimate_time_offset(a1, b1, drift=drift, alpha=alpha, signal=by),
+                  steps=steps)       # the steps removed from b's stamps before
     final = detect(off)
     if (final.invert_a, final.invert_b, final.swap_scalar_a, final.swap_scalar_b) != (
             conv.invert_a, conv.invert_b, conv.swap_scalar_a, conv.swap_scalar_b):
         a1, b1 = apply_conventions(sa, sb, final)       # the reading changed: once more
-        off = estimate_time_offset(a1, b1, drift=drift, alpha=alpha, signal=by)
+        off = replace(estimate_time_offset(a1, b1, drift=drift, alpha=alpha, signal=by),
+                      steps=steps)
         final = detect(off)
+    step = find_step(a1, b1, off, alpha=alpha, signal=by)
+    if step is not None:                    # b's clock steps: shifted, aligned again
+        return _shifted_again(sa, sb, step, again, steps, sampling=sampling)
     return (*apply_conventions(sa, sb, final), final, off, sampling, first)
+
+
+def _shifted_again(sa, sb, step, kw, steps, sampling=None, reclassify=False):
+    """:func:`_align_and_read` of b with its stamps from the clock ``step``
+    (:mod:`simcalib.estimation.clock_step`) on shifted back (``reclassify``: its sampling
+    decided again, for streams paired by stamp), the step added to the offset's
+    ``steps`` and named first in its message."""
+    from simcalib.estimation.clock_step import shifted
+    from simcalib.estimation.sampling import classify_sampling
+    sb = shifted(sb, step)
+    if reclassify:
+        sampling = classify_sampling(sa, sb)
+    *out, off, sampling, first = _align_and_read(sa, sb, sampling, **kw,
+                                                 steps=(*steps, step))
+    return (*out, replace(off, message=f"{step.line()}; {off.message}"), sampling, first)
 
 
 def _detector(sa, sb, sampling, *, alpha, seed, forced, signal):

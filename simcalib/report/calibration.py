@@ -126,6 +126,7 @@ def _time_offset(off) -> dict:
             "coarse_offset_s": off.coarse_offset_s,
             "peak_correlation": _fin(off.peak_correlation),
             "drift": off.drift, "drift_sigma": off.drift_sigma, "t_ref_s": off.t_ref_s,
+            "steps": [st.to_dict() for st in getattr(off, "steps", ())],
             "signal": off.signal if off.decision not in ("given", "shared_stamps") else None,
             "convention": "offset_s = t_b - t_a for the same instant",
             "message": off.message}
@@ -234,6 +235,16 @@ def other_readings_lines(rep: dict) -> list[str]:
     return lines
 
 
+def _step_line(st: dict) -> str:
+    """The console's line on one clock step (calibration.json ``time_offset.steps``)."""
+    return (f"CLOCK STEP of b: {st['size_s'] * 1e3:+.1f} +- {st['size_sigma_s'] * 1e3:.1f} ms"
+            f" at b's t = {st['at_b_s']:.3f} s (a's {st['at_a_s']:.3f} s): offset "
+            f"{st['offset_before_s'] * 1e3:.1f} +- {st['sigma_before_s'] * 1e3:.1f} ms "
+            f"before, {st['offset_after_s'] * 1e3:.1f} +- {st['sigma_after_s'] * 1e3:.1f} ms"
+            f" after (a clock step, not a drift); b's {st['b_rows_shifted']} stamps from it "
+            f"shifted by {-st['size_s'] * 1e3:+.1f} ms")
+
+
 def format_report(rep: dict) -> str:
     """The console report of one calibration (from the calibration.json content)."""
     X = np.asarray(rep["X"]["T_a_b"])
@@ -255,6 +266,7 @@ def format_report(rep: dict) -> str:
         f"sampling: {rep['sampling']['reason']}",
         f"motions: {rep['motions']['policy']} ({rep['motions']['reason']})",
         _offset_line(off, rep["sampling"]),
+        *[_step_line(st) for st in off.get("steps") or ()],
         f"  {off['message']}",
         f"inliers: {inl['n_inliers']} of {inl['n_motions']} motions ({inl['choice']}): "
         f"{inl['message']}",

@@ -25,6 +25,9 @@ then with one perturbation at a time whose effect on the answer is known:
   number, the rows between paired one off: X must stay;
 * ``two_clocks_b`` (station sets): b stamped by another computer's clock, 2.3 s late with
   +-50 ms of trigger jitter (no stamp shared): X must stay;
+* ``clock_step_b`` (continuous sets): b's clock steps by +0.4 s at its middle row (an NTP
+  correction, a logger restarted): one clock step of 0.4 s (within 3 ms or 3 of its sigma)
+  must be told and X stay;
 * ``mm_b``: b's translations in millimetres: refused as a unit mismatch (exit 3) or
   calibrated with b rescaled (``scale_b``), X staying.
 
@@ -63,8 +66,10 @@ PERTURBATIONS = {
     "wxyz_b": (True, True), "neg_quat_half_b": (True, True), "mm_b": (True, True),
     "shuffled_rows_b": (False, True), "epoch_b": (True, False), "reset_b": (True, True),
     "lost_row_b": (False, True), "two_clocks_b": (False, True),
-    "mirror_b": (True, True), "lost_rows_ab": (False, True)}
+    "mirror_b": (True, True), "lost_rows_ab": (False, True), "clock_step_b": (True, False)}
 SHIFTS_S = {"offset+0.25s": 0.25, "offset-30s": -30.0}
+#: ``clock_step_b``: b's clock steps by this much (s) at its middle row
+CLOCK_STEP_S = 0.4
 #: ``epoch_b`` moves stamps on a recording's clock by this much (a Unix time, 2025-12)
 UNIX_EPOCH_S = 1.765e9
 
@@ -135,6 +140,8 @@ def perturb(name: str, a: np.ndarray, b: np.ndarray, rng: np.random.Generator):
         a[:, 0], b[:, 0] = t[:len(a)], t[:len(b)]
     elif name == "mirror_b":                    # a left-handed file: z -> -z, (-x, -y, z, w)
         b[:, [3, 4, 5]] *= -1.0
+    elif name == "clock_step_b":                # b's clock steps half-way (NTP, a restart)
+        b[len(b) // 2:, 0] += CLOCK_STEP_S
     elif name != "base":
         raise ValueError(f"unknown perturbation {name!r}; valid: base, "
                          + ", ".join(PERTURBATIONS))
@@ -199,6 +206,10 @@ def _judge(name, base, code, cal, err, shift=None) -> tuple[str, str]:
     if shift is not None and abs(off - shift) > _offset_bound(base, cal):
         return "FAIL", (f"offset moved {off * 1e3:.1f} ms, not {shift * 1e3:.1f} "
                         f"(+- {_offset_bound(base, cal) * 1e3:.1f}); {moved}")
+    if name == "clock_step_b":
+        told = _step_told(cal, moved)
+        if told is not None:
+            return "FAIL", told
     if dr <= r_max and (t_max is None or dt <= t_max):
         return "ok", moved
     if not cal["conventions"].get("clear", True):
@@ -206,6 +217,18 @@ def _judge(name, base, code, cal, err, shift=None) -> tuple[str, str]:
     bound = f"{math.degrees(r_max):.3f} deg" + (
         "" if t_max is None else f" / {t_max * 1e3:.1f} mm")
     return "FAIL", f"{moved} (bound {bound})"
+
+
+def _step_told(cal: dict, moved: str) -> str | None:
+    """Why ``clock_step_b``'s step was not told right (None: it was, its size within 3 ms
+    or 3 of its sigmas of :data:`CLOCK_STEP_S`)."""
+    steps = cal["time_offset"].get("steps") or []
+    if len(steps) != 1:
+        return f"{len(steps)} clock steps told, not 1; {moved}"
+    size, sig = steps[0]["size_s"], steps[0]["size_sigma_s"]
+    if abs(size - CLOCK_STEP_S) > max(3e-3, 3.0 * sig):
+        return f"clock step {size * 1e3:+.1f} +- {sig * 1e3:.1f} ms, not +400; {moved}"
+    return None
 
 
 def _continuous(a: np.ndarray) -> bool:

@@ -1,0 +1,113 @@
+"""A clock that steps once mid-recording (simcalib.estimation.clock_step): told where the
+offset is constant on two stretches with a jump between them, located, removed from b's
+stamps; never told on one clock or on a drift."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from simcalib.estimation import clock_step
+from simcalib.estimation.alignment import estimate_time_offset
+from simcalib.estimation.clock_step import edge_run, find_step, two_levels
+from simcalib.estimation.path import calibrate_streams
+from simcalib.geometry import rotation_error_rad
+from simcalib.report.calibration import _step_line
+from simcalib.studies.experiments.recording_kinds import generate
+from simcalib.world.stream_sim import rig_streams
+
+
+def _stepped(rec, size_s, frac=0.5):
+    """The recording's b with its stamps from row ``frac`` of it on moved by ``size_s``
+    (sorted, as the reader sorts them), and that row's stamp as written."""
+    sb = rec.stream_b
+    t = np.asarray(sb.timestamps_s, np.float64).copy()
+    k = int(t.size * frac)
+    t[k:] += size_s
+    order = np.argsort(t, kind="stable")
+    return replace(sb, timestamps_s=t[order], T_world_sensor=sb.T_world_sensor[order]), t[k]
+
+
+def test_two_levels_of_the_parts():
+    t = [10.0, 20.0, 30.0, 40.0]
+    sig = [1e-3] * 4
+    assert two_levels(t, [0.0, 0.0, 0.4, 0.4], sig) == (1, 2)
+    assert two_levels(t, [0.0, 0.001, 0.4, 0.401], sig) == (1, 2)
+    assert two_levels(t, [0.0, 0.01, 0.02, 0.03], sig) is None        # a drift: a line
+    assert two_levels(t, [0.0, 0.0005, -0.0005, 0.0], sig) is None    # one offset
+    assert two_levels(t[:2], [0.0, 0.4], sig[:2]) is None              # too few parts
+    # a part left out between the groups only where it lies between them (a part that
+    # holds the step mixes the two offsets); tum_fr1_xyz's parts (ms) are no step
+    assert two_levels(t, [0.0, 0.25, 0.4, 0.4], sig) == (0, 2)
+    assert two_levels(t, [0.01195, 0.00083, 0.00727, 0.0071], sig) is None
+
+
+def test_parts_at_their_brackets_edge_as_one_run_at_an_end():
+    """TUM fr2/desk with b +0.4 s half-way: parts 340.9, 340.9 (the bracket's edge, one
+    offset at 405 ms), 407.6, 403.0 ms; the two levels' test alone misses it (the fitted
+    half's parts 4.6 ms apart at 0.5 ms sigmas), the run of edge parts does not."""
+    assert edge_run([True, True, False, False]) == (1, 2)
+    assert edge_run([False, False, False, True]) == (2, 3)
+    assert edge_run([False, True, False, False]) is None     # not at an end
+    assert edge_run([True, False, False, True]) is None      # two runs
+    assert edge_run([False] * 4) is None and edge_run([True] * 4) is None
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kind, seed, frac", [("offset", 0, 0.5), ("outliers", 0, 0.37)])
+def test_a_clock_step_is_told_located_and_removed(kind, seed, frac):
+    """b's clock jumps by +0.4 s (half-way, or inside a part of the split check with 10 %
+    outlier poses): one step of 0.4 s is told at the right stamp, both offsets within a
+    few ms, and X as without the step (one offset: X degrees off or poorly determined)."""
+    rec = generate(kind, seed)
+    sb, at = _stepped(rec, 0.4, frac)
+    r = calibrate_streams(rec.stream_a, sb)
+    off = r.time_offset
+    assert len(off.steps) == 1, off.message
+    st = off.steps[0]
+    assert st.at_b_s == at
+    assert abs(st.size_s - 0.4) < max(2e-3, 3 * st.size_sigma_s) and st.size_sigma_s < 2e-3
+    assert abs(st.before_s - rec.offset_s) < 3e-3
+    assert abs(st.after_s - rec.offset_s - 0.4) < 3e-3
+    assert abs(off.offset_s - rec.offset_s) < 3e-3 and off.drift == 0.0
+    assert np.degrees(rotation_error_rad(r.X, rec.X_true)) < 0.05
+    assert np.linalg.norm(r.X[:3, 3] - rec.X_true[:3, 3]) < 1e-3
+    assert r.stream_b.repairs["clock_step_rows_shifted"] == st.rows_shifted
+    line = _step_line(st.to_dict())
+    assert line.startswith("CLOCK STEP of b: +") and "a clock step, not a drift" in line
+    assert st.line() in off.message
+
+
+@pytest.mark.slow
+def test_no_step_on_one_clock():
+    """The same recording without a step: nothing new (the search is not even run where
+    the split check holds)."""
+    rec = generate("offset", 0)
+    r = calibrate_streams(rec.stream_a, rec.stream_b)
+    assert r.time_offset.steps == ()
+    assert "clock_step_rows_shifted" not in r.stream_b.repairs
+
+
+def test_a_drift_is_no_step():
+    """100 ppm over 40 s fitted as one offset: the split check raises (its parts climb)
+    and the search runs, but the parts lie on a line: no step; with the drift fitted the
+    search does not run."""
+    rs = rig_streams(offset_s=0.1, drift=100e-6, duration_s=40.0, rng=np.random.default_rng(3))
+    one = estimate_time_offset(rs.a, rs.b, drift=False)
+    assert one.split.raised and one.drift == 0.0
+    assert find_step(rs.a, rs.b, one, alpha=1.0, signal="auto") is None
+    est = estimate_time_offset(rs.a, rs.b)
+    assert est.drift != 0.0 and not clock_step._may_step(est)
+
+
+def test_a_step_on_simulated_streams_is_found_by_find_step():
+    """``find_step`` alone: a rig at 30 / 20 Hz, b's clock +0.25 s from its middle on."""
+    rs = rig_streams(offset_s=0.05, duration_s=40.0, rng=np.random.default_rng(4))
+    t = rs.t_b.copy()
+    k = t.size // 2
+    t[k:] += 0.25
+    one = estimate_time_offset(rs.a, (t, rs.T_b))
+    st = find_step(rs.a, (t, rs.T_b), one, alpha=1.0, signal="auto")
+    assert st is not None, one.message
+    assert st.at_b_s == t[k] and abs(st.size_s - 0.25) < 1e-3
+    assert abs(st.before_s - 0.05) < 1e-3 and st.rows_shifted == t.size - k
