@@ -20,8 +20,8 @@ two stretches, each of :data:`MIN_POSES` poses and :data:`MIN_MOTIONS` motions o
   the :data:`NEES_LEVEL` quantile of chi-square.
 
 The splits tried: :data:`_GRID` even ones (every pose where there are fewer); the best
-is then moved to the instant, within two grid steps, where each side's X fits the motions
-best (capped squared residuals, a motion across the split at the cap; only where the best
+is then moved to the instant, within two grid steps, that puts the fewest motions on the
+side whose X fits them worse (a motion across the split counts half; only where the best
 passes 0.9 of the gain). The path
 (:func:`simcalib.estimation.path.calibrate_streams`) then marks the split as a jump of
 both streams' worlds (motions only within a stretch: the reading, the offset and the
@@ -99,8 +99,8 @@ class MountChange:
     def to_dict(self) -> dict:
         from simcalib.geometry import quat_from_matrix, rotvec_from_matrix
         other = 1 - self.kept
-        Xo = self.X[other]
-        std = np.sqrt(np.clip(np.diag(self.covariances[other]), 0.0, None))
+        Xo, cov = self.X[other], self.covariances[other]
+        std = np.full(6, np.nan) if cov is None else np.sqrt(np.clip(np.diag(cov), 0, None))
         deg, mm = self.apart
         return {"between_s": [self.t_before_s, self.t_after_s],
                 "kept": ("first", "second")[self.kept],
@@ -111,8 +111,8 @@ class MountChange:
                 "X_other": {"t_m": Xo[:3, 3].tolist(),
                             "q_xyzw": quat_from_matrix(Xo[:3, :3]).tolist(),
                             "rotvec_deg": np.degrees(rotvec_from_matrix(Xo[:3, :3])).tolist(),
-                            "std_rot_deg": np.degrees(std[:3]).tolist(),
-                            "std_trans_mm": (1e3 * std[3:]).tolist()}}
+                            "std_rot_deg": _finite(np.degrees(std[:3])),
+                            "std_trans_mm": _finite(1e3 * std[3:])}}
 
     def sentence(self, offset_s: float = 0.0) -> str:
         """The warning: when, how far apart, which X is reported and why, and how to
@@ -132,6 +132,10 @@ class MountChange:
                 f"give only its poses: a's stamps {a0:.3f}..{a1:.3f} s, b's "
                 f"{a0 + offset_s:.3f}..{a1 + offset_s:.3f} s (no motion across the change "
                 "is used)")
+
+
+def _finite(v) -> list:
+    return [float(x) if math.isfinite(x) else None for x in v]
 
 
 def _sub(idx: np.ndarray, m: int) -> np.ndarray:
@@ -172,27 +176,26 @@ def _side_fits(C, H, i, j, k: int, alpha: float) -> tuple:
 
 
 def _refined(C, H, i, j, k0: int, lo: int, hi: int, alpha: float) -> int:
-    """The split in ``lo..hi`` whose motions cost least under each side's X (each side's
-    own at ``k0``): the squared screw residual capped at 3 times the median of the better
-    of the two, and that cap for a motion across the split (it fits neither)."""
+    """The split in ``lo..hi`` that puts the fewest motions on the side whose X (each
+    side's own at ``k0``) fits them worse, a motion across the split counting half (it fits
+    neither: which X fits it less badly is a coin's toss)."""
     from simcalib.solvers.robust import screw_residuals
     X0, X1 = _side_fits(C, H, i, j, k0, alpha)
     look = _sub(np.arange(C.shape[0]), 4 * _MAX_RES)
-    r0 = screw_residuals(C[look], H[look], X0, alpha)
-    r1 = screw_residuals(C[look], H[look], X1, alpha)
-    cap = (3.0 * float(np.median(np.minimum(r0, r1)))) ** 2
-    c0, c1 = np.minimum(r0**2, cap), np.minimum(r1**2, cap)
+    second = (screw_residuals(C[look], H[look], X1, alpha)
+              < screw_residuals(C[look], H[look], X0, alpha))
     ks = np.unique(np.linspace(lo, hi, min(hi - lo + 1, 10 * _GRID)).round().astype(np.int64))
     before = j[look][None, :] < ks[:, None]
     after = i[look][None, :] >= ks[:, None]
-    cost = (before * c0).sum(1) + (after * c1).sum(1) + cap * (~(before | after)).sum(1)
+    cost = ((before & second).sum(1) + (after & ~second).sum(1)
+            + 0.5 * (~(before | after)).sum(1))
     return int(ks[int(np.argmin(cost))])
 
 
 def _best_split(C, H, i, j, n: int, alpha: float) -> tuple[int, float] | None:
     """``(k, ratio)``: the split of the ``n`` instants with the largest
     :func:`split_misfit` on a grid, moved to the instant within two grid steps of it
-    where each side's X fits best (:func:`_refined`; only where the best passes 0.9 of
+    that parts the motions best (:func:`_refined`; only where the best passes 0.9 of
     the gain)."""
     lo, hi = MIN_POSES, n - MIN_POSES
     if hi < lo:
@@ -222,14 +225,18 @@ def _stretch_fit(C, H, seed: int, alpha: float, method: str):
 
 
 def describe_split(synced, motions, k: int, ratio: float, *, alpha: float, method: str,
-                   seed: int) -> MountChange:
+                   seed: int) -> MountChange | None:
     """The two stretches either side of instant ``k`` of ``synced`` (motions ``motions``:
     each stretch's own; ``ratio``: :func:`split_misfit`): their X's, the NEES of the
-    difference on the directions both determine (the sum of their model covariances)."""
+    difference on the directions both determine (the sum of their model covariances);
+    None where a stretch has too few poses or motions."""
     from scipy.stats import chi2
     from simcalib.solvers.diagnostics.uncertainty import pose_error
     t = np.asarray(synced.time_s)
     sides = (motions.j < k, motions.i >= k)
+    if not MIN_POSES <= k <= t.size - MIN_POSES or min(map(int, map(np.sum, sides))) < \
+            MIN_MOTIONS:
+        return None
     fits = [_stretch_fit(motions.C[s], motions.H[s], seed, alpha, method) for s in sides]
     nees, dof = math.nan, 0
     if all(f[1] is not None for f in fits):
@@ -259,7 +266,7 @@ def find_mount_change(synced, motions, *, alpha: float, method: str = "dqopt",
         return None
     change = describe_split(synced, motions, best[0], best[1], alpha=alpha, method=method,
                             seed=seed)
-    return change if change.significant else None
+    return change if change is not None and change.significant else None
 
 
 def on_world_edge(synced, k: int) -> bool:

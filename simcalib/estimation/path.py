@@ -391,9 +391,12 @@ def _mount_pass(p, sa0, sb0, sampling, scale, kw, notes):
         sa1, sb1 = mc.mark_change(sa0, sb0, change.cut_s, p.off.offset_s)
         if scale.rescaled and scale.decision == "rescaled":
             sb1 = scaled_stream(sb1, 1.0 / scale.used)
-        p = _fit_pass(sa1, sb1, sampling, **kw)
-        k = int(np.searchsorted(p.sp.time_s, change.cut_s))
-        change = mc.describe_split(p.sp, p.ms, k, change.misfit_ratio, **fit)
+        p2 = _fit_pass(sa1, sb1, sampling, **kw)
+        k = int(np.searchsorted(p2.sp.time_s, change.cut_s))
+        change = mc.describe_split(p2.sp, p2.ms, k, change.misfit_ratio, **fit)
+        if change is None:                  # the pass with the change marked lost a side
+            return p, p.ms, None, notes
+        p = p2
     ms = p.ms.subset(mc.kept_motions(p.ms, change))
     rob, why = robust_fit(ms.C, ms.H, kw["robust"], alpha=kw["alpha"], method=kw["method"],
                           seed=kw["seed"], options=kw["robust_options"])
