@@ -12,7 +12,9 @@
 A stream whose world frame jumps (a SLAM map reset, a bumped target:
 :mod:`simcalib.estimation.world_jumps`) is used whole: each stretch between jumps is its own
 world, every motion lies within one, and every stage after uses the motions of all
-stretches.
+stretches. Where X itself changes at one instant (a camera bumped on its mount:
+:mod:`simcalib.estimation.mount`), the change is marked the same way and the fit keeps
+the stretch with more poses (:func:`_mount_pass`).
 
 A rig that only translates (neither stream turns:
 :func:`~simcalib.estimation.stillness.check_streams_move` returns ``translation``) goes
