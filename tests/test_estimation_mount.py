@@ -94,3 +94,15 @@ def test_no_change_on_clean_data_and_none_where_a_stretch_is_too_short():
     T_b = np.asarray(sb.T_world_sensor).copy()
     T_b[-4:] = T_b[-4:] @ D                        # 4 poses: too few to tell
     assert calibrate_streams(sa, _with_b(sb, T_b)).summary["mount_change"] is None
+
+
+def test_bad_poses_do_not_make_a_split_explain_the_misfit():
+    from simcalib.estimation.mount import MISFIT_GAIN, _best_split
+    from simcalib.estimation.stamp_units import stamps_to_seconds
+    from simcalib.studies.experiments.recording_kinds import generate
+    rec = generate("outliers", 6)                 # 5-20 % outlier poses in b, no change
+    r = calibrate_streams(*stamps_to_seconds(rec.stream_a, rec.stream_b, "auto", "auto"))
+    assert r.summary["mount_change"] is None
+    ms = r.motions
+    k, ratio = _best_split(ms.C, ms.H, ms.i, ms.j, r.synced.n, 1.0)
+    assert ratio < 1.1 < MISFIT_GAIN                # 1.65 when bad poses pulled the fits
