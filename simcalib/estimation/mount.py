@@ -124,13 +124,15 @@ class MountChange:
         which = ("first", "second")[self.kept]
         other = 1 - self.kept
         (a0, a1) = self.spans_s[other]
+        why = ("as many as the other's: the later, the mount as it is now"
+               if self.poses[0] == self.poses[1] else "the better determined")
         return (f"X changes between the poses at t = {self.t_before_s:.3f} and "
                 f"{self.t_after_s:.3f} s (a sensor moved on its mount, e.g. a bumped camera):"
                 f" the two stretches' own X's are {deg:.2f} deg / {mm:.1f} mm apart (NEES "
                 f"{self.nees:.3g} on {self.dof} dof, bound {self.bound:.3g}; one X fits "
                 f"their motions {self.misfit_ratio:.2f}x worse than each its own); X is the "
-                f"{which} stretch's ({self.poses[self.kept]} of "
-                f"{sum(self.poses)} poses, the better determined), the other's is in "
+                f"{which} stretch's ({self.poses[self.kept]} of {sum(self.poses)} poses, "
+                f"{why}), the other's is in "
                 f"calibration.json mount_change.X_other; to calibrate the other stretch, "
                 f"give only its poses: a's stamps {a0:.3f}..{a1:.3f} s, b's "
                 f"{a0 + offset_s:.3f}..{a1 + offset_s:.3f} s (no motion across the change "
