@@ -12,7 +12,9 @@
 A stream whose world frame jumps (a SLAM map reset, a bumped target:
 :mod:`simcalib.estimation.world_jumps`) is used whole: each stretch between jumps is its own
 world, every motion lies within one, and every stage after uses the motions of all
-stretches.
+stretches. Where X itself changes at one instant (a camera bumped on its mount:
+:mod:`simcalib.estimation.mount`), the change is marked the same way and the fit keeps
+the stretch with more poses (:func:`_mount_pass`).
 
 A rig that only translates (neither stream turns:
 :func:`~simcalib.estimation.stillness.check_streams_move` returns ``translation``) goes
@@ -310,7 +312,6 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
     :func:`align_and_read`), or b forced mirrored (True) or as written (False). Bad input
     raises a DataError."""
     from simcalib.estimation.scale import check_scale_b
-    from simcalib.estimation.world_jumps import stretches_used
     scale_b = check_scale_b(scale_b)
     sa0, sb0, sampling, signal, notes = _prepared(a, b, (format_a, format_b),
                                                   (stamps_unit_a, stamps_unit_b), scale_b)
@@ -323,6 +324,7 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
               max_rotation_deg=max_rotation_deg, robust=robust, method=method,
               robust_options=robust_options)
     p, scale = _scale_pass(_fit_pass(sa0, sb0, sampling, **kw), sa0, sb0, sampling, scale_b, kw)
+    p, ms_all, mount, notes = _mount_pass(p, sa0, sb0, sampling, scale, kw, notes)
     sa, sb, conv, off, sp, ms, length_scale, rob, why, sampling = p
     prior = _per_pass(prior, ms.passes)
     rob = _final_solve(ms, rob, method=method, alpha=alpha, prior=prior, seed=seed,
@@ -331,13 +333,12 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
         ms, rob, sp, method=method, alpha=alpha, prior=prior, offset_sigma_s=_offset_sigma(off))
     cov, cov_det, common_error = _with_common_error(cov, cov_det, rob, check, common_error)
     cov, cov_det = _with_scale(cov, cov_det, rob, check, ms, scale, alpha)
-    ms0, plain = _plain(sa, sb, sampling, off, sp, ms, step_s=step_s, alpha=alpha,
+    ms0, plain = _plain(sa, sb, sampling, off, sp, ms_all, step_s=step_s, alpha=alpha,
                         min_rotation_deg=min_rotation_deg, max_rotation_deg=max_rotation_deg)
     aligned, summary = _summary(sa, sb, conv, off, ms, rob, ms0, plain, alpha, length_scale)
     return StreamCalibration(rob.X, None if plain is None else plain.X, off, conv, rob, plain,
-                             sa, sb, ms.C, ms.H, sp.time_s[ms.i], summary | {
-                                 "scale_b": scale.to_dict(), "station_rows": notes[1],
-                                 "world_jumps": notes[0] + stretches_used(sp, ms, rob)},
+                             sa, sb, ms.C, ms.H, sp.time_s[ms.i], summary | _notes(
+                                 notes, sp, ms, rob, mount) | {"scale_b": scale.to_dict()},
                              synced=sp, motion_index=(ms.i, ms.j),
                              X_aligned=aligned.X, sampling=sampling, motions=ms,
                              consistency=check, covariance=cov, covariance_determined=cov_det,
@@ -361,7 +362,49 @@ def _prepared(a, b, formats, units, scale_b) -> tuple:
     signal = check_streams_move(sa0, sb0)
     sa0, sb0, sampling, rows = realign_rows(sa0, sb0, classify_sampling(sa0, sb0))
     sa0, sb0, split = split_stations(sa0, sb0, sampling)
-    return sa0, sb0, sampling, signal, (jumps + split, rows)
+    return sa0, sb0, sampling, signal, (jumps + split, rows, split)
+
+
+def _notes(notes, sp, ms, rob, mount) -> dict:
+    """The summary's sentences on station rows, world jumps (and the stretches the fit
+    used, unless X changed: its warning says which) and the change of X
+    (``mount_change``: its record, None)."""
+    from simcalib.estimation.world_jumps import stretches_used
+    return {"station_rows": notes[1], "mount_change": mount,
+            "world_jumps": notes[0] + ([] if mount else stretches_used(sp, ms, rob))}
+
+
+def _mount_pass(p, sa0, sb0, sampling, scale, kw, notes):
+    """``(pass, all its motions, mount_change, notes)``: where X changes at one instant
+    (:func:`simcalib.estimation.mount.find_mount_change`) the pass formed again with the
+    change marked as a world jump (unless one is marked there already; b's scale as
+    decided), its motions kept to the stretch whose X is reported and fitted again;
+    ``mount_change`` the change's record for calibration.json, ``notes`` with its warning
+    in place of a station split's (the same split, taken for a world jump). Else as
+    given (``mount_change`` None)."""
+    from simcalib.estimation import mount as mc
+    from simcalib.estimation.scale import scaled_stream
+    fit = dict(alpha=kw["alpha"], method=kw["method"], seed=kw["seed"])
+    change = mc.find_mount_change(p.sp, p.ms, **fit)
+    if change is None:
+        return p, p.ms, None, notes
+    edge = mc.on_world_edge(p.sp, change.index)
+    if not edge:
+        sa1, sb1 = mc.mark_change(sa0, sb0, change.cut_s, p.off.offset_s)
+        if scale.rescaled and scale.decision == "rescaled":
+            sb1 = scaled_stream(sb1, 1.0 / scale.used)
+        p2 = _fit_pass(sa1, sb1, sampling, **kw)
+        k = int(np.searchsorted(p2.sp.time_s, change.cut_s))
+        change = mc.describe_split(p2.sp, p2.ms, k, change.misfit_ratio, **fit)
+        if change is None:                  # the pass with the change marked lost a side
+            return p, p.ms, None, notes
+        p = p2
+    ms = p.ms.subset(mc.kept_motions(p.ms, change))
+    rob, why = robust_fit(ms.C, ms.H, kw["robust"], alpha=kw["alpha"], method=kw["method"],
+                          seed=kw["seed"], options=kw["robust_options"])
+    world = [n for n in notes[0] if not edge or n not in notes[2]]
+    return (p._replace(ms=ms, rob=rob, why=why), p.ms, change.to_dict(),
+            ([change.sentence(p.off.offset_s)] + world, notes[1], notes[2]))
 
 
 def _scale_pass(p, sa0, sb0, sampling, scale_b, kw):

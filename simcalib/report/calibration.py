@@ -111,6 +111,7 @@ def report_dict(opts, r, a, solver_kernels: str = "compiled") -> dict:
         "options": to_dict(opts),
         "plausibility": None if a.plausibility is None else a.plausibility.to_dict(),
         "warnings": list(a.warnings),
+        "mount_change": s.get("mount_change"),
         "files": {"motions": "motions.npz",
                   "recording": "recording.rrd" if opts.recording else None},
     }
