@@ -345,6 +345,13 @@ class _Clock:
     t_ref_s: float
 
 
+def _small_offset(rngs, s) -> float:
+    """The clock offset of the kinds about something else (gaps, readings, planar): uniform
+    in +-50 ms (a real recording never has exactly 0), unless ``offset_s`` is given."""
+    drawn = float(rngs["clock"].uniform(-0.05, 0.05))     # always drawn: same arrays
+    return drawn if s.offset_s is None else float(s.offset_s)
+
+
 def _continuous(rngs, s: Settings, *, offset_s=0.0, drift=0.0, hand=None, rig=None,
                 label="continuous") -> _Draft:
     """a at ``rate_a_hz``, b at ``rate_b_hz`` on one smooth motion, stamp jitter, dropped
