@@ -42,3 +42,35 @@ def test_a_stop_and_go_camera_on_a_clock_30_s_late(seed):
     assert "puts 95% or more of them there" in r.time_offset.message
     assert np.degrees(rotation_error_rad(r.X, base.X)) < 0.01
     assert base.time_offset.message.find("b comes in clusters") < 0      # left alone
+
+
+def test_a_run_where_only_part_of_b_overlaps_a_is_no_rival():
+    """b 36.4 s late (stop_and_go seed 7): beside the true run of offsets, one at which only
+    half of b overlaps a and its few clusters there fall on stops by chance also fit; it
+    puts half as many of b's samples on a's stops. Any second run refused: the offset stayed
+    0 and X came out 159 deg off."""
+    rec = generate("stop_and_go", 7)
+    ta, Ta, tb = _arrays(rec)
+    truth = rec.offset_s + 36.387
+    window = (0.694, 72.35)                 # the correlation's plausibility window there
+    step = float(np.median(np.diff(tb)))
+    offsets = np.arange(window[0], window[1], step)
+    share, inside = presence._still_counts(ta, Ta, tb + 36.387, offsets)
+    far = (share >= presence.FIT_SHARE) & (np.abs(offsets - truth) > 5.0)
+    assert far.any() and inside[far].max() < 0.6 * tb.size      # the chance fit exists
+    found = presence.presence_offset(ta, Ta, tb + 36.387, window)
+    assert found is not None and abs(found[0] - truth) < 0.5
+
+
+def test_stops_at_a_regular_pace_leave_the_offset_open():
+    """a stands still 2 s of every 5 s; b sees at every stop of its middle half: shifted by
+    one stop or more b's clusters fall on stops as well, with as many samples: no offset."""
+    ta = np.arange(0.0, 100.0, 0.01)
+    phase = np.mod(ta, 5.0)
+    x = np.floor(ta / 5.0) * 0.3 + 0.3 * np.clip((phase - 2.0) / 3.0, 0.0, 1.0)
+    Ta = np.tile(np.eye(4), (ta.size, 1, 1))
+    Ta[:, 0, 3] = x
+    tb = np.concatenate([np.arange(5.0 * i + 0.3, 5.0 * i + 1.7, 1 / 30) for i in range(5, 15)])
+    assert presence.clustered(tb)
+    assert presence.presence_offset(ta, Ta, tb, (-3.0, 3.0)) is not None
+    assert presence.presence_offset(ta, Ta, tb, (-12.0, 12.0)) is None
