@@ -193,7 +193,8 @@ class Kind:
     extra: tuple = ()           # kind-specific Settings it reads (offset_s, ...)
     #: the kind's own values of :class:`Settings` fields (overrides still win)
     defaults: dict = field(default_factory=dict)
-    #: how close the offset must be found (ms; None: the acceptance's OFFSET_TOL_MS)
+    #: how close the offset must be found (ms; None: the acceptance's OFFSET_TOL_MS where
+    #: the data determine it, else not checked)
     offset_tol_ms: float | None = None
 
     @property

@@ -13,7 +13,7 @@ from simcalib.studies.experiments.recording_kinds.readings import (
     _kind_inverted, _kind_scalar_first, _kind_scale, _kind_scale_stations, _kind_stamp_units)
 from simcalib.studies.experiments.recording_kinds.stations import (
     _kind_bursts, _kind_scara, _kind_stations, _kind_stations_short, _kind_stations_two_clocks,
-    _kind_stop_and_go, _kind_translation_bursts)
+    _kind_stop_and_go, _kind_stop_and_go_two_clocks, _kind_translation_bursts)
 from simcalib.studies.experiments.recording_models import Kind
 
 __all__ = ["KINDS"]
@@ -69,6 +69,13 @@ KINDS: dict[str, Kind] = {
                         "offset +-50 ms (it cannot show)", False,
                         extra=("offset_s", "rate_a_hz", "rate_b_hz", "drop_fraction",
                                "jitter_a_s", "jitter_b_s")),
+    "stop_and_go_two_clocks": Kind(_kind_stop_and_go_two_clocks, "stop_and_go with b on "
+                                   "another computer's clock: 5..40 s early or late, plus "
+                                   "+-50 ms (found to the stop: ~0.2 s, within a stop nothing "
+                                   "moves)", False,
+                                   extra=("offset_s", "rate_a_hz", "rate_b_hz",
+                                          "drop_fraction", "jitter_a_s", "jitter_b_s"),
+                                   offset_tol_ms=500.0),
     "low_rate_camera": Kind(_kind_low_rate_camera, "continuous, a 5 Hz camera with 0.5 deg / "
                             "5 mm noise, 20 % of both streams' frames dropped, 60 s, offset "
                             "+-50 ms (found to ~6 ms)", True, extra=("offset_s",),

@@ -100,15 +100,32 @@ def _kind_translation_bursts(rngs, s):
                         "stations", " without turning", undetermined_a=np.eye(3))
 
 
-def _kind_stop_and_go(rngs, s):
-    """a streams the whole session; b sees the target only while the hand stands still."""
+def _stop_and_go_draft(rngs, s, offset_s: float, label: str) -> _Draft:
+    """a streams the whole session through 8..20 stops; b (its clock ``offset_s`` ahead)
+    sees the target only while the hand stands still."""
     k = s.stations if s.stations is not None else int(rngs["rig"].integers(8, 20,
                                                                            endpoint=True))
     motion, duration, still = _stop_and_go_motion(rngs["motion"], k)
-    d = _continuous(rngs, replace(s, duration_s=duration), offset_s=_small_offset(rngs, s),
-                    hand=motion, label="stop_and_go")
+    d = _continuous(rngs, replace(s, duration_s=duration), offset_s=offset_s, hand=motion,
+                    label=label)
     tau = d.t_b - d.offset_s - (d.t_ref_s - 0.5 * duration)     # b's instants on the motion
     seen = ((tau[:, None] >= still[None, :, 0]) & (tau[:, None] <= still[None, :, 1])).any(1)
     return replace(d, t_b=d.t_b[seen], B=d.B[seen], description=d.description
                    + f", {k} stops; b only while the hand stands still ({int(seen.sum())} "
                    "poses)")
+
+
+def _kind_stop_and_go(rngs, s):
+    return _stop_and_go_draft(rngs, s, _small_offset(rngs, s), "stop_and_go")
+
+
+def _kind_stop_and_go_two_clocks(rngs, s):
+    """stop_and_go with b stamped by another computer: its clock 5..40 s early or late,
+    plus +-50 ms (``offset_s``: the whole offset)."""
+    r = rngs["events"]
+    shift = float(r.choice([-1.0, 1.0]) * r.uniform(5.0, 40.0))
+    small = _small_offset(rngs, s)              # always drawn: the same arrays
+    off = small + shift if s.offset_s is None else small
+    d = _stop_and_go_draft(rngs, s, off, "stop_and_go_two_clocks")
+    return replace(d, description=d.description + f", b's clock {off:+.3f} s (another "
+                   "computer)")
