@@ -74,3 +74,26 @@ def test_stops_at_a_regular_pace_leave_the_offset_open():
     assert presence.clustered(tb)
     assert presence.presence_offset(ta, Ta, tb, (-3.0, 3.0)) is not None
     assert presence.presence_offset(ta, Ta, tb, (-12.0, 12.0)) is None
+
+
+def test_an_offset_that_puts_only_part_of_b_on_stops_gives_way_to_the_run():
+    """b 19 s late (stop_and_go_two_clocks seed 34): the cost could not tell an offset and 0
+    was used; at 0 only part of b overlaps a, and 89 % of that part falls on stops by chance
+    (above USED_SHARE), so 0 was kept and X came out 110 deg off. The run puts twice as many
+    of b's samples on a's stops: it is used."""
+    from simcalib.estimation.alignment import TimeOffset
+    rec = generate("stop_and_go_two_clocks", 34)
+    ta, Ta, tb = _arrays(rec)
+    window = (-12.82, 51.14)                # the correlation's plausibility window there
+    zero = TimeOffset(0.0, float("nan"), -10.4, 0.33, np.zeros(1), np.zeros(1),
+                      decision="zero", window_s=window)
+    share, inside = presence._still_counts(ta, Ta, tb, [0.0])
+    assert share[0] >= presence.USED_SHARE and inside[0] < 0.7 * tb.size
+    off = presence.checked(zero, ta, Ta, tb)
+    assert off.decision == "estimated" and abs(off.offset_s - rec.offset_s) < 0.5
+    assert "puts 95% or more of them there, and is used" in off.message
+    # where the clocks agree the offset decided is kept as it is
+    rec = generate("stop_and_go", 0)
+    ta, Ta, tb = _arrays(rec)
+    kept = replace(zero, window_s=(-30.0, 30.0))
+    assert presence.checked(kept, ta, Ta, tb) is kept

@@ -19,8 +19,10 @@ few clusters there fell on stops by chance left the offset at 0 and X 159 deg of
 Within a stop nothing tells the offset: its error is up to about half the stop's slack
 (the camera's settling, ~0.15 s on the generated recordings), within its sigma. It is used
 (:func:`checked`) only where the offset decided otherwise puts fewer than
-:data:`USED_SHARE` of b's samples where a stands still, so recordings whose clocks agree
-keep their offset.
+:data:`USED_SHARE` of b's samples where a stands still, or fewer than :data:`RIVAL_SHARE`
+as many as the run does (b 19 s late, offset 0 put 89 % of the part of b inside a's span
+on stops, by chance, and X came out 110 deg off), so recordings whose clocks agree keep
+their offset.
 """
 
 from __future__ import annotations
@@ -115,6 +117,13 @@ def presence_offset(ta, Ta, tb, window) -> tuple[float, float] | None:
     difference) at which b's samples fall where a stands still (:data:`FIT_SHARE`) that
     puts the most of them there, or None where no offset fits or another run is its rival
     (:data:`RIVAL_SHARE`)."""
+    found = _best_run(ta, Ta, tb, window)
+    return None if found is None else found[:2]
+
+
+def _best_run(ta, Ta, tb, window) -> tuple[float, float, float] | None:
+    """:func:`presence_offset` and how many of b's samples its run puts where a stands
+    still (at most)."""
     step = min(float(np.median(np.diff(tb))), 0.05)
     lo, hi = window
     if not (math.isfinite(lo) and math.isfinite(hi)) or hi <= lo:
@@ -133,28 +142,35 @@ def presence_offset(ta, Ta, tb, window) -> tuple[float, float] | None:
         return None
     i0, i1 = runs[best]
     width = (i1 - i0) * step
-    return float(0.5 * (offsets[i0] + offsets[i1 - 1])), width / math.sqrt(12.0)
+    return (float(0.5 * (offsets[i0] + offsets[i1 - 1])), width / math.sqrt(12.0),
+            float(support[best]))
 
 
 def checked(off, ta, Ta, tb):
     """The :class:`~simcalib.estimation.alignment.TimeOffset` ``off``, or where b comes in
     clusters and ``off`` puts fewer than :data:`USED_SHARE` of its samples where a stands
-    still, the offset of :func:`presence_offset` (module doc); ``off`` as it is, its
-    message saying so, where none fits."""
+    still, or fewer than :data:`RIVAL_SHARE` as many as the run of :func:`presence_offset`
+    does, that run's offset (module doc); ``off`` as it is, its message saying so, where
+    none fits."""
     if not clustered(tb) or off.drift != 0.0:
         return off
-    used = float(still_share(ta, Ta, tb, [off.offset_s])[0])
-    if used >= USED_SHARE:                  # NaN: most of b's samples outside a's span
+    share, inside = _still_counts(ta, Ta, tb, [off.offset_s])
+    used, placed = float(share[0]), float(np.nan_to_num(share[0]) * inside[0])
+    if used >= USED_SHARE and placed >= RIVAL_SHARE * tb.size:     # no run can beat it
         return off
-    found = presence_offset(ta, Ta, tb, off.window_s)
+    found = _best_run(ta, Ta, tb, off.window_s)
+    if used >= USED_SHARE and (found is None or placed >= RIVAL_SHARE * found[2]):
+        return off
     where = ("most of b's samples fall outside a's span" if math.isnan(used) else
-             f"only {used:.0%} of b's samples fall where a stands still")
+             f"only {used:.0%} of b's samples fall where a stands still"
+             if used < USED_SHARE else f"only {placed:.0f} of b's {tb.size} samples fall "
+             f"where a stands still ({used:.0%} of those inside a's span)")
     head = (f"; at {off.offset_s * 1e3:.1f} ms {where}, though b comes in clusters (a "
             "camera that sees while the rig stops?)")
     if found is None:
         return replace(off, message=off.message + head + ": no offset puts them there, the "
                        "offset may be wrong")
-    offset, sigma = found
+    offset, sigma, _ = found
     return replace(off, offset_s=offset, uncertainty_s=sigma, drift=0.0, refined=False,
                    decision="estimated", split=None, evidence=float("nan"), why_zero="",
                    message=off.message + head + f": {offset * 1e3:.1f} +- {sigma * 1e3:.1f}"
