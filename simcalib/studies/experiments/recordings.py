@@ -439,9 +439,8 @@ def markdown(rows: list[dict], outcomes: list[Outcome], command: str) -> str:
         "no outlier pose, by the TRUE masks: Park without rejection is no bar for the "
         "outlier kinds, so they are also held to this one. Errors are against the true X; "
         "for planar / scara the translation error leaves out the undetermined direction. "
-        "Offset error only where the data determine the offset (continuous kinds) or the "
-        "kind states its tolerance (a camera on another clock seen only at the stops). Inlier "
-        "precision / recall (means over seeds): the calibration's inlier motions against "
+        "Offset error where the data determine the offset (continuous kinds) or the kind "
+        "states a tolerance. Inlier precision / recall (means over seeds): inlier motions vs "
         "the motions that touch no outlier pose. Exit codes: 0 determined, 6 degenerate, "
         "3 data error, 5 solver failed, 1 crash; errors are over the runs that gave an "
         "estimate.",
