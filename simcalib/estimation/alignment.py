@@ -91,6 +91,9 @@ class TimeOffset:
     best_s: float = float("nan")
     #: the 1-sigma of ``drift`` (0 where none is fitted, or drift from two halves)
     drift_sigma: float = 0.0
+    #: put where b's clusters fall on a's stops (:mod:`~simcalib.estimation.presence`):
+    #: within ``uncertainty_s`` b's samples stay where a stands still
+    at_stops: bool = False
 
     def offset_at(self, t_a) -> np.ndarray:
         """Offset ``t_b - t_a`` at clock-a times ``t_a``."""

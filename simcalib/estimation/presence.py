@@ -173,5 +173,6 @@ def checked(off, ta, Ta, tb):
     offset, sigma, _ = found
     return replace(off, offset_s=offset, uncertainty_s=sigma, drift=0.0, refined=False,
                    decision="estimated", split=None, evidence=float("nan"), why_zero="",
+                   at_stops=True,
                    message=off.message + head + f": {offset * 1e3:.1f} +- {sigma * 1e3:.1f}"
                    f" ms puts {FIT_SHARE:.0%} or more of them there, and is used")
