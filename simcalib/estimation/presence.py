@@ -17,7 +17,8 @@ puts nearly as many there (:data:`RIVAL_SHARE`: stops at a regular pace). (Any s
 used to refuse: with b 36 s late, an offset at which only half of b overlapped a and its
 few clusters there fell on stops by chance left the offset at 0 and X 159 deg off.)
 Within a stop nothing tells the offset: its error is up to about half the stop's slack
-(the camera's settling, ~0.15 s on the generated recordings), within its sigma. It is used
+(the camera's settling, ~0.15 s on the generated recordings), within its sigma; nor does it
+matter there (``TimeOffset.at_stops``: X's covariance takes nothing from it). It is used
 (:func:`checked`) only where the offset decided otherwise puts fewer than
 :data:`USED_SHARE` of b's samples where a stands still, or fewer than :data:`RIVAL_SHARE`
 as many as the run does (b 19 s late, offset 0 put 89 % of the part of b inside a's span
