@@ -382,7 +382,7 @@ def test_no_worse_than_park_on_the_inlier_poses(kind, seed, outcome):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("kind,seed", _cases(lambda k: k.offset_determined
+@pytest.mark.parametrize("kind,seed", _cases(lambda k: R.offset_checked(k)
                                              and k.expect != "data_error", test="offset"))
 def test_offset_found(kind, seed, outcome):
     rec, o = outcome(kind, seed)

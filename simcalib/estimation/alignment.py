@@ -94,6 +94,9 @@ class TimeOffset:
     #: clock steps told and removed from b's stamps before this offset was estimated
     #: (:class:`simcalib.estimation.clock_step.ClockStep`; the offset is the first stretch's)
     steps: tuple = ()
+    #: put where b's clusters fall on a's stops (:mod:`~simcalib.estimation.presence`):
+    #: within ``uncertainty_s`` b's samples stay where a stands still
+    at_stops: bool = False
 
     def offset_at(self, t_a) -> np.ndarray:
         """Offset ``t_b - t_a`` at clock-a times ``t_a``."""

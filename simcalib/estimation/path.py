@@ -251,8 +251,12 @@ def _offset_sigma(off) -> float:
     for stamps shared as they are (stations) or after a constant shift; for stamps shared
     by two continuous streams whose motions did not tell an offset from 0, the check's
     bound (:func:`simcalib.estimation.hidden_offset.kept_at_zero`); 0 where it is unknown
-    (NaN: nothing to add)."""
-    if off.decision == "given":
+    (NaN: nothing to add), and for an offset put where b's clusters fall on a's stops
+    (``at_stops``): within its sigma b's samples stay where a stands still, so an error
+    there pairs them with the same poses of a (b's velocities there are its pose noise
+    differenced, and the gaps between its stops: its sigma of ~0.2 s on them widened X's
+    sigma 4x)."""
+    if off.decision == "given" or off.at_stops:
         return 0.0
     s = float(off.uncertainty_s)
     return s if math.isfinite(s) and s > 0 else 0.0

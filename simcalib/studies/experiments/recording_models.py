@@ -193,7 +193,8 @@ class Kind:
     extra: tuple = ()           # kind-specific Settings it reads (offset_s, ...)
     #: the kind's own values of :class:`Settings` fields (overrides still win)
     defaults: dict = field(default_factory=dict)
-    #: how close the offset must be found (ms; None: the acceptance's OFFSET_TOL_MS)
+    #: how close the offset must be found (ms; None: the acceptance's OFFSET_TOL_MS where
+    #: the data determine it, else not checked)
     offset_tol_ms: float | None = None
 
     @property
@@ -343,6 +344,13 @@ class _Clock:
     offset_s: float
     drift: float
     t_ref_s: float
+
+
+def _small_offset(rngs, s) -> float:
+    """The clock offset of the kinds about something else (gaps, readings, planar): uniform
+    in +-50 ms (a real recording never has exactly 0), unless ``offset_s`` is given."""
+    drawn = float(rngs["clock"].uniform(-0.05, 0.05))     # always drawn: same arrays
+    return drawn if s.offset_s is None else float(s.offset_s)
 
 
 def _continuous(rngs, s: Settings, *, offset_s=0.0, drift=0.0, hand=None, rig=None,
