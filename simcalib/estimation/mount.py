@@ -150,51 +150,67 @@ def _sub(idx: np.ndarray, m: int) -> np.ndarray:
     return idx[np.linspace(0, idx.size - 1, m).round().astype(np.int64)]
 
 
-def _fit(C, H, idx: np.ndarray, m: int, alpha: float) -> np.ndarray:
+def _take(terms: tuple, idx: np.ndarray) -> tuple:
+    return tuple(t[idx] for t in terms)
+
+
+def _ls(C, H, alpha: float) -> np.ndarray:
+    """X by least squares (dqopt) on all the motions ``C``, ``H``."""
+    from simcalib.solvers.single import solve_single
+    return solve_single(C, H, method="dqopt", alpha=alpha).X
+
+
+def _fit(C, H, terms, idx: np.ndarray, m: int, alpha: float) -> np.ndarray:
     """X by least squares on at most ``m`` of the motions ``idx``, fitted once more
     without those whose screw residual is beyond :data:`_TRIM` times the median (bad
     poses would otherwise pull it: the misfit ratio reached 1.65 with no change on
-    generated recordings with 5-20 % outlier poses)."""
-    from simcalib.solvers.robust import robust_solve, screw_residuals
+    generated recordings with 5-20 % outlier poses). ``terms``: the motions'
+    :func:`~simcalib.solvers.robust.screw_terms`."""
+    from simcalib.solvers.robust import residuals_of_terms
     s = _sub(idx, m)
-    X = robust_solve(C[s], H[s], "none", alpha=alpha).X
-    r = screw_residuals(C[s], H[s], X, alpha)
+    X = _ls(C[s], H[s], alpha)
+    r = residuals_of_terms(_take(terms, s), X, alpha)
     keep = s[r <= _TRIM * float(np.median(r))]
-    return robust_solve(C[keep], H[keep], "none", alpha=alpha).X if keep.size >= 3 else X
+    return _ls(C[keep], H[keep], alpha) if keep.size >= 3 else X
 
 
-def split_misfit(C, H, i, j, k: int, alpha: float) -> float:
+def split_misfit(C, H, i, j, k: int, alpha: float, terms=None) -> float:
     """The median screw residual of the motions that do not cross instant ``k`` (motion
     from instant ``i`` to ``j``) under one X fitted to them all, over that under each
-    side's own X (:func:`_fit`); NaN where a side has too few motions."""
-    from simcalib.solvers.robust import screw_residuals
+    side's own X (:func:`_fit`); NaN where a side has too few motions. ``terms``: the
+    motions' :func:`~simcalib.solvers.robust.screw_terms` (computed when not given)."""
+    from simcalib.solvers.robust import residuals_of_terms, screw_terms
     before, after = j < k, i >= k
     if int(before.sum()) < MIN_MOTIONS or int(after.sum()) < MIN_MOTIONS:
         return math.nan
+    terms = screw_terms(C, H) if terms is None else terms
     use = np.flatnonzero(before | after)
-    fits = [_fit(C, H, use, 2 * _MAX_FIT, alpha)] + list(_side_fits(C, H, i, j, k, alpha))
+    fits = [_fit(C, H, terms, use, 2 * _MAX_FIT, alpha)] + list(
+        _side_fits(C, H, terms, i, j, k, alpha))
     look = _sub(use, _MAX_RES)
-    one = screw_residuals(C[look], H[look], fits[0], alpha)
-    own = np.where(before[look], screw_residuals(C[look], H[look], fits[1], alpha),
-                   screw_residuals(C[look], H[look], fits[2], alpha))
+    at = _take(terms, look)
+    one = residuals_of_terms(at, fits[0], alpha)
+    own = np.where(before[look], residuals_of_terms(at, fits[1], alpha),
+                   residuals_of_terms(at, fits[2], alpha))
     return float(np.median(one) / max(float(np.median(own)), 1e-12))
 
 
-def _side_fits(C, H, i, j, k: int, alpha: float) -> tuple:
+def _side_fits(C, H, terms, i, j, k: int, alpha: float) -> tuple:
     """Each side's own X at split ``k`` (:func:`_fit` on its motions)."""
-    return tuple(_fit(C, H, np.flatnonzero(side), _MAX_FIT, alpha) for side in (j < k, i >= k))
+    return tuple(_fit(C, H, terms, np.flatnonzero(side), _MAX_FIT, alpha)
+                 for side in (j < k, i >= k))
 
 
-def _refined(C, H, i, j, k0: int, lo: int, hi: int, alpha: float) -> int:
+def _refined(C, H, terms, i, j, k0: int, lo: int, hi: int, alpha: float) -> int:
     """The split in ``lo..hi`` that puts the fewest motions on the side whose X (each
     side's own at ``k0``) fits them worse, a motion across the split counting half (it fits
     neither: which X fits it less badly is a coin's toss); looked for on at most
     ``10 * _GRID`` even splits, then on every split between the best one's neighbours."""
-    from simcalib.solvers.robust import screw_residuals
-    X0, X1 = _side_fits(C, H, i, j, k0, alpha)
+    from simcalib.solvers.robust import residuals_of_terms
+    X0, X1 = _side_fits(C, H, terms, i, j, k0, alpha)
     look = _sub(np.arange(C.shape[0]), 4 * _MAX_RES)
-    second = (screw_residuals(C[look], H[look], X1, alpha)
-              < screw_residuals(C[look], H[look], X0, alpha))
+    at = _take(terms, look)
+    second = residuals_of_terms(at, X1, alpha) < residuals_of_terms(at, X0, alpha)
 
     def best(ks):
         before = j[look][None, :] < ks[:, None]
@@ -204,8 +220,8 @@ def _refined(C, H, i, j, k0: int, lo: int, hi: int, alpha: float) -> int:
         return int(np.argmin(cost))
 
     ks = np.unique(np.linspace(lo, hi, min(hi - lo + 1, 10 * _GRID)).round().astype(np.int64))
-    at = best(ks)
-    ks = np.arange(ks[max(at - 1, 0)], ks[min(at + 1, ks.size - 1)] + 1)
+    at_k = best(ks)
+    ks = np.arange(ks[max(at_k - 1, 0)], ks[min(at_k + 1, ks.size - 1)] + 1)
     return int(ks[best(ks)])
 
 
@@ -216,15 +232,17 @@ def _best_split(C, H, i, j, n: int, alpha: float) -> tuple[int, float] | None:
     lo, hi = MIN_POSES, n - MIN_POSES
     if hi < lo:
         return None
+    from simcalib.solvers.robust import screw_terms
+    terms = screw_terms(C, H)      # converted once for every fit and residual below
     grid = np.unique(np.linspace(lo, hi, min(_GRID, hi - lo + 1)).round().astype(np.int64))
-    score = np.array([split_misfit(C, H, i, j, int(k), alpha) for k in grid])
+    score = np.array([split_misfit(C, H, i, j, int(k), alpha, terms) for k in grid])
     if np.isnan(score).all():
         return None
     at = int(np.nanargmax(score))
     if score[at] < _REFINE * MISFIT_GAIN:
         return int(grid[at]), float(score[at])
-    k = _refined(C, H, i, j, int(grid[at]), lo, hi, alpha)
-    ratio = split_misfit(C, H, i, j, k, alpha)
+    k = _refined(C, H, terms, i, j, int(grid[at]), lo, hi, alpha)
+    ratio = split_misfit(C, H, i, j, k, alpha, terms)
     return (k, ratio) if not math.isnan(ratio) else (int(grid[at]), float(score[at]))
 
 

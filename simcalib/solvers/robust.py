@@ -36,7 +36,8 @@ from simcalib.geometry import (check_transforms, dual_quat_from_transform, quat_
 from simcalib.solvers.batch_solve import solve_batch
 from simcalib.solvers.single import solve_single
 
-__all__ = ["RobustSolution", "screw_residuals", "noise_threshold",
+__all__ = ["RobustSolution", "screw_residuals", "screw_terms", "residuals_of_terms",
+           "noise_threshold",
            "ransac", "irls", "robust_solve", "constraint_errors", "ROBUST_METHODS",
            "inlier_scores"]
 
@@ -98,6 +99,22 @@ def screw_residuals(C, H, X, alpha: float = 1.0) -> np.ndarray:
     if X.shape[-2:] != (4, 4) or X.ndim not in (2, 3):
         raise ValueError(f"X must have shape (4, 4) or (B, 4, 4); received {X.shape}")
     return _residuals(_motion_matrices(C, H), X, alpha)
+
+
+def screw_terms(C, H) -> tuple:
+    """The motions' part of :func:`screw_residuals` (``L(q_C), L(q_C'), R(q_H), R(q_H')``,
+    (N, 4, 4) each), for scoring many X's on subsets of the same motions without converting
+    them again: ``residuals_of_terms(tuple(t[idx] for t in terms), X, alpha)``."""
+    C = np.asarray(C, dtype=np.float64)
+    H = np.asarray(H, dtype=np.float64)
+    if C.ndim != 3 or C.shape[1:] != (4, 4) or H.shape != C.shape:
+        raise ValueError(f"C and H must both have shape (N, 4, 4); received {C.shape}, {H.shape}")
+    return _motion_matrices(C, H)
+
+
+def residuals_of_terms(terms: tuple, X, alpha: float = 1.0) -> np.ndarray:
+    """:func:`screw_residuals` from the motions' :func:`screw_terms` (the same numbers)."""
+    return _residuals(terms, X, alpha)
 
 
 def _residuals(mats: tuple, X, alpha: float) -> np.ndarray:
