@@ -231,3 +231,22 @@ def test_minimal_pairs_are_argpartitions_pairs_without_argpartition(monkeypatch)
     assert robust._two_smallest(np.array([[0.5, 0.1, 0.1, 0.9]])) is None
     assert robust._two_smallest(np.array([[0.5, 0.1, 0.2, 0.2]])) is None
     assert robust._two_smallest(np.array([[0.5, 0.1, 0.2, 0.3]])).tolist() == [[1, 2]]
+
+
+def test_screw_terms_score_subsets_as_screw_residuals_does():
+    """The motions' terms converted once, then indexed, give screw_residuals' numbers to the
+    bit for any subset and X (the mount check scores ~100 fits so)."""
+    from simcalib.solvers.robust import residuals_of_terms, screw_residuals, screw_terms
+    rng = np.random.default_rng(4)
+    C = transform_from_rotation_translation(random_rotation_matrices(rng, (30,)),
+                                            rng.normal(size=(30, 3)))
+    H = transform_from_rotation_translation(random_rotation_matrices(rng, (30,)),
+                                            rng.normal(size=(30, 3)))
+    X = transform_from_rotation_translation(random_rotation_matrices(rng, ()),
+                                            rng.normal(size=3))
+    terms = screw_terms(C, H)
+    idx = np.array([0, 3, 4, 17, 29])
+    got = residuals_of_terms(tuple(t[idx] for t in terms), X, 0.7)
+    assert got.tobytes() == screw_residuals(C[idx], H[idx], X, 0.7).tobytes()
+    with pytest.raises(ValueError, match=r"received \(30, 4, 4\), \(29, 4, 4\)"):
+        screw_terms(C, H[:29])
