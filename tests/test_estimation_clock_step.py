@@ -111,3 +111,33 @@ def test_a_step_on_simulated_streams_is_found_by_find_step():
     assert st is not None, one.message
     assert st.at_b_s == t[k] and abs(st.size_s - 0.25) < 1e-3
     assert abs(st.before_s - 0.05) < 1e-3 and st.rows_shifted == t.size - k
+
+
+def _step(before_s, size_s, at_b_s=10.0, sigma_s=1e-3):
+    return clock_step.ClockStep(at_b_s, at_b_s - before_s, size_s, sigma_s, before_s, sigma_s,
+                                before_s + size_s, sigma_s, 1.0, 100.0, 100.0, 5)
+
+
+def test_a_step_holds_where_the_offset_aligned_again_is_the_first_stretchs():
+    from simcalib.estimation.alignment import _as_offset
+    step = _step(-30.0, 0.4)
+    assert clock_step.holds(step, _as_offset(-30.002))
+    assert clock_step.holds(step, _as_offset(-29.97))          # within a tenth of the step
+    assert not clock_step.holds(step, _as_offset(-29.9))
+    assert not clock_step.holds(_step(-30.0, 152.6), _as_offset(-237.9))
+
+
+def test_a_step_that_does_not_hold_is_dropped(monkeypatch):
+    """A step whose removal moves the whole alignment elsewhere explained nothing (KITTI
+    with b 30 s late: a '+152 s step' over its last poses, then -238 s and X 179 deg
+    off): the streams are taken as without it, to the bit."""
+    rec = generate("offset", 0)
+    plain = calibrate_streams(rec.stream_a, rec.stream_b)
+    t_b = np.asarray(rec.stream_b.timestamps_s)
+    wrong = _step(plain.time_offset.offset_s + 5.0, 3.0, at_b_s=float(t_b[int(0.9 * t_b.size)]))
+    monkeypatch.setattr(clock_step, "find_step",
+                        lambda a, b, off, **kw: None if off.steps else wrong)
+    got = calibrate_streams(rec.stream_a, rec.stream_b)
+    assert got.time_offset.steps == () and not got.stream_b.repairs.get("clock_step_rows_shifted")
+    assert got.time_offset.offset_s == plain.time_offset.offset_s
+    assert np.array_equal(got.X, plain.X)

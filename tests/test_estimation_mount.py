@@ -3,11 +3,13 @@
 from dataclasses import replace
 
 import numpy as np
+import pytest
 
 from simcalib.estimation.path import calibrate_streams
 from simcalib.geometry import (matrix_from_rotvec, rotation_error_rad,
                                transform_from_rotation_translation, translation_error_m)
 from simcalib.importers import stream_from_arrays
+from simcalib.studies.experiments.real_sets import real_dir
 from simcalib.world.stream_sim import rig_streams
 
 #: the camera bumped on its mount: 3.7 deg and 2.7 cm
@@ -106,3 +108,20 @@ def test_bad_poses_do_not_make_a_split_explain_the_misfit():
     ms = r.motions
     k, ratio = _best_split(ms.C, ms.H, ms.i, ms.j, r.synced.n, 1.0)
     assert ratio < 1.1 < MISFIT_GAIN                # 1.65 when bad poses pulled the fits
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not (real_dir() / "crwhe_tag15_cam1" / "a.txt").exists(),
+                    reason="needs ../shared/data/real (set SIMCALIB_REAL_DIR)")
+def test_a_mirrored_b_whose_reading_is_not_told_is_no_mount_change(tmp_path):
+    """A left-handed b on a set whose pitches cannot tell handedness fits no proper X: each
+    half's own X fits it better (1.58x), which told a 160 deg 'mount change'. With no
+    reading clear, no changed mount is told."""
+    from simcalib.importers import read_pose_stream
+    from simcalib.studies.experiments.real_perturbations import perturb
+    d = real_dir() / "crwhe_tag15_cam1"
+    a, b = np.loadtxt(d / "a.txt"), np.loadtxt(d / "b.txt")
+    _, b = perturb("mirror_b", a, b, np.random.default_rng(0))
+    np.savetxt(tmp_path / "b.txt", b, fmt="%.9f")
+    r = calibrate_streams(read_pose_stream(d / "a.txt"), read_pose_stream(tmp_path / "b.txt"))
+    assert not r.conventions.clear and r.summary.get("mount_change") is None

@@ -45,8 +45,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-__all__ = ["ClockStep", "find_step", "shifted", "two_levels", "edge_run", "STEP_GAIN",
-           "STEP_Z", "MAX_STEPS", "EDGE"]
+__all__ = ["ClockStep", "find_step", "shifted", "holds", "two_levels", "edge_run",
+           "STEP_GAIN", "STEP_Z", "MAX_STEPS", "EDGE", "HOLD_Z", "HOLD_SHARE"]
 
 #: two constants leave at most this fraction's inverse of the parts' dispersion about one
 #: offset and about a line
@@ -58,6 +58,9 @@ MAX_STEPS = 3
 #: a part of the split check this share of the bracket's half width from the offset
 #: stopped at its edge
 EDGE = 0.999
+#: with the step removed from b's stamps, the offset aligned again is the first
+#: stretch's within this many of their joint sigmas, or this share of the step (:func:`holds`)
+HOLD_Z, HOLD_SHARE = 5.0, 0.1
 
 
 @dataclass(frozen=True)
@@ -360,6 +363,20 @@ def _told(parts, ref_b, at_b_s, rows) -> ClockStep | None:
         return None
     return ClockStep(at_b_s, at_a, after - before, sigma, before, one.uncertainty_s, after,
                      two.uncertainty_s, q_step, q_line, q_const, rows)
+
+
+def holds(step: ClockStep, off) -> bool:
+    """Whether the offset ``off`` (a :class:`~simcalib.estimation.alignment.TimeOffset`)
+    aligned on b's stamps with ``step`` removed is the first stretch's (``step.before_s``
+    at the step): within :data:`HOLD_Z` of their joint sigma or :data:`HOLD_SHARE` of the
+    step. Where it is not, the step explained nothing: removing it moved the whole
+    alignment elsewhere (KITTI with b 30 s late: a "+152 s step" over its last 53 poses,
+    then an offset of -238 s and X 179 deg off), and the streams are taken without it."""
+    def fin(x):
+        return float(x) if math.isfinite(x) else 0.0
+    d = abs(float(off.offset_at(step.at_a_s)) - step.before_s)
+    sigma = math.hypot(fin(off.uncertainty_s), fin(step.before_sigma_s))
+    return bool(d <= max(HOLD_Z * sigma, HOLD_SHARE * abs(step.size_s)))
 
 
 def shifted(stream, step: ClockStep):

@@ -75,14 +75,15 @@ def continuous(t: np.ndarray, T: np.ndarray, signal: str = "rotation") -> bool:
 
 
 def stamps_hide_offset(sa, sb, sampling, off, *, alpha: float = 1.0, drift="auto",
-                       signal: str = "rotation"):
+                       signal: str = "rotation", step_search: bool = True):
     """``(Sampling, TimeOffset)`` to use for streams paired by stamp (``sampling``, ``off``:
     the shared stamps' offset): unpaired, with the estimated offset, when both sample a
     continuous motion and their motions line up at an offset that beats 0 (module doc);
     paired as before, at offset 0 with the check's 1-sigma (:func:`kept_at_zero`) and its
     outcome in their messages, when it does not; with a clock step in its ``steps`` where
     the motions show one (:func:`simcalib.estimation.clock_step.find_step`: the caller
-    shifts b's stamps and pairs the streams again); as given
+    shifts b's stamps and pairs the streams again; ``step_search=False``: not looked
+    for); as given
     for station data and stamps shared after a shift (whose shift is the offset). Sample
     numbers of a continuous motion: :func:`_counter_lag`. ``sa``, ``sb``: the streams in
     their decided reading."""
@@ -100,7 +101,8 @@ def stamps_hide_offset(sa, sb, sampling, off, *, alpha: float = 1.0, drift="auto
         return sampling, off
     by = "auto" if signal == "rotation" else signal     # as align_and_read: both speeds
     est = estimate_time_offset(sa, sb, drift=drift, alpha=alpha, signal=by)
-    step = find_step(sa, sb, replace(est, steps=off.steps), alpha=alpha, signal=by)
+    step = (find_step(sa, sb, replace(est, steps=off.steps), alpha=alpha, signal=by)
+            if step_search else None)
     if step is not None:        # b's clock steps: the caller shifts b's stamps, pairs again
         return sampling, replace(est, steps=(*off.steps, step))
     shared = (f"{sampling.shared} of {min(sampling.n_a, sampling.n_b)} stamps are shared by "

@@ -384,14 +384,17 @@ def _mount_pass(p, sa0, sb0, sampling, scale, kw, notes):
     change marked as a world jump (unless one is marked there already; b's scale as
     decided), its motions kept to the stretch whose X is reported and fitted again;
     ``mount_change`` the change's record for calibration.json, ``notes`` with its warning
-    in place of a station split's (the same split, taken for a world jump). Else as
-    given (``mount_change`` None)."""
+    in place of a station split's (the same split, taken for a world jump). Else, and
+    where the reading of that pass is not clear (a mirrored b fits no proper X: each
+    stretch's own fits it better, and nothing is told by that), as given (``mount_change``
+    None)."""
     from simcalib.estimation import mount as mc
     from simcalib.estimation.scale import scaled_stream
     fit = dict(alpha=kw["alpha"], method=kw["method"], seed=kw["seed"])
     change = mc.find_mount_change(p.sp, p.ms, **fit)
     if change is None:
         return p, p.ms, None, notes
+    p0 = p
     edge = mc.on_world_edge(p.sp, change.index)
     if not edge:
         sa1, sb1 = mc.mark_change(sa0, sb0, change.cut_s, p.off.offset_s)
@@ -403,6 +406,8 @@ def _mount_pass(p, sa0, sb0, sampling, scale, kw, notes):
         if change is None:                  # the pass with the change marked lost a side
             return p, p.ms, None, notes
         p = p2
+    if not p.conv.clear:    # no reading fits: the stretches' own X's tell no changed mount
+        return p0, p0.ms, None, notes
     ms = p.ms.subset(mc.kept_motions(p.ms, change))
     rob, why = robust_fit(ms.C, ms.H, kw["robust"], alpha=kw["alpha"], method=kw["method"],
                           seed=kw["seed"], options=kw["robust_options"])

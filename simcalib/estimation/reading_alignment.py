@@ -104,7 +104,7 @@ def _align_and_read(sa, sb, sampling, *, time_offset="estimate", drift="auto", a
     offset of :func:`first_reading`."""
     from simcalib.estimation.readings import apply_conventions
     from simcalib.estimation.alignment import estimate_time_offset
-    from simcalib.estimation.clock_step import find_step
+    from simcalib.estimation.clock_step import find_step, holds
     detect = _detector(sa, sb, sampling, alpha=alpha, seed=seed, forced=forced, signal=signal)
     conv, off = first = _first(sa, sb, sampling, detect, time_offset, signal, candidates)
     if time_offset != "estimate":
@@ -112,12 +112,7 @@ def _align_and_read(sa, sb, sampling, *, time_offset="estimate", drift="auto", a
     again = dict(time_offset=time_offset, drift=drift, alpha=alpha, seed=seed, forced=forced,
                  signal=signal)
     if sampling.paired_by_stamp:            # equal stamps, or equal after a constant shift
-        a1, b1, conv, off, sampling = _paired_by_stamp(
-            sa, sb, sampling, detect, conv, replace(off, steps=steps), drift=drift,
-            alpha=alpha, signal=signal)
-        if len(off.steps) > len(steps):     # the stamps hid a clock step: shifted, again
-            return _shifted_again(sa, sb, off.steps[-1], again, steps, reclassify=True)
-        return a1, b1, conv, replace(off, steps=steps), sampling, first
+        return _stamp_paired(sa, sb, sampling, detect, conv, off, again, steps, first)
     a1, b1 = apply_conventions(sa, sb, conv)
     # a rotating rig: "auto" (the same rule as check_streams_move) consults the
     # translation speeds too where the angular ones leave the offset in doubt
@@ -133,8 +128,29 @@ def _align_and_read(sa, sb, sampling, *, time_offset="estimate", drift="auto", a
         final = detect(off)
     step = find_step(a1, b1, off, alpha=alpha, signal=by)
     if step is not None:                    # b's clock steps: shifted, aligned again
-        return _shifted_again(sa, sb, step, again, steps, sampling=sampling)
+        out = _shifted_again(sa, sb, step, again, steps, sampling=sampling)
+        if holds(step, out[3]):             # else removing it explained nothing
+            return out
     return (*apply_conventions(sa, sb, final), final, off, sampling, first)
+
+
+def _stamp_paired(sa, sb, sampling, detect, conv, off, kw, steps, first):
+    """:func:`_align_and_read` of streams paired by stamp: :func:`_paired_by_stamp`; where
+    the stamps hid a clock step, b's stamps shifted and aligned again, unless the step
+    does not hold (:func:`~simcalib.estimation.clock_step.holds`): then as without it."""
+    from simcalib.estimation.clock_step import holds
+
+    def paired(search):
+        return _paired_by_stamp(sa, sb, sampling, detect, conv, replace(off, steps=steps),
+                                drift=kw["drift"], alpha=kw["alpha"], signal=kw["signal"],
+                                step_search=search)
+    a1, b1, conv1, off1, sampling1 = paired(True)
+    if len(off1.steps) > len(steps):        # the stamps hid a clock step: shifted, again
+        out = _shifted_again(sa, sb, off1.steps[-1], kw, steps, reclassify=True)
+        if holds(off1.steps[-1], out[3]):
+            return out
+        a1, b1, conv1, off1, sampling1 = paired(False)
+    return a1, b1, conv1, replace(off1, steps=steps), sampling1, first
 
 
 def _shifted_again(sa, sb, step, kw, steps, sampling=None, reclassify=False):
@@ -184,15 +200,16 @@ def _first(sa, sb, sampling, detect, time_offset, signal, candidates=None):
     return conv, conv.offset_s
 
 
-def _paired_by_stamp(sa, sb, sampling, detect, conv, off, *, drift, alpha, signal):
+def _paired_by_stamp(sa, sb, sampling, detect, conv, off, *, drift, alpha, signal,
+                     step_search=True):
     """:func:`align_and_read` for stamp-paired streams read ``conv`` at the stamps' offset
     ``off`` (the shift, 0 for equal stamps): that offset, unless the motions show one the
-    stamps hide."""
+    stamps hide (or a clock step, where ``step_search``)."""
     from simcalib.estimation.readings import apply_conventions
     from simcalib.estimation.hidden_offset import stamps_hide_offset
     a1, b1 = apply_conventions(sa, sb, conv)
     sampling, off = stamps_hide_offset(a1, b1, sampling, off, alpha=alpha, drift=drift,
-                                       signal=signal)
+                                       signal=signal, step_search=step_search)
     if sampling.paired_by_stamp:
         return a1, b1, conv, off, sampling
     final = detect(off, sampling)
