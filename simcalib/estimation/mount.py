@@ -249,7 +249,7 @@ def _best_split(C, H, i, j, n: int, alpha: float) -> tuple[int, float] | None:
 def _stretch_fit(C, H, seed: int, alpha: float, method: str):
     """``(X, covariance_determined, basis)`` of one stretch's motions: RANSAC and
     ``method`` on its inliers (as the path's own fit)."""
-    from simcalib.estimation.path import robust_fit
+    from simcalib.estimation.outliers import robust_fit
     rob, _ = robust_fit(C, H, "auto", alpha=alpha, method=method, seed=seed, options=None)
     u = rob.solution.uncertainty if rob.solution is not None else None
     if u is None:

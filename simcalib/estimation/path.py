@@ -4,10 +4,10 @@
 
     read (simcalib.importers) -> sampling (estimation.sampling) -> reading and clock offset
     (:func:`align_and_read`: estimation.reading_alignment) -> synchronised poses
-    -> motions (estimation.motions) -> outliers (:func:`robust_fit`) -> the final solve with
-    the motions' shared poses -> the covariance checked by the data (estimation.consistency)
-    -> (the verdict: estimation.verdict); and, for comparison, a plain solve (offset 0, no
-    rejection).
+    -> motions (estimation.motions) -> outliers (estimation.outliers) -> the final solve
+    with the motions' shared poses -> the covariance checked by the data
+    (estimation.consistency) -> (the verdict: estimation.verdict); and, for comparison, a
+    plain solve (offset 0, no rejection).
 
 A stream whose world frame jumps (a SLAM map reset, a bumped target:
 :mod:`simcalib.estimation.world_jumps`) is used whole: each stretch between jumps is its own
@@ -38,6 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
+from simcalib.estimation.outliers import robust_fit
 from simcalib.estimation.reading_alignment import align_and_read, first_reading  # noqa: F401
 from simcalib.estimation.stillness import check_distinct, check_streams_move
 
@@ -48,14 +49,16 @@ __all__ = ["StreamCalibration", "calibrate_streams", "align_and_read", "first_re
 class StreamCalibration:
     """Everything one calibration of two streams produced.
 
-    ``X``: ``T_a_b`` (robust); ``X_plain``: the synchronous solve without rejection (offset 0,
-    all motions); ``time_offset``: :class:`simcalib.estimation.alignment.TimeOffset`; ``conventions``:
+    ``X``: ``T_a_b`` (robust); ``X_plain``: the synchronous solve without rejection
+    (offset 0, all motions); ``time_offset``:
+    :class:`simcalib.estimation.alignment.TimeOffset`; ``conventions``:
     :class:`simcalib.estimation.readings.ConventionReport`; ``robust`` / ``plain``:
     :class:`simcalib.solvers.robust.RobustSolution`; ``C``, ``H`` the motions used,
     ``motion_time_s`` their start instants (clock a); ``summary``: numbers for reports;
-    ``synced``: the synchronised poses (:class:`simcalib.estimation.alignment.SyncedPoses`) the motions
-    were formed from; ``motion_index``: ``(i, j)``, motion k runs from ``synced`` instant
-    ``i[k]`` to ``j[k]``; ``X_aligned``: dqopt on the same motions without rejection;
+    ``synced``: the synchronised poses
+    (:class:`simcalib.estimation.alignment.SyncedPoses`) the motions were formed from;
+    ``motion_index``: ``(i, j)``, motion k runs from ``synced`` instant ``i[k]`` to
+    ``j[k]``; ``X_aligned``: dqopt on the same motions without rejection;
     ``sampling``: :class:`simcalib.estimation.sampling.Sampling`; ``motions``: the
     :class:`~simcalib.estimation.motions.MotionSet`; ``consistency``: the jackknife check
     (:class:`~simcalib.estimation.consistency.Consistency`); ``covariance`` /
@@ -161,33 +164,6 @@ def synchronised(sa, sb, sampling, off):
     if sampling.paired_by_stamp:
         return pair_by_stamp(sa, sb, sampling, off.offset_s)
     return synchronise(sa, sb, off)
-
-
-def robust_fit(C, H, robust, *, alpha, method, seed, options):
-    """``(RobustSolution, why)``: ``robust`` ``auto`` takes RANSAC where the motions
-    supply minimal sets, IRLS (no minimal sets needed) where they do not (e.g. every
-    rotation about one axis), and no rejection with fewer than 8 motions."""
-    from simcalib.errors import SolverError
-    from simcalib.solvers.robust import robust_solve
-    n = C.shape[0]
-    opts = dict(options or {})
-    if robust == "auto":
-        if n < 8:
-            return (robust_solve(C, H, "none", alpha=alpha, method=method),
-                    f"{n} motions are too few to reject outliers among them")
-        try:
-            return (robust_solve(C, H, "ransac", alpha=alpha, final_method=method,
-                                 rng=np.random.default_rng(seed), **opts),
-                    "RANSAC over minimal sets of motions")
-        except (SolverError, ValueError) as exc:
-            why = str(exc).splitlines()[0]
-            return (robust_solve(C, H, "irls", alpha=alpha, method=method, init="none",
-                                 rng=np.random.default_rng(seed)),
-                    f"IRLS (Cauchy), as RANSAC could not run: {why}")
-    if robust in ("ransac", "irls"):
-        opts.setdefault("rng", np.random.default_rng(seed))
-    opts.setdefault("final_method" if robust == "ransac" else "method", method)
-    return robust_solve(C, H, robust, alpha=alpha, **opts), f"{robust} (given)"
 
 
 def _final_solve(motions, rob, *, method, alpha, prior, seed, tolerances=None):

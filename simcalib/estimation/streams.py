@@ -141,7 +141,8 @@ def motions_from_streams(streams: dict, cfg, rng, sensing: dict):
     if not est.recorded:
         pairs = make_pairs(streams["cam_a"], streams["cam_b"], cfg.pairing, rng)
         return pairs, dict(pairs.counts) | {"mode": cfg.pairing.mode}, None
-    from simcalib.estimation.path import align_and_read, robust_fit, synchronised
+    from simcalib.estimation.outliers import robust_fit
+    from simcalib.estimation.path import align_and_read, synchronised
     from simcalib.estimation.motions import form_motions
     from simcalib.estimation.sampling import classify_sampling
     from simcalib.estimation.units import check_translation_units
