@@ -127,6 +127,7 @@ def test_a_step_holds_where_the_offset_aligned_again_is_the_first_stretchs():
     assert not clock_step.holds(_step(-30.0, 152.6), _as_offset(-237.9))
 
 
+@pytest.mark.slow
 def test_a_step_that_does_not_hold_is_dropped(monkeypatch):
     """A step whose removal moves the whole alignment elsewhere explained nothing (KITTI
     with b 30 s late: a '+152 s step' over its last poses, then -238 s and X 179 deg
