@@ -216,23 +216,21 @@ def other_readings_lines(rep: dict) -> list[str]:
     """The console lines giving the X of readings the data fit as well: both streams
     inverted (``plausibility.twin_T_a_b``) and b mirrored where the handedness is not told
     (``conventions.mirror_T_a_b``)."""
+    plaus = rep.get("plausibility") or {}
+    readings = (
+        (plaus.get("twin_T_a_b"), "both streams inverted", "this X's T_world_a_world_b",
+         f"both files hold the inverse of the poses as read ({plaus.get('twin_hint')})"),
+        ((rep.get("conventions") or {}).get("mirror_T_a_b"), "b mirrored (z negated)",
+         "T_a_b' with b' = b's frame with its z axis negated",
+         "b's file is left-handed (mirror_b=true)"))
     lines = []
-    twin = (rep.get("plausibility") or {}).get("twin_T_a_b")
-    if twin is not None:
-        alt = _pose(twin)
-        lines.append(f"  read with both streams inverted, the same data give X: t = "
-                     f"{_vec(alt['translation_m'], 1e3, 2)} mm, rotvec "
-                     f"{_vec(alt['rotvec_deg'], digits=3)} deg (this X's T_world_a_world_b): "
-                     "that is X if both files hold the inverse of the poses as read ("
-                     f"{rep['plausibility']['twin_hint']})")
-    mirror = (rep.get("conventions") or {}).get("mirror_T_a_b")
-    if mirror is not None:
-        alt = _pose(mirror)
-        lines.append(f"  read with b mirrored (z negated), the same data give X: t = "
-                     f"{_vec(alt['translation_m'], 1e3, 2)} mm, rotvec "
-                     f"{_vec(alt['rotvec_deg'], digits=3)} deg (T_a_b' with b' = b's frame "
-                     "with its z axis negated): that is X if b's file is left-handed "
-                     "(mirror_b=true)")
+    for T, read, frame, when in readings:
+        if T is not None:
+            alt = _pose(T)
+            lines.append(f"  read with {read}, the same data give X: t = "
+                         f"{_vec(alt['translation_m'], 1e3, 2)} mm, rotvec "
+                         f"{_vec(alt['rotvec_deg'], digits=3)} deg ({frame}): that is X if "
+                         f"{when}")
     return lines
 
 
