@@ -263,7 +263,7 @@ def describe_split(synced, motions, k: int, ratio: float, *, alpha: float, metho
     each stretch's own; ``ratio``: :func:`split_misfit`): their X's, the NEES of the
     difference on the directions both determine (the sum of their model covariances);
     None where a stretch has too few poses or motions."""
-    from scipy.stats import chi2
+    from scipy.special import chdtri    # not scipy.stats: ~1 s of import per process
     from simcalib.solvers.diagnostics.uncertainty import pose_error
     t = np.asarray(synced.time_s)
     sides = (motions.j < k, motions.i >= k)
@@ -282,7 +282,7 @@ def describe_split(synced, motions, k: int, ratio: float, *, alpha: float, metho
         dof = int(B.shape[1])
     return MountChange(int(k), float(t[k - 1]), float(t[k]), float(ratio),
                        (fits[0][0], fits[1][0]), (fits[0][1], fits[1][1]), nees, dof,
-                       float(chi2.ppf(NEES_LEVEL, max(dof, 1))), (int(k), int(t.size - k)),
+                       float(chdtri(max(dof, 1), 1.0 - NEES_LEVEL)), (int(k), int(t.size - k)),
                        tuple(int(s.sum()) for s in sides),
                        ((float(t[0]), float(t[k - 1])), (float(t[k]), float(t[-1]))))
 
