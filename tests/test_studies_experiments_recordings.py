@@ -15,7 +15,7 @@ import pytest
 from simcalib.studies.experiments import recording_kinds as RK
 from simcalib.studies.experiments import recordings as R
 from simcalib.geometry import (invert_transform, matrix_from_rotvec, rotation_angle_rad,
-                               transform_from_rotation_translation)
+                               rotation_error_rad, transform_from_rotation_translation)
 from simcalib.importers import read_pose_stream
 
 KINDS = list(RK.KINDS)
@@ -43,6 +43,8 @@ def _consistency(rec, X=None):
     """Max C X = X H errors on the true-reading, synchronised, outlier-free poses."""
     Ta, Tb, clean = R.synchronised_truth(rec)
     Ta, Tb = Ta[clean], Tb[clean]
+    k = rec.change_row or 0                  # a bumped camera: X_true from its row on
+    Ta, Tb = Ta[k:], Tb[k:]
     step = 1 if not rec.offset_determined else 200     # stations: consecutive; else ~2 s
     rot, trans = _constraint_errors(Ta, Tb, rec.X_true if X is None else X, step)
     return float(np.degrees(rot.max())), float(1e3 * trans.max())
@@ -99,6 +101,19 @@ def test_x_true_satisfies_cx_eq_xh_on_noise_free_output(kind):
     else:       # (nearly) nothing turns: a wrong rotation shows in the translations
         # (t_C = R_X t_H)
         assert _consistency(rec, rec.X_true @ dX)[1] > 2.0
+
+
+def test_bumped_camera_changes_x_at_its_row():
+    rec = RK.generate("bumped_camera", 2, noise=False)
+    k = rec.change_row
+    Ta, Tb, _ = R.synchronised_truth(rec)
+    assert 8 <= k <= Ta.shape[0] - 8
+    before = _constraint_errors(Ta[:k], Tb[:k], rec.X_before_change, 1)
+    assert before[0].max() < 1e-9 and before[1].max() < 1e-9
+    assert np.degrees(_constraint_errors(Ta[:k], Tb[:k], rec.X_true, 1)[0].max()) > 1.0
+    deg = np.degrees(rotation_error_rad(rec.X_before_change, rec.X_true))
+    assert 2.0 <= deg <= 6.0
+    assert rec.truth_dict()["change_row"] == k
 
 
 def test_bad_input_kind_is_really_inconsistent():
@@ -419,6 +434,29 @@ def test_outlier_motions_rejected(kind, seed, outcome):
     _estimate(o)
     assert o.precision >= R.MIN_PRECISION and o.recall >= R.MIN_RECALL, (o.precision,
                                                                           o.recall)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kind,seed", _cases(lambda k: k.expect != "data_error"))
+def test_mount_change_told_where_and_only_where_x_changes(kind, seed, outcome):
+    rec, o = outcome(kind, seed)
+    _estimate(o)
+    assert not R.mount_failures(o), (f"told {o.mount_change_s}, true change "
+                                     f"{o.true_change_s or 'none'}")
+
+
+def test_mount_acceptance():
+    base = R.Outcome("stations", 0, 0, 1.0)
+    assert R.mount_failures(base) == []
+    assert R.mount_failures(dataclasses.replace(base, mount_change_s=(3.0, 4.0))) == [
+        "false mount change"]
+    bumped = dataclasses.replace(base, kind="bumped_camera", true_change_s=(3.0, 4.0),
+                                 rot_error_deg=0.01, trans_error_mm=0.1)
+    assert R.mount_failures(bumped) == ["mount change"]
+    assert R.mount_failures(dataclasses.replace(bumped, mount_change_s=(4.0, 5.0))) == [
+        "mount change"]
+    assert R.mount_failures(dataclasses.replace(bumped, mount_change_s=(3.0, 4.0))) == []
+    assert "mount change" in R.acceptance_failures(bumped)
 
 
 @pytest.mark.slow

@@ -15,7 +15,8 @@ two stretches, each of :data:`MIN_POSES` poses and :data:`MIN_MOTIONS` motions o
 * it explains the misfit: each stretch's own X (least squares on its motions, motions
   across the split left out, once more without those beyond 3x the median residual: bad
   poses) fits the motions :data:`MISFIT_GAIN` times better (median
-  screw residual) than one X fitted to both stretches the same way, and
+  screw residual) than one X fitted to both stretches the same way, at the split or at
+  the best split of the grid (:func:`_best_split`), and
 * the two stretches' X's (RANSAC and dqopt on each stretch's motions) differ beyond
   their sigma: the NEES of their difference on the directions both determine is above
   the :data:`NEES_LEVEL` quantile of chi-square.
@@ -130,7 +131,8 @@ class MountChange:
                 f"{self.t_after_s:.3f} s (a sensor moved on its mount, e.g. a bumped camera):"
                 f" the two stretches' own X's are {deg:.2f} deg / {mm:.1f} mm apart (NEES "
                 f"{self.nees:.3g} on {self.dof} dof, bound {self.bound:.3g}; one X fits "
-                f"their motions {self.misfit_ratio:.2f}x worse than each its own); X is the "
+                f"the motions {self.misfit_ratio:.2f}x worse than two, median screw "
+                f"residual); X is the "
                 f"{which} stretch's ({self.poses[self.kept]} of {sum(self.poses)} poses, "
                 f"{why}), the other's is in "
                 f"calibration.json mount_change.X_other; to calibrate the other stretch, "
@@ -228,7 +230,11 @@ def _refined(C, H, terms, i, j, k0: int, lo: int, hi: int, alpha: float) -> int:
 def _best_split(C, H, i, j, n: int, alpha: float) -> tuple[int, float] | None:
     """``(k, ratio)``: the split of the ``n`` instants with the largest
     :func:`split_misfit` on a grid, moved to the instant that parts the motions best
-    (:func:`_refined`; only where the best passes 0.9 of the gain)."""
+    (:func:`_refined`; only where the best passes 0.9 of the gain); ``ratio`` the larger
+    of the grid's best and the ratio at ``k``. (At the instant itself the ratio can be
+    small: where the stretches' own motions are all there is, e.g. stations split by a
+    world jump, the shorter stretch holds a fifth of the motions and barely moves the
+    median, while a split that mixes its poses with the other's shows the misfit.)"""
     lo, hi = MIN_POSES, n - MIN_POSES
     if hi < lo:
         return None
@@ -243,7 +249,7 @@ def _best_split(C, H, i, j, n: int, alpha: float) -> tuple[int, float] | None:
         return int(grid[at]), float(score[at])
     k = _refined(C, H, terms, i, j, int(grid[at]), lo, hi, alpha)
     ratio = split_misfit(C, H, i, j, k, alpha, terms)
-    return (k, ratio) if not math.isnan(ratio) else (int(grid[at]), float(score[at]))
+    return k, float(np.nanmax([ratio, score[at]]))
 
 
 def _stretch_fit(C, H, seed: int, alpha: float, method: str):

@@ -80,6 +80,10 @@ class Recording:
     #: b's FILE holds its translations times this (a monocular SLAM track, a wrong target
     #: size); X_true is in a's unit (metres)
     scale_b: float = 1.0
+    #: a sensor moved on its mount (a bumped camera): X was ``X_before_change`` on the
+    #: station rows before ``change_row`` and ``X_true`` from it on (None: X never changed)
+    X_before_change: np.ndarray | None = None
+    change_row: int | None = None
 
     def offset_at(self, t_a) -> np.ndarray:
         """The true offset ``t_b - t_a`` at clock-a times ``t_a``."""
@@ -101,7 +105,9 @@ class Recording:
                 "X_workspace": None if self.X_workspace is None else self.X_workspace.tolist(),
                 "accuracy_a": None if self.accuracy_a is None else list(self.accuracy_a),
                 "stamps_unit_a": self.stamps_unit_a, "stamps_unit_b": self.stamps_unit_b,
-                "scale_b": self.scale_b}
+                "scale_b": self.scale_b,
+                "X_before_change": None if self.X_before_change is None
+                else self.X_before_change.tolist(), "change_row": self.change_row}
 
 
 @dataclass(frozen=True)
@@ -180,6 +186,8 @@ class _Draft:
     stamps_unit_a: str = "s"    # the unit the file writes the stamps in (t_a, t_b: seconds)
     stamps_unit_b: str = "s"
     scale_b: float = 1.0        # b's file holds its translations times this
+    X_before_change: np.ndarray | None = None   # X on the rows before change_row
+    change_row: int | None = None
 
 
 @dataclass(frozen=True)

@@ -57,8 +57,8 @@ __all__ = ["PARK_MAX_POSES", "PARK_FACTOR", "ROT_FLOOR_DEG", "TRANS_FLOOR_MM", "
            "MIN_PRECISION", "MIN_RECALL", "synchronised_truth", "park_baseline",
            "translation_error_determined", "undetermined_covered", "offset_checked",
            "no_worse",
-           "motion_outliers", "Outcome", "evaluate", "acceptance_failures", "summarise",
-           "markdown", "run_all", "RecordingsConfig", "run", "main"]
+           "motion_outliers", "Outcome", "evaluate", "acceptance_failures", "mount_failures",
+           "summarise", "markdown", "run_all", "RecordingsConfig", "run", "main"]
 
 
 
@@ -106,6 +106,8 @@ def park_baseline(rec: Recording, oracle_inliers: bool = False) -> np.ndarray:
         raise RuntimeError(f"OpenCV {cv2.__version__} has no calibrateHandEye; install "
                            "opencv-python-headless>=4.10,<5")
     Ta, Tb, clean = synchronised_truth(rec)
+    if rec.change_row is not None:      # given the true change: the stretch X_true holds on
+        Ta, Tb, clean = Ta[rec.change_row:], Tb[rec.change_row:], clean[rec.change_row:]
     if oracle_inliers:
         Ta, Tb = Ta[clean], Tb[clean]
     if Ta.shape[0] < 3:
@@ -209,7 +211,10 @@ class Outcome:
     calibration's inlier motions against the motions that touch no outlier pose;
     ``undetermined_dirs_a``: the translation directions (frame a) the calibration reported
     as undetermined / poorly determined, ``undetermined_flagged``: one of them is within
-    25 deg of the recording's undetermined direction; ``message``: the command's error line."""
+    25 deg of the recording's undetermined direction; ``mount_change_s``: the two instants
+    (clock a) between which the calibration told X changed (``mount_change``), () where it
+    told none; ``true_change_s``: the instants either side of the true change (kinds whose
+    X changes, else ()); ``message``: the command's error line."""
     kind: str
     seed: int
     exit_code: int
@@ -226,6 +231,8 @@ class Outcome:
     recall: float = math.nan
     undetermined_dirs_a: tuple = ()
     undetermined_flagged: bool = False
+    mount_change_s: tuple = ()
+    true_change_s: tuple = ()
     message: str = ""
 
 
@@ -271,6 +278,14 @@ def _park_errors(rec: Recording, oracle_inliers: bool) -> tuple[float, float]:
             1e3 * translation_error_determined(X, rec))
 
 
+def _true_change_s(rec: Recording) -> tuple:
+    """The stamps (clock a) of the rows either side of the true change of X, or ()."""
+    if rec.change_row is None:
+        return ()
+    t = rec.stream_a.timestamps_s
+    return float(t[rec.change_row - 1]), float(t[rec.change_row])
+
+
 def evaluate(rec: Recording, workdir) -> Outcome:
     """Write ``rec`` as TUM files into ``workdir``, calibrate them with the ``calibrate``
     COMMAND (its defaults; ``recording=false``) and compare with the truth and with
@@ -285,7 +300,8 @@ def evaluate(rec: Recording, workdir) -> Outcome:
     runtime = time.perf_counter() - t0
     base = Outcome(rec.kind, rec.seed, code, runtime, park_rot_error_deg=park_err[0],
                    park_trans_error_mm=park_err[1], park_oracle_rot_error_deg=oracle[0],
-                   park_oracle_trans_error_mm=oracle[1], message=message)
+                   park_oracle_trans_error_mm=oracle[1], message=message,
+                   true_change_s=_true_change_s(rec))
     cal = work / "out" / "calibration.json"
     if code not in (0, 5, 6) or not cal.is_file():
         return base
@@ -307,7 +323,9 @@ def evaluate(rec: Recording, workdir) -> Outcome:
                    trans_error_mm=1e3 * translation_error_determined(X, rec),
                    offset_error_ms=off_err, reading_ok=bool(reading_ok),
                    precision=precision, recall=recall, undetermined_dirs_a=dirs,
-                   undetermined_flagged=undetermined_covered(dirs, rec.undetermined_a))
+                   undetermined_flagged=undetermined_covered(dirs, rec.undetermined_a),
+                   mount_change_s=tuple((report.get("mount_change") or {}).get("between_s",
+                                                                                ())))
 
 
 # ----------------------------------------------------------------------------- table
@@ -372,7 +390,16 @@ def acceptance_failures(o: Outcome) -> list[str]:
     if "outlier_fraction" in kind.extra and not (o.precision >= MIN_PRECISION
                                                  and o.recall >= MIN_RECALL):
         out.append("inliers")
-    return out
+    return out + mount_failures(o)
+
+
+def mount_failures(o: Outcome) -> list[str]:
+    """``mount change`` (X changed: not told, or told elsewhere than between the rows
+    either side of the change) or ``false mount change`` (told where X never changed)."""
+    if not o.true_change_s:
+        return ["false mount change"] if o.mount_change_s else []
+    told = len(o.mount_change_s) == 2 and np.allclose(o.mount_change_s, o.true_change_s)
+    return [] if told else ["mount change"]
 
 
 def summarise(outcomes: list[Outcome]) -> list[dict]:
@@ -451,7 +478,9 @@ def markdown(rows: list[dict], outcomes: list[Outcome], command: str) -> str:
         "the right reading, exit 0 or 6 (6 and the undetermined direction flagged for "
         "planar / scara; exit 3 "
         f"for no_motion_b), inlier precision >= {MIN_PRECISION:g} and recall >= "
-        f"{MIN_RECALL:g} for outliers. With rotations about one axis only (scara, planar) "
+        f"{MIN_RECALL:g} for outliers, a change of X (bumped_camera) told between the "
+        "two stations either side of it, and no change told where X never changed. "
+        f"With rotations about one axis only (scara, planar) "
         "Park's rotation step is rank-deficient and its translation solve ill-conditioned, "
         "so the Park bar is loose there.",
         "",

@@ -12,8 +12,8 @@ from simcalib.studies.experiments.recording_kinds.error_model import _kind_robot
 from simcalib.studies.experiments.recording_kinds.readings import (
     _kind_inverted, _kind_scalar_first, _kind_scale, _kind_scale_stations, _kind_stamp_units)
 from simcalib.studies.experiments.recording_kinds.stations import (
-    _kind_bursts, _kind_scara, _kind_stations, _kind_stations_short, _kind_stations_two_clocks,
-    _kind_stop_and_go, _kind_stop_and_go_two_clocks, _kind_translation_bursts)
+    _kind_bumped_camera, _kind_bursts, _kind_scara, _kind_stations, _kind_stations_short,
+    _kind_stations_two_clocks, _kind_stop_and_go, _kind_stop_and_go_two_clocks, _kind_translation_bursts)
 from simcalib.studies.experiments.recording_models import Kind
 
 __all__ = ["KINDS"]
@@ -92,5 +92,8 @@ KINDS: dict[str, Kind] = {
                   "wrong target size), offset +-50 ms", True, extra=("offset_s",)),
     "scale_stations": Kind(_kind_scale_stations, "stations (10..40) with b's translations in "
                            "another scale (as scale)", False),
+    "bumped_camera": Kind(_kind_bumped_camera, "stations (27..40) with the camera moved on "
+                          "its mount (2..6 deg, 10..30 mm) after 30..45 % of them: the "
+                          "change told at its station, X the later stretch's", False),
     "no_motion_b": Kind(_kind_no_motion_b, "bad input: b does not move", True, "data_error"),
 }

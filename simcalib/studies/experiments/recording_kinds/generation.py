@@ -75,7 +75,9 @@ def generate(kind: str, seed: int, **overrides) -> Recording:
             d.undetermined_a)),
         X_workspace=None if d.X_workspace is None else _frozen(d.X_workspace),
         accuracy_a=d.accuracy_a, stamps_unit_a=d.stamps_unit_a, stamps_unit_b=d.stamps_unit_b,
-        scale_b=float(d.scale_b))
+        scale_b=float(d.scale_b),
+        X_before_change=None if d.X_before_change is None else _frozen(d.X_before_change),
+        change_row=d.change_row)
 
 
 def _unit_rows(u) -> np.ndarray:

@@ -15,8 +15,9 @@ from simcalib.studies.experiments.recording_models import (R_DOWN, WORKSPACE_CEN
                                                            _camera_poses, _continuous,
                                                            _hand_camera_rig, _noisy, _rotvecs,
                                                            _rz, _small_offset,
-                                                           _station_poses, _stations_draft,
-                                                           _stop_and_go_motion)
+                                                           _station_poses, _station_stamps,
+                                                           _stations_draft,
+                                                           _stop_and_go_motion, _unit)
 
 __all__: list[str] = []
 
@@ -39,6 +40,26 @@ def _kind_stations_two_clocks(rngs, s):
     return replace(d, t_a=t_a, t_b=t_b, offset_s=off, t_ref_s=float(t_a[0]),
                    description=d.description.split(",")[0] + f", 2..6 s apart, b's clock "
                    f"{off:+.3f} s (+-50 ms trigger jitter), eye-in-hand (b = T_target_cam)")
+
+
+def _kind_bumped_camera(rngs, s):
+    """stations (27..40) with the camera knocked on its mount after 30..45 % of them: X
+    turns by 2..6 deg and moves by 10..30 mm there. ``X`` is the later (longer) stretch's,
+    the mount as it is now; ``X_before_change`` the earlier one's."""
+    rig, ev = rngs["rig"], rngs["events"]
+    k = s.stations if s.stations is not None else int(rig.integers(27, 40, endpoint=True))
+    X0, Y = _hand_camera_rig(rig)
+    j = int(np.ceil(k * ev.uniform(0.3, 0.45)))
+    X1 = X0 @ transform_from_rotation_translation(
+        matrix_from_rotvec(_rotvecs(ev, 1, 2, 6)[0]), _unit(ev, 1)[0] * ev.uniform(0.01, 0.03))
+    A = _station_poses(rngs["motion"], k)
+    t, how = _station_stamps(rngs["clock"], k, rngs["seed"])
+    B = np.concatenate([_camera_poses(A[:j], X0, Y), _camera_poses(A[j:], X1, Y)])
+    B = _noisy(B, s.sigma_rot_b_deg, s.sigma_trans_b_m, rngs["noise_b"], s.noise)
+    A = _noisy(A, s.sigma_rot_a_deg, s.sigma_trans_a_m, rngs["noise_a"], s.noise)
+    return _Draft(t, A, t.copy(), B, X1, f"bumped_camera: {k} stations, {how}, the camera "
+                  f"moved on its mount before station {j} (eye-in-hand, b = T_target_cam)",
+                  0.0, 0.0, float(t[0]), Y=Y, X_before_change=X0, change_row=j)
 
 
 def _scara_poses(rng, k) -> np.ndarray:
