@@ -446,6 +446,21 @@ def _own_tolerances() -> str:
     return f" ({', '.join(own)})" if own else ""
 
 
+def _acceptance_text() -> str:
+    """The table's acceptance paragraph (the checks of :func:`acceptance_failures`)."""
+    return (
+        "Acceptance (tests/test_studies_experiments_recordings.py): errors <= "
+        f"max({PARK_FACTOR:g} x Park's, {ROT_FLOOR_DEG:g} deg / {TRANS_FLOOR_MM:g} mm) "
+        "(kinds with outliers: also vs Park on the inlier poses), |offset error| <= "
+        f"{OFFSET_TOL_MS:g} ms{_own_tolerances()}, the right reading, exit 0 or 6 (6 and "
+        "the undetermined direction flagged for planar / scara; exit 3 for no_motion_b), "
+        f"inlier precision >= {MIN_PRECISION:g} and recall >= {MIN_RECALL:g} for "
+        "outliers, a change of X (bumped_camera) told between the two stations either "
+        "side of it, and no change told where X never changed. With rotations about one "
+        "axis only (scara, planar) Park's rotation step is rank-deficient and its "
+        "translation solve ill-conditioned, so the Park bar is loose there.")
+
+
 def markdown(rows: list[dict], outcomes: list[Outcome], command: str) -> str:
     """The markdown report: the per-kind table, then the failed runs' messages."""
     head = ["kind", "runs", "exit codes (code:count)", "rot med / max (deg)",
@@ -472,17 +487,7 @@ def markdown(rows: list[dict], outcomes: list[Outcome], command: str) -> str:
         "3 data error, 5 solver failed, 1 crash; errors are over the runs that gave an "
         "estimate.",
         "",
-        f"Acceptance (tests/test_studies_experiments_recordings.py): errors <= max({PARK_FACTOR:g} x Park's, "
-        f"{ROT_FLOOR_DEG:g} deg / {TRANS_FLOOR_MM:g} mm) (kinds with outliers: also vs Park "
-        f"on the inlier poses), |offset error| <= {OFFSET_TOL_MS:g} ms{_own_tolerances()}, "
-        "the right reading, exit 0 or 6 (6 and the undetermined direction flagged for "
-        "planar / scara; exit 3 "
-        f"for no_motion_b), inlier precision >= {MIN_PRECISION:g} and recall >= "
-        f"{MIN_RECALL:g} for outliers, a change of X (bumped_camera) told between the "
-        "two stations either side of it, and no change told where X never changed. "
-        f"With rotations about one axis only (scara, planar) "
-        "Park's rotation step is rank-deficient and its translation solve ill-conditioned, "
-        "so the Park bar is loose there.",
+        _acceptance_text(),
         "",
         "| " + " | ".join(head) + " |",
         "|" + "---|" * len(head),

@@ -13,7 +13,8 @@ from simcalib.studies.experiments.recording_kinds.readings import (
     _kind_inverted, _kind_scalar_first, _kind_scale, _kind_scale_stations, _kind_stamp_units)
 from simcalib.studies.experiments.recording_kinds.stations import (
     _kind_bumped_camera, _kind_bursts, _kind_scara, _kind_stations, _kind_stations_short,
-    _kind_stations_two_clocks, _kind_stop_and_go, _kind_stop_and_go_two_clocks, _kind_translation_bursts)
+    _kind_stations_two_clocks, _kind_stop_and_go, _kind_stop_and_go_two_clocks,
+    _kind_translation_bursts)
 from simcalib.studies.experiments.recording_models import Kind
 
 __all__ = ["KINDS"]
