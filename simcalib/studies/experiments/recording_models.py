@@ -84,10 +84,17 @@ class Recording:
     #: station rows before ``change_row`` and ``X_true`` from it on (None: X never changed)
     X_before_change: np.ndarray | None = None
     change_row: int | None = None
+    #: b's clock stepped once by ``step_s`` (an NTP correction, a logger restarted): from
+    #: clock-a time ``step_at_s`` on (b's first pose after the step; None: it never
+    #: stepped), the offset is ``step_s`` more
+    step_s: float = 0.0
+    step_at_s: float | None = None
 
     def offset_at(self, t_a) -> np.ndarray:
         """The true offset ``t_b - t_a`` at clock-a times ``t_a``."""
-        return self.offset_s + self.drift * (np.asarray(t_a, dtype=np.float64) - self.t_ref_s)
+        t_a = np.asarray(t_a, dtype=np.float64)
+        off = self.offset_s + self.drift * (t_a - self.t_ref_s)
+        return off if self.step_at_s is None else off + self.step_s * (t_a >= self.step_at_s)
 
     def truth_dict(self) -> dict:
         """The truth as JSON-ready values (``truth.json``)."""
@@ -107,7 +114,8 @@ class Recording:
                 "stamps_unit_a": self.stamps_unit_a, "stamps_unit_b": self.stamps_unit_b,
                 "scale_b": self.scale_b,
                 "X_before_change": None if self.X_before_change is None
-                else self.X_before_change.tolist(), "change_row": self.change_row}
+                else self.X_before_change.tolist(), "change_row": self.change_row,
+                "step_s": self.step_s, "step_at_s": self.step_at_s}
 
 
 @dataclass(frozen=True)
@@ -188,6 +196,8 @@ class _Draft:
     scale_b: float = 1.0        # b's file holds its translations times this
     X_before_change: np.ndarray | None = None   # X on the rows before change_row
     change_row: int | None = None
+    step_s: float = 0.0                 # b's clock steps by this from clock-a step_at_s
+    step_at_s: float | None = None
 
 
 @dataclass(frozen=True)

@@ -69,6 +69,8 @@ PARK_FACTOR = 1.5
 ROT_FLOOR_DEG = 0.05
 TRANS_FLOOR_MM = 0.5
 OFFSET_TOL_MS = 3.0
+#: a clock step told at b's first pose after it: within this (s; less than a 30 Hz frame)
+STEP_TOL_S = 0.02
 MIN_PRECISION = 0.95
 MIN_RECALL = 0.5
 #: hand orientation looking straight down (camera towards the table): Rx(pi)
@@ -214,7 +216,9 @@ class Outcome:
     25 deg of the recording's undetermined direction; ``mount_change_s``: the two instants
     (clock a) between which the calibration told X changed (``mount_change``), () where it
     told none; ``true_change_s``: the instants either side of the true change (kinds whose
-    X changes, else ()); ``message``: the command's error line."""
+    X changes, else ()); ``steps``: the clock steps of b told, ``(at_a_s, size_s)`` each;
+    ``true_step``: the true one's (kinds whose clock steps: the instant of b's first pose
+    after it, on a's clock), else (); ``message``: the command's error line."""
     kind: str
     seed: int
     exit_code: int
@@ -233,6 +237,8 @@ class Outcome:
     undetermined_flagged: bool = False
     mount_change_s: tuple = ()
     true_change_s: tuple = ()
+    steps: tuple = ()
+    true_step: tuple = ()
     message: str = ""
 
 
@@ -286,6 +292,12 @@ def _true_change_s(rec: Recording) -> tuple:
     return float(t[rec.change_row - 1]), float(t[rec.change_row])
 
 
+def _true_step(rec: Recording) -> tuple:
+    """``(at_a_s, size_s)`` of the true clock step of b (``at_a_s``: the instant, clock a,
+    of b's first pose after it), or ()."""
+    return () if rec.step_at_s is None else (rec.step_at_s, rec.step_s)
+
+
 def evaluate(rec: Recording, workdir) -> Outcome:
     """Write ``rec`` as TUM files into ``workdir``, calibrate them with the ``calibrate``
     COMMAND (its defaults; ``recording=false``) and compare with the truth and with
@@ -301,7 +313,7 @@ def evaluate(rec: Recording, workdir) -> Outcome:
     base = Outcome(rec.kind, rec.seed, code, runtime, park_rot_error_deg=park_err[0],
                    park_trans_error_mm=park_err[1], park_oracle_rot_error_deg=oracle[0],
                    park_oracle_trans_error_mm=oracle[1], message=message,
-                   true_change_s=_true_change_s(rec))
+                   true_change_s=_true_change_s(rec), true_step=_true_step(rec))
     cal = work / "out" / "calibration.json"
     if code not in (0, 5, 6) or not cal.is_file():
         return base
@@ -325,7 +337,8 @@ def evaluate(rec: Recording, workdir) -> Outcome:
                    precision=precision, recall=recall, undetermined_dirs_a=dirs,
                    undetermined_flagged=undetermined_covered(dirs, rec.undetermined_a),
                    mount_change_s=tuple((report.get("mount_change") or {}).get("between_s",
-                                                                                ())))
+                                                                                ())),
+                   steps=tuple((st["at_a_s"], st["size_s"]) for st in off.get("steps") or ()))
 
 
 # ----------------------------------------------------------------------------- table
@@ -390,7 +403,7 @@ def acceptance_failures(o: Outcome) -> list[str]:
     if "outlier_fraction" in kind.extra and not (o.precision >= MIN_PRECISION
                                                  and o.recall >= MIN_RECALL):
         out.append("inliers")
-    return out + mount_failures(o)
+    return out + mount_failures(o) + step_failures(o)
 
 
 def mount_failures(o: Outcome) -> list[str]:
@@ -400,6 +413,17 @@ def mount_failures(o: Outcome) -> list[str]:
         return ["false mount change"] if o.mount_change_s else []
     told = len(o.mount_change_s) == 2 and np.allclose(o.mount_change_s, o.true_change_s)
     return [] if told else ["mount change"]
+
+
+def step_failures(o: Outcome) -> list[str]:
+    """``clock step`` (b's clock stepped: not told as one step of the true size within
+    :data:`OFFSET_TOL_MS`, at b's first pose after it within :data:`STEP_TOL_S`) or
+    ``false clock step`` (told where the clock never stepped)."""
+    if not o.true_step:
+        return ["false clock step"] if o.steps else []
+    ok = len(o.steps) == 1 and abs(o.steps[0][1] - o.true_step[1]) <= 1e-3 * OFFSET_TOL_MS \
+        and abs(o.steps[0][0] - o.true_step[0]) <= STEP_TOL_S
+    return [] if ok else ["clock step"]
 
 
 def summarise(outcomes: list[Outcome]) -> list[dict]:

@@ -6,8 +6,8 @@ settings it reads.
 from __future__ import annotations
 
 from simcalib.studies.experiments.recording_kinds.continuous import (
-    _kind_clock_drift, _kind_continuous, _kind_gaps, _kind_low_rate_camera, _kind_no_motion_b,
-    _kind_offset, _kind_outliers, _kind_planar, _kind_translation, _kind_weak_rotation)
+    _kind_clock_drift, _kind_clock_step, _kind_continuous, _kind_gaps, _kind_low_rate_camera,
+    _kind_no_motion_b, _kind_offset, _kind_outliers, _kind_planar, _kind_translation, _kind_weak_rotation)
 from simcalib.studies.experiments.recording_kinds.error_model import _kind_robot_error
 from simcalib.studies.experiments.recording_kinds.readings import (
     _kind_inverted, _kind_scalar_first, _kind_scale, _kind_scale_stations, _kind_stamp_units)
@@ -93,6 +93,9 @@ KINDS: dict[str, Kind] = {
                   "wrong target size), offset +-50 ms", True, extra=("offset_s",)),
     "scale_stations": Kind(_kind_scale_stations, "stations (10..40) with b's translations in "
                            "another scale (as scale)", False),
+    "clock_step": Kind(_kind_clock_step, "continuous, offset +-0.2 s, b's clock stepping "
+                       "forward once by 0.3..2 s (NTP, a logger restarted) 30..70 % of the "
+                       "way through: the step told", True, extra=("offset_s",)),
     "bumped_camera": Kind(_kind_bumped_camera, "stations (27..40) with the camera moved on "
                           "its mount (2..6 deg, 10..30 mm) after 30..45 % of them: the "
                           "change told at its station, X the later stretch's", False),

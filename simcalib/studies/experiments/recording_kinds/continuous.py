@@ -35,6 +35,24 @@ def _kind_offset(rngs, s):
     return _continuous(rngs, s, offset_s=off, drift=1e-6 * drift_ppm, label="offset")
 
 
+def _kind_clock_step(rngs, s):
+    """continuous, offset +-0.2 s, and b's clock stepping forward once by 0.3..2 s (an NTP
+    correction, a logger restarted on another clock) at an instant 30..70 % of the way
+    through. (Not back: b's stamps would then go back in the file, and the importer takes
+    such a file for two recordings and keeps the longer.)"""
+    r = rngs["events"]
+    off = float(r.uniform(-0.2, 0.2)) if s.offset_s is None else float(s.offset_s)
+    step = float(r.uniform(0.3, 2.0))
+    where = float(r.uniform(0.3, 0.7))
+    d = _continuous(rngs, s, offset_s=off, label="clock_step")
+    at_a = float(d.t_a[0] + where * (d.t_a[-1] - d.t_a[0]))
+    after = d.t_b - off >= at_a
+    return replace(d, t_b=np.where(after, d.t_b + step, d.t_b), t_ref_s=float(d.t_a[0]),
+                   step_s=step, step_at_s=float(d.t_b[np.argmax(after)] - off),
+                   description=d.description + f", b's clock stepping {step:+.3f} s at "
+                   f"{at_a - d.t_a[0]:.1f} s")
+
+
 def _kind_clock_drift(rngs, s):
     r = rngs["events"]
     off = float(r.uniform(-0.2, 0.2)) if s.offset_s is None else float(s.offset_s)

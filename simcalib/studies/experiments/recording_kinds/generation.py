@@ -77,7 +77,7 @@ def generate(kind: str, seed: int, **overrides) -> Recording:
         accuracy_a=d.accuracy_a, stamps_unit_a=d.stamps_unit_a, stamps_unit_b=d.stamps_unit_b,
         scale_b=float(d.scale_b),
         X_before_change=None if d.X_before_change is None else _frozen(d.X_before_change),
-        change_row=d.change_row)
+        change_row=d.change_row, step_s=float(d.step_s), step_at_s=d.step_at_s)
 
 
 def _unit_rows(u) -> np.ndarray:
