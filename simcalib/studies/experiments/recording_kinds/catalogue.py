@@ -7,7 +7,8 @@ from __future__ import annotations
 
 from simcalib.studies.experiments.recording_kinds.continuous import (
     _kind_clock_drift, _kind_clock_step, _kind_continuous, _kind_gaps, _kind_low_rate_camera,
-    _kind_no_motion_b, _kind_offset, _kind_outliers, _kind_planar, _kind_translation, _kind_weak_rotation)
+    _kind_no_motion_b, _kind_offset, _kind_outliers, _kind_planar, _kind_translation,
+    _kind_weak_rotation)
 from simcalib.studies.experiments.recording_kinds.error_model import _kind_robot_error
 from simcalib.studies.experiments.recording_kinds.readings import (
     _kind_inverted, _kind_scalar_first, _kind_scale, _kind_scale_stations, _kind_stamp_units)
