@@ -405,3 +405,22 @@ def test_non_finite_entries_are_not_rigid(where, value):
     assert list(r["bad"]) == [-1, 4]
     with pytest.raises(ValueError, match=r"H\[1\] contains NaN or inf \(first at index 4\)"):
         simcalib.solve_batch(np.stack([C, C]), np.stack([H, H2]))
+
+
+def test_read_only_motions_use_the_loaded_kernel_signature():
+    """A batch of one problem given as a read-only view (``np.broadcast_to``, as the
+    scale's jackknife passes a's motions) runs on the signature load_every_kernel loaded:
+    no second specialisation (its load from numba's cache cost ~0.2 s of every
+    ``calibrate``), and the same X as the writable copy's."""
+    from simcalib.solvers.kernels import batch, jit
+    batch.load_every_kernel()
+    if jit.interpreting():
+        pytest.skip("interpreted kernels have no signatures")
+    before = list(batch._one.signatures)
+    C, H = batch.random_motions_for_warm_up()
+    C_view = np.broadcast_to(C, (1,) + C.shape)
+    assert not C_view.flags.writeable
+    sol = simcalib.solve_batch(C_view, H[None], weights=np.ones((1, C.shape[0])))
+    assert list(batch._one.signatures) == before
+    np.testing.assert_array_equal(sol.X, simcalib.solve_batch(C[None].copy(), H[None],
+                                                              weights=np.ones((1, 8))).X)

@@ -455,29 +455,39 @@ def _chunk_starts(nb: int, nthreads: int) -> list:
     return starts
 
 
+def _kernel_array(a) -> np.ndarray:
+    """``a`` as the kernel's one signature takes it: C-contiguous, float64 and writable (a
+    read-only view, e.g. ``np.broadcast_to`` of one problem's motions, is another numba
+    type: its own specialisation, loaded from the cache on its first use in a process,
+    ~0.2 s that the loader thread did not load)."""
+    a = np.ascontiguousarray(a, dtype=np.float64)
+    return a if a.flags.writeable else a.copy()
+
+
 def run_batch(method_code: int, alphas, *, C=None, H=None, Q=None, weights=None,
               prior_adds=None, keep_q: bool = False, align: bool = True) -> dict:
-    """Run the fused kernel on ``(B, N, 4, 4)`` float64 C-contiguous ``C``, ``H`` (validated
-    in the kernel) or on already converted motions ``Q (B, 16, N)``. ``alphas (B,)``,
+    """Run the fused kernel on ``(B, N, 4, 4)`` ``C``, ``H`` (validated in the kernel; as
+    :func:`_kernel_array`) or on already converted motions ``Q (B, 16, N)``. ``alphas (B,)``,
     ``weights (B, N)`` or None, ``prior_adds`` = (S_add, W_add, M_add) or None; ``align``
     False when Q holds already aligned motions (skips the sign alignment).
 
     Returns a dict of arrays: X (B, 4, 4), cost (B,), info (B, N_INFO), bad (B,) (first
     non-rigid motion or -1), nflip (B,), and Q (B, 16, N) when ``keep_q``."""
-    alphas = np.ascontiguousarray(alphas, dtype=np.float64)
+    alphas = _kernel_array(alphas)
     nb = alphas.shape[0]
     use_q = Q is not None
     if use_q:
-        Qin = np.ascontiguousarray(Q, dtype=np.float64)
+        Qin = _kernel_array(Q)
         C = H = _DUMMY4
         n = Qin.shape[2]
     else:
         Qin = _DUMMYQ
+        C, H = _kernel_array(C), _kernel_array(H)
         n = C.shape[1]
     weighted = weights is not None
-    wts = (np.ascontiguousarray(weights, dtype=np.float64) if weighted else np.ones((1, n)))
+    wts = _kernel_array(weights) if weighted else np.ones((1, n))
     S_add, W_add, M_add = (_ZERO4, _ZERO4, _ZERO4) if prior_adds is None else (
-        np.ascontiguousarray(a, dtype=np.float64) for a in prior_adds)
+        _kernel_array(a) for a in prior_adds)
     X = np.full((nb, 4, 4), np.nan)
     cost = np.full(nb, np.inf)
     info = np.zeros((nb, N_INFO))
