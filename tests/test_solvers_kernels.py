@@ -424,3 +424,49 @@ def test_read_only_motions_use_the_loaded_kernel_signature():
     assert list(batch._one.signatures) == before
     np.testing.assert_array_equal(sol.X, simcalib.solve_batch(C[None].copy(), H[None],
                                                               weights=np.ones((1, 8))).X)
+
+
+# ----------------------------------------------- scratch arrays, 4x4 Jacobi, scalar parts
+def test_eigh_is_for_4x4_matrices():
+    with pytest.raises(ValueError, match=r"4x4 matrix; received shape \(3, 3\)"):
+        linalg.eigh(np.eye(3))
+
+
+@pytest.mark.parametrize("method", sorted(dqcore.METHOD_CODES))
+def test_solve_core_does_not_depend_on_its_scratch(method):
+    """_solve_core takes its work arrays from the caller (no allocation per solve): their
+    contents before the call (NaN, zeros, another problem's) change no bit of the result."""
+    rng = np.random.default_rng(31)
+    C, H, _ = general_case(rng, n=12, sigma_r=0.01, sigma_t=0.01)
+    p = prepare_problem(C, H, 1.0)
+    S, W, M = gram.problem_matrices(p, 1.0)
+    S, W, M = (np.ascontiguousarray(a) for a in (S, W, M))
+    results = []
+    for fill in (np.nan, 0.0, 1e300):
+        wk = np.full((dqcore.N_WORK, 4, 4), fill)
+        q, qd, info = np.empty(4), np.empty(4), np.empty(dqcore.N_INFO)
+        dqcore._solve_core(dqcore.METHOD_CODES[method], S, W, M, q, qd, info, wk)
+        results.append((q, qd, info))
+    for q, qd, info in results[1:]:
+        np.testing.assert_array_equal(q, results[0][0])
+        np.testing.assert_array_equal(qd, results[0][1])
+        np.testing.assert_array_equal(info, results[0][2])
+    q_ref, qd_ref, _ = dqcore.solve_matrices(method, S, W, M)
+    np.testing.assert_array_equal(q_ref, results[0][0])
+
+
+def test_converted_scalar_parts_are_never_negative():
+    """_quats_soa has no sign pass: the conversion gives every scalar part w >= 0 (a
+    rotation of exactly 180 deg has w = 0), so each pair's scalar parts agree in sign."""
+    rng = np.random.default_rng(32)
+    C, H, _ = general_case(rng, n=40, sigma_r=0.01, sigma_t=0.01)
+    axes = rng.normal(size=(10, 3))
+    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    C[:10, :3, :3] = g.matrix_from_rotvec(np.pi * axes)           # exactly 180 deg
+    C[10:20, :3, :3] = g.matrix_from_rotvec((np.pi - 1e-9) * axes)
+    C[20:23, :3, :3] = np.diag([1.0, -1.0, -1.0]), np.diag([-1.0, 1.0, -1.0]), \
+        np.diag([-1.0, -1.0, 1.0])
+    Q = np.empty((16, 40))
+    assert gram._quats_soa(np.ascontiguousarray(C), np.ascontiguousarray(C), 1e-6, Q) == -1
+    assert (Q[3] >= 0.0).all() and (Q[7] >= 0.0).all()
+    assert not (np.signbit(Q[3]) & (Q[3] != 0.0)).any()

@@ -149,3 +149,15 @@ def test_fast_rigidity_check_never_accepts_what_check_transforms_refuses():
         _, ok, msg, _ = api._finish_output(Y, "m")
         assert ok == exact and (exact or "returned a non-rigid X" in msg)
     assert accepted > 1000 and refused_fast > 0   # both branches ran
+
+
+def test_throughput_reports_cpu_per_problem_and_the_overhead_per_call(capsys):
+    assert bench.main(["--throughput", "--throughput-batch", "8", "--repeats", "3",
+                       "--n-motions", "10", "--markdown", "-"]) == 0
+    text = capsys.readouterr().out
+    assert "CPU per problem (process," in text and "wall beyond CPU / threads" in text
+    t = {"batch_size": 1000, "problems_per_s": [100_000.0, 50_000.0], "cpu_s": [0.018, 0.02],
+         "threads": 2}
+    o = bench.throughput_overhead(t)
+    np.testing.assert_allclose(o["cpu_us_per_problem"], [18.0, 20.0])
+    np.testing.assert_allclose(o["overhead_ms"], [10.0 - 9.0, 20.0 - 10.0])

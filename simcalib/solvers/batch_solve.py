@@ -52,10 +52,7 @@ def solve_batch(C, H, method: str = "dqopt", alpha=1.0, prior: Prior | None = No
     out = _run_method(info, C, H, alphas, prior, rng, w)
     runtime = time.perf_counter() - t0
     X = np.asarray(out["X"], dtype=np.float64)
-    finite = np.isfinite(X).all(axis=(-2, -1))
-    success = np.asarray(out.get("success", finite), dtype=bool) & finite
-    reason = np.asarray(out.get("failure_reason", np.full(B, "", dtype=object)), dtype=object)
-    reason = np.where(~finite & (reason == ""), "non-finite X", reason)
+    success, reason = _success_and_reasons(out, X, B)
     cost = out.get("cost")
     if cost is None:
         from simcalib.solvers.problem import prepare_batch
@@ -67,12 +64,26 @@ def solve_batch(C, H, method: str = "dqopt", alpha=1.0, prior: Prior | None = No
         objective = objective + _prior_penalty_batch(X, prior)
     diagnostics = {k: v for k, v in out.items()
                    if k not in ("X", "cost", "success", "bad", "failure_reason")}
-    diagnostics["failure_reason"] = np.where(success, "", reason)
+    diagnostics["failure_reason"] = reason
     diagnostics["compile_s"] = compile_s
     return BatchSolution(X=X, cost=cost, objective=objective, success=success, alpha=alphas,
                          method=method, runtime_s=runtime, prior=prior,
                          diagnostics=diagnostics, C=C, H=H, weights=w,
                          tolerance_deg=tolerance_deg, tolerance_m=tolerance_m)
+
+
+def _success_and_reasons(out: dict, X: np.ndarray, B: int) -> tuple:
+    """``success`` (B,): the method's and a finite X; the failure reasons (B, object; ""
+    for a success): the method's, or "non-finite X" where it gave none. (The object arrays
+    are compared only when a problem failed: ~0.1 ms per call at B = 1000.)"""
+    finite = np.isfinite(X).all(axis=(-2, -1))
+    success = finite if "success" not in out else np.asarray(out["success"], dtype=bool) & finite
+    if success.all():
+        return success, np.full(B, "", dtype=object)
+    reason = out.get("failure_reason")
+    reason = np.full(B, "", dtype=object) if reason is None else np.asarray(reason, dtype=object)
+    reason = np.where(~finite & (reason == ""), "non-finite X", reason)
+    return success, np.where(success, "", reason)
 
 
 def _checked_batch_arrays(C, H) -> tuple:

@@ -22,13 +22,16 @@ lowest dqopt cost is kept.
 
 from __future__ import annotations
 
+import functools
+import itertools
+
 import numpy as np
 from simcalib.geometry import quat_multiply
 from simcalib.solvers.kernels import jit
 from simcalib.solvers.kernels.jit import njit, twin_of
 
-from simcalib.solvers.kernels.dqcore import DQOPT, I_COST, I_STATUS, N_INFO, ST_NONFINITE, \
-    _solve_core
+from simcalib.solvers.kernels.dqcore import DQOPT, I_COST, I_STATUS, N_INFO, N_WORK, \
+    ST_NONFINITE, _solve_core
 from simcalib.solvers.kernels.gram import _T, _assemble, _grams_from_outer, \
     _outer_from_soa, _quats_soa
 from simcalib.solvers.kernels.quaternion import RIGID_TOL, _qmul, _transform_from_dq
@@ -85,14 +88,14 @@ def _cost_soa_twin(Q, wts, weighted, n, q, qd, a2):
 
 @njit(cache=True, error_model="numpy", inline="always")
 def _solve_gram(opt, T, Q, wts, weighted, n, a2, Z0, q, qd, info, P, nrm, AtA, BtB, BtA, S, W,
-                M):
+                M, wk):
     """dqopt (method code ``opt``, passed as a runtime value so that ``_solve_core`` is
     compiled once) without prior on the current alignment of Q; Gram blocks left in AtA,
     BtB, BtA."""
     _outer_from_soa(Q, wts, weighted, n, P, nrm)
     _grams_from_outer(T, P, nrm, AtA, BtB, BtA)
     _assemble(AtA, BtB, BtA, a2, Z0, Z0, Z0, S, W, M)
-    _solve_core(opt, S, W, M, q, qd, info)
+    _solve_core(opt, S, W, M, q, qd, info, wk)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -137,14 +140,14 @@ def _fit_dots_twin(Q, n, q, dots):
 
 @njit(cache=True, error_model="numpy", inline="always")
 def _refine(opt, T, Q, par, wts, weighted, n, amb, namb, a2, Z0, q, qd, info, P, nrm, AtA, BtB,
-            BtA, S, W, M, dots):
+            BtA, S, W, M, dots, wk):
     """Flip ambiguous pairs that the dqopt rotation fits with the other sign; re-solve until
     stable (<= 4 flip rounds). Returns the smallest |fit dot| over ambiguous motions.
     (One call site of the solver: the compiled code holds one copy of it.)"""
     fresh = False   # dots hold the fit of the current q
     for rnd in range(5):
         _solve_gram(opt, T, Q, wts, weighted, n, a2, Z0, q, qd, info, P, nrm, AtA, BtB, BtA, S,
-                    W, M)
+                    W, M, wk)
         fresh = False
         if rnd == 4 or namb == 0:
             break
@@ -215,14 +218,12 @@ def _align(opt, T, Q, wts, weighted, n, a2, q, qd, info, AtA, BtB, BtA, work):
     prior) and AtA, BtB, BtA the Gram blocks of the final alignment. Returns the number of
     pairs whose sign differs from the scalar-part rule. ``work``: the arrays of
     :func:`_work_arrays` (overwritten)."""
-    P, nrm, S, W, M, Z0, amb, dots, par = work
+    P, nrm, S, W, M, Z0, amb, dots, par = work[:9]
+    sgn, best_par, best, wk = work[14], work[15], work[16], work[17]
     for i in range(n):
         amb[i] = 0.0   # 1.0: ambiguous motion
         par[i] = 1.0   # -1: pair flipped relative to the scalar-part rule
     namb = _mark_ambiguous(Q, n, amb)
-    best_par = par
-    sgn = par
-    best = np.empty(1)
     best_cost = np.inf
     n_starts = 1
     start = 0
@@ -230,12 +231,10 @@ def _align(opt, T, Q, wts, weighted, n, a2, q, qd, info, AtA, BtB, BtA, work):
         if start > 0:
             _start_signs(Q, par, sgn, n, start == 2)
         worst = _refine(opt, T, Q, par, wts, weighted, n, amb, namb, a2, Z0, q, qd, info, P,
-                        nrm, AtA, BtB, BtA, S, W, M, dots)
+                        nrm, AtA, BtB, BtA, S, W, M, dots, wk)
         if start == 0 and namb > 0 and worst < _FIT_DOT:
             n_starts = 3
-            sgn = np.empty(n)
-            best_par = par.copy()              # start 0 is the best so far
-            best = np.empty(8 + N_INFO + 48)   # q, qd, info, AtA, BtB, BtA of the best start
+            best_par[:n] = par[:n]             # start 0 is the best so far
             best_cost = info[I_COST]
             _save_state(best, q, qd, info, AtA, BtB, BtA)
             # the propagation works on the scalar-part signs: undo start 0's flips
@@ -245,7 +244,7 @@ def _align(opt, T, Q, wts, weighted, n, a2, q, qd, info, AtA, BtB, BtA, work):
             _propagate_signs(Q, n, amb, sgn)
         elif start > 0 and info[I_COST] < best_cost:
             best_cost = info[I_COST]
-            best_par[:] = par
+            best_par[:n] = par[:n]
             _save_state(best, q, qd, info, AtA, BtB, BtA)
         start += 1
     if n_starts > 1:   # restore the best start
@@ -302,11 +301,13 @@ def _restore_state(best, q, qd, info, AtA, BtB, BtA):
 @njit(cache=True, error_model="numpy", inline="always")
 def _work_arrays(n):
     """The per-problem work arrays, made once per :func:`_one` call (each problem
-    overwrites them): P, nrm, S, W, M, Z0 (zeros, read only), amb, dots, par (N each),
-    AtA, BtB, BtA, q, qd."""
+    overwrites them; a problem allocates nothing): P, nrm, S, W, M, Z0 (zeros, read only),
+    amb, dots, par (N each), AtA, BtB, BtA, q, qd, sgn, best_par (N each), best (the saved
+    state of the best alignment start), the scratch of ``dqcore._solve_core``."""
     return (np.empty((6, 4, 4)), np.empty(2), np.empty((4, 4)), np.empty((4, 4)),
             np.empty((4, 4)), np.zeros((4, 4)), np.empty(n), np.empty(n), np.empty(n),
-            np.empty((4, 4)), np.empty((4, 4)), np.empty((4, 4)), np.empty(4), np.empty(4))
+            np.empty((4, 4)), np.empty((4, 4)), np.empty((4, 4)), np.empty(4), np.empty(4),
+            np.empty(n), np.empty(n), np.empty(8 + N_INFO + 48), np.empty((N_WORK, 4, 4)))
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -325,15 +326,14 @@ def _solve_problem(method, opt, T, Cb, Hb, Qin, use_q, align, alpha, wts, weight
     AtA, BtB, BtA, q, qd = work[9], work[10], work[11], work[12], work[13]
     a2 = alpha * alpha
     if align:
-        nflip = _align(opt, T, Q, wts, weighted, n, a2, q, qd, info, AtA, BtB, BtA,
-                       work[:9])
+        nflip = _align(opt, T, Q, wts, weighted, n, a2, q, qd, info, AtA, BtB, BtA, work)
     else:
         nflip = 0
         _outer_from_soa(Q, wts, weighted, n, P, nrm)
         _grams_from_outer(T, P, nrm, AtA, BtB, BtA)
     if method != opt or has_prior or not align:
         _assemble(AtA, BtB, BtA, a2, S_add, W_add, M_add, S, W, M)
-        _solve_core(method, S, W, M, q, qd, info)
+        _solve_core(method, S, W, M, q, qd, info, work[17])
     if info[I_STATUS] == ST_NONFINITE:
         for i in range(4):
             for j in range(4):
@@ -423,7 +423,6 @@ def _run_chunks(nb: int, args: tuple) -> None:
     if nb <= _MIN_THREADED or nthreads <= 1:
         _one(0, nb, *args)
         return
-    import itertools
     starts = _chunk_starts(nb, nthreads)
     last = len(starts) - 1
     counter = itertools.count()   # next() is atomic under the GIL
@@ -441,18 +440,21 @@ def _run_chunks(nb: int, args: tuple) -> None:
         f.result()
 
 
-def _chunk_starts(nb: int, nthreads: int) -> list:
+@functools.lru_cache(maxsize=64)
+def _chunk_starts(nb: int, nthreads: int) -> tuple:
     """The chunks' first problems (and ``nb``): ``_CHUNK`` problems while many remain,
     then fewer as the rest shrinks (a quarter of its share per thread, at least
     ``_MIN_CHUNK``), so that the threads finish together: the thread that takes the last
     chunk keeps the others waiting for at most a few problems, not for a whole chunk
-    (~0.3 ms on average at B = 1000; more when the machine deschedules that thread)."""
+    (~0.3 ms on average at B = 1000; more when the machine deschedules that thread).
+    Cached: a batch of a size seen before reuses its chunks (the Python loop cost ~50 us
+    per call at B = 1000)."""
     starts = [0]
     b = 0
     while b < nb:
         b = min(nb, b + min(_CHUNK, max(_MIN_CHUNK, (nb - b) // (4 * nthreads))))
         starts.append(b)
-    return starts
+    return tuple(starts)
 
 
 def _kernel_array(a) -> np.ndarray:

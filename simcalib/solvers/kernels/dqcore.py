@@ -6,6 +6,10 @@ and the ``info`` vector (indices ``I_*``). ``_certificate_kernel`` evaluates wha
 certificate of global optimality needs. Tests (``tests/test_solvers_kernels.py``) check
 the core against numpy: the stationarity conditions of eq. 10 evaluated with numpy and, for
 dqopt, the minimum over a dense numpy scan of the constraint set.
+
+Scratch: ``_solve_core`` takes its 4x4 and 4-vector work arrays from ``wk`` (``(N_WORK, 4,
+4)``, :func:`work_array`), made once per batch by the caller, so that a solve allocates
+nothing (each allocation costs ~35 ns; a solve made ~20).
 """
 
 from __future__ import annotations
@@ -38,14 +42,22 @@ STATUS_TEXT = {ST_OK: "", ST_MAXITER: "iteration limit reached",
                              "e.g. all identity)"}
 #: statuses that mean the solve failed
 FAILED_STATUSES = (ST_MAXITER, ST_NONFINITE)
+#: 4x4 slots of the scratch ``wk`` of :func:`_solve_core`: V, WV, Z, E, (xi, lam, -, -),
+#: eigen scratch a, tmp, E0, (pv, pu, pva, pua), (c, pv, za, -), Z1ab / K, Z2ab
+N_WORK = 12
+
+
+def work_array():
+    """The scratch of :func:`_solve_core` (contents irrelevant)."""
+    return np.empty((N_WORK, 4, 4))
 
 
 @njit(cache=True, error_model="numpy")
-def _m_eig(S, M, xi, V):
+def _m_eig(S, M, xi, V, a):
     """Eigen-decomposition of M with eigenvalues clipped to >= CLIP_REL * scale (scale = the
-    largest eigenvalue of M, or trace(S)/4 when M is ~0).
+    largest eigenvalue of M, or trace(S)/4 when M is ~0); ``a``: 4x4 scratch.
     Returns how many were clipped (noise-free or degenerate data: M is singular)."""
-    _eigh(M, xi, V)
+    _eigh(M, xi, V, a)
     scale = xi[3]
     tr = (S[0, 0] + S[1, 1] + S[2, 2] + S[3, 3]) * 0.25
     if scale < 1e-14 * tr:   # M ~ 0 (pure translation): relative to S instead
@@ -87,8 +99,9 @@ def _proj(E, col, WV, V, mu, pv, pu):
 
 
 @njit(cache=True, error_model="numpy")
-def _f_df(E, lam, WV, V, xi, mu, pv, pu, pva, pua):
-    """f(mu) = q0 . q0' (eq. 18) and its derivative (first-order perturbation of q0)."""
+def _f_df(E, lam, WV, V, xi, mu, pv, pu, pva, pua, za3):
+    """f(mu) = q0 . q0' (eq. 18) and its derivative (first-order perturbation of q0);
+    za3[a] (a = 1..3): the coupling of q0 to eigenvector a (:func:`_newton_last_step`)."""
     _proj(E, np.int64(0), WV, V, mu, pv, pu)   # np.int64: no Literal[0] specialisation
     f = 0.0
     qz2q = 0.0
@@ -101,6 +114,7 @@ def _f_df(E, lam, WV, V, xi, mu, pv, pu, pva, pua):
         za = 0.0
         for k in range(4):
             za += (pua[k] * pv[k] + pva[k] * pu[k]) / xi[k]
+        za3[a] = za
         gap = lam[a] - lam[0]
         if gap > 0.0:
             df += za * za / gap
@@ -124,12 +138,10 @@ def _mu_tilde(q, WV, V, xi):
 
 
 @njit(cache=True, error_model="numpy")
-def _qdual(q, mu, WV, V, xi, qd):
+def _qdual(q, mu, WV, V, xi, qd, c, pv):
     """q' = M^-1 (mu - W^T) q (eq. 11), with the component along the smallest eigenvector
     of M taken from the constraint q . q' = 0 when that eigenvalue is small (stable for
-    nearly singular M)."""
-    c = np.empty(4)
-    pv = np.empty(4)
+    nearly singular M). ``c``, ``pv``: 4-vector scratch."""
     for k in range(4):
         sv = 0.0
         sw = 0.0
@@ -162,9 +174,10 @@ def _normalize(q):
 
 
 @njit(cache=True, error_model="numpy")
-def _m_eig_wv(S, W, M, xi, V, WV):
-    """Eigen-decomposition of M (clipped as in the solvers) and W @ V; returns the clip count."""
-    nclip = _m_eig(S, M, xi, V)
+def _m_eig_wv(S, W, M, xi, V, WV, a):
+    """Eigen-decomposition of M (clipped as in the solvers) and W @ V; returns the clip
+    count (``a``: 4x4 scratch)."""
+    nclip = _m_eig(S, M, xi, V, a)
     for i in range(4):
         for j in range(4):
             acc = 0.0
@@ -175,7 +188,7 @@ def _m_eig_wv(S, W, M, xi, V, WV):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _z_eigen(S, WV, V, xi, mu, first, Z, E0, lam, E):
+def _z_eigen(S, WV, V, xi, mu, first, Z, E0, lam, E, a, tmp):
     """Z(mu) (eq. 12) and its eigen-decomposition (lam, E), warm-started from the previous
     eigenvectors E (identity when ``first``: then exactly _eigh); the iterations of dqopt
     and dqitr each call it at one site, so the compiled code holds one eigensolver each."""
@@ -183,20 +196,18 @@ def _z_eigen(S, WV, V, xi, mu, first, Z, E0, lam, E):
     for i in range(4):
         for j in range(4):
             E0[i, j] = (1.0 if i == j else 0.0) if first else E[i, j]
-    _eigh_warm(Z, E0, lam, E)
+    _eigh_warm(Z, E0, lam, E, a, tmp)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _dqopt_newton(S, WV, V, xi, q, Z, lam, E):
+def _dqopt_newton(S, WV, V, xi, q, Z, lam, E, wk):
     """DQOpt (section 3.1): the root of f(mu) = q0 . q0' by safeguarded Newton inside the
     bracket, q = the eigenvector of Z(mu*) of the smallest eigenvalue (lam, E: the last
     eigen-decomposition). Returns (mu, iterations, status, lo, hi, f, f')."""
-    pv = np.empty(4)
-    pu = np.empty(4)
-    pva = np.empty(4)
-    pua = np.empty(4)
-    E0 = np.empty((4, 4))
-    lo, hi = _dqopt_bracket(V, WV, xi)
+    pv, pu, pva, pua = wk[8, 0], wk[8, 1], wk[8, 2], wk[8, 3]
+    za3 = wk[9, 2]
+    E0, ea, etmp = wk[7], wk[5], wk[6]
+    lo, hi = _dqopt_bracket(V, WV, xi, wk[10])
     mu = 0.0
     blo = lo
     bhi = hi
@@ -205,8 +216,8 @@ def _dqopt_newton(S, WV, V, xi, q, Z, lam, E):
     f = np.nan
     df = np.nan
     for it in range(200):
-        _z_eigen(S, WV, V, xi, mu, it == 0, Z, E0, lam, E)
-        f, df = _f_df(E, lam, WV, V, xi, mu, pv, pu, pva, pua)
+        _z_eigen(S, WV, V, xi, mu, it == 0, Z, E0, lam, E, ea, etmp)
+        f, df = _f_df(E, lam, WV, V, xi, mu, pv, pu, pva, pua, za3)
         iters += 1
         qdn = 0.0
         for k in range(4):
@@ -223,7 +234,7 @@ def _dqopt_newton(S, WV, V, xi, q, Z, lam, E):
         if abs(f) <= 1e6 * ftol and mu_new > blo and mu_new < bhi:
             # Newton is in its quadratic regime: the remaining error after this step is
             # O(f^2); move q to mu_new by first-order perturbation and stop.
-            _newton_last_step(E, lam, WV, V, xi, mu, mu_new, pv, pu, pva, pua, q)
+            _newton_last_step(E, lam, mu, mu_new, za3, q)
             return mu_new, iters, status, lo, hi, f, df
         if not (mu_new > blo and mu_new < bhi):
             mu_new = 0.5 * (blo + bhi)
@@ -250,31 +261,33 @@ def _k_entry(V, WV, xi, a, b):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _dqopt_bracket(V, WV, xi):
+def _dqopt_bracket(V, WV, xi, K):
     """The bracket of mu* (appendix C): mu* lies in [k_min, k_max], the extreme eigenvalues
     of K = sym(M^1/2 W M^-1/2); here the cheaper valid bound |mu*| <= ||K||_F (the exact
-    eigenvalue bracket is reported by the certificate). Returns (lo, hi)."""
+    eigenvalue bracket is reported by the certificate). Returns (lo, hi). K: 4x4 scratch
+    (K is symmetric to the bit: its upper triangle is computed, the lower one copied)."""
+    for a in range(4):
+        for b in range(a, 4):
+            kab = _k_entry(V, WV, xi, a, b)
+            K[a, b] = kab
+            K[b, a] = kab
     kf = 0.0
     for a in range(4):
         for b in range(4):
-            kab = _k_entry(V, WV, xi, a, b)
-            kf += kab * kab
+            kf += K[a, b] * K[a, b]
     kf = np.sqrt(kf)
     return -kf * (1.0 + 1e-12) - 1e-300, kf * (1.0 + 1e-12) + 1e-300
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _newton_last_step(E, lam, WV, V, xi, mu, mu_new, pv, pu, pva, pua, q):
-    """q = the eigenvector of Z(mu) moved to Z(mu_new) by first-order perturbation (pv,
-    pu: the projections of E[:, 0] from the last f(mu))."""
+def _newton_last_step(E, lam, mu, mu_new, za3, q):
+    """q = the eigenvector of Z(mu) moved to Z(mu_new) by first-order perturbation (za3:
+    the couplings of the last f(mu), :func:`_f_df`)."""
     for i in range(4):
         q[i] = E[i, 0]
     dmu = mu_new - mu
     for a in range(1, 4):
-        _proj(E, a, WV, V, mu, pva, pua)
-        za = 0.0
-        for k in range(4):
-            za += (pua[k] * pv[k] + pva[k] * pu[k]) / xi[k]
+        za = za3[a]
         gap = lam[0] - lam[a]
         if gap < 0.0:
             for i in range(4):
@@ -282,7 +295,7 @@ def _newton_last_step(E, lam, WV, V, xi, mu, mu_new, pv, pu, pva, pua, q):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _dqitr_iterate(S, W, WV, V, xi, q, Z, lam, E):
+def _dqitr_iterate(S, W, WV, V, xi, q, Z, lam, E, wk):
     """DQItr (appendix A): the fixed point of mu = mu~(q(mu)). Returns (mu, iterations,
     status)."""
     converged = False
@@ -292,9 +305,9 @@ def _dqitr_iterate(S, W, WV, V, xi, q, Z, lam, E):
     for i in range(4):
         for j in range(4):
             wscale = max(wscale, abs(W[i, j]) / max(np.sqrt(xi[3]), 1e-300))
-    E0 = np.empty((4, 4))
+    E0, ea, etmp = wk[7], wk[5], wk[6]
     for it in range(500):
-        _z_eigen(S, WV, V, xi, mu, it == 0, Z, E0, lam, E)
+        _z_eigen(S, WV, V, xi, mu, it == 0, Z, E0, lam, E, ea, etmp)
         iters += 1
         for i in range(4):
             q[i] = E[i, 0]
@@ -312,18 +325,18 @@ def _dqitr_iterate(S, W, WV, V, xi, q, Z, lam, E):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _relaxed(method, S, WV, V, xi, q, Z, lam, E):
+def _relaxed(method, S, WV, V, xi, q, Z, lam, E, wk):
     """The methods from the relaxed problem Z0 = Z(0): DQConvRlx (its eigenvector), DQ2ndOrd
     and DQ2ndOrd-lambda (second-order expansions about it). Returns (mu, status)."""
     status = ST_OK
     _zmat(S, WV, V, xi, 0.0, Z)
-    _eigh(Z, lam, E)
+    _eigh(Z, lam, E, wk[5])
     if method == DQCONVRLX:
         for i in range(4):
             q[i] = E[i, 0]
     else:
-        Z1ab = np.empty((4, 4))
-        Z2ab = np.empty((4, 4))
+        Z1ab = wk[10]
+        Z2ab = wk[11]
         _z_basis(E, WV, V, xi, Z1ab, Z2ab)
         if method == DQ2NDORD:
             _second_order_mu(E, lam, Z1ab, Z2ab, q)
@@ -343,15 +356,12 @@ def _relaxed(method, S, WV, V, xi, q, Z, lam, E):
 
 
 @njit(cache=True, error_model="numpy")
-def _solve_core(method, S, W, M, q, qd, info):
-    """One DQ problem given (S, W, M) (eq. 9, prior included). Writes q, q' and info."""
-    xi = np.empty(4)
-    V = np.empty((4, 4))
-    WV = np.empty((4, 4))
-    nclip = _m_eig_wv(S, W, M, xi, V, WV)
-    Z = np.empty((4, 4))
-    lam = np.empty(4)
-    E = np.empty((4, 4))
+def _solve_core(method, S, W, M, q, qd, info, wk):
+    """One DQ problem given (S, W, M) (eq. 9, prior included). Writes q, q' and info;
+    ``wk``: the scratch of :func:`work_array`."""
+    V, WV, Z, E = wk[0], wk[1], wk[2], wk[3]
+    xi, lam = wk[4, 0], wk[4, 1]
+    nclip = _m_eig_wv(S, W, M, xi, V, WV, wk[5])
     iters = 0
     status = ST_OK
     lo = np.nan
@@ -365,13 +375,13 @@ def _solve_core(method, S, W, M, q, qd, info):
         lam[0] = np.nan  # no eigen-decomposition of Z is needed
         lam[1] = np.nan
     elif method == DQOPT:
-        mu, iters, status, lo, hi, f, df = _dqopt_newton(S, WV, V, xi, q, Z, lam, E)
+        mu, iters, status, lo, hi, f, df = _dqopt_newton(S, WV, V, xi, q, Z, lam, E, wk)
     elif method == DQITR:
-        mu, iters, status = _dqitr_iterate(S, W, WV, V, xi, q, Z, lam, E)
+        mu, iters, status = _dqitr_iterate(S, W, WV, V, xi, q, Z, lam, E, wk)
     else:
-        mu, status = _relaxed(method, S, WV, V, xi, q, Z, lam, E)
+        mu, status = _relaxed(method, S, WV, V, xi, q, Z, lam, E, wk)
     _normalize(q)
-    _qdual(q, mu, WV, V, xi, qd)
+    _qdual(q, mu, WV, V, xi, qd, wk[9, 0], wk[9, 1])
     _write_info(S, W, M, q, qd, info, mu, lam, iters, nclip, lo, hi, f, df, status, xi)
 
 
@@ -408,15 +418,16 @@ def _eval_mu(S, W, M, mu, lam, E, out):
     xi = np.empty(4)
     V = np.empty((4, 4))
     WV = np.empty((4, 4))
-    nclip = _m_eig_wv(S, W, M, xi, V, WV)
+    sa = np.empty((4, 4))
+    nclip = _m_eig_wv(S, W, M, xi, V, WV, sa)
     Z = np.empty((4, 4))
     _zmat(S, WV, V, xi, mu, Z)
-    _eigh(Z, lam, E)
+    _eigh(Z, lam, E, sa)
     pv = np.empty(4)
     pu = np.empty(4)
     pva = np.empty(4)
     pua = np.empty(4)
-    f, df = _f_df(E, lam, WV, V, xi, mu, pv, pu, pva, pua)
+    f, df = _f_df(E, lam, WV, V, xi, mu, pv, pu, pva, pua, np.empty(4))
     out[0] = f
     out[1] = df
     out[2] = nclip
@@ -426,7 +437,7 @@ def _eval_mu(S, W, M, mu, lam, E, out):
             K[a, b] = _k_entry(V, WV, xi, a, b)
     kw = np.empty(4)
     KV = np.empty((4, 4))
-    _eigh(K, kw, KV)
+    _eigh(K, kw, KV, sa)
     out[3] = kw[0]
     out[4] = kw[3]
 
@@ -436,7 +447,7 @@ def _certificate_kernel(opt, S, W, M, q, qd, info, lam, E, out):
     """Everything the certificate evaluates, in one compiled entry: the dqopt solution of
     (S, W, M) (q, qd, info), then Z's eigen-decomposition and f, f' at mu*, at the bracket
     ends k_min, k_max and at mu* -/+ h (rows 0..4 of lam (5, 4), E (5, 4, 4), out (5, 5))."""
-    _solve_core(opt, S, W, M, q, qd, info)
+    _solve_core(opt, S, W, M, q, qd, info, np.empty((N_WORK, 4, 4)))
     mu = info[I_MU]
     h = 0.0
     for r in range(5):   # one call site of _eval_mu
@@ -478,5 +489,5 @@ def solve_matrices(method: str, S, W, M):
     q = np.empty(4)
     qd = np.empty(4)
     info = np.empty(N_INFO)
-    _solve_core(METHOD_CODES[method], _c(S), _c(W), _c(M), q, qd, info)
+    _solve_core(METHOD_CODES[method], _c(S), _c(W), _c(M), q, qd, info, work_array())
     return q, qd, info

@@ -88,7 +88,9 @@ def _quats_soa(C, H, tol, Q):
     vectorises: a sequential pass over C and H first (their sum: it brings the problem's
     25 kB into the cache in memory order, ~2 us less per problem in a large batch than
     the strided first touch by the checks; a non-finite sum sends every motion through the
-    exact check below), then check, convert C, convert H."""
+    exact check below), then check, convert C, convert H. The conversion gives every
+    scalar part w >= 0 (or -0.0), so the pairs' scalar parts have the same sign already:
+    no sign pass (it multiplied every h, h' by 1.0)."""
     n = C.shape[0]
     total = _sum_flat(C.reshape(-1)) + _sum_flat(H.reshape(-1))
     nbad = 0 if np.isfinite(total) else 1
@@ -100,11 +102,6 @@ def _quats_soa(C, H, tol, Q):
                 return i
     for side in range(2):   # one call site with runtime rows: one compiled _dq_rows
         _dq_rows(C if side == 0 else H, Q, 4 * side, 8 + 4 * side)
-    for i in range(n):
-        sg = -1.0 if Q[3, i] * Q[7, i] < 0.0 else 1.0
-        for k in range(4):
-            Q[4 + k, i] *= sg
-            Q[12 + k, i] *= sg
     return -1
 
 
@@ -125,16 +122,23 @@ def _contract(T, k, P, sign, out):
 def _grams_from_outer(T, P, nrm, AtA, BtB, BtA):
     """A^T A, B^T B, B^T A from the accumulated outer products (A = L(c) - R(h), ...).
     (The tensor index is passed as np.int64(k): a literal k would make numba compile one
-    _contract per value.)"""
-    X1 = np.zeros((4, 4))
-    X2 = np.zeros((4, 4))
-    _contract(T, np.int64(0), P[0], 1.0, X1)      # sum L(c)^T R(h)
-    _contract(T, np.int64(0), P[1], 1.0, X2)      # sum L(c')^T R(h')
+    _contract per value.) X1 = sum L(c)^T R(h) is summed in AtA and symmetrised there
+    (no scratch: -(x + y) = -(y + x) to the bit), X2 likewise in BtB."""
     for a in range(4):
         for b in range(4):
-            AtA[a, b] = -(X1[a, b] + X1[b, a])
-            BtB[a, b] = -(X2[a, b] + X2[b, a])
+            AtA[a, b] = 0.0
+            BtB[a, b] = 0.0
             BtA[a, b] = 0.0
+    _contract(T, np.int64(0), P[0], 1.0, AtA)      # X1 = sum L(c)^T R(h)
+    _contract(T, np.int64(0), P[1], 1.0, BtB)      # X2 = sum L(c')^T R(h')
+    for a in range(4):
+        for b in range(a, 4):
+            x1, y1 = AtA[a, b], AtA[b, a]
+            x2, y2 = BtB[a, b], BtB[b, a]
+            AtA[a, b] = -(x1 + y1)
+            AtA[b, a] = -(y1 + x1)
+            BtB[a, b] = -(x2 + y2)
+            BtB[b, a] = -(y2 + x2)
         AtA[a, a] += nrm[0]
         BtB[a, a] += nrm[1]
     _contract(T, np.int64(1), P[2], 1.0, BtA)     # L(c')^T L(c)

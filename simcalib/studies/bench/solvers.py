@@ -22,7 +22,8 @@ import time
 import numpy as np
 
 __all__ = ["main", "make_problems", "time_methods", "batch_throughput", "repeated_throughput",
-           "startup_times", "markdown_tables", "reference_solve", "hot_path"]
+           "throughput_overhead", "startup_times", "markdown_tables", "reference_solve",
+           "hot_path"]
 
 
 def make_problems(rng: np.random.Generator, count: int, n: int, sigma_r: float,
@@ -87,17 +88,33 @@ def batch_throughput(methods, n: int, batch_size: int, alpha: float, sigma_r: fl
 
 
 def repeated_throughput(method: str, n: int, batch_size: int, repeats: int, alpha: float,
-                        sigma_r: float, sigma_t: float, seed: int) -> np.ndarray:
-    """problems/s of ``repeats`` consecutive ``solve_batch`` calls (B = batch_size)."""
+                        sigma_r: float, sigma_t: float, seed: int,
+                        cpu_s: list | None = None) -> np.ndarray:
+    """problems/s of ``repeats`` consecutive ``solve_batch`` calls (B = batch_size); the
+    process CPU seconds of each call are appended to ``cpu_s`` when given."""
     from simcalib.solvers.api import solve_batch
     C, H, _ = make_problems(np.random.default_rng(seed + 2), batch_size, n, sigma_r, sigma_t)
     solve_batch(C[:4], H[:4], method=method, alpha=alpha)   # compile / load
     rates = []
     for _ in range(repeats):
+        c0 = time.process_time()
         t0 = time.perf_counter()
         solve_batch(C, H, method=method, alpha=alpha)
         rates.append(batch_size / (time.perf_counter() - t0))
+        if cpu_s is not None:
+            cpu_s.append(time.process_time() - c0)
     return np.array(rates)
+
+
+def throughput_overhead(t: dict) -> dict:
+    """From a ``--throughput`` result: the CPU per problem (process, all threads; µs) and
+    per call the wall time beyond CPU / threads (ms): what the call spends outside the
+    kernels' per-problem work (thread start, chunk dispatch, input checks, output) plus
+    the time its threads waited for cores that other processes held."""
+    wall = t["batch_size"] / np.asarray(t["problems_per_s"], dtype=float)
+    cpu = np.asarray(t["cpu_s"], dtype=float)
+    return {"cpu_us_per_problem": cpu / t["batch_size"] * 1e6,
+            "overhead_ms": (wall - cpu / t["threads"]) * 1e3}
 
 
 def reference_solve(C, H, alpha: float = 1.0) -> np.ndarray:
@@ -182,6 +199,12 @@ def hot_path_lines(h: dict) -> list[str]:
             "(target >= 100,000)"]
 
 
+def _batch_threads() -> int:
+    """The threads a batch runs on (numba's thread count, at most the CPU count)."""
+    from simcalib.solvers.kernels.batch import _threads
+    return max(1, min(_threads(), os.cpu_count() or 1))
+
+
 def _load_note() -> str:
     try:
         load = os.getloadavg()
@@ -260,6 +283,13 @@ def markdown_tables(result: dict) -> str:
                   f"N = {t['n_motions']}, {len(r)} consecutive calls: problems/s",
                   "", "| min | median | max |", "|---:|---:|---:|",
                   f"| {r.min():,.0f} | {np.median(r):,.0f} | {r.max():,.0f} |", ""]
+        if "cpu_s" in t:
+            o = throughput_overhead(t)
+            lines += [f"CPU per problem (process, {t['threads']} threads): median "
+                      f"{np.median(o['cpu_us_per_problem']):.2f} µs; wall beyond CPU / "
+                      f"threads per call: median {np.median(o['overhead_ms']):.2f} ms (min "
+                      f"{o['overhead_ms'].min():.2f}): thread start, chunk dispatch, checks, "
+                      "output, and waits for cores other processes hold", ""]
     if "hot_path" in result:
         h = result["hot_path"]
         lines += [f"Hot path (N = {h['n_motions']}, {h['problems']} problems x {h['repeats']} "
@@ -397,12 +427,15 @@ def _startup_throughput_result(args) -> dict:
         result["startup"] = startup_times()
     if args.throughput:
         get(args.throughput_method)
+        cpu = []
         rates = repeated_throughput(args.throughput_method, args.n_motions,
                                     args.throughput_batch, args.repeats, args.alpha,
-                                    np.radians(args.sigma_r_deg), args.sigma_t, args.seed)
+                                    np.radians(args.sigma_r_deg), args.sigma_t, args.seed,
+                                    cpu_s=cpu)
         result["throughput"] = {"method": args.throughput_method,
                                 "batch_size": args.throughput_batch,
-                                "n_motions": args.n_motions, "problems_per_s": rates.tolist()}
+                                "n_motions": args.n_motions, "problems_per_s": rates.tolist(),
+                                "cpu_s": cpu, "threads": _batch_threads()}
     if args.markdown != "-":   # with --markdown - the tables are printed once, below
         print(markdown_tables(result))
     return result
