@@ -142,3 +142,34 @@ def test_a_step_that_does_not_hold_is_dropped(monkeypatch):
     assert got.time_offset.steps == () and not got.stream_b.repairs.get("clock_step_rows_shifted")
     assert got.time_offset.offset_s == plain.time_offset.offset_s
     assert np.array_equal(got.X, plain.X)
+
+
+def _told_step(rec):
+    r = calibrate_streams(rec.stream_a, rec.stream_b)
+    steps = r.time_offset.steps
+    assert len(steps) == 1, r.time_offset.message
+    assert steps[0].size_s == pytest.approx(rec.step_s, abs=3e-3)
+    assert steps[0].at_a_s == pytest.approx(rec.step_at_s, abs=0.02)
+    assert r.time_offset.offset_s == pytest.approx(rec.offset_s, abs=3e-3)
+    assert r.summary["mount_change"] is None
+    assert np.degrees(rotation_error_rad(r.X, rec.X_true)) < 0.1
+    return r
+
+
+def test_a_step_between_two_single_part_stretches_is_told():
+    """20 s, a 1.03 s step at 60 %: each stretch's split check has one part, too few
+    points to weigh a line; one would need a drift of ~10 %, no clock's (was: not told,
+    then taken for a change of X)."""
+    rec = generate("clock_step", 1)
+    assert rec.step_s / (0.5 * (rec.stream_a.timestamps_s[-1]
+                                - rec.stream_a.timestamps_s[0])) > clock_step.MAX_DRIFT
+    _told_step(rec)
+
+
+@pytest.mark.parametrize("seed", [2, 5])
+def test_a_step_the_offsets_checks_miss_is_told_where_x_seemed_to_change(seed):
+    """The offset fitted to one stretch, the other's motions dropped as outliers: the
+    split check's parts agree, no step is looked for, and the mount check split the
+    recording at the step (was: told as a change of X, seed 2 with the later stretch's
+    offset, 1.2 s off)."""
+    _told_step(generate("clock_step", seed))

@@ -318,8 +318,6 @@ def outcome(tmp_path_factory):
 #: cases the estimation path does not meet yet, ``(test, kind, seed) -> why``: strict xfail,
 #: so a case that starts passing fails the suite until it is removed from here
 #: (docs/recordings.md, seeds 0-19, lists every miss)
-_STEP_AS_MOUNT = ("b's clock stepping ~1 s forward half-way is told as a change of X "
-                  "(the mount check splits there and keeps the longer stretch, its X right)")
 KNOWN_LIMITS: dict = {
     ("park", "low_rate_camera", 2): "Park's rotation error here (0.054 deg) is its best draw "
     "on seeds 0-4 (the others 0.18-0.28 deg); calibrate's 0.128 deg is within its sigma "
@@ -327,12 +325,6 @@ KNOWN_LIMITS: dict = {
     ("park", "clock_step", 0): "a 1.1 s forward step of b's clock at 48 % not told: the "
     "reading is not clear (1.1x), X 6 deg off, reported undetermined (exit 6)",
     ("step", "clock_step", 0): "the step is not told (see park)",
-    ("step", "clock_step", 1): _STEP_AS_MOUNT,
-    ("mount", "clock_step", 1): _STEP_AS_MOUNT,
-    ("step", "clock_step", 2): _STEP_AS_MOUNT,
-    ("mount", "clock_step", 2): _STEP_AS_MOUNT,
-    ("offset", "clock_step", 2): _STEP_AS_MOUNT + ": the offset reported is the later "
-    "stretch's, 1.2 s after the first's",
 }
 
 

@@ -27,7 +27,12 @@ lies between theirs may be left out: it holds the step). Then
   the stretch tells one); the step is told when it stands :data:`STEP_Z` of its sigmas
   from 0 and the stretches' points (their split checks' parts, or a short stretch's own
   offset; 4 or more) lie about a line with a jump at the step :data:`STEP_GAIN` times
-  closer than about one line and about one offset (a drift climbs through both).
+  closer than about one line and about one offset (a drift climbs through both); with
+  fewer points, where a line through them would need a drift above :data:`MAX_DRIFT`.
+
+:func:`step_at` does the same at a boundary given (the path's mount check, where the
+offset's own checks missed a stretch it does not fit: :func:`simcalib.estimation.path.
+_stepped`).
 
 Where it is told, :func:`shifted` moves b's stamps from the step on by ``-(o2 - o1)`` and
 the path aligns the corrected streams as usual (:mod:`simcalib.estimation.
@@ -45,8 +50,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-__all__ = ["ClockStep", "find_step", "shifted", "holds", "two_levels", "edge_run",
-           "STEP_GAIN", "STEP_Z", "MAX_STEPS", "EDGE", "HOLD_Z", "HOLD_SHARE"]
+__all__ = ["ClockStep", "find_step", "step_at", "shifted", "holds", "two_levels", "edge_run",
+           "STEP_GAIN", "STEP_Z", "MAX_STEPS", "EDGE", "HOLD_Z", "HOLD_SHARE", "MAX_DRIFT"]
 
 #: two constants leave at most this fraction's inverse of the parts' dispersion about one
 #: offset and about a line
@@ -61,6 +66,10 @@ EDGE = 0.999
 #: with the step removed from b's stamps, the offset aligned again is the first
 #: stretch's within this many of their joint sigmas, or this share of the step (:func:`holds`)
 HOLD_Z, HOLD_SHARE = 5.0, 0.1
+#: where the stretches give fewer than 4 points (a short recording: a split check of
+#: fewer than 2 parts each), a line is no explanation when it needs this drift (s/s):
+#: 10x a crystal clock's worst (20-100 ppm, :mod:`simcalib.estimation.drift`)
+MAX_DRIFT = 1e-3
 
 
 @dataclass(frozen=True)
@@ -304,13 +313,17 @@ def find_step(a, b, off, **kw) -> ClockStep | None:
     data tell one (the module's docstring); else None. ``kw``: passed to
     :func:`~simcalib.estimation.alignment.estimate_time_offset` for each stretch
     (``alpha``, ``signal``)."""
-    from simcalib.estimation.speeds import as_time_poses
     if not _may_step(off, _half_s(a, b)):
         return None
+    mid = _boundary(off, _reference_is_b(a, b), _half_s(a, b))
+    return None if mid is None else step_at(a, b, off, mid, **kw)
+
+
+def step_at(a, b, off, mid: float, **kw) -> ClockStep | None:
+    """:func:`find_step` with the stretches' boundary given: ``mid`` on a's clock (e.g.
+    where X seemed to change: :func:`simcalib.estimation.mount.find_mount_change`)."""
+    from simcalib.estimation.speeds import as_time_poses
     ref_b = _reference_is_b(a, b)
-    mid = _boundary(off, ref_b, _half_s(a, b))
-    if mid is None:
-        return None
     tb = as_time_poses(b)[0]
     rough = [_stretch(a, b, tb - off.offset_s < mid, kw),
              _stretch(a, b, tb - off.offset_s >= mid, kw)]
@@ -354,15 +367,24 @@ def _told(parts, ref_b, at_b_s, rows) -> ClockStep | None:
         return None
     (t1, o1, s1), (t2, o2, s2) = _points(one, ref_b), _points(two, ref_b)
     t, o, w = np.r_[t1, t2] - at_a, np.r_[o1, o2], 1.0 / np.r_[s1, s2] ** 2
-    if t.size < 4 or not np.all(np.isfinite(w)):
+    if not np.all(np.isfinite(w)):
         return None
     ones, later = np.ones_like(t), np.r_[np.zeros(t1.size), np.ones(t2.size)]
     q_step = _q_fit([ones, t, later], o, w)
     q_line, q_const = _q_fit([ones, t], o, w), _q_fit([ones], o, w)
-    if not min(q_line, q_const) >= STEP_GAIN * q_step:
+    if t.size < 4:      # too few points to weigh a line: one needs a drift no clock has
+        if not _drift_needed(t1, o1, t2, o2) >= MAX_DRIFT:
+            return None
+    elif not min(q_line, q_const) >= STEP_GAIN * q_step:
         return None
     return ClockStep(at_b_s, at_a, after - before, sigma, before, one.uncertainty_s, after,
                      two.uncertainty_s, q_step, q_line, q_const, rows)
+
+
+def _drift_needed(t1, o1, t2, o2) -> float:
+    """The drift (s/s) of the line through the two stretches' mean offsets."""
+    dt = abs(float(np.mean(t2)) - float(np.mean(t1)))
+    return abs(float(np.mean(o2)) - float(np.mean(o1))) / dt if dt > 0 else math.inf
 
 
 def holds(step: ClockStep, off) -> bool:

@@ -38,6 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
+from simcalib.estimation.added_covariance import with_common_error, with_scale
 from simcalib.estimation.outliers import robust_fit
 from simcalib.estimation.reading_alignment import align_and_read, first_reading  # noqa: F401
 from simcalib.estimation.stillness import check_distinct, check_streams_move
@@ -311,8 +312,8 @@ def calibrate_streams(a, b, *, format_a: str | None = None, format_b: str | None
                        tolerances=tolerances)
     check, weighting, cov, cov_det = _consistency(
         ms, rob, sp, method=method, alpha=alpha, prior=prior, offset_sigma_s=_offset_sigma(off))
-    cov, cov_det, common_error = _with_common_error(cov, cov_det, rob, check, common_error)
-    cov, cov_det = _with_scale(cov, cov_det, rob, check, ms, scale, alpha)
+    cov, cov_det, common_error = with_common_error(cov, cov_det, rob, check, common_error)
+    cov, cov_det = with_scale(cov, cov_det, rob, check, ms, scale, alpha)
     ms0, plain = _plain(sa, sb, sampling, off, sp, ms_all, step_s=step_s, alpha=alpha,
                         min_rotation_deg=min_rotation_deg, max_rotation_deg=max_rotation_deg)
     aligned, summary = _summary(sa, sb, conv, off, ms, rob, ms0, plain, alpha, length_scale)
@@ -354,7 +355,35 @@ def _notes(notes, sp, ms, rob, mount) -> dict:
             "world_jumps": notes[0] + ([] if mount else stretches_used(sp, ms, rob))}
 
 
-def _mount_pass(p, sa0, sb0, sampling, scale, kw, notes):
+def _stepped(p, sa0, sb0, sampling, scale, kw, cut_s: float):
+    """``(pass, b)`` formed again on b's stamps with a clock step at ``cut_s`` (clock a)
+    removed, where the offset was estimated on streams not paired by stamp and the
+    stretches either side tell one that holds (:func:`simcalib.estimation.clock_step.
+    step_at`, :func:`~simcalib.estimation.clock_step.holds`): a clock that steps misaligns
+    the motions of one stretch, which the offset's own checks may not see (the offset
+    fitted to the other, those motions dropped as outliers), and each stretch's own X
+    then fits it better, as where X changed. Else None."""
+    from dataclasses import replace
+    from simcalib.estimation.clock_step import holds, shifted, step_at
+    from simcalib.estimation.scale import scaled_stream
+    if kw["time_offset"] != "estimate" or sampling.paired_by_stamp or p.off.drift != 0.0:
+        return None
+    by = "auto" if kw["signal"] == "rotation" else kw["signal"]
+    step = step_at(p.sa, p.sb, p.off, cut_s, alpha=kw["alpha"], signal=by)
+    if step is None:
+        return None
+    sb1 = shifted(sb0, step)
+    rescaled = scale.rescaled and scale.decision == "rescaled"
+    p2 = _fit_pass(sa0, scaled_stream(sb1, 1.0 / scale.used) if rescaled else sb1,
+                   sampling, **kw)
+    if not holds(step, p2.off):
+        return None
+    off = replace(p2.off, steps=(*p2.off.steps, step), message=f"{step.line()}; "
+                  f"{p2.off.message}")
+    return p2._replace(off=off), sb1
+
+
+def _mount_pass(p, sa0, sb0, sampling, scale, kw, notes, step_search=True):
     """``(pass, all its motions, mount_change, notes)``: where X changes at one instant
     (:func:`simcalib.estimation.mount.find_mount_change`) the pass formed again with the
     change marked as a world jump (unless one is marked there already; b's scale as
@@ -370,6 +399,10 @@ def _mount_pass(p, sa0, sb0, sampling, scale, kw, notes):
     change = mc.find_mount_change(p.sp, p.ms, **fit)
     if change is None:
         return p, p.ms, None, notes
+    stepped = _stepped(p, sa0, sb0, sampling, scale, kw, change.cut_s) if step_search else None
+    if stepped is not None:                 # b's clock stepped there: X did not change
+        return _mount_pass(stepped[0], sa0, stepped[1], sampling, scale, kw, notes,
+                           step_search=False)
     p0 = p
     edge = mc.on_world_edge(p.sp, change.index)
     if not edge:
@@ -452,40 +485,6 @@ class _Pass(NamedTuple):
     rob: object
     why: str
     sampling: object
-
-
-def _with_scale(cov, cov_det, rob, check, ms, scale, alpha):
-    """The covariances with the estimated scale's 1-sigma carried into X (on the
-    determined directions), where the scale used was estimated."""
-    if cov is None or not scale.sigma_used > 0.0:
-        return cov, cov_det
-    from simcalib.estimation.scale import scale_covariance
-    add = scale_covariance(ms.C, ms.H, rob.inlier_mask.astype(np.float64),
-                           scale.sigma_used / scale.used, alpha)
-    return _add_determined(cov, cov_det, rob, check, add)
-
-
-def _with_common_error(cov, cov_det, rob, check, common):
-    """``(cov, cov_det, common)``: the covariances with the stated ``common`` error's
-    (:class:`~simcalib.estimation.common_error.CommonError`) added on the determined
-    directions, and ``common`` where it was added (else None)."""
-    if cov is None or common is None or not common.stated:
-        return cov, cov_det, None
-    return (*_add_determined(cov, cov_det, rob, check, common.covariance(rob.X)), common)
-
-
-def _add_determined(cov, cov_det, rob, check, add):
-    """``(cov, cov_det)`` with the 6x6 ``add`` projected on the determined directions (the
-    basis the consistency check reports, else the model's; undetermined axes stay
-    ``inf``)."""
-    basis = getattr(check, "basis", None)
-    B = np.asarray(rob.solution.uncertainty.determined_basis if basis is None else basis)
-    P = B @ B.T
-    add = P @ add @ P
-    out = cov.copy()
-    fin = np.isfinite(out)
-    out[fin] = out[fin] + add[fin]
-    return out, cov_det + add
 
 
 def _check_motions(ms, sp) -> float:
