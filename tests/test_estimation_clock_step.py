@@ -113,6 +113,22 @@ def test_a_step_on_simulated_streams_is_found_by_find_step():
     assert abs(st.before_s - 0.05) < 1e-3 and st.rows_shifted == t.size - k
 
 
+def test_a_step_of_seconds_is_searched_where_the_parts_after_it_are_flat():
+    """b +2 s from its middle on (offset kind, 20 s): one offset fits the first half; the
+    split check's parts after the step have no curvature within the bracket (no finite
+    sigma) and were left out, so the check held and the search never ran. They are kept
+    as flat parts, the run of them at the end bounds the step, and it is told at the
+    right stamp, both offsets within a ms."""
+    rec = generate("offset", 0)
+    sb, at = _stepped(rec, 2.0)
+    one = estimate_time_offset(rec.stream_a, sb)
+    assert len(one.split.offsets_s) == 2 and len(one.split.flat_times_s) == 2
+    assert not one.split.raised
+    st = find_step(rec.stream_a, sb, one, alpha=1.0, signal="auto")
+    assert st is not None and st.at_b_s == at
+    assert abs(st.size_s - 2.0) < 2e-3 and abs(st.before_s - rec.offset_s) < 1e-3
+
+
 def _step(before_s, size_s, at_b_s=10.0, sigma_s=1e-3):
     return clock_step.ClockStep(at_b_s, at_b_s - before_s, size_s, sigma_s, before_s, sigma_s,
                                 before_s + size_s, sigma_s, 1.0, 100.0, 100.0, 5)

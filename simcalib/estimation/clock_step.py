@@ -9,13 +9,15 @@ stretch far off, whose cost barely curves at the edge, raises nothing and drags 
 and X's sigma grows with the misaligned motions ("poorly determined"); a linear drift
 (:mod:`simcalib.estimation.drift`) does not explain them.
 
-:func:`find_step` looks for one only where the split check raised or has a part at its
-bracket's edge, and no drift was fitted (else it costs nothing): the parts at their
-bracket's edge must be one run at an end of the recording (:func:`edge_run`: there the
-offset is off by more than the bracket), or the parts split into two contiguous groups,
-each about one offset, that explain their dispersion :data:`STEP_GAIN` times better than
-one offset and than a line (:func:`two_levels`; a part between the groups whose offset
-lies between theirs may be left out: it holds the step). Then
+:func:`find_step` looks for one only where the split check raised, has a part at its
+bracket's edge, or left a part out as flat (its cost does not curve within the bracket:
+a step of seconds), and no drift was fitted (else it costs nothing): the parts at their
+bracket's edge and the flat ones must be one run at an end of the recording
+(:func:`edge_run`: there the offset is off by more than the bracket), or the parts split
+into two contiguous groups, each about one offset, that explain their dispersion
+:data:`STEP_GAIN` times better than one offset and than a line (:func:`two_levels`; a part
+between the groups whose offset lies between theirs may be left out: it holds the step).
+Then
 
 * the offset is estimated again on b's stamps on either side of the groups' boundary
   (each stretch alone) -> ``o1``, ``o2``;
@@ -157,16 +159,23 @@ def _between(o, w, k, n) -> bool:
 
 def _may_step(off, half_s: float = math.inf) -> bool:
     """The search runs: one offset refined (no drift, fewer than :data:`MAX_STEPS` steps
-    removed) whose split check has 3 parts or more and raised, or has a part that stopped
-    at its bracket's edge (``half_s`` from the offset: a stretch the offset does not fit by
-    more than the bracket, whose cost barely curves there, may not raise it)."""
+    removed) whose split check has 3 parts or more (2 fitted at least) and raised, or has
+    a part that stopped at its bracket's edge (``half_s`` from the offset: a stretch the
+    offset does not fit by more than the bracket, whose cost barely curves there, may not
+    raise it), or one left out because its cost does not curve within the bracket at all
+    (``flat_times_s``: a stretch the offset misses by seconds)."""
     split = getattr(off, "split", None)
     if not (off.refined and off.decision in ("estimated", "zero") and split is not None
-            and off.drift == 0.0 and len(split.offsets_s) >= 3
+            and off.drift == 0.0 and len(split.offsets_s) >= 2
+            and len(split.offsets_s) + len(_flat(split)) >= 3
             and len(getattr(off, "steps", ())) < MAX_STEPS):
         return False
     edge = np.abs(np.asarray(split.offsets_s) - off.best_s) >= EDGE * half_s
-    return bool(split.raised) or bool(edge.any())
+    return bool(split.raised) or bool(edge.any()) or bool(_flat(split))
+
+
+def _flat(split) -> tuple:
+    return tuple(getattr(split, "flat_times_s", ()))
 
 
 def _half_s(a, b) -> float:
@@ -273,12 +282,18 @@ def _on_a(off, ref_b) -> tuple:
 def _boundary(off, ref_b, half_s) -> float | None:
     """The a-clock instant between the parts the offset fits and those it does not: the
     middle between the last part of the first and the first of the second, where the parts
-    at their bracket's edge (``half_s`` from the offset) are a run at one end of the
-    recording (:func:`edge_run`), else the parts' two levels (:func:`two_levels`); None:
-    neither."""
+    at their bracket's edge (``half_s`` from the offset) or left out as flat
+    (``flat_times_s``) are a run at one end of the recording (:func:`edge_run`), else the
+    fitted parts' two levels (:func:`two_levels`); None: neither."""
     t, o, s = _on_a(off, ref_b)
-    cut = edge_run(np.abs(o - off.best_s) >= EDGE * half_s)
-    cut = two_levels(t, o, s) if cut is None else cut
+    flat = np.asarray(_flat(off.split), np.float64) - (off.offset_s if ref_b else 0.0)
+    every = np.r_[t, flat]
+    order = np.argsort(every, kind="stable")
+    edge = np.r_[np.abs(o - off.best_s) >= EDGE * half_s, np.ones(flat.size, dtype=bool)]
+    cut = edge_run(edge[order])
+    if cut is not None:
+        return 0.5 * float(every[order][cut[0]] + every[order][cut[1]])
+    cut = two_levels(t, o, s)
     return None if cut is None else 0.5 * float(t[cut[0]] + t[cut[1]])
 
 
