@@ -113,6 +113,41 @@ def test_a_step_on_simulated_streams_is_found_by_find_step():
     assert abs(st.before_s - 0.05) < 1e-3 and st.rows_shifted == t.size - k
 
 
+def test_a_step_of_seconds_is_searched_where_the_parts_after_it_are_flat():
+    """b +2 s from its middle on (offset kind, 20 s): one offset fits the first half; the
+    split check's parts after the step have no curvature within the bracket (no finite
+    sigma) and were left out, so the check held and the search never ran. They are kept
+    as flat parts, the run of them at the end bounds the step, and it is told at the
+    right stamp, both offsets within a ms."""
+    rec = generate("offset", 0)
+    sb, at = _stepped(rec, 2.0)
+    one = estimate_time_offset(rec.stream_a, sb)
+    assert len(one.split.offsets_s) == 2 and len(one.split.flat_times_s) == 2
+    assert not one.split.raised
+    st = find_step(rec.stream_a, sb, one, alpha=1.0, signal="auto")
+    assert st is not None and st.at_b_s == at
+    assert abs(st.size_s - 2.0) < 2e-3 and abs(st.before_s - rec.offset_s) < 1e-3
+
+
+def test_a_step_back_is_placed_after_the_interleaved_rows():
+    """b's clock steps back by 0.43 s: sorted, the rows of both stretches interleave over
+    the 0.43 s before the first row after the last one of the old clock. No stamp splits
+    them; the step is put at that first row (motions ending among the interleaved rows fit
+    neither offset and count in no term: they pulled it 0.35 s early)."""
+    rs = rig_streams(offset_s=0.05, duration_s=40.0, rng=np.random.default_rng(4))
+    t = rs.t_b.copy()
+    k = t.size // 2
+    last_before = t[k - 1]
+    t[k:] -= 0.43                           # not a whole number of periods: no shared stamps
+    order = np.argsort(t, kind="stable")
+    b = (t[order], rs.T_b[order])
+    one = estimate_time_offset(rs.a, b)
+    st = find_step(rs.a, b, one, alpha=1.0, signal="auto")
+    assert st is not None, one.message
+    assert abs(st.size_s + 0.43) < 2e-3 and abs(st.before_s - 0.05) < 2e-3
+    assert st.at_b_s == b[0][np.searchsorted(b[0], last_before, side="right")]
+
+
 def _step(before_s, size_s, at_b_s=10.0, sigma_s=1e-3):
     return clock_step.ClockStep(at_b_s, at_b_s - before_s, size_s, sigma_s, before_s, sigma_s,
                                 before_s + size_s, sigma_s, 1.0, 100.0, 100.0, 5)

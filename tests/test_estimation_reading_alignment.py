@@ -28,3 +28,28 @@ def test_a_continuous_stream_in_other_units_is_refused_not_misaligned(seed, unit
     assert np.degrees(rotation_error_rad(r.X, want)) < 0.01
     assert np.linalg.norm(r.X[:3, 3] - want[:3, 3]) < 5e-4
     assert abs(r.time_offset.offset_s - rec.offset_s) < 3e-3
+
+
+@pytest.mark.parametrize("mirror", [False, pytest.param(True, marks=pytest.mark.slow)])
+def test_handedness_is_checked_at_the_final_offset_where_it_moved(mirror):
+    """Stop-and-go with b on another clock (25.5 s early): the first decision's offset
+    (the speeds' correlation's, -55.8 s) pairs no motions right, and b's handedness was
+    'not told' there (ratio 1.03 as written, 0.95 mirrored); at the stop-placed final
+    offset the data tell it: b as written is taken so (its pitches follow a's), a
+    mirrored b is read mirrored and X is the true one."""
+    from simcalib.estimation.path import align_and_read
+    from simcalib.estimation.readings import MIRROR_RATIO
+    from simcalib.estimation.sampling import classify_sampling
+    from simcalib.tools.mirror_margin import mirrored_file
+    rec = generate("stop_and_go_two_clocks", 0)
+    a, b = rec.stream_a, mirrored_file(rec.stream_b) if mirror else rec.stream_b
+    *_, conv, off, _ = align_and_read(a, b, classify_sampling(a, b), seed=0)
+    assert off.at_stops and abs(off.offset_s - rec.offset_s) < 0.5, off.message
+    assert conv.mirror_told and conv.mirror_X is None, conv.message
+    assert "not told" not in conv.message
+    assert conv.mirror_b == mirror
+    if mirror:
+        assert conv.mirror_ratio > MIRROR_RATIO and "MIRRORED" in conv.message
+        r = calibrate_streams(a, b, seed=0)
+        assert np.degrees(rotation_error_rad(r.X, rec.X_true)) < 0.1
+        assert np.linalg.norm(r.X[:3, 3] - rec.X_true[:3, 3]) < 2e-3

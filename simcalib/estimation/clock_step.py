@@ -9,13 +9,15 @@ stretch far off, whose cost barely curves at the edge, raises nothing and drags 
 and X's sigma grows with the misaligned motions ("poorly determined"); a linear drift
 (:mod:`simcalib.estimation.drift`) does not explain them.
 
-:func:`find_step` looks for one only where the split check raised or has a part at its
-bracket's edge, and no drift was fitted (else it costs nothing): the parts at their
-bracket's edge must be one run at an end of the recording (:func:`edge_run`: there the
-offset is off by more than the bracket), or the parts split into two contiguous groups,
-each about one offset, that explain their dispersion :data:`STEP_GAIN` times better than
-one offset and than a line (:func:`two_levels`; a part between the groups whose offset
-lies between theirs may be left out: it holds the step). Then
+:func:`find_step` looks for one only where the split check raised, has a part at its
+bracket's edge, or left a part out as flat (its cost does not curve within the bracket:
+a step of seconds), and no drift was fitted (else it costs nothing): the parts at their
+bracket's edge and the flat ones must be one run at an end of the recording
+(:func:`edge_run`: there the offset is off by more than the bracket), or the parts split
+into two contiguous groups, each about one offset, that explain their dispersion
+:data:`STEP_GAIN` times better than one offset and than a line (:func:`two_levels`; a part
+between the groups whose offset lies between theirs may be left out: it holds the step).
+Then
 
 * the offset is estimated again on b's stamps on either side of the groups' boundary
   (each stretch alone) -> ``o1``, ``o2``;
@@ -39,8 +41,11 @@ the path aligns the corrected streams as usual (:mod:`simcalib.estimation.
 reading_alignment`; streams paired by shared stamps, :mod:`simcalib.estimation.
 hidden_offset`, are classified again); :class:`ClockStep` says what was done. A clock
 that steps back (``o2 < o1``) leaves b's file with stamps out of order, which the reader
-sorts: the stretches interleave over the step's length, and those rows, shifted wrongly,
-are left to the outlier rejection (-0.4 s on a generated recording is told; -2 s is not).
+sorts: the stretches interleave over the step's length, the step is put at the first row
+after them (:func:`changepoint`), and the later stretch's rows among them, not shifted, are
+left to the outlier rejection (-0.4 s on a generated recording is told; -2 s is not: read
+from a file it is taken for a restarted logger, and sorted its interleaved rows pull the
+one offset seconds off, docs/calibrate.md).
 """
 
 from __future__ import annotations
@@ -166,16 +171,23 @@ def _between(o, w, k, n) -> bool:
 
 def _may_step(off, half_s: float = math.inf) -> bool:
     """The search runs: one offset refined (no drift, fewer than :data:`MAX_STEPS` steps
-    removed) whose split check has 3 parts or more and raised, or has a part that stopped
-    at its bracket's edge (``half_s`` from the offset: a stretch the offset does not fit by
-    more than the bracket, whose cost barely curves there, may not raise it)."""
+    removed) whose split check has 3 parts or more (2 fitted at least) and raised, or has
+    a part that stopped at its bracket's edge (``half_s`` from the offset: a stretch the
+    offset does not fit by more than the bracket, whose cost barely curves there, may not
+    raise it), or one left out because its cost does not curve within the bracket at all
+    (``flat_times_s``: a stretch the offset misses by seconds)."""
     split = getattr(off, "split", None)
     if not (off.refined and off.decision in ("estimated", "zero") and split is not None
-            and off.drift == 0.0 and len(split.offsets_s) >= 3
+            and off.drift == 0.0 and len(split.offsets_s) >= 2
+            and len(split.offsets_s) + len(_flat(split)) >= 3
             and len(getattr(off, "steps", ())) < MAX_STEPS):
         return False
     edge = np.abs(np.asarray(split.offsets_s) - off.best_s) >= EDGE * half_s
-    return bool(split.raised) or bool(edge.any())
+    return bool(split.raised) or bool(edge.any()) or bool(_flat(split))
+
+
+def _flat(split) -> tuple:
+    return tuple(getattr(split, "flat_times_s", ()))
 
 
 def _half_s(a, b) -> float:
@@ -260,7 +272,11 @@ def changepoint(a, b, o1, o2, signal="rotation") -> int | None:
     """b's row from which the offset is ``o2`` (``o1`` before): the one that minimises the
     squared misfits of the motions ending before it at ``o1`` plus those starting from it
     at ``o2`` (a motion across it fits neither and counts in no term); None on fewer than
-    3 motions."""
+    3 motions. A clock that steps back (``o2 < o1``) leaves the two stretches' rows
+    interleaved over the step's length before the first row after it (the reader sorts
+    them): the motions ending there fit neither and count in no term either, else they
+    pull the row off (EuRoC -0.4 s: 3 rows late; a 20 Hz rig -0.43 s: 0.35 s early)."""
+    from simcalib.estimation.speeds import as_time_poses
     i, j, e = _misfits(a, b, (o1, o2), signal)
     if i.size < 3:
         return None
@@ -268,7 +284,11 @@ def changepoint(a, b, o1, o2, signal="rotation") -> int | None:
     before = np.bincount(j, e[0] ** 2, minlength=n + 1).cumsum()   # motions ending < k
     after = np.bincount(i, e[1] ** 2, minlength=n + 1)[::-1].cumsum()[::-1]  # from k on
     ks = np.arange(1, n)
-    cost = np.concatenate([[0.0], before])[ks] + after[ks]
+    ends = ks
+    if o2 < o1:                             # motions ending before the interleaved rows
+        tb = as_time_poses(b)[0]
+        ends = np.searchsorted(tb, tb[ks] - (o1 - o2), side="left")
+    cost = np.concatenate([[0.0], before])[ends] + after[ks]
     return int(ks[int(np.argmin(cost))])
 
 
@@ -282,12 +302,18 @@ def _on_a(off, ref_b) -> tuple:
 def _boundary(off, ref_b, half_s) -> float | None:
     """The a-clock instant between the parts the offset fits and those it does not: the
     middle between the last part of the first and the first of the second, where the parts
-    at their bracket's edge (``half_s`` from the offset) are a run at one end of the
-    recording (:func:`edge_run`), else the parts' two levels (:func:`two_levels`); None:
-    neither."""
+    at their bracket's edge (``half_s`` from the offset) or left out as flat
+    (``flat_times_s``) are a run at one end of the recording (:func:`edge_run`), else the
+    fitted parts' two levels (:func:`two_levels`); None: neither."""
     t, o, s = _on_a(off, ref_b)
-    cut = edge_run(np.abs(o - off.best_s) >= EDGE * half_s)
-    cut = two_levels(t, o, s) if cut is None else cut
+    flat = np.asarray(_flat(off.split), np.float64) - (off.offset_s if ref_b else 0.0)
+    every = np.r_[t, flat]
+    order = np.argsort(every, kind="stable")
+    edge = np.r_[np.abs(o - off.best_s) >= EDGE * half_s, np.ones(flat.size, dtype=bool)]
+    cut = edge_run(edge[order])
+    if cut is not None:
+        return 0.5 * float(every[order][cut[0]] + every[order][cut[1]])
+    cut = two_levels(t, o, s)
     return None if cut is None else 0.5 * float(t[cut[0]] + t[cut[1]])
 
 

@@ -446,13 +446,17 @@ class SplitCheck:
     (``sqrt(ratio / sum sigma_k^-2)``), ``raised``: ``Q`` beyond the :data:`SPLIT_LEVEL`
     quantile of chi-square on ``n - 1`` dof, so the reported sigma is at least
     ``sigma_s`` (unless a clock drift explains it: :mod:`simcalib.estimation.drift`);
-    ``times_s``: the middle of each part's reference stamps."""
+    ``times_s``: the middle of each part's reference stamps; ``flat_times_s``: the same of
+    the parts left out because their cost does not curve within the bracket (no finite
+    sigma: a stretch the offset misses by far more than the bracket, as after a clock
+    step of seconds, :mod:`simcalib.estimation.clock_step`)."""
     offsets_s: tuple
     sigmas_s: tuple
     ratio: float
     sigma_s: float
     raised: bool
     times_s: tuple = ()
+    flat_times_s: tuple = ()
 
     def to_dict(self) -> dict:
         fin = lambda x: x if math.isfinite(x) else None  # noqa: E731
@@ -471,10 +475,12 @@ def split_check(ta, Ta, tb, Tb, best, half, kw, window) -> SplitCheck:
     (quasi-likelihood), and the reported sigma is at least that. Each part's sigma takes
     the most the motions' sharing of poses can give (:data:`THIN_MAX`): the check is for
     errors that are not white, and a part's own estimate of the sharing (a quarter of the
-    motions, some parts barely moving) is not one to test the others against."""
+    motions, some parts barely moving) is not one to test the others against. A part whose
+    cost does not curve within the bracket (no finite sigma) is left out and its middle
+    kept in ``flat_times_s``."""
     from scipy.special import chdtri
     parts = int(min(SPLIT_PARTS, (window[1] - window[0]) // (4 * kw["step_s"])))
-    offs, sigs, times = [], [], []
+    offs, sigs, times, flat = [], [], [], []
     for k in range(parts if parts >= 2 else 0):
         try:
             c = OffsetCost(ta, Ta, tb, Tb, (best - half, best + half), part=(k, parts), **kw)
@@ -488,13 +494,16 @@ def split_check(ta, Ta, tb, Tb, best, half, kw, window) -> SplitCheck:
             offs.append(o)
             sigs.append(sg)
             times.append(0.5 * (c.window[0] + c.window[1]))
+        else:
+            flat.append(0.5 * (c.window[0] + c.window[1]))
     n = len(offs)
     if n < 2:
         return SplitCheck(tuple(offs), tuple(sigs), float("nan"), float("nan"), False,
-                          tuple(times))
+                          tuple(times), tuple(flat))
     o, w = np.asarray(offs), 1.0 / np.asarray(sigs) ** 2
     q = float(np.sum(w * (o - np.sum(w * o) / np.sum(w)) ** 2))
     bound = float(chdtri(n - 1, 1.0 - SPLIT_LEVEL))
     ratio = q / (n - 1)
     return SplitCheck(tuple(map(float, offs)), tuple(map(float, sigs)), ratio,
-                      math.sqrt(ratio / float(np.sum(w))), bool(q > bound), tuple(times))
+                      math.sqrt(ratio / float(np.sum(w))), bool(q > bound), tuple(times),
+                      tuple(flat))

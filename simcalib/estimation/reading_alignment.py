@@ -7,6 +7,7 @@ reading, the reading decided again at the final offset; then, apart, whether b i
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import numpy as np
@@ -26,9 +27,8 @@ def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift="auto", al
     scale judged later. ``candidates``: the speeds' candidate offsets, where known
     (:func:`_offset_candidates`). Returns ``(stream_a, stream_b, ConventionReport,
     TimeOffset, Sampling)``."""
-    from simcalib.estimation.readings import (MIRROR_RATIO, PITCH_AGREEMENT, mirror_sentence,
-                                              mirror_untold_sentence, mirrored_fit,
-                                              pitch_agreement)
+    from simcalib.estimation.readings import (MIRROR_RATIO, mirror_sentence,
+                                              mirror_untold_sentence)
     if candidates is None and time_offset == "estimate" and not sampling.paired_by_stamp:
         candidates = _offset_candidates(sa, sb, signal)
     unit = _unit_scale(sa, sb, sampling, seed, signal, candidates) if candidates else 1.0
@@ -50,12 +50,11 @@ def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift="auto", al
                                                forced=forced | {"mirror_b": bool(given)}, **kw)
     if given is not None:
         return tuple(out)
-    # at the first decision's offset: one the reading does not move (a mirrored b read
-    # as written can pull a refined offset off, where neither reading fits)
-    at = dict(offset=first_off, seed=seed, sampling=sampling, signal=signal)
-    if pitch_agreement(sa, sb, first, **at) > PITCH_AGREEMENT:  # b's pitches follow a's
+    ratio, X_mirrored = _handedness(sa, sb, first, first_off, sampling, out[3], out[4],
+                                    out[2], alpha=alpha, seed=seed, signal=signal,
+                                    forced=forced)
+    if math.isnan(ratio):                   # b's pitches follow a's
         return tuple(out)
-    ratio, X_mirrored = mirrored_fit(sa, sb, first, alpha=alpha, **at, **forced)
     if not ratio > MIRROR_RATIO:
         conv = replace(out[2], mirror_ratio=ratio)
         if not conv.mirror_told:    # the data cannot tell: the other handedness's X shown
@@ -66,6 +65,54 @@ def align_and_read(sa, sb, sampling, *, time_offset="estimate", drift="auto", al
     conv = out[2]
     return (*out[:2], replace(conv, mirror_ratio=ratio,
                               message=f"{conv.message}; {mirror_sentence(ratio)}"), *out[3:])
+
+
+#: the final offset lies this many of the slower stream's median periods or more from the
+#: first decision's: it is another offset (the candidates' least spacing,
+#: :func:`_offset_candidates`), and the handedness not told at the first is checked there
+MOVED_PERIODS = 4.0
+
+
+def _handedness(sa, sb, first, first_off, sampling, off, final_sampling, final, *, alpha,
+                seed, signal, forced) -> tuple[float, np.ndarray | None]:
+    """``(ratio, X)`` of :func:`~simcalib.estimation.readings.mirrored_fit` (NaN, None:
+    b's pitches follow a's, :func:`~simcalib.estimation.readings.pitch_agreement`): at the
+    first decision's offset ``first_off`` (one the reading does not move: a mirrored b read
+    as written can pull a refined offset off, where neither reading fits); where that does
+    not tell and the final offset ``off`` lies :data:`MOVED_PERIODS` or more from it (a
+    stop-placed offset, b on another clock: the first was the speeds' correlation's, wrong
+    there), again at ``off`` with the ``final`` reading, b with ``off``'s clock steps
+    removed, and that is used."""
+    from simcalib.estimation.clock_step import shifted
+    kw = dict(alpha=alpha, seed=seed, signal=signal, forced=forced)
+    ratio, X, told = _mirror_check(sa, sb, first, offset=first_off, sampling=sampling, **kw)
+    first_s = float(getattr(first_off, "offset_s", first_off))
+    if told or abs(off.offset_s - first_s) < MOVED_PERIODS * _slower_period(sa, sb):
+        return ratio, X
+    for step in off.steps:                  # b's stamps as the final offset reads them
+        sb = shifted(sb, step)
+    return _mirror_check(sa, sb, final, offset=off, sampling=final_sampling, **kw)[:2]
+
+
+def _mirror_check(sa, sb, report, *, offset, sampling, alpha, seed, signal, forced):
+    """``(ratio, X, told)``: :func:`~simcalib.estimation.readings.mirrored_fit` at
+    ``offset`` under ``report``'s reading (NaN, None where b's pitches follow a's) and
+    whether that tells b's handedness (the pitches follow a's, or one side wins by more
+    than :data:`~simcalib.estimation.readings.MIRROR_RATIO`; not where too few motions
+    were scored)."""
+    from simcalib.estimation.readings import (MIRROR_RATIO, PITCH_AGREEMENT, mirrored_fit,
+                                              pitch_agreement)
+    at = dict(offset=offset, seed=seed, sampling=sampling, signal=signal)
+    if pitch_agreement(sa, sb, report, **at) > PITCH_AGREEMENT:  # b's pitches follow a's
+        return math.nan, None, True
+    ratio, X = mirrored_fit(sa, sb, report, alpha=alpha, **at, **forced)
+    return ratio, X, not 1.0 / MIRROR_RATIO <= ratio <= MIRROR_RATIO and math.isfinite(ratio)
+
+
+def _slower_period(sa, sb) -> float:
+    """The slower stream's median sample period (s)."""
+    from simcalib.estimation.speeds import as_time_poses
+    return max(float(np.median(np.diff(as_time_poses(s)[0]))) for s in (sa, sb))
 
 
 #: b's pitches this many times a's, or a's b's: streams in other length units (mm against
