@@ -121,7 +121,11 @@ def screenshot(rrd: Path, png: Path, *, blueprint: Path | None = None,
 def ocr_text(png: Path, bright_text: bool = False) -> str:
     """The text tesseract reads in ``png``: inverted (the viewer draws light text on a dark
     theme), or with ``bright_text`` only the near-white pixels as black text (the 3D
-    views' white labels on grey boxes over a dark background)."""
+    views' white labels on grey boxes over a dark background).
+
+    tesseract runs on one OpenMP thread (``OMP_THREAD_LIMIT=1``): it reads the same text,
+    for about a quarter of the CPU time its threads' waiting costs (a 3200x2000 layout
+    shot: 1.4 s against 5.7-6.1 s of CPU)."""
     from PIL import Image, ImageOps
     im = Image.open(png).convert("L")
     with tempfile.TemporaryDirectory() as d:
@@ -132,7 +136,8 @@ def ocr_text(png: Path, bright_text: bool = False) -> str:
         else:
             ImageOps.autocontrast(ImageOps.invert(im)).save(p)
         out = subprocess.run(["tesseract", str(p), "-", "--psm", "11"], capture_output=True,
-                             text=True, timeout=300)
+                             text=True, timeout=300,
+                             env=dict(os.environ, OMP_THREAD_LIMIT="1"))
     return out.stdout
 
 
