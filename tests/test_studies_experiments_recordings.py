@@ -322,9 +322,6 @@ KNOWN_LIMITS: dict = {
     ("park", "low_rate_camera", 2): "Park's rotation error here (0.054 deg) is its best draw "
     "on seeds 0-4 (the others 0.18-0.28 deg); calibrate's 0.128 deg is within its sigma "
     "(NEES 6.5 on 6 dof) and its translation error is below Park's (2.1 vs 3.7 mm)",
-    ("park", "clock_step", 0): "a 1.1 s forward step of b's clock at 48 % not told: the "
-    "reading is not clear (1.1x), X 6 deg off, reported undetermined (exit 6)",
-    ("step", "clock_step", 0): "the step is not told (see park)",
 }
 
 
