@@ -58,7 +58,8 @@ __all__ = ["PARK_MAX_POSES", "PARK_FACTOR", "ROT_FLOOR_DEG", "TRANS_FLOOR_MM", "
            "translation_error_determined", "undetermined_covered", "offset_checked",
            "no_worse",
            "motion_outliers", "Outcome", "evaluate", "acceptance_failures", "mount_failures",
-           "summarise", "markdown", "run_all", "RecordingsConfig", "run", "main"]
+           "step_failures", "summarise", "markdown", "run_all", "RecordingsConfig", "run",
+           "main"]
 
 
 
@@ -480,9 +481,12 @@ def _acceptance_text() -> str:
         "the undetermined direction flagged for planar / scara; exit 3 for no_motion_b), "
         f"inlier precision >= {MIN_PRECISION:g} and recall >= {MIN_RECALL:g} for "
         "outliers, a change of X (bumped_camera) told between the two stations either "
-        "side of it, and no change told where X never changed. With rotations about one "
-        "axis only (scara, planar) Park's rotation step is rank-deficient and its "
-        "translation solve ill-conditioned, so the Park bar is loose there.")
+        "side of it and none where X never changed, a clock step of b (clock_step) told "
+        f"as one step of its size within {OFFSET_TOL_MS:g} ms at b's first pose after it "
+        f"(within {1e3 * STEP_TOL_S:g} ms) and none where the clock never steps. With "
+        "rotations about one axis only (scara, planar) Park's rotation step is "
+        "rank-deficient and its translation solve ill-conditioned, so the Park bar is "
+        "loose there.")
 
 
 def markdown(rows: list[dict], outcomes: list[Outcome], command: str) -> str:
