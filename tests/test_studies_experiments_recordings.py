@@ -326,14 +326,18 @@ KNOWN_LIMITS: dict = {
 
 
 def _cases(pred=lambda k: True, test=None):
+    """(kind, seed) params; the checks of one case share an xdist group (``--dist
+    loadgroup``, pyproject): its recording is calibrated once, on one worker."""
     out = []
     for k in KINDS:
         if not pred(RK.KINDS[k]):
             continue
         for s in SEEDS:
             why = KNOWN_LIMITS.get((test, k, s))
-            out.append(pytest.param(k, s, marks=pytest.mark.xfail(strict=True, reason=why))
-                       if why else (k, s))
+            marks = [pytest.mark.xdist_group(f"recording-{k}-{s}")]
+            if why:
+                marks.append(pytest.mark.xfail(strict=True, reason=why))
+            out.append(pytest.param(k, s, marks=marks))
     return out
 
 
